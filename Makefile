@@ -1,0 +1,59 @@
+# volux — the two commands of the setup promise:
+#   make demo   install missing Debian packages, build (Release), render scenes/demo.json
+#   make test   install, build (warnings as errors) + run the suite, then the
+#               same suite under AddressSanitizer + UBSan
+# Other targets: build, asan, fuzz, bench, clean.
+
+PACKAGES := build-essential cmake pkg-config clang libpng-dev zlib1g-dev libcjson-dev \
+            libopenexr-dev libcmocka-dev
+JOBS     ?= $(shell nproc 2>/dev/null || echo 2)
+BUILD    ?= build
+VOLUX    := $(BUILD)/volux
+
+.PHONY: all deps build demo test test-release test-asan asan fuzz bench clean
+
+all: build
+
+# Installs what is missing (needs root on a fresh machine; a no-op otherwise).
+deps:
+	@missing=""; for p in $(PACKAGES); do \
+	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "ok installed" || missing="$$missing $$p"; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  echo "installing:$$missing"; \
+	  if [ "$$(id -u)" = 0 ]; then SUDO=""; else SUDO=sudo; fi; \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $$missing; \
+	fi
+
+build: deps
+	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release -DVOLUX_WERROR=ON >/dev/null
+	cmake --build $(BUILD) -j $(JOBS)
+
+demo: build
+	@mkdir -p out
+	$(VOLUX) render scenes/demo.json -o out/demo.png
+	@echo "wrote out/demo.png"
+
+test: test-release test-asan
+
+test-release: build
+	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
+
+asan: deps
+	cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DVOLUX_WERROR=ON -DVOLUX_SANITIZE=ON >/dev/null
+	cmake --build build-asan -j $(JOBS)
+
+test-asan: asan
+	cd build-asan && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+	  ctest --output-on-failure -j $(JOBS) -LE slow
+
+# libFuzzer harnesses (clang). Run one: build-fuzz/fuzz/fuzz_nrrd fuzz/corpus/nrrd
+fuzz: deps
+	CC=clang cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DVOLUX_FUZZ=ON -DVOLUX_TESTS=OFF >/dev/null
+	cmake --build build-fuzz -j $(JOBS)
+
+bench: build
+	bench/run.sh
+
+clean:
+	rm -rf $(BUILD) build-asan build-fuzz out

@@ -1,0 +1,114 @@
+/*
+ * volux/base.h — status codes, small value types and the context.
+ *
+ * The context is the root object: it owns the allocator, the thread count,
+ * the memory cap for loaders, the progress/cancel callback and the error
+ * message of the last failed call. Every other object is created from one.
+ *
+ * DOES NOT: print, exit or abort on bad input. The library reports errors
+ * through return codes and volux_context_error(); printing and exit codes
+ * are the CLI's business.
+ *
+ * STEP BY STEP
+ *     volux_context *ctx;
+ *     if (volux_context_create(NULL, &ctx) != VOLUX_OK) return 1;
+ *     volux_volume *vol;
+ *     if (volux_volume_load(ctx, "engine.nhdr", NULL, &vol) != VOLUX_OK)
+ *         fprintf(stderr, "%s\n", volux_context_error(ctx));
+ *     ...
+ *     volux_volume_release(vol);
+ *     volux_context_destroy(ctx);
+ */
+#ifndef VOLUX_BASE_H
+#define VOLUX_BASE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#if defined(__GNUC__)
+#define VOLUX_API __attribute__((visibility("default")))
+#define VOLUX_PRINTF(f, a) __attribute__((format(printf, f, a)))
+#else
+#define VOLUX_API
+#define VOLUX_PRINTF(f, a)
+#endif
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Every fallible public function returns one of these. The CLI maps
+ * INVALID/IO/FORMAT/UNSUPPORTED/LIMIT (the user's input is at fault) to exit
+ * status 2 and the others (the run failed) to exit status 1. */
+typedef enum volux_status {
+    VOLUX_OK = 0,
+    VOLUX_ERR_INVALID,     /* bad parameter or scene value               */
+    VOLUX_ERR_IO,          /* an input file is missing or unreadable     */
+    VOLUX_ERR_FORMAT,      /* an input file is malformed                 */
+    VOLUX_ERR_UNSUPPORTED, /* well-formed, but a feature we do not read  */
+    VOLUX_ERR_LIMIT,       /* sizes exceed a documented limit / mem cap  */
+    VOLUX_ERR_NOMEM,       /* allocation failed                          */
+    VOLUX_ERR_WRITE,       /* an output file could not be written        */
+    VOLUX_ERR_CANCELLED,   /* the progress callback asked to stop        */
+    VOLUX_ERR_INTERNAL     /* a bug: broken invariant                    */
+} volux_status;
+
+/* Short stable name of a status ("invalid", "io", ...). Never NULL. */
+VOLUX_API const char *volux_status_name(volux_status s);
+
+/* 1 if a status means "the input was bad" (CLI exit status 2). */
+VOLUX_API int volux_status_is_input_error(volux_status s);
+
+typedef struct volux_vec3 {
+    float x, y, z;
+} volux_vec3;
+
+/* ------------------------------------------------------------------ */
+/* Context                                                             */
+/* ------------------------------------------------------------------ */
+
+typedef struct volux_context volux_context;
+
+/* Allocator in the style of lua_Alloc: (ptr=NULL,new>0) allocates,
+ * (ptr,new=0) frees, otherwise reallocates. Must be thread-safe. */
+typedef void *(*volux_alloc_fn)(void *user, void *ptr, size_t old_size, size_t new_size);
+
+/* Progress report: task name, fraction done in [0,1]. Return nonzero to
+ * cancel the running operation (it then fails with VOLUX_ERR_CANCELLED).
+ * May be called from any thread, but never concurrently. */
+typedef int (*volux_progress_fn)(void *user, const char *task, double fraction);
+
+typedef struct volux_context_desc {
+    int threads;               /* worker threads; 0 = all cores             */
+    uint64_t max_bytes;        /* cap on one volume/image allocation;
+                                  0 = default (VOLUX_DEFAULT_MAX_BYTES)    */
+    volux_alloc_fn alloc;      /* NULL = malloc/realloc/free                 */
+    void *alloc_user;
+    volux_progress_fn progress; /* NULL = silent                            */
+    void *progress_user;
+} volux_context_desc;
+
+#define VOLUX_DEFAULT_MAX_BYTES (8ull << 30) /* 8 GiB */
+
+/* Creates a context. desc may be NULL (defaults). Caller destroys. */
+VOLUX_API volux_status volux_context_create(const volux_context_desc *desc, volux_context **out);
+VOLUX_API void volux_context_destroy(volux_context *ctx);
+
+/* Message of the last failed call on this context ("" if none). Valid
+ * until the next failing call on the context. */
+VOLUX_API const char *volux_context_error(const volux_context *ctx);
+VOLUX_API volux_status volux_context_error_status(const volux_context *ctx);
+VOLUX_API void volux_context_clear_error(volux_context *ctx);
+
+VOLUX_API void volux_context_set_threads(volux_context *ctx, int threads);
+/* Threads actually used (resolves 0 to the core count). */
+VOLUX_API int volux_context_threads(const volux_context *ctx);
+VOLUX_API void volux_context_set_progress(volux_context *ctx, volux_progress_fn fn, void *user);
+VOLUX_API uint64_t volux_context_max_bytes(const volux_context *ctx);
+/* Bytes currently allocated through the context (for memory reports). */
+VOLUX_API uint64_t volux_context_bytes_in_use(const volux_context *ctx);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

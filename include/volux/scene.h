@@ -1,0 +1,154 @@
+/*
+ * volux/scene.h — volume + transfer function + camera + lights + settings,
+ * with per-aspect versions so techniques recompute only what an edit
+ * invalidated.
+ *
+ * Setters validate first, then mutate, then bump the version of each aspect
+ * they really changed (a TF edit that only moves colours bumps COLOR, not
+ * EXTINCTION). Techniques remember the stamp they were built from and ask
+ * volux_scene_changes_since(); N edits between two frames cost one update.
+ *
+ * Lights live in slots [0, VOLUX_MAX_LIGHTS): a slot is empty or holds a
+ * light; removing a light empties its slot without moving the others, so a
+ * slot index identifies a light for its whole life.
+ *
+ * DOES NOT: read files (io.h), render (render.h). Not thread-safe for
+ * mutation; read-only sharing during a render is safe.
+ *
+ * STEP BY STEP
+ *     volux_scene *s;
+ *     volux_scene_create(ctx, &s);
+ *     volux_scene_set_volume(s, vol);             // retains vol
+ *     volux_scene_set_transfer(s, &tf_desc);      // copies points
+ *     volux_scene_set_light(s, 0, &light);
+ *     ... render ...
+ *     volux_scene_destroy(s);
+ */
+#ifndef VOLUX_SCENE_H
+#define VOLUX_SCENE_H
+
+#include "base.h"
+#include "camera.h"
+#include "light.h"
+#include "transfer.h"
+#include "volume.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define VOLUX_MAX_LIGHTS 256
+#define VOLUX_MAX_PARAMS 64
+
+/* What an edit touched (bits of volux_change_set.what). */
+typedef enum volux_change {
+    VOLUX_CHANGE_VOLUME = 1u << 0,     /* volume / time step              */
+    VOLUX_CHANGE_EXTINCTION = 1u << 1, /* opacity/extinction curve, unit  */
+    VOLUX_CHANGE_COLOR = 1u << 2,      /* colour curve or albedo only     */
+    VOLUX_CHANGE_DENSITY = 1u << 3,    /* global density scale only       */
+    VOLUX_CHANGE_PHASE = 1u << 4,      /* HG anisotropy                   */
+    VOLUX_CHANGE_LIGHTS = 1u << 5,     /* some light: see lights bitset   */
+    VOLUX_CHANGE_CAMERA = 1u << 6,
+    VOLUX_CHANGE_PARAMS = 1u << 7,     /* technique parameters            */
+    VOLUX_CHANGE_RENDER = 1u << 8,     /* step, size, max_depth, background, material */
+    VOLUX_CHANGE_ALL = 0x1ffu
+} volux_change;
+
+typedef struct volux_change_set {
+    uint32_t what;                             /* volux_change bits         */
+    uint64_t lights[VOLUX_MAX_LIGHTS / 64];    /* bit i: slot i changed     */
+} volux_change_set;
+
+static inline int volux_change_light(const volux_change_set *c, int slot) {
+    return (int)((c->lights[slot >> 6] >> (slot & 63)) & 1u);
+}
+
+/* The versions a consumer saw (opaque contents, copyable). */
+typedef struct volux_scene_stamp {
+    uint64_t scene_id;
+    uint32_t aspect[9];
+    uint32_t light[VOLUX_MAX_LIGHTS];
+} volux_scene_stamp;
+
+/* Render settings (scene "render" object). */
+typedef struct volux_render_settings {
+    int width, height;
+    int spp;             /* samples per pixel to accumulate                 */
+    float step;          /* march step in units of the smallest spacing     */
+    uint64_t seed;
+    int max_depth;       /* scattering events; 1 = single scattering        */
+    float exposure;      /* PNG: multiply by 2^exposure                     */
+    int threads;         /* 0 = all cores                                   */
+    double time_ms;      /* progressive budget; 0 = none                    */
+    double target_error; /* stop at this relative standard error; 0 = none  */
+    char technique[32];
+} volux_render_settings;
+
+VOLUX_API void volux_render_settings_defaults(volux_render_settings *r);
+
+typedef struct volux_scene volux_scene;
+
+VOLUX_API volux_status volux_scene_create(volux_context *ctx, volux_scene **out);
+VOLUX_API void volux_scene_destroy(volux_scene *s);
+VOLUX_API volux_context *volux_scene_context(const volux_scene *s);
+
+/* Retains v and releases the previous volume. Bumps VOLUME. */
+VOLUX_API volux_status volux_scene_set_volume(volux_scene *s, volux_volume *v);
+VOLUX_API volux_volume *volux_scene_volume(const volux_scene *s); /* borrowed */
+/* Copies d (and its points). Compares with the current TF and bumps only
+ * EXTINCTION / COLOR / DENSITY / PHASE / RENDER (material) as needed. */
+VOLUX_API volux_status volux_scene_set_transfer(volux_scene *s, const volux_transfer_desc *d);
+/* The current description; its arrays are owned by the scene. */
+VOLUX_API const volux_transfer_desc *volux_scene_transfer(const volux_scene *s);
+/* The baked LUT over the volume's value range (rebaked lazily when the TF
+ * or volume changed; NULL without a volume). */
+VOLUX_API const volux_transfer_lut *volux_scene_transfer_lut(volux_scene *s);
+VOLUX_API volux_status volux_scene_set_camera(volux_scene *s, const volux_camera_desc *d);
+VOLUX_API const volux_camera_desc *volux_scene_camera_desc(const volux_scene *s);
+/* Resolves the camera for the render settings' image size. */
+VOLUX_API volux_status volux_scene_camera(const volux_scene *s, volux_camera *out);
+
+/* Sets (adds or replaces) the light in `slot`. Copies d, including an
+ * environment map. Bumps LIGHTS and the slot. */
+VOLUX_API volux_status volux_scene_set_light(volux_scene *s, int slot, const volux_light_desc *d);
+VOLUX_API volux_status volux_scene_remove_light(volux_scene *s, int slot);
+VOLUX_API volux_status volux_scene_set_light_enabled(volux_scene *s, int slot, int enabled);
+/* The light in `slot`, or NULL if the slot is empty. Owned by the scene. */
+VOLUX_API const volux_light_desc *volux_scene_light(const volux_scene *s, int slot);
+/* One past the highest occupied slot. */
+VOLUX_API int volux_scene_light_slots(const volux_scene *s);
+
+VOLUX_API void volux_scene_set_background(volux_scene *s, volux_vec3 rgb);
+VOLUX_API volux_vec3 volux_scene_background(const volux_scene *s);
+VOLUX_API volux_status volux_scene_set_render(volux_scene *s, const volux_render_settings *r);
+VOLUX_API const volux_render_settings *volux_scene_render(const volux_scene *s);
+
+/* Technique parameters ("techniques": {"<name>": {...}}), numbers or
+ * strings. Validation against a technique's parameter table happens in
+ * volux_technique_validate_params(). Bumps PARAMS. */
+VOLUX_API volux_status volux_scene_set_param(volux_scene *s, const char *technique, const char *name,
+                                             double number, const char *string /* NULL: number */);
+/* Number value, or `fallback` when unset. */
+VOLUX_API double volux_scene_param(const volux_scene *s, const char *technique, const char *name,
+                                   double fallback);
+/* String value (owned by the scene), or `fallback` when unset. */
+VOLUX_API const char *volux_scene_param_string(const volux_scene *s, const char *technique,
+                                               const char *name, const char *fallback);
+/* Enumerates parameters: returns 0 past the end. */
+VOLUX_API int volux_scene_param_at(const volux_scene *s, int index, const char **technique,
+                                   const char **name, double *number, const char **string);
+
+/* World-space centre and bounding-sphere radius of the volume box. */
+VOLUX_API void volux_scene_bounds_sphere(const volux_scene *s, volux_vec3 *center, float *radius);
+/* Ray-march step in world units (render.step × smallest spacing). */
+VOLUX_API float volux_scene_step_world(const volux_scene *s);
+
+VOLUX_API volux_scene_stamp volux_scene_stamp_now(const volux_scene *s);
+/* What changed since `seen`. A stamp from another scene (or zeroed) yields
+ * VOLUX_CHANGE_ALL with every light bit set. */
+VOLUX_API volux_change_set volux_scene_changes_since(const volux_scene *s, const volux_scene_stamp *seen);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,99 @@
+/*
+ * volux/transfer.h — transfer functions: scalar → extinction, colour, albedo.
+ *
+ * Control points are piecewise linear in the scalar s (file units) and clamp
+ * to their end values outside, as in ParaView/VTK. Opacity α is per
+ * `opacity_unit_distance` u world units and becomes extinction
+ * σt = −ln(1 − min(α, 0.9999)) / u; or extinction is given directly
+ * (DESIGN §2). `density_scale` multiplies σt; scattering σs = albedo·c·σt.
+ *
+ * volux_transfer_bake() turns a description into lookup tables over the
+ * volume's value range: σt(s), c(s), and their running integrals for
+ * pre-integrated segments (Engel et al. 2001, with the 1-D integral tables of
+ * Lum et al. 2004), so a narrow opacity peak crossed between two samples is
+ * still accounted for.
+ *
+ * DOES NOT: own a volume, shade, or know cameras.
+ */
+#ifndef VOLUX_TRANSFER_H
+#define VOLUX_TRANSFER_H
+
+#include "base.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define VOLUX_TF_MAX_POINTS 4096
+
+typedef struct volux_tf_color_point {
+    float s, r, g, b;
+} volux_tf_color_point;
+
+typedef struct volux_tf_scalar_point {
+    float s, v;
+} volux_tf_scalar_point;
+
+/* Blinn–Phong material for gradient shading (same keys as the peers' TF
+ * JSON: ambient, diffuse, specular, specular_power). */
+typedef struct volux_material {
+    float ambient, diffuse, specular, specular_power;
+} volux_material;
+
+typedef struct volux_transfer_desc {
+    const volux_tf_color_point *color; /* borrowed; sorted by s          */
+    int n_color;                       /* 0 = white                       */
+    const volux_tf_scalar_point *opacity; /* borrowed; sorted by s; α or σt */
+    int n_opacity;                     /* ≥ 1                             */
+    int extinction;                    /* 1: opacity[] holds σt (1/world) */
+    float opacity_unit_distance;       /* u; 0 = smallest spacing         */
+    float density_scale;               /* multiplies σt (≥ 0)             */
+    float albedo;                      /* in [0,1]                        */
+    float anisotropy;                  /* HG g in (−1,1)                  */
+    volux_material material;
+} volux_transfer_desc;
+
+/* Fills the defaults: white, density_scale 1, albedo 0.9 (DESIGN §3 example),
+ * anisotropy 0, material (0.2, 0.7, 0.3, 30) as in the peers' TFs. */
+VOLUX_API void volux_transfer_desc_defaults(volux_transfer_desc *d);
+
+/* Validates a description: point counts, sorted s, finite values, α in
+ * [0,1], σt ≥ 0, colours in [0,1], albedo in [0,1], |g| < 1. On failure sets
+ * a message naming the field (e.g. "opacity[3]: s must not decrease"). */
+VOLUX_API volux_status volux_transfer_desc_validate(volux_context *ctx, const volux_transfer_desc *d);
+
+/* Piecewise-linear evaluation of the control points (clamped). */
+VOLUX_API float volux_tf_eval_scalar(const volux_tf_scalar_point *p, int n, float s);
+VOLUX_API void volux_tf_eval_color(const volux_tf_color_point *p, int n, float s, float rgb[3]);
+
+/* A baked transfer function: tables of `n` entries over [s_min, s_max].
+ * Entries are node samples: entry i is at s_min + i·(s_max−s_min)/(n−1).
+ * Read-only after baking; safe to share between threads. */
+typedef struct volux_transfer_lut {
+    int n;
+    float s_min, s_max;
+    float inv_ds;          /* (n−1)/(s_max−s_min)                          */
+    float *sigma_t;        /* [n] extinction, density scale applied        */
+    float *rgba;           /* [4n] colour c(s) and σt(s) interleaved, for
+                              cache-friendly marching                      */
+    double *int_sigma;     /* [n] ∫ σt ds from s_min                       */
+    double *int_sigma_c;   /* [3n] ∫ σt·c ds from s_min                    */
+    float sigma_t_max;     /* max over the table                           */
+} volux_transfer_lut;
+
+/* Bakes d over [s_min, s_max] with n entries (n ≥ 2; 0 = default 4096).
+ * `unit_default` is used when d->opacity_unit_distance is 0. Allocates
+ * through ctx; free with volux_transfer_lut_free. */
+VOLUX_API volux_status volux_transfer_bake(volux_context *ctx, const volux_transfer_desc *d,
+                                           double s_min, double s_max, int n, float unit_default,
+                                           volux_transfer_lut *out);
+VOLUX_API void volux_transfer_lut_free(volux_context *ctx, volux_transfer_lut *lut);
+
+/* Largest σt over the scalar interval [s0, s1] (for majorants); exact for
+ * the piecewise-linear table (it looks at every entry and both ends). */
+VOLUX_API float volux_transfer_lut_max_sigma(const volux_transfer_lut *lut, float s0, float s1);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,97 @@
+/*
+ * volux/volume.h — an immutable, refcounted scalar grid.
+ *
+ * A volume of dims (nx,ny,nz) and spacing (sx,sy,sz) is node-centred:
+ * sample (i,j,k) lies at origin + (i·sx, j·sy, k·sz) (DESIGN §2). Values are
+ * kept in file units: int8/int16 are stored as uint8/uint16 with a value
+ * offset, float64 is converted to float32. Outside the box the value is 0
+ * and the medium is empty. Trilinear interpolation; gradients by central
+ * differences of the interpolated field.
+ *
+ * DOES NOT: read files (see io.h), know transfer functions.
+ *
+ * STEP BY STEP
+ *     volux_volume_desc d = {.dims = {64,64,64}, .spacing = {1,1,1},
+ *                            .type = VOLUX_UINT8, .data = bytes};
+ *     volux_volume *v;
+ *     volux_volume_create(ctx, &d, &v);        // copies bytes
+ *     float s = volux_volume_sample(v, (volux_vec3){0,0,0});
+ *     volux_volume_release(v);
+ */
+#ifndef VOLUX_VOLUME_H
+#define VOLUX_VOLUME_H
+
+#include "base.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Scalar types of input data. */
+typedef enum volux_scalar_type {
+    VOLUX_UINT8,
+    VOLUX_INT8,
+    VOLUX_UINT16,
+    VOLUX_INT16,
+    VOLUX_FLOAT32,
+    VOLUX_FLOAT64
+} volux_scalar_type;
+
+/* Storage kinds: what the grid keeps in memory. */
+typedef enum volux_storage { VOLUX_STORE_U8, VOLUX_STORE_U16, VOLUX_STORE_F32 } volux_storage;
+
+VOLUX_API const char *volux_scalar_type_name(volux_scalar_type t);
+VOLUX_API size_t volux_scalar_type_size(volux_scalar_type t);
+/* Parses "uint8", "uchar", "int16", "short", "float", "float32", "double"...;
+ * returns 0 on success, -1 if unknown. */
+VOLUX_API int volux_scalar_type_parse(const char *name, volux_scalar_type *out);
+
+/* Largest accepted dimension per axis and total voxel count. */
+#define VOLUX_MAX_DIM 16384
+#define VOLUX_MAX_VOXELS (1ull << 34)
+
+typedef struct volux_volume_desc {
+    int dims[3];            /* nodes per axis, each in [1, VOLUX_MAX_DIM]   */
+    double spacing[3];      /* world units between nodes, > 0 (0 = 1.0)     */
+    double origin[3];       /* world position of node (0,0,0)...            */
+    int use_origin;         /* ...used only if nonzero; else centred        */
+    volux_scalar_type type; /* type of data                                 */
+    const void *data;       /* borrowed; native byte order, x fastest;
+                               NULL = all zeros                             */
+} volux_volume_desc;
+
+typedef struct volux_volume volux_volume;
+
+/* Creates a volume, copying and converting desc->data. Fails with
+ * VOLUX_ERR_INVALID (bad dims/spacing) or VOLUX_ERR_LIMIT (over the
+ * context's max_bytes). The new volume has one reference. */
+VOLUX_API volux_status volux_volume_create(volux_context *ctx, const volux_volume_desc *desc,
+                                           volux_volume **out);
+VOLUX_API void volux_volume_retain(volux_volume *v);
+/* Drops one reference; the last one frees. NULL is ignored. */
+VOLUX_API void volux_volume_release(volux_volume *v);
+
+VOLUX_API void volux_volume_dims(const volux_volume *v, int dims[3]);
+VOLUX_API void volux_volume_spacing(const volux_volume *v, double spacing[3]);
+VOLUX_API volux_vec3 volux_volume_origin(const volux_volume *v);
+VOLUX_API volux_scalar_type volux_volume_type(const volux_volume *v);
+VOLUX_API volux_storage volux_volume_storage_kind(const volux_volume *v);
+/* Smallest and largest value (file units). */
+VOLUX_API void volux_volume_range(const volux_volume *v, double *min, double *max);
+/* World-space bounding box corners. */
+VOLUX_API void volux_volume_bounds(const volux_volume *v, volux_vec3 *lo, volux_vec3 *hi);
+VOLUX_API size_t volux_volume_memory_bytes(const volux_volume *v);
+/* Node value in file units; (i,j,k) must be inside. */
+VOLUX_API float volux_volume_value_at(const volux_volume *v, int i, int j, int k);
+/* Trilinear value at a world position; 0 outside the box. */
+VOLUX_API float volux_volume_sample(const volux_volume *v, volux_vec3 p_world);
+/* Gradient (file units per world unit) by central differences of the
+ * trilinear field, offset one voxel along each axis. */
+VOLUX_API volux_vec3 volux_volume_gradient(const volux_volume *v, volux_vec3 p_world);
+/* Counts values into `bins` equal bins over [min,max]. */
+VOLUX_API void volux_volume_histogram(const volux_volume *v, int bins, uint64_t *counts);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

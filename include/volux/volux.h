@@ -1,0 +1,18 @@
+/* volux/volux.h — umbrella header: everything a client needs. */
+#ifndef VOLUX_VOLUX_H
+#define VOLUX_VOLUX_H
+
+#include "base.h"
+#include "camera.h"
+#include "image.h"
+#include "io.h"
+#include "light.h"
+#include "render.h"
+#include "scene.h"
+#include "technique.h"
+#include "transfer.h"
+#include "volume.h"
+
+#define VOLUX_VERSION "0.1.0"
+
+#endif

@@ -1,0 +1,194 @@
+/* core/context.c — context, allocator, error messages, progress. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/mman.h>
+
+#include "context_internal.h"
+#include "parallel.h"
+
+static void *default_alloc(void *user, void *ptr, size_t old_size, size_t new_size) {
+    (void)user;
+    (void)old_size;
+    if (new_size == 0) {
+        free(ptr);
+        return NULL;
+    }
+    return realloc(ptr, new_size);
+}
+
+const char *volux_status_name(volux_status s) {
+    switch (s) {
+    case VOLUX_OK: return "ok";
+    case VOLUX_ERR_INVALID: return "invalid";
+    case VOLUX_ERR_IO: return "io";
+    case VOLUX_ERR_FORMAT: return "format";
+    case VOLUX_ERR_UNSUPPORTED: return "unsupported";
+    case VOLUX_ERR_LIMIT: return "limit";
+    case VOLUX_ERR_NOMEM: return "nomem";
+    case VOLUX_ERR_WRITE: return "write";
+    case VOLUX_ERR_CANCELLED: return "cancelled";
+    case VOLUX_ERR_INTERNAL: return "internal";
+    }
+    return "unknown";
+}
+
+int volux_status_is_input_error(volux_status s) {
+    return s == VOLUX_ERR_INVALID || s == VOLUX_ERR_IO || s == VOLUX_ERR_FORMAT ||
+           s == VOLUX_ERR_UNSUPPORTED || s == VOLUX_ERR_LIMIT;
+}
+
+volux_status volux_context_create(const volux_context_desc *desc, volux_context **out) {
+    volux_alloc_fn alloc = desc && desc->alloc ? desc->alloc : default_alloc;
+    void *user = desc ? desc->alloc_user : NULL;
+    volux_context *ctx = alloc(user, NULL, 0, sizeof *ctx);
+    if (!ctx) return VOLUX_ERR_NOMEM;
+    memset(ctx, 0, sizeof *ctx);
+    ctx->alloc = alloc;
+    ctx->alloc_user = user;
+    ctx->threads = desc && desc->threads > 0 ? desc->threads : 0;
+    ctx->max_bytes = desc && desc->max_bytes ? desc->max_bytes : VOLUX_DEFAULT_MAX_BYTES;
+    ctx->progress = desc ? desc->progress : NULL;
+    ctx->progress_user = desc ? desc->progress_user : NULL;
+    *out = ctx;
+    return VOLUX_OK;
+}
+
+void volux_context_destroy(volux_context *ctx) {
+    if (!ctx) return;
+    ctx->alloc(ctx->alloc_user, ctx, sizeof *ctx, 0);
+}
+
+const char *volux_context_error(const volux_context *ctx) { return ctx->error; }
+volux_status volux_context_error_status(const volux_context *ctx) { return ctx->error_status; }
+void volux_context_clear_error(volux_context *ctx) {
+    ctx->error[0] = 0;
+    ctx->error_status = VOLUX_OK;
+}
+void volux_context_set_threads(volux_context *ctx, int threads) { ctx->threads = threads > 0 ? threads : 0; }
+int volux_context_threads(const volux_context *ctx) {
+    return ctx->threads > 0 ? ctx->threads : volux_parallel_max_threads();
+}
+void volux_context_set_progress(volux_context *ctx, volux_progress_fn fn, void *user) {
+    ctx->progress = fn;
+    ctx->progress_user = user;
+}
+uint64_t volux_context_max_bytes(const volux_context *ctx) { return ctx->max_bytes; }
+uint64_t volux_context_bytes_in_use(const volux_context *ctx) {
+    return __atomic_load_n(&ctx->bytes_in_use, __ATOMIC_RELAXED);
+}
+
+static void account(volux_context *ctx, size_t added, size_t removed) {
+    if (added) __atomic_add_fetch(&ctx->bytes_in_use, (uint64_t)added, __ATOMIC_RELAXED);
+    if (removed) __atomic_sub_fetch(&ctx->bytes_in_use, (uint64_t)removed, __ATOMIC_RELAXED);
+}
+
+void *volux_malloc(volux_context *ctx, size_t n) {
+    if (n == 0) n = 1;
+    void *p = ctx->alloc(ctx->alloc_user, NULL, 0, n);
+    if (p) account(ctx, n, 0);
+    return p;
+}
+
+void *volux_calloc(volux_context *ctx, size_t count, size_t size) {
+    size_t n;
+    if (!volux_mul_size(count, size, &n)) return NULL;
+    void *p = volux_malloc(ctx, n);
+    if (p) memset(p, 0, n);
+    return p;
+}
+
+void *volux_realloc(volux_context *ctx, void *p, size_t old_n, size_t new_n) {
+    if (!p) return volux_malloc(ctx, new_n);
+    if (new_n == 0) new_n = 1;
+    void *q = ctx->alloc(ctx->alloc_user, p, old_n, new_n);
+    if (q) account(ctx, new_n, old_n);
+    return q;
+}
+
+void volux_free(volux_context *ctx, void *p, size_t n) {
+    if (!p) return;
+    if (n == 0) n = 1;
+    ctx->alloc(ctx->alloc_user, p, n, 0);
+    account(ctx, 0, n);
+}
+
+char *volux_strdup(volux_context *ctx, const char *s) {
+    size_t n = strlen(s) + 1;
+    char *d = volux_malloc(ctx, n);
+    if (d) memcpy(d, s, n);
+    return d;
+}
+
+void volux_strfree(volux_context *ctx, char *s) {
+    if (s) volux_free(ctx, s, strlen(s) + 1);
+}
+
+void *volux_alloc_or_error(volux_context *ctx, size_t n, const char *what) {
+    void *p = volux_malloc(ctx, n);
+    if (!p) volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory (%zu bytes) for %s", n, what);
+    return p;
+}
+
+/* Aligned blocks: over-allocate by the alignment and keep the offset to the
+ * real start just before the returned pointer. */
+#define ALIGN 64u
+void *volux_alloc_aligned(volux_context *ctx, size_t n) {
+    size_t total;
+    if (!volux_add_size(n, ALIGN + sizeof(size_t), &total)) return NULL;
+    unsigned char *raw = volux_malloc(ctx, total);
+    if (!raw) return NULL;
+    uintptr_t start = ((uintptr_t)raw + sizeof(size_t) + ALIGN - 1) & ~(uintptr_t)(ALIGN - 1);
+    unsigned char *p = (unsigned char *)start;
+    size_t offset = (size_t)(p - raw);
+    memcpy(p - sizeof(size_t), &offset, sizeof offset);
+    memset(p, 0, n);
+#ifdef MADV_HUGEPAGE
+    if (n >= (2u << 20)) {
+        /* Huge pages help random access in large volumes (perf/LIMITS.md);
+         * advisory only, failures are harmless. */
+        uintptr_t a = (start + (2u << 20) - 1) & ~(uintptr_t)((2u << 20) - 1);
+        uintptr_t e = (start + n) & ~(uintptr_t)((2u << 20) - 1);
+        if (e > a) madvise((void *)a, e - a, MADV_HUGEPAGE);
+    }
+#endif
+    return p;
+}
+
+void volux_free_aligned(volux_context *ctx, void *p, size_t n) {
+    if (!p) return;
+    unsigned char *q = p;
+    size_t offset;
+    memcpy(&offset, q - sizeof(size_t), sizeof offset);
+    volux_free(ctx, q - offset, n + ALIGN + sizeof(size_t));
+}
+
+volux_status volux_error(volux_context *ctx, volux_status status, const char *fmt, ...) {
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(ctx->error, sizeof ctx->error, fmt, ap);
+    va_end(ap);
+    ctx->error_status = status;
+    return status;
+}
+
+void volux_error_prefix(volux_context *ctx, const char *fmt, ...) {
+    char prefix[VOLUX_ERROR_MAX], old[VOLUX_ERROR_MAX];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(prefix, sizeof prefix, fmt, ap);
+    va_end(ap);
+    memcpy(old, ctx->error, sizeof old);
+    size_t n = strlen(prefix);
+    if (n >= sizeof ctx->error) n = sizeof ctx->error - 1;
+    memcpy(ctx->error, prefix, n);
+    size_t m = strlen(old);
+    if (m > sizeof ctx->error - 1 - n) m = sizeof ctx->error - 1 - n;
+    memcpy(ctx->error + n, old, m);
+    ctx->error[n + m] = 0;
+}
+
+int volux_progress(volux_context *ctx, const char *task, double fraction) {
+    if (!ctx->progress) return 0;
+    return ctx->progress(ctx->progress_user, task, fraction);
+}

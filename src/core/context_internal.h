@@ -1,0 +1,66 @@
+/*
+ * core/context_internal.h — allocation and error reporting for library code.
+ *
+ * All heap memory goes through the context's allocator so that memory can be
+ * accounted and allocation failures injected in tests. Errors are recorded
+ * with volux_error(), which formats the message into the context and returns
+ * the status, so a failing path reads `return volux_error(ctx, ...)`.
+ */
+#ifndef VOLUX_CONTEXT_INTERNAL_H
+#define VOLUX_CONTEXT_INTERNAL_H
+
+#include <stdarg.h>
+
+#include "volux/base.h"
+
+#define VOLUX_ERROR_MAX 1024
+
+struct volux_context {
+    int threads;
+    uint64_t max_bytes;
+    volux_alloc_fn alloc;
+    void *alloc_user;
+    volux_progress_fn progress;
+    void *progress_user;
+    volux_status error_status;
+    char error[VOLUX_ERROR_MAX];
+    uint64_t bytes_in_use; /* updated atomically */
+};
+
+/* Allocations (NULL on failure, no message set: callers report). */
+void *volux_malloc(volux_context *ctx, size_t n);
+void *volux_calloc(volux_context *ctx, size_t count, size_t size);
+void *volux_realloc(volux_context *ctx, void *p, size_t old_n, size_t new_n);
+void volux_free(volux_context *ctx, void *p, size_t n);
+char *volux_strdup(volux_context *ctx, const char *s);
+void volux_strfree(volux_context *ctx, char *s);
+
+/* Like the above, but sets "out of memory (N bytes) for WHAT" on failure. */
+void *volux_alloc_or_error(volux_context *ctx, size_t n, const char *what);
+
+/* 64-byte aligned, zeroed, for large arrays (volumes, caches); huge pages
+ * are requested for allocations ≥ 2 MiB. Free with volux_free_aligned. */
+void *volux_alloc_aligned(volux_context *ctx, size_t n);
+void volux_free_aligned(volux_context *ctx, void *p, size_t n);
+
+/* Records an error (replacing an earlier one) and returns `status`. */
+volux_status volux_error(volux_context *ctx, volux_status status, const char *fmt, ...) VOLUX_PRINTF(3, 4);
+/* Prepends "prefix" to the current message (keeps the status). */
+void volux_error_prefix(volux_context *ctx, const char *fmt, ...) VOLUX_PRINTF(2, 3);
+
+/* Reports progress; returns nonzero if the caller asked to cancel. */
+int volux_progress(volux_context *ctx, const char *task, double fraction);
+
+/* Checked size arithmetic: return 0 on overflow. */
+static inline int volux_mul_size(size_t a, size_t b, size_t *out) {
+    if (a != 0 && b > SIZE_MAX / a) return 0;
+    *out = a * b;
+    return 1;
+}
+static inline int volux_add_size(size_t a, size_t b, size_t *out) {
+    if (b > SIZE_MAX - a) return 0;
+    *out = a + b;
+    return 1;
+}
+
+#endif

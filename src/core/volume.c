@@ -1,0 +1,318 @@
+/* core/volume.c — scalar grid: creation, conversion, sampling, macrocells. */
+#include <float.h>
+#include <string.h>
+
+#include "vecmath.h"
+#include "volume_internal.h"
+
+static uint64_t next_volume_id = 1;
+
+const char *volux_scalar_type_name(volux_scalar_type t) {
+    switch (t) {
+    case VOLUX_UINT8: return "uint8";
+    case VOLUX_INT8: return "int8";
+    case VOLUX_UINT16: return "uint16";
+    case VOLUX_INT16: return "int16";
+    case VOLUX_FLOAT32: return "float32";
+    case VOLUX_FLOAT64: return "float64";
+    }
+    return "unknown";
+}
+
+size_t volux_scalar_type_size(volux_scalar_type t) {
+    switch (t) {
+    case VOLUX_UINT8:
+    case VOLUX_INT8: return 1;
+    case VOLUX_UINT16:
+    case VOLUX_INT16: return 2;
+    case VOLUX_FLOAT32: return 4;
+    case VOLUX_FLOAT64: return 8;
+    }
+    return 0;
+}
+
+int volux_scalar_type_parse(const char *name, volux_scalar_type *out) {
+    static const struct {
+        const char *name;
+        volux_scalar_type type;
+    } names[] = {
+        {"uint8", VOLUX_UINT8},       {"uchar", VOLUX_UINT8},         {"unsigned char", VOLUX_UINT8},
+        {"uint8_t", VOLUX_UINT8},     {"int8", VOLUX_INT8},           {"signed char", VOLUX_INT8},
+        {"char", VOLUX_INT8},         {"int8_t", VOLUX_INT8},         {"uint16", VOLUX_UINT16},
+        {"ushort", VOLUX_UINT16},     {"unsigned short", VOLUX_UINT16}, {"unsigned short int", VOLUX_UINT16},
+        {"uint16_t", VOLUX_UINT16},   {"int16", VOLUX_INT16},         {"short", VOLUX_INT16},
+        {"signed short", VOLUX_INT16}, {"short int", VOLUX_INT16},    {"signed short int", VOLUX_INT16},
+        {"int16_t", VOLUX_INT16},     {"float", VOLUX_FLOAT32},       {"float32", VOLUX_FLOAT32},
+        {"double", VOLUX_FLOAT64},    {"float64", VOLUX_FLOAT64},
+    };
+    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++)
+        if (strcmp(name, names[i].name) == 0) {
+            *out = names[i].type;
+            return 0;
+        }
+    return -1;
+}
+
+static volux_storage storage_for(volux_scalar_type t) {
+    switch (t) {
+    case VOLUX_UINT8:
+    case VOLUX_INT8: return VOLUX_STORE_U8;
+    case VOLUX_UINT16:
+    case VOLUX_INT16: return VOLUX_STORE_U16;
+    default: return VOLUX_STORE_F32;
+    }
+}
+
+static size_t storage_size(volux_storage s) { return s == VOLUX_STORE_U8 ? 1 : s == VOLUX_STORE_U16 ? 2 : 4; }
+
+size_t volux_volume_storage_bytes(const int dims[3], volux_scalar_type type) {
+    size_t n = 1;
+    for (int a = 0; a < 3; a++) {
+        if (dims[a] < 1) return 0;
+        if (!volux_mul_size(n, (size_t)dims[a], &n)) return 0;
+    }
+    if (!volux_mul_size(n, storage_size(storage_for(type)), &n)) return 0;
+    return n;
+}
+
+volux_status volux_volume_create_storage(volux_context *ctx, const int dims[3], const double spacing[3],
+                                         volux_scalar_type type, volux_volume **out) {
+    uint64_t voxels = 1;
+    for (int a = 0; a < 3; a++) {
+        if (dims[a] < 1 || dims[a] > VOLUX_MAX_DIM)
+            return volux_error(ctx, VOLUX_ERR_LIMIT, "dims[%d] = %d is outside [1, %d]", a, dims[a], VOLUX_MAX_DIM);
+        double s = spacing ? spacing[a] : 1.0;
+        if (!(s > 0.0) || !isfinite(s) || s > 1e12 || s < 1e-12)
+            return volux_error(ctx, VOLUX_ERR_INVALID, "spacing[%d] = %g must be a positive finite number", a, s);
+        voxels *= (uint64_t)dims[a];
+    }
+    if (voxels > VOLUX_MAX_VOXELS)
+        return volux_error(ctx, VOLUX_ERR_LIMIT, "%llu voxels exceed the limit of %llu",
+                           (unsigned long long)voxels, (unsigned long long)VOLUX_MAX_VOXELS);
+    size_t bytes = volux_volume_storage_bytes(dims, type);
+    if (bytes == 0 || (uint64_t)bytes > ctx->max_bytes)
+        return volux_error(ctx, VOLUX_ERR_LIMIT,
+                           "volume of %dx%dx%d %s needs %llu bytes, over the memory cap of %llu bytes", dims[0],
+                           dims[1], dims[2], volux_scalar_type_name(type), (unsigned long long)bytes,
+                           (unsigned long long)ctx->max_bytes);
+    volux_volume *v = volux_calloc(ctx, 1, sizeof *v);
+    if (!v) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for a volume");
+    v->data = volux_alloc_aligned(ctx, bytes);
+    if (!v->data) {
+        volux_free(ctx, v, sizeof *v);
+        return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory (%zu bytes) for volume data", bytes);
+    }
+    v->ctx = ctx;
+    v->refcount = 1;
+    v->id = __atomic_fetch_add(&next_volume_id, 1, __ATOMIC_RELAXED);
+    v->data_bytes = bytes;
+    v->type = type;
+    v->storage = storage_for(type);
+    v->value_offset = type == VOLUX_INT8 ? -128.0f : type == VOLUX_INT16 ? -32768.0f : 0.0f;
+    for (int a = 0; a < 3; a++) {
+        v->dims[a] = dims[a];
+        v->spacing[a] = spacing ? spacing[a] : 1.0;
+        v->inv_spacing[a] = (float)(1.0 / v->spacing[a]);
+    }
+    *out = v;
+    return VOLUX_OK;
+}
+
+static void build_macrocells(volux_volume *v) {
+    int nc[3];
+    for (int a = 0; a < 3; a++) {
+        nc[a] = (v->dims[a] - 1 + VOLUX_CELL_SIZE - 1) / VOLUX_CELL_SIZE;
+        if (nc[a] < 1) nc[a] = 1;
+        v->cells[a] = nc[a];
+    }
+    size_t n = (size_t)nc[0] * (size_t)nc[1] * (size_t)nc[2];
+    for (size_t c = 0; c < n; c++) {
+        v->cell_min[c] = FLT_MAX;
+        v->cell_max[c] = -FLT_MAX;
+    }
+    /* Each node belongs to every cell whose closed range contains it. */
+    for (int k = 0; k < v->dims[2]; k++) {
+        int cz0 = (k - 1) >> VOLUX_CELL_SHIFT, cz1 = k >> VOLUX_CELL_SHIFT;
+        for (int j = 0; j < v->dims[1]; j++) {
+            int cy0 = (j - 1) >> VOLUX_CELL_SHIFT, cy1 = j >> VOLUX_CELL_SHIFT;
+            size_t row = volux_volume_index(v, 0, j, k);
+            for (int i = 0; i < v->dims[0]; i++) {
+                float s = volux_volume_raw_at(v, row + (size_t)i) + v->value_offset;
+                int cx0 = (i - 1) >> VOLUX_CELL_SHIFT, cx1 = i >> VOLUX_CELL_SHIFT;
+                for (int cz = cz0 < 0 ? 0 : cz0; cz <= cz1 && cz < nc[2]; cz++)
+                    for (int cy = cy0 < 0 ? 0 : cy0; cy <= cy1 && cy < nc[1]; cy++)
+                        for (int cx = cx0 < 0 ? 0 : cx0; cx <= cx1 && cx < nc[0]; cx++) {
+                            size_t c = ((size_t)cz * (size_t)nc[1] + (size_t)cy) * (size_t)nc[0] + (size_t)cx;
+                            if (s < v->cell_min[c]) v->cell_min[c] = s;
+                            if (s > v->cell_max[c]) v->cell_max[c] = s;
+                        }
+            }
+        }
+    }
+}
+
+volux_status volux_volume_finalize(volux_volume *v, const double *origin) {
+    volux_context *ctx = v->ctx;
+    for (int a = 0; a < 3; a++) {
+        double o = origin ? origin[a] : -(double)(v->dims[a] - 1) * v->spacing[a] / 2.0;
+        if (!isfinite(o)) return volux_error(ctx, VOLUX_ERR_INVALID, "origin[%d] is not finite", a);
+        (&v->origin.x)[a] = (float)o;
+    }
+    size_t n = (size_t)v->dims[0] * (size_t)v->dims[1] * (size_t)v->dims[2];
+    double lo = DBL_MAX, hi = -DBL_MAX;
+    if (v->storage == VOLUX_STORE_F32) {
+        float *f = v->data;
+        for (size_t i = 0; i < n; i++) {
+            if (!isfinite(f[i])) f[i] = 0.0f; /* NaN/inf would poison every sum downstream */
+            if (f[i] < lo) lo = f[i];
+            if (f[i] > hi) hi = f[i];
+        }
+    } else {
+        for (size_t i = 0; i < n; i++) {
+            double s = volux_volume_raw_at(v, i);
+            if (s < lo) lo = s;
+            if (s > hi) hi = s;
+        }
+        lo += v->value_offset;
+        hi += v->value_offset;
+    }
+    v->vmin = lo;
+    v->vmax = hi;
+    size_t cells = 1;
+    for (int a = 0; a < 3; a++) {
+        int c = (v->dims[a] - 1 + VOLUX_CELL_SIZE - 1) / VOLUX_CELL_SIZE;
+        cells *= (size_t)(c < 1 ? 1 : c);
+    }
+    v->cell_bytes = cells * sizeof(float);
+    v->cell_min = volux_malloc(ctx, v->cell_bytes);
+    v->cell_max = volux_malloc(ctx, v->cell_bytes);
+    if (!v->cell_min || !v->cell_max) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for macrocells");
+    build_macrocells(v);
+    return VOLUX_OK;
+}
+
+static void convert_into(volux_volume *v, const void *src) {
+    size_t n = (size_t)v->dims[0] * (size_t)v->dims[1] * (size_t)v->dims[2];
+    switch (v->type) {
+    case VOLUX_UINT8: memcpy(v->data, src, n); break;
+    case VOLUX_UINT16: memcpy(v->data, src, n * 2); break;
+    case VOLUX_FLOAT32: memcpy(v->data, src, n * 4); break;
+    case VOLUX_INT8: {
+        const int8_t *s = src;
+        uint8_t *d = v->data;
+        for (size_t i = 0; i < n; i++) d[i] = (uint8_t)(s[i] + 128);
+        break;
+    }
+    case VOLUX_INT16: {
+        const int16_t *s = src;
+        uint16_t *d = v->data;
+        for (size_t i = 0; i < n; i++) d[i] = (uint16_t)(s[i] + 32768);
+        break;
+    }
+    case VOLUX_FLOAT64: {
+        const double *s = src;
+        float *d = v->data;
+        for (size_t i = 0; i < n; i++) d[i] = (float)s[i];
+        break;
+    }
+    }
+}
+
+volux_status volux_volume_create(volux_context *ctx, const volux_volume_desc *desc, volux_volume **out) {
+    double spacing[3];
+    for (int a = 0; a < 3; a++) spacing[a] = desc->spacing[a] == 0.0 ? 1.0 : desc->spacing[a];
+    if ((unsigned)desc->type > VOLUX_FLOAT64)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "unknown scalar type %d", (int)desc->type);
+    volux_volume *v;
+    volux_status st = volux_volume_create_storage(ctx, desc->dims, spacing, desc->type, &v);
+    if (st) return st;
+    if (desc->data) convert_into(v, desc->data);
+    else if (desc->type == VOLUX_INT8 || desc->type == VOLUX_INT16) {
+        /* zero in file units is the offset value in storage */
+        size_t n = (size_t)v->dims[0] * (size_t)v->dims[1] * (size_t)v->dims[2];
+        if (desc->type == VOLUX_INT8) memset(v->data, 128, n);
+        else
+            for (size_t i = 0; i < n; i++) ((uint16_t *)v->data)[i] = 32768;
+    }
+    st = volux_volume_finalize(v, desc->use_origin ? desc->origin : NULL);
+    if (st) {
+        volux_volume_release(v);
+        return st;
+    }
+    *out = v;
+    return VOLUX_OK;
+}
+
+void volux_volume_retain(volux_volume *v) { __atomic_add_fetch(&v->refcount, 1, __ATOMIC_RELAXED); }
+
+void volux_volume_release(volux_volume *v) {
+    if (!v) return;
+    if (__atomic_sub_fetch(&v->refcount, 1, __ATOMIC_ACQ_REL) != 0) return;
+    volux_context *ctx = v->ctx;
+    volux_free_aligned(ctx, v->data, v->data_bytes);
+    volux_free(ctx, v->cell_min, v->cell_bytes);
+    volux_free(ctx, v->cell_max, v->cell_bytes);
+    volux_free(ctx, v, sizeof *v);
+}
+
+void volux_volume_dims(const volux_volume *v, int dims[3]) { memcpy(dims, v->dims, sizeof v->dims); }
+void volux_volume_spacing(const volux_volume *v, double spacing[3]) { memcpy(spacing, v->spacing, sizeof v->spacing); }
+volux_vec3 volux_volume_origin(const volux_volume *v) { return v->origin; }
+volux_scalar_type volux_volume_type(const volux_volume *v) { return v->type; }
+volux_storage volux_volume_storage_kind(const volux_volume *v) { return v->storage; }
+void volux_volume_range(const volux_volume *v, double *min, double *max) {
+    *min = v->vmin;
+    *max = v->vmax;
+}
+void volux_volume_bounds(const volux_volume *v, volux_vec3 *lo, volux_vec3 *hi) {
+    *lo = v->origin;
+    *hi = v3(v->origin.x + (float)((v->dims[0] - 1) * v->spacing[0]),
+             v->origin.y + (float)((v->dims[1] - 1) * v->spacing[1]),
+             v->origin.z + (float)((v->dims[2] - 1) * v->spacing[2]));
+}
+size_t volux_volume_memory_bytes(const volux_volume *v) { return v->data_bytes + 2 * v->cell_bytes + sizeof *v; }
+
+float volux_volume_value_at(const volux_volume *v, int i, int j, int k) {
+    return volux_volume_raw_at(v, volux_volume_index(v, i, j, k)) + v->value_offset;
+}
+
+float volux_volume_sample(const volux_volume *v, volux_vec3 p) {
+    volux_vec3 q = volux_volume_to_index(v, p);
+    if (!volux_volume_inside_index(v, q)) return 0.0f;
+    return volux_volume_sample_index(v, q.x, q.y, q.z);
+}
+
+volux_vec3 volux_volume_gradient_index(const volux_volume *v, volux_vec3 q) {
+    float n[3] = {(float)(v->dims[0] - 1), (float)(v->dims[1] - 1), (float)(v->dims[2] - 1)};
+    float p[3] = {q.x, q.y, q.z}, g[3];
+    for (int a = 0; a < 3; a++) {
+        float lo[3] = {p[0], p[1], p[2]}, hi[3] = {p[0], p[1], p[2]};
+        lo[a] = fmaxf(p[a] - 1.0f, 0.0f);
+        hi[a] = fminf(p[a] + 1.0f, n[a]);
+        float h = hi[a] - lo[a];
+        g[a] = h > 0.0f ? (volux_volume_sample_index(v, hi[0], hi[1], hi[2]) -
+                           volux_volume_sample_index(v, lo[0], lo[1], lo[2])) / h
+                        : 0.0f;
+    }
+    return v3(g[0], g[1], g[2]);
+}
+
+volux_vec3 volux_volume_gradient(const volux_volume *v, volux_vec3 p) {
+    volux_vec3 q = volux_volume_to_index(v, p);
+    if (!volux_volume_inside_index(v, q)) return v3(0, 0, 0);
+    volux_vec3 g = volux_volume_gradient_index(v, q);
+    return v3(g.x * v->inv_spacing[0], g.y * v->inv_spacing[1], g.z * v->inv_spacing[2]);
+}
+
+void volux_volume_histogram(const volux_volume *v, int bins, uint64_t *counts) {
+    memset(counts, 0, sizeof *counts * (size_t)bins);
+    double range = v->vmax - v->vmin;
+    size_t n = (size_t)v->dims[0] * (size_t)v->dims[1] * (size_t)v->dims[2];
+    for (size_t i = 0; i < n; i++) {
+        double s = volux_volume_raw_at(v, i) + v->value_offset;
+        int b = range > 0 ? (int)((s - v->vmin) / range * bins) : 0;
+        if (b >= bins) b = bins - 1;
+        if (b < 0) b = 0;
+        counts[b]++;
+    }
+}
