@@ -62,6 +62,14 @@ VOLUX_API volux_status volux_light_desc_validate(volux_context *ctx, const volux
  * direction to the lit point: 1 inside falloff, smooth (cubic) to 0 at cone. */
 VOLUX_API float volux_spot_falloff(const volux_light_desc *d, float cos_angle);
 
+/* Radiance an environment light sends along -dir (i.e. seen looking in
+ * direction `dir`), colour and intensity applied; bilinear map lookup. */
+VOLUX_API volux_vec3 volux_environment_radiance(const volux_light_desc *d, volux_vec3 dir);
+/* Map coordinates (u,v) ∈ [0,1)² of a direction, rotation applied (DESIGN §2). */
+VOLUX_API void volux_environment_uv(const volux_light_desc *d, volux_vec3 dir, float *u, float *v);
+/* Inverse of volux_environment_uv: unit direction for (u, v). */
+VOLUX_API volux_vec3 volux_environment_direction(const volux_light_desc *d, float u, float v);
+
 #ifdef __cplusplus
 }
 #endif

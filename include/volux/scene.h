@@ -138,6 +138,10 @@ VOLUX_API const char *volux_scene_param_string(const volux_scene *s, const char 
 VOLUX_API int volux_scene_param_at(const volux_scene *s, int index, const char **technique,
                                    const char **name, double *number, const char **string);
 
+/* What a ray leaving the volume in direction `dir` sees: the sum of the
+ * enabled, visible environment lights, or the background if there is none. */
+VOLUX_API volux_vec3 volux_scene_escape_radiance(const volux_scene *s, volux_vec3 dir);
+
 /* World-space centre and bounding-sphere radius of the volume box. */
 VOLUX_API void volux_scene_bounds_sphere(const volux_scene *s, volux_vec3 *center, float *radius);
 /* Ray-march step in world units (render.step × smallest spacing). */

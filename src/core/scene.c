@@ -1,0 +1,405 @@
+/* core/scene.c — the scene and its per-aspect versions (STYLE §5). */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "context_internal.h"
+#include "vecmath.h"
+#include "volume_internal.h"
+#include "volux/scene.h"
+
+enum { A_VOLUME, A_EXTINCTION, A_COLOR, A_DENSITY, A_PHASE, A_LIGHTS, A_CAMERA, A_PARAMS, A_RENDER, A_COUNT };
+
+typedef struct light_slot {
+    int present;
+    volux_light_desc desc;
+    volux_image map; /* owned copy of desc.map */
+} light_slot;
+
+typedef struct param_entry {
+    char technique[32];
+    char name[48];
+    double number;
+    char *string; /* owned; NULL for numbers */
+} param_entry;
+
+struct volux_scene {
+    volux_context *ctx;
+    uint64_t id;
+    volux_volume *volume;
+    volux_transfer_desc tf;
+    volux_tf_color_point *color;
+    volux_tf_scalar_point *opacity;
+    volux_transfer_lut lut;
+    uint32_t lut_built_for[3]; /* volume, extinction, density+color versions (0 = none) */
+    uint64_t lut_volume_id;
+    volux_camera_desc camera;
+    light_slot lights[VOLUX_MAX_LIGHTS];
+    int light_slots;
+    volux_vec3 background;
+    volux_render_settings render;
+    param_entry params[VOLUX_MAX_PARAMS];
+    int n_params;
+    uint32_t aspect[A_COUNT];
+    uint32_t light_version[VOLUX_MAX_LIGHTS];
+};
+
+static uint64_t next_scene_id = 1;
+
+void volux_render_settings_defaults(volux_render_settings *r) {
+    memset(r, 0, sizeof *r);
+    r->width = 512;
+    r->height = 512;
+    r->spp = 1;
+    r->step = 0.5f;
+    r->seed = 1;
+    r->max_depth = 64;
+    strcpy(r->technique, "ea");
+}
+
+static void bump(volux_scene *s, int aspect) { s->aspect[aspect]++; }
+
+volux_status volux_scene_create(volux_context *ctx, volux_scene **out) {
+    volux_scene *s = volux_calloc(ctx, 1, sizeof *s);
+    if (!s) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for a scene");
+    s->ctx = ctx;
+    s->id = __atomic_fetch_add(&next_scene_id, 1, __ATOMIC_RELAXED);
+    static const volux_tf_scalar_point ramp[2] = {{0.0f, 0.0f}, {1.0f, 1.0f}};
+    volux_transfer_desc_defaults(&s->tf);
+    s->tf.opacity = ramp;
+    s->tf.n_opacity = 2;
+    volux_status st = volux_scene_set_transfer(s, &s->tf);
+    if (st) {
+        volux_free(ctx, s, sizeof *s);
+        return st;
+    }
+    volux_camera_desc_defaults(&s->camera);
+    volux_render_settings_defaults(&s->render);
+    for (int a = 0; a < A_COUNT; a++) s->aspect[a] = 1;
+    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) s->light_version[i] = 1;
+    *out = s;
+    return VOLUX_OK;
+}
+
+static void free_tf_arrays(volux_scene *s) {
+    volux_free(s->ctx, s->color, sizeof *s->color * (size_t)s->tf.n_color);
+    volux_free(s->ctx, s->opacity, sizeof *s->opacity * (size_t)s->tf.n_opacity);
+    s->color = NULL;
+    s->opacity = NULL;
+}
+
+void volux_scene_destroy(volux_scene *s) {
+    if (!s) return;
+    volux_context *ctx = s->ctx;
+    volux_volume_release(s->volume);
+    free_tf_arrays(s);
+    volux_transfer_lut_free(ctx, &s->lut);
+    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) volux_image_free(ctx, &s->lights[i].map);
+    for (int i = 0; i < s->n_params; i++) volux_strfree(ctx, s->params[i].string);
+    volux_free(ctx, s, sizeof *s);
+}
+
+volux_context *volux_scene_context(const volux_scene *s) { return s->ctx; }
+
+volux_status volux_scene_set_volume(volux_scene *s, volux_volume *v) {
+    if (!v) return volux_error(s->ctx, VOLUX_ERR_INVALID, "scene: volume is NULL");
+    volux_volume_retain(v);
+    volux_volume_release(s->volume);
+    s->volume = v;
+    bump(s, A_VOLUME);
+    return VOLUX_OK;
+}
+
+volux_volume *volux_scene_volume(const volux_scene *s) { return s->volume; }
+
+static int same_scalar_points(const volux_tf_scalar_point *a, int na, const volux_tf_scalar_point *b, int nb) {
+    return na == nb && (na == 0 || memcmp(a, b, sizeof *a * (size_t)na) == 0);
+}
+static int same_color_points(const volux_tf_color_point *a, int na, const volux_tf_color_point *b, int nb) {
+    return na == nb && (na == 0 || memcmp(a, b, sizeof *a * (size_t)na) == 0);
+}
+
+volux_status volux_scene_set_transfer(volux_scene *s, const volux_transfer_desc *d) {
+    volux_status st = volux_transfer_desc_validate(s->ctx, d);
+    if (st) return st;
+    volux_tf_color_point *color = NULL;
+    volux_tf_scalar_point *opacity = volux_malloc(s->ctx, sizeof *opacity * (size_t)d->n_opacity);
+    if (d->n_color > 0) color = volux_malloc(s->ctx, sizeof *color * (size_t)d->n_color);
+    if (!opacity || (d->n_color > 0 && !color)) {
+        volux_free(s->ctx, opacity, sizeof *opacity * (size_t)d->n_opacity);
+        volux_free(s->ctx, color, sizeof *color * (size_t)d->n_color);
+        return volux_error(s->ctx, VOLUX_ERR_NOMEM, "out of memory for transfer function points");
+    }
+    memcpy(opacity, d->opacity, sizeof *opacity * (size_t)d->n_opacity);
+    if (d->n_color > 0) memcpy(color, d->color, sizeof *color * (size_t)d->n_color);
+
+    /* Classify the edit before replacing anything (gage-style diff). */
+    const volux_transfer_desc *o = &s->tf;
+    int first = s->opacity == NULL;
+    if (first || !same_scalar_points(o->opacity, o->n_opacity, d->opacity, d->n_opacity) ||
+        o->extinction != d->extinction || o->opacity_unit_distance != d->opacity_unit_distance)
+        bump(s, A_EXTINCTION);
+    if (first || o->density_scale != d->density_scale) bump(s, A_DENSITY);
+    if (first || !same_color_points(o->color, o->n_color, d->color, d->n_color) || o->albedo != d->albedo ||
+        memcmp(&o->material, &d->material, sizeof o->material) != 0)
+        bump(s, A_COLOR);
+    if (first || o->anisotropy != d->anisotropy) bump(s, A_PHASE);
+
+    free_tf_arrays(s);
+    s->tf = *d;
+    s->color = color;
+    s->opacity = opacity;
+    s->tf.color = color;
+    s->tf.opacity = opacity;
+    return VOLUX_OK;
+}
+
+const volux_transfer_desc *volux_scene_transfer(const volux_scene *s) { return &s->tf; }
+
+static float smallest_spacing(const volux_volume *v) {
+    double sp[3];
+    volux_volume_spacing(v, sp);
+    return (float)fmin(sp[0], fmin(sp[1], sp[2]));
+}
+
+const volux_transfer_lut *volux_scene_transfer_lut(volux_scene *s) {
+    if (!s->volume) return NULL;
+    uint32_t want[3] = {s->aspect[A_EXTINCTION], s->aspect[A_DENSITY], s->aspect[A_COLOR]};
+    if (s->lut.n > 0 && s->lut_volume_id == s->volume->id && memcmp(want, s->lut_built_for, sizeof want) == 0)
+        return &s->lut;
+    double lo, hi;
+    volux_volume_range(s->volume, &lo, &hi);
+    volux_transfer_lut lut;
+    if (volux_transfer_bake(s->ctx, &s->tf, lo, hi, 0, smallest_spacing(s->volume), &lut) != VOLUX_OK) return NULL;
+    volux_transfer_lut_free(s->ctx, &s->lut);
+    s->lut = lut;
+    s->lut_volume_id = s->volume->id;
+    memcpy(s->lut_built_for, want, sizeof want);
+    return &s->lut;
+}
+
+volux_status volux_scene_set_camera(volux_scene *s, const volux_camera_desc *d) {
+    volux_camera probe;
+    volux_status st = volux_camera_resolve(s->ctx, d, v3(0, 0, 0), 1.0f, 4, 4, &probe);
+    if (st) return st;
+    s->camera = *d;
+    bump(s, A_CAMERA);
+    return VOLUX_OK;
+}
+
+const volux_camera_desc *volux_scene_camera_desc(const volux_scene *s) { return &s->camera; }
+
+void volux_scene_bounds_sphere(const volux_scene *s, volux_vec3 *center, float *radius) {
+    if (!s->volume) {
+        *center = v3(0, 0, 0);
+        *radius = 1.0f;
+        return;
+    }
+    volux_vec3 lo, hi;
+    volux_volume_bounds(s->volume, &lo, &hi);
+    *center = v3_scale(v3_add(lo, hi), 0.5f);
+    float r = 0.5f * v3_length(v3_sub(hi, lo));
+    *radius = r > 0.0f ? r : 1.0f;
+}
+
+volux_status volux_scene_camera(const volux_scene *s, volux_camera *out) {
+    volux_vec3 c;
+    float r;
+    volux_scene_bounds_sphere(s, &c, &r);
+    return volux_camera_resolve(s->ctx, &s->camera, c, r, s->render.width, s->render.height, out);
+}
+
+static int valid_slot(const volux_scene *s, int slot) { return slot >= 0 && slot < VOLUX_MAX_LIGHTS && s; }
+
+static void touch_light(volux_scene *s, int slot) {
+    s->light_version[slot]++;
+    bump(s, A_LIGHTS);
+    int n = 0;
+    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++)
+        if (s->lights[i].present) n = i + 1;
+    s->light_slots = n;
+}
+
+volux_status volux_scene_set_light(volux_scene *s, int slot, const volux_light_desc *d) {
+    if (!valid_slot(s, slot))
+        return volux_error(s->ctx, VOLUX_ERR_INVALID, "lights[%d]: slot outside [0, %d)", slot, VOLUX_MAX_LIGHTS);
+    char path[32];
+    snprintf(path, sizeof path, "lights[%d]", slot);
+    volux_status st = volux_light_desc_validate(s->ctx, d, path);
+    if (st) return st;
+    volux_image map = {0};
+    if (d->type == VOLUX_LIGHT_ENVIRONMENT && d->map) {
+        st = volux_image_copy(s->ctx, d->map, &map);
+        if (st) return st;
+    }
+    light_slot *l = &s->lights[slot];
+    volux_image_free(s->ctx, &l->map);
+    l->present = 1;
+    l->desc = *d;
+    l->map = map;
+    l->desc.map = map.rgb ? &l->map : NULL;
+    touch_light(s, slot);
+    return VOLUX_OK;
+}
+
+volux_status volux_scene_remove_light(volux_scene *s, int slot) {
+    if (!valid_slot(s, slot) || !s->lights[slot].present)
+        return volux_error(s->ctx, VOLUX_ERR_INVALID, "lights[%d]: no light in this slot", slot);
+    light_slot *l = &s->lights[slot];
+    volux_image_free(s->ctx, &l->map);
+    memset(l, 0, sizeof *l);
+    touch_light(s, slot);
+    return VOLUX_OK;
+}
+
+volux_status volux_scene_set_light_enabled(volux_scene *s, int slot, int enabled) {
+    if (!valid_slot(s, slot) || !s->lights[slot].present)
+        return volux_error(s->ctx, VOLUX_ERR_INVALID, "lights[%d]: no light in this slot", slot);
+    if (s->lights[slot].desc.enabled == (enabled != 0)) return VOLUX_OK;
+    s->lights[slot].desc.enabled = enabled != 0;
+    touch_light(s, slot);
+    return VOLUX_OK;
+}
+
+const volux_light_desc *volux_scene_light(const volux_scene *s, int slot) {
+    if (slot < 0 || slot >= VOLUX_MAX_LIGHTS || !s->lights[slot].present) return NULL;
+    return &s->lights[slot].desc;
+}
+
+int volux_scene_light_slots(const volux_scene *s) { return s->light_slots; }
+
+void volux_scene_set_background(volux_scene *s, volux_vec3 rgb) {
+    if (memcmp(&rgb, &s->background, sizeof rgb) == 0) return;
+    s->background = rgb;
+    bump(s, A_RENDER);
+}
+
+volux_vec3 volux_scene_background(const volux_scene *s) { return s->background; }
+
+volux_status volux_scene_set_render(volux_scene *s, const volux_render_settings *r) {
+    volux_context *ctx = s->ctx;
+    if (r->width < 1 || r->height < 1 || r->width > VOLUX_MAX_IMAGE_DIM || r->height > VOLUX_MAX_IMAGE_DIM)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "render.width/height: %dx%d is outside [1, %d]", r->width,
+                           r->height, VOLUX_MAX_IMAGE_DIM);
+    if (r->spp < 1 || r->spp > (1 << 24))
+        return volux_error(ctx, VOLUX_ERR_INVALID, "render.spp: must be in [1, 2^24], got %d", r->spp);
+    if (!(r->step > 0.0f) || !(r->step <= 64.0f))
+        return volux_error(ctx, VOLUX_ERR_INVALID, "render.step: must be in (0, 64], got %g", r->step);
+    if (r->max_depth < 1 || r->max_depth > 100000)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "render.max_depth: must be in [1, 100000], got %d", r->max_depth);
+    if (!isfinite(r->exposure) || fabsf(r->exposure) > 64.0f)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "render.exposure: must be in [-64, 64], got %g", r->exposure);
+    if (r->threads < 0 || r->threads > 1024)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "render.threads: must be in [0, 1024], got %d", r->threads);
+    if (!(r->time_ms >= 0.0) || !(r->target_error >= 0.0))
+        return volux_error(ctx, VOLUX_ERR_INVALID, "render.time_ms/target_error: must be >= 0");
+    if (!memchr(r->technique, 0, sizeof r->technique))
+        return volux_error(ctx, VOLUX_ERR_INVALID, "render.technique: name too long");
+    /* Only what changes pixels bumps RENDER (threads and limits do not). */
+    const volux_render_settings *o = &s->render;
+    if (o->width != r->width || o->height != r->height || o->step != r->step || o->seed != r->seed ||
+        o->max_depth != r->max_depth || strcmp(o->technique, r->technique) != 0)
+        bump(s, A_RENDER);
+    s->render = *r;
+    return VOLUX_OK;
+}
+
+const volux_render_settings *volux_scene_render(const volux_scene *s) { return &s->render; }
+
+static param_entry *find_param(const volux_scene *s, const char *technique, const char *name) {
+    for (int i = 0; i < s->n_params; i++)
+        if (!strcmp(s->params[i].technique, technique) && !strcmp(s->params[i].name, name))
+            return (param_entry *)&s->params[i];
+    return NULL;
+}
+
+volux_status volux_scene_set_param(volux_scene *s, const char *technique, const char *name, double number,
+                                   const char *string) {
+    volux_context *ctx = s->ctx;
+    if (strlen(technique) >= sizeof s->params[0].technique || strlen(name) >= sizeof s->params[0].name)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.%.32s.%.48s: name too long", technique, name);
+    if (!string && !isfinite(number))
+        return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.%s.%s: must be finite", technique, name);
+    param_entry *p = find_param(s, technique, name);
+    if (!p) {
+        if (s->n_params >= VOLUX_MAX_PARAMS)
+            return volux_error(ctx, VOLUX_ERR_LIMIT, "techniques: more than %d parameters", VOLUX_MAX_PARAMS);
+        p = &s->params[s->n_params];
+        memset(p, 0, sizeof *p);
+        strcpy(p->technique, technique);
+        strcpy(p->name, name);
+        s->n_params++;
+    }
+    char *copy = NULL;
+    if (string && !(copy = volux_strdup(ctx, string)))
+        return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for a parameter");
+    volux_strfree(ctx, p->string);
+    p->string = copy;
+    p->number = string ? 0.0 : number;
+    bump(s, A_PARAMS);
+    return VOLUX_OK;
+}
+
+double volux_scene_param(const volux_scene *s, const char *technique, const char *name, double fallback) {
+    const param_entry *p = find_param(s, technique, name);
+    return p && !p->string ? p->number : fallback;
+}
+
+const char *volux_scene_param_string(const volux_scene *s, const char *technique, const char *name,
+                                     const char *fallback) {
+    const param_entry *p = find_param(s, technique, name);
+    return p && p->string ? p->string : fallback;
+}
+
+int volux_scene_param_at(const volux_scene *s, int index, const char **technique, const char **name, double *number,
+                         const char **string) {
+    if (index < 0 || index >= s->n_params) return 0;
+    const param_entry *p = &s->params[index];
+    *technique = p->technique;
+    *name = p->name;
+    *number = p->number;
+    *string = p->string;
+    return 1;
+}
+
+float volux_scene_step_world(const volux_scene *s) {
+    float sp = s->volume ? smallest_spacing(s->volume) : 1.0f;
+    return s->render.step * sp;
+}
+
+volux_scene_stamp volux_scene_stamp_now(const volux_scene *s) {
+    volux_scene_stamp st;
+    memset(&st, 0, sizeof st);
+    st.scene_id = s->id;
+    memcpy(st.aspect, s->aspect, sizeof st.aspect);
+    memcpy(st.light, s->light_version, sizeof st.light);
+    return st;
+}
+
+volux_change_set volux_scene_changes_since(const volux_scene *s, const volux_scene_stamp *seen) {
+    volux_change_set c;
+    memset(&c, 0, sizeof c);
+    if (!seen || seen->scene_id != s->id) {
+        c.what = VOLUX_CHANGE_ALL;
+        memset(c.lights, 0xff, sizeof c.lights);
+        return c;
+    }
+    for (int a = 0; a < A_COUNT; a++)
+        if (seen->aspect[a] != s->aspect[a]) c.what |= 1u << a;
+    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++)
+        if (seen->light[i] != s->light_version[i]) c.lights[i >> 6] |= 1ull << (i & 63);
+    return c;
+}
+
+volux_vec3 volux_scene_escape_radiance(const volux_scene *s, volux_vec3 dir) {
+    volux_vec3 sum = v3(0, 0, 0);
+    int any = 0;
+    for (int i = 0; i < s->light_slots; i++) {
+        const light_slot *l = &s->lights[i];
+        if (!l->present || l->desc.type != VOLUX_LIGHT_ENVIRONMENT || !l->desc.visible || !l->desc.enabled)
+            continue;
+        any = 1;
+        sum = v3_add(sum, volux_environment_radiance(&l->desc, dir));
+    }
+    return any ? sum : s->background;
+}

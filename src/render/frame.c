@@ -1,0 +1,206 @@
+/*
+ * render/frame.c — the frame loop: tiles × sample waves, accumulation,
+ * limits, progress and cancel (pbrt's ImageTileIntegrator role).
+ *
+ * Each wave renders one sample index for every tile in parallel; a pixel is
+ * written by exactly one tile per wave and waves run in order, so the sums
+ * are accumulated in the same order for any thread count (bit-identical
+ * images).
+ */
+#include <math.h>
+#include <string.h>
+#include <time.h>
+
+#include "core/context_internal.h"
+#include "core/parallel.h"
+#include "volux/render.h"
+
+struct volux_framebuffer {
+    volux_context *ctx;
+    int width, height;
+    uint32_t spp;
+    double *sum;    /* 3 per pixel: Σ radiance               */
+    double *sum_sq; /* 1 per pixel: Σ luminance²             */
+};
+
+volux_status volux_framebuffer_create(volux_context *ctx, int width, int height, volux_framebuffer **out) {
+    if (width < 1 || height < 1 || width > VOLUX_MAX_IMAGE_DIM || height > VOLUX_MAX_IMAGE_DIM)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "framebuffer size %dx%d is outside [1, %d]", width, height,
+                           VOLUX_MAX_IMAGE_DIM);
+    size_t n = (size_t)width * (size_t)height;
+    volux_framebuffer *fb = volux_calloc(ctx, 1, sizeof *fb);
+    if (!fb) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for a framebuffer");
+    fb->ctx = ctx;
+    fb->width = width;
+    fb->height = height;
+    fb->sum = volux_calloc(ctx, 3 * n, sizeof(double));
+    fb->sum_sq = volux_calloc(ctx, n, sizeof(double));
+    if (!fb->sum || !fb->sum_sq) {
+        volux_framebuffer_destroy(fb);
+        return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for a %dx%d framebuffer", width, height);
+    }
+    *out = fb;
+    return VOLUX_OK;
+}
+
+void volux_framebuffer_destroy(volux_framebuffer *fb) {
+    if (!fb) return;
+    size_t n = (size_t)fb->width * (size_t)fb->height;
+    volux_free(fb->ctx, fb->sum, 3 * n * sizeof(double));
+    volux_free(fb->ctx, fb->sum_sq, n * sizeof(double));
+    volux_free(fb->ctx, fb, sizeof *fb);
+}
+
+void volux_framebuffer_reset(volux_framebuffer *fb) {
+    size_t n = (size_t)fb->width * (size_t)fb->height;
+    memset(fb->sum, 0, 3 * n * sizeof(double));
+    memset(fb->sum_sq, 0, n * sizeof(double));
+    fb->spp = 0;
+}
+
+uint32_t volux_framebuffer_spp(const volux_framebuffer *fb) { return fb->spp; }
+int volux_framebuffer_width(const volux_framebuffer *fb) { return fb->width; }
+int volux_framebuffer_height(const volux_framebuffer *fb) { return fb->height; }
+
+volux_status volux_framebuffer_resolve(const volux_framebuffer *fb, volux_image *out) {
+    volux_status st = volux_image_create(fb->ctx, fb->width, fb->height, out);
+    if (st) return st;
+    size_t n = 3 * (size_t)fb->width * (size_t)fb->height;
+    double inv = fb->spp ? 1.0 / fb->spp : 0.0;
+    for (size_t i = 0; i < n; i++) out->rgb[i] = (float)(fb->sum[i] * inv);
+    return VOLUX_OK;
+}
+
+static double luminance(const double *c) { return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]; }
+
+double volux_framebuffer_rel_error(const volux_framebuffer *fb) {
+    if (fb->spp < 2) return 0.0;
+    size_t n = (size_t)fb->width * (size_t)fb->height;
+    double k = fb->spp, var_sum = 0.0, mean_sum = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        double mean = luminance(&fb->sum[3 * i]) / k;
+        double var = (fb->sum_sq[i] / k - mean * mean) * k / (k - 1.0); /* sample variance */
+        if (var < 0.0) var = 0.0;
+        var_sum += var / k; /* variance of the pixel mean */
+        mean_sum += mean;
+    }
+    if (mean_sum <= 0.0) return 0.0;
+    /* RMS standard error over pixels relative to the mean pixel value. */
+    return sqrt(var_sum / (double)n) / (mean_sum / (double)n);
+}
+
+typedef struct wave_job {
+    const volux_technique_class *cls;
+    const void *state;
+    const volux_scene *scene;
+    volux_framebuffer *fb;
+    volux_context *ctx;
+    int tiles_x, tiles_total;
+    uint32_t sample_index;
+    volux_tile_stats *stats; /* per tile */
+    int *done_tiles;
+    int *progress_busy;
+    int *cancelled;
+    double progress_base, progress_span;
+} wave_job;
+
+static void render_one_tile(void *user, int64_t index, int thread) {
+    (void)thread;
+    wave_job *job = user;
+    if (__atomic_load_n(job->cancelled, __ATOMIC_RELAXED)) return;
+    volux_framebuffer *fb = job->fb;
+    volux_tile tile;
+    tile.x0 = (int)(index % job->tiles_x) * VOLUX_TILE_SIZE;
+    tile.y0 = (int)(index / job->tiles_x) * VOLUX_TILE_SIZE;
+    tile.w = fb->width - tile.x0 < VOLUX_TILE_SIZE ? fb->width - tile.x0 : VOLUX_TILE_SIZE;
+    tile.h = fb->height - tile.y0 < VOLUX_TILE_SIZE ? fb->height - tile.y0 : VOLUX_TILE_SIZE;
+    tile.sample_index = job->sample_index;
+    float rgb[VOLUX_TILE_SIZE * VOLUX_TILE_SIZE * 3];
+    memset(rgb, 0, sizeof rgb);
+    volux_tile_stats *stats = &job->stats[index];
+    job->cls->render_tile(job->state, job->scene, &tile, rgb, stats);
+    for (int y = 0; y < tile.h; y++)
+        for (int x = 0; x < tile.w; x++) {
+            size_t p = (size_t)(tile.y0 + y) * (size_t)fb->width + (size_t)(tile.x0 + x);
+            const float *c = &rgb[3 * (y * tile.w + x)];
+            double lum = 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+            fb->sum[3 * p + 0] += c[0];
+            fb->sum[3 * p + 1] += c[1];
+            fb->sum[3 * p + 2] += c[2];
+            fb->sum_sq[p] += lum * lum;
+        }
+    int done = __atomic_add_fetch(job->done_tiles, 1, __ATOMIC_RELAXED);
+    /* Progress from whichever thread gets the flag; never concurrently. */
+    if (job->ctx->progress && !__atomic_exchange_n(job->progress_busy, 1, __ATOMIC_ACQUIRE)) {
+        double f = job->progress_base + job->progress_span * (double)done / (double)job->tiles_total;
+        if (volux_progress(job->ctx, "render", f < 1.0 ? f : 0.999)) __atomic_store_n(job->cancelled, 1, __ATOMIC_RELAXED);
+        __atomic_store_n(job->progress_busy, 0, __ATOMIC_RELEASE);
+    }
+}
+
+static double now_ms(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
+}
+
+/* Internal accessors implemented in techniques/technique.c. */
+const void *volux_technique_state(const volux_technique *t);
+
+volux_status volux_render(volux_technique *t, volux_scene *scene, volux_framebuffer *fb,
+                          const volux_render_limits *limits, volux_render_report *report) {
+    volux_context *ctx = fb->ctx;
+    const volux_render_settings *rs = volux_scene_render(scene);
+    if (fb->width != rs->width || fb->height != rs->height)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "framebuffer is %dx%d but the scene renders %dx%d", fb->width,
+                           fb->height, rs->width, rs->height);
+    volux_render_limits lim = {(uint32_t)rs->spp, rs->time_ms, rs->target_error};
+    if (limits) lim = *limits;
+    if (lim.spp == 0) lim.spp = 1;
+    const volux_technique_class *cls = volux_technique_class_of(t);
+    if (!cls->progressive && lim.spp > 1 && lim.target_error > 0.0) lim.target_error = 0.0;
+
+    int tiles_x = (fb->width + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE;
+    int tiles_y = (fb->height + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE;
+    int tiles = tiles_x * tiles_y;
+    volux_tile_stats *stats = volux_calloc(ctx, (size_t)tiles, sizeof *stats);
+    if (!stats) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for tile statistics");
+    int threads = rs->threads > 0 ? rs->threads : volux_context_threads(ctx);
+    int done = 0, busy = 0, cancelled = 0;
+    wave_job job = {cls, volux_technique_state(t), scene, fb, ctx, tiles_x, tiles, 0, stats, &done, &busy, &cancelled,
+                    0.0, 1.0};
+    double start = now_ms();
+    uint32_t start_spp = fb->spp;
+    uint64_t samples = 0, vertices = 0;
+    volux_status st = VOLUX_OK;
+    while (fb->spp < lim.spp) {
+        job.sample_index = fb->spp;
+        done = 0;
+        uint32_t waves = lim.spp - start_spp;
+        job.progress_base = waves ? (double)(fb->spp - start_spp) / waves : 0.0;
+        job.progress_span = waves ? 1.0 / waves : 1.0;
+        memset(stats, 0, (size_t)tiles * sizeof *stats);
+        volux_parallel_for(threads, tiles, render_one_tile, &job);
+        if (cancelled) {
+            st = volux_error(ctx, VOLUX_ERR_CANCELLED, "render cancelled");
+            break;
+        }
+        for (int i = 0; i < tiles; i++) {
+            samples += stats[i].samples;
+            vertices += stats[i].vertices;
+        }
+        fb->spp++;
+        if (lim.time_ms > 0.0 && now_ms() - start >= lim.time_ms) break;
+        if (lim.target_error > 0.0 && fb->spp >= 4 && volux_framebuffer_rel_error(fb) <= lim.target_error) break;
+    }
+    volux_progress(ctx, "render", 1.0);
+    volux_free(ctx, stats, (size_t)tiles * sizeof *stats);
+    if (report) {
+        report->spp = fb->spp;
+        report->ms = now_ms() - start;
+        report->rel_error = volux_framebuffer_rel_error(fb);
+        report->samples = samples;
+        report->vertices = vertices;
+    }
+    return st;
+}

@@ -1,0 +1,399 @@
+/* techniques/dvr/dvr.c — the ray-casting kernel shared by `ea` and `shaded`. */
+#include <math.h>
+#include <string.h>
+
+#include "core/context_internal.h"
+#include "core/rng.h"
+#include "core/vecmath.h"
+#include "dvr.h"
+
+/* ------------------------------------------------------------------ caches */
+
+/* Per-voxel gradient by central differences (one-sided at the border), in
+ * file units per world unit, quantised to int16 with one global scale: a
+ * 6-byte/voxel cache that turns 6 trilinear fetches per sample into one. */
+static volux_status build_gradients(dvr_state *st) {
+    const volux_volume *v = st->volume;
+    size_t n = (size_t)v->dims[0] * (size_t)v->dims[1] * (size_t)v->dims[2];
+    size_t bytes;
+    if (!volux_mul_size(n, 3 * sizeof(int16_t), &bytes) || bytes > volux_context_max_bytes(st->ctx))
+        return volux_error(st->ctx, VOLUX_ERR_LIMIT, "shaded: gradient cache of %zu voxels exceeds the memory cap", n);
+    if (st->grad) volux_free_aligned(st->ctx, st->grad, st->grad_bytes);
+    st->grad = volux_alloc_aligned(st->ctx, bytes);
+    if (!st->grad) return volux_error(st->ctx, VOLUX_ERR_NOMEM, "shaded: out of memory for the gradient cache");
+    st->grad_bytes = bytes;
+    float *tmp = volux_malloc(st->ctx, (size_t)v->dims[0] * 3 * sizeof(float));
+    if (!tmp) return volux_error(st->ctx, VOLUX_ERR_NOMEM, "shaded: out of memory");
+    /* Two passes: find the largest magnitude for the scale, then quantise. */
+    float gmax = 0.0f;
+    for (int pass = 0; pass < 2; pass++) {
+        float q = pass ? (gmax > 0.0f ? 32767.0f / gmax : 0.0f) : 0.0f;
+        for (int k = 0; k < v->dims[2]; k++)
+            for (int j = 0; j < v->dims[1]; j++) {
+                for (int i = 0; i < v->dims[0]; i++) {
+                    int c[3] = {i, j, k};
+                    for (int a = 0; a < 3; a++) {
+                        int lo[3] = {i, j, k}, hi[3] = {i, j, k};
+                        if (c[a] > 0) lo[a]--;
+                        if (c[a] < v->dims[a] - 1) hi[a]++;
+                        int h = hi[a] - lo[a];
+                        float d = h ? (volux_volume_value_at(v, hi[0], hi[1], hi[2]) -
+                                       volux_volume_value_at(v, lo[0], lo[1], lo[2])) /
+                                          ((float)h * (float)v->spacing[a])
+                                    : 0.0f;
+                        tmp[3 * i + a] = d;
+                    }
+                }
+                if (!pass) {
+                    for (int i = 0; i < 3 * v->dims[0]; i++)
+                        if (fabsf(tmp[i]) > gmax) gmax = fabsf(tmp[i]);
+                } else {
+                    int16_t *row = st->grad + 3 * volux_volume_index(v, 0, j, k);
+                    for (int i = 0; i < 3 * v->dims[0]; i++) row[i] = (int16_t)lrintf(tmp[i] * q);
+                }
+            }
+    }
+    volux_free(st->ctx, tmp, (size_t)v->dims[0] * 3 * sizeof(float));
+    st->grad_scale = gmax > 0.0f ? gmax / 32767.0f : 0.0f;
+    return VOLUX_OK;
+}
+
+static void prepare_lights(dvr_state *st, const volux_scene *scene) {
+    st->n_lights = 0;
+    volux_vec3 ambient = v3(0, 0, 0);
+    int have_env = 0;
+    for (int i = 0; i < volux_scene_light_slots(scene); i++) {
+        const volux_light_desc *d = volux_scene_light(scene, i);
+        if (!d || !d->enabled) continue;
+        if (d->type == VOLUX_LIGHT_ENVIRONMENT) {
+            /* An environment acts as the ambient term: its mean radiance. */
+            have_env = 1;
+            if (d->map) {
+                double sum[3] = {0, 0, 0}, wsum = 0.0;
+                const volux_image *m = d->map;
+                for (int y = 0; y < m->height; y++) {
+                    double w = sin(M_PI * (y + 0.5) / m->height); /* solid angle of the row */
+                    for (int x = 0; x < m->width; x++)
+                        for (int c = 0; c < 3; c++)
+                            sum[c] += w * fmax(m->rgb[3 * ((size_t)y * (size_t)m->width + (size_t)x) + c], 0.0);
+                    wsum += w * m->width;
+                }
+                ambient = v3_add(ambient, v3_scale(v3_mul(v3((float)(sum[0] / wsum), (float)(sum[1] / wsum),
+                                                           (float)(sum[2] / wsum)),
+                                                        d->color),
+                                                 d->intensity));
+            } else {
+                ambient = v3_add(ambient, v3_scale(d->color, d->radiance));
+            }
+            continue;
+        }
+        if (st->n_lights >= DVR_MAX_LIGHTS) continue;
+        dvr_light *l = &st->lights[st->n_lights++];
+        memset(l, 0, sizeof *l);
+        l->desc = *d;
+        switch (d->type) {
+        case VOLUX_LIGHT_DIRECTIONAL:
+            l->kind = 0;
+            l->dir_to = v3_scale(v3_normalize(d->direction), -1.0f);
+            l->power = v3_scale(d->color, d->irradiance);
+            break;
+        case VOLUX_LIGHT_SPHERE:
+            /* Irradiance from a sphere of radiance L, radius r at distance
+             * d > r facing it: E = L·π·r²/d², i.e. a point of I = L·π·r². */
+            l->kind = 1;
+            l->pos = d->position;
+            l->power = v3_scale(d->color, d->radiance * VOLUX_PI * d->radius * d->radius);
+            break;
+        default:
+            l->kind = 1;
+            l->pos = d->position;
+            l->power = v3_scale(d->color, d->intensity);
+            l->spot = d->type == VOLUX_LIGHT_SPOT;
+            l->spot_dir = v3_normalize(d->direction);
+            break;
+        }
+    }
+    /* Without an environment the ambient light is white of radiance 1, the
+     * convention of VTK/ParaView's `ambient` coefficient. */
+    st->ambient = have_env ? ambient : v3(1, 1, 1);
+}
+
+static void read_params(dvr_state *st, const volux_scene *scene) {
+    st->preintegrate = (int)volux_technique_param(scene, st->cls, "preintegrate");
+    st->skip_empty = (int)volux_technique_param(scene, st->cls, "skip_empty");
+    st->t_min = (float)volux_technique_param(scene, st->cls, "early_termination");
+    if (st->shaded) {
+        double lo, hi, sp[3];
+        volux_volume_range(st->volume, &lo, &hi);
+        volux_volume_spacing(st->volume, sp);
+        double range = hi > lo ? hi - lo : 1.0;
+        st->grad_ref = (float)(volux_technique_param(scene, st->cls, "gradient_threshold") * range /
+                               fmin(sp[0], fmin(sp[1], sp[2])));
+    }
+}
+
+volux_status volux_dvr_update(void *state, volux_scene *scene, const volux_change_set *c) {
+    dvr_state *st = state;
+    volux_status s;
+    if (c->what & VOLUX_CHANGE_VOLUME) {
+        volux_volume *v = volux_scene_volume(scene);
+        volux_volume_retain(v);
+        volux_volume_release(st->volume);
+        st->volume = v;
+        if (st->shaded && (s = build_gradients(st))) return s;
+    }
+    if (c->what & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY | VOLUX_CHANGE_COLOR)) {
+        st->lut = volux_scene_transfer_lut(scene);
+        if (!st->lut) return volux_context_error_status(st->ctx) ? volux_context_error_status(st->ctx) : VOLUX_ERR_INVALID;
+    }
+    if (c->what & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY))
+        if ((s = volux_majorant_grid_build(st->ctx, st->volume, st->lut, &st->grid))) return s;
+    if (c->what & (VOLUX_CHANGE_CAMERA | VOLUX_CHANGE_RENDER | VOLUX_CHANGE_VOLUME))
+        if ((s = volux_scene_camera(scene, &st->camera))) return s;
+    if (c->what & (VOLUX_CHANGE_RENDER | VOLUX_CHANGE_VOLUME)) {
+        st->step = volux_scene_step_world(scene);
+        st->seed = volux_scene_render(scene)->seed;
+    }
+    if (c->what & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME)) read_params(st, scene);
+    if (c->what & (VOLUX_CHANGE_COLOR | VOLUX_CHANGE_VOLUME)) st->material = volux_scene_transfer(scene)->material;
+    if (st->shaded && (c->what & VOLUX_CHANGE_LIGHTS)) prepare_lights(st, scene);
+    return VOLUX_OK;
+}
+
+volux_status volux_dvr_create(volux_context *ctx, volux_scene *scene, const volux_technique_class *cls, int shaded,
+                              void **out) {
+    dvr_state *st = volux_calloc(ctx, 1, sizeof *st);
+    if (!st) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for technique state");
+    st->ctx = ctx;
+    st->cls = cls;
+    st->shaded = shaded;
+    volux_change_set all;
+    memset(&all, 0xff, sizeof all);
+    all.what = VOLUX_CHANGE_ALL;
+    volux_status s = volux_dvr_update(st, scene, &all);
+    if (s) {
+        volux_dvr_destroy(st);
+        return s;
+    }
+    *out = st;
+    return VOLUX_OK;
+}
+
+size_t volux_dvr_memory_bytes(const void *state) {
+    const dvr_state *st = state;
+    return sizeof *st + st->grid.bytes + st->grad_bytes;
+}
+
+void volux_dvr_destroy(void *state) {
+    dvr_state *st = state;
+    if (!st) return;
+    volux_majorant_grid_free(st->ctx, &st->grid);
+    if (st->grad) volux_free_aligned(st->ctx, st->grad, st->grad_bytes);
+    volux_volume_release(st->volume);
+    volux_free(st->ctx, st, sizeof *st);
+}
+
+/* ------------------------------------------------------------------ kernel */
+
+/* Interpolated gradient from the cache (world units). */
+static inline volux_vec3 cached_gradient(const dvr_state *st, volux_vec3 q) {
+    const volux_volume *v = st->volume;
+    int nx = v->dims[0], ny = v->dims[1], nz = v->dims[2];
+    int i = (int)q.x, j = (int)q.y, k = (int)q.z;
+    if (i > nx - 2) i = nx > 1 ? nx - 2 : 0;
+    if (j > ny - 2) j = ny > 1 ? ny - 2 : 0;
+    if (k > nz - 2) k = nz > 1 ? nz - 2 : 0;
+    float fx = q.x - (float)i, fy = q.y - (float)j, fz = q.z - (float)k;
+    size_t sx = nx > 1 ? 3 : 0, sy = ny > 1 ? 3 * (size_t)nx : 0, sz = nz > 1 ? 3 * (size_t)nx * (size_t)ny : 0;
+    const int16_t *b = st->grad + 3 * volux_volume_index(v, i, j, k);
+    float g[3];
+    for (int a = 0; a < 3; a++) {
+        float c00 = b[a] + (b[sx + a] - b[a]) * fx;
+        float c10 = b[sy + a] + (b[sy + sx + a] - b[sy + a]) * fx;
+        float c01 = b[sz + a] + (b[sz + sx + a] - b[sz + a]) * fx;
+        float c11 = b[sz + sy + a] + (b[sz + sy + sx + a] - b[sz + sy + a]) * fx;
+        float c0 = c00 + (c10 - c00) * fy, c1 = c01 + (c11 - c01) * fy;
+        g[a] = (c0 + (c1 - c0) * fz) * st->grad_scale;
+    }
+    return v3(g[0], g[1], g[2]);
+}
+
+/* Blinn–Phong with the normal flipped towards the viewer (as VTK's CPU ray
+ * caster does), faded by gradient magnitude. c: emission colour in/out. */
+static inline void shade(const dvr_state *st, volux_vec3 p_world, volux_vec3 q, volux_vec3 view_dir, float c[3]) {
+    volux_vec3 g = cached_gradient(st, q);
+    float gl = v3_length(g);
+    float m = st->grad_ref > 0.0f ? gl / st->grad_ref : 1.0f;
+    if (m <= 0.0f) return;
+    if (m > 1.0f) m = 1.0f;
+    volux_vec3 n = v3_scale(g, 1.0f / gl);
+    if (v3_dot(n, view_dir) > 0.0f) n = v3_scale(n, -1.0f);
+    const volux_material *mat = &st->material;
+    volux_vec3 diff = v3_scale(st->ambient, mat->ambient), spec = v3(0, 0, 0);
+    for (int i = 0; i < st->n_lights; i++) {
+        const dvr_light *l = &st->lights[i];
+        volux_vec3 L = l->dir_to, E = l->power;
+        if (l->kind) {
+            volux_vec3 to = v3_sub(l->pos, p_world);
+            float d2 = v3_dot(to, to);
+            if (d2 <= 0.0f) continue;
+            L = v3_scale(to, 1.0f / sqrtf(d2));
+            float f = 1.0f / d2;
+            if (l->spot) f *= volux_spot_falloff(&l->desc, -v3_dot(L, l->spot_dir));
+            E = v3_scale(E, f);
+        }
+        float ndl = v3_dot(n, L);
+        if (ndl <= 0.0f) continue;
+        diff = v3_add(diff, v3_scale(E, mat->diffuse * ndl));
+        volux_vec3 h = v3_normalize(v3_sub(L, view_dir));
+        float ndh = v3_dot(n, h);
+        if (ndh > 0.0f) spec = v3_add(spec, v3_scale(E, mat->specular * powf(ndh, mat->specular_power)));
+    }
+    float lit[3] = {c[0] * diff.x + spec.x, c[1] * diff.y + spec.y, c[2] * diff.z + spec.z};
+    for (int a = 0; a < 3; a++) c[a] += (lit[a] - c[a]) * m;
+}
+
+static inline float sample_at(const volux_volume *v, const volux_ray *r, float t) {
+    return volux_volume_sample_index(v, r->q0.x + r->dq.x * t, r->q0.y + r->dq.y * t, r->q0.z + r->dq.z * t);
+}
+
+/* Integrates one ray. Segments: seg 0 = [t0, t0 + j·h], seg k ≥ 1 =
+ * [t0 + (j+k−1)·h, t0 + (j+k)·h], clipped to t1 — fixed positions, so
+ * skipping empty intervals never changes which segments are integrated. */
+static inline __attribute__((always_inline)) volux_vec3
+march(const dvr_state *st, const volux_ray *ray, float jitter, float *T_out, uint64_t *samples, int shaded, int preint) {
+    const volux_volume *v = st->volume;
+    const volux_transfer_lut *lut = st->lut;
+    const float h = st->step, t0 = ray->t0, t1 = ray->t1;
+    float T = 1.0f, C[3] = {0, 0, 0};
+    uint64_t count = 0;
+    volux_march_iter it;
+    volux_interval iv = {t0, t1, 1.0f};
+    if (st->skip_empty) volux_march_init(&it, &st->grid, ray, t0, t1);
+    int have_prev = 0, next_k = 0;
+    float s_prev = 0.0f;
+    double I_prev = 0.0, Ic_prev[3] = {0, 0, 0};
+    for (;;) {
+        if (st->skip_empty) {
+            if (!volux_march_next(&it, &iv)) break;
+            if (iv.sigma_max <= 0.0f) continue;
+        }
+        /* First segment that ends after iv.t0. */
+        int k = (int)floorf((iv.t0 - t0) / h - jitter);
+        if (k < next_k) k = next_k;
+        if (k > next_k) have_prev = 0;
+        for (;; k++) {
+            float a = k == 0 ? t0 : t0 + ((float)k - 1.0f + jitter) * h;
+            if (a >= iv.t1 || a >= t1) break;
+            float b = t0 + ((float)k + jitter) * h;
+            if (b > t1) b = t1;
+            next_k = k + 1;
+            float len = b - a;
+            if (len <= 0.0f) continue;
+            if (preint && !have_prev) {
+                s_prev = sample_at(v, ray, a);
+                I_prev = volux_lut_int_sigma(lut, s_prev, Ic_prev);
+                count++;
+            }
+            float s = sample_at(v, ray, b);
+            count++;
+            float tau, c[3];
+            if (preint) {
+                /* Pre-integrated segment with s linear from s_prev to s:
+                 * τ = len·(I(s) − I(s_prev))/(s − s_prev); colour is the
+                 * σt-weighted mean of c over [s_prev, s]. */
+                double Ic[3], I = volux_lut_int_sigma(lut, s, Ic);
+                double dI = I - I_prev, ds = (double)s - (double)s_prev;
+                if (fabs(ds) * lut->inv_ds > 1e-3) {
+                    tau = (float)(len * dI / ds);
+                    if (dI != 0.0)
+                        for (int a2 = 0; a2 < 3; a2++) c[a2] = (float)((Ic[a2] - Ic_prev[a2]) / dI);
+                    else
+                        c[0] = c[1] = c[2] = 0.0f;
+                } else {
+                    float rgba[4];
+                    volux_lut_rgba(lut, 0.5f * (s + s_prev), rgba);
+                    tau = rgba[3] * len;
+                    c[0] = rgba[0], c[1] = rgba[1], c[2] = rgba[2];
+                }
+                s_prev = s;
+                I_prev = I;
+                memcpy(Ic_prev, Ic, sizeof Ic);
+                have_prev = 1;
+            } else {
+                float rgba[4];
+                volux_lut_rgba(lut, s, rgba);
+                tau = rgba[3] * len;
+                c[0] = rgba[0], c[1] = rgba[1], c[2] = rgba[2];
+            }
+            if (tau <= 0.0f) continue;
+            if (shaded) {
+                volux_vec3 p = v3_madd(ray->o, ray->d, b);
+                volux_vec3 q = v3_madd(ray->q0, ray->dq, b);
+                shade(st, p, q, ray->d, c);
+            }
+            float alpha = 1.0f - expf(-tau);
+            float w = T * alpha;
+            C[0] += w * c[0];
+            C[1] += w * c[1];
+            C[2] += w * c[2];
+            T -= w;
+            if (T < st->t_min) goto done;
+        }
+        if (!st->skip_empty) break;
+    }
+done:
+    *samples += count;
+    *T_out = T;
+    return v3(C[0], C[1], C[2]);
+}
+
+static inline __attribute__((always_inline)) void render_tile_impl(const dvr_state *st, const volux_scene *scene,
+                                                                   const volux_tile *tile, float *rgb,
+                                                                   volux_tile_stats *stats, int shaded, int preint) {
+    const volux_camera *cam = &st->camera;
+    uint64_t samples = 0;
+    for (int y = 0; y < tile->h; y++)
+        for (int x = 0; x < tile->w; x++) {
+            int px = tile->x0 + x, py = tile->y0 + y;
+            uint64_t pixel = (uint64_t)py * (uint64_t)cam->width + (uint64_t)px;
+            volux_rng rng = volux_rng_make(st->seed, pixel, tile->sample_index, 0);
+            /* Sample 0 goes through the pixel centre; later samples are
+             * spread over the pixel's square footprint (box filter). */
+            float jx = 0.5f, jy = 0.5f;
+            if (tile->sample_index > 0) {
+                jx = volux_rng_float(&rng);
+                jy = volux_rng_float(&rng);
+            }
+            float jitter = volux_rng_float(&rng);
+            volux_vec3 o, d;
+            volux_camera_ray(cam, (float)px + jx, (float)py + jy, &o, &d);
+            volux_ray ray;
+            volux_vec3 bg = volux_scene_escape_radiance(scene, d);
+            float *out = &rgb[3 * (y * tile->w + x)];
+            if (!volux_ray_clip(st->volume, o, d, &ray)) {
+                out[0] = bg.x, out[1] = bg.y, out[2] = bg.z;
+                continue;
+            }
+            float T;
+            volux_vec3 c = march(st, &ray, jitter, &T, &samples, shaded, preint);
+            out[0] = c.x + T * bg.x;
+            out[1] = c.y + T * bg.y;
+            out[2] = c.z + T * bg.z;
+        }
+    stats->samples += samples;
+}
+
+void volux_dvr_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
+                           volux_tile_stats *stats) {
+    const dvr_state *st = state;
+    /* Four specialisations of one kernel; the flags are compile-time
+     * constants inside each. */
+    if (st->shaded) {
+        if (st->preintegrate) render_tile_impl(st, scene, tile, rgb, stats, 1, 1);
+        else render_tile_impl(st, scene, tile, rgb, stats, 1, 0);
+    } else {
+        if (st->preintegrate) render_tile_impl(st, scene, tile, rgb, stats, 0, 1);
+        else render_tile_impl(st, scene, tile, rgb, stats, 0, 0);
+    }
+}
