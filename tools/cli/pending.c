@@ -8,8 +8,5 @@ static int pending(const char *name) {
     fprintf(stderr, "volux %s: not available in this build yet\n", name);
     return CLI_FAIL;
 }
-int cli_render(int argc, char **argv) { (void)argc; (void)argv; return pending("render"); }
 int cli_info(int argc, char **argv) { (void)argc; (void)argv; return pending("info"); }
 int cli_compare(int argc, char **argv) { (void)argc; (void)argv; return pending("compare"); }
-int cli_bench(int argc, char **argv) { (void)argc; (void)argv; return pending("bench"); }
-int cli_techniques(int argc, char **argv) { (void)argc; (void)argv; return pending("techniques"); }

@@ -1,0 +1,126 @@
+/*
+ * io/tf_preset.c — ParaView colour-map presets (the JSON that ParaView's
+ * "Save as preset" / "Export" writes): a list of objects, or one object,
+ * with "Name", "RGBPoints": [x, r, g, b, ...] and optionally "Points":
+ * [x, opacity, midpoint, sharpness, ...]. ParaView applies a preset over the
+ * data range, so we map the preset's [x_first, x_last] onto [s_min, s_max].
+ * Midpoint/sharpness are not modelled (piecewise-linear only); documented.
+ */
+#include <math.h>
+#include <string.h>
+
+#include "json_reader.h"
+#include "volux/io.h"
+
+void volux_tf_preset_free(volux_context *ctx, volux_tf_preset *p) {
+    if (!p) return;
+    volux_free(ctx, p->color, sizeof *p->color * (size_t)p->n_color);
+    volux_free(ctx, p->opacity, sizeof *p->opacity * (size_t)p->n_opacity);
+    memset(p, 0, sizeof *p);
+}
+
+/* Reads a flat array of `stride`-tuples with non-decreasing x. */
+static volux_status read_tuples(volux_json_reader *r, const cJSON *arr, const char *what, int stride, double **out,
+                                int *count) {
+    if (!cJSON_IsArray(arr)) return volux_json_error(r, VOLUX_ERR_FORMAT, what, "expected an array of numbers");
+    int n = cJSON_GetArraySize(arr);
+    if (n < stride || n % stride != 0 || n / stride > VOLUX_TF_MAX_POINTS)
+        return volux_json_error(r, VOLUX_ERR_FORMAT, what, "needs a multiple of %d numbers (1..%d points), got %d",
+                                stride, VOLUX_TF_MAX_POINTS, n);
+    double *v = volux_malloc(r->ctx, sizeof(double) * (size_t)n);
+    if (!v) return volux_json_error(r, VOLUX_ERR_NOMEM, what, "out of memory");
+    int i = 0;
+    for (const cJSON *c = arr->child; c; c = c->next, i++) {
+        if (!cJSON_IsNumber(c) || !isfinite(c->valuedouble) || fabs(c->valuedouble) > 1e30) {
+            volux_free(r->ctx, v, sizeof(double) * (size_t)n);
+            return volux_json_error(r, VOLUX_ERR_FORMAT, what, "element %d is not a finite number", i);
+        }
+        v[i] = c->valuedouble;
+        if (i % stride == 0 && i >= stride && v[i] < v[i - stride]) {
+            volux_free(r->ctx, v, sizeof(double) * (size_t)n);
+            return volux_json_error(r, VOLUX_ERR_FORMAT, what, "point %d: x must not decrease", i / stride);
+        }
+        if (i % stride != 0 && (v[i] < 0.0 || v[i] > 1.0)) { /* colours, opacity, midpoint, sharpness */
+            volux_free(r->ctx, v, sizeof(double) * (size_t)n);
+            return volux_json_error(r, VOLUX_ERR_FORMAT, what, "element %d = %g is outside [0, 1]", i, v[i]);
+        }
+    }
+    *out = v;
+    *count = n / stride;
+    return VOLUX_OK;
+}
+
+volux_status volux_tf_preset_load(volux_context *ctx, const char *path, const char *name, double s_min, double s_max,
+                                  volux_tf_preset *out) {
+    volux_json_reader r = {ctx, path};
+    char *text;
+    size_t n;
+    volux_status st = volux_json_read_file(ctx, path, &text, &n);
+    if (st) return st;
+    cJSON *root = NULL;
+    st = volux_json_parse(&r, text, n, &root);
+    volux_free(ctx, text, n + 1);
+    if (st) return st;
+    const cJSON *preset = NULL;
+    if (cJSON_IsObject(root)) preset = root;
+    else if (cJSON_IsArray(root)) {
+        for (const cJSON *c = root->child; c && !preset; c = c->next) {
+            if (!cJSON_IsObject(c)) continue;
+            const cJSON *nm = cJSON_GetObjectItemCaseSensitive(c, "Name");
+            if (!name || (cJSON_IsString(nm) && !strcmp(nm->valuestring, name))) preset = c;
+        }
+    }
+    if (!preset) {
+        cJSON_Delete(root);
+        return volux_json_error(&r, name ? VOLUX_ERR_INVALID : VOLUX_ERR_FORMAT, NULL,
+                                name ? "no preset named '%s'" : "no preset object found%s", name ? name : "");
+    }
+    const cJSON *rgb = cJSON_GetObjectItemCaseSensitive(preset, "RGBPoints");
+    if (!rgb) {
+        cJSON_Delete(root);
+        return volux_json_error(&r, VOLUX_ERR_UNSUPPORTED, "RGBPoints",
+                                "missing (indexed-colour presets are not supported)");
+    }
+    double *cv = NULL, *ov = NULL;
+    int nc = 0, no = 0;
+    volux_tf_preset p = {0};
+    if ((st = read_tuples(&r, rgb, "RGBPoints", 4, &cv, &nc))) goto done;
+    const cJSON *pts = cJSON_GetObjectItemCaseSensitive(preset, "Points");
+    if (pts && (st = read_tuples(&r, pts, "Points", 4, &ov, &no))) goto done;
+    /* Map [x0, x1] of the colours onto the data range when asked. */
+    double x0 = cv[0], x1 = cv[4 * (nc - 1)];
+    double scale = 1.0, shift = 0.0;
+    if (s_min < s_max && x1 > x0) {
+        scale = (s_max - s_min) / (x1 - x0);
+        shift = s_min - x0 * scale;
+    }
+    p.color = volux_malloc(ctx, sizeof *p.color * (size_t)nc);
+    if (!p.color) {
+        st = volux_error(ctx, VOLUX_ERR_NOMEM, "%s: out of memory", path);
+        goto done;
+    }
+    p.n_color = nc;
+    for (int i = 0; i < nc; i++)
+        p.color[i] = (volux_tf_color_point){(float)(cv[4 * i] * scale + shift), (float)cv[4 * i + 1],
+                                            (float)cv[4 * i + 2], (float)cv[4 * i + 3]};
+    if (no) {
+        p.opacity = volux_malloc(ctx, sizeof *p.opacity * (size_t)no);
+        if (!p.opacity) {
+            st = volux_error(ctx, VOLUX_ERR_NOMEM, "%s: out of memory", path);
+            goto done;
+        }
+        p.n_opacity = no;
+        for (int i = 0; i < no; i++)
+            p.opacity[i] = (volux_tf_scalar_point){(float)(ov[4 * i] * scale + shift), (float)ov[4 * i + 1]};
+    }
+done:
+    volux_free(ctx, cv, sizeof(double) * 4 * (size_t)nc);
+    volux_free(ctx, ov, sizeof(double) * 4 * (size_t)no);
+    cJSON_Delete(root);
+    if (st) {
+        volux_tf_preset_free(ctx, &p);
+        return st;
+    }
+    *out = p;
+    return VOLUX_OK;
+}

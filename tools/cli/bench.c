@@ -1,0 +1,226 @@
+/*
+ * tools/cli/bench.c — `volux bench SCENE.json [--technique T] [--repeat N]
+ * [--edit KIND]... [--json] [--reference IMG]`.
+ *
+ * Metrics (DESIGN §4): prepare_ms (technique creation = building every
+ * cache), render_ms (median), samples_per_s / vertices_per_s, memory_bytes,
+ * update_ms.<edit> (median time of volux_technique_update after the edit),
+ * and with --reference a convergence series (rel_mse and mse vs spp/time).
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bench_edits.h"
+#include "scene_args.h"
+
+#define MAX_EDITS 16
+#define MAX_REPEAT 1000
+
+typedef struct bench_out {
+    int json;
+    const char *scene;
+    const char *technique;
+    int threads, width, height;
+} bench_out;
+
+static void emit(const bench_out *o, const char *metric, double value, const char *unit, const char *extra) {
+    if (o->json)
+        printf("{\"scene\":\"%s\",\"technique\":\"%s\",\"metric\":\"%s\",\"value\":%.6g,\"unit\":\"%s\","
+               "\"threads\":%d,\"width\":%d,\"height\":%d%s%s}\n",
+               o->scene, o->technique, metric, value, unit, o->threads, o->width, o->height, extra ? "," : "",
+               extra ? extra : "");
+    else
+        printf("%-10s %-22s %14.4g %-10s %s\n", o->technique, metric, value, unit, extra ? extra : "");
+    fflush(stdout);
+}
+
+static int cmp_double(const void *a, const void *b) {
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+static double median(double *v, int n) {
+    qsort(v, (size_t)n, sizeof *v, cmp_double);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+static void usage(FILE *f) {
+    fprintf(f, "usage: volux bench SCENE.json [--technique T] [--repeat N] [--edit KIND]... [--json]\n"
+               "                   [--reference IMG] [scene options as for render]\n"
+               "edits (default: tf camera; 'all' for every one):\n");
+    for (int i = 0; bench_edit_at(i); i++) fprintf(f, "  %-13s %s\n", bench_edit_at(i)->name, bench_edit_at(i)->doc);
+}
+
+/* Progressive convergence against a reference image: spp 1, 2, 4, ... */
+static volux_status convergence(volux_context *ctx, volux_technique *t, volux_scene *scene, volux_framebuffer *fb,
+                                const volux_image *ref, const bench_out *o) {
+    uint32_t target = (uint32_t)volux_scene_render(scene)->spp;
+    volux_framebuffer_reset(fb);
+    double total_ms = 0.0;
+    for (uint32_t spp = 1; spp <= target; spp = spp < target && spp * 2 > target ? target : spp * 2) {
+        volux_render_limits lim = {spp, 0.0, 0.0};
+        volux_render_report rep;
+        volux_status st = volux_render(t, scene, fb, &lim, &rep);
+        if (st) return st;
+        total_ms += rep.ms;
+        volux_image img = {0};
+        if ((st = volux_framebuffer_resolve(fb, &img))) return st;
+        volux_image_error err;
+        st = volux_image_compare(ctx, &img, ref, &err);
+        volux_image_free(ctx, &img);
+        if (st) return st;
+        char extra[160];
+        snprintf(extra, sizeof extra, "\"spp\":%u,\"ms\":%.3f,\"mse\":%.6g,\"rel_error\":%.6g", spp, total_ms,
+                 err.rmse * err.rmse, rep.rel_error);
+        emit(o, "convergence.rel_mse", err.rel_mse, "", extra);
+        if (spp == target) break;
+    }
+    return VOLUX_OK;
+}
+
+int cli_bench(int argc, char **argv) {
+    cli_scene_args args = {0};
+    const bench_edit *edits[MAX_EDITS];
+    int n_edits = 0, json = 0, repeat = 5;
+    const char *reference = NULL;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
+            usage(stdout);
+            return CLI_OK;
+        } else if (!strcmp(a, "--json")) {
+            json = 1;
+        } else if (!strcmp(a, "--repeat")) {
+            long v;
+            if (!cli_parse_int("bench", "--repeat", i + 1 < argc ? argv[++i] : NULL, 1, MAX_REPEAT, &v))
+                return CLI_USAGE;
+            repeat = (int)v;
+        } else if (!strcmp(a, "--reference")) {
+            if (++i >= argc) {
+                fprintf(stderr, "volux bench: --reference needs an image\n");
+                return CLI_USAGE;
+            }
+            reference = argv[i];
+        } else if (!strcmp(a, "--edit")) {
+            if (++i >= argc) {
+                fprintf(stderr, "volux bench: --edit needs a kind\n");
+                return CLI_USAGE;
+            }
+            if (!strcmp(argv[i], "all")) {
+                for (int k = 0; bench_edit_at(k) && n_edits < MAX_EDITS; k++) edits[n_edits++] = bench_edit_at(k);
+                continue;
+            }
+            const bench_edit *e = bench_edit_find(argv[i]);
+            if (!e) {
+                fprintf(stderr, "volux bench: --edit %s: unknown edit\n", argv[i]);
+                usage(stderr);
+                return CLI_USAGE;
+            }
+            if (n_edits < MAX_EDITS) edits[n_edits++] = e;
+        } else {
+            int r = cli_scene_arg("bench", &args, argc, argv, &i);
+            if (r < 0) return CLI_USAGE;
+            if (r == 0) {
+                fprintf(stderr, "volux bench: unknown option '%s'\n", a);
+                usage(stderr);
+                return CLI_USAGE;
+            }
+        }
+    }
+    if (!args.scene_path) {
+        fprintf(stderr, "volux bench: missing SCENE.json\n");
+        usage(stderr);
+        return CLI_USAGE;
+    }
+    if (!n_edits) {
+        edits[n_edits++] = bench_edit_find("tf");
+        edits[n_edits++] = bench_edit_find("camera");
+    }
+    volux_context *ctx = cli_context(0);
+    if (!ctx) return CLI_FAIL;
+    volux_scene *scene = NULL;
+    volux_technique *tech = NULL;
+    volux_framebuffer *fb = NULL;
+    volux_image ref = {0};
+    double *times = NULL;
+    volux_status st = VOLUX_OK;
+    int rc = cli_load_scene("bench", ctx, &args, &scene);
+    if (rc) goto done;
+    if (reference && (st = volux_image_load(ctx, reference, &ref))) goto fail;
+    const volux_render_settings *rs = volux_scene_render(scene);
+    bench_out o = {json, args.scene_path, rs->technique, volux_context_threads(ctx), rs->width, rs->height};
+    times = calloc((size_t)repeat, sizeof *times);
+    if (!times) {
+        rc = CLI_FAIL;
+        goto done;
+    }
+
+    /* prepare_ms: building every cache from scratch. */
+    for (int k = 0; k < repeat; k++) {
+        volux_technique_destroy(tech);
+        tech = NULL;
+        double t0 = cli_now_ms();
+        if ((st = volux_technique_create(ctx, rs->technique, scene, &tech))) goto fail;
+        times[k] = cli_now_ms() - t0;
+    }
+    emit(&o, "prepare_ms", median(times, repeat), "ms", NULL);
+    if ((st = volux_framebuffer_create(ctx, rs->width, rs->height, &fb))) goto fail;
+
+    /* render_ms: one warm-up frame, then the median of `repeat` frames. */
+    volux_render_report rep;
+    if ((st = volux_render(tech, scene, fb, NULL, &rep))) goto fail;
+    double samples_rate[MAX_REPEAT], vertex_rate[MAX_REPEAT];
+    for (int k = 0; k < repeat; k++) {
+        volux_framebuffer_reset(fb);
+        if ((st = volux_render(tech, scene, fb, NULL, &rep))) goto fail;
+        times[k] = rep.ms;
+        samples_rate[k] = rep.ms > 0 ? (double)rep.samples / (rep.ms * 1e-3) : 0.0;
+        vertex_rate[k] = rep.ms > 0 ? (double)rep.vertices / (rep.ms * 1e-3) : 0.0;
+    }
+    char extra[96];
+    snprintf(extra, sizeof extra, "\"spp\":%u", rep.spp);
+    emit(&o, "render_ms", median(times, repeat), "ms", extra);
+    double sps = median(samples_rate, repeat), vps = median(vertex_rate, repeat);
+    if (sps > 0) {
+        emit(&o, "samples_per_s", sps, "1/s", NULL);
+        emit(&o, "samples_per_s_per_thread", sps / o.threads, "1/s", NULL);
+    }
+    if (vps > 0) emit(&o, "vertices_per_s", vps, "1/s", NULL);
+    emit(&o, "memory_bytes", (double)(volux_technique_memory_bytes(tech)), "bytes", NULL);
+
+    /* update_ms.<edit>: only the technique's reaction to the edit. */
+    for (int e = 0; e < n_edits; e++) {
+        int ok = 1;
+        for (int k = 0; k < repeat && ok; k++) {
+            st = edits[e]->apply(scene, k);
+            if (st) {
+                fprintf(stderr, "volux bench: edit %s does not apply to this scene (%s)\n", edits[e]->name,
+                        st == VOLUX_ERR_INVALID ? "no light?" : volux_context_error(ctx));
+                st = VOLUX_OK;
+                ok = 0;
+                break;
+            }
+            double t0 = cli_now_ms();
+            if ((st = volux_technique_update(tech, scene, NULL))) goto fail;
+            times[k] = cli_now_ms() - t0;
+        }
+        if (!ok) continue;
+        char metric[64];
+        snprintf(metric, sizeof metric, "update_ms.%s", edits[e]->name);
+        emit(&o, metric, median(times, repeat), "ms", NULL);
+    }
+    if (reference && (st = convergence(ctx, tech, scene, fb, &ref, &o))) goto fail;
+    goto done;
+fail:
+    rc = cli_fail("bench", ctx, st);
+done:
+    free(times);
+    volux_image_free(ctx, &ref);
+    volux_framebuffer_destroy(fb);
+    volux_technique_destroy(tech);
+    volux_scene_destroy(scene);
+    volux_context_destroy(ctx);
+    return rc;
+}

@@ -1,0 +1,93 @@
+/* tools/cli/render.c — `volux render SCENE.json -o OUT.(png|pfm|exr) [...]`. */
+#include <stdio.h>
+#include <string.h>
+#include <strings.h>
+
+#include "scene_args.h"
+
+static void usage(FILE *f) {
+    fprintf(f,
+            "usage: volux render SCENE.json -o OUT.(png|pfm|exr) [--technique T] [--spp N]\n"
+            "                    [--width W] [--height H] [--threads N] [--seed S] [--step S]\n"
+            "                    [--time-ms MS] [--target-error E] [--max-depth D] [--exposure EV]\n"
+            "                    [--set dotted.path=JSON-value]... [--quiet]\n"
+            "Renders until the scene's spp, time budget or target relative error is reached and\n"
+            "writes the image (PNG tone-mapped with render.exposure; PFM/EXR linear).\n");
+}
+
+static int supported_output(const char *path) {
+    const char *dot = strrchr(path, '.');
+    return dot && (!strcasecmp(dot, ".png") || !strcasecmp(dot, ".pfm") || !strcasecmp(dot, ".exr"));
+}
+
+int cli_render(int argc, char **argv) {
+    cli_scene_args args = {0};
+    const char *out_path = NULL;
+    int quiet = 0;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "-h") || !strcmp(argv[i], "--help")) {
+            usage(stdout);
+            return CLI_OK;
+        }
+        if (!strcmp(argv[i], "-o") || !strcmp(argv[i], "--output")) {
+            if (++i >= argc) {
+                fprintf(stderr, "volux render: -o needs a file name\n");
+                return CLI_USAGE;
+            }
+            out_path = argv[i];
+            continue;
+        }
+        if (!strcmp(argv[i], "--quiet")) {
+            quiet = 1;
+            continue;
+        }
+        int r = cli_scene_arg("render", &args, argc, argv, &i);
+        if (r < 0) return CLI_USAGE;
+        if (r == 0) {
+            fprintf(stderr, "volux render: unknown option '%s'\n", argv[i]);
+            usage(stderr);
+            return CLI_USAGE;
+        }
+    }
+    if (!args.scene_path || !out_path) {
+        fprintf(stderr, "volux render: %s\n", !args.scene_path ? "missing SCENE.json" : "missing -o OUT.png|pfm|exr");
+        usage(stderr);
+        return CLI_USAGE;
+    }
+    if (!supported_output(out_path)) {
+        fprintf(stderr, "volux render: -o %s: unsupported image type (use .png, .pfm or .exr)\n", out_path);
+        return CLI_USAGE;
+    }
+    volux_context *ctx = cli_context(0);
+    if (!ctx) return CLI_FAIL;
+    volux_scene *scene = NULL;
+    volux_technique *tech = NULL;
+    volux_framebuffer *fb = NULL;
+    volux_image img = {0};
+    int rc = cli_load_scene("render", ctx, &args, &scene);
+    if (rc) goto done;
+    const volux_render_settings *rs = volux_scene_render(scene);
+    double t0 = cli_now_ms();
+    volux_status st = volux_technique_create(ctx, rs->technique, scene, &tech);
+    double prepare_ms = cli_now_ms() - t0;
+    if (!st) st = volux_framebuffer_create(ctx, rs->width, rs->height, &fb);
+    volux_render_report rep = {0};
+    if (!st) st = volux_render(tech, scene, fb, NULL, &rep);
+    if (!st) st = volux_framebuffer_resolve(fb, &img);
+    if (!st) st = volux_image_save(ctx, out_path, &img, rs->exposure);
+    if (st) {
+        rc = cli_fail("render", ctx, st);
+        goto done;
+    }
+    if (!quiet)
+        fprintf(stderr, "volux render: %s: %s %dx%d, %u spp, prepare %.1f ms, render %.1f ms, rel. error %.3g -> %s\n",
+                args.scene_path, rs->technique, rs->width, rs->height, rep.spp, prepare_ms, rep.ms, rep.rel_error,
+                out_path);
+done:
+    volux_image_free(ctx, &img);
+    volux_framebuffer_destroy(fb);
+    volux_technique_destroy(tech);
+    volux_scene_destroy(scene);
+    volux_context_destroy(ctx);
+    return rc;
+}

@@ -1,0 +1,28 @@
+/*
+ * tools/cli/scene_args.h — the scene options `render` and `bench` share:
+ * SCENE.json plus --technique/--spp/--width/--height/--threads/--seed/
+ * --set, turned into --set overrides so there is one path into the scene.
+ */
+#ifndef VOLUX_CLI_SCENE_ARGS_H
+#define VOLUX_CLI_SCENE_ARGS_H
+
+#include "cli.h"
+
+#define CLI_MAX_OVERRIDES 128
+
+typedef struct cli_scene_args {
+    const char *scene_path;
+    const char *overrides[CLI_MAX_OVERRIDES];
+    char storage[CLI_MAX_OVERRIDES][160];
+    int n_overrides;
+} cli_scene_args;
+
+/* If argv[*i] is a scene option, consumes it (and its value), returns 1;
+ * returns 0 if it is not one; -1 on a usage error (message printed). */
+int cli_scene_arg(const char *cmd, cli_scene_args *a, int argc, char **argv, int *i);
+
+/* Loads the scene with the overrides and checks technique parameters.
+ * On error prints the message and returns the exit status (nonzero). */
+int cli_load_scene(const char *cmd, volux_context *ctx, const cli_scene_args *a, volux_scene **out);
+
+#endif
