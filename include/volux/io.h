@@ -64,6 +64,18 @@ VOLUX_API volux_status volux_image_load(volux_context *ctx, const char *path, vo
  * exposure applies to PNG only (2^exposure, then sRGB, clamp, 8 bit). */
 VOLUX_API volux_status volux_image_save(volux_context *ctx, const char *path, const volux_image *img,
                                         float exposure);
+/* Image details (see src/io/image_formats.h): PNG reads 8/16-bit gray, RGB,
+ * palette, with alpha dropped, decoding sRGB to linear; PNG writes 8-bit RGB.
+ * PFM reads PF/Pf of either endianness and writes little-endian PF. EXR reads
+ * part 0 (scanline or tiled, half/float/uint, R,G,B or Y) and writes scanline
+ * R,G,B float32 with ZIP compression. Unknown extensions are
+ * VOLUX_ERR_INVALID; a failed save is VOLUX_ERR_WRITE and leaves no file. */
+
+/* The sRGB transfer function (IEC 61966-2-1 piecewise curve), used by the
+ * PNG reader/writer and for false-colour maps: linear → encoded and back.
+ * Values are not clamped. */
+VOLUX_API float volux_srgb_encode(float linear);
+VOLUX_API float volux_srgb_decode(float encoded);
 
 /* Scenes. Loads a scene file; `overrides` are "dotted.path=JSON" strings
  * applied to the JSON before validation (e.g. "render.width=64",

@@ -1,0 +1,199 @@
+/* io/image_io.c — volux_image_load / volux_image_save: format by extension,
+ * whole-file reads into context memory, atomic writes (temp file + rename). */
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "core/context_internal.h"
+#include "image_formats.h"
+#include "volux/io.h"
+
+typedef enum image_format { FORMAT_UNKNOWN, FORMAT_PNG, FORMAT_PFM, FORMAT_EXR, FORMAT_HDR } image_format;
+
+#define READ_EXTENSIONS ".png .pfm .exr .hdr"
+#define WRITE_EXTENSIONS ".png .pfm .exr"
+
+/* Extension of the last path component, compared case-insensitively. */
+static image_format format_of(const char *path) {
+    const char *slash = strrchr(path, '/');
+    const char *base = slash ? slash + 1 : path;
+    const char *dot = strrchr(base, '.');
+    if (!dot) return FORMAT_UNKNOWN;
+    if (!strcasecmp(dot, ".png")) return FORMAT_PNG;
+    if (!strcasecmp(dot, ".pfm")) return FORMAT_PFM;
+    if (!strcasecmp(dot, ".exr")) return FORMAT_EXR;
+    if (!strcasecmp(dot, ".hdr")) return FORMAT_HDR;
+    return FORMAT_UNKNOWN;
+}
+
+volux_status volux_io_check_image_size(volux_context *ctx, const char *name, const char *format, int64_t width,
+                                       int64_t height) {
+    if (width < 1 || height < 1)
+        return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: %s: declares an empty image (%lldx%lld)", name, format,
+                           (long long)width, (long long)height);
+    if (width > VOLUX_MAX_IMAGE_DIM || height > VOLUX_MAX_IMAGE_DIM)
+        return volux_error(ctx, VOLUX_ERR_LIMIT, "%s: %s: image size %lldx%lld exceeds the limit of %d per side",
+                           name, format, (long long)width, (long long)height, VOLUX_MAX_IMAGE_DIM);
+    /* Both sides ≤ 2^15, so the product fits easily in 64 bits. */
+    uint64_t bytes = (uint64_t)width * (uint64_t)height * 3u * sizeof(float);
+    if (bytes > volux_context_max_bytes(ctx))
+        return volux_error(ctx, VOLUX_ERR_LIMIT, "%s: %s: a %lldx%lld image needs %llu bytes, over the memory cap of %llu",
+                           name, format, (long long)width, (long long)height, (unsigned long long)bytes,
+                           (unsigned long long)volux_context_max_bytes(ctx));
+    return VOLUX_OK;
+}
+
+volux_status volux_io_image_alloc(volux_context *ctx, const char *name, const char *format, int64_t width,
+                                  int64_t height, volux_image *out) {
+    volux_status st = volux_io_check_image_size(ctx, name, format, width, height);
+    if (st) return st;
+    st = volux_image_create(ctx, (int)width, (int)height, out);
+    if (st) volux_error_prefix(ctx, "%s: %s: ", name, format);
+    return st;
+}
+
+/* Reads the whole file into context memory: *size bytes were read into a
+ * block of *alloc bytes (free with volux_free(ctx, *data, *alloc)). */
+static volux_status read_file(volux_context *ctx, const char *path, unsigned char **data, size_t *size,
+                              size_t *alloc) {
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return volux_error(ctx, VOLUX_ERR_IO, "cannot open '%s': %s", path, strerror(errno));
+    struct stat st;
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        close(fd);
+        return volux_error(ctx, VOLUX_ERR_IO, "'%s' is not a readable regular file", path);
+    }
+    if ((uint64_t)st.st_size > volux_context_max_bytes(ctx) || (uint64_t)st.st_size > SIZE_MAX / 2) {
+        close(fd);
+        return volux_error(ctx, VOLUX_ERR_LIMIT, "'%s': file of %lld bytes is over the memory cap of %llu", path,
+                           (long long)st.st_size, (unsigned long long)volux_context_max_bytes(ctx));
+    }
+    size_t cap = (size_t)st.st_size, n = 0;
+    unsigned char *buf = volux_malloc(ctx, cap + 1);
+    if (!buf) {
+        close(fd);
+        return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory (%zu bytes) reading '%s'", cap, path);
+    }
+    while (n < cap) {
+        ssize_t got = read(fd, buf + n, cap - n);
+        if (got < 0 && errno == EINTR) continue;
+        if (got < 0) {
+            int e = errno;
+            close(fd);
+            volux_free(ctx, buf, cap + 1);
+            return volux_error(ctx, VOLUX_ERR_IO, "cannot read '%s': %s", path, strerror(e));
+        }
+        if (got == 0) break; /* file shrank while we read: parse what is there */
+        n += (size_t)got;
+    }
+    close(fd);
+    *data = buf;
+    *size = n;
+    *alloc = cap + 1;
+    return VOLUX_OK;
+}
+
+volux_status volux_image_load(volux_context *ctx, const char *path, volux_image *out) {
+    image_format fmt = format_of(path);
+    if (fmt == FORMAT_UNKNOWN)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "'%s': unknown image extension (supported: " READ_EXTENSIONS ")",
+                           path);
+    unsigned char *data = NULL;
+    size_t size = 0, alloc = 0;
+    volux_status st = read_file(ctx, path, &data, &size, &alloc);
+    if (st) return st;
+    switch (fmt) {
+    case FORMAT_PNG: st = volux_png_read_memory(ctx, path, data, size, out); break;
+    case FORMAT_PFM: st = volux_pfm_read_memory(ctx, path, data, size, out); break;
+    case FORMAT_EXR: st = volux_exr_read_memory(ctx, path, data, size, out); break;
+    case FORMAT_HDR: st = volux_hdr_read_memory(ctx, path, data, size, out); break;
+    case FORMAT_UNKNOWN: break;
+    }
+    volux_free(ctx, data, alloc);
+    return st;
+}
+
+/* ---- atomic save ---- */
+
+/* Creates "PATH.tmp-XXXXXX" exclusively, with the umask applied as for any
+ * new file (mkstemp would force mode 0600 on the final file). The suffix
+ * mixes time, pid and a counter through splitmix64; a clash just retries. */
+static int create_temp(char *tmp, size_t tmp_size, const char *path) {
+    static const char alphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789";
+    static unsigned counter;
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    uint64_t seed = (uint64_t)ts.tv_nsec ^ ((uint64_t)ts.tv_sec << 30) ^ ((uint64_t)getpid() << 16);
+    for (int attempt = 0; attempt < 64; attempt++) {
+        uint64_t z = seed + 0x9e3779b97f4a7c15ull * (uint64_t)(__atomic_add_fetch(&counter, 1, __ATOMIC_RELAXED));
+        z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+        z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+        z ^= z >> 31;
+        char suffix[7];
+        for (int i = 0; i < 6; i++, z /= 62) suffix[i] = alphabet[z % 62];
+        suffix[6] = 0;
+        snprintf(tmp, tmp_size, "%s.tmp-%s", path, suffix);
+        int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+        if (fd >= 0 || errno != EEXIST) return fd;
+    }
+    errno = EEXIST;
+    return -1;
+}
+
+static volux_status write_format(volux_context *ctx, image_format fmt, const char *path, FILE *f,
+                                 const volux_image *img, float exposure) {
+    switch (fmt) {
+    case FORMAT_PNG: return volux_png_write_stream(ctx, path, f, img, exposure);
+    case FORMAT_PFM: return volux_pfm_write_stream(ctx, path, f, img);
+    case FORMAT_EXR: return volux_exr_write_stream(ctx, path, f, img);
+    default: break;
+    }
+    return volux_error(ctx, VOLUX_ERR_INTERNAL, "'%s': no writer for this format", path);
+}
+
+volux_status volux_image_save(volux_context *ctx, const char *path, const volux_image *img, float exposure) {
+    image_format fmt = format_of(path);
+    if (fmt == FORMAT_UNKNOWN || fmt == FORMAT_HDR)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "'%s': cannot write this extension (supported: " WRITE_EXTENSIONS ")",
+                           path);
+    if (!img || !img->rgb || img->width < 1 || img->height < 1 || img->width > VOLUX_MAX_IMAGE_DIM ||
+        img->height > VOLUX_MAX_IMAGE_DIM)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "'%s': no image to write", path);
+    if (fmt == FORMAT_PNG && !isfinite(exposure))
+        return volux_error(ctx, VOLUX_ERR_INVALID, "'%s': exposure must be finite", path);
+
+    size_t tmp_size = strlen(path) + sizeof ".tmp-XXXXXX";
+    char *tmp = volux_alloc_or_error(ctx, tmp_size, "a temporary file name");
+    if (!tmp) return VOLUX_ERR_NOMEM;
+    volux_status st = VOLUX_OK;
+    int fd = create_temp(tmp, tmp_size, path);
+    if (fd < 0) {
+        st = volux_error(ctx, VOLUX_ERR_WRITE, "cannot write '%s': %s", path, strerror(errno));
+        goto done;
+    }
+    FILE *f = fdopen(fd, "wb");
+    if (!f) {
+        st = volux_error(ctx, VOLUX_ERR_WRITE, "cannot write '%s': %s", path, strerror(errno));
+        close(fd);
+        unlink(tmp);
+        goto done;
+    }
+    st = write_format(ctx, fmt, path, f, img, exposure);
+    /* Flush and sync before the rename, so the name never points at a file
+     * whose data is still only in a cache that a crash could lose. */
+    if (!st && (fflush(f) != 0 || fsync(fileno(f)) != 0))
+        st = volux_error(ctx, VOLUX_ERR_WRITE, "cannot write '%s': %s", path, strerror(errno));
+    if (fclose(f) != 0 && !st) st = volux_error(ctx, VOLUX_ERR_WRITE, "cannot write '%s': %s", path, strerror(errno));
+    if (!st && rename(tmp, path) != 0)
+        st = volux_error(ctx, VOLUX_ERR_WRITE, "cannot write '%s': rename failed: %s", path, strerror(errno));
+    if (st) unlink(tmp);
+done:
+    volux_free(ctx, tmp, tmp_size);
+    return st;
+}

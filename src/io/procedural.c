@@ -1,0 +1,209 @@
+/*
+ * io/procedural.c — volumes defined by a formula, for tests, demos and
+ * comparisons with other renderers.
+ *
+ * Node (i,j,k) maps to p = −1 + i·2/(n−1) per axis, so every volume spans
+ * [−1,1]³ in its own normalized coordinates whatever the dims (a size-1
+ * axis maps to 0). Values are rounded to the nearest integer and clamped
+ * to 0..255 (uint8), except "constant" (float32 1.0). The coordinate and
+ * rounding conventions are the ones of shared/peers/gen_volume.c, so that
+ * "marschner_lobb" and "phantom" at N³ equal the peers' ml/phantom N³
+ * uint8 volumes value for value.
+ */
+#include <math.h>
+#include <string.h>
+
+#include "core/rng.h"
+#include "core/volume_internal.h"
+#include "volume_formats.h"
+
+#define PI 3.14159265358979323846
+
+static double clamp01(double v) { return v < 0.0 ? 0.0 : v > 1.0 ? 1.0 : v; }
+static double smoothstep01(double t) {
+    t = clamp01(t);
+    return t * t * (3.0 - 2.0 * t);
+}
+
+/* ---------------------------------------------------------------- sphere */
+
+/* A ball touching the box faces whose value falls smoothly from 255 at the
+ * centre to 0 at radius 1: a nonzero gradient almost everywhere, so it
+ * shades well and every iso-value is a sphere. */
+static double sphere(double x, double y, double z, double vox, const void *user) {
+    (void)vox;
+    (void)user;
+    double r = sqrt(x * x + y * y + z * z);
+    return 255.0 * (1.0 - smoothstep01(r));
+}
+
+/* ---------------------------------------------------------------- Marschner–Lobb */
+
+/* Marschner & Lobb, "An evaluation of reconstruction filters for volume
+ * rendering", IEEE Visualization 1994, Eq. 7–8, with f_M = 6, α = 0.25:
+ *   ρ_r(r) = cos(2π f_M cos(π r / 2)),
+ *   ρ(x,y,z) = (1 − sin(π z / 2) + α (1 + ρ_r(√(x²+y²)))) / (2 (1 + α)),
+ * which lies in [0, 1]; scaled by 255. */
+static double marschner_lobb(double x, double y, double z, double vox, const void *user) {
+    (void)vox;
+    (void)user;
+    const double f_m = 6.0, alpha = 0.25;
+    double r = sqrt(x * x + y * y);
+    double rho_r = cos(2.0 * PI * f_m * cos(PI * r / 2.0));
+    return 255.0 * ((1.0 - sin(PI * z / 2.0) + alpha * (1.0 + rho_r)) / (2.0 * (1.0 + alpha)));
+}
+
+/* ---------------------------------------------------------------- phantom */
+
+/* An object with a soft skin: outside, the value ramps from 0 to `base`
+ * over the last 2 voxels; inside, it rises linearly from `base` at the
+ * surface to `top` at depth `depth` voxels, so no region is flat. */
+static double shell(double d_vox, double depth, double base, double top) {
+    if (d_vox >= 0.0) return base * clamp01(1.0 - d_vox / 2.0);
+    return base + (top - base) * clamp01(-d_vox / depth);
+}
+
+/* The peers' orientation phantom, objects given by signed distances
+ * (negative inside), the largest value wins:
+ *   torus about +Y, radii 0.45 / 0.16 ........ 60 → 120
+ *   sphere at (0.72, 0, 0), radius 0.2 ......... 140 → 170   (+X)
+ *   sphere at (0, 0.72, 0), radius 0.12 ........ 190 → 220   (+Y)
+ *   cube at (0, 0, 0.72), half size 0.12 ....... 240 → 255   (+Z)
+ * The distinct bands let a transfer function tell the axes apart. */
+static double phantom(double x, double y, double z, double vox, const void *user) {
+    (void)user;
+    double v = 0.0;
+    double ring = sqrt(x * x + z * z) - 0.45;
+    double d = sqrt(ring * ring + y * y) - 0.16;
+    v = fmax(v, shell(d / vox, 0.16 / vox, 60.0, 120.0));
+    d = sqrt((x - 0.72) * (x - 0.72) + y * y + z * z) - 0.2;
+    v = fmax(v, shell(d / vox, 0.2 / vox, 140.0, 170.0));
+    d = sqrt(x * x + (y - 0.72) * (y - 0.72) + z * z) - 0.12;
+    v = fmax(v, shell(d / vox, 0.12 / vox, 190.0, 220.0));
+    /* Box distance: length of the outside part plus the (negative) largest
+     * inside component. */
+    double q[3] = {fabs(x) - 0.12, fabs(y) - 0.12, fabs(z - 0.72) - 0.12};
+    double out2 = 0.0, inside = fmax(q[0], fmax(q[1], q[2]));
+    for (int a = 0; a < 3; a++)
+        if (q[a] > 0.0) out2 += q[a] * q[a];
+    d = sqrt(out2) + fmin(inside, 0.0);
+    v = fmax(v, shell(d / vox, 0.12 / vox, 240.0, 255.0));
+    return v;
+}
+
+/* ---------------------------------------------------------------- cloud */
+
+/* Value noise: random values at integer lattice points, blended with the
+ * quintic fade 6t⁵ − 15t⁴ + 10t³ (Perlin, "Improving noise", SIGGRAPH 2002)
+ * so the field has continuous gradients; summed over octaves (fBm). The
+ * lattice values are a hash of (seed, octave, point): deterministic. */
+static double lattice(uint64_t key, int64_t x, int64_t y, int64_t z) {
+    uint64_t h = volux_mix64(key ^ ((uint64_t)x * 0x9e3779b97f4a7c15ull));
+    h = volux_mix64(h ^ ((uint64_t)y * 0xc2b2ae3d27d4eb4full));
+    h = volux_mix64(h ^ ((uint64_t)z * 0x165667b19e3779f9ull));
+    return (double)(h >> 11) * (1.0 / 9007199254740992.0);
+}
+
+static double fade(double t) { return t * t * t * (t * (t * 6.0 - 15.0) + 10.0); }
+
+static double value_noise(uint64_t key, double x, double y, double z) {
+    double fx = floor(x), fy = floor(y), fz = floor(z);
+    int64_t ix = (int64_t)fx, iy = (int64_t)fy, iz = (int64_t)fz;
+    double u = fade(x - fx), v = fade(y - fy), w = fade(z - fz);
+    double c[2][2];
+    for (int k = 0; k < 2; k++)
+        for (int j = 0; j < 2; j++) {
+            double a = lattice(key, ix, iy + j, iz + k), b = lattice(key, ix + 1, iy + j, iz + k);
+            c[k][j] = a + (b - a) * u;
+        }
+    double c0 = c[0][0] + (c[0][1] - c[0][0]) * v, c1 = c[1][0] + (c[1][1] - c[1][0]) * v;
+    return c0 + (c1 - c0) * w;
+}
+
+/* Five octaves from 4 lattice cells across the box; a threshold below the
+ * mean leaves empty gaps between puffs, and a soft spherical envelope keeps
+ * the cloud off the box faces. */
+static double cloud(double x, double y, double z, double vox, const void *user) {
+    (void)vox;
+    uint64_t seed = *(const uint64_t *)user;
+    double sum = 0.0, amp = 1.0, norm = 0.0, freq = 2.0;
+    for (int o = 0; o < 5; o++) {
+        uint64_t key = volux_mix64(seed * 0x9e3779b97f4a7c15ull + (uint64_t)o + 1);
+        sum += amp * value_noise(key, (x + 1.0) * freq, (y + 1.0) * freq, (z + 1.0) * freq);
+        norm += amp;
+        amp *= 0.5;
+        freq *= 2.0;
+    }
+    double fbm = sum / norm; /* in [0, 1], mean 0.5 */
+    double r = sqrt(x * x + y * y + z * z);
+    double envelope = 1.0 - smoothstep01((r - 0.5) / 0.45);
+    return 255.0 * clamp01((fbm - 0.36) * 3.0) * envelope;
+}
+
+/* ---------------------------------------------------------------- driver */
+
+typedef double (*field_fn)(double x, double y, double z, double vox, const void *user);
+
+static const struct {
+    const char *name;
+    field_fn fn;
+} fields[] = {
+    {"sphere", sphere}, {"marschner_lobb", marschner_lobb}, {"cloud", cloud}, {"phantom", phantom}, {"constant", NULL},
+};
+
+const char *volux_procedural_names(void) { return "sphere, marschner_lobb, cloud, phantom, constant"; }
+
+/* Fills uint8 storage with round(fn) clamped to 0..255. */
+static void fill_u8(volux_volume *v, field_fn fn, const void *user) {
+    const int *n = v->dims;
+    double step[3];
+    for (int a = 0; a < 3; a++) step[a] = n[a] > 1 ? 2.0 / (n[a] - 1) : 0.0;
+    /* Skin widths are in voxels of the finest axis (all equal for N³). */
+    double vox = 2.0;
+    for (int a = 0; a < 3; a++)
+        if (n[a] > 1 && step[a] < vox) vox = step[a];
+    uint8_t *d = v->data;
+    for (int k = 0; k < n[2]; k++) {
+        double z = n[2] > 1 ? -1.0 + k * step[2] : 0.0;
+        for (int j = 0; j < n[1]; j++) {
+            double y = n[1] > 1 ? -1.0 + j * step[1] : 0.0;
+            uint8_t *row = d + volux_volume_index(v, 0, j, k);
+            for (int i = 0; i < n[0]; i++) {
+                double x = n[0] > 1 ? -1.0 + i * step[0] : 0.0;
+                long w = lround(fn(x, y, z, vox, user));
+                row[i] = (uint8_t)(w < 0 ? 0 : w > 255 ? 255 : w);
+            }
+        }
+    }
+}
+
+volux_status volux_volume_procedural(volux_context *ctx, const char *name, const int dims[3], uint64_t seed,
+                                     volux_volume **out) {
+    int which = -1;
+    for (size_t i = 0; name && i < sizeof fields / sizeof fields[0]; i++)
+        if (strcmp(name, fields[i].name) == 0) which = (int)i;
+    if (which < 0)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "procedural: unknown volume '%s' (known: %s)", name ? name : "(null)",
+                           volux_procedural_names());
+    field_fn fn = fields[which].fn;
+    volux_volume *v;
+    volux_status st = volux_volume_create_storage(ctx, dims, NULL, fn ? VOLUX_UINT8 : VOLUX_FLOAT32, &v);
+    if (st) {
+        volux_error_prefix(ctx, "procedural:%s: ", name);
+        return st;
+    }
+    if (fn) {
+        fill_u8(v, fn, &seed);
+    } else {
+        size_t count = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2];
+        float *f = v->data;
+        for (size_t i = 0; i < count; i++) f[i] = 1.0f;
+    }
+    st = volux_volume_finalize(v, NULL);
+    if (st) {
+        volux_volume_release(v);
+        return st;
+    }
+    *out = v;
+    return VOLUX_OK;
+}

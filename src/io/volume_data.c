@@ -1,0 +1,505 @@
+/*
+ * io/volume_data.c — the one data path behind every volume reader:
+ * header validation against the limits, byte sources (file or memory),
+ * line/byte skips, zlib/gzip decoding, byte order and type conversion into
+ * the volume's storage.
+ *
+ * Data flows in fixed-size chunks from the source (or from inflate) through
+ * a converter into the storage, so no full-size temporary is ever made and
+ * a gzip stream can never write past the buffer its header paid for.
+ */
+#include <errno.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <zlib.h>
+
+#include "core/volume_internal.h"
+#include "volume_formats.h"
+
+#define CHUNK (256u << 10) /* decoded bytes per step; a multiple of 8 */
+
+/* ------------------------------------------------------------------ */
+/* Header defaults and validation                                      */
+/* ------------------------------------------------------------------ */
+
+void volux_volume_header_init(volux_volume_header *h) {
+    memset(h, 0, sizeof *h);
+    for (int a = 0; a < 3; a++) {
+        h->dims[a] = 1;
+        h->spacing[a] = 1.0;
+    }
+    h->type = VOLUX_UINT8;
+    h->encoding = VOLUX_ENCODING_RAW;
+    h->scale_slope = 1.0;
+}
+
+/* The storage type a header leads to (scaled values are float32). */
+static volux_scalar_type stored_type(const volux_volume_header *h) {
+    return h->apply_scale ? VOLUX_FLOAT32 : h->type;
+}
+
+volux_status volux_volume_header_check(volux_context *ctx, const char *name, const volux_volume_header *h) {
+    uint64_t voxels = 1;
+    for (int a = 0; a < 3; a++) {
+        if (h->dims[a] < 1 || h->dims[a] > VOLUX_MAX_DIM)
+            return volux_error(ctx, VOLUX_ERR_LIMIT, "%s: axis %d has %d samples, outside [1, %d]", name, a,
+                               h->dims[a], VOLUX_MAX_DIM);
+        voxels *= (uint64_t)h->dims[a]; /* ≤ 2^42: cannot overflow */
+        double s = h->spacing[a];
+        if (!isfinite(s) || !(s >= 1e-12 && s <= 1e12))
+            return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: spacing of axis %d must be positive and finite, got %g",
+                               name, a, s);
+        if (h->has_origin && !isfinite(h->origin[a]))
+            return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: origin component %d is not finite", name, a);
+    }
+    if (voxels > VOLUX_MAX_VOXELS)
+        return volux_error(ctx, VOLUX_ERR_LIMIT, "%s: %dx%dx%d = %llu voxels, over the limit of %llu", name,
+                           h->dims[0], h->dims[1], h->dims[2], (unsigned long long)voxels,
+                           (unsigned long long)VOLUX_MAX_VOXELS);
+    size_t file_bytes;
+    size_t bytes = volux_volume_storage_bytes(h->dims, stored_type(h));
+    if (bytes == 0 || !volux_mul_size((size_t)voxels, volux_scalar_type_size(h->type), &file_bytes))
+        return volux_error(ctx, VOLUX_ERR_LIMIT, "%s: %dx%dx%d %s does not fit in memory addresses", name,
+                           h->dims[0], h->dims[1], h->dims[2], volux_scalar_type_name(h->type));
+    uint64_t cap = volux_context_max_bytes(ctx);
+    if ((uint64_t)bytes > cap)
+        return volux_error(ctx, VOLUX_ERR_LIMIT,
+                           "%s: %dx%dx%d %s needs %llu bytes, over the memory cap of %llu bytes", name, h->dims[0],
+                           h->dims[1], h->dims[2], volux_scalar_type_name(stored_type(h)),
+                           (unsigned long long)bytes, (unsigned long long)cap);
+    if (h->byte_skip < -1)
+        return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: byte skip: must be >= 0 (or -1 for raw data at the end), got %lld",
+                           name, (long long)h->byte_skip);
+    if (h->encoding != VOLUX_ENCODING_RAW && h->byte_skip > 0 && (uint64_t)h->byte_skip > cap)
+        return volux_error(ctx, VOLUX_ERR_LIMIT,
+                           "%s: byte skip: %lld decompressed bytes to skip, over the memory cap of %llu bytes", name,
+                           (long long)h->byte_skip, (unsigned long long)cap);
+    if (h->byte_skip == -1 && h->encoding != VOLUX_ENCODING_RAW)
+        return volux_error(ctx, VOLUX_ERR_FORMAT,
+                           "%s: byte skip: -1 (data at the end of the file) needs raw encoding, not compressed data",
+                           name);
+    if (h->apply_scale && !(isfinite(h->scale_slope) && isfinite(h->scale_inter)))
+        return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: value scaling is not finite", name);
+    return VOLUX_OK;
+}
+
+/* ------------------------------------------------------------------ */
+/* Sources                                                             */
+/* ------------------------------------------------------------------ */
+
+volux_status volux_source_open(volux_context *ctx, const char *path, volux_source *out) {
+    memset(out, 0, sizeof *out);
+    out->name = path;
+    struct stat st;
+    if (stat(path, &st) != 0)
+        return volux_error(ctx, VOLUX_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    if (!S_ISREG(st.st_mode)) return volux_error(ctx, VOLUX_ERR_IO, "%s: not a regular file", path);
+    out->file = fopen(path, "rb");
+    if (!out->file) return volux_error(ctx, VOLUX_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    out->size = (uint64_t)st.st_size;
+    return VOLUX_OK;
+}
+
+void volux_source_memory(const void *bytes, size_t n, const char *name, volux_source *out) {
+    memset(out, 0, sizeof *out);
+    out->name = name;
+    out->mem = bytes ? bytes : (const unsigned char *)"";
+    out->size = n;
+}
+
+void volux_source_close(volux_source *s) {
+    if (s->file) fclose(s->file);
+    s->file = NULL;
+}
+
+volux_status volux_source_read(volux_context *ctx, volux_source *s, uint64_t offset, void *buf, size_t n,
+                               size_t *got) {
+    *got = 0;
+    if (offset >= s->size || n == 0) return VOLUX_OK;
+    uint64_t avail = s->size - offset;
+    size_t want = avail < n ? (size_t)avail : n;
+    if (s->mem) {
+        memcpy(buf, s->mem + offset, want);
+        *got = want;
+        return VOLUX_OK;
+    }
+    if (offset > (uint64_t)INT64_MAX || fseeko(s->file, (off_t)offset, SEEK_SET) != 0)
+        return volux_error(ctx, VOLUX_ERR_IO, "%s: cannot seek to byte %llu", s->name, (unsigned long long)offset);
+    *got = fread(buf, 1, want, s->file);
+    if (*got < want && ferror(s->file))
+        return volux_error(ctx, VOLUX_ERR_IO, "%s: read error at byte %llu", s->name, (unsigned long long)offset);
+    return VOLUX_OK;
+}
+
+/* ------------------------------------------------------------------ */
+/* Decoded byte streams: raw bytes of a source, or inflate of them     */
+/* ------------------------------------------------------------------ */
+
+typedef struct stream {
+    volux_context *ctx;
+    volux_source *src;
+    uint64_t pos; /* next source byte to read */
+    int zlib, z_open, z_done;
+    z_stream z;
+    unsigned char *in; /* zlib input buffer (CHUNK bytes) */
+} stream;
+
+static voidpf z_alloc(voidpf opaque, uInt items, uInt size) {
+    size_t n;
+    if (!volux_mul_size(items, size, &n) || !volux_add_size(n, sizeof(size_t), &n)) return Z_NULL;
+    /* zlib frees without a size; keep it in front of the block so
+     * volux_free can account it. */
+    size_t *p = volux_malloc(opaque, n);
+    if (!p) return Z_NULL;
+    p[0] = n;
+    return p + 1;
+}
+
+static void z_free(voidpf opaque, voidpf address) {
+    if (!address) return;
+    size_t *p = (size_t *)address - 1;
+    volux_free(opaque, p, p[0]);
+}
+
+static volux_status stream_open(volux_context *ctx, volux_source *src, uint64_t offset, int zlib, stream *s) {
+    memset(s, 0, sizeof *s);
+    s->ctx = ctx;
+    s->src = src;
+    s->pos = offset;
+    s->zlib = zlib;
+    if (!zlib) return VOLUX_OK;
+    s->in = volux_malloc(ctx, CHUNK);
+    if (!s->in) return volux_error(ctx, VOLUX_ERR_NOMEM, "%s: out of memory for decompression", src->name);
+    s->z.zalloc = z_alloc;
+    s->z.zfree = z_free;
+    s->z.opaque = ctx;
+    /* 15 + 32: the largest window, and detect a gzip or zlib header. */
+    if (inflateInit2(&s->z, 15 + 32) != Z_OK) {
+        volux_free(ctx, s->in, CHUNK);
+        s->in = NULL;
+        return volux_error(ctx, VOLUX_ERR_NOMEM, "%s: cannot start decompression", src->name);
+    }
+    s->z_open = 1;
+    return VOLUX_OK;
+}
+
+static void stream_close(stream *s) {
+    if (s->z_open) inflateEnd(&s->z);
+    if (s->in) volux_free(s->ctx, s->in, CHUNK);
+    s->z_open = 0;
+    s->in = NULL;
+}
+
+/* Reads up to n decoded bytes; *got < n only at the end of the stream. */
+static volux_status stream_read(stream *s, unsigned char *buf, size_t n, size_t *got) {
+    if (!s->zlib) {
+        volux_status st = volux_source_read(s->ctx, s->src, s->pos, buf, n, got);
+        s->pos += *got;
+        return st;
+    }
+    *got = 0;
+    s->z.next_out = buf;
+    s->z.avail_out = (uInt)n; /* n ≤ CHUNK */
+    while (s->z.avail_out > 0 && !s->z_done) {
+        if (s->z.avail_in == 0) {
+            size_t m;
+            volux_status st = volux_source_read(s->ctx, s->src, s->pos, s->in, CHUNK, &m);
+            if (st) return st;
+            if (m == 0)
+                return volux_error(s->ctx, VOLUX_ERR_FORMAT, "%s: compressed data is truncated (ends at byte %llu)",
+                                   s->src->name, (unsigned long long)s->pos);
+            s->pos += m;
+            s->z.next_in = s->in;
+            s->z.avail_in = (uInt)m;
+        }
+        int r = inflate(&s->z, Z_NO_FLUSH);
+        if (r == Z_STREAM_END) {
+            /* Concatenated gzip members (pigz, cat a.gz b.gz) continue the
+             * stream; anything else after the end is ignored, as gzip does. */
+            if (s->z.avail_in == 0) {
+                size_t m;
+                volux_status st = volux_source_read(s->ctx, s->src, s->pos, s->in, CHUNK, &m);
+                if (st) return st;
+                s->pos += m;
+                s->z.next_in = s->in;
+                s->z.avail_in = (uInt)m;
+            }
+            int more = s->z.avail_in >= 2 && s->z.next_in[0] == 0x1f && s->z.next_in[1] == 0x8b;
+            if (more && inflateReset(&s->z) == Z_OK) continue;
+            s->z_done = 1;
+        } else if (r == Z_BUF_ERROR && s->z.avail_in == 0) {
+            continue; /* needs more input */
+        } else if (r != Z_OK) {
+            if (r == Z_MEM_ERROR)
+                return volux_error(s->ctx, VOLUX_ERR_NOMEM, "%s: out of memory while decompressing", s->src->name);
+            return volux_error(s->ctx, VOLUX_ERR_FORMAT, "%s: corrupt compressed data (zlib: %s)", s->src->name,
+                               s->z.msg ? s->z.msg : "error");
+        }
+    }
+    *got = n - s->z.avail_out;
+    return VOLUX_OK;
+}
+
+volux_status volux_source_inflate_prefix(volux_context *ctx, volux_source *src, uint64_t offset, void *buf,
+                                         size_t n, size_t *got) {
+    stream s;
+    volux_status st = stream_open(ctx, src, offset, 1, &s);
+    if (st) return st;
+    size_t total = 0;
+    while (!st && total < n) {
+        size_t m, want = n - total < CHUNK ? n - total : CHUNK;
+        st = stream_read(&s, (unsigned char *)buf + total, want, &m);
+        total += m;
+        if (m < want) break;
+    }
+    stream_close(&s);
+    *got = total;
+    return st;
+}
+
+/* ------------------------------------------------------------------ */
+/* Conversion of decoded chunks into storage                            */
+/* ------------------------------------------------------------------ */
+
+static int host_big_endian(void) {
+    uint16_t one = 1;
+    unsigned char b;
+    memcpy(&b, &one, 1);
+    return b == 0;
+}
+
+static void swap_bytes(unsigned char *p, size_t count, size_t size) {
+    for (size_t i = 0; i < count; i++, p += size)
+        for (size_t a = 0, b = size - 1; a < b; a++, b--) {
+            unsigned char t = p[a];
+            p[a] = p[b];
+            p[b] = t;
+        }
+}
+
+/* Value of element i of a native-order chunk, in file units. */
+static double element(const unsigned char *p, volux_scalar_type t, size_t i) {
+    switch (t) {
+    case VOLUX_UINT8: return p[i];
+    case VOLUX_INT8: return (int8_t)p[i];
+    case VOLUX_UINT16: {
+        uint16_t v;
+        memcpy(&v, p + 2 * i, 2);
+        return v;
+    }
+    case VOLUX_INT16: {
+        int16_t v;
+        memcpy(&v, p + 2 * i, 2);
+        return v;
+    }
+    case VOLUX_FLOAT32: {
+        float v;
+        memcpy(&v, p + 4 * i, 4);
+        return v;
+    }
+    case VOLUX_FLOAT64: {
+        double v;
+        memcpy(&v, p + 8 * i, 8);
+        return v;
+    }
+    }
+    return 0.0;
+}
+
+/* Converts `count` elements (file type, already native byte order) into
+ * storage starting at element `first`. Signed integers take the storage
+ * offset of volume_internal.h (int8 + 128, int16 + 32768). */
+static void convert_chunk(const volux_volume_header *h, volux_volume *v, size_t first, unsigned char *chunk,
+                          size_t count) {
+    if (h->apply_scale) {
+        float *d = (float *)v->data + first;
+        for (size_t i = 0; i < count; i++)
+            d[i] = (float)(h->scale_slope * element(chunk, h->type, i) + h->scale_inter);
+        return;
+    }
+    switch (h->type) {
+    case VOLUX_UINT8: memcpy((uint8_t *)v->data + first, chunk, count); break;
+    case VOLUX_UINT16: memcpy((uint16_t *)v->data + first, chunk, count * 2); break;
+    case VOLUX_FLOAT32: memcpy((float *)v->data + first, chunk, count * 4); break;
+    case VOLUX_INT8: {
+        uint8_t *d = (uint8_t *)v->data + first;
+        for (size_t i = 0; i < count; i++) d[i] = (uint8_t)(chunk[i] ^ 0x80u); /* two's complement + 128 */
+        break;
+    }
+    case VOLUX_INT16: {
+        uint16_t *d = (uint16_t *)v->data + first;
+        for (size_t i = 0; i < count; i++) {
+            uint16_t u;
+            memcpy(&u, chunk + 2 * i, 2);
+            d[i] = (uint16_t)(u ^ 0x8000u);
+        }
+        break;
+    }
+    case VOLUX_FLOAT64: {
+        float *d = (float *)v->data + first;
+        for (size_t i = 0; i < count; i++) d[i] = (float)element(chunk, VOLUX_FLOAT64, i);
+        break;
+    }
+    }
+}
+
+/* ------------------------------------------------------------------ */
+/* The data reader                                                     */
+/* ------------------------------------------------------------------ */
+
+/* Offset just past `lines` newlines counted from `offset`. */
+static volux_status skip_lines(volux_context *ctx, volux_source *src, uint64_t offset, uint64_t lines,
+                               unsigned char *buf, uint64_t *out) {
+    uint64_t seen = 0;
+    while (seen < lines) {
+        size_t got;
+        volux_status st = volux_source_read(ctx, src, offset, buf, CHUNK, &got);
+        if (st) return st;
+        if (got == 0)
+            return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: line skip: %llu lines requested, the file has only %llu",
+                               src->name, (unsigned long long)lines, (unsigned long long)seen);
+        size_t i = 0;
+        for (; i < got && seen < lines; i++)
+            if (buf[i] == '\n') seen++;
+        offset += i;
+    }
+    *out = offset;
+    return VOLUX_OK;
+}
+
+/* Start offset of raw data, after checking that exactly `need` bytes are
+ * present from there to the end of the source. */
+static volux_status raw_start(volux_context *ctx, const volux_volume_header *h, volux_source *src, uint64_t begin,
+                              uint64_t need, uint64_t *start) {
+    const char *name = src->name;
+    char dims[96];
+    snprintf(dims, sizeof dims, "%dx%dx%d %s", h->dims[0], h->dims[1], h->dims[2], volux_scalar_type_name(h->type));
+    if (begin > src->size)
+        return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: data offset %llu is past the end of the file (%llu bytes)",
+                           name, (unsigned long long)begin, (unsigned long long)src->size);
+    uint64_t avail = src->size - begin;
+    if (h->byte_skip == -1) {
+        if (avail < need)
+            return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: data is truncated: %s needs %llu bytes, the file has %llu",
+                               name, dims, (unsigned long long)need, (unsigned long long)avail);
+        *start = src->size - need;
+        return VOLUX_OK;
+    }
+    uint64_t skip = (uint64_t)h->byte_skip;
+    if (skip > avail)
+        return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: byte skip: %llu is past the end of the file (%llu bytes left)",
+                           name, (unsigned long long)skip, (unsigned long long)avail);
+    avail -= skip;
+    if (avail < need)
+        return volux_error(ctx, VOLUX_ERR_FORMAT,
+                           "%s: data is truncated: %s needs %llu bytes, only %llu are present", name, dims,
+                           (unsigned long long)need, (unsigned long long)avail);
+    if (avail > need)
+        return volux_error(ctx, VOLUX_ERR_FORMAT,
+                           "%s: size mismatch: %s needs %llu bytes, but %llu are present (byte skip -1 reads "
+                           "the data at the end of the file)",
+                           name, dims, (unsigned long long)need, (unsigned long long)avail);
+    *start = begin + skip;
+    return VOLUX_OK;
+}
+
+static volux_status discard(stream *s, unsigned char *buf, uint64_t n) {
+    while (n > 0) {
+        size_t got, want = n < CHUNK ? (size_t)n : CHUNK;
+        volux_status st = stream_read(s, buf, want, &got);
+        if (st) return st;
+        if (got < want)
+            return volux_error(s->ctx, VOLUX_ERR_FORMAT, "%s: byte skip: the decompressed data ends before the skip",
+                               s->src->name);
+        n -= got;
+    }
+    return VOLUX_OK;
+}
+
+volux_status volux_volume_read_data(volux_context *ctx, const volux_volume_header *h, volux_source *src,
+                                    int use_file_origin, volux_volume **out) {
+    const char *name = src->name;
+    volux_status st = volux_volume_header_check(ctx, name, h);
+    if (st) return st;
+    size_t esize = volux_scalar_type_size(h->type);
+    size_t count = (size_t)h->dims[0] * (size_t)h->dims[1] * (size_t)h->dims[2]; /* checked above */
+    uint64_t need = (uint64_t)count * esize;
+    int zlib = h->encoding == VOLUX_ENCODING_ZLIB;
+
+    unsigned char *buf = volux_malloc(ctx, CHUNK);
+    if (!buf) return volux_error(ctx, VOLUX_ERR_NOMEM, "%s: out of memory for a read buffer", name);
+    volux_volume *v = NULL;
+    stream s;
+    memset(&s, 0, sizeof s);
+
+    /* Locate the data and, for raw data, check its size before allocating. */
+    uint64_t begin = h->data_offset;
+    if (begin > src->size) {
+        st = volux_error(ctx, VOLUX_ERR_FORMAT, "%s: data offset %llu is past the end of the file (%llu bytes)", name,
+                         (unsigned long long)begin, (unsigned long long)src->size);
+        goto fail;
+    }
+    if (h->line_skip && (st = skip_lines(ctx, src, begin, h->line_skip, buf, &begin))) goto fail;
+    if (!zlib && (st = raw_start(ctx, h, src, begin, need, &begin))) goto fail;
+    if (zlib && begin >= src->size) {
+        st = volux_error(ctx, VOLUX_ERR_FORMAT, "%s: compressed data is missing (file ends at byte %llu)", name,
+                         (unsigned long long)src->size);
+        goto fail;
+    }
+
+    st = volux_volume_create_storage(ctx, h->dims, h->spacing, stored_type(h), &v);
+    if (st) {
+        volux_error_prefix(ctx, "%s: ", name);
+        goto fail;
+    }
+    if ((st = stream_open(ctx, src, begin, zlib, &s))) goto fail;
+    if (zlib && h->byte_skip > 0 && (st = discard(&s, buf, (uint64_t)h->byte_skip))) goto fail;
+
+    int swap = esize > 1 && (h->big_endian != host_big_endian());
+    size_t per_chunk = CHUNK / esize, done = 0;
+    while (done < count) {
+        size_t n = count - done < per_chunk ? count - done : per_chunk, got;
+        if ((st = stream_read(&s, buf, n * esize, &got))) goto fail;
+        if (got < n * esize) {
+            st = volux_error(ctx, VOLUX_ERR_FORMAT, "%s: data is truncated: got %llu of the %llu bytes needed", name,
+                             (unsigned long long)(done * esize + got), (unsigned long long)need);
+            goto fail;
+        }
+        if (swap) swap_bytes(buf, n, esize);
+        convert_chunk(h, v, done, buf, n);
+        done += n;
+        if (volux_progress(ctx, "load volume", (double)done / (double)count)) {
+            st = volux_error(ctx, VOLUX_ERR_CANCELLED, "%s: loading cancelled", name);
+            goto fail;
+        }
+    }
+    if (zlib) {
+        /* The header's size must be the whole stream: one more byte means
+         * the header and the data disagree. */
+        size_t got;
+        if ((st = stream_read(&s, buf, 1, &got))) goto fail;
+        if (got) {
+            st = volux_error(ctx, VOLUX_ERR_FORMAT,
+                             "%s: size mismatch: data decompresses to more than the %llu bytes of %dx%dx%d %s", name,
+                             (unsigned long long)need, h->dims[0], h->dims[1], h->dims[2],
+                             volux_scalar_type_name(h->type));
+            goto fail;
+        }
+    }
+    stream_close(&s);
+    volux_free(ctx, buf, CHUNK);
+    buf = NULL;
+    st = volux_volume_finalize(v, use_file_origin && h->has_origin ? h->origin : NULL);
+    if (st) {
+        volux_error_prefix(ctx, "%s: ", name);
+        goto fail;
+    }
+    *out = v;
+    return VOLUX_OK;
+
+fail:
+    stream_close(&s);
+    if (buf) volux_free(ctx, buf, CHUNK);
+    volux_volume_release(v);
+    return st;
+}

@@ -1,0 +1,185 @@
+/*
+ * io/volume_formats.h — private plumbing shared by the volume readers.
+ *
+ * Every format is read in two steps (DESIGN §5):
+ *
+ *   1. A parse-from-memory entry point turns the header bytes into a
+ *      volux_volume_header. It never touches the file system, never
+ *      allocates more than a few bytes, and enforces the limits: text
+ *      headers ≤ VOLUX_MAX_HEADER_BYTES, each axis ≤ VOLUX_MAX_DIM, the
+ *      voxel count ≤ VOLUX_MAX_VOXELS, the storage size ≤ the context's
+ *      max_bytes and a data file name ≤ VOLUX_MAX_DATA_NAME characters.
+ *      All size arithmetic is checked, so an accepted header describes a
+ *      volume we can afford to allocate.
+ *   2. volux_volume_read_data() (volume_data.c), shared by all formats,
+ *      checks the header against the bytes actually present (file size for
+ *      raw data, the exact decompressed size for zlib/gzip data) before or
+ *      while filling the storage, converts byte order and types, and
+ *      finalizes the volume.
+ *
+ * Messages have the form "NAME: field: problem, got VALUE", with NAME the
+ * `name` argument (the path as the user gave it).
+ *
+ * DOES NOT: resolve detached data paths (volume_load.c does, because the
+ * policy depends on volux_volume_load_options), print, or keep files open.
+ */
+#ifndef VOLUX_IO_VOLUME_FORMATS_H
+#define VOLUX_IO_VOLUME_FORMATS_H
+
+#include <stdio.h>
+
+#include "core/context_internal.h"
+#include "volux/io.h"
+#include "volux/volume.h"
+
+/* Longest text header (NRRD, MetaImage) we read; real ones are < 4 KiB. */
+#define VOLUX_MAX_HEADER_BYTES (1u << 20)
+/* Longest detached data file name; Teem 1.12 aborts on long ones (§5). */
+#define VOLUX_MAX_DATA_NAME 1024
+
+typedef enum volux_encoding {
+    VOLUX_ENCODING_RAW,
+    VOLUX_ENCODING_ZLIB /* a gzip or zlib stream (detected by its header) */
+} volux_encoding;
+
+/* What a header says about its data; the common currency of the readers. */
+typedef struct volux_volume_header {
+    int dims[3];            /* x fastest; each in [1, VOLUX_MAX_DIM]        */
+    volux_scalar_type type; /* type of the values in the file               */
+    int big_endian;         /* byte order of multi-byte values in the file  */
+    volux_encoding encoding;
+    double spacing[3]; /* > 0, finite                                  */
+    double origin[3];  /* world position of node (0,0,0)...            */
+    int has_origin;    /* ...if the header gives one                   */
+    /* Linear value map (NIfTI scl_slope/scl_inter): when set, a value is
+     * slope·stored + inter and the volume is stored as float32. */
+    int apply_scale;
+    double scale_slope, scale_inter;
+    /* Where the data is. data_file "" means "in the header's own file". */
+    char data_file[VOLUX_MAX_DATA_NAME + 1];
+    uint64_t data_offset; /* byte offset of the data region in that file   */
+    uint64_t line_skip;   /* lines skipped from data_offset, before...     */
+    int64_t byte_skip;    /* ...bytes skipped: raw: file bytes, -1 = the
+                             data ends at the end of the file; zlib: bytes
+                             of the decoded stream                          */
+} volux_volume_header;
+
+/* Sets the defaults every parser starts from: spacing 1, little endian,
+ * raw, attached, no offsets, no scale. */
+void volux_volume_header_init(volux_volume_header *h);
+
+/* Shared final validation of a parsed header: dims within limits, storage
+ * bytes (checked multiply) within volux_context_max_bytes(ctx), spacing
+ * positive and finite, skip values consistent with the encoding. Every
+ * parse entry point ends with it. VOLUX_ERR_LIMIT / VOLUX_ERR_FORMAT. */
+volux_status volux_volume_header_check(volux_context *ctx, const char *name, const volux_volume_header *h);
+
+/* ------------------------------------------------------------------ */
+/* Field helpers shared by the text formats (header_fields.c). `field` */
+/* names the header field in messages.                                 */
+/* ------------------------------------------------------------------ */
+
+struct volux_text;
+
+/* Parses exactly `count` axis sizes (integers ≥ 1); > VOLUX_MAX_DIM is
+ * VOLUX_ERR_LIMIT, anything else wrong VOLUX_ERR_FORMAT. */
+volux_status volux_header_sizes(volux_context *ctx, const char *name, const char *field, struct volux_text value,
+                                int count, int64_t *sizes);
+/* Parses exactly `count` numbers (nan/inf allowed: callers judge). */
+volux_status volux_header_numbers(volux_context *ctx, const char *name, const char *field, struct volux_text value,
+                                  int count, double *out);
+/* Chooses the three spatial axes of an ndim-axis array: ndim 3, or 4 with
+ * a size-1 first axis (one component per voxel) or a size-1 last axis (one
+ * time step). Fills h->dims and axes[3] (indices into sizes).
+ * VOLUX_ERR_UNSUPPORTED for other shapes. */
+volux_status volux_header_axes(volux_context *ctx, const char *name, const char *field, const int64_t *sizes,
+                               int ndim, volux_volume_header *h, int axes[3]);
+/* Validates a detached data file name and copies it into h->data_file:
+ * empty is VOLUX_ERR_FORMAT, longer than VOLUX_MAX_DATA_NAME is
+ * VOLUX_ERR_LIMIT, "LIST" and "PATTERN MIN MAX STEP" multi-file forms are
+ * VOLUX_ERR_UNSUPPORTED. Folder policy is checked later, by the loader. */
+volux_status volux_header_data_file(volux_context *ctx, const char *name, const char *field, struct volux_text value,
+                                    volux_volume_header *h);
+
+/* ------------------------------------------------------------------ */
+/* Parse-from-memory entry points. `bytes` need not be NUL-terminated; */
+/* `n` is how many bytes are valid. *out is written on success only.  */
+/* ------------------------------------------------------------------ */
+
+/* NRRD (NRRD0001..NRRD0005). For an attached file pass the whole file (or
+ * at least its header); the header ends at the first empty line and
+ * out->data_offset points just past it. A detached header (.nhdr) may end at
+ * the end of the buffer. */
+volux_status volux_nrrd_parse_header(volux_context *ctx, const char *bytes, size_t n, const char *name,
+                                     volux_volume_header *out);
+
+/* MetaImage (.mhd/.mha). The header ends with the ElementDataFile line;
+ * "LOCAL" data starts right after it (out->data_offset). */
+volux_status volux_metaimage_parse_header(volux_context *ctx, const char *bytes, size_t n, const char *name,
+                                          volux_volume_header *out);
+
+/* NIfTI-1: the 348-byte header (either byte order). `name` decides nothing
+ * but the messages, except for a "ni1" header (a .hdr/.img pair), whose
+ * data_file is the basename of `name` with .hdr replaced by .img. */
+#define VOLUX_NIFTI_HEADER_BYTES 348
+volux_status volux_nifti_parse_header(volux_context *ctx, const unsigned char *bytes, size_t n,
+                                      const char *name, volux_volume_header *out);
+
+/* A raw file described by the caller (volux_raw_desc). Bad descriptions
+ * are VOLUX_ERR_INVALID (the caller's fault, not the file's). */
+volux_status volux_raw_header_from_desc(volux_context *ctx, const volux_raw_desc *desc, const char *name,
+                                        volux_volume_header *out);
+
+/* ------------------------------------------------------------------ */
+/* Byte sources and the common data reader (volume_data.c)             */
+/* ------------------------------------------------------------------ */
+
+/* Bytes of one file, from disk or from memory. */
+typedef struct volux_source {
+    const char *name;         /* for messages (borrowed)                  */
+    const unsigned char *mem; /* non-NULL: an in-memory file              */
+    FILE *file;
+    uint64_t size; /* total bytes */
+} volux_source;
+
+/* Opens `path` for reading. VOLUX_ERR_IO naming the file when it is missing,
+ * a folder, or unreadable. Close with volux_source_close. */
+volux_status volux_source_open(volux_context *ctx, const char *path, volux_source *out);
+void volux_source_memory(const void *bytes, size_t n, const char *name, volux_source *out);
+void volux_source_close(volux_source *s);
+/* Reads up to n bytes at `offset`; *got < n only at the end of the source. */
+volux_status volux_source_read(volux_context *ctx, volux_source *s, uint64_t offset, void *buf, size_t n,
+                               size_t *got);
+/* Decodes up to n bytes of the zlib/gzip stream that starts at `offset`
+ * (for .nii.gz, whose header is inside the stream). *got < n when the
+ * stream ends first. Corrupt data: VOLUX_ERR_FORMAT. */
+volux_status volux_source_inflate_prefix(volux_context *ctx, volux_source *s, uint64_t offset, void *buf,
+                                         size_t n, size_t *got);
+
+/* Reads the data a checked header describes from `src`, fills a new volume
+ * and finalizes it (origin from the header when use_file_origin and the
+ * header has one, else centred). Rejects data shorter or longer than
+ * dims × type size with VOLUX_ERR_FORMAT. Caller releases *out. */
+volux_status volux_volume_read_data(volux_context *ctx, const volux_volume_header *h, volux_source *src,
+                                    int use_file_origin, volux_volume **out);
+
+/* ------------------------------------------------------------------ */
+/* Whole-file loading from memory (fuzzing, tests)                     */
+/* ------------------------------------------------------------------ */
+
+typedef enum volux_volume_format {
+    VOLUX_FORMAT_NRRD,
+    VOLUX_FORMAT_METAIMAGE,
+    VOLUX_FORMAT_NIFTI,
+    VOLUX_FORMAT_NIFTI_GZ
+} volux_volume_format;
+
+/* Loads an attached file held in memory, through the same code as
+ * volux_volume_load. A header that names a detached data file is checked
+ * (including the folder policy) and then fails with VOLUX_ERR_IO, since
+ * there is no folder to read it from. */
+volux_status volux_volume_load_memory(volux_context *ctx, const void *bytes, size_t n, const char *name,
+                                      volux_volume_format format, const volux_volume_load_options *options,
+                                      volux_volume **out);
+
+#endif

@@ -1,0 +1,178 @@
+/*
+ * io/volume_load.c — volux_volume_load: picks the reader by extension (or
+ * by the first bytes when the extension is unknown), reads the header into
+ * memory, parses it, applies the detached-data folder policy, and hands the
+ * data to the common reader (volume_data.c).
+ */
+#include <string.h>
+
+#include "header_text.h"
+#include "volume_formats.h"
+
+#define MAX_PATH_BYTES 4096
+
+typedef enum kind { K_NRRD, K_METAIMAGE, K_NIFTI, K_NIFTI_GZ, K_RAW, K_UNKNOWN } kind;
+
+static kind kind_from_extension(const char *path) {
+    static const struct {
+        const char *ext;
+        kind k;
+    } exts[] = {
+        {".nrrd", K_NRRD}, {".nhdr", K_NRRD},   {".mhd", K_METAIMAGE}, {".mha", K_METAIMAGE},
+        {".nii.gz", K_NIFTI_GZ}, {".nii", K_NIFTI}, {".hdr", K_NIFTI},  {".raw", K_RAW},
+    };
+    for (size_t i = 0; i < sizeof exts / sizeof exts[0]; i++)
+        if (volux_text_ends_with_ci(path, exts[i].ext)) return exts[i].k;
+    return K_UNKNOWN;
+}
+
+/* For unknown extensions: recognise a format by its first bytes. */
+static kind kind_from_bytes(const unsigned char *b, size_t n) {
+    if (n >= 7 && memcmp(b, "NRRD000", 7) == 0) return K_NRRD;
+    if (n >= 2 && b[0] == 0x1f && b[1] == 0x8b) return K_NIFTI_GZ;
+    if (n >= 4 && ((b[0] == 0x5c && b[1] == 1 && !b[2] && !b[3]) || (!b[0] && !b[1] && b[2] == 1 && b[3] == 0x5c)))
+        return K_NIFTI;
+    volux_text t = {(const char *)b, n};
+    volux_text rest = t, tok;
+    if (volux_text_token(&rest, &tok) && tok.n >= 5 &&
+        (memcmp(tok.p, "ObjectType", tok.n < 10 ? tok.n : 10) == 0 || memcmp(tok.p, "NDims", 5) == 0))
+        return K_METAIMAGE;
+    return K_UNKNOWN;
+}
+
+/* Reads the header bytes and parses them with the format's entry point. */
+static volux_status parse_header(volux_context *ctx, kind k, volux_source *src, volux_volume_header *h) {
+    const char *name = src->name;
+    if (k == K_NIFTI || k == K_NIFTI_GZ) {
+        unsigned char b[VOLUX_NIFTI_HEADER_BYTES];
+        size_t got;
+        volux_status st = k == K_NIFTI ? volux_source_read(ctx, src, 0, b, sizeof b, &got)
+                                       : volux_source_inflate_prefix(ctx, src, 0, b, sizeof b, &got);
+        if (st) return st;
+        if ((st = volux_nifti_parse_header(ctx, b, got, name, h))) return st;
+        if (k == K_NIFTI_GZ) {
+            if (h->data_file[0])
+                return volux_error(ctx, VOLUX_ERR_FORMAT,
+                                   "%s: magic: a .nii.gz must hold a single-file ('n+1') header, not 'ni1'", name);
+            /* The header is part of the compressed stream: the data starts
+             * vox_offset bytes into the decoded stream. */
+            h->encoding = VOLUX_ENCODING_ZLIB;
+            h->byte_skip = (int64_t)h->data_offset;
+            h->data_offset = 0;
+            return volux_volume_header_check(ctx, name, h);
+        }
+        return VOLUX_OK;
+    }
+    size_t n = src->size < VOLUX_MAX_HEADER_BYTES ? (size_t)src->size : VOLUX_MAX_HEADER_BYTES, got;
+    char *text = volux_malloc(ctx, n);
+    if (!text) return volux_error(ctx, VOLUX_ERR_NOMEM, "%s: out of memory for the header", name);
+    volux_status st = volux_source_read(ctx, src, 0, text, n, &got);
+    if (!st)
+        st = k == K_NRRD ? volux_nrrd_parse_header(ctx, text, got, name, h)
+                         : volux_metaimage_parse_header(ctx, text, got, name, h);
+    volux_free(ctx, text, n);
+    return st;
+}
+
+/* Detached data: the data file's path, relative to the header's folder.
+ * Unless allowed, names that could leave that folder are refused: an
+ * absolute path or any ".." component (a header from an untrusted source
+ * must not make us read arbitrary files). Symbolic links inside the folder
+ * are followed. */
+static volux_status resolve_data_path(volux_context *ctx, const char *header_path, const char *data_file,
+                                      int allow_outside, char *out, size_t cap) {
+    if (!allow_outside) {
+        if (data_file[0] == '/')
+            return volux_error(ctx, VOLUX_ERR_FORMAT,
+                               "%s: data file: absolute path '%s' is outside the header's folder (not allowed)",
+                               header_path, data_file);
+        for (const char *p = data_file; *p;) {
+            const char *slash = strchr(p, '/');
+            size_t len = slash ? (size_t)(slash - p) : strlen(p);
+            if (len == 2 && p[0] == '.' && p[1] == '.')
+                return volux_error(ctx, VOLUX_ERR_FORMAT,
+                                   "%s: data file: '%s' leads outside the header's folder ('..' is not allowed)",
+                                   header_path, data_file);
+            p += len + (slash ? 1 : 0);
+        }
+    }
+    const char *slash = strrchr(header_path, '/');
+    size_t dir = data_file[0] == '/' || !slash ? 0 : (size_t)(slash - header_path) + 1;
+    size_t len = strlen(data_file);
+    if (dir + len + 1 > cap)
+        return volux_error(ctx, VOLUX_ERR_LIMIT, "%s: data file: path is longer than %zu bytes", header_path, cap - 1);
+    memcpy(out, header_path, dir);
+    memcpy(out + dir, data_file, len + 1);
+    return VOLUX_OK;
+}
+
+/* Parses the header in `src` and reads the data, from `src` itself or from
+ * the detached file (which a memory source cannot reach). */
+static volux_status load_from(volux_context *ctx, kind k, volux_source *src, int from_memory,
+                              const volux_volume_load_options *options, volux_volume **out) {
+    volux_volume_header h;
+    volux_status st = parse_header(ctx, k, src, &h);
+    if (st) return st;
+    int use_origin = options && options->use_file_origin;
+    if (!h.data_file[0]) return volux_volume_read_data(ctx, &h, src, use_origin, out);
+
+    char path[MAX_PATH_BYTES];
+    st = resolve_data_path(ctx, src->name, h.data_file, options && options->allow_outside_dir, path, sizeof path);
+    if (st) return st;
+    if (from_memory)
+        return volux_error(ctx, VOLUX_ERR_IO, "%s: data file: '%s' cannot be read when loading from memory",
+                           src->name, h.data_file);
+    volux_source data;
+    st = volux_source_open(ctx, path, &data);
+    if (st) {
+        volux_error_prefix(ctx, "%s: data file: ", src->name);
+        return st;
+    }
+    st = volux_volume_read_data(ctx, &h, &data, use_origin, out);
+    volux_source_close(&data);
+    return st;
+}
+
+volux_status volux_volume_load(volux_context *ctx, const char *path, const volux_volume_load_options *options,
+                               volux_volume **out) {
+    if (!path || !*path) return volux_error(ctx, VOLUX_ERR_INVALID, "volume path is empty");
+    volux_source src;
+    volux_status st;
+    kind k = kind_from_extension(path);
+    if (options && options->raw) {
+        volux_volume_header h;
+        if ((st = volux_raw_header_from_desc(ctx, options->raw, path, &h))) return st;
+        if ((st = volux_source_open(ctx, path, &src))) return st;
+        st = volux_volume_read_data(ctx, &h, &src, 0, out);
+        volux_source_close(&src);
+        return st;
+    }
+    if (k == K_RAW)
+        return volux_error(ctx, VOLUX_ERR_INVALID,
+                           "%s: a .raw file needs a description of its layout (dims, type, byte order)", path);
+    if ((st = volux_source_open(ctx, path, &src))) return st;
+    if (k == K_UNKNOWN) {
+        unsigned char b[16];
+        size_t got;
+        if (!(st = volux_source_read(ctx, &src, 0, b, sizeof b, &got))) {
+            k = kind_from_bytes(b, got);
+            if (k == K_UNKNOWN)
+                st = volux_error(ctx, VOLUX_ERR_UNSUPPORTED,
+                                 "%s: unknown volume format (expected .nrrd .nhdr .mhd .mha .nii .nii.gz .hdr, or .raw "
+                                 "with a description)",
+                                 path);
+        }
+    }
+    if (!st) st = load_from(ctx, k, &src, 0, options, out);
+    volux_source_close(&src);
+    return st;
+}
+
+volux_status volux_volume_load_memory(volux_context *ctx, const void *bytes, size_t n, const char *name,
+                                      volux_volume_format format, const volux_volume_load_options *options,
+                                      volux_volume **out) {
+    static const kind kinds[] = {K_NRRD, K_METAIMAGE, K_NIFTI, K_NIFTI_GZ};
+    volux_source src;
+    volux_source_memory(bytes, n, name, &src);
+    return load_from(ctx, kinds[format], &src, 1, options, out);
+}

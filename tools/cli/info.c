@@ -1,0 +1,209 @@
+/* tools/cli/info.c — `volux info VOLUME`: dims, type, spacing, origin,
+ * value range, memory and a text histogram of a volume file or of a
+ * procedural volume ("procedural:NAME[:N]"). */
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli.h"
+
+#define CMD "info"
+#define BAR_WIDTH 40
+
+static void usage(FILE *f) {
+    fprintf(f,
+            "usage: volux info FILE [options]\n"
+            "  FILE                 .nrrd .nhdr .mhd .mha .nii .nii.gz .hdr, a raw file with --raw-*,\n"
+            "                       or procedural:NAME[:N] (NAME: %s; N³ voxels, default 64)\n"
+            "  --raw-dims X Y Z     read FILE as raw data of these dims (needs --raw-type)\n"
+            "  --raw-type T         uint8 int8 uint16 int16 float32 float64\n"
+            "  --raw-endian E       little (default) or big\n"
+            "  --raw-spacing X Y Z  voxel spacing (default 1 1 1)\n"
+            "  --raw-skip N         bytes to skip at the start of the file\n"
+            "  --file-origin        report the origin stored in the file instead of the centred one\n"
+            "  --bins N             histogram bins (default 16)\n"
+            "  --seed S             seed for procedural volumes (default 1)\n",
+            volux_procedural_names());
+}
+
+typedef struct options {
+    const char *file;
+    volux_raw_desc raw;
+    int has_raw, has_raw_type, file_origin;
+    long bins;
+    long seed;
+} options;
+
+/* Returns CLI_OK, or the exit status after printing what was wrong. */
+static int parse_args(int argc, char **argv, options *o) {
+    memset(o, 0, sizeof *o);
+    o->bins = 16;
+    o->seed = 1;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        int left = argc - i - 1;
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
+            usage(stdout);
+            return -1;
+        } else if (!strcmp(a, "--raw-dims") && left >= 3) {
+            for (int k = 0; k < 3; k++) {
+                long v;
+                if (!cli_parse_int(CMD, a, argv[++i], 1, 1L << 30, &v)) return CLI_USAGE;
+                o->raw.dims[k] = (int)v;
+            }
+            o->has_raw = 1;
+        } else if (!strcmp(a, "--raw-spacing") && left >= 3) {
+            for (int k = 0; k < 3; k++)
+                if (!cli_parse_double(CMD, a, argv[++i], &o->raw.spacing[k])) return CLI_USAGE;
+        } else if (!strcmp(a, "--raw-type") && left >= 1) {
+            if (volux_scalar_type_parse(argv[++i], &o->raw.type) != 0) {
+                fprintf(stderr, "volux info: --raw-type: unknown type '%s'\n", argv[i]);
+                return CLI_USAGE;
+            }
+            o->has_raw_type = 1;
+        } else if (!strcmp(a, "--raw-endian") && left >= 1) {
+            const char *e = argv[++i];
+            if (strcmp(e, "little") && strcmp(e, "big")) {
+                fprintf(stderr, "volux info: --raw-endian: expected little or big, got '%s'\n", e);
+                return CLI_USAGE;
+            }
+            o->raw.big_endian = !strcmp(e, "big");
+        } else if (!strcmp(a, "--raw-skip") && left >= 1) {
+            long v;
+            if (!cli_parse_int(CMD, a, argv[++i], 0, LONG_MAX, &v)) return CLI_USAGE;
+            o->raw.byte_skip = (uint64_t)v;
+        } else if (!strcmp(a, "--bins") && left >= 1) {
+            if (!cli_parse_int(CMD, a, argv[++i], 1, 256, &o->bins)) return CLI_USAGE;
+        } else if (!strcmp(a, "--seed") && left >= 1) {
+            if (!cli_parse_int(CMD, a, argv[++i], 0, LONG_MAX, &o->seed)) return CLI_USAGE;
+        } else if (!strcmp(a, "--file-origin")) {
+            o->file_origin = 1;
+        } else if (a[0] == '-' && a[1]) {
+            fprintf(stderr, "volux info: unknown option or missing value: '%s'\n", a);
+            return CLI_USAGE;
+        } else if (o->file) {
+            fprintf(stderr, "volux info: one volume at a time (got '%s' and '%s')\n", o->file, a);
+            return CLI_USAGE;
+        } else {
+            o->file = a;
+        }
+    }
+    if (!o->file) {
+        usage(stderr);
+        return CLI_USAGE;
+    }
+    if (o->has_raw != o->has_raw_type) {
+        fprintf(stderr, "volux info: %s: raw data needs both --raw-dims and --raw-type\n", o->file);
+        return CLI_USAGE;
+    }
+    return CLI_OK;
+}
+
+/* "procedural:NAME[:N]" → a procedural volume. */
+static volux_status load_procedural(volux_context *ctx, const char *spec, uint64_t seed, volux_volume **out) {
+    char name[64];
+    const char *rest = spec + strlen("procedural:");
+    const char *colon = strchr(rest, ':');
+    size_t len = colon ? (size_t)(colon - rest) : strlen(rest);
+    if (len >= sizeof name) len = sizeof name - 1;
+    memcpy(name, rest, len);
+    name[len] = 0;
+    long n = 64;
+    if (colon && !cli_parse_int(CMD, spec, colon + 1, 1, VOLUX_MAX_DIM, &n)) return VOLUX_ERR_INVALID;
+    int dims[3] = {(int)n, (int)n, (int)n};
+    return volux_volume_procedural(ctx, name, dims, seed, out);
+}
+
+static void print_size(double bytes) {
+    const char *unit[] = {"B", "KiB", "MiB", "GiB", "TiB"};
+    int u = 0;
+    while (bytes >= 1024.0 && u < 4) {
+        bytes /= 1024.0;
+        u++;
+    }
+    printf("%.1f %s", bytes, unit[u]);
+}
+
+static const char *storage_name(volux_storage s) {
+    return s == VOLUX_STORE_U8 ? "uint8" : s == VOLUX_STORE_U16 ? "uint16" : "float32";
+}
+
+static int print_info(const char *file, volux_volume *v, int bins) {
+    int d[3];
+    double s[3], lo, hi;
+    volux_volume_dims(v, d);
+    volux_volume_spacing(v, s);
+    volux_volume_range(v, &lo, &hi);
+    volux_vec3 o = volux_volume_origin(v), blo, bhi;
+    volux_volume_bounds(v, &blo, &bhi);
+    uint64_t voxels = (uint64_t)d[0] * (uint64_t)d[1] * (uint64_t)d[2];
+    uint64_t *counts = calloc((size_t)bins, sizeof *counts);
+    if (!counts) {
+        fprintf(stderr, "volux info: out of memory\n");
+        return CLI_FAIL;
+    }
+    volux_volume_histogram(v, bins, counts);
+
+    printf("file      %s\n", file);
+    printf("dims      %d x %d x %d  (%llu voxels)\n", d[0], d[1], d[2], (unsigned long long)voxels);
+    printf("type      %s (stored as %s)\n", volux_scalar_type_name(volux_volume_type(v)),
+           storage_name(volux_volume_storage_kind(v)));
+    printf("spacing   %g %g %g\n", s[0], s[1], s[2]);
+    printf("origin    %g %g %g\n", o.x, o.y, o.z);
+    printf("bounds    [%g, %g] x [%g, %g] x [%g, %g]\n", blo.x, bhi.x, blo.y, bhi.y, blo.z, bhi.z);
+    printf("range     %g .. %g\n", lo, hi);
+    printf("memory    ");
+    print_size((double)volux_volume_memory_bytes(v));
+    printf(" (%zu bytes)\n", volux_volume_memory_bytes(v));
+    printf("histogram %d bins over [%g, %g]\n", bins, lo, hi);
+
+    uint64_t max = 1;
+    for (int b = 0; b < bins; b++)
+        if (counts[b] > max) max = counts[b];
+    double width = (hi - lo) / bins;
+    for (int b = 0; b < bins; b++) {
+        char bar[BAR_WIDTH + 1];
+        int len = (int)((double)counts[b] / (double)max * BAR_WIDTH + 0.5);
+        if (len == 0 && counts[b] > 0) len = 1; /* a nonempty bin is never invisible */
+        memset(bar, '#', (size_t)len);
+        bar[len] = 0;
+        printf("  [%10.4g, %10.4g%c %12llu %6.2f%%  %s\n", lo + b * width, lo + (b + 1) * width,
+               b == bins - 1 ? ']' : ')', (unsigned long long)counts[b], 100.0 * (double)counts[b] / (double)voxels,
+               bar);
+    }
+    free(counts);
+    return CLI_OK;
+}
+
+int cli_info(int argc, char **argv) {
+    options o;
+    int rc = parse_args(argc, argv, &o);
+    if (rc < 0) return CLI_OK; /* --help */
+    if (rc != CLI_OK) return rc;
+    volux_context *ctx = cli_context(0);
+    if (!ctx) return CLI_FAIL;
+    volux_volume *v = NULL;
+    volux_status st;
+    if (!strncmp(o.file, "procedural:", strlen("procedural:"))) {
+        st = load_procedural(ctx, o.file, (uint64_t)o.seed, &v);
+        if (st == VOLUX_ERR_INVALID && !*volux_context_error(ctx)) {
+            volux_context_destroy(ctx);
+            return CLI_USAGE; /* cli_parse_int already said why */
+        }
+    } else {
+        volux_volume_load_options lo = {0};
+        lo.raw = o.has_raw ? &o.raw : NULL;
+        lo.use_file_origin = o.file_origin;
+        st = volux_volume_load(ctx, o.file, &lo, &v);
+    }
+    if (st != VOLUX_OK) {
+        rc = cli_fail(CMD, ctx, st);
+        volux_context_destroy(ctx);
+        return rc;
+    }
+    rc = print_info(o.file, v, (int)o.bins);
+    volux_volume_release(v);
+    volux_context_destroy(ctx);
+    return rc;
+}
