@@ -10,6 +10,7 @@ static const cli_command commands[] = {
     {"compare", "error metrics between two images", cli_compare},
     {"bench", "timings of a technique on a scene (one JSON object per line)", cli_bench},
     {"techniques", "list techniques and their parameters", cli_techniques},
+    {"ambient-table", "build or inspect the ambient-scattering preintegration table", cli_ambient_table},
 };
 
 static void usage(FILE *f) {
