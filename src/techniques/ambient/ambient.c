@@ -1,0 +1,389 @@
+/*
+ * techniques/ambient/ambient.c — `ambient`: ambient volume scattering
+ * (Ament, Sadlo & Weiskopf 2013).
+ *
+ *  1. Preintegration table L̃o(θ, σ̃t, g) (§4.1; table.c), loaded from the
+ *     cache or built on first use; at each phase edit the slice at the
+ *     scene's g is extracted (log-linear in g).
+ *  2. Ambient extinction volume (§4.2.1, Eqs. 12–13): σ̃t(x) is the mean σt
+ *     over the cube of the sphere's volume, from the exact integer SAT
+ *     (scatter/sat3d.h). The cube of equal volume rarely has an odd voxel
+ *     side, so we blend the two odd cubes around it with weights that
+ *     match the sphere's volume exactly. We store ρ = r·σ̃t, the optical
+ *     radius that indexes the table (Eq. 14).
+ *  3. Light distribution by tube marching (§4.2.2, Eqs. 14–17; tube.c)
+ *     into one radiance cache V_j per light at `cache_scale` of the volume
+ *     resolution (paper: half).
+ *  4. Ambient ray casting (§4.2.3, Algorithm 1, Eqs. 18–21):
+ *         J̃i = ∫ T(x_o) σs(x') Σ_j E_j V_j(x_j) L̃o(θ_j, ρ(x'), g) dx'
+ *     with x_j = x' − r ω_j (where the light enters the sphere S_r(x')),
+ *     θ_j the angle between the light's travel direction ω_j and the
+ *     direction to the camera, and x_o = x' + r ω (Eq. 20: transmittance
+ *     from where the sphere's radiance leaves towards the camera; the
+ *     pseudo-code's line 6 has the opposite sign, the text's definition is
+ *     the one that does not attenuate inside the sphere twice). Emission,
+ *     early ray termination (on T(x_o)), optional gradient specular
+ *     highlights and an optional SAT ambient-occlusion term.
+ *
+ * NORMALISATION OF EQ. 16. With the boundary condition of Eq. 11 the
+ * table's empty-sphere value is L̃o(0, 0, g) = p_g(1) (= 1/4π for g = 0),
+ * not 1, so Eq. 16 taken literally would scale light by p_g(1) per step in
+ * empty space. We march with τ(ρ) = L̃o(0, ρ, g) / L̃o(0, 0, g): exact in
+ * vacuum and exact Beer–Lambert through a purely absorbing sphere
+ * (τ = e^{−2ρ}), and it keeps the paper's multiple-scattering gain. For
+ * back-scattering g the forward table value is tiny and the ratio can
+ * exceed 1 where multiple scattering dominates; a passive medium cannot
+ * amplify a front, so τ is clamped to 1. In Eq. 21 the raw table is used:
+ * with L̃d an irradiance, L̃o(θ, 0, g) = p_g(cos θ) gives single scattering
+ * in the optically thin limit, consistent with `single` and `pathtrace`.
+ *
+ * Caches and what invalidates them (the invalidation row, README.md):
+ *   table              ← table parameters, albedo (when it follows the TF)
+ *   slice, τ           ← table, phase
+ *   SAT, ρ, occlusion  ← volume, extinction, density, radius (AO params)
+ *   radiance cache j   ← SAT/ρ, slice, cache_scale, light j
+ *   camera             ← camera (nothing else)
+ */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "ambient.h"
+#include "core/context_internal.h"
+#include "table_internal.h"
+#include "techniques/scatter/hg.h"
+#include "techniques/scatter/occlusion.h"
+#include "tube.h"
+
+static const volux_param_info ambient_params[] = {
+    SCATTER_COMMON_PARAMS,
+    {"radius", VOLUX_PARAM_NUMBER, 8, 0.5, 128, NULL,
+     "ambient radius r in units of the smallest voxel spacing (paper: 2-14 voxels)"},
+    {"cache_scale", VOLUX_PARAM_NUMBER, 0.5, 0.05, 1, NULL,
+     "radiance cache resolution relative to the volume (paper: 0.5)"},
+    {"specular", VOLUX_PARAM_BOOL, 0, 0, 1, NULL,
+     "add gradient-based Blinn-Phong highlights (TF material specular, specular_power)"},
+    {"gradient_threshold", VOLUX_PARAM_NUMBER, 0.02, 0, 10, NULL,
+     "gradient magnitude (fraction of the value range per voxel) at which highlights are fully on"},
+    {"ao", VOLUX_PARAM_NUMBER, 0, 0, 1e6, NULL,
+     "radiance of a white ambient light added through SAT ambient occlusion (0 = off; environment lights are "
+     "always added this way)"},
+    {"ao_radius", VOLUX_PARAM_NUMBER, 0, 0, 128, NULL, "occlusion radius in voxels (0 = the ambient radius)"},
+    {"ao_shells", VOLUX_PARAM_INT, 3, 1, 8, NULL, "nested SAT boxes of the occlusion term"},
+    {"table_file", VOLUX_PARAM_STRING, 0, 0, 0, "",
+     "preintegration table to load (`volux ambient-table`); empty: built on first use and cached"},
+    {"table_theta", VOLUX_PARAM_INT, 256, 2, 4096, NULL, "table entries in theta (paper: 256)"},
+    {"table_sigma", VOLUX_PARAM_INT, 256, 2, 4096, NULL, "table entries in ambient extinction (paper: 256)"},
+    {"table_g", VOLUX_PARAM_INT, 19, 2, 4096, NULL, "table entries in g over [-0.9, 0.9] (paper: 19)"},
+    {"table_sigma_max", VOLUX_PARAM_NUMBER, 20, 0.01, 1e4, NULL, "largest optical radius r·σ̃t of the table (paper: 20)"},
+    {"table_paths", VOLUX_PARAM_INT, 16384, 1, 1e9, NULL, "random walks per (σ̃t, g) column of the table"},
+    {"table_albedo", VOLUX_PARAM_NUMBER, 0, 0, 1, NULL,
+     "albedo of the table (0 = the transfer function's albedo; paper: 0.9)"},
+    {NULL, 0, 0, 0, 0, NULL, NULL}};
+
+/* ------------------------------------------------------------------ caches */
+
+static volux_status load_table(ambient_state *st) {
+    volux_context *ctx = st->b.ctx;
+    volux_ambient_table t;
+    volux_status s;
+    if (st->table_file[0]) s = volux_ambient_table_load(ctx, st->table_file, &t);
+    else s = volux_ambient_table_get(ctx, &st->want, &t, NULL);
+    if (s) {
+        volux_error_prefix(ctx, "ambient: ");
+        return s;
+    }
+    if (st->have_table) volux_ambient_table_free(ctx, &st->table);
+    st->table = t;
+    st->have_table = 1;
+    snprintf(st->loaded_file, sizeof st->loaded_file, "%s", st->table_file);
+    st->stats.table_loads++;
+    return VOLUX_OK;
+}
+
+static int table_matches(const ambient_state *st) {
+    if (!st->have_table || strcmp(st->loaded_file, st->table_file) != 0) return 0;
+    if (st->table_file[0]) return 1;
+    const volux_ambient_table_desc *a = &st->table.desc, *b = &st->want;
+    return a->n_theta == b->n_theta && a->n_sigma == b->n_sigma && a->n_g == b->n_g && a->sigma_max == b->sigma_max &&
+           a->albedo == b->albedo && a->paths == b->paths && a->g_min == b->g_min && a->g_max == b->g_max &&
+           a->seed == b->seed;
+}
+
+/* The table slice at g (log-linear between g nodes, as the table's own
+ * lookup) and the normalised, clamped tube factor τ (see the header). */
+static volux_status build_slice(ambient_state *st) {
+    const volux_ambient_table_desc *d = &st->table.desc;
+    size_t ns = (size_t)d->n_sigma, nt = (size_t)d->n_theta;
+    size_t sb = ns * nt * sizeof(float), tb = ns * sizeof(float);
+    if (sb != st->slice_bytes) {
+        volux_free(st->b.ctx, st->slice, st->slice_bytes);
+        volux_free(st->b.ctx, st->tau, st->tau_bytes);
+        st->slice = volux_malloc(st->b.ctx, sb);
+        st->tau = volux_malloc(st->b.ctx, tb);
+        st->slice_bytes = st->slice ? sb : 0;
+        st->tau_bytes = st->tau ? tb : 0;
+        if (!st->slice || !st->tau) return volux_error(st->b.ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the table slice");
+    }
+    double u = ((double)st->b.g - d->g_min) / (d->g_max - d->g_min) * (d->n_g - 1);
+    if (u < 0.0) u = 0.0;
+    if (u > d->n_g - 1) u = d->n_g - 1;
+    int i0 = (int)u;
+    if (i0 > d->n_g - 2) i0 = d->n_g - 2;
+    double f = u - i0;
+    for (size_t is = 0; is < ns; is++)
+        for (size_t it = 0; it < nt; it++) {
+            double a = st->table.data[volux_ambient_table_index(d, (int)it, (int)is, i0)];
+            double b = st->table.data[volux_ambient_table_index(d, (int)it, (int)is, i0 + 1)];
+            double v = a > 0.0 && b > 0.0 ? exp(log(a) * (1.0 - f) + log(b) * f) : a * (1.0 - f) + b * f;
+            st->slice[is * nt + it] = (float)v;
+        }
+    float vac = st->slice[0];
+    for (size_t is = 0; is < ns; is++) {
+        float t = vac > 0.0f ? st->slice[is * nt] / vac : 0.0f;
+        st->tau[is] = t > 1.0f ? 1.0f : t;
+    }
+    st->u_theta = (float)((double)(nt - 1) / 3.14159265358979323846);
+    st->u_sigma = (float)((double)(ns - 1) / d->sigma_max);
+    st->stats.slice_builds++;
+    return VOLUX_OK;
+}
+
+/* ρ = r σ̃t from two odd cubes blended to the sphere's volume, and the
+ * occlusion volume when the AO term is on. */
+static volux_status build_extinction(ambient_state *st, int need_occ) {
+    scatter_base *b = &st->b;
+    double sp[3];
+    volux_volume_spacing(b->volume, sp);
+    double r = st->radius, dv = sp[0] * sp[1] * sp[2];
+    double target = 4.0 / 3.0 * 3.14159265358979323846 * r * r * r / dv; /* sphere volume in voxels */
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; a++) {
+        double side = 1.61199195401647 * r / sp[a];
+        int h = (int)floor((side - 1.0) * 0.5);
+        lo[a] = h < 0 ? 0 : h;
+        hi[a] = lo[a] + 1;
+    }
+    double n_lo = (double)scatter_cube_voxels(lo), n_hi = (double)scatter_cube_voxels(hi);
+    double f = (target - n_lo) / (n_hi - n_lo);
+    f = f < 0.0 ? 0.0 : (f > 1.0 ? 1.0 : f);
+    uint64_t max_box = (uint64_t)n_hi;
+    if (need_occ) {
+        uint64_t m = scatter_occlusion_max_box(st->ao_radius, sp);
+        if (m > max_box) max_box = m;
+    }
+    volux_status s = scatter_sat_build(b->ctx, b->threads, b->volume, b->lut, max_box, &st->sat);
+    if (s) return s;
+    st->stats.sat_builds++;
+    if ((s = scatter_grid_alloc(b->ctx, b->volume, 1.0f, &st->rho, "ambient: ambient extinction volume"))) return s;
+    int half[2][3];
+    memcpy(half[0], lo, sizeof lo);
+    memcpy(half[1], hi, sizeof hi);
+    double w[2] = {r * (1.0 - f) / n_lo, r * f / n_hi};
+    if ((s = scatter_sat_filter(b->ctx, b->threads, &st->sat, 2, (const int(*)[3])half, w, 0, st->rho.v))) return s;
+    st->stats.rho_builds++;
+    if (need_occ) {
+        if ((s = scatter_grid_alloc(b->ctx, b->volume, 1.0f, &st->occ, "ambient: occlusion volume"))) return s;
+        if ((s = scatter_occlusion_build(b->ctx, b->threads, &st->sat, st->ao_radius, st->ao_shells, sp, &st->occ)))
+            return s;
+        st->stats.occ_builds++;
+    } else {
+        scatter_grid_free(b->ctx, &st->occ);
+    }
+    return VOLUX_OK;
+}
+
+static volux_status build_cache(ambient_state *st, const scatter_light *l) {
+    scatter_grid *V = &st->cache[l->slot];
+    volux_status s = scatter_grid_alloc(st->b.ctx, st->b.volume, st->cache_scale, V, "ambient: radiance cache");
+    if (s) return s;
+    tube_input in = {&st->rho, st->tau, st->table.desc.n_sigma, (float)st->table.desc.sigma_max, st->radius,
+                     st->b.threads};
+    tube_march(&in, l, V);
+    st->stats.cache_builds[l->slot]++;
+    return VOLUX_OK;
+}
+
+static volux_status ambient_update(void *state, volux_scene *scene, const volux_change_set *c) {
+    ambient_state *st = state;
+    scatter_base *b = &st->b;
+    volux_status s = scatter_base_update(b, scene, c);
+    if (s) return s;
+    int need_ext = (c->what & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY)) != 0;
+    int need_slice = (c->what & VOLUX_CHANGE_PHASE) != 0, all_caches = 0;
+    if (c->what & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME)) {
+        const volux_technique_class *cls = b->cls;
+        float radius = (float)volux_technique_param(scene, cls, "radius") * b->min_spacing;
+        float scale = (float)volux_technique_param(scene, cls, "cache_scale");
+        float ao = (float)volux_technique_param(scene, cls, "ao");
+        float ao_r = (float)volux_technique_param(scene, cls, "ao_radius") * b->min_spacing;
+        int shells = (int)volux_technique_param(scene, cls, "ao_shells");
+        if (ao_r <= 0.0f) ao_r = radius;
+        if (radius != st->radius || ao != st->ao || ao_r != st->ao_radius || shells != st->ao_shells) need_ext = 1;
+        if (scale != st->cache_scale) all_caches = 1;
+        st->radius = radius, st->cache_scale = scale, st->ao = ao, st->ao_radius = ao_r, st->ao_shells = shells;
+        st->specular = (int)volux_technique_param(scene, cls, "specular");
+        double lo, hi;
+        volux_volume_range(b->volume, &lo, &hi);
+        st->grad_ref = (float)(volux_technique_param(scene, cls, "gradient_threshold") * (hi > lo ? hi - lo : 1.0) /
+                               b->min_spacing);
+        snprintf(st->table_file, sizeof st->table_file, "%s",
+                 volux_scene_param_string(scene, cls->name, "table_file", ""));
+        volux_ambient_table_desc_defaults(&st->want);
+        st->want.n_theta = (int)volux_technique_param(scene, cls, "table_theta");
+        st->want.n_sigma = (int)volux_technique_param(scene, cls, "table_sigma");
+        st->want.n_g = (int)volux_technique_param(scene, cls, "table_g");
+        st->want.sigma_max = volux_technique_param(scene, cls, "table_sigma_max");
+        st->want.paths = (uint64_t)volux_technique_param(scene, cls, "table_paths");
+    }
+    if (c->what & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_COLOR)) {
+        double a = volux_technique_param(scene, b->cls, "table_albedo");
+        st->want.albedo = a > 0.0 ? a : (double)b->albedo;
+        st->material = volux_scene_transfer(scene)->material;
+        if (!table_matches(st)) {
+            if ((s = load_table(st))) return s;
+            need_slice = 1;
+        }
+    }
+    /* The occlusion volume exists iff the AO term is on (weight or an
+     * environment light); an environment light appearing turns it on. */
+    int want_occ = st->ao > 0.0f || b->ambient.x > 0.0f || b->ambient.y > 0.0f || b->ambient.z > 0.0f;
+    if (want_occ != (st->occ.v != NULL)) need_ext = 1;
+    if (need_slice) {
+        if ((s = build_slice(st))) return s;
+        all_caches = 1;
+    }
+    if (need_ext) {
+        if ((s = build_extinction(st, want_occ))) return s;
+        all_caches = 1;
+    }
+    int live[VOLUX_MAX_LIGHTS] = {0};
+    for (int i = 0; i < b->n_lights; i++) live[b->lights[i].slot] = 1;
+    for (int slot = 0; slot < VOLUX_MAX_LIGHTS; slot++)
+        if (st->cache[slot].v && !live[slot]) scatter_grid_free(b->ctx, &st->cache[slot]);
+    for (int i = 0; i < b->n_lights; i++) {
+        const scatter_light *l = &b->lights[i];
+        if (all_caches || volux_change_light(c, l->slot) || !st->cache[l->slot].v)
+            if ((s = build_cache(st, l))) return s;
+    }
+    return VOLUX_OK;
+}
+
+static void ambient_destroy(void *state) {
+    ambient_state *st = state;
+    if (!st) return;
+    volux_context *ctx = st->b.ctx;
+    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) scatter_grid_free(ctx, &st->cache[i]);
+    scatter_grid_free(ctx, &st->rho);
+    scatter_grid_free(ctx, &st->occ);
+    scatter_sat_free(ctx, &st->sat);
+    if (st->have_table) volux_ambient_table_free(ctx, &st->table);
+    volux_free(ctx, st->slice, st->slice_bytes);
+    volux_free(ctx, st->tau, st->tau_bytes);
+    scatter_base_free(&st->b);
+    volux_free(ctx, st, sizeof *st);
+}
+
+static volux_status ambient_create(volux_context *ctx, volux_scene *scene, void **out) {
+    ambient_state *st = volux_calloc(ctx, 1, sizeof *st);
+    if (!st) return volux_error(ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for technique state");
+    st->b.ctx = ctx;
+    st->b.cls = &volux_ambient_class;
+    st->radius = -1.0f;
+    volux_change_set all = scatter_change_all();
+    volux_status s = ambient_update(st, scene, &all);
+    if (s) {
+        ambient_destroy(st);
+        return s;
+    }
+    *out = st;
+    return VOLUX_OK;
+}
+
+static size_t ambient_memory_bytes(const void *state) {
+    const ambient_state *st = state;
+    size_t n = sizeof *st + scatter_base_memory(&st->b) + st->sat.bytes + st->rho.bytes + st->occ.bytes +
+               st->slice_bytes + st->tau_bytes;
+    if (st->have_table) n += 4 * sizeof(float) * (size_t)st->table.desc.n_theta * (size_t)st->table.desc.n_sigma *
+                             (size_t)st->table.desc.n_g / 2; /* data + error block */
+    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) n += st->cache[i].bytes;
+    return n;
+}
+
+/* ------------------------------------------------------------------ render */
+
+/* Bilinear L̃o(θ, ρ) from the slice (u_t, u_s in entry units, clamped). */
+static inline float slice_lookup(const ambient_state *st, float ut, float us) {
+    int nt = st->table.desc.n_theta, ns = st->table.desc.n_sigma;
+    if (ut > (float)(nt - 1)) ut = (float)(nt - 1);
+    if (us > (float)(ns - 1)) us = (float)(ns - 1);
+    int it = (int)ut, is = (int)us;
+    if (it > nt - 2) it = nt - 2;
+    if (is > ns - 2) is = ns - 2;
+    float ft = ut - (float)it, fs = us - (float)is;
+    const float *a = st->slice + (size_t)is * (size_t)nt + (size_t)it, *b = a + nt;
+    float v0 = a[0] + (a[1] - a[0]) * ft, v1 = b[0] + (b[1] - b[0]) * ft;
+    return v0 + (v1 - v0) * fs;
+}
+
+static inline __attribute__((always_inline)) void inscatter(const void *tech, const scatter_sample *smp,
+                                                            volux_vec3 *Ls, volux_vec3 *extra) {
+    const ambient_state *st = tech;
+    const scatter_base *b = &st->b;
+    /* Algorithm 1, line 9: ambient extinction at x' (as the table index). */
+    float us = scatter_grid_sample_index(&st->rho, smp->q.x, smp->q.y, smp->q.z) * st->u_sigma;
+    volux_vec3 L = v3(0, 0, 0), spec = v3(0, 0, 0), n = v3(0, 0, 0);
+    float fade = 0.0f;
+    if (st->specular) {
+        volux_vec3 gq = volux_volume_gradient_index(b->volume, smp->q);
+        double sp[3];
+        volux_volume_spacing(b->volume, sp);
+        volux_vec3 gw = v3(gq.x / (float)sp[0], gq.y / (float)sp[1], gq.z / (float)sp[2]);
+        float gl = v3_length(gw);
+        if (gl > 0.0f) {
+            fade = st->grad_ref > 0.0f ? fminf(1.0f, gl / st->grad_ref) : 1.0f;
+            n = v3_scale(gw, -1.0f / gl);
+            if (v3_dot(n, smp->to_eye) < 0.0f) n = v3_scale(n, -1.0f);
+        }
+    }
+    for (int i = 0; i < b->n_lights; i++) {
+        const scatter_light *l = &b->lights[i];
+        volux_vec3 travel;
+        volux_vec3 E = scatter_light_irradiance(l, smp->p, &travel);
+        /* Lines 12–17: the light enters S_r(x') at x_j = x' − r ω_j. */
+        volux_vec3 xj = v3_madd(smp->p, travel, -st->radius);
+        if (l->positional) {
+            volux_vec3 tj;
+            E = scatter_light_irradiance(l, xj, &tj);
+        }
+        if (E.x <= 0.0f && E.y <= 0.0f && E.z <= 0.0f) continue;
+        float V = scatter_grid_sample(&st->cache[l->slot], xj);
+        float theta = scatter_fast_acos(v3_dot(travel, smp->to_eye));
+        float Lo = slice_lookup(st, theta * st->u_theta, us);
+        L = v3_add(L, v3_scale(E, V * Lo));
+        if (fade > 0.0f) {
+            volux_vec3 hv = v3_normalize(v3_sub(smp->to_eye, travel));
+            float nh = v3_dot(n, hv);
+            if (nh > 0.0f)
+                spec = v3_add(spec, v3_scale(E, V * fade * st->material.specular *
+                                                    powf(nh, st->material.specular_power)));
+        }
+    }
+    if (st->occ.v) {
+        float A = scatter_grid_sample_index(&st->occ, smp->q.x, smp->q.y, smp->q.z);
+        L = v3_add(L, v3_scale(v3_add(b->ambient, v3(st->ao, st->ao, st->ao)), A));
+    }
+    *Ls = L;
+    *extra = spec;
+}
+
+static void ambient_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
+                                volux_tile_stats *stats) {
+    const ambient_state *st = state;
+    scatter_render_tile(&st->b, st, scene, tile, rgb, stats, st->radius, inscatter);
+}
+
+const volux_technique_class volux_ambient_class = {
+    "ambient", "ambient volume scattering: preintegrated multiple scattering in a sphere (Ament et al. 2013)",
+    ambient_params, 0, ambient_create, ambient_update, ambient_render_tile, ambient_memory_bytes, ambient_destroy,
+};

@@ -1,0 +1,48 @@
+/*
+ * techniques/ambient/ambient.h — `ambient` state (Ament et al. 2013), for
+ * tests that check which caches an edit rebuilt.
+ */
+#ifndef VOLUX_AMBIENT_H
+#define VOLUX_AMBIENT_H
+
+#include "techniques/scatter/base.h"
+#include "techniques/scatter/grid.h"
+#include "techniques/scatter/sat3d.h"
+#include "volux/ambient_table.h"
+
+extern const volux_technique_class volux_ambient_class;
+
+typedef struct ambient_stats {
+    uint64_t sat_builds, rho_builds, occ_builds, table_loads, slice_builds;
+    uint64_t cache_builds[VOLUX_MAX_LIGHTS];
+} ambient_stats;
+
+typedef struct ambient_state {
+    scatter_base b;
+    /* parameters */
+    float radius;                 /* r, world units                          */
+    float cache_scale;
+    int specular;
+    float grad_ref;               /* |∇s| (per world unit) of full specular  */
+    float ao, ao_radius;          /* AO term weight, radius (world)          */
+    int ao_shells;
+    volux_ambient_table_desc want; /* table the parameters ask for          */
+    char table_file[1024];
+    volux_material material;
+    /* the table and its slice at the current g */
+    volux_ambient_table table;
+    int have_table;
+    char loaded_file[1024];
+    float *slice;                 /* [n_sigma][n_theta]                      */
+    float *tau;                   /* [n_sigma] normalised θ = 0 column       */
+    size_t slice_bytes, tau_bytes;
+    float u_theta, u_sigma;       /* (n−1)/π and (n−1)/Σ̃t                   */
+    /* caches */
+    scatter_sat sat;
+    scatter_grid rho;             /* r·σ̃t at the volume's nodes             */
+    scatter_grid occ;             /* A(x), only when the AO term is on       */
+    scatter_grid cache[VOLUX_MAX_LIGHTS]; /* radiance caches V_j per slot   */
+    ambient_stats stats;
+} ambient_state;
+
+#endif

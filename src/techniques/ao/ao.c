@@ -1,0 +1,114 @@
+/*
+ * techniques/ao/ao.c — `ao`: SAT-based volumetric ambient occlusion after
+ * Schlegel et al. 2011, the second baseline of Ament et al. 2013 (§5,
+ * Table 1, Figs. 1b, 6b, 11a):
+ *
+ *     L_s(x) = A(x) · (Σ_j p_g(ω_j·ω) E_j(x) + L_amb)
+ *
+ * A(x) (techniques/scatter/occlusion.h) replaces the shadow transmittance:
+ * soft, local, isotropic — no directional shadows. L_amb is the mean
+ * radiance of the scene's environment lights plus the `ambient` parameter.
+ *
+ * Caches and what invalidates them:
+ *   SAT, occlusion volume ← volume, extinction, density, radius, shells
+ * Lights, phase, colour and camera edits need no cache work (Table 1: "−").
+ */
+#include <math.h>
+#include <string.h>
+
+#include "ao.h"
+#include "core/context_internal.h"
+#include "techniques/scatter/hg.h"
+#include "techniques/scatter/occlusion.h"
+
+static const volux_param_info ao_params[] = {
+    SCATTER_COMMON_PARAMS,
+    {"radius", VOLUX_PARAM_NUMBER, 8, 0.5, 128, NULL,
+     "occlusion radius R in units of the smallest voxel spacing (the paper uses 14)"},
+    {"shells", VOLUX_PARAM_INT, 3, 1, 8, NULL, "nested SAT boxes per voxel (Ament et al.: at least 3)"},
+    {"ambient", VOLUX_PARAM_NUMBER, 0, 0, 1e6, NULL,
+     "radiance of a white ambient light seen through the occlusion (added to environment lights)"},
+    {NULL, 0, 0, 0, 0, NULL, NULL}};
+
+static void volume_spacing(const volux_volume *v, double sp[3]) { volux_volume_spacing(v, sp); }
+
+static volux_status ao_update(void *state, volux_scene *scene, const volux_change_set *c) {
+    ao_state *st = state;
+    volux_status s = scatter_base_update(&st->b, scene, c);
+    if (s) return s;
+    int rebuild = (c->what & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY)) != 0;
+    if (c->what & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME)) {
+        float radius = (float)volux_technique_param(scene, st->b.cls, "radius") * st->b.min_spacing;
+        int shells = (int)volux_technique_param(scene, st->b.cls, "shells");
+        if (radius != st->radius || shells != st->shells) rebuild = 1;
+        st->radius = radius, st->shells = shells;
+        st->ambient = (float)volux_technique_param(scene, st->b.cls, "ambient");
+    }
+    if (!rebuild) return VOLUX_OK;
+    double sp[3];
+    volume_spacing(st->b.volume, sp);
+    if ((s = scatter_sat_build(st->b.ctx, st->b.threads, st->b.volume, st->b.lut,
+                               scatter_occlusion_max_box(st->radius, sp), &st->sat)))
+        return s;
+    st->sat_builds++;
+    if ((s = scatter_grid_alloc(st->b.ctx, st->b.volume, 1.0f, &st->occ, "ao: occlusion volume"))) return s;
+    if ((s = scatter_occlusion_build(st->b.ctx, st->b.threads, &st->sat, st->radius, st->shells, sp, &st->occ)))
+        return s;
+    st->occ_builds++;
+    return VOLUX_OK;
+}
+
+static void ao_destroy(void *state) {
+    ao_state *st = state;
+    if (!st) return;
+    scatter_sat_free(st->b.ctx, &st->sat);
+    scatter_grid_free(st->b.ctx, &st->occ);
+    scatter_base_free(&st->b);
+    volux_free(st->b.ctx, st, sizeof *st);
+}
+
+static volux_status ao_create(volux_context *ctx, volux_scene *scene, void **out) {
+    ao_state *st = volux_calloc(ctx, 1, sizeof *st);
+    if (!st) return volux_error(ctx, VOLUX_ERR_NOMEM, "ao: out of memory for technique state");
+    st->b.ctx = ctx;
+    st->b.cls = &volux_ao_class;
+    volux_change_set all = scatter_change_all();
+    volux_status s = ao_update(st, scene, &all);
+    if (s) {
+        ao_destroy(st);
+        return s;
+    }
+    *out = st;
+    return VOLUX_OK;
+}
+
+static size_t ao_memory_bytes(const void *state) {
+    const ao_state *st = state;
+    return sizeof *st + scatter_base_memory(&st->b) + st->sat.bytes + st->occ.bytes;
+}
+
+static inline __attribute__((always_inline)) void inscatter(const void *tech, const scatter_sample *smp,
+                                                            volux_vec3 *Ls, volux_vec3 *extra) {
+    (void)extra;
+    const ao_state *st = tech;
+    const scatter_base *b = &st->b;
+    float A = scatter_grid_sample_index(&st->occ, smp->q.x, smp->q.y, smp->q.z);
+    volux_vec3 L = v3_add(b->ambient, v3(st->ambient, st->ambient, st->ambient));
+    for (int i = 0; i < b->n_lights; i++) {
+        volux_vec3 travel;
+        volux_vec3 E = scatter_light_irradiance(&b->lights[i], smp->p, &travel);
+        L = v3_add(L, v3_scale(E, scatter_hg(b->g, v3_dot(travel, smp->to_eye))));
+    }
+    *Ls = v3_scale(L, A);
+}
+
+static void ao_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
+                           volux_tile_stats *stats) {
+    const ao_state *st = state;
+    scatter_render_tile(&st->b, st, scene, tile, rgb, stats, 0.0f, inscatter);
+}
+
+const volux_technique_class volux_ao_class = {
+    "ao", "SAT ambient occlusion (Schlegel et al. 2011) lighting single scattering (Ament 2013 baseline)",
+    ao_params, 0, ao_create, ao_update, ao_render_tile, ao_memory_bytes, ao_destroy,
+};

@@ -1,0 +1,21 @@
+/* techniques/ao/ao.h — `ao` state, for tests that check which caches an edit rebuilt. */
+#ifndef VOLUX_AO_H
+#define VOLUX_AO_H
+
+#include "techniques/scatter/base.h"
+#include "techniques/scatter/grid.h"
+#include "techniques/scatter/sat3d.h"
+
+extern const volux_technique_class volux_ao_class;
+
+typedef struct ao_state {
+    scatter_base b;
+    float radius;        /* world */
+    int shells;
+    float ambient;       /* extra white ambient radiance */
+    scatter_sat sat;
+    scatter_grid occ;    /* A(x) at the volume's nodes */
+    uint64_t sat_builds, occ_builds;
+} ao_state;
+
+#endif
