@@ -118,12 +118,12 @@ static volux_status build_slice(ambient_state *st) {
     size_t sb = ns * nt * sizeof(float), tb = ns * sizeof(float);
     if (sb != st->slice_bytes) {
         volux_free(st->b.ctx, st->slice, st->slice_bytes);
-        volux_free(st->b.ctx, st->tau, st->tau_bytes);
+        volux_free(st->b.ctx, st->kappa, st->kappa_bytes);
         st->slice = volux_malloc(st->b.ctx, sb);
-        st->tau = volux_malloc(st->b.ctx, tb);
+        st->kappa = volux_malloc(st->b.ctx, tb);
         st->slice_bytes = st->slice ? sb : 0;
-        st->tau_bytes = st->tau ? tb : 0;
-        if (!st->slice || !st->tau) return volux_error(st->b.ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the table slice");
+        st->kappa_bytes = st->kappa ? tb : 0;
+        if (!st->slice || !st->kappa) return volux_error(st->b.ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the table slice");
     }
     double u = ((double)st->b.g - d->g_min) / (d->g_max - d->g_min) * (d->n_g - 1);
     if (u < 0.0) u = 0.0;
@@ -141,7 +141,7 @@ static volux_status build_slice(ambient_state *st) {
     float vac = st->slice[0];
     for (size_t is = 0; is < ns; is++) {
         float t = vac > 0.0f ? st->slice[is * nt] / vac : 0.0f;
-        st->tau[is] = t > 1.0f ? 1.0f : t;
+        st->kappa[is] = tube_kappa_of_tau(t > 1.0f ? 1.0f : t);
     }
     st->u_theta = (float)((double)(nt - 1) / 3.14159265358979323846);
     st->u_sigma = (float)((double)(ns - 1) / d->sigma_max);
@@ -197,7 +197,7 @@ static volux_status build_cache(ambient_state *st, const scatter_light *l) {
     scatter_grid *V = &st->cache[l->slot];
     volux_status s = scatter_grid_alloc(st->b.ctx, st->b.volume, st->cache_scale, V, "ambient: radiance cache");
     if (s) return s;
-    tube_input in = {&st->rho, st->tau, st->table.desc.n_sigma, (float)st->table.desc.sigma_max, st->radius,
+    tube_input in = {&st->rho, st->kappa, st->table.desc.n_sigma, (float)st->table.desc.sigma_max, st->radius,
                      st->b.threads};
     tube_march(&in, l, V);
     st->stats.cache_builds[l->slot]++;
@@ -279,7 +279,7 @@ static void ambient_destroy(void *state) {
     scatter_sat_free(ctx, &st->sat);
     if (st->have_table) volux_ambient_table_free(ctx, &st->table);
     volux_free(ctx, st->slice, st->slice_bytes);
-    volux_free(ctx, st->tau, st->tau_bytes);
+    volux_free(ctx, st->kappa, st->kappa_bytes);
     scatter_base_free(&st->b);
     volux_free(ctx, st, sizeof *st);
 }
@@ -303,7 +303,7 @@ static volux_status ambient_create(volux_context *ctx, volux_scene *scene, void 
 static size_t ambient_memory_bytes(const void *state) {
     const ambient_state *st = state;
     size_t n = sizeof *st + scatter_base_memory(&st->b) + st->sat.bytes + st->rho.bytes + st->occ.bytes +
-               st->slice_bytes + st->tau_bytes;
+               st->slice_bytes + st->kappa_bytes;
     if (st->have_table) n += 4 * sizeof(float) * (size_t)st->table.desc.n_theta * (size_t)st->table.desc.n_sigma *
                              (size_t)st->table.desc.n_g / 2; /* data + error block */
     for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) n += st->cache[i].bytes;
@@ -357,7 +357,7 @@ static inline __attribute__((always_inline)) void inscatter(const void *tech, co
             E = scatter_light_irradiance(l, xj, &tj);
         }
         if (E.x <= 0.0f && E.y <= 0.0f && E.z <= 0.0f) continue;
-        float V = scatter_grid_sample(&st->cache[l->slot], xj);
+        float V = expf(-scatter_grid_sample(&st->cache[l->slot], xj));
         float theta = scatter_fast_acos(v3_dot(travel, smp->to_eye));
         float Lo = slice_lookup(st, theta * st->u_theta, us);
         L = v3_add(L, v3_scale(E, V * Lo));

@@ -34,14 +34,14 @@ typedef struct ambient_state {
     int have_table;
     char loaded_file[1024];
     float *slice;                 /* [n_sigma][n_theta]                      */
-    float *tau;                   /* [n_sigma] normalised θ = 0 column       */
-    size_t slice_bytes, tau_bytes;
+    float *kappa;                 /* [n_sigma] −ln of the normalised θ = 0 column */
+    size_t slice_bytes, kappa_bytes;
     float u_theta, u_sigma;       /* (n−1)/π and (n−1)/Σ̃t                   */
     /* caches */
     scatter_sat sat;
     scatter_grid rho;             /* r·σ̃t at the volume's nodes             */
     scatter_grid occ;             /* A(x), only when the AO term is on       */
-    scatter_grid cache[VOLUX_MAX_LIGHTS]; /* radiance caches V_j per slot   */
+    scatter_grid cache[VOLUX_MAX_LIGHTS]; /* radiance caches D_j = −ln V_j per slot */
     ambient_stats stats;
 } ambient_state;
 

@@ -101,15 +101,28 @@ static inline void node(const sweep *sw, int i, int j, int k) {
     float delta, v;
     volux_vec3 w = chain_start(sw->l, sw->lo, sw->hi, x, &delta);
     if (delta <= sw->s * 1.0001f) {
-        /* Eq. 15 with a partial first sphere of radius δ/2. */
-        float half = 0.5f * delta;
-        float rho = scatter_grid_sample(in->rho, v3_madd(x, w, -half));
-        v = tube_tau(in, rho * half * sw->inv_r);
+        /* Eq. 17 between the chain start (D = 0) and the first node a full
+         * step on (D = κ of a sphere of radius s/2): D = (δ/s)·κ. Linear
+         * in δ, so a homogeneous medium gives D exactly linear along every
+         * chain and the sweep's interpolation exact. */
+        float rho = scatter_grid_sample(in->rho, v3_madd(x, w, -0.5f * delta));
+        v = delta / sw->s * tube_kappa(in, rho * 0.5f * sw->s * sw->inv_r);
     } else {
-        /* Eq. 16: the front from s back, through the sphere between. */
-        float half = 0.5f * sw->s;
+        /* Eq. 16 (as D = −ln V): the front from s back, through the
+         * sphere between. */
+        float half = 0.5f * sw->s, dy = delta - sw->s, back;
         float rho = scatter_grid_sample(in->rho, v3_madd(x, w, -half));
-        v = sample_strict(V, v3_madd(x, w, -sw->s)) * tube_tau(in, rho * half * sw->inv_r);
+        volux_vec3 y = v3_madd(x, w, -sw->s);
+        if (dy <= sw->s) {
+            /* y is within the first step: evaluate it exactly rather than
+             * interpolate the kink at the chain start (a cone around a
+             * point light inside the volume). */
+            float rho_y = scatter_grid_sample(in->rho, v3_madd(y, w, -0.5f * dy));
+            back = dy / sw->s * tube_kappa(in, rho_y * half * sw->inv_r);
+        } else {
+            back = sample_strict(V, y);
+        }
+        v = back + tube_kappa(in, rho * half * sw->inv_r);
     }
     V->v[((size_t)k * (size_t)V->dims[1] + (size_t)j) * (size_t)V->dims[0] + (size_t)i] = v;
 }
@@ -193,13 +206,13 @@ float tube_chain(const tube_input *in, const scatter_light *l, const scatter_gri
     volux_vec3 lo = V->lo, hi = grid_hi(V);
     float s = tube_step(in, V, l), inv_r = in->radius > 0.0f ? 1.0f / in->radius : 0.0f, delta;
     volux_vec3 w = chain_start(l, lo, hi, x, &delta);
-    float prod = 1.0f;
+    float sum = 0.0f;
     while (delta > s * 1.0001f) {
         float rho = scatter_grid_sample(in->rho, v3_madd(x, w, -0.5f * s));
-        prod *= tube_tau(in, rho * 0.5f * s * inv_r);
+        sum += tube_kappa(in, rho * 0.5f * s * inv_r);
         x = v3_madd(x, w, -s);
         delta -= s;
     }
     float rho = scatter_grid_sample(in->rho, v3_madd(x, w, -0.5f * delta));
-    return prod * tube_tau(in, rho * 0.5f * delta * inv_r);
+    return expf(-(sum + delta / s * tube_kappa(in, rho * 0.5f * s * inv_r)));
 }

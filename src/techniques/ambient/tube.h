@@ -2,12 +2,19 @@
  * techniques/ambient/tube.h — distribution of light by tube marching
  * (Ament et al. 2013, §4.2.2, Eqs. 14–17) into a radiance cache.
  *
- * The cache holds V(x) ∈ [0, 1], the fraction of a light's unshadowed
- * irradiance that arrives at x through a chain of spheres of radius s/2
- * laid from the light (or the volume box, where the light enters it) to x:
+ * V(x) ∈ [0, 1] is the fraction of a light's unshadowed irradiance that
+ * arrives at x through a chain of spheres of radius s/2 laid from the light
+ * (or the volume box, where the light enters it) to x:
  *
  *     V(x) = V(x − s ω) · τ(ρ(x − s/2 ω) · (s/2)/r)            (Eq. 16)
- *     V(x) = τ(ρ(x − δ/2 ω) · (δ/2)/r)  if the chain start is δ ≤ s away
+ *     V(x) = τ(ρ(x − δ/2 ω) · (s/2)/r)^{δ/s}  if the chain start is δ ≤ s
+                                            away (Eq. 17's interpolation)
+ *
+ * The cache stores D = −ln V (an optical depth): the recursion becomes a
+ * sum, D(x) = D(x − sω) + κ(ρ'), κ = −ln τ, and interpolating D between
+ * nodes is exact wherever the medium is homogeneous (D linear along the
+ * chain), where interpolating V would bend an exponential (several per
+ * cent of error per step, measured). Readers use V = e^{−D}.
  *
  * with ω the light's travel direction at x, ρ = r σ̃t the optical radius
  * from the ambient extinction volume, and τ(ρ) = L̃o(0, ρ, g) / L̃o(0, 0, g)
@@ -31,32 +38,36 @@
 
 typedef struct tube_input {
     const scatter_grid *rho; /* optical radius r·σ̃t                       */
-    const float *tau;        /* τ at the table's σ̃t nodes                  */
+    const float *kappa;      /* κ = −ln τ at the table's σ̃t nodes          */
     int n_sigma;
     float sigma_max;         /* table Σ̃t                                  */
     float radius;            /* r, world units                             */
     int threads;
 } tube_input;
 
-/* τ(ρ') by linear interpolation over the table's σ̃t nodes (clamped). */
-static inline float tube_tau(const tube_input *in, float rho) {
+/* κ(ρ') = −ln τ(ρ'), linear over the table's σ̃t nodes (clamped). */
+static inline float tube_kappa(const tube_input *in, float rho) {
     float u = rho * (float)(in->n_sigma - 1) / in->sigma_max;
-    if (u <= 0.0f) return in->tau[0];
+    if (u <= 0.0f) return in->kappa[0];
     int last = in->n_sigma - 1;
-    if (u >= (float)last) return in->tau[last];
+    if (u >= (float)last) return in->kappa[last];
     int i = (int)u;
     float f = u - (float)i;
-    return in->tau[i] + (in->tau[i + 1] - in->tau[i]) * f;
+    return in->kappa[i] + (in->kappa[i + 1] - in->kappa[i]) * f;
 }
+
+/* κ from τ, capped where τ underflows. */
+static inline float tube_kappa_of_tau(float tau) { return tau > 1e-30f ? -logf(tau) : 69.0f; }
 
 /* The marching step s (world) for light l on cache grid V. */
 float tube_step(const tube_input *in, const scatter_grid *V, const scatter_light *l);
 
-/* Fills V (already allocated over the volume box) for light l. */
+/* Fills the cache (already allocated over the volume box) with D = −ln V
+ * for light l. */
 void tube_march(const tube_input *in, const scatter_light *l, scatter_grid *V);
 
-/* V at one node by walking the chain directly (no cache reads): the
- * closed-form product of table look-ups the sweep must reproduce, for
+/* V (not D) at one point by walking the chain directly (no cache reads):
+ * the closed-form product of table look-ups the sweep must reproduce, for
  * tests. */
 float tube_chain(const tube_input *in, const scatter_light *l, const scatter_grid *V, volux_vec3 x);
 
