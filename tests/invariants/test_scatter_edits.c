@@ -1,0 +1,282 @@
+/*
+ * tests/invariants/test_scatter_edits.c — `single`, `ao` and `ambient`:
+ * after every kind of edit, the incrementally updated technique renders
+ * bit-identically to one created from scratch; edits do the least work
+ * (Ament et al. 2013, Table 1: a phase or light edit touches only the
+ * radiance caches, a camera edit nothing); images do not depend on the
+ * thread count.
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "techniques/ambient/ambient.h"
+#include "techniques/ao/ao.h"
+#include "techniques/single/single.h"
+#include "test_util.h"
+
+static const char *SCENE =
+    "{\"volume\": {\"procedural\": \"phantom\", \"dims\": [24, 24, 24]},"
+    " \"transfer_function\": {\"color\": [[0, 0.9, 0.6, 0.4], [255, 1, 1, 1]],"
+    "   \"opacity\": [[0, 0], [40, 0], [80, 0.1], [255, 0.6]], \"albedo\": 0.9, \"anisotropy\": 0.3},"
+    " \"camera\": {\"orbit\": {\"azimuth\": 30, \"elevation\": 20}, \"fov_y\": 30},"
+    " \"lights\": [{\"type\": \"directional\", \"direction\": [-0.5, -0.7, -0.5], \"irradiance\": 2},"
+    "   {\"type\": \"point\", \"position\": [20, 10, 30], \"intensity\": 500},"
+    "   {\"type\": \"spot\", \"position\": [-20, 15, 10], \"direction\": [1, -0.5, -0.3], \"intensity\": 400}],"
+    " \"render\": {\"width\": 20, \"height\": 20, \"spp\": 1},"
+    " \"techniques\": {\"ambient\": {\"table_theta\": 16, \"table_sigma\": 16, \"table_g\": 5, \"table_paths\": 64,"
+    "   \"radius\": 3, \"specular\": true},"
+    "   \"ao\": {\"radius\": 4}, \"single\": {\"cache_scale\": 0.5}}}";
+
+static void set_cache_dir(void) {
+    static char dir[600];
+    snprintf(dir, sizeof dir, "%s", tu_temp_path("xdg"));
+    setenv("XDG_CACHE_HOME", dir, 1);
+}
+
+static volux_scene *load(volux_context *ctx) {
+    volux_scene *s;
+    if (volux_scene_load_string(ctx, SCENE, ".", "test", NULL, 0, &s) != VOLUX_OK)
+        fail_msg("scene: %s", volux_context_error(ctx));
+    return s;
+}
+
+static float *render(volux_context *ctx, volux_technique *t, volux_scene *s) {
+    volux_framebuffer *fb;
+    assert_int_equal(volux_framebuffer_create(ctx, 20, 20, &fb), VOLUX_OK);
+    if (volux_render(t, s, fb, NULL, NULL) != VOLUX_OK) fail_msg("render: %s", volux_context_error(ctx));
+    volux_image img;
+    assert_int_equal(volux_framebuffer_resolve(fb, &img), VOLUX_OK);
+    float *px = malloc(20 * 20 * 3 * sizeof(float));
+    memcpy(px, img.rgb, 20 * 20 * 3 * sizeof(float));
+    volux_image_free(ctx, &img);
+    volux_framebuffer_destroy(fb);
+    return px;
+}
+
+static void assert_fresh_equal(volux_context *ctx, const char *name, volux_technique *t, volux_scene *s,
+                               const char *edit) {
+    float *a = render(ctx, t, s);
+    volux_technique *fresh;
+    if (volux_technique_create(ctx, name, s, &fresh) != VOLUX_OK) fail_msg("create: %s", volux_context_error(ctx));
+    float *b = render(ctx, fresh, s);
+    double sum = 0.0;
+    for (int i = 0; i < 20 * 20 * 3; i++) sum += b[i];
+    if (!(sum > 0.0)) fail_msg("%s after %s: black image", name, edit);
+    if (memcmp(a, b, 20 * 20 * 3 * sizeof(float)) != 0) {
+        int i = 0;
+        while (a[i] == b[i]) i++;
+        fail_msg("%s after %s: incremental %g != fresh %g at %d", name, edit, a[i], b[i], i);
+    }
+    free(a);
+    free(b);
+    volux_technique_destroy(fresh);
+}
+
+static void edit_opacity(volux_scene *s, float f) {
+    const volux_transfer_desc *cur = volux_scene_transfer(s);
+    volux_transfer_desc d = *cur;
+    volux_tf_scalar_point op[16];
+    memcpy(op, cur->opacity, sizeof *op * (size_t)cur->n_opacity);
+    for (int i = 0; i < d.n_opacity; i++) op[i].v *= f;
+    d.opacity = op;
+    assert_int_equal(volux_scene_set_transfer(s, &d), VOLUX_OK);
+}
+
+static void edit_tf_field(volux_scene *s, int which) {
+    volux_transfer_desc d = *volux_scene_transfer(s);
+    volux_tf_color_point col[16];
+    memcpy(col, d.color, sizeof *col * (size_t)d.n_color);
+    d.color = col;
+    if (which == 0) col[0].r = 0.2f;        /* colour only */
+    else if (which == 1) d.density_scale = 1.7f;
+    else if (which == 2) d.anisotropy = -0.4f; /* phase */
+    else d.albedo = 0.8f;
+    assert_int_equal(volux_scene_set_transfer(s, &d), VOLUX_OK);
+}
+
+static void run_edits(const char *name) {
+    set_cache_dir();
+    volux_context *ctx = tu_context(2);
+    volux_scene *s = load(ctx);
+    volux_technique *t;
+    if (volux_technique_create(ctx, name, s, &t) != VOLUX_OK) fail_msg("create: %s", volux_context_error(ctx));
+    assert_fresh_equal(ctx, name, t, s, "create");
+
+    edit_opacity(s, 1.5f);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    assert_fresh_equal(ctx, name, t, s, "tf");
+    for (int which = 0; which < 4; which++) {
+        edit_tf_field(s, which);
+        assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+        assert_fresh_equal(ctx, name, t, s, which == 0 ? "tf_color" : which == 1 ? "density" : which == 2 ? "phase" : "albedo");
+    }
+    volux_light_desc l = *volux_scene_light(s, 1);
+    l.position.x -= 7.0f;
+    assert_int_equal(volux_scene_set_light(s, 1, &l), VOLUX_OK);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    assert_fresh_equal(ctx, name, t, s, "light");
+    assert_int_equal(volux_scene_set_light_enabled(s, 0, 0), VOLUX_OK);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    assert_fresh_equal(ctx, name, t, s, "light_toggle off");
+    assert_int_equal(volux_scene_set_light_enabled(s, 0, 1), VOLUX_OK);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    assert_fresh_equal(ctx, name, t, s, "light_toggle on");
+    volux_camera_desc cam = *volux_scene_camera_desc(s);
+    cam.azimuth_deg += 25.0f;
+    assert_int_equal(volux_scene_set_camera(s, &cam), VOLUX_OK);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    assert_fresh_equal(ctx, name, t, s, "camera");
+    /* a technique parameter that changes the caches */
+    int single = !strcmp(name, "single");
+    assert_int_equal(volux_scene_set_param(s, name, single ? "shadow_step" : "radius", single ? 0.5 : 2.5, NULL),
+                     VOLUX_OK);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    assert_fresh_equal(ctx, name, t, s, "parameter");
+    volux_technique_destroy(t);
+    volux_scene_destroy(s);
+    volux_context_destroy(ctx);
+}
+
+static void test_single_incremental_equals_fresh(void **state) {
+    (void)state;
+    run_edits("single");
+}
+static void test_ao_incremental_equals_fresh(void **state) {
+    (void)state;
+    run_edits("ao");
+}
+static void test_ambient_incremental_equals_fresh(void **state) {
+    (void)state;
+    run_edits("ambient");
+}
+
+/* Least work, read from the techniques' own counters. */
+static void test_ambient_edits_do_least_work(void **state) {
+    (void)state;
+    set_cache_dir();
+    volux_context *ctx = tu_context(2);
+    volux_scene *s = load(ctx);
+    volux_technique *t;
+    assert_int_equal(volux_technique_create(ctx, "ambient", s, &t), VOLUX_OK);
+    extern const void *volux_technique_state(const volux_technique *t);
+    const ambient_state *st = volux_technique_state(t);
+    ambient_stats before = st->stats;
+    /* camera: nothing */
+    volux_camera_desc cam = *volux_scene_camera_desc(s);
+    cam.elevation_deg += 10.0f;
+    assert_int_equal(volux_scene_set_camera(s, &cam), VOLUX_OK);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    assert_memory_equal(&before, &st->stats, sizeof before);
+    /* colour only: nothing */
+    edit_tf_field(s, 0);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    assert_memory_equal(&before, &st->stats, sizeof before);
+    /* light 1: its radiance cache only */
+    volux_light_desc l = *volux_scene_light(s, 1);
+    l.position.y += 3.0f;
+    assert_int_equal(volux_scene_set_light(s, 1, &l), VOLUX_OK);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    assert_true(st->stats.cache_builds[1] == before.cache_builds[1] + 1);
+    assert_true(st->stats.cache_builds[0] == before.cache_builds[0]);
+    assert_true(st->stats.cache_builds[2] == before.cache_builds[2]);
+    assert_true(st->stats.sat_builds == before.sat_builds && st->stats.rho_builds == before.rho_builds);
+    before = st->stats;
+    /* phase: slice + every radiance cache, no SAT / ambient extinction */
+    edit_tf_field(s, 2);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    assert_true(st->stats.slice_builds == before.slice_builds + 1);
+    for (int i = 0; i < 3; i++) assert_true(st->stats.cache_builds[i] == before.cache_builds[i] + 1);
+    assert_true(st->stats.sat_builds == before.sat_builds && st->stats.rho_builds == before.rho_builds);
+    assert_true(st->stats.table_loads == before.table_loads);
+    before = st->stats;
+    /* TF extinction: SAT, ambient extinction, all radiance caches */
+    edit_opacity(s, 0.5f);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    assert_true(st->stats.sat_builds == before.sat_builds + 1 && st->stats.rho_builds == before.rho_builds + 1);
+    for (int i = 0; i < 3; i++) assert_true(st->stats.cache_builds[i] == before.cache_builds[i] + 1);
+    assert_true(st->stats.slice_builds == before.slice_builds);
+    volux_technique_destroy(t);
+    volux_scene_destroy(s);
+    volux_context_destroy(ctx);
+}
+
+static void test_single_and_ao_edits_do_least_work(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(2);
+    volux_scene *s = load(ctx);
+    volux_technique *ts, *ta;
+    assert_int_equal(volux_technique_create(ctx, "single", s, &ts), VOLUX_OK);
+    assert_int_equal(volux_technique_create(ctx, "ao", s, &ta), VOLUX_OK);
+    extern const void *volux_technique_state(const volux_technique *t);
+    const single_state *ss = volux_technique_state(ts);
+    const ao_state *as = volux_technique_state(ta);
+    uint64_t c0 = ss->cache_builds[0], c1 = ss->cache_builds[1], sat = as->sat_builds;
+    edit_tf_field(s, 2); /* phase: no cache work for either */
+    volux_light_desc l = *volux_scene_light(s, 1);
+    l.position.z += 2.0f;
+    assert_int_equal(volux_scene_set_light(s, 1, &l), VOLUX_OK); /* light 1: single rebuilds its cache only */
+    assert_int_equal(volux_technique_update(ts, s, NULL), VOLUX_OK);
+    assert_int_equal(volux_technique_update(ta, s, NULL), VOLUX_OK);
+    assert_true(ss->cache_builds[0] == c0 && ss->cache_builds[1] == c1 + 1);
+    assert_true(as->sat_builds == sat);
+    volux_technique_destroy(ts);
+    volux_technique_destroy(ta);
+    volux_scene_destroy(s);
+    volux_context_destroy(ctx);
+}
+
+static void test_images_do_not_depend_on_thread_count(void **state) {
+    (void)state;
+    set_cache_dir();
+    const char *names[] = {"single", "ao", "ambient"};
+    for (int k = 0; k < 3; k++) {
+        float *img[2];
+        for (int n = 0; n < 2; n++) {
+            volux_context *ctx = tu_context(n + 1);
+            volux_scene *s = load(ctx);
+            volux_technique *t;
+            assert_int_equal(volux_technique_create(ctx, names[k], s, &t), VOLUX_OK);
+            img[n] = render(ctx, t, s);
+            volux_technique_destroy(t);
+            volux_scene_destroy(s);
+            volux_context_destroy(ctx);
+        }
+        if (memcmp(img[0], img[1], 20 * 20 * 3 * sizeof(float)) != 0) fail_msg("%s: 1 vs 2 threads differ", names[k]);
+        free(img[0]);
+        free(img[1]);
+    }
+}
+
+/* Bad parameters are refused with the parameter's name. */
+static void test_bad_parameters_name_the_parameter(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(1);
+    volux_scene *s = load(ctx);
+    volux_technique *t;
+    assert_int_equal(volux_scene_set_param(s, "ambient", "radius", 0.1, NULL), VOLUX_OK);
+    assert_int_equal(volux_technique_create(ctx, "ambient", s, &t), VOLUX_ERR_INVALID);
+    assert_non_null(strstr(volux_context_error(ctx), "techniques.ambient.radius"));
+    assert_int_equal(volux_scene_set_param(s, "ambient", "radius", 3, NULL), VOLUX_OK);
+    assert_int_equal(volux_scene_set_param(s, "ambient", "table_file", 0, tu_temp_path("nope.vxat")), VOLUX_OK);
+    assert_int_equal(volux_technique_create(ctx, "ambient", s, &t), VOLUX_ERR_IO);
+    assert_non_null(strstr(volux_context_error(ctx), "nope.vxat"));
+    assert_int_equal(volux_scene_set_param(s, "single", "cache_scale", 2, NULL), VOLUX_OK);
+    assert_int_equal(volux_technique_create(ctx, "single", s, &t), VOLUX_ERR_INVALID);
+    assert_non_null(strstr(volux_context_error(ctx), "techniques.single.cache_scale"));
+    volux_scene_destroy(s);
+    volux_context_destroy(ctx);
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_single_incremental_equals_fresh),
+        cmocka_unit_test(test_ao_incremental_equals_fresh),
+        cmocka_unit_test(test_ambient_incremental_equals_fresh),
+        cmocka_unit_test(test_ambient_edits_do_least_work),
+        cmocka_unit_test(test_single_and_ao_edits_do_least_work),
+        cmocka_unit_test(test_images_do_not_depend_on_thread_count),
+        cmocka_unit_test(test_bad_parameters_name_the_parameter),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
