@@ -193,11 +193,22 @@ static volux_status build_extinction(ambient_state *st, int need_occ) {
     return VOLUX_OK;
 }
 
+/* ρ resampled at the radiance caches' nodes: tube marching reads it with
+ * node-aligned, constant offsets from a grid 8× smaller than ρ. */
+static volux_status build_rho_c(ambient_state *st) {
+    volux_status s = scatter_grid_alloc(st->b.ctx, st->b.volume, st->cache_scale, &st->rho_c,
+                                        "ambient: ambient extinction at cache resolution");
+    if (s) return s;
+    scatter_grid_resample(st->b.threads, &st->rho, &st->rho_c);
+    st->stats.rho_c_builds++;
+    return VOLUX_OK;
+}
+
 static volux_status build_cache(ambient_state *st, const scatter_light *l) {
     scatter_grid *V = &st->cache[l->slot];
     volux_status s = scatter_grid_alloc(st->b.ctx, st->b.volume, st->cache_scale, V, "ambient: radiance cache");
     if (s) return s;
-    tube_input in = {&st->rho, st->kappa, st->table.desc.n_sigma, (float)st->table.desc.sigma_max, st->radius,
+    tube_input in = {&st->rho_c, st->kappa, st->table.desc.n_sigma, (float)st->table.desc.sigma_max, st->radius,
                      st->b.threads};
     tube_march(&in, l, V);
     st->stats.cache_builds[l->slot]++;
@@ -210,7 +221,7 @@ static volux_status ambient_update(void *state, volux_scene *scene, const volux_
     volux_status s = scatter_base_update(b, scene, c);
     if (s) return s;
     int need_ext = (c->what & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY)) != 0;
-    int need_slice = (c->what & VOLUX_CHANGE_PHASE) != 0, all_caches = 0;
+    int need_slice = (c->what & VOLUX_CHANGE_PHASE) != 0, all_caches = 0, scale_changed = 0;
     if (c->what & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME)) {
         const volux_technique_class *cls = b->cls;
         float radius = (float)volux_technique_param(scene, cls, "radius") * b->min_spacing;
@@ -220,7 +231,7 @@ static volux_status ambient_update(void *state, volux_scene *scene, const volux_
         int shells = (int)volux_technique_param(scene, cls, "ao_shells");
         if (ao_r <= 0.0f) ao_r = radius;
         if (radius != st->radius || ao != st->ao || ao_r != st->ao_radius || shells != st->ao_shells) need_ext = 1;
-        if (scale != st->cache_scale) all_caches = 1;
+        if (scale != st->cache_scale) all_caches = scale_changed = 1;
         st->radius = radius, st->cache_scale = scale, st->ao = ao, st->ao_radius = ao_r, st->ao_shells = shells;
         st->specular = (int)volux_technique_param(scene, cls, "specular");
         double lo, hi;
@@ -257,6 +268,8 @@ static volux_status ambient_update(void *state, volux_scene *scene, const volux_
         if ((s = build_extinction(st, want_occ))) return s;
         all_caches = 1;
     }
+    if (need_ext || scale_changed)
+        if ((s = build_rho_c(st))) return s;
     int live[VOLUX_MAX_LIGHTS] = {0};
     for (int i = 0; i < b->n_lights; i++) live[b->lights[i].slot] = 1;
     for (int slot = 0; slot < VOLUX_MAX_LIGHTS; slot++)
@@ -275,6 +288,7 @@ static void ambient_destroy(void *state) {
     volux_context *ctx = st->b.ctx;
     for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) scatter_grid_free(ctx, &st->cache[i]);
     scatter_grid_free(ctx, &st->rho);
+    scatter_grid_free(ctx, &st->rho_c);
     scatter_grid_free(ctx, &st->occ);
     scatter_sat_free(ctx, &st->sat);
     if (st->have_table) volux_ambient_table_free(ctx, &st->table);
@@ -302,7 +316,7 @@ static volux_status ambient_create(volux_context *ctx, volux_scene *scene, void 
 
 static size_t ambient_memory_bytes(const void *state) {
     const ambient_state *st = state;
-    size_t n = sizeof *st + scatter_base_memory(&st->b) + st->sat.bytes + st->rho.bytes + st->occ.bytes +
+    size_t n = sizeof *st + scatter_base_memory(&st->b) + st->sat.bytes + st->rho.bytes + st->rho_c.bytes + st->occ.bytes +
                st->slice_bytes + st->kappa_bytes;
     if (st->have_table) n += 4 * sizeof(float) * (size_t)st->table.desc.n_theta * (size_t)st->table.desc.n_sigma *
                              (size_t)st->table.desc.n_g / 2; /* data + error block */

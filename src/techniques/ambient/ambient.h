@@ -13,7 +13,7 @@
 extern const volux_technique_class volux_ambient_class;
 
 typedef struct ambient_stats {
-    uint64_t sat_builds, rho_builds, occ_builds, table_loads, slice_builds;
+    uint64_t sat_builds, rho_builds, rho_c_builds, occ_builds, table_loads, slice_builds;
     uint64_t cache_builds[VOLUX_MAX_LIGHTS];
 } ambient_stats;
 
@@ -40,6 +40,7 @@ typedef struct ambient_state {
     /* caches */
     scatter_sat sat;
     scatter_grid rho;             /* r·σ̃t at the volume's nodes             */
+    scatter_grid rho_c;           /* ρ at the radiance caches' nodes (tube marching) */
     scatter_grid occ;             /* A(x), only when the AO term is on       */
     scatter_grid cache[VOLUX_MAX_LIGHTS]; /* radiance caches D_j = −ln V_j per slot */
     ambient_stats stats;

@@ -2,6 +2,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "core/parallel.h"
 #include "grid.h"
 
 volux_status scatter_grid_alloc(volux_context *ctx, const volux_volume *v, float scale, scatter_grid *g,
@@ -37,4 +38,24 @@ volux_status scatter_grid_alloc(volux_context *ctx, const volux_volume *v, float
 void scatter_grid_free(volux_context *ctx, scatter_grid *g) {
     if (g->v) volux_free_aligned(ctx, g->v, g->bytes);
     memset(g, 0, sizeof *g);
+}
+
+typedef struct resample_job {
+    const scatter_grid *src;
+    scatter_grid *dst;
+} resample_job;
+
+static void resample_slice(void *user, int64_t k, int thread) {
+    (void)thread;
+    const resample_job *j = user;
+    scatter_grid *d = j->dst;
+    for (int y = 0; y < d->dims[1]; y++)
+        for (int x = 0; x < d->dims[0]; x++)
+            d->v[((size_t)k * (size_t)d->dims[1] + (size_t)y) * (size_t)d->dims[0] + (size_t)x] =
+                scatter_grid_sample(j->src, scatter_grid_node(d, x, y, (int)k));
+}
+
+void scatter_grid_resample(int threads, const scatter_grid *src, scatter_grid *dst) {
+    resample_job job = {src, dst};
+    volux_parallel_for(threads, dst->dims[2], resample_slice, &job);
 }

@@ -52,6 +52,9 @@ static inline float scatter_grid_sample_index(const scatter_grid *g, float x, fl
     return c0 + (c1 - c0) * fz;
 }
 
+/* dst (allocated) ← src sampled trilinearly at dst's nodes, on `threads`. */
+void scatter_grid_resample(int threads, const scatter_grid *src, scatter_grid *dst);
+
 /* Trilinear value at a world position (clamped into the box). */
 static inline float scatter_grid_sample(const scatter_grid *g, volux_vec3 p) {
     return scatter_grid_sample_index(g, (p.x - g->lo.x) * g->inv_h[0], (p.y - g->lo.y) * g->inv_h[1],
