@@ -99,6 +99,7 @@ typedef struct sweep {
     float w_v[8], w_r[8];
     float exit_inv[3], exit_bound[3];
     int exit_use[3];
+    int valid_lo[3], valid_hi[3]; /* node indices whose fast-path reads stay in the grid */
 } sweep;
 
 static inline void node(const sweep *sw, int i, int j, int k) {
@@ -134,60 +135,123 @@ static inline void node(const sweep *sw, int i, int j, int k) {
     V->v[((size_t)k * (size_t)V->dims[1] + (size_t)j) * (size_t)V->dims[0] + (size_t)i] = v;
 }
 
-/* Directional light, node deep enough that y = x − sω lies more than one
- * step inside the box: both reads have node-independent corner offsets and
- * weights (the offset −sω is the same for every node). */
-static inline int node_fast(const sweep *sw, int i, int j, int k) {
-    scatter_grid *V = sw->V;
-    volux_vec3 x = scatter_grid_node(V, i, j, k);
+/* The fast path over a run of `count` nodes of one row that are contiguous
+ * in memory (stride 1): loads at constant offsets, vectorisable. out and D
+ * point into the same grid, but out is the slice being written and every D
+ * read lies in an earlier slice, so the accessed elements are disjoint. */
+static void fast_run(float *out, const float *D, const float *restrict R, int count, const sweep *sw) {
+    /* locals, so the loop does not reload them through `sw` (which could alias out) */
+    const ptrdiff_t v0 = sw->off_v[0], v1 = sw->off_v[1], v2 = sw->off_v[2], v3 = sw->off_v[3], v4 = sw->off_v[4],
+                    v5 = sw->off_v[5], v6 = sw->off_v[6], v7 = sw->off_v[7];
+    const ptrdiff_t r0 = sw->off_r[0], r1 = sw->off_r[1], r2 = sw->off_r[2], r3 = sw->off_r[3], r4 = sw->off_r[4],
+                    r5 = sw->off_r[5], r6 = sw->off_r[6], r7 = sw->off_r[7];
+    const float a0 = sw->w_v[0], a1 = sw->w_v[1], a2 = sw->w_v[2], a3 = sw->w_v[3], a4 = sw->w_v[4],
+                a5 = sw->w_v[5], a6 = sw->w_v[6], a7 = sw->w_v[7];
+    const float b0 = sw->w_r[0], b1 = sw->w_r[1], b2 = sw->w_r[2], b3 = sw->w_r[3], b4 = sw->w_r[4],
+                b5 = sw->w_r[5], b6 = sw->w_r[6], b7 = sw->w_r[7];
+    const float *restrict kappa = sw->in->kappa;
+    const float kscale = 0.5f * sw->s * sw->inv_r * (float)(sw->in->n_sigma - 1) / sw->in->sigma_max;
+    const float last = (float)(sw->in->n_sigma - 1) - 1e-3f;
+    float back[256], u[256];
+    for (int i0 = 0; i0 < count; i0 += 256) {
+        int m = count - i0 < 256 ? count - i0 : 256;
+        const float *d = D + i0, *r = R + i0;
+        /* vectorisable part: 16 loads at constant offsets */
+        for (int i = 0; i < m; i++) {
+            back[i] = a0 * d[i + v0] + a1 * d[i + v1] + a2 * d[i + v2] + a3 * d[i + v3] + a4 * d[i + v4] +
+                      a5 * d[i + v5] + a6 * d[i + v6] + a7 * d[i + v7];
+            float x = (b0 * r[i + r0] + b1 * r[i + r1] + b2 * r[i + r2] + b3 * r[i + r3] + b4 * r[i + r4] +
+                       b5 * r[i + r5] + b6 * r[i + r6] + b7 * r[i + r7]) *
+                      kscale;
+            u[i] = 0.5f * (x + last - fabsf(x - last)); /* min(x, last); ρ ≥ 0 */
+        }
+        /* the κ table look-up is a gather: scalar */
+        for (int i = 0; i < m; i++) {
+            int j = (int)u[i];
+            float f = u[i] - (float)j;
+            out[i0 + i] = back[i] + kappa[j] + (kappa[j + 1] - kappa[j]) * f;
+        }
+    }
+}
+
+static inline float fast_delta(const sweep *sw, volux_vec3 x) {
     float xv[3] = {x.x, x.y, x.z}, delta = INFINITY;
     for (int a = 0; a < 3; a++)
         if (sw->exit_use[a]) {
             float t = (sw->exit_bound[a] - xv[a]) * sw->exit_inv[a];
             if (t < delta) delta = t;
         }
-    if (!(delta > 2.0f * sw->s * 1.0001f + 2.0f * (V->h[0] + V->h[1] + V->h[2]))) return 0;
-    size_t n = ((size_t)k * (size_t)V->dims[1] + (size_t)j) * (size_t)V->dims[0] + (size_t)i;
-    const float *D = V->v + n, *R = sw->in->rho->v + n;
-    float back = 0.0f, rho = 0.0f;
-    for (int c = 0; c < 8; c++) {
-        back += sw->w_v[c] * D[sw->off_v[c]];
-        rho += sw->w_r[c] * R[sw->off_r[c]];
-    }
-    V->v[n] = back + tube_kappa(sw->in, rho * 0.5f * sw->s * sw->inv_r);
-    return 1;
+    return delta;
 }
 
 static void slice_row(void *user, int64_t r, int thread) {
     (void)thread;
     const sweep *sw = user;
-    int idx[3];
+    scatter_grid *V = sw->V;
+    int idx[3], n = V->dims[sw->b1];
     idx[sw->a] = sw->slice;
     idx[sw->b2] = (int)r;
-    for (int c = 0; c < sw->V->dims[sw->b1]; c++) {
+    int c0 = n, c1 = -1;
+    if (sw->fast && idx[sw->a] >= sw->valid_lo[sw->a] && idx[sw->a] <= sw->valid_hi[sw->a] &&
+        idx[sw->b2] >= sw->valid_lo[sw->b2] && idx[sw->b2] <= sw->valid_hi[sw->b2]) {
+        /* Nodes whose y = x − sω is more than a step from the chain start
+         * (the generic path would interpolate there too) and whose reads
+         * stay inside the grids. δ is concave along the row (a min of
+         * linear functions), so they form one run [c0, c1]. */
+        float need = 2.0f * sw->s * 1.0001f;
+        for (int c = sw->valid_lo[sw->b1]; c <= sw->valid_hi[sw->b1]; c++) {
+            idx[sw->b1] = c;
+            if (fast_delta(sw, scatter_grid_node(V, idx[0], idx[1], idx[2])) > need) {
+                if (c < c0) c0 = c;
+                c1 = c;
+            }
+        }
+    }
+    for (int c = 0; c < n; c++) {
+        if (c == c0 && c1 >= c0) {
+            idx[sw->b1] = c0;
+            size_t at = ((size_t)idx[2] * (size_t)V->dims[1] + (size_t)idx[1]) * (size_t)V->dims[0] + (size_t)idx[0];
+            if (sw->b1 == 0) {
+                fast_run(V->v + at, V->v + at, sw->in->rho->v + at, c1 - c0 + 1, sw);
+            } else {
+                for (int cc = c0; cc <= c1; cc++) {
+                    idx[sw->b1] = cc;
+                    size_t a2 = ((size_t)idx[2] * (size_t)V->dims[1] + (size_t)idx[1]) * (size_t)V->dims[0] +
+                                (size_t)idx[0];
+                    fast_run(V->v + a2, V->v + a2, sw->in->rho->v + a2, 1, sw);
+                }
+            }
+            c = c1;
+            continue;
+        }
         idx[sw->b1] = c;
-        if (!sw->fast || !node_fast(sw, idx[0], idx[1], idx[2])) node(sw, idx[0], idx[1], idx[2]);
+        node(sw, idx[0], idx[1], idx[2]);
     }
 }
 
 /* Corner offsets/weights of a trilinear read displaced by `d` (world) from
  * any node of grid g; a zero fraction reads one corner only (never the node
- * beyond, which may be in the slice being written). */
-static void displaced_corners(const scatter_grid *g, volux_vec3 d, ptrdiff_t off[8], float w[8]) {
+ * beyond, which may be in the slice being written). Narrows [lo, hi] to the
+ * node indices whose corners stay inside the grid. */
+static void displaced_corners(const scatter_grid *g, volux_vec3 d, ptrdiff_t off[8], float w[8], int lo[3],
+                              int hi[3]) {
     float u[3] = {d.x * g->inv_h[0], d.y * g->inv_h[1], d.z * g->inv_h[2]}, f[3];
     ptrdiff_t base[3], step[3] = {1, g->dims[0], (ptrdiff_t)g->dims[0] * g->dims[1]};
     for (int a = 0; a < 3; a++) {
         float fl = floorf(u[a]);
         base[a] = (ptrdiff_t)fl;
         f[a] = u[a] - fl;
+        int l = (int)-base[a], h = g->dims[a] - 1 - (int)base[a] - (f[a] > 0.0f ? 1 : 0);
+        if (l > lo[a]) lo[a] = l;
+        if (h < hi[a]) hi[a] = h;
     }
     for (int c = 0; c < 8; c++) {
         ptrdiff_t o = 0;
         float wc = 1.0f;
         for (int a = 0; a < 3; a++) {
-            int hi = (c >> a) & 1;
-            wc *= hi ? f[a] : 1.0f - f[a];
-            o += (base[a] + (hi && f[a] > 0.0f ? 1 : 0)) * step[a];
+            int up = (c >> a) & 1;
+            wc *= up ? f[a] : 1.0f - f[a];
+            o += (base[a] + (up && f[a] > 0.0f ? 1 : 0)) * step[a];
         }
         off[c] = o;
         w[c] = wc;
@@ -227,8 +291,9 @@ void tube_march(const tube_input *in, const scatter_light *l, scatter_grid *V) {
         sw.fast = R->dims[0] == V->dims[0] && R->dims[1] == V->dims[1] && R->dims[2] == V->dims[2] &&
                   R->lo.x == V->lo.x && R->lo.y == V->lo.y && R->lo.z == V->lo.z;
         if (sw.fast) {
-            displaced_corners(V, v3_scale(l->dir, -sw.s), sw.off_v, sw.w_v);
-            displaced_corners(R, v3_scale(l->dir, -0.5f * sw.s), sw.off_r, sw.w_r);
+            for (int a = 0; a < 3; a++) sw.valid_lo[a] = 0, sw.valid_hi[a] = V->dims[a] - 1;
+            displaced_corners(V, v3_scale(l->dir, -sw.s), sw.off_v, sw.w_v, sw.valid_lo, sw.valid_hi);
+            displaced_corners(R, v3_scale(l->dir, -0.5f * sw.s), sw.off_r, sw.w_r, sw.valid_lo, sw.valid_hi);
             float lo[3] = {sw.lo.x, sw.lo.y, sw.lo.z}, hi[3] = {sw.hi.x, sw.hi.y, sw.hi.z};
             for (int a = 0; a < 3; a++) {
                 /* walking back along −ω towards the light */
