@@ -249,7 +249,9 @@ static volux_status ambient_update(void *state, volux_scene *scene, const volux_
     }
     if (c->what & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_COLOR)) {
         double a = volux_technique_param(scene, b->cls, "table_albedo");
-        st->want.albedo = a > 0.0 ? a : (double)b->albedo;
+        /* The TF keeps albedo as a float (0.9f = 0.899999976): round to 6
+         * decimals so the cache key matches a table built for 0.9. */
+        st->want.albedo = a > 0.0 ? a : floor((double)b->albedo * 1e6 + 0.5) / 1e6;
         st->material = volux_scene_transfer(scene)->material;
         if (!table_matches(st)) {
             if ((s = load_table(st))) return s;

@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# bench/ambient/run.sh — Ament et al. 2013, Table 1 on our data: update and
+# render times of ea / ao / single / ambient on the scenes of this folder
+# (512×512, 2 threads, real volumes from ../shared/data by absolute path).
+#
+#   bench/ambient/run.sh [VOLUX] [OUT.jsonl]      (REPEAT=5 by default)
+#   bench/ambient/summarize.py OUT.jsonl          → the Markdown table
+#
+# The ambient technique loads its preintegration table from the cache
+# ($XDG_CACHE_HOME/volux or ~/.cache/volux); the first run builds it
+# (minutes, see docs/techniques/ambient.md) unless it is there already.
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+volux=${1:-$here/../../build/volux}
+out=${2:-$here/results.jsonl}
+repeat=${REPEAT:-5}
+scenes=${SCENES:-"bonsai engine aneurism"}
+: > "$out"
+for scene in $scenes; do
+  for tech in ea ao single ambient; do
+    echo "bench: $scene $tech" >&2
+    "$volux" bench "$here/$scene.json" --technique "$tech" --repeat "$repeat" \
+      --edit tf --edit phase --edit light --edit camera --json >> "$out"
+  done
+done
+echo "wrote $out" >&2
