@@ -79,8 +79,9 @@ typedef void (*scatter_inscatter_fn)(const void *tech, const scatter_sample *smp
                                      volux_vec3 *extra);
 
 /* Past segments of the ray, for T(x_o) at a lag behind the current point:
- * (t0, t1, τ before, τ after). When full, the oldest is folded into the
- * base (T(x_o) is then taken slightly too close to x: conservative). */
+ * (t0, t1, T before, T after); T is linear within a segment (one march
+ * step). When full, the oldest is folded into the base (T(x_o) is then
+ * taken slightly too close to x: conservative). */
 #define SCATTER_LAG_RECORDS 2048
 
 static inline float scatter_fast_acos(float x) {
@@ -124,9 +125,9 @@ scatter_render_tile(const scatter_base *b, const void *tech, const volux_scene *
             scatter_sample smp;
             smp.to_eye = v3_scale(d, -1.0f);
             const float t0 = ray.t0, t1 = ray.t1;
-            float T = 1.0f, tau_cum = 0.0f, C[3] = {0, 0, 0};
+            float T = 1.0f, C[3] = {0, 0, 0};
             int head = 0, tail = 0; /* records [tail, head) */
-            float tau_base = 0.0f;
+            float T_base = 1.0f;
             volux_march_iter it;
             volux_interval iv = {t0, t1, 1.0f};
             if (b->skip_empty) volux_march_init(&it, &b->grid, &ray, t0, t1);
@@ -156,20 +157,20 @@ scatter_render_tile(const scatter_base *b, const void *tech, const volux_scene *
                     float tau = rgba[3] * len;
                     if (tau <= 0.0f) continue;
                     float alpha = 1.0f - expf(-tau);
-                    /* T(x_o), x_o = x + lag·ω: the optical depth at t = e − lag. */
+                    /* T(x_o), x_o = x + lag·ω: the transmittance at t = e − lag,
+                     * linear within the recorded segment that contains it. */
                     float T_o = T;
                     if (lag > 0.0f) {
-                        float tq = e - lag, tau_q = tau_base;
+                        float tq = e - lag;
                         while (tail != head && rec[tail % SCATTER_LAG_RECORDS][1] <= tq) {
-                            tau_base = rec[tail % SCATTER_LAG_RECORDS][3];
+                            T_base = rec[tail % SCATTER_LAG_RECORDS][3];
                             tail++;
                         }
-                        tau_q = tau_base;
+                        T_o = T_base;
                         if (tail != head) {
                             const float *r0 = rec[tail % SCATTER_LAG_RECORDS];
-                            if (tq > r0[0]) tau_q = r0[2] + (r0[3] - r0[2]) * (tq - r0[0]) / (r0[1] - r0[0]);
+                            if (tq > r0[0]) T_o = r0[2] + (r0[3] - r0[2]) * (tq - r0[0]) / (r0[1] - r0[0]);
                         }
-                        T_o = expf(-tau_q);
                     }
                     float ac = albedo * alpha;
                     if (ac > 0.0f && (rgba[0] > 0.0f || rgba[1] > 0.0f || rgba[2] > 0.0f)) {
@@ -186,11 +187,10 @@ scatter_render_tile(const scatter_base *b, const void *tech, const volux_scene *
                         for (int ch = 0; ch < 3; ch++) C[ch] += w * (1.0f - albedo * rgba[ch]) * rgba[ch];
                     }
                     if (lag > 0.0f) {
-                        if (head - tail == SCATTER_LAG_RECORDS) tau_base = rec[tail++ % SCATTER_LAG_RECORDS][3];
+                        if (head - tail == SCATTER_LAG_RECORDS) T_base = rec[tail++ % SCATTER_LAG_RECORDS][3];
                         float *r = rec[head++ % SCATTER_LAG_RECORDS];
-                        r[0] = a, r[1] = e, r[2] = tau_cum, r[3] = tau_cum + tau;
+                        r[0] = a, r[1] = e, r[2] = T, r[3] = T * (1.0f - alpha);
                     }
-                    tau_cum += tau;
                     T *= 1.0f - alpha;
                     if ((lag > 0.0f ? T_o : T) < b->t_min) goto done;
                 }

@@ -28,8 +28,9 @@ static const volux_param_info single_params[] = {
     {"transmittance_cache", VOLUX_PARAM_BOOL, 1, 0, 1, NULL,
      "cache the transmittance to each light in a grid (one shadow ray per node); false: one shadow ray per view "
      "sample"},
-    {"cache_scale", VOLUX_PARAM_NUMBER, 1.0, 0.05, 1, NULL,
-     "transmittance cache resolution relative to the volume (1 = one node per voxel)"},
+    {"cache_scale", VOLUX_PARAM_NUMBER, 0.5, 0.05, 1, NULL,
+     "transmittance cache resolution relative to the volume (1 = one node per voxel; 0.5 = the resolution of "
+     "ambient's radiance cache)"},
     {"shadow_step", VOLUX_PARAM_NUMBER, 1.0, 0.05, 16, NULL, "shadow-ray step in units of the smallest voxel spacing"},
     {NULL, 0, 0, 0, 0, NULL, NULL}};
 
