@@ -55,7 +55,9 @@ static inline volux_vec3 volux_hg_sample(float g, volux_vec3 d, float u0, float 
     v3_basis(d, &t, &b);
     volux_vec3 w = v3_add(v3_scale(d, ct), v3_add(v3_scale(t, st * cosf(phi)), v3_scale(b, st * sinf(phi))));
     *pdf = volux_hg_eval(g, ct);
-    return w;
+    /* renormalise: paths chain hundreds of these, and tracking measures
+     * distance in units of |w| */
+    return v3_normalize(w);
 }
 
 /* Uniform direction on the unit sphere (pdf 1/(4π)). */
