@@ -34,6 +34,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "core/vecmath.h"
 #include "pt_util.h"
 
 #define SIGMA 0.5
@@ -168,10 +169,115 @@ static void test_single_scattering_environment_and_depth(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* Point, spot and sphere lights: the image mean against
+ *   (1/A) ∫_footprint ∫_0^D e^{−σt t} σs · E_light(x) dt dA,
+ * E_light = p(ω·d) I/r² e^{−σt s(x,ω)} [× spot falloff] for point/spot and
+ * ∫_cone p(ω·d) L e^{−σt s(x,ω)} dω for the sphere (midpoint rules). The
+ * lights are outside the slab, so s(x,ω) is the distance to the slab's
+ * boundary. */
+enum { LT_POINT, LT_SPOT, LT_SPHERE };
+
+static double footprint_integral(int type, const volux_light_desc *l, double g) {
+    const int NA = type == LT_SPOT ? 64 : 16, NT = 160, NC = 24;
+    double D = 2 * HALF_Z, sum = 0.0;
+    for (int a = 0; a < NA; a++)
+        for (int b = 0; b < NA; b++)
+            for (int i = 0; i < NT; i++) {
+                double t = (i + 0.5) * D / NT;
+                double p[3] = {-2.0 + 4.0 * (a + 0.5) / NA, -2.0 + 4.0 * (b + 0.5) / NA, HALF_Z - t};
+                double to[3] = {l->position.x - p[0], l->position.y - p[1], l->position.z - p[2]};
+                double r = sqrt(to[0] * to[0] + to[1] * to[1] + to[2] * to[2]);
+                double w[3] = {to[0] / r, to[1] / r, to[2] / r}, E = 0.0;
+                if (type != LT_SPHERE) {
+                    E = hg(g, -w[2]) * l->intensity / (r * r) * exp(-SIGMA * exit_dist(p, w));
+                    if (type == LT_SPOT) {
+                        volux_vec3 ax = v3_normalize(l->direction);
+                        E *= volux_spot_falloff(l, (float)-(w[0] * ax.x + w[1] * ax.y + w[2] * ax.z));
+                    }
+                } else {
+                    /* cone around w with cos θmax = sqrt(1 − R²/r²) */
+                    double cmax = sqrt(1.0 - (double)l->radius * l->radius / (r * r));
+                    volux_vec3 t1, t2;
+                    v3_basis(v3((float)w[0], (float)w[1], (float)w[2]), &t1, &t2);
+                    double dOmega = 2 * PI_D * (1 - cmax) / (NC * NC);
+                    for (int u = 0; u < NC; u++) {
+                        double ct = 1.0 - (u + 0.5) / NC * (1 - cmax), st = sqrt(1 - ct * ct);
+                        for (int v = 0; v < NC; v++) {
+                            double ph = (v + 0.5) * 2 * PI_D / NC;
+                            double o[3];
+                            for (int k = 0; k < 3; k++)
+                                o[k] = ct * w[k] + st * cos(ph) * (&t1.x)[k] + st * sin(ph) * (&t2.x)[k];
+                            E += hg(g, -o[2]) * l->radiance * exp(-SIGMA * exit_dist(p, o)) * dOmega;
+                        }
+                    }
+                }
+                sum += exp(-SIGMA * t) * SIGMA * ALBEDO * E * (D / NT);
+            }
+    return sum / (NA * NA);
+}
+
+static double image_mean(volux_context *ctx, volux_scene *s, int spp, double *se_out) {
+    volux_technique *t = NULL;
+    assert_int_equal(volux_technique_create(ctx, "pathtrace", s, &t), VOLUX_OK);
+    pt_stats st;
+    pt_accumulate(t, s, spp, &st);
+    int n = st.width * st.height;
+    double sum = 0.0, var_sum = 0.0;
+    for (int p = 0; p < n; p++) {
+        double se = pt_stats_se(&st, p, 1);
+        sum += st.mean[3 * p + 1];
+        var_sum += se * se;
+    }
+    *se_out = sqrt(var_sum) / n;
+    pt_stats_free(&st);
+    volux_technique_destroy(t);
+    return sum / n;
+}
+
+static void test_single_scattering_point_spot_sphere(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(1);
+    volux_volume *v = pt_volume_constant(ctx, 33, 33, 5, 1.0f);
+    const char *names[3] = {"point (behind)", "spot (front, partly outside the cone)", "sphere (behind, MIS)"};
+    const float gs[2] = {-0.4f, 0.6f};
+    for (int type = 0; type < 3; type++)
+        for (int gi = 0; gi < 2; gi++) {
+            volux_light_desc l;
+            if (type == LT_POINT) {
+                volux_light_desc_defaults(&l, VOLUX_LIGHT_POINT);
+                l.position = (volux_vec3){3, 1, -9};
+                l.intensity = 40.0f;
+            } else if (type == LT_SPOT) {
+                volux_light_desc_defaults(&l, VOLUX_LIGHT_SPOT);
+                l.position = (volux_vec3){1, 0, 8};
+                l.direction = (volux_vec3){-0.1f, 0.0f, -1.0f};
+                l.cone_angle_deg = 12.0f;
+                l.falloff_angle_deg = 6.0f;
+                l.intensity = 40.0f;
+            } else {
+                volux_light_desc_defaults(&l, VOLUX_LIGHT_SPHERE);
+                l.position = (volux_vec3){0, 3, -25};
+                l.radius = 4.0f;
+                l.radiance = 2.0f;
+            }
+            volux_scene *s = slab_scene(ctx, v, gs[gi], 1);
+            assert_int_equal(volux_scene_set_light(s, 7, &l), VOLUX_OK);
+            double expect = footprint_integral(type, &l, gs[gi]), se;
+            double mean = image_mean(ctx, s, 1024, &se);
+            printf("  %-40s g=%+.1f integral %.6f  measured %.6f ± %.6f\n", names[type], gs[gi], expect, mean, se);
+            if (fabs(mean - expect) > 3.0 * se || fabs(mean - expect) > 0.02 * expect)
+                fail_msg("%s g=%.1f: image mean %.6f, expected %.6f (se %.6f)", names[type], gs[gi], mean, expect, se);
+            volux_scene_destroy(s);
+        }
+    volux_volume_release(v);
+    volux_context_destroy(ctx);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_single_scattering_directional),
         cmocka_unit_test(test_single_scattering_environment_and_depth),
+        cmocka_unit_test(test_single_scattering_point_spot_sphere),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
