@@ -168,6 +168,9 @@ static volux_status scan_lines(parser *p, const char *bytes, size_t n, uint64_t 
             return volux_error(p->ctx, VOLUX_ERR_FORMAT, "%s: %s: given twice", p->name, field_name(id));
         p->present[id] = 1;
         p->value[id] = value;
+        volux_text rest = value, first;
+        if (id == F_DATA_FILE && volux_text_token(&rest, &first) && volux_text_eq(first, "LIST"))
+            break; /* the remaining lines are file names; reported as unsupported */
     }
     if (!*ended && n >= VOLUX_MAX_HEADER_BYTES)
         return volux_error(p->ctx, VOLUX_ERR_LIMIT, "%s: header is longer than the limit of %u bytes", p->name,
