@@ -188,6 +188,15 @@ static void test_gzip_bomb_stops_at_the_expected_size(void **state) {
     z = tu_deflate(data, sizeof data, 1, &zn);
     path = tu_write_parts("half.nrrd", HEAD "sizes: 16 16 16\nencoding: gzip\n\n", z, zn / 2);
     expect_failure(path, NULL, VOLUX_ERR_FORMAT, "truncated");
+    /* A tiny stream cannot inflate to a big volume (deflate's ratio is at
+     * most 1032:1): refused before the volume is allocated. */
+    path = tu_write_parts("thin.nrrd", HEAD "sizes: 256 256 256\nencoding: gzip\n\n", z, zn);
+    tu_alloc_stats thin = {0};
+    ctx = tu_context_counting(0, &thin);
+    assert_int_equal(volux_volume_load(ctx, path, NULL, &v), VOLUX_ERR_FORMAT);
+    tu_assert_error_mentions(ctx, "thin.nrrd", "cannot hold", (const char *)NULL);
+    assert_true(thin.largest < (1u << 20));
+    volux_context_destroy(ctx);
     /* A complete stream that is too short for the sizes. */
     path = tu_write_parts("short.nrrd", HEAD "sizes: 16 16 17\nencoding: gzip\n\n", z, zn);
     expect_failure(path, NULL, VOLUX_ERR_FORMAT, "got 4096 of the 4352 bytes");
