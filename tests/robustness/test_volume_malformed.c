@@ -50,6 +50,7 @@ static void test_nrrd_bad_fields(void **state) {
         volux_status status;
         const char *what;
     } cases[] = {
+        {"", 0, VOLUX_ERR_FORMAT, "not a NRRD"},
         {"NRRD9\n\n", 0, VOLUX_ERR_FORMAT, "not a NRRD"},
         {"P5 2 2\n\n", 0, VOLUX_ERR_FORMAT, "not a NRRD"},
         {"NRRD0004\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n\n", 8, VOLUX_ERR_FORMAT, "'type'"},
