@@ -97,6 +97,11 @@ static void exrs(volux_context *ctx, const volux_image *img) {
     fx_write_exr(out("exr", "tiled_abgr_piz.exr"), 9, 9, abgr, 4, EXR_PIXEL_HALF, EXR_COMPRESSION_PIZ, 4, 4, v3);
     fx_write_exr(out("exr", "y_uint_none.exr"), 6, 5, y, 1, EXR_PIXEL_UINT, EXR_COMPRESSION_NONE, 0, 0, v3);
     fx_write_exr(out("exr", "y_float_rle.exr"), 6, 5, y, 1, EXR_PIXEL_FLOAT, EXR_COMPRESSION_RLE, 0, 0, v3);
+    fx_exr.origin_x = -3;
+    fx_exr.origin_y = 5;
+    fx_exr.decreasing_y = 1;
+    fx_write_exr(out("exr", "window_decreasing_piz.exr"), 9, 40, bgr, 3, EXR_PIXEL_HALF, EXR_COMPRESSION_PIZ, 0, 0, v3);
+    memset(&fx_exr, 0, sizeof fx_exr);
 }
 
 static size_t hdr_header(unsigned char *b, const char *res) {

@@ -30,6 +30,8 @@ unsigned char *fx_read_file(const char *path, size_t *size) {
     return buf;
 }
 
+fx_exr_options fx_exr;
+
 static void quiet(exr_const_context_t c, exr_result_t code, const char *msg) {
     (void)c;
     (void)code;
@@ -72,7 +74,15 @@ exr_result_t fx_write_exr(const char *path, int w, int h, const char *const *cha
     exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
     exr_result_t rv = exr_start_write(&exr, path, EXR_WRITE_FILE_DIRECTLY, &init);
     if (!rv) rv = exr_add_part(exr, NULL, tile_w ? EXR_STORAGE_TILED : EXR_STORAGE_SCANLINE, &part);
-    if (!rv) rv = exr_initialize_required_attr_simple(exr, part, w, h, compression);
+    if (!rv) {
+        exr_attr_box2i_t dw = {{{{fx_exr.origin_x, fx_exr.origin_y}}},
+                               {{{fx_exr.origin_x + w - 1, fx_exr.origin_y + h - 1}}}};
+        exr_attr_v2f_t center = {{{0.0f, 0.0f}}};
+        rv = exr_initialize_required_attr(exr, part, &dw, &dw, 1.0f, &center, 1.0f,
+                                          fx_exr.decreasing_y ? EXR_LINEORDER_DECREASING_Y
+                                                              : EXR_LINEORDER_INCREASING_Y,
+                                          compression);
+    }
     if (!rv && tile_w)
         rv = exr_set_tile_descriptor(exr, part, (uint32_t)tile_w, (uint32_t)tile_h, EXR_TILE_ONE_LEVEL,
                                      EXR_TILE_ROUND_DOWN);
@@ -91,9 +101,11 @@ exr_result_t fx_write_exr(const char *path, int w, int h, const char *const *cha
     } else if (!rv) {
         int32_t lines = 1;
         rv = exr_get_scanlines_per_chunk(exr, part, &lines);
+        /* Chunks go in increasing y even for DECREASING_Y files: the
+         * library orders them in the file itself. */
         for (int y = 0; y < h && !rv; y += lines) {
             exr_chunk_info_t ci;
-            rv = exr_write_scanline_chunk_info(exr, part, y, &ci);
+            rv = exr_write_scanline_chunk_info(exr, part, fx_exr.origin_y + y, &ci);
             if (!rv) rv = encode_chunk(exr, &ci, &enc, &enc_init, planes, w, h, 0, y, channels, n_channels);
         }
     }

@@ -29,6 +29,13 @@ exr_result_t fx_write_exr(const char *path, int w, int h, const char *const *cha
                           exr_pixel_type_t type, exr_compression_t compression, int tile_w, int tile_h,
                           fx_value_fn value);
 
+/* Layout knobs for fx_write_exr (zero = defaults: origin 0,0, increasing Y). */
+typedef struct fx_exr_options {
+    int origin_x, origin_y;   /* data window minimum */
+    int decreasing_y;         /* line order DECREASING_Y (scanline files) */
+} fx_exr_options;
+extern fx_exr_options fx_exr;
+
 /* An allocator that counts: the largest single request, and it can fail the
  * fail_at-th allocation (0 = never). */
 typedef struct fx_alloc_stats {

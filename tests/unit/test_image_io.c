@@ -326,6 +326,21 @@ static void test_exr_reads_uint_luminance_as_gray(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* A data window away from the origin and decreasing line order: the image
+ * is the data window, top row first either way. */
+static void test_exr_reads_offset_data_window_and_decreasing_y(void **state) {
+    (void)state;
+    const char *bgr[3] = {"B", "G", "R"};
+    const char *path = tu_temp_path("window.exr");
+    fx_exr.origin_x = -3;
+    fx_exr.origin_y = 5;
+    fx_exr.decreasing_y = 1;
+    exr_result_t rv = fx_write_exr(path, 9, 40, bgr, 3, EXR_PIXEL_HALF, EXR_COMPRESSION_PIZ, 0, 0, bgr_pattern);
+    memset(&fx_exr, 0, sizeof fx_exr);
+    assert_int_equal(rv, 0);
+    load_and_check_pattern(path, 9, 40);
+}
+
 /* Our writer's file is ZIP-compressed float and the library reads it back. */
 static void test_exr_written_by_us_is_zip_float(void **state) {
     (void)state;
@@ -492,6 +507,7 @@ int main(void) {
         cmocka_unit_test(test_exr_reads_half_bgr_in_every_lossless_compression),
         cmocka_unit_test(test_exr_reads_tiled_float_with_partial_tiles),
         cmocka_unit_test(test_exr_reads_uint_luminance_as_gray),
+        cmocka_unit_test(test_exr_reads_offset_data_window_and_decreasing_y),
         cmocka_unit_test(test_exr_written_by_us_is_zip_float),
         cmocka_unit_test(test_exr_tiny_compressible_images_round_trip),
         cmocka_unit_test(test_hdr_decodes_flat_and_old_rle),
