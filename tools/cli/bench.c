@@ -203,6 +203,9 @@ int cli_bench(int argc, char **argv) {
          (double)rs->width * rs->height * rep.spp / (median(times, repeat) * 1e-3), "1/s", NULL);
     emit(&o, "memory_bytes", (double)(volux_technique_memory_bytes(tech)), "bytes", NULL);
 
+    /* Convergence before the edits: they leave the scene changed. */
+    if (reference && (st = convergence(ctx, tech, scene, fb, &ref, &o))) goto fail;
+
     /* update_ms.<edit>: only the technique's reaction to the edit. */
     for (int e = 0; e < n_edits; e++) {
         int ok = 1;
@@ -224,7 +227,6 @@ int cli_bench(int argc, char **argv) {
         snprintf(metric, sizeof metric, "update_ms.%s", edits[e]->name);
         emit(&o, metric, median(times, repeat), "ms", NULL);
     }
-    if (reference && (st = convergence(ctx, tech, scene, fb, &ref, &o))) goto fail;
     goto done;
 fail:
     rc = cli_fail("bench", ctx, st);
