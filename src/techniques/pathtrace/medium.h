@@ -40,17 +40,9 @@ static inline volux_vec3 pt_clamp_index(const volux_volume *v, volux_vec3 q) {
 
 /* Pre-classified σt (and colour into rgb when non-NULL) at index-space q. */
 static inline float pt_sigma_pre(const volux_volume *v, const volux_transfer_lut *lut, volux_vec3 q, float *rgb) {
-    int nx = v->dims[0], ny = v->dims[1], nz = v->dims[2];
-    int i = (int)q.x, j = (int)q.y, k = (int)q.z;
-    if (i > nx - 2) i = nx > 1 ? nx - 2 : 0;
-    if (j > ny - 2) j = ny > 1 ? ny - 2 : 0;
-    if (k > nz - 2) k = nz > 1 ? nz - 2 : 0;
-    float fx = q.x - (float)i, fy = q.y - (float)j, fz = q.z - (float)k;
-    if (nx < 2) fx = 0.0f;
-    if (ny < 2) fy = 0.0f;
-    if (nz < 2) fz = 0.0f;
-    size_t sx = nx > 1 ? 1 : 0, sy = ny > 1 ? (size_t)nx : 0, sz = nz > 1 ? (size_t)nx * (size_t)ny : 0;
-    size_t b = volux_volume_index(v, i, j, k);
+    volux_cell cell = volux_volume_cell(v, q.x, q.y, q.z);
+    float fx = cell.fx, fy = cell.fy, fz = cell.fz;
+    size_t b = cell.base, sx = cell.sx, sy = cell.sy, sz = cell.sz;
     size_t idx[8] = {b, b + sx, b + sy, b + sx + sy, b + sz, b + sx + sz, b + sy + sz, b + sx + sy + sz};
     float w[8] = {(1 - fx) * (1 - fy) * (1 - fz), fx * (1 - fy) * (1 - fz), (1 - fx) * fy * (1 - fz),
                   fx * fy * (1 - fz),           (1 - fx) * (1 - fy) * fz, fx * (1 - fy) * fz,

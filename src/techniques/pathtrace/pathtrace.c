@@ -139,9 +139,7 @@ static volux_status pt_create(volux_context *ctx, volux_scene *scene, void **out
     pt_state *st = volux_calloc(ctx, 1, sizeof *st);
     if (!st) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for pathtrace state");
     st->ctx = ctx;
-    volux_change_set all;
-    memset(&all, 0xff, sizeof all);
-    all.what = VOLUX_CHANGE_ALL;
+    volux_change_set all = volux_change_all();
     volux_status s = pt_update(st, scene, &all);
     if (s) {
         pt_destroy(st);
