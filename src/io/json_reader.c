@@ -322,8 +322,9 @@ static volux_status override_value(volux_json_reader *r, const char *assignment,
  * an array when the next segment is an index ("lights.0.type=point" in a
  * scene without lights). */
 static cJSON *new_container(const char *next) {
-    long idx;
-    return is_index(next, &idx) ? cJSON_CreateArray() : cJSON_CreateObject();
+    size_t len = strcspn(next, ".");
+    int digits = len > 0 && strspn(next, "0123456789") >= len;
+    return digits ? cJSON_CreateArray() : cJSON_CreateObject();
 }
 
 volux_status volux_json_apply_override(volux_json_reader *r, cJSON *root, const char *assignment) {
@@ -363,9 +364,11 @@ volux_status volux_json_apply_override(volux_json_reader *r, cJSON *root, const 
             int size = cJSON_GetArraySize(node);
             if (!is_index(seg, &idx) || idx > size) {
                 cJSON_Delete(value);
+                char range[48] = "empty";
+                if (size > 0) snprintf(range, sizeof range, "0..%d", size - 1);
                 return volux_json_error(r, VOLUX_ERR_INVALID, NULL,
-                                        "--set %.*s: '%s' is not an index of the array (0..%d; %d appends)",
-                                        upto, assignment, seg, size > 0 ? size - 1 : 0, size);
+                                        "--set %.*s: '%s' is not an index of the array (%s; %d appends)", upto,
+                                        assignment, seg, range, size);
             }
             if (idx == size) { /* append */
                 child = next ? new_container(next) : value;
