@@ -43,8 +43,9 @@ static volux_status read_tuples(volux_json_reader *r, const cJSON *arr, const ch
             return volux_json_error(r, VOLUX_ERR_FORMAT, what, "point %d: x must not decrease", i / stride);
         }
         if (i % stride != 0 && (v[i] < 0.0 || v[i] > 1.0)) { /* colours, opacity, midpoint, sharpness */
+            double bad = v[i]; /* read before the free below */
             volux_free(r->ctx, v, sizeof(double) * (size_t)n);
-            return volux_json_error(r, VOLUX_ERR_FORMAT, what, "element %d = %g is outside [0, 1]", i, v[i]);
+            return volux_json_error(r, VOLUX_ERR_FORMAT, what, "element %d = %g is outside [0, 1]", i, bad);
         }
     }
     *out = v;
