@@ -9,6 +9,7 @@
 #ifndef VOLUX_FUZZ_COMMON_H
 #define VOLUX_FUZZ_COMMON_H
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 
@@ -46,8 +47,18 @@ static inline void fuzz_use_scene(volux_context *ctx, volux_scene *s) {
         fprintf(stderr, "fuzz: LUT sigma_t_max is %g\n", lut->sigma_t_max);
         abort();
     }
+    /* The loader promises a finite view for the loaded volume. */
     volux_camera cam;
-    (void)volux_scene_camera(s, &cam);
+    if (volux_scene_camera(s, &cam) != VOLUX_OK) {
+        fprintf(stderr, "fuzz: loaded scene has no valid camera: %s\n", volux_context_error(ctx));
+        abort();
+    }
+    float sum = cam.eye.x + cam.eye.y + cam.eye.z + cam.forward.x + cam.forward.y + cam.forward.z + cam.right.x +
+                cam.right.y + cam.right.z + cam.up.x + cam.up.y + cam.up.z + cam.tan_half_fov + cam.half_height;
+    if (!isfinite(sum)) {
+        fprintf(stderr, "fuzz: loaded scene has a non-finite camera\n");
+        abort();
+    }
     (void)volux_scene_step_world(s);
     (void)volux_technique_validate_params(ctx, s);
 }

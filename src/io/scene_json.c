@@ -14,6 +14,11 @@
 #include "scene_formats.h"
 
 #define BIG 1e30
+/* Positions and directions: the core squares float lengths, so a
+ * coordinate near 1e19 already overflows to inf (a degenerate camera that
+ * renders black, or a misleading "up is parallel" error). 1e15 world
+ * units is far beyond any volume and keeps squared distances finite. */
+#define COORD 1e15
 
 typedef struct scene_reader {
     volux_json_reader json;
@@ -319,9 +324,9 @@ static volux_status read_camera(scene_reader *sr, const cJSON *obj) {
     if (eye) {
         float e[3], at[3] = {0, 0, 0}, up[3] = {0, 1, 0};
         d.use_orbit = 0;
-        if ((st = volux_json_vec3(r, obj, "camera", "eye", -BIG, BIG, e)) ||
-            (st = volux_json_vec3(r, obj, "camera", "look_at", -BIG, BIG, at)) ||
-            (st = volux_json_vec3(r, obj, "camera", "up", -BIG, BIG, up)))
+        if ((st = volux_json_vec3(r, obj, "camera", "eye", -COORD, COORD, e)) ||
+            (st = volux_json_vec3(r, obj, "camera", "look_at", -COORD, COORD, at)) ||
+            (st = volux_json_vec3(r, obj, "camera", "up", -COORD, COORD, up)))
             return st;
         d.eye = (volux_vec3){e[0], e[1], e[2]};
         d.look_at = (volux_vec3){at[0], at[1], at[2]};
@@ -337,13 +342,28 @@ static volux_status read_camera(scene_reader *sr, const cJSON *obj) {
             if ((st = volux_json_check_keys(r, orbit, "camera.orbit", orbit_keys)) ||
                 (st = volux_json_float(r, orbit, "camera.orbit", "azimuth", -1e6, 1e6, &d.azimuth_deg)) ||
                 (st = volux_json_float(r, orbit, "camera.orbit", "elevation", -90, 90, &d.elevation_deg)) ||
-                (st = volux_json_float(r, orbit, "camera.orbit", "distance", 1e-6, BIG, &d.distance)))
+                (st = volux_json_float(r, orbit, "camera.orbit", "distance", 1e-6, 1e6, &d.distance)))
                 return st;
         }
     }
     st = volux_scene_set_camera(sr->scene, &d);
-    if (st) volux_error_prefix(r->ctx, "%s: ", r->file);
-    return st;
+    if (st) {
+        volux_error_prefix(r->ctx, "%s: ", r->file);
+        return st;
+    }
+    /* set_camera checks the frame against a unit sphere; an orbit scales
+     * with the volume's radius, so resolve it for the real volume too. */
+    volux_camera cam;
+    if ((st = volux_scene_camera(sr->scene, &cam))) {
+        volux_error_prefix(r->ctx, "%s: ", r->file);
+        return st;
+    }
+    float sum = cam.eye.x + cam.eye.y + cam.eye.z + cam.forward.x + cam.forward.y + cam.forward.z + cam.right.x +
+                cam.right.y + cam.right.z + cam.up.x + cam.up.y + cam.up.z + cam.tan_half_fov + cam.half_height;
+    if (!isfinite(sum))
+        return volux_json_error(r, VOLUX_ERR_INVALID, "camera",
+                                "the view is not finite for this volume (eye too far away?)");
+    return VOLUX_OK;
 }
 
 /* ------------------------------------------------------------------ lights */
@@ -388,12 +408,12 @@ static volux_status read_light(scene_reader *sr, const cJSON *obj, int index) {
     volux_light_desc_defaults(&d, types[t].type);
     float color[3] = {1, 1, 1}, dir[3] = {0, 0, -1}, pos[3] = {0, 0, 0};
     if ((st = volux_json_vec3(r, obj, P, "color", 0, BIG, color)) ||
-        (st = volux_json_vec3(r, obj, P, "direction", -BIG, BIG, dir)) ||
-        (st = volux_json_vec3(r, obj, P, "position", -BIG, BIG, pos)) ||
+        (st = volux_json_vec3(r, obj, P, "direction", -COORD, COORD, dir)) ||
+        (st = volux_json_vec3(r, obj, P, "position", -COORD, COORD, pos)) ||
         (st = volux_json_float(r, obj, P, "irradiance", 0, BIG, &d.irradiance)) ||
         (st = volux_json_float(r, obj, P, "intensity", 0, BIG, &d.intensity)) ||
         (st = volux_json_float(r, obj, P, "radiance", 0, BIG, &d.radiance)) ||
-        (st = volux_json_float(r, obj, P, "radius", 1e-9, BIG, &d.radius)) ||
+        (st = volux_json_float(r, obj, P, "radius", 1e-9, COORD, &d.radius)) ||
         (st = volux_json_float(r, obj, P, "cone_angle", 1e-6, 90, &d.cone_angle_deg)) ||
         (st = volux_json_float(r, obj, P, "falloff_angle", 0, 90, &d.falloff_angle_deg)) ||
         (st = volux_json_float(r, obj, P, "rotation_y", -1e6, 1e6, &d.rotation_y_deg)) ||

@@ -137,6 +137,10 @@ static const malformed CASES[] = {
     {SCENE(", \"camera\": {\"orbit\": {\"elevation\": 95}}"), VOLUX_ERR_INVALID, "camera.orbit.elevation"},
     {SCENE(", \"camera\": {\"orbit\": {\"distance\": 0}}"), VOLUX_ERR_INVALID, "camera.orbit.distance"},
     {SCENE(", \"camera\": {\"orbit\": 3}"), VOLUX_ERR_INVALID, "camera.orbit: expected an object"},
+    /* huge but finite coordinates would overflow squared float lengths */
+    {SCENE(", \"camera\": {\"eye\": [1e20, 0, 0]}"), VOLUX_ERR_INVALID, "camera.eye[0]: must be a number in"},
+    {SCENE(", \"camera\": {\"orbit\": {\"distance\": 1e30}}"), VOLUX_ERR_INVALID, "camera.orbit.distance: 1e+30 is"},
+    {LIGHTS("[{\"type\": \"point\", \"position\": [0, 1e20, 0]}]"), VOLUX_ERR_INVALID, "lights[0].position[1]"},
     {SCENE(", \"camera\": {\"type\": \"orthographic\", \"height\": -1}"), VOLUX_ERR_INVALID, "camera.height"},
     /* lights */
     {LIGHTS("{}"), VOLUX_ERR_INVALID, "lights: expected an array"},
