@@ -12,6 +12,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "io/scene_formats.h"
 #include "volux/technique.h"
@@ -34,6 +35,18 @@ static inline void fuzz_check_no_leak(volux_context *ctx) {
     if (volux_context_bytes_in_use(ctx) != 0) {
         fprintf(stderr, "fuzz: %llu bytes left allocated through the context (last error: %s)\n",
                 (unsigned long long)volux_context_bytes_in_use(ctx), volux_context_error(ctx));
+        abort();
+    }
+}
+
+/* DESIGN §4: every error names the file. A failure must leave a message
+ * that starts with the name the input was given. */
+static inline void fuzz_check_failure(volux_context *ctx, volux_status st, const char *name) {
+    const char *msg = volux_context_error(ctx);
+    size_t n = strlen(name);
+    if (st == VOLUX_ERR_INTERNAL || strncmp(msg, name, n) != 0 || msg[n] != ':') {
+        fprintf(stderr, "fuzz: status %s with message \"%s\" (must start with \"%s:\")\n", volux_status_name(st),
+                msg, name);
         abort();
     }
 }

@@ -38,10 +38,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
         p = nl + 1;
     }
     volux_scene *s = NULL;
-    if (volux_scene_parse(ctx, SCENE, sizeof SCENE - 1, "/nonexistent", "fixed.json", lines, n, VOLUX_SCENE_NO_FILES,
-                          &s) == VOLUX_OK) {
+    volux_status st = volux_scene_parse(ctx, SCENE, sizeof SCENE - 1, "/nonexistent", "fixed.json", lines, n,
+                                        VOLUX_SCENE_NO_FILES, &s);
+    if (st == VOLUX_OK) {
         fuzz_use_scene(ctx, s);
         volux_scene_destroy(s);
+    } else {
+        fuzz_check_failure(ctx, st, "fixed.json");
     }
     free(text);
     fuzz_check_no_leak(ctx);

@@ -10,10 +10,13 @@
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     volux_context *ctx = fuzz_context();
     volux_scene *s = NULL;
-    if (volux_scene_parse(ctx, (const char *)data, size, "/nonexistent", "fuzz.json", NULL, 0, VOLUX_SCENE_NO_FILES,
-                          &s) == VOLUX_OK) {
+    volux_status st = volux_scene_parse(ctx, (const char *)data, size, "/nonexistent", "fuzz.json", NULL, 0,
+                                        VOLUX_SCENE_NO_FILES, &s);
+    if (st == VOLUX_OK) {
         fuzz_use_scene(ctx, s);
         volux_scene_destroy(s);
+    } else {
+        fuzz_check_failure(ctx, st, "fuzz.json");
     }
     fuzz_check_no_leak(ctx);
     return 0;

@@ -27,10 +27,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     } modes[2] = {{NULL, 0.0, 255.0}, {"Ramp", 0.0, 0.0}};
     for (int m = 0; m < 2; m++) {
         volux_tf_preset p = {0};
-        if (volux_tf_preset_parse(ctx, (const char *)data, size, "fuzz.json", modes[m].name, modes[m].lo, modes[m].hi,
-                                  &p) == VOLUX_OK) {
+        volux_status st = volux_tf_preset_parse(ctx, (const char *)data, size, "fuzz.json", modes[m].name,
+                                                modes[m].lo, modes[m].hi, &p);
+        if (st == VOLUX_OK) {
             use_preset(ctx, &p);
             volux_tf_preset_free(ctx, &p);
+        } else {
+            fuzz_check_failure(ctx, st, "fuzz.json");
         }
         fuzz_check_no_leak(ctx);
     }
