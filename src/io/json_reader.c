@@ -4,6 +4,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "json_reader.h"
 
@@ -23,31 +24,32 @@ volux_status volux_json_error(volux_json_reader *r, volux_status st, const char 
 volux_status volux_json_read_file(volux_context *ctx, const char *path, char **buf, size_t *n) {
     FILE *f = fopen(path, "rb");
     if (!f) return volux_error(ctx, VOLUX_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-    if (fseek(f, 0, SEEK_END) != 0) {
+    /* fstat, not fseek/ftell: a directory opens fine on Linux and ftell
+     * then reports LONG_MAX ("larger than 64 MiB"); pipes cannot seek. */
+    struct stat sb;
+    if (fstat(fileno(f), &sb) != 0 || !S_ISREG(sb.st_mode)) {
         fclose(f);
-        return volux_error(ctx, VOLUX_ERR_IO, "%s: cannot seek", path);
+        return volux_error(ctx, VOLUX_ERR_IO, "%s: not a regular file", path);
     }
-    long size = ftell(f);
-    if (size < 0 || (unsigned long)size > JSON_MAX_BYTES) {
+    if ((uint64_t)sb.st_size > JSON_MAX_BYTES) {
         fclose(f);
-        return volux_error(ctx, size < 0 ? VOLUX_ERR_IO : VOLUX_ERR_LIMIT, "%s: %s", path,
-                           size < 0 ? "cannot determine the size" : "larger than 64 MiB");
+        return volux_error(ctx, VOLUX_ERR_LIMIT, "%s: larger than 64 MiB", path);
     }
-    rewind(f);
-    char *b = volux_malloc(ctx, (size_t)size + 1);
+    size_t size = (size_t)sb.st_size;
+    char *b = volux_malloc(ctx, size + 1);
     if (!b) {
         fclose(f);
         return volux_error(ctx, VOLUX_ERR_NOMEM, "%s: out of memory", path);
     }
-    size_t got = fread(b, 1, (size_t)size, f);
+    size_t got = fread(b, 1, size, f);
     fclose(f);
-    if (got != (size_t)size) {
-        volux_free(ctx, b, (size_t)size + 1);
+    if (got != size) {
+        volux_free(ctx, b, size + 1);
         return volux_error(ctx, VOLUX_ERR_IO, "%s: read error", path);
     }
     b[size] = 0;
     *buf = b;
-    *n = (size_t)size;
+    *n = size;
     return VOLUX_OK;
 }
 

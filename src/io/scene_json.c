@@ -119,8 +119,6 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
                     return volux_json_error(r, VOLUX_ERR_INVALID, p,
                                             "only for a raw file (give dims and type too)");
                 }
-        char path[4096];
-        if ((st = resolve_path(sr, sr->base_dir, file, "volume.file", path, sizeof path))) return st;
         volux_volume_load_options opt = {0};
         volux_raw_desc raw;
         opt.use_file_origin = use_file_origin;
@@ -140,6 +138,9 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
             raw.byte_skip = (uint64_t)byte_skip;
             opt.raw = &raw;
         }
+        /* The layout is checked first: its errors do not depend on the file. */
+        char path[4096];
+        if ((st = resolve_path(sr, sr->base_dir, file, "volume.file", path, sizeof path))) return st;
         st = volux_volume_load(r->ctx, path, &opt, &vol);
         if (st) {
             /* The loader's message names the file; add where it came from. */

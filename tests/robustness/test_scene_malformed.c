@@ -125,6 +125,8 @@ static const malformed CASES[] = {
     {SCENE_TF("\"bad_tf.json\""), VOLUX_ERR_INVALID, "bad_tf.json: transfer_function.albedo"},
     {SCENE_TF("\"nul_tf.json\""), VOLUX_ERR_FORMAT, "NUL byte at line 1"},
     {SCENE_TF("\"no_such_tf.json\""), VOLUX_ERR_IO, "transfer_function: "},
+    {SCENE_TF("\".\""), VOLUX_ERR_IO, "transfer_function: "},
+    {SCENE_TF("\".\""), VOLUX_ERR_IO, ": not a regular file"},
     /* camera */
     {SCENE(", \"camera\": {\"type\": \"fisheye\"}"), VOLUX_ERR_INVALID, "camera.type: expected"},
     {SCENE(", \"camera\": {\"height\": 2}"), VOLUX_ERR_INVALID, "camera.height: only for"},
@@ -409,6 +411,12 @@ static void test_cli_exit_status_and_messages(void **state) {
     snprintf(args, sizeof args, "render '%s' --set render.width=4 --set lights.0.type=directional --technique shaded",
              good);
     cli_case(args, 0, NULL);
+    /* A long --set value (a whole opacity curve) is not cut short. */
+    int len = snprintf(args, sizeof args, "render '%s' --set 'transfer_function.opacity=[[0, 0]", good);
+    for (int i = 1; i < 60; i++) len += snprintf(args + len, sizeof args - (size_t)len, ", [%d, 0.5]", i * 4);
+    snprintf(args + len, sizeof args - (size_t)len, "]'");
+    assert_true(strlen(args) > 500);
+    cli_case(args, 0, NULL);
 
     snprintf(args, sizeof args, "render '%s'", bad_key);
     cli_case(args, 2, (const char *const[]){"cli_bad_key.json", "render.widht: unknown key", NULL});
@@ -418,6 +426,8 @@ static void test_cli_exit_status_and_messages(void **state) {
     cli_case(args, 2, (const char *const[]){"cli_nul.json", "NUL byte", NULL});
     snprintf(args, sizeof args, "render '%s'", tu_temp_path("cli_no_such_scene.json"));
     cli_case(args, 2, (const char *const[]){"cli_no_such_scene.json", NULL});
+    snprintf(args, sizeof args, "render '%s'", tu_temp_path(""));
+    cli_case(args, 2, (const char *const[]){"not a regular file", NULL});
 
     /* Bad overrides. */
     snprintf(args, sizeof args, "render '%s' --set render.width=abc", good);
