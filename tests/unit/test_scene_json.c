@@ -365,6 +365,57 @@ static void test_relative_paths_resolve_against_the_scene_folder(void **state) {
     volux_context_destroy(ctx);
 }
 
+static void test_raw_layout_keys_and_nrrd_origin(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(1);
+    /* Raw: 8 bytes to skip, then big-endian uint16 values. */
+    const unsigned char raw[] = {9, 9, 9, 9, 9, 9, 9, 9, 0, 1, 1, 0, 2, 1, 255, 255};
+    tu_write_file("be16.raw", raw, sizeof raw);
+    volux_scene *s = load_ok(ctx,
+                             "{\"volume\": {\"file\": \"be16.raw\", \"dims\": [2, 2, 1], \"type\": \"uint16\","
+                             "  \"endian\": \"big\", \"byte_skip\": 8},"
+                             " \"transfer_function\": {\"opacity\": [[0, 1]]}}",
+                             NULL, 0);
+    const volux_volume *v = volux_scene_volume(s);
+    assert_near(volux_volume_value_at(v, 0, 0, 0), 1, 0);
+    assert_near(volux_volume_value_at(v, 1, 0, 0), 256, 0);
+    assert_near(volux_volume_value_at(v, 0, 1, 0), 513, 0);
+    assert_near(volux_volume_value_at(v, 1, 1, 0), 65535, 0);
+    volux_scene_destroy(s);
+
+    /* A detached NRRD in vols/ whose data lies one folder up: refused
+     * unless allow_outside_dir; its origin used only with use_file_origin. */
+    char dir[512], p[600];
+    snprintf(dir, sizeof dir, "%s", tu_temp_path("vols"));
+    mkdir(dir, 0700);
+    snprintf(p, sizeof p, "%s/h.nhdr", dir);
+    write_text(p, "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nspace: right-anterior-superior\n"
+                  "space directions: (1,0,0) (0,1,0) (0,0,1)\nspace origin: (10,20,30)\nencoding: raw\n"
+                  "data file: ../up.raw\n\n");
+    const unsigned char vox[8] = {0, 1, 2, 3, 4, 5, 6, 7};
+    tu_write_file("up.raw", vox, sizeof vox);
+    const char *base = "{\"volume\": {\"file\": \"vols/h.nhdr\" %s},"
+                       " \"transfer_function\": {\"opacity\": [[0, 1]]}}";
+    char json[512];
+    snprintf(json, sizeof json, base, "");
+    load_fails(ctx, json, NULL, 0, VOLUX_ERR_FORMAT, "volume.file: ");
+    assert_contains(volux_context_error(ctx), "outside the header's folder");
+    snprintf(json, sizeof json, base, ", \"allow_outside_dir\": true");
+    s = load_ok(ctx, json, NULL, 0);
+    volux_vec3 o = volux_volume_origin(volux_scene_volume(s));
+    assert_near(o.x, -0.5, 0); /* centred: −(dims−1)·spacing/2 */
+    volux_scene_destroy(s);
+    snprintf(json, sizeof json, base, ", \"allow_outside_dir\": true, \"use_file_origin\": true");
+    s = load_ok(ctx, json, NULL, 0);
+    o = volux_volume_origin(volux_scene_volume(s));
+    assert_near(o.x, 10, 0);
+    assert_near(o.z, 30, 0);
+    assert_near(volux_volume_value_at(volux_scene_volume(s), 1, 1, 1), 7, 0);
+    volux_scene_destroy(s);
+    assert_int_equal(volux_context_bytes_in_use(ctx), 0);
+    volux_context_destroy(ctx);
+}
+
 static void test_tf_file_errors_name_scene_and_tf_file(void **state) {
     (void)state;
     volux_context *ctx = tu_context(1);
@@ -659,6 +710,7 @@ int main(void) {
         cmocka_unit_test(test_orbit_camera_distance_follows_fov),
         cmocka_unit_test(test_orthographic_height_given_or_from_orbit_framing),
         cmocka_unit_test(test_relative_paths_resolve_against_the_scene_folder),
+        cmocka_unit_test(test_raw_layout_keys_and_nrrd_origin),
         cmocka_unit_test(test_tf_file_errors_name_scene_and_tf_file),
         cmocka_unit_test(test_paraview_preset_named_rescaled_with_opacity_points),
         cmocka_unit_test(test_preset_parse_from_memory),
