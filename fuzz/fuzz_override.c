@@ -5,7 +5,7 @@
 #include <stdint.h>
 #include <string.h>
 
-#include "fuzz_common.h"
+#include "fuzz_scene_common.h"
 
 #define MAX_LINES 16
 

@@ -5,7 +5,7 @@
  * the context's small max_bytes caps procedural dims. */
 #include <stdint.h>
 
-#include "fuzz_common.h"
+#include "fuzz_scene_common.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     volux_context *ctx = fuzz_context();

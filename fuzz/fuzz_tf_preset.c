@@ -5,7 +5,7 @@
  * validated and baked the way the scene would use it. */
 #include <stdint.h>
 
-#include "fuzz_common.h"
+#include "fuzz_scene_common.h"
 
 static void use_preset(volux_context *ctx, const volux_tf_preset *p) {
     static const volux_tf_scalar_point ramp[2] = {{0.0f, 0.0f}, {255.0f, 1.0f}};

@@ -1,13 +1,13 @@
 /*
- * fuzz/fuzz_common.h — shared by the scene, override and preset harnesses.
+ * fuzz/fuzz_scene_common.h — shared by the scene, override and preset harnesses.
  *
  * One context per process, with a small memory cap so no input can ask for
  * a large volume (procedural dims are capped by max_bytes: 64 KiB is 40³
  * uint8 voxels) and each run stays fast. After every input nothing may be
  * left allocated through the context: a leak on an error path aborts.
  */
-#ifndef VOLUX_FUZZ_COMMON_H
-#define VOLUX_FUZZ_COMMON_H
+#ifndef VOLUX_FUZZ_SCENE_COMMON_H
+#define VOLUX_FUZZ_SCENE_COMMON_H
 
 #include <math.h>
 #include <stdio.h>
