@@ -8,7 +8,7 @@
 
 #include "json_reader.h"
 
-#define JSON_MAX_BYTES (64u << 20)
+#define JSON_MAX_BYTES (16u << 20) /* cJSON needs ~30× the text for arrays of numbers */
 #define STR_(x) #x
 #define STR(x) STR_(x)
 
@@ -25,7 +25,7 @@ volux_status volux_json_read_file(volux_context *ctx, const char *path, char **b
     FILE *f = fopen(path, "rb");
     if (!f) return volux_error(ctx, VOLUX_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
     /* fstat, not fseek/ftell: a directory opens fine on Linux and ftell
-     * then reports LONG_MAX ("larger than 64 MiB"); pipes cannot seek. */
+     * then reports LONG_MAX ("larger than 16 MiB"); pipes cannot seek. */
     struct stat sb;
     if (fstat(fileno(f), &sb) != 0 || !S_ISREG(sb.st_mode)) {
         fclose(f);
@@ -33,7 +33,7 @@ volux_status volux_json_read_file(volux_context *ctx, const char *path, char **b
     }
     if ((uint64_t)sb.st_size > JSON_MAX_BYTES) {
         fclose(f);
-        return volux_error(ctx, VOLUX_ERR_LIMIT, "%s: larger than 64 MiB", path);
+        return volux_error(ctx, VOLUX_ERR_LIMIT, "%s: larger than 16 MiB", path);
     }
     size_t size = (size_t)sb.st_size;
     char *b = volux_malloc(ctx, size + 1);
@@ -92,7 +92,7 @@ static volux_status prescan(volux_json_reader *r, const char *text, size_t n) {
 }
 
 volux_status volux_json_parse(volux_json_reader *r, const char *text, size_t n, cJSON **out) {
-    if (n > JSON_MAX_BYTES) return volux_json_error(r, VOLUX_ERR_LIMIT, NULL, "JSON text larger than 64 MiB");
+    if (n > JSON_MAX_BYTES) return volux_json_error(r, VOLUX_ERR_LIMIT, NULL, "JSON text larger than 16 MiB");
     volux_status st = prescan(r, text, n);
     if (st) return st;
     /* cJSON gets a NUL-terminated copy: callers (and fuzzers) may pass a

@@ -27,9 +27,9 @@ typedef struct volux_json_reader {
  * line/column message on error. Rejects NUL bytes and "\u0000" escapes
  * (they would truncate keys and file names), nesting deeper than
  * VOLUX_JSON_MAX_DEPTH (VOLUX_ERR_LIMIT), text after the value, and inputs
- * over 64 MiB. */
+ * over 16 MiB. */
 volux_status volux_json_parse(volux_json_reader *r, const char *text, size_t n, cJSON **out);
-/* Reads a whole file (≤ 64 MiB) into a NUL-terminated buffer; free with
+/* Reads a whole file (≤ 16 MiB) into a NUL-terminated buffer; free with
  * volux_free(ctx, buf, *n + 1). */
 volux_status volux_json_read_file(volux_context *ctx, const char *path, char **buf, size_t *n);
 
