@@ -1,6 +1,6 @@
 #!/bin/bash
 # Plots convergence series from `volux bench --reference REF --json` output.
-#   tools/plot/convergence.sh OUT.svg LABEL=series.jsonl [LABEL=series.jsonl ...]
+#   tools/plot/convergence.sh OUT.(svg|png) LABEL=series.jsonl [LABEL=series.jsonl ...]
 # Two log-log panels: relMSE vs samples per pixel (with a 1/spp guide) and
 # relMSE vs render time. Needs gnuplot (Debian: gnuplot-nox; installed if
 # missing and we are root).
@@ -30,8 +30,12 @@ for arg in "$@"; do
 done
 first=$(head -n 1 "$tmp/0.dat" | awk '{print $3 * $1}')
 join() { local IFS=','; echo "$*"; }
+case $out in
+  *.png) term='png size 960,400' ;;
+  *) term='svg size 960,400 dynamic font "sans,11"' ;;
+esac
 gnuplot <<GP
-set terminal svg size 960,400 dynamic font "sans,11"
+set terminal $term
 set output '$out'
 set multiplot layout 1,2
 set logscale xy
