@@ -5,6 +5,7 @@
 
 extern const volux_technique_class volux_ea_class;
 extern const volux_technique_class volux_shaded_class;
+extern const volux_technique_class volux_pathtrace_class;
 extern const volux_technique_class volux_single_class;
 extern const volux_technique_class volux_ao_class;
 extern const volux_technique_class volux_ambient_class;
@@ -12,6 +13,7 @@ extern const volux_technique_class volux_ambient_class;
 static const volux_technique_class *const classes[] = {
     &volux_ea_class,
     &volux_shaded_class,
+    &volux_pathtrace_class,
     &volux_single_class,
     &volux_ao_class,
     &volux_ambient_class,

@@ -51,7 +51,7 @@
 #include "ambient.h"
 #include "core/context_internal.h"
 #include "table_internal.h"
-#include "techniques/scatter/hg.h"
+#include "sample/phase.h"
 #include "techniques/scatter/occlusion.h"
 #include "tube.h"
 
@@ -306,7 +306,7 @@ static volux_status ambient_create(volux_context *ctx, volux_scene *scene, void 
     st->b.ctx = ctx;
     st->b.cls = &volux_ambient_class;
     st->radius = -1.0f;
-    volux_change_set all = scatter_change_all();
+    volux_change_set all = volux_change_all();
     volux_status s = ambient_update(st, scene, &all);
     if (s) {
         ambient_destroy(st);

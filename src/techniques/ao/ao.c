@@ -18,7 +18,7 @@
 
 #include "ao.h"
 #include "core/context_internal.h"
-#include "techniques/scatter/hg.h"
+#include "sample/phase.h"
 #include "techniques/scatter/occlusion.h"
 
 static const volux_param_info ao_params[] = {
@@ -72,7 +72,7 @@ static volux_status ao_create(volux_context *ctx, volux_scene *scene, void **out
     if (!st) return volux_error(ctx, VOLUX_ERR_NOMEM, "ao: out of memory for technique state");
     st->b.ctx = ctx;
     st->b.cls = &volux_ao_class;
-    volux_change_set all = scatter_change_all();
+    volux_change_set all = volux_change_all();
     volux_status s = ao_update(st, scene, &all);
     if (s) {
         ao_destroy(st);
@@ -97,7 +97,7 @@ static inline __attribute__((always_inline)) void inscatter(const void *tech, co
     for (int i = 0; i < b->n_lights; i++) {
         volux_vec3 travel;
         volux_vec3 E = scatter_light_irradiance(&b->lights[i], smp->p, &travel);
-        L = v3_add(L, v3_scale(E, scatter_hg(b->g, v3_dot(travel, smp->to_eye))));
+        L = v3_add(L, v3_scale(E, volux_hg_eval(b->g, v3_dot(travel, smp->to_eye))));
     }
     *Ls = v3_scale(L, A);
 }

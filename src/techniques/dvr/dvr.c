@@ -140,6 +140,7 @@ volux_status volux_dvr_update(void *state, volux_scene *scene, const volux_chang
         volux_volume_retain(v);
         volux_volume_release(st->volume);
         st->volume = v;
+        if ((s = volux_volume_build_bricks(v))) return s;
         if (st->shaded && (s = build_gradients(st))) return s;
     }
     if (c->what & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY | VOLUX_CHANGE_COLOR)) {
@@ -167,9 +168,7 @@ volux_status volux_dvr_create(volux_context *ctx, volux_scene *scene, const volu
     st->ctx = ctx;
     st->cls = cls;
     st->shaded = shaded;
-    volux_change_set all;
-    memset(&all, 0xff, sizeof all);
-    all.what = VOLUX_CHANGE_ALL;
+    volux_change_set all = volux_change_all();
     volux_status s = volux_dvr_update(st, scene, &all);
     if (s) {
         volux_dvr_destroy(st);
@@ -197,23 +196,14 @@ void volux_dvr_destroy(void *state) {
 
 /* Interpolated gradient from the cache (world units). */
 static inline volux_vec3 cached_gradient(const dvr_state *st, volux_vec3 q) {
-    const volux_volume *v = st->volume;
-    int nx = v->dims[0], ny = v->dims[1], nz = v->dims[2];
-    int i = (int)q.x, j = (int)q.y, k = (int)q.z;
-    if (i > nx - 2) i = nx > 1 ? nx - 2 : 0;
-    if (j > ny - 2) j = ny > 1 ? ny - 2 : 0;
-    if (k > nz - 2) k = nz > 1 ? nz - 2 : 0;
-    float fx = q.x - (float)i, fy = q.y - (float)j, fz = q.z - (float)k;
-    size_t sx = nx > 1 ? 3 : 0, sy = ny > 1 ? 3 * (size_t)nx : 0, sz = nz > 1 ? 3 * (size_t)nx * (size_t)ny : 0;
-    const int16_t *b = st->grad + 3 * volux_volume_index(v, i, j, k);
+    volux_cell c = volux_volume_cell(st->volume, q.x, q.y, q.z);
+    const int16_t *b = st->grad + 3 * c.base;
+    size_t sx = 3 * c.sx, sy = 3 * c.sy, sz = 3 * c.sz;
     float g[3];
     for (int a = 0; a < 3; a++) {
-        float c00 = b[a] + (b[sx + a] - b[a]) * fx;
-        float c10 = b[sy + a] + (b[sy + sx + a] - b[sy + a]) * fx;
-        float c01 = b[sz + a] + (b[sz + sx + a] - b[sz + a]) * fx;
-        float c11 = b[sz + sy + a] + (b[sz + sy + sx + a] - b[sz + sy + a]) * fx;
-        float c0 = c00 + (c10 - c00) * fy, c1 = c01 + (c11 - c01) * fy;
-        g[a] = (c0 + (c1 - c0) * fz) * st->grad_scale;
+        float n[8] = {b[a],      b[sx + a],      b[sy + a],      b[sy + sx + a],
+                      b[sz + a], b[sz + sx + a], b[sz + sy + a], b[sz + sy + sx + a]};
+        g[a] = volux_lerp3(n, c.fx, c.fy, c.fz) * st->grad_scale;
     }
     return v3(g[0], g[1], g[2]);
 }
@@ -253,15 +243,18 @@ static inline void shade(const dvr_state *st, volux_vec3 p_world, volux_vec3 q, 
     for (int a = 0; a < 3; a++) c[a] += (lit[a] - c[a]) * m;
 }
 
-static inline float sample_at(const volux_volume *v, const volux_ray *r, float t) {
-    return volux_volume_sample_index(v, r->q0.x + r->dq.x * t, r->q0.y + r->dq.y * t, r->q0.z + r->dq.z * t);
+static inline __attribute__((always_inline)) float sample_at(const volux_volume *v, const volux_ray *r, float t,
+                                                              volux_storage storage) {
+    return volux_volume_sample_bricked(v, r->q0.x + r->dq.x * t, r->q0.y + r->dq.y * t, r->q0.z + r->dq.z * t,
+                                       storage);
 }
 
 /* Integrates one ray. Segments: seg 0 = [t0, t0 + j·h], seg k ≥ 1 =
  * [t0 + (j+k−1)·h, t0 + (j+k)·h], clipped to t1 — fixed positions, so
  * skipping empty intervals never changes which segments are integrated. */
 static inline __attribute__((always_inline)) volux_vec3
-march(const dvr_state *st, const volux_ray *ray, float jitter, float *T_out, uint64_t *samples, int shaded, int preint) {
+march(const dvr_state *st, const volux_ray *ray, float jitter, float *T_out, uint64_t *samples, int shaded, int preint,
+      volux_storage storage) {
     const volux_volume *v = st->volume;
     const volux_transfer_lut *lut = st->lut;
     const float h = st->step, t0 = ray->t0, t1 = ray->t1;
@@ -291,11 +284,11 @@ march(const dvr_state *st, const volux_ray *ray, float jitter, float *T_out, uin
             float len = b - a;
             if (len <= 0.0f) continue;
             if (preint && !have_prev) {
-                s_prev = sample_at(v, ray, a);
+                s_prev = sample_at(v, ray, a, storage);
                 I_prev = volux_lut_int_sigma(lut, s_prev, Ic_prev);
                 count++;
             }
-            float s = sample_at(v, ray, b);
+            float s = sample_at(v, ray, b, storage);
             count++;
             float tau, c[3];
             if (preint) {
@@ -350,7 +343,8 @@ done:
 
 static inline __attribute__((always_inline)) void render_tile_impl(const dvr_state *st, const volux_scene *scene,
                                                                    const volux_tile *tile, float *rgb,
-                                                                   volux_tile_stats *stats, int shaded, int preint) {
+                                                                   volux_tile_stats *stats, int shaded, int preint,
+                                                                   volux_storage storage) {
     const volux_camera *cam = &st->camera;
     uint64_t samples = 0;
     for (int y = 0; y < tile->h; y++)
@@ -376,7 +370,7 @@ static inline __attribute__((always_inline)) void render_tile_impl(const dvr_sta
                 continue;
             }
             float T;
-            volux_vec3 c = march(st, &ray, jitter, &T, &samples, shaded, preint);
+            volux_vec3 c = march(st, &ray, jitter, &T, &samples, shaded, preint, storage);
             out[0] = c.x + T * bg.x;
             out[1] = c.y + T * bg.y;
             out[2] = c.z + T * bg.z;
@@ -384,16 +378,23 @@ static inline __attribute__((always_inline)) void render_tile_impl(const dvr_sta
     stats->samples += samples;
 }
 
+/* One kernel, specialised at compile time by (shaded, preintegrate,
+ * storage): the flags are constants inside each instance. */
+#define DVR_STORAGE_SWITCH(SH, PRE)                                                                               \
+    switch (st->volume->storage) {                                                                              \
+    case VOLUX_STORE_U8: render_tile_impl(st, scene, tile, rgb, stats, SH, PRE, VOLUX_STORE_U8); break;        \
+    case VOLUX_STORE_U16: render_tile_impl(st, scene, tile, rgb, stats, SH, PRE, VOLUX_STORE_U16); break;      \
+    default: render_tile_impl(st, scene, tile, rgb, stats, SH, PRE, VOLUX_STORE_F32); break;                   \
+    }
+
 void volux_dvr_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
                            volux_tile_stats *stats) {
     const dvr_state *st = state;
-    /* Four specialisations of one kernel; the flags are compile-time
-     * constants inside each. */
     if (st->shaded) {
-        if (st->preintegrate) render_tile_impl(st, scene, tile, rgb, stats, 1, 1);
-        else render_tile_impl(st, scene, tile, rgb, stats, 1, 0);
+        if (st->preintegrate) DVR_STORAGE_SWITCH(1, 1)
+        else DVR_STORAGE_SWITCH(1, 0)
     } else {
-        if (st->preintegrate) render_tile_impl(st, scene, tile, rgb, stats, 0, 1);
-        else render_tile_impl(st, scene, tile, rgb, stats, 0, 0);
+        if (st->preintegrate) DVR_STORAGE_SWITCH(0, 1)
+        else DVR_STORAGE_SWITCH(0, 0)
     }
 }

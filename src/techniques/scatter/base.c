@@ -5,13 +5,6 @@
 #include "base.h"
 #include "core/context_internal.h"
 
-volux_change_set scatter_change_all(void) {
-    volux_change_set all;
-    memset(&all, 0xff, sizeof all);
-    all.what = VOLUX_CHANGE_ALL;
-    return all;
-}
-
 volux_status scatter_base_update(scatter_base *b, volux_scene *scene, const volux_change_set *c) {
     volux_status s;
     b->threads = volux_context_threads(b->ctx);

@@ -61,8 +61,6 @@ typedef struct scatter_base {
 volux_status scatter_base_update(scatter_base *b, volux_scene *scene, const volux_change_set *c);
 void scatter_base_free(scatter_base *b);
 size_t scatter_base_memory(const scatter_base *b);
-/* A change set with everything changed (for create). */
-volux_change_set scatter_change_all(void);
 
 /* One view-ray sample as the in-scattering callback sees it. */
 typedef struct scatter_sample {

@@ -1,7 +1,8 @@
 /*
- * techniques/scatter/hg.h — the Henyey–Greenstein phase function for the
- * `ambient`, `single` and `ao` techniques and the ambient preintegration
- * table.
+ * techniques/scatter/hg.h — the Henyey–Greenstein phase function in double
+ * precision, for the ambient preintegration table's random walks (a walk in
+ * a thick sphere takes hundreds of steps). Renderers use the float
+ * versions of sample/phase.h (same convention).
  *
  * CONVENTION. cos_theta is the cosine of the scattering angle between the
  * direction light travels before and after the event (g > 0: forward).
@@ -16,8 +17,7 @@
  * along ω, light travels −ω then −d, so cos θ = dot(ω, d); hg_sample
  * returns ω around d.
  *
- * DOES NOT: know lights or media. Names carry a `scatter_` prefix so they
- * cannot collide with the reference path tracer's phase helpers.
+ * DOES NOT: know lights or media.
  */
 #ifndef VOLUX_SCATTER_HG_H
 #define VOLUX_SCATTER_HG_H
@@ -27,12 +27,6 @@
 #include "core/vecmath.h"
 
 #define SCATTER_INV_4PI_D 0.0795774715459476678844
-
-static inline float scatter_hg(float g, float cos_theta) {
-    float denom = 1.0f + g * g - 2.0f * g * cos_theta;
-    if (denom < 1e-12f) denom = 1e-12f;
-    return VOLUX_INV_4PI * (1.0f - g * g) / (denom * sqrtf(denom));
-}
 
 static inline double scatter_hg_d(double g, double cos_theta) {
     double denom = 1.0 + g * g - 2.0 * g * cos_theta;

@@ -21,7 +21,7 @@
 #include "core/context_internal.h"
 #include "core/parallel.h"
 #include "single.h"
-#include "techniques/scatter/hg.h"
+#include "sample/phase.h"
 
 static const volux_param_info single_params[] = {
     SCATTER_COMMON_PARAMS,
@@ -132,7 +132,7 @@ static volux_status single_create(volux_context *ctx, volux_scene *scene, void *
     st->b.ctx = ctx;
     st->b.cls = &volux_single_class;
     st->use_cache = -1;
-    volux_change_set all = scatter_change_all();
+    volux_change_set all = volux_change_all();
     volux_status s = volux_single_update(st, scene, &all);
     if (s) {
         volux_single_destroy(st);
@@ -172,7 +172,7 @@ static inline __attribute__((always_inline)) void inscatter(const void *tech, co
         if (E.x <= 0.0f && E.y <= 0.0f && E.z <= 0.0f) continue;
         float T = st->use_cache ? scatter_grid_sample(&st->cache[l->slot], smp->p)
                                 : shadow_transmittance(st, smp->p, l);
-        L = v3_add(L, v3_scale(E, T * scatter_hg(b->g, v3_dot(travel, smp->to_eye))));
+        L = v3_add(L, v3_scale(E, T * volux_hg_eval(b->g, v3_dot(travel, smp->to_eye))));
     }
     *Ls = L;
 }
