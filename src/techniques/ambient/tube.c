@@ -88,8 +88,9 @@ typedef struct sweep {
     scatter_grid *V;
     volux_vec3 lo, hi;
     float s, inv_r;
-    /* directional: slice index along axis a, rows along b2, runs along b1 */
-    int a, b1, b2, slice;
+    /* directional: slices along axis a (a group of `group` consecutive
+     * slices starting at `slice` in light order), rows along b2, runs along b1 */
+    int a, b1, b2, slice, slice_step, group;
     /* point: shell ranges */
     int olo[3], ohi[3], ilo[3], ihi[3];
     /* directional fast path (ρ grid aligned with V): constant corner offsets
@@ -184,13 +185,15 @@ static inline float fast_delta(const sweep *sw, volux_vec3 x) {
     return delta;
 }
 
-static void slice_row(void *user, int64_t r, int thread) {
+static void slice_row(void *user, int64_t item, int thread) {
     (void)thread;
     const sweep *sw = user;
     scatter_grid *V = sw->V;
-    int idx[3], n = V->dims[sw->b1];
-    idx[sw->a] = sw->slice;
-    idx[sw->b2] = (int)r;
+    int idx[3], n = V->dims[sw->b1], rows = V->dims[sw->b2];
+    /* item → (slice of the group, row); slices run in light order */
+    int g = (int)(item / rows), r = (int)(item % rows), t = sw->slice + g;
+    idx[sw->a] = sw->slice_step > 0 ? t : V->dims[sw->a] - 1 - t;
+    idx[sw->b2] = r;
     int c0 = n, c1 = -1;
     if (sw->fast && idx[sw->a] >= sw->valid_lo[sw->a] && idx[sw->a] <= sw->valid_hi[sw->a] &&
         idx[sw->b2] >= sw->valid_lo[sw->b2] && idx[sw->b2] <= sw->valid_hi[sw->b2]) {
@@ -302,10 +305,16 @@ void tube_march(const tube_input *in, const scatter_light *l, scatter_grid *V) {
                 sw.exit_bound[a] = w[a] < 0.0f ? hi[a] : lo[a];
             }
         }
-        int n = V->dims[sw.a];
-        for (int t = 0; t < n; t++) {
-            sw.slice = w[sw.a] >= 0.0f ? t : n - 1 - t;
-            volux_parallel_for(in->threads, V->dims[sw.b2], slice_row, &sw);
+        /* Every read lies ≥ s·|ω_a|/h_a slices back, so that many
+         * consecutive slices are independent: one parallel region (one
+         * barrier) per group instead of per slice. */
+        int n = V->dims[sw.a], group = (int)floorf(sw.s * fabsf(w[sw.a]) * V->inv_h[sw.a] * 0.9999f);
+        if (group < 1) group = 1;
+        sw.slice_step = w[sw.a] >= 0.0f ? 1 : -1;
+        for (int t = 0; t < n; t += group) {
+            sw.slice = t;
+            int m = n - t < group ? n - t : group;
+            volux_parallel_for(in->threads, (int64_t)m * V->dims[sw.b2], slice_row, &sw);
         }
         return;
     }
