@@ -28,18 +28,23 @@ for scene in $scenes; do
     echo "compare: reference $scene ($spp spp)" >&2
     "$volux" render "$here/$scene.json" --technique pathtrace --spp "$spp" "${common[@]}" -o "$ref"
   fi
-  for tech in ao single ambient; do
+  # ambient_o0: the camera transmittance taken at x instead of Eq. 20's x_o
+  for tech in ao single ambient ambient_o0; do
     img="$outdir/${scene}_${tech}.pfm"
-    "$volux" render "$here/$scene.json" --technique "$tech" "${common[@]}" -o "$img"
+    if [ "$tech" = ambient_o0 ]; then
+      "$volux" render "$here/$scene.json" --technique ambient --set techniques.ambient.offset=0 "${common[@]}" -o "$img"
+    else
+      "$volux" render "$here/$scene.json" --technique "$tech" "${common[@]}" -o "$img"
+    fi
     "$volux" compare "$img" "$ref" --json |
       sed -e "s/^{/{\"scene\":\"$scene\",\"technique\":\"$tech\",/" >> "$outdir/errors.jsonl"
   done
   if command -v convert >/dev/null && command -v montage >/dev/null; then
     # linear PFM → sRGB PNG for viewing (no exposure change)
-    for t in ao single ambient pathtrace; do
+    for t in ao single ambient ambient_o0 pathtrace; do
       convert "$outdir/${scene}_$t.pfm" -set colorspace RGB -colorspace sRGB "$outdir/${scene}_$t.png"
     done
-    montage "$outdir/${scene}"_{ao,single,ambient,pathtrace}.png -tile 4x1 -geometry +2+2 "$outdir/${scene}_side_by_side.png"
+    montage "$outdir/${scene}"_{ao,single,ambient,ambient_o0,pathtrace}.png -tile 5x1 -geometry +2+2 "$outdir/${scene}_side_by_side.png"
   fi
 done
 cat "$outdir/errors.jsonl"

@@ -50,10 +50,11 @@ def main():
             print("- %s: ambient PF/TF = %.3f, LS/TF = %.3f (target <= 0.15); render ambient/single = %.2f "
                   "(target <= 2)" % (scene, pf / tf, ls / tf, ra / rs))
     if errors:
-        print("\n| scene | rel_mse ao | rel_mse single | rel_mse ambient |")
-        print("|---|---|---|---|")
+        cols = ["ao", "single", "ambient", "ambient_o0"]
+        print("\n| scene | " + " | ".join("rel_mse " + c for c in cols) + " |")
+        print("|---" * (len(cols) + 1) + "|")
         for scene, e in errors.items():
-            print("| %s | %s |" % (scene, " | ".join("%.4g" % e[t] if t in e else "-" for t in ["ao", "single", "ambient"])))
+            print("| %s | %s |" % (scene, " | ".join("%.4g" % e[t] if t in e else "-" for t in cols)))
 
 
 if __name__ == "__main__":

@@ -65,6 +65,9 @@ static const volux_param_info ambient_params[] = {
      "add gradient-based Blinn-Phong highlights (TF material specular, specular_power)"},
     {"gradient_threshold", VOLUX_PARAM_NUMBER, 0.02, 0, 10, NULL,
      "gradient magnitude (fraction of the value range per voxel) at which highlights are fully on"},
+    {"offset", VOLUX_PARAM_NUMBER, 1, 0, 1, NULL,
+     "camera transmittance from x_o = x + offset·r·ω (Eq. 20: 1); 0 takes T(x) as single scattering does "
+     "(see docs/techniques/ambient.md, section 8)"},
     {"ao", VOLUX_PARAM_NUMBER, 0, 0, 1e6, NULL,
      "radiance of a white ambient light added through SAT ambient occlusion (0 = off; environment lights are "
      "always added this way)"},
@@ -234,6 +237,7 @@ static volux_status ambient_update(void *state, volux_scene *scene, const volux_
         if (scale != st->cache_scale) all_caches = scale_changed = 1;
         st->radius = radius, st->cache_scale = scale, st->ao = ao, st->ao_radius = ao_r, st->ao_shells = shells;
         st->specular = (int)volux_technique_param(scene, cls, "specular");
+        st->offset = (float)volux_technique_param(scene, cls, "offset");
         double lo, hi;
         volux_volume_range(b->volume, &lo, &hi);
         st->grad_ref = (float)(volux_technique_param(scene, cls, "gradient_threshold") * (hi > lo ? hi - lo : 1.0) /
@@ -396,7 +400,7 @@ static inline __attribute__((always_inline)) void inscatter(const void *tech, co
 static void ambient_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
                                 volux_tile_stats *stats) {
     const ambient_state *st = state;
-    scatter_render_tile(&st->b, st, scene, tile, rgb, stats, st->radius, inscatter);
+    scatter_render_tile(&st->b, st, scene, tile, rgb, stats, st->offset * st->radius, inscatter);
 }
 
 const volux_technique_class volux_ambient_class = {

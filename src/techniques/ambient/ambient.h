@@ -23,6 +23,7 @@ typedef struct ambient_state {
     float radius;                 /* r, world units                          */
     float cache_scale;
     int specular;
+    float offset;                 /* x_o = x + offset·r·ω (Eq. 20: 1)        */
     float grad_ref;               /* |∇s| (per world unit) of full specular  */
     float ao, ao_radius;          /* AO term weight, radius (world)          */
     int ao_shells;
