@@ -94,7 +94,7 @@ static int cmp_double(const void *a, const void *b) {
  * of the sweep against `expect` over all nodes: max, and optionally mean
  * and 90th percentile. */
 static double max_error_stats(fixture *f, const scatter_light *l, expect_fn expect, double *mean, double *p90) {
-    tube_march(&f->in, l, &f->V);
+    assert_int_equal(tube_march(f->ctx, &f->in, l, &f->V), VOLUX_OK);
     size_t n = (size_t)f->V.dims[0] * f->V.dims[1] * f->V.dims[2], m = 0;
     double *e = malloc(n * sizeof *e), sum = 0.0;
     for (int k = 0; k < f->V.dims[2]; k++)

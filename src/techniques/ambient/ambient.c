@@ -213,7 +213,7 @@ static volux_status build_cache(ambient_state *st, const scatter_light *l) {
     if (s) return s;
     tube_input in = {&st->rho_c, st->kappa, st->table.desc.n_sigma, (float)st->table.desc.sigma_max, st->radius,
                      st->b.threads};
-    tube_march(&in, l, V);
+    if ((s = tube_march(st->b.ctx, &in, l, V))) return s;
     st->stats.cache_builds[l->slot]++;
     return VOLUX_OK;
 }

@@ -2,6 +2,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "core/context_internal.h"
 #include "core/parallel.h"
 #include "tube.h"
 
@@ -91,8 +92,9 @@ typedef struct sweep {
     /* directional: slices along axis a (a group of `group` consecutive
      * slices starting at `slice` in light order), rows along b2, runs along b1 */
     int a, b1, b2, slice, slice_step, group;
-    /* point: shell ranges */
-    int olo[3], ohi[3], ilo[3], ihi[3];
+    /* point: the current shell as runs of nodes (z, y, x0, x1) along x */
+    int (*runs)[4];
+    int64_t n_runs;
     /* directional fast path (ρ grid aligned with V): constant corner offsets
      * and weights of the two reads, and the box-exit reciprocals */
     int fast;
@@ -261,23 +263,44 @@ static void displaced_corners(const scatter_grid *g, volux_vec3 d, ptrdiff_t off
     }
 }
 
-static void shell_plane(void *user, int64_t item, int thread) {
+static void shell_run(void *user, int64_t item, int thread) {
     (void)thread;
     const sweep *sw = user;
-    int z = sw->olo[2] + (int)item;
-    int zin = z >= sw->ilo[2] && z <= sw->ihi[2];
-    for (int y = sw->olo[1]; y <= sw->ohi[1]; y++) {
-        int yin = y >= sw->ilo[1] && y <= sw->ihi[1];
-        if (zin && yin && sw->ilo[0] <= sw->ihi[0]) {
-            for (int x = sw->olo[0]; x < sw->ilo[0]; x++) node(sw, x, y, z);
-            for (int x = sw->ihi[0] + 1; x <= sw->ohi[0]; x++) node(sw, x, y, z);
-        } else {
-            for (int x = sw->olo[0]; x <= sw->ohi[0]; x++) node(sw, x, y, z);
+    const int *r = sw->runs[item];
+    for (int x = r[2]; x <= r[3]; x++) node(sw, x, r[1], r[0]);
+}
+
+/* Appends the runs of shell k (nodes with k ≤ max_a |i_a − P_a| < k + 1)
+ * to sw->runs: the outer box minus the inner box, row by row. */
+static void shell_runs(sweep *sw, const float P[3], int k) {
+    int olo[3], ohi[3], ilo[3], ihi[3];
+    for (int a = 0; a < 3; a++) {
+        int m = sw->V->dims[a] - 1;
+        int lo = (int)floorf(P[a] - (float)k - 1.0f) + 1, hi = (int)ceilf(P[a] + (float)k + 1.0f) - 1;
+        int il = (int)floorf(P[a] - (float)k) + 1, ih = (int)ceilf(P[a] + (float)k) - 1;
+        olo[a] = lo < 0 ? 0 : lo;
+        ohi[a] = hi > m ? m : hi;
+        ilo[a] = il < 0 ? 0 : il;
+        ihi[a] = ih > m ? m : ih;
+        if (olo[a] > ohi[a]) return;
+    }
+    for (int z = olo[2]; z <= ohi[2]; z++) {
+        int zin = z >= ilo[2] && z <= ihi[2];
+        for (int y = olo[1]; y <= ohi[1]; y++) {
+            int yin = y >= ilo[1] && y <= ihi[1];
+            int (*r)[4] = sw->runs + sw->n_runs;
+            if (zin && yin && ilo[0] <= ihi[0]) {
+                if (olo[0] < ilo[0]) r[0][0] = z, r[0][1] = y, r[0][2] = olo[0], r[0][3] = ilo[0] - 1, r++;
+                if (ihi[0] < ohi[0]) r[0][0] = z, r[0][1] = y, r[0][2] = ihi[0] + 1, r[0][3] = ohi[0], r++;
+            } else {
+                r[0][0] = z, r[0][1] = y, r[0][2] = olo[0], r[0][3] = ohi[0], r++;
+            }
+            sw->n_runs = r - sw->runs;
         }
     }
 }
 
-void tube_march(const tube_input *in, const scatter_light *l, scatter_grid *V) {
+volux_status tube_march(volux_context *ctx, const tube_input *in, const scatter_light *l, scatter_grid *V) {
     sweep sw;
     memset(&sw, 0, sizeof sw);
     sw.in = in, sw.l = l, sw.V = V;
@@ -316,7 +339,7 @@ void tube_march(const tube_input *in, const scatter_light *l, scatter_grid *V) {
             int m = n - t < group ? n - t : group;
             volux_parallel_for(in->threads, (int64_t)m * V->dims[sw.b2], slice_row, &sw);
         }
-        return;
+        return VOLUX_OK;
     }
     float P[3] = {(l->pos.x - V->lo.x) * V->inv_h[0], (l->pos.y - V->lo.y) * V->inv_h[1],
                   (l->pos.z - V->lo.z) * V->inv_h[2]};
@@ -326,23 +349,24 @@ void tube_march(const tube_input *in, const scatter_light *l, scatter_grid *V) {
         if (d > dmax) dmax = d;
     }
     int K = (int)floorf(dmax);
-    for (int k = 0; k <= K; k++) {
-        int empty = 0;
-        for (int a = 0; a < 3; a++) {
-            int m = V->dims[a] - 1;
-            int lo = (int)floorf(P[a] - (float)k - 1.0f) + 1, hi = (int)ceilf(P[a] + (float)k + 1.0f) - 1;
-            int ilo = (int)floorf(P[a] - (float)k) + 1, ihi = (int)ceilf(P[a] + (float)k) - 1;
-            sw.olo[a] = lo < 0 ? 0 : lo;
-            sw.ohi[a] = hi > m ? m : hi;
-            sw.ilo[a] = ilo < 0 ? 0 : ilo;
-            sw.ihi[a] = ihi > m ? m : ihi;
-            if (sw.olo[a] > sw.ohi[a]) empty = 1;
-        }
-        /* An inner range clipped to nothing on one axis means no node of
-         * the plane row lies inside the inner box. */
-        if (empty) continue;
-        volux_parallel_for(in->threads, sw.ohi[2] - sw.olo[2] + 1, shell_plane, &sw);
+    /* Reads lie ≥ s/(√3 h_max) − 1 shells back (see tube_step), so that
+     * many consecutive shells are independent: one parallel region per
+     * group. The runs of a group (rows of the shells' faces and rings)
+     * balance across threads. */
+    float hmax = fmaxf(V->h[0], fmaxf(V->h[1], V->h[2]));
+    int group = (int)floorf(sw.s / (1.7320508f * hmax) * 0.9999f) - 1;
+    if (group < 1) group = 1;
+    /* at most two runs per (z, y) row of a shell */
+    size_t bytes = sizeof *sw.runs * 2 * (size_t)V->dims[1] * (size_t)V->dims[2] * (size_t)group;
+    sw.runs = volux_malloc(ctx, bytes);
+    if (!sw.runs) return volux_error(ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for tube marching");
+    for (int k = 0; k <= K; k += group) {
+        sw.n_runs = 0;
+        for (int j = k; j < k + group && j <= K; j++) shell_runs(&sw, P, j);
+        if (sw.n_runs) volux_parallel_for(in->threads, sw.n_runs, shell_run, &sw);
     }
+    volux_free(ctx, sw.runs, bytes);
+    return VOLUX_OK;
 }
 
 float tube_chain(const tube_input *in, const scatter_light *l, const scatter_grid *V, volux_vec3 x) {

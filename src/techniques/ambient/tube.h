@@ -63,8 +63,8 @@ static inline float tube_kappa_of_tau(float tau) { return tau > 1e-30f ? -logf(t
 float tube_step(const tube_input *in, const scatter_grid *V, const scatter_light *l);
 
 /* Fills the cache (already allocated over the volume box) with D = −ln V
- * for light l. */
-void tube_march(const tube_input *in, const scatter_light *l, scatter_grid *V);
+ * for light l. Allocates a little scratch through ctx (point lights). */
+volux_status tube_march(volux_context *ctx, const tube_input *in, const scatter_light *l, scatter_grid *V);
 
 /* V (not D) at one point by walking the chain directly (no cache reads):
  * the closed-form product of table look-ups the sweep must reproduce, for
