@@ -373,11 +373,16 @@ static inline __attribute__((always_inline)) void inscatter(const void *tech, co
         /* Lines 12–17: the light enters S_r(x') at x_j = x' − r ω_j. */
         volux_vec3 xj = v3_madd(smp->p, travel, -st->radius);
         if (l->positional) {
-            volux_vec3 tj;
-            E = scatter_light_irradiance(l, xj, &tj);
+            /* x_j lies on the same ray from the light, r closer: the
+             * inverse-square law at x_j (the spot factor is the same). */
+            volux_vec3 d = v3_sub(smp->p, l->pos);
+            float d2 = v3_dot(d, d), dj = sqrtf(d2) - st->radius;
+            /* a light inside S_r(x') keeps its irradiance at x' */
+            float f = dj > 0.0f ? d2 / (dj * dj) : 1.0f;
+            E = v3_scale(E, f < 1e6f ? f : 1e6f);
         }
         if (E.x <= 0.0f && E.y <= 0.0f && E.z <= 0.0f) continue;
-        float V = expf(-scatter_grid_sample(&st->cache[l->slot], xj));
+        float V = scatter_exp_neg(-scatter_grid_sample(&st->cache[l->slot], xj));
         float theta = scatter_fast_acos(v3_dot(travel, smp->to_eye));
         float Lo = slice_lookup(st, theta * st->u_theta, us);
         L = v3_add(L, v3_scale(E, V * Lo));

@@ -48,6 +48,7 @@
 #include "core/parallel.h"
 #include "core/rng.h"
 #include "table_internal.h"
+#include "techniques/scatter/fastmath.h"
 #include "techniques/scatter/hg.h"
 
 #define TABLE_MAGIC "VXAMBTAB"
@@ -154,22 +155,6 @@ double volux_ambient_reference_entry(double theta, double sigma, double g, doubl
 
 /* ------------------------------------------------------------------ build */
 
-/* e^x for x ≤ 0 (clamped at −87), vectorisable: branch-free (max via
- * fabs), no libm call; 2^n through the exponent bits and a degree-6 Taylor
- * polynomial on |r| ≤ ln2/2 (relative error < 3e-7). */
-static inline float exp_neg(float x) {
-    x = 0.5f * (x - 87.0f + fabsf(x + 87.0f)); /* max(x, −87) */
-    float t = x * 1.44269504f;
-    int n = (int)(t - 0.5f); /* round to nearest for t ≤ 0 */
-    float r = x - (float)n * 0.693145752f - (float)n * 1.42860677e-6f;
-    float p = 1.0f + r * (1.0f + r * (0.5f + r * (0.166666667f + r * (0.0416666667f + r * (0.00833333333f +
-                                                                                         r * 0.00138888889f)))));
-    int32_t bits = (n + 127) << 23;
-    float scale;
-    memcpy(&scale, &bits, sizeof scale);
-    return p * scale;
-}
-
 typedef struct build_job {
     volux_context *ctx;
     const volux_ambient_table_desc *d;
@@ -195,7 +180,7 @@ __attribute__((target_clones("avx2", "default"))) static void score_all(float *r
         for (int i = 0; i < nt; i++) {
             float z = cz * cos_t[i] - ex * sin_t[i];
             float wp = wz * cos_t[i] - wx * sin_t[i];
-            float att = exp_neg(-two_sigma * 0.5f * (z + fabsf(z))); /* max(z, 0) */
+            float att = scatter_exp_neg(-two_sigma * 0.5f * (z + fabsf(z))); /* max(z, 0) */
             float q = a - b * wp;
             acc[i] += wk * att / (q * sqrtf(q));
         }

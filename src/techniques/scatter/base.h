@@ -25,6 +25,7 @@
 #define VOLUX_SCATTER_BASE_H
 
 #include "core/rng.h"
+#include "fastmath.h"
 #include "lights.h"
 #include "sample/march.h"
 #include "volux/technique.h"
@@ -81,14 +82,6 @@ typedef void (*scatter_inscatter_fn)(const void *tech, const scatter_sample *smp
  * step). When full, the oldest is folded into the base (T(x_o) is then
  * taken slightly too close to x: conservative). */
 #define SCATTER_LAG_RECORDS 2048
-
-static inline float scatter_fast_acos(float x) {
-    /* Abramowitz & Stegun 4.4.45, |error| ≤ 6.7e-5 rad. */
-    float ax = fabsf(x);
-    if (ax > 1.0f) ax = 1.0f;
-    float r = sqrtf(1.0f - ax) * (1.5707288f + ax * (-0.2121144f + ax * (0.0742610f - 0.0187293f * ax)));
-    return x < 0.0f ? VOLUX_PI - r : r;
-}
 
 static inline __attribute__((always_inline)) void
 scatter_render_tile(const scatter_base *b, const void *tech, const volux_scene *scene, const volux_tile *tile,
@@ -154,7 +147,7 @@ scatter_render_tile(const scatter_base *b, const void *tech, const volux_scene *
                     volux_lut_rgba(lut, smp.s, rgba);
                     float tau = rgba[3] * len;
                     if (tau <= 0.0f) continue;
-                    float alpha = 1.0f - expf(-tau);
+                    float alpha = 1.0f - scatter_exp_neg(-tau);
                     /* T(x_o), x_o = x + lag·ω: the transmittance at t = e − lag,
                      * linear within the recorded segment that contains it. */
                     float T_o = T;
