@@ -10,6 +10,10 @@
 # ($XDG_CACHE_HOME/volux or ~/.cache/volux); the first run builds it
 # (minutes, see docs/techniques/ambient.md) unless it is there already.
 set -euo pipefail
+# Passive OpenMP waiting: on a shared (oversubscribed) machine libgomp's
+# default spin-wait lets a waiting thread eat the free core at each of the
+# radiance-cache sweep's barriers (docs/techniques/ambient.md, section 9).
+export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
 here=$(cd "$(dirname "$0")" && pwd)
 volux=${1:-$here/../../build/volux}
 out=${2:-$here/results.jsonl}
