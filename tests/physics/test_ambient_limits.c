@@ -4,6 +4,7 @@
  * the phase function (L̃o(θ, 0, g) = p_g(cos θ)) and the tube-marched
  * radiance cache tends to the shadow-ray transmittance.
  */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -60,9 +61,46 @@ static void test_small_radius_tends_to_single_scattering(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* With albedo 0 nothing scatters and the emission term (Eq. 19) with
+ * L_e = c is exactly emission–absorption: single, ao and ambient (with its
+ * AO term on) must reproduce `ea` without pre-integration. */
+static void test_emission_only_is_emission_absorption(void **state) {
+    (void)state;
+    char dir[600];
+    snprintf(dir, sizeof dir, "%s", tu_temp_path("xdg"));
+    setenv("XDG_CACHE_HOME", dir, 1);
+    volux_context *ctx = tu_context(2);
+    volux_scene *s;
+    assert_int_equal(volux_scene_load_string(ctx, SCENE, ".", "test", NULL, 0, &s), VOLUX_OK);
+    volux_transfer_desc tf = *volux_scene_transfer(s);
+    tf.albedo = 0.0f;
+    assert_int_equal(volux_scene_set_transfer(s, &tf), VOLUX_OK);
+    assert_int_equal(volux_scene_set_param(s, "ea", "preintegrate", 0, NULL), VOLUX_OK);
+    assert_int_equal(volux_scene_set_param(s, "ambient", "ao", 0.5, NULL), VOLUX_OK);
+    assert_int_equal(volux_scene_set_param(s, "ambient", "table_albedo", 0.5, NULL), VOLUX_OK);
+    const char *names[] = {"single", "ao", "ambient"};
+    for (int k = 0; k < 3; k++) assert_int_equal(volux_scene_set_param(s, names[k], "emission", 1, NULL), VOLUX_OK);
+    volux_image ref = render(ctx, s, "ea");
+    double sum = 0.0;
+    for (int i = 0; i < 32 * 32 * 3; i++) sum += ref.rgb[i];
+    assert_true(sum > 1.0);
+    for (int k = 0; k < 3; k++) {
+        volux_image img = render(ctx, s, names[k]);
+        double worst = 0.0;
+        for (int i = 0; i < 32 * 32 * 3; i++) worst = fmax(worst, fabs(img.rgb[i] - ref.rgb[i]));
+        print_message("%s vs ea, emission only: max |diff| %.3g\n", names[k], worst);
+        assert_true(worst < 1e-4);
+        volux_image_free(ctx, &img);
+    }
+    volux_image_free(ctx, &ref);
+    volux_scene_destroy(s);
+    volux_context_destroy(ctx);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_small_radius_tends_to_single_scattering),
+        cmocka_unit_test(test_emission_only_is_emission_absorption),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
