@@ -324,8 +324,10 @@ static size_t ambient_memory_bytes(const void *state) {
     const ambient_state *st = state;
     size_t n = sizeof *st + scatter_base_memory(&st->b) + st->sat.bytes + st->rho.bytes + st->rho_c.bytes + st->occ.bytes +
                st->slice_bytes + st->kappa_bytes;
-    if (st->have_table) n += 4 * sizeof(float) * (size_t)st->table.desc.n_theta * (size_t)st->table.desc.n_sigma *
-                             (size_t)st->table.desc.n_g / 2; /* data + error block */
+    if (st->have_table) {
+        size_t values = (size_t)st->table.desc.n_theta * (size_t)st->table.desc.n_sigma * (size_t)st->table.desc.n_g;
+        n += values * sizeof(float) * (st->table.rel_error ? 2 : 1); /* data (+ error block) */
+    }
     for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) n += st->cache[i].bytes;
     return n;
 }
