@@ -54,9 +54,8 @@
 #define TABLE_MAGIC "VXAMBTAB"
 #define TABLE_HEADER_BYTES 128
 #define TABLE_FLAG_ERRORS 1u
-#define ESTIMATOR_ID 1u
+#define ESTIMATOR_ID 2u /* 2: escape scoring with MIS against boundary-lobe sampling */
 #define BATCHES 16        /* batch means for the per-entry standard error */
-#define AZIMUTHS 1        /* spins per vertex (1.)                         */
 #define RR_WEIGHT 0.125   /* Russian roulette below this weight (4.)      */
 #define MAX_VERTICES 4096 /* safety bound; never reached with albedo < 1  */
 
@@ -165,25 +164,36 @@ typedef struct build_job {
     int done, busy, cancelled;
 } build_job;
 
-/* Adds weight·L̃s(M e, M w) for every θ entry to acc, M = R_θ S_ψ over
- * AZIMUTHS spins; the HG constant (1−g²)/(4π) is applied by the caller. */
-__attribute__((target_clones("avx2", "default"))) static void score_all(float *restrict acc, const float *restrict cos_t, const float *restrict sin_t, int nt,
-                      const scatter_dvec3 *e, const scatter_dvec3 *w, float weight, float two_sigma, float a,
-                      float b, double psi0) {
-    float cz = (float)e->z, wz = (float)w->z;
-    for (int k = 0; k < AZIMUTHS; k++) {
-        double psi = psi0 + 2.0 * 3.14159265358979323846 * k / AZIMUTHS;
-        double c = cos(psi), s = sin(psi);
-        /* (S_ψ v).x; the tilt then gives z' = v.z cos θ − (S_ψ v).x sin θ. */
-        float ex = (float)(e->x * c - e->y * s), wx = (float)(w->x * c - w->y * s);
-        float wk = weight / AZIMUTHS;
-        for (int i = 0; i < nt; i++) {
-            float z = cz * cos_t[i] - ex * sin_t[i];
-            float wp = wz * cos_t[i] - wx * sin_t[i];
-            float att = scatter_exp_neg(-two_sigma * 0.5f * (z + fabsf(z))); /* max(z, 0) */
-            float q = a - b * wp;
-            acc[i] += wk * att / (q * sqrtf(q));
-        }
+/* The vertex's escape contribution to every θ entry (tilt R_θ after a
+ * spin S_ψ; all vectors below are already spun), as a one-sample MIS
+ * (balance heuristic) of two strategies for the direction ω the walk
+ * leaves along:
+ *   A  ω ~ phase about d (the walk's own sample): P_A = P(ω·d)
+ *   B  the light's travel direction w' ~ the boundary lobe about +z in the
+ *      entry's frame (Eq. 11), ω = −R_θ^T w': P_B = P(w'_z)
+ * Both terms reduce to e^{−σ̃t ℓ}·e^{−2σ̃t max(0, z')}·P_A P_B/(P_A + P_B)
+ * with P(μ) = (1 + g² − 2gμ)^{−3/2}; the caller applies (1 − g²)/(4π) once.
+ * Strategy B makes sharply forward lobes (g → 0.9) cheap to hit. */
+__attribute__((target_clones("avx2", "default"))) static void
+score_all(float *restrict acc, const float *restrict cos_t, const float *restrict sin_t, int nt, float weight,
+          float sigma, float a, float b, /* vertex */ float x0, float x1, float x2, float d0, float d1, float d2,
+          /* A */ float esc_a, float ex, float ez, float wx, float wz, float pa_a,
+          /* B */ float v0, float v1, float v2, float pb_b) {
+    const float cc = x0 * x0 + x1 * x1 + x2 * x2 - 1.0f;
+    for (int i = 0; i < nt; i++) {
+        const float c = cos_t[i], s = sin_t[i];
+        /* A: rotate the sampled exit */
+        float z = ez * c - ex * s, wp = wz * c - wx * s;
+        float q = a - b * wp, pb_a = 1.0f / (q * sqrtf(q));
+        float term_a = esc_a * scatter_exp_neg(-sigma * (z + fabsf(z))) * pa_a * pb_a / (pa_a + pb_a);
+        /* B: the lobe sample w' (v) back into the spun frame, ω = −R_θ^T w' */
+        float o0 = -(v0 * c - v2 * s), o1 = -v1, o2 = -(v0 * s + v2 * c);
+        float bb = x0 * o0 + x1 * o1 + x2 * o2, disc = bb * bb - cc;
+        float l = -bb + sqrtf(0.5f * (disc + fabsf(disc)));
+        float e0 = x0 + l * o0, e2 = x2 + l * o2, zb = e2 * c - e0 * s;
+        float qa = a - b * (o0 * d0 + o1 * d1 + o2 * d2), pa_b = 1.0f / (qa * sqrtf(qa));
+        float term_b = scatter_exp_neg(-sigma * (l + zb + fabsf(zb))) * pa_b * pb_b / (pa_b + pb_b);
+        acc[i] += weight * (term_a + term_b);
     }
 }
 
@@ -194,7 +204,7 @@ static void build_column(void *user, int64_t index, int thread) {
     const int nt = d->n_theta;
     const int is = (int)(index % d->n_sigma), ig = (int)(index / d->n_sigma);
     const double sigma = table_sigma(d, is), g = table_g(d, ig), albedo = d->albedo;
-    const float a = (float)(1.0 + g * g), b = (float)(2.0 * g), two_sigma = (float)(2.0 * sigma);
+    const float a = (float)(1.0 + g * g), b = (float)(2.0 * g);
     const double hg_const = (1.0 - g * g) * SCATTER_INV_4PI_D;
 
     /* Scratch: acc[nt] floats (one walk), batch[BATCHES][nt] doubles. */
@@ -216,13 +226,25 @@ static void build_column(void *user, int64_t index, int thread) {
             for (int v = 0; v < MAX_VERTICES; v++) {
                 beta *= albedo;
                 double u0 = volux_rng_double(&rng), u1 = volux_rng_double(&rng);
+                scatter_dvec3 prev = dir;
                 dir = scatter_hg_sample_dir(g, dir, u0, u1);
                 double l = exit_distance(x, dir);
                 double esc = exp(-sigma * l);
                 scatter_dvec3 e = {x.x + l * dir.x, x.y + l * dir.y, x.z + l * dir.z};
-                scatter_dvec3 w = {-dir.x, -dir.y, -dir.z}; /* light travels back along the walk */
-                double psi0 = 2.0 * 3.14159265358979323846 * volux_rng_double(&rng);
-                score_all(acc, job->cos_t, job->sin_t, nt, &e, &w, (float)(beta * esc), two_sigma, a, b, psi0);
+                /* spin ψ about the pole; light travels w = −dir back along the walk */
+                double psi = 2.0 * 3.14159265358979323846 * volux_rng_double(&rng), cp = cos(psi), sp = sin(psi);
+                double mu_a = dir.x * prev.x + dir.y * prev.y + dir.z * prev.z;
+                double qa = 1.0 + g * g - 2.0 * g * mu_a;
+                /* strategy B: w' about +z with the boundary lobe's HG */
+                double mu = scatter_hg_sample_cos(g, volux_rng_double(&rng));
+                double phi = 2.0 * 3.14159265358979323846 * volux_rng_double(&rng);
+                double st = sqrt(fmax(0.0, 1.0 - mu * mu)), qb = 1.0 + g * g - 2.0 * g * mu;
+                score_all(acc, job->cos_t, job->sin_t, nt, (float)beta, (float)sigma, a, b,
+                          (float)(x.x * cp - x.y * sp), (float)(x.x * sp + x.y * cp), (float)x.z,
+                          (float)(prev.x * cp - prev.y * sp), (float)(prev.x * sp + prev.y * cp), (float)prev.z,
+                          (float)esc, (float)(e.x * cp - e.y * sp), (float)e.z, (float)(-(dir.x * cp - dir.y * sp)),
+                          (float)-dir.z, (float)(1.0 / (qa * sqrt(qa))), (float)(st * cos(phi)), (float)(st * sin(phi)),
+                          (float)mu, (float)(1.0 / (qb * sqrt(qb))));
                 double p_stay = -expm1(-sigma * l);
                 beta *= p_stay;
                 if (beta < RR_WEIGHT) {
