@@ -30,7 +30,7 @@
  *      48     8  sigma_min (0)    56  8  sigma_max (Σ̃t)
  *      64     8  g_min            72  8  g_max
  *      80     8  albedo           88  8  paths per entry
- *      96     8  seed            104  4  estimator id (1)
+ *      96     8  seed            104  4  estimator id (3)
  *     108    12  reserved (0)    120  8  build time (ms, informative)
  *     128     …  float32 data, n_g·n_sigma·n_theta values
  *       …     …  float32 relative standard errors (if flags bit 0)
