@@ -5,10 +5,12 @@
 
 extern const volux_technique_class volux_ea_class;
 extern const volux_technique_class volux_shaded_class;
+extern const volux_technique_class volux_lightvol_class;
 
 static const volux_technique_class *const classes[] = {
     &volux_ea_class,
     &volux_shaded_class,
+    &volux_lightvol_class,
 };
 
 int volux_technique_count(void) { return (int)(sizeof classes / sizeof classes[0]); }
