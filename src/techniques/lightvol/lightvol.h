@@ -56,8 +56,8 @@ static inline float lv_acos01(float x) {
  * Contribution factors (Eqs. 5a/5b, our continuous reading; see
  * docs/techniques/lightvol.md). For unit travel direction w with angles
  * β1 ≤ β2 ≤ β3 to the three principal axes (β_i = acos|w_i|):
- *     closest face        α_c  = (β3 − β1) / (2β3 − β1 − β2)
- *     second-closest face α_sc = (β3 − β2) / (2β3 − β1 − β2) = 1 − α_c
+ *     second-closest face α_sc = (β3 − β2) / (2β3 − β1 − β2)
+ *     closest face        α_c  = 1 − α_sc
  * In a principal plane (β3 = 90°, β1 + β2 = 90°) this is exactly the paper's
  * α_cA = 1 − 2β1/π, α_scA = 1 − α_cA; unlike the literal Eq. 5a it stays
  * continuous when the second-closest face changes (β2 = β3 ⇒ α_sc = 0) and
@@ -65,7 +65,7 @@ static inline float lv_acos01(float x) {
  * Writes the six factors (zero outside the two faces) and returns the
  * bitmask of groups with a positive factor.
  */
-static inline unsigned lv_face_weights(volux_vec3 w, float out[LV_GROUPS]) {
+static inline unsigned lv_face_weights_raw(volux_vec3 w, float out[LV_GROUPS], int *g1_out, int *g2_out) {
     float c[3] = {w.x, w.y, w.z}, m[3] = {fabsf(w.x), fabsf(w.y), fabsf(w.z)};
     for (int g = 0; g < LV_GROUPS; g++) out[g] = 0.0f;
     /* axes by decreasing |component|; ties keep the lower axis first */
@@ -74,18 +74,36 @@ static inline unsigned lv_face_weights(volux_vec3 w, float out[LV_GROUPS]) {
     if (m[a3] > m[a2]) t = a2, a2 = a3, a3 = t;
     if (m[a2] > m[a1]) t = a1, a1 = a2, a2 = t;
     float b1 = lv_acos01(m[a1]), b2 = lv_acos01(m[a2]), b3 = lv_acos01(m[a3]);
-    float den = 2.0f * b3 - b1 - b2, w1, w2;
-    if (den > 1e-6f) {
-        w1 = (b3 - b1) / den;
-        w2 = (b3 - b2) / den;
-    } else {
-        w1 = w2 = 0.5f; /* w ∥ a cube diagonal: every choice is as good */
-    }
+    float den = 2.0f * b3 - b1 - b2, w2;
+    if (den > 1e-6f) w2 = (b3 - b2) / den;
+    else w2 = 0.5f; /* w ∥ a cube diagonal: every choice is as good */
+    if (!(m[a2] > 0.0f)) w2 = 0.0f;
     int g1 = lv_group(a1, c[a1] < 0.0f ? -1 : 1), g2 = lv_group(a2, c[a2] < 0.0f ? -1 : 1);
-    unsigned mask = 0;
-    if (w1 > 0.0f) out[g1] = w1, mask |= 1u << g1;
-    if (w2 > 0.0f && m[a2] > 0.0f) out[g2] = w2, mask |= 1u << g2;
+    out[g1] = 1.0f - w2;
+    unsigned mask = 1u << g1;
+    if (w2 > 0.0f) out[g2] = w2, mask |= 1u << g2;
+    *g1_out = g1;
+    *g2_out = g2;
     return mask;
+}
+
+/* Smallest second-closest factor that is propagated: below it the light is
+ * carried by its closest group alone, so a light within ~1° of an axis (or a
+ * distant point light straight above) costs one pass, not two or five. The
+ * factor is remapped continuously, α' = ½·(α − ε)/(½ − ε) for α ≥ ε, 0
+ * below, which keeps both boundaries seamless (α' = ½ at a swap, 0 where the
+ * second face changes) and moves Eq. 5 by less than ε. */
+#define LV_MIN_FACTOR 0.01f
+
+static inline unsigned lv_face_weights(volux_vec3 w, float out[LV_GROUPS]) {
+    int g1, g2;
+    unsigned mask = lv_face_weights_raw(w, out, &g1, &g2);
+    if (mask == (1u << g1)) return mask;
+    float a = out[g2];
+    a = a <= LV_MIN_FACTOR ? 0.0f : 0.5f * (a - LV_MIN_FACTOR) / (0.5f - LV_MIN_FACTOR);
+    out[g2] = a;
+    out[g1] = 1.0f - a;
+    return a > 0.0f ? mask : 1u << g1;
 }
 
 /* Factor of group g only (0 if g is neither of the two closest faces). */
@@ -96,30 +114,30 @@ static inline float lv_face_weight(volux_vec3 w, int g) {
 }
 
 /* exp(−x) for x ≥ 0 (x may be +inf), branch-free so loops vectorise:
- * 2^n·p(f) with n = round(−x·log2 e), |f| ≤ ½, p the degree-6 Taylor
- * polynomial of 2^f (relative error < 2e-7); exactly 1 at 0, ≤ 1 always,
- * 0 below 2^−126. */
+ * Cody–Waite reduction x = n·ln2 + r (ln2 split in two), |r| ≤ ½ln2, then
+ * the degree-7 Taylor polynomial of e^−r (relative error < 3e-7); exactly 1
+ * at 0, never above 1, 0 beyond 2^−126. */
 static inline float lv_exp_neg(float x) {
-    float y = -x * 1.44269504088896341f;
-    if (!(y > -126.0f)) y = -126.0f; /* also catches NaN from inf·0 */
-    int n = (int)(y - 0.5f);         /* y ≤ 0: truncation rounds to nearest */
-    float f = y - (float)n;
-    const float l = 0.69314718055994531f;
-    float p = 1.0f / 720.0f;
-    p = p * (f * l) + 1.0f / 120.0f;
-    p = p * (f * l) + 1.0f / 24.0f;
-    p = p * (f * l) + 1.0f / 6.0f;
-    p = p * (f * l) + 0.5f;
-    p = p * (f * l) + 1.0f;
-    p = p * (f * l) + 1.0f;
+    float y = x * 1.44269504088896341f;
+    if (!(y < 126.0f)) y = 126.0f; /* also catches NaN */
+    int n = (int)(y + 0.5f);
+    float r = (x - (float)n * 0.693145752f) - (float)n * 1.42860677e-6f;
+    float p = -1.0f / 5040.0f;
+    p = p * r + 1.0f / 720.0f;
+    p = p * r - 1.0f / 120.0f;
+    p = p * r + 1.0f / 24.0f;
+    p = p * r - 1.0f / 6.0f;
+    p = p * r + 0.5f;
+    p = p * r - 1.0f;
+    p = p * r + 1.0f;
     union {
         int32_t i;
         float f;
     } s;
-    s.i = (n + 127) << 23;
-    float r = p * s.f;
-    r = r > 1.0f ? 1.0f : r;
-    return y <= -126.0f ? 0.0f : r;
+    s.i = (127 - n) << 23;
+    float e = p * s.f;
+    e = e > 1.0f ? 1.0f : e;
+    return y >= 126.0f ? 0.0f : e;
 }
 
 /* ---------------------------------------------------------------- lights */

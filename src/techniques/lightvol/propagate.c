@@ -435,6 +435,9 @@ typedef struct lv_sweep {
     int ne;
     const float *mp;    /* medium of the previous slice: σt, κr, κg, κb planes */
     float *mc;          /* medium of the current slice                     */
+    float *mn;          /* medium of the next slice (classified meanwhile) */
+    int kn;             /* next slice, or −1                               */
+    int rows_per_item, sweep_items, class_items;
     size_t area;
     int overwrite;
     int forward, cone;
@@ -535,32 +538,34 @@ static inline float med_fetch(const lv_sweep *J, const float *plane, float x, fl
     return r;
 }
 
-/* Medium of row v of the current slice into J->mc: σt and κ_c = σt − f·σs_c. */
-static void classify_row(void *user, int64_t v64, int thread) {
-    (void)thread;
-    const lv_sweep *J = user;
+/* Medium of rows [v0, v1) of slice k into `dst` (4 planes): σt and
+ * κ_c = σt − f·σs_c. */
+static void classify_rows(const lv_sweep *J, float *dst, int k, int v0, int v1) {
     const lightvol_state *st = J->st;
-    int mu = J->mu, v = (int)v64;
-    size_t area = J->area, off = (size_t)v * (size_t)mu;
-    float *sig = J->mc + off, *kr = J->mc + area + off, *kg = J->mc + 2 * area + off, *kb = J->mc + 3 * area + off;
+    int mu = J->mu;
+    size_t area = J->area;
     int idx[3];
-    idx[J->a] = J->k;
-    idx[J->av] = v;
+    idx[J->a] = k;
     const float f = J->fwd;
-    for (int u = 0; u < mu; u++) {
-        idx[J->au] = u;
-        float c[4];
-        if (st->on_grid) {
-            classify(st, volux_volume_index(st->volume, idx[0], idx[1], idx[2]), c);
-        } else {
-            const float *m = st->medium +
-                             (((size_t)idx[2] * (size_t)st->dims[1] + (size_t)idx[1]) * (size_t)st->dims[0] + (size_t)idx[0]) * 4;
-            memcpy(c, m, sizeof c);
+    for (int v = v0; v < v1; v++) {
+        size_t off = (size_t)v * (size_t)mu;
+        float *sig = dst + off, *kr = dst + area + off, *kg = dst + 2 * area + off, *kb = dst + 3 * area + off;
+        idx[J->av] = v;
+        for (int u = 0; u < mu; u++) {
+            idx[J->au] = u;
+            float c[4];
+            if (st->on_grid) {
+                classify(st, volux_volume_index(st->volume, idx[0], idx[1], idx[2]), c);
+            } else {
+                const float *m = st->medium + (((size_t)idx[2] * (size_t)st->dims[1] + (size_t)idx[1]) * (size_t)st->dims[0] +
+                                               (size_t)idx[0]) * 4;
+                memcpy(c, m, sizeof c);
+            }
+            sig[u] = c[0];
+            kr[u] = fmaxf(c[0] - f * c[1], 0.0f);
+            kg[u] = fmaxf(c[0] - f * c[2], 0.0f);
+            kb[u] = fmaxf(c[0] - f * c[3], 0.0f);
         }
-        sig[u] = c[0];
-        kr[u] = fmaxf(c[0] - f * c[1], 0.0f);
-        kg[u] = fmaxf(c[0] - f * c[2], 0.0f);
-        kb[u] = fmaxf(c[0] - f * c[3], 0.0f);
     }
 }
 
@@ -797,10 +802,9 @@ static void pos_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
     }
 }
 
-static void sweep_row(void *user, int64_t v64, int thread) {
-    const lv_sweep *J = user;
+static void sweep_row(const lv_sweep *J, int v, int thread) {
     lightvol_state *st = J->st;
-    int v = (int)v64, mu = J->mu, ch = st->ch;
+    int mu = J->mu, ch = st->ch;
     size_t m = (size_t)mu;
     float *sc = st->rows + (size_t)thread * st->row_stride;
     float *acc = sc, *T = acc + 6 * m;
@@ -854,6 +858,29 @@ static void sweep_row(void *user, int64_t v64, int thread) {
     }
 }
 
+/* One work item of a slice step: a chunk of rows of the current slice's
+ * sweep, or a chunk of rows of the next slice's classification (the
+ * pipeline keeps one fork/join per slice). */
+static void step_item(void *user, int64_t item, int thread) {
+    const lv_sweep *J = user;
+    int i = (int)item, rpi = J->rows_per_item;
+    if (i < J->sweep_items) {
+        int v0 = i * rpi, v1 = v0 + rpi < J->mv ? v0 + rpi : J->mv;
+        for (int v = v0; v < v1; v++) sweep_row(J, v, thread);
+    } else {
+        i -= J->sweep_items;
+        int v0 = i * rpi, v1 = v0 + rpi < J->mv ? v0 + rpi : J->mv;
+        classify_rows(J, J->mn, J->kn, v0, v1);
+    }
+}
+
+static void classify_item(void *user, int64_t item, int thread) {
+    (void)thread;
+    const lv_sweep *J = user;
+    int v0 = (int)item * J->rows_per_item, v1 = v0 + J->rows_per_item < J->mv ? v0 + J->rows_per_item : J->mv;
+    classify_rows(J, J->mn, J->kn, v0, v1);
+}
+
 static volux_status ensure_scratch(lightvol_state *st, int entries) {
     volux_context *ctx = st->ctx;
     size_t need;
@@ -867,7 +894,7 @@ static volux_status ensure_scratch(lightvol_state *st, int entries) {
         if (!st->slices) return volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for %d slice buffers", entries);
     }
     if (!st->med) {
-        need = st->area * 8 * sizeof(float);
+        need = st->area * 12 * sizeof(float); /* 3 slices × 4 planes */
         st->med = volux_alloc_aligned(ctx, need);
         if (!st->med) return volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for slice buffers");
         st->med_bytes = need;
@@ -967,14 +994,32 @@ static void sweep(lightvol_state *st, int g, const lv_item *items, const int *id
             e->lidx[2] = q.z / st->spacing[2];
         }
     }
-    float *mprev = st->med, *mcur = st->med + 4 * plane;
+    /* Work split: chunks of rows worth ~4k voxel·lights each; small slices
+     * run on one thread (fork/join would cost more than the work). */
+    float *med[3] = {st->med, st->med + 4 * plane, st->med + 8 * plane};
     int threads = st->threads > 0 ? st->threads : 1;
+    size_t work = (size_t)J.mu * (size_t)J.mv * (size_t)(n + 1);
+    if (work < 16384) threads = 1;
+    size_t row_work = (size_t)J.mu * (size_t)(n + 1);
+    J.rows_per_item = (int)((4096 + row_work - 1) / row_work);
+    if (J.rows_per_item < 1) J.rows_per_item = 1;
+    if (threads > 1 && J.rows_per_item * 4 * threads > J.mv) {
+        J.rows_per_item = J.mv / (4 * threads);
+        if (J.rows_per_item < 1) J.rows_per_item = 1;
+    }
+    int chunks = (J.mv + J.rows_per_item - 1) / J.rows_per_item;
+    /* the first slice's medium */
+    J.mn = med[0];
+    J.kn = J.s > 0 ? 0 : J.ma - 1;
+    volux_parallel_for(threads, chunks, classify_item, &J);
     for (int step = 0; step < J.ma; step++) {
         J.step = step;
         J.k = J.s > 0 ? step : J.ma - 1 - step;
         J.kp = J.k - J.s;
-        J.mp = mprev;
-        J.mc = mcur;
+        J.mc = med[step % 3];
+        J.mp = med[(step + 2) % 3];
+        J.mn = med[(step + 1) % 3];
+        J.kn = step + 1 < J.ma ? J.k + J.s : -1;
         for (int i = 0; i < n; i++) {
             lv_entry *e = &E[i];
             if (e->s->kind == LV_DIRECTIONAL) {
@@ -989,19 +1034,17 @@ static void sweep(lightvol_state *st, int g, const lv_item *items, const int *id
                 else e->mode = E_PROP, e->f = 1.0f / dist;
             }
         }
-        /* the whole current slice is classified first: sub-samples and
-         * cone taps read neighbouring rows */
-        volux_parallel_for(threads, J.mv, classify_row, &J);
-        volux_parallel_for(threads, J.mv, sweep_row, &J);
+        /* sweep of slice k and classification of slice k + s together: the
+         * sweep reads only the previous and current slices' media */
+        J.sweep_items = chunks;
+        J.class_items = J.kn >= 0 ? chunks : 0;
+        volux_parallel_for(threads, J.sweep_items + J.class_items, step_item, &J);
         for (int i = 0; i < n; i++)
             for (int c = 0; c < 3; c++) {
                 float *t = E[i].rd[c];
                 E[i].rd[c] = E[i].wr[c];
                 E[i].wr[c] = t;
             }
-        float *t = mprev;
-        mprev = mcur;
-        mcur = t;
     }
 }
 
