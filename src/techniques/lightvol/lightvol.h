@@ -22,6 +22,8 @@
 #ifndef VOLUX_LIGHTVOL_H
 #define VOLUX_LIGHTVOL_H
 
+#include <string.h>
+
 #include "sample/gradient.h"
 #include "sample/march.h"
 #include "volux/technique.h"
@@ -130,12 +132,10 @@ static inline float lv_exp_neg(float x) {
     p = p * r + 0.5f;
     p = p * r - 1.0f;
     p = p * r + 1.0f;
-    union {
-        int32_t i;
-        float f;
-    } s;
-    s.i = (127 - n) << 23;
-    float e = p * s.f;
+    int32_t bits = (127 - n) << 23; /* 2^−n */
+    float scale;
+    memcpy(&scale, &bits, sizeof scale);
+    float e = p * scale;
     e = e > 1.0f ? 1.0f : e;
     return y >= 126.0f ? 0.0f : e;
 }
