@@ -83,6 +83,11 @@ static void test_factors_sum_to_one_on_the_closest_faces(void **state) {
         }
         assert_near(sum, 1.0, 1e-6);
         assert_true(count >= 1 && count <= 2);
+        /* the per-voxel form used by point lights agrees */
+        const float mag[3] = {fabsf(w.x), fabsf(w.y), fabsf(w.z)};
+        for (int g = 0; g < LV_GROUPS; g++)
+            if (f[g] > 0.0f) assert_true(lv_axis_weight(mag, g / 2) == f[g]);
+            else if (mag[g / 2] > 0.0f && (g & 1 ? -1.0f : 1.0f) * wc[g / 2] > 0.0f) assert_true(lv_axis_weight(mag, g / 2) == 0.0f);
         for (int g = 0; g < LV_GROUPS; g++) assert_true(f[best] >= f[g]);
     }
 }

@@ -108,6 +108,25 @@ static inline unsigned lv_face_weights(volux_vec3 w, float out[LV_GROUPS]) {
     return a > 0.0f ? mask : 1u << g1;
 }
 
+/* Factor of the face of axis `a` (the face the light travels towards) for
+ * the magnitudes m[3] of a unit direction. Same ordering (ties keep the
+ * lower axis first) and arithmetic as lv_face_weights, so the factors of a
+ * direction's faces sum to 1 exactly as there. */
+static inline float lv_axis_weight(const float m[3], int a) {
+    int b = a == 0 ? 1 : 0, c = a == 2 ? 1 : 2; /* the other axes, b < c */
+    int rank = (m[b] > m[a] || (m[b] == m[a] && b < a)) + (m[c] > m[a] || (m[c] == m[a] && c < a));
+    if (rank == 2 || !(m[a] > 0.0f)) return 0.0f;
+    /* the other two in the order lv_face_weights would sort them */
+    int hi = (m[c] > m[b]) ? c : b, lo = hi == b ? c : b;
+    float ba = lv_acos01(m[a]), bh = lv_acos01(m[hi]), bl = lv_acos01(m[lo]);
+    float b1 = rank == 0 ? ba : bh, b2 = rank == 0 ? bh : ba;
+    float den = 2.0f * bl - b1 - b2;
+    float w2 = den > 1e-6f ? (bl - b2) / den : 0.5f;
+    if (rank == 0 && !(m[hi] > 0.0f)) w2 = 0.0f;
+    w2 = w2 <= LV_MIN_FACTOR ? 0.0f : 0.5f * (w2 - LV_MIN_FACTOR) / (0.5f - LV_MIN_FACTOR);
+    return rank == 0 ? 1.0f - w2 : w2;
+}
+
 /* Factor of group g only (0 if g is neither of the two closest faces). */
 static inline float lv_face_weight(volux_vec3 w, int g) {
     float f[LV_GROUPS];
@@ -254,6 +273,8 @@ typedef struct lightvol_state {
     size_t med_bytes;
     float *rows;                   /* per thread row scratch                */
     size_t rows_bytes;
+    float *stage;                  /* x sweeps: staged slices (see propagate.c) */
+    size_t stage_bytes;
     int rows_threads;
     size_t row_stride;
 

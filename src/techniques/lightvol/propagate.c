@@ -52,8 +52,9 @@ static void free_scratch(lightvol_state *st) {
     if (st->slices) volux_free_aligned(st->ctx, st->slices, st->slices_bytes);
     if (st->med) volux_free_aligned(st->ctx, st->med, st->med_bytes);
     if (st->rows) volux_free_aligned(st->ctx, st->rows, st->rows_bytes);
-    st->slices = st->med = st->rows = NULL;
-    st->slices_bytes = st->med_bytes = st->rows_bytes = 0;
+    if (st->stage) volux_free_aligned(st->ctx, st->stage, st->stage_bytes);
+    st->slices = st->med = st->rows = st->stage = NULL;
+    st->slices_bytes = st->med_bytes = st->rows_bytes = st->stage_bytes = 0;
     st->slice_cap = 0;
     st->rows_threads = 0;
 }
@@ -67,7 +68,7 @@ void volux_lightvol_free_buffers(lightvol_state *st) {
 }
 
 size_t volux_lightvol_scratch_bytes(const lightvol_state *st) {
-    return st->slices_bytes + st->med_bytes + st->rows_bytes;
+    return st->slices_bytes + st->med_bytes + st->rows_bytes + st->stage_bytes;
 }
 
 volux_status volux_lightvol_alloc(lightvol_state *st) {
@@ -445,6 +446,7 @@ typedef struct lv_sweep {
     float *mn;          /* medium of the next slice (classified meanwhile) */
     int kn;             /* next slice, or −1                               */
     int rows_per_item, sweep_items, class_items;
+    int defer;          /* x sweeps: slices staged before a flush (0: none) */
     size_t area;
     int overwrite;
     int forward, cone;
@@ -491,7 +493,8 @@ static inline volux_vec3 slice_world(const lv_sweep *J, float x, float y, int k)
 /* Bilinear fetch of entry e's previous slice at (x, y); taps outside the
  * slice see the light's unoccluded ray value there (the light entered
  * through a side face and crossed empty space). */
-static inline void fetch(const lv_sweep *J, const lv_entry *e, float x, float y, float out[3]) {
+static inline __attribute__((always_inline)) void fetch(const lv_sweep *J, const lv_entry *e, float x, float y,
+                                                       float out[3]) {
     int mu = J->mu, mv = J->mv;
     if (x >= 0.0f && y >= 0.0f && x <= (float)(mu - 1) && y <= (float)(mv - 1)) {
         int i = (int)x, j = (int)y;
@@ -524,7 +527,7 @@ static inline void fetch(const lv_sweep *J, const lv_entry *e, float x, float y,
 }
 
 /* Bilinear fetch of a medium plane; outside the slice the medium is empty. */
-static inline float med_fetch(const lv_sweep *J, const float *plane, float x, float y) {
+static inline __attribute__((always_inline)) float med_fetch(const lv_sweep *J, const float *plane, float x, float y) {
     int mu = J->mu, mv = J->mv;
     if (x >= 0.0f && y >= 0.0f && x <= (float)(mu - 1) && y <= (float)(mv - 1)) {
         int i = (int)x, j = (int)y;
@@ -543,6 +546,31 @@ static inline float med_fetch(const lv_sweep *J, const float *plane, float x, fl
         if (w[t] != 0.0f && tx[t] >= 0.0f && ty[t] >= 0.0f && tx[t] <= (float)(mu - 1) && ty[t] <= (float)(mv - 1))
             r += w[t] * plane[(size_t)ty[t] * (size_t)mu + (size_t)tx[t]];
     return r;
+}
+
+/* Adds wp·M_prev(x, y) + wc·M_cur(x, y) of the first np medium planes to
+ * tau[] (one bilinear footprint for all planes and both slices; outside
+ * the slice the medium is empty). */
+static inline __attribute__((always_inline)) void med_accumulate(const lv_sweep *J, float x, float y, float wp,
+                                                                 float wc, int np, float tau[4]) {
+    const int mu = J->mu, mv = J->mv;
+    const size_t area = J->area;
+    if (x >= 0.0f && y >= 0.0f && x <= (float)(mu - 1) && y <= (float)(mv - 1)) {
+        int i = (int)x, j = (int)y;
+        if (i > mu - 2) i = mu - 2;
+        if (j > mv - 2) j = mv - 2;
+        float ax = x - (float)i, ay = y - (float)j;
+        float w00 = (1.0f - ax) * (1.0f - ay), w10 = ax * (1.0f - ay), w01 = (1.0f - ax) * ay, w11 = ax * ay;
+        size_t b = (size_t)j * (size_t)mu + (size_t)i;
+        for (int q = 0; q < np; q++) {
+            const float *P = J->mp + (size_t)q * area + b, *C = J->mc + (size_t)q * area + b;
+            tau[q] += wp * (w00 * P[0] + w10 * P[1] + w01 * P[mu] + w11 * P[mu + 1]) +
+                      wc * (w00 * C[0] + w10 * C[1] + w01 * C[mu] + w11 * C[mu + 1]);
+        }
+        return;
+    }
+    for (int q = 0; q < np; q++)
+        tau[q] += wp * med_fetch(J, J->mp + (size_t)q * area, x, y) + wc * med_fetch(J, J->mc + (size_t)q * area, x, y);
 }
 
 /* Medium of rows [v0, v1) of slice k into `dst` (4 planes): σt and
@@ -567,7 +595,14 @@ static void classify_rows(const lv_sweep *J, float *dst, int k, int v0, int v1) 
         if (st->on_grid && st->have_u8) {
             const uint8_t *d = (const uint8_t *)vol->data + base;
             const float *tab = st->class_u8;
-            if (!forward) {
+            if (ustep > 16) /* x sweeps read one byte per x-row: prefetch ahead */
+                for (int u = 0; u < mu && u < 32; u++) __builtin_prefetch(d + (size_t)u * ustep, 0, 1);
+            if (!forward && ustep > 16) {
+                for (int u = 0; u < mu; u++) {
+                    if (u + 32 < mu) __builtin_prefetch(d + (size_t)(u + 32) * ustep, 0, 1);
+                    sig[u] = tab[4 * d[(size_t)u * ustep]];
+                }
+            } else if (!forward) {
                 for (int u = 0; u < mu; u++) sig[u] = tab[4 * d[(size_t)u * ustep]];
             } else {
                 for (int u = 0; u < mu; u++) {
@@ -600,6 +635,9 @@ static void classify_rows(const lv_sweep *J, float *dst, int k, int v0, int v1) 
  * cone[3·mu] cen[3·mu] tau[4·mu]. */
 #define ROW_FLOATS 20
 
+/* Slices an x sweep stages before writing them to the volume as runs. */
+#define LV_DEFER 8
+
 /* Optical depths of row v over directional entry e's segments (σt into
  * tau[0], κ_c into tau[1..3] when forward scattering): midpoint rule over
  * e->nsub points, the medium interpolated between the two slices. */
@@ -619,15 +657,15 @@ static void dir_tau(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1,
                     d[u] += wp * (t.w00 * P0[u] + t.w10 * P0[u + 1] + t.w01 * P1[u] + t.w11 * P1[u + 1]) +
                             wc * (t.w00 * C0[u] + t.w10 * C0[u + 1] + t.w01 * C1[u] + t.w11 * C1[u + 1]);
             }
-            const float *mpq = J->mp + (size_t)q * area, *mcq = J->mc + (size_t)q * area;
-            for (int u = 0; u < mu; u++) {
-                if (u == u0 && u1 > u0) {
-                    u = u1 - 1;
-                    continue;
-                }
-                float x = (float)u + e->su[i], y = (float)v + e->sv[i];
-                d[u] += wp * med_fetch(J, mpq, x, y) + wc * med_fetch(J, mcq, x, y);
+        }
+        for (int u = 0; u < mu; u++) {
+            if (u == u0 && u1 > u0) {
+                u = u1 - 1;
+                continue;
             }
+            float tq[4] = {0, 0, 0, 0};
+            med_accumulate(J, (float)u + e->su[i], (float)v + e->sv[i], wp, wc, np, tq);
+            for (int q = 0; q < np; q++) tau[q][u] += tq[q];
         }
     }
 }
@@ -721,40 +759,51 @@ static void dir_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
     }
 }
 
+/* Outside-slice fallback of fetch(), kept out of line. */
+static __attribute__((noinline)) void fetch_slow(const lv_sweep *J, const lv_entry *e, float x, float y,
+                                                 float out[3]) {
+    fetch(J, e, x, y, out);
+}
+
 /* Positional light, row v: ray values into out, weighted 1/r² contribution
  * into acc. Per voxel: direction, Eq. 5 factor, and the previous-slice
- * point on the line towards the light. */
+ * point on the line towards the light (x' = u − (u − l_u)·f: affine in u,
+ * and the same row y' for the whole row). */
 static void pos_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], float *acc, int ch) {
     const lightvol_state *st = J->st;
-    int mu = J->mu;
-    size_t area = J->area;
+    const int mu = J->mu, mv = J->mv;
+    const size_t area = J->area;
     if (e->mode == E_SKIP) {
         for (int c = 0; c < 3; c++) memset(out[c], 0, (size_t)mu * sizeof(float));
         return;
     }
-    const int a = J->a, au = J->au, av = J->av, np = J->nplanes;
+    const int a = J->a, au = J->au, av = J->av, np = J->nplanes, forward = J->forward, cone = J->cone;
     const float sa = st->spacing[a], su = st->spacing[au], sv = st->spacing[av];
     const float la = e->lidx[a], lu = e->lidx[au], lv = e->lidx[av];
     const float da = ((float)J->k - la) * sa, dvw = ((float)v - lv) * sv;
-    const float f = e->f, rm2 = J->rmin2;
+    const float f = e->f, rm2 = J->rmin2, sign = e->sign;
+    const float pw[3] = {e->s->power.x, e->s->power.y, e->s->power.z};
+    /* previous-slice row and its sub-sample rows are the same for the row */
+    const float y = (float)v - ((float)v - lv) * f, ov = y - (float)v;
     float *accs[6];
     for (int c = 0; c < 6; c++) accs[c] = acc + (size_t)c * (size_t)mu;
+    const float *mp[4], *mc[4];
+    for (int q = 0; q < 4; q++) mp[q] = J->mp + (size_t)q * area, mc[q] = J->mc + (size_t)q * area;
+    (void)mp;
     for (int u = 0; u < mu; u++) {
         float d[3];
         d[a] = da;
         d[au] = ((float)u - lu) * su;
         d[av] = dvw;
         float r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-        float r = sqrtf(r2);
-        volux_vec3 w = v3(d[0] / r, d[1] / r, d[2] / r);
+        float r = sqrtf(r2), ir = 1.0f / r;
+        float w[3] = {d[0] * ir, d[1] * ir, d[2] * ir};
         float val[3];
         if (e->mode != E_PROP) {
-            float p[3];
+            float p[3] = {pw[0], pw[1], pw[2]};
             if (e->s->spot) {
-                float sf = spot_factor(e->s, v3_dot(w, e->s->dir));
-                p[0] = e->s->power.x * sf, p[1] = e->s->power.y * sf, p[2] = e->s->power.z * sf;
-            } else {
-                p[0] = e->s->power.x, p[1] = e->s->power.y, p[2] = e->s->power.z;
+                float sf = spot_factor(e->s, w[0] * e->s->dir.x + w[1] * e->s->dir.y + w[2] * e->s->dir.z);
+                p[0] *= sf, p[1] *= sf, p[2] *= sf;
             }
             if (e->mode == E_INIT_ATT) {
                 /* The light sits less than one slice before this one: the
@@ -762,54 +811,57 @@ static void pos_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
                  * run far sideways; integrate it voxel by voxel (outside the
                  * box the medium is empty). */
                 float tau[4] = {0, 0, 0, 0};
-                float ou = lu - (float)u, ov = lv - (float)v;
-                float lat = fmaxf(fabsf(ou), fabsf(ov));
+                float ou = lu - (float)u, ovl = lv - (float)v;
+                float lat = fmaxf(fabsf(ou), fabsf(ovl));
                 int n = lat <= 1.0f ? 1 : (int)fminf(ceilf(lat), 4096.0f);
                 float axial = (float)J->s * ((float)J->k - la); /* in (0, 1] */
                 for (int i = 0; i < n; i++) {
                     float t = ((float)i + 0.5f) / (float)n; /* 0 at the voxel, 1 at the light */
-                    float px = (float)u + ou * t, py = (float)v + ov * t;
+                    float px = (float)u + ou * t, py = (float)v + ovl * t;
                     float wprev = J->step > 0 ? t * axial : 0.0f; /* weight of slice kp at this point */
                     float wp = wprev * r / (float)n, wc = (1.0f - t * axial) * r / (float)n;
                     for (int q = 0; q < np; q++) {
-                        tau[q] += wc * med_fetch(J, J->mc + (size_t)q * area, px, py);
-                        if (wp > 0.0f) tau[q] += wp * med_fetch(J, J->mp + (size_t)q * area, px, py);
+                        tau[q] += wc * med_fetch(J, mc[q], px, py);
+                        if (wp > 0.0f) tau[q] += wp * med_fetch(J, mp[q], px, py);
                     }
                 }
-                for (int c = 0; c < 3; c++) val[c] = p[c] * lv_exp_neg(tau[J->forward ? 1 + c : 0]);
+                for (int c = 0; c < 3; c++) val[c] = p[c] * lv_exp_neg(tau[forward ? 1 + c : 0]);
             } else {
                 for (int c = 0; c < 3; c++) val[c] = p[c];
             }
         } else {
-            float ou = -((float)u - lu) * f, ov = -((float)v - lv) * f;
-            float x = (float)u + ou, y = (float)v + ov;
+            float ou = ((float)u - lu) * -f, x = (float)u + ou;
             float len = r * f;
-            /* optical depth over the segment (see dir_tau) */
+            /* optical depth over the segment (midpoint rule, see dir_tau) */
             float tau[4] = {0, 0, 0, 0};
-            int n = sub_count(ou, ov);
+            float m = fabsf(ou) > fabsf(ov) ? fabsf(ou) : fabsf(ov);
+            int n = m <= 1.0f ? 1 : (m >= (float)LV_MAX_SUB ? LV_MAX_SUB : (int)ceilf(m));
+            float inv_n = 1.0f / (float)n;
             for (int i = 0; i < n; i++) {
-                float t = ((float)i + 0.5f) / (float)n, px = (float)u + ou * (1.0f - t), py = (float)v + ov * (1.0f - t);
-                float wp = (1.0f - t) * len / (float)n, wc = t * len / (float)n;
-                for (int q = 0; q < np; q++)
-                    tau[q] += wp * med_fetch(J, J->mp + (size_t)q * area, px, py) +
-                              wc * med_fetch(J, J->mc + (size_t)q * area, px, py);
+                float t = ((float)i + 0.5f) * inv_n, px = (float)u + ou * (1.0f - t), py = (float)v + ov * (1.0f - t);
+                med_accumulate(J, px, py, (1.0f - t) * len * inv_n, t * len * inv_n, np, tau);
             }
             float cc[3];
-            fetch(J, e, x, y, cc);
+            int inside = x >= 0.0f && y >= 0.0f && x <= (float)(mu - 1) && y <= (float)(mv - 1);
+            if (inside) fetch(J, e, x, y, cc);
+            else fetch_slow(J, e, x, y, cc);
             float T = lv_exp_neg(tau[0]);
-            if (!J->forward) {
+            if (!forward) {
                 for (int c = 0; c < 3; c++) val[c] = T * cc[c];
             } else {
                 float Tc[3];
                 for (int c = 0; c < 3; c++) Tc[c] = lv_exp_neg(tau[1 + c]);
-                if (!J->cone) {
+                if (!cone) {
                     for (int c = 0; c < 3; c++) val[c] = Tc[c] * cc[c];
                 } else {
                     float rho = len * J->tan_c, ru = rho / su, rv = rho / sv;
                     float s3[3] = {0, 0, 0}, c3[3];
                     const float ox[4] = {ru, -ru, 0.0f, 0.0f}, oy[4] = {0.0f, 0.0f, rv, -rv};
+                    int in4 = inside && x - ru >= 0.0f && y - rv >= 0.0f && x + ru <= (float)(mu - 1) &&
+                              y + rv <= (float)(mv - 1);
                     for (int q = 0; q < 4; q++) {
-                        fetch(J, e, x + ox[q], y + oy[q], c3);
+                        if (in4) fetch(J, e, x + ox[q], y + oy[q], c3);
+                        else fetch_slow(J, e, x + ox[q], y + oy[q], c3);
                         for (int c = 0; c < 3; c++) s3[c] += 0.25f * c3[c];
                     }
                     for (int c = 0; c < 3; c++) val[c] = T * cc[c] + (Tc[c] - T) * s3[c];
@@ -817,18 +869,51 @@ static void pos_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
             }
         }
         for (int c = 0; c < 3; c++) out[c][u] = val[c];
-        float wg = lv_face_weight(w, J->g);
+        /* Eq. 5 factor of this group for the local direction; the group's
+         * own component is positive here (the voxel lies ahead of the light) */
+        const float mag[3] = {fabsf(w[0]), fabsf(w[1]), fabsf(w[2])};
+        float wg = lv_axis_weight(mag, a);
         if (wg <= 0.0f) continue;
-        float k = e->sign * wg / fmaxf(r2, rm2);
+        float k = sign * wg / (r2 > rm2 ? r2 : rm2);
         float er = val[0] * k, eg = val[1] * k, eb = val[2] * k;
         accs[0][u] += er;
         accs[1][u] += eg;
         accs[2][u] += eb;
         if (ch == 6) {
             float lum = 0.2126f * er + 0.7152f * eg + 0.0722f * eb;
-            accs[3][u] += lum * w.x;
-            accs[4][u] += lum * w.y;
-            accs[5][u] += lum * w.z;
+            accs[3][u] += lum * w[0];
+            accs[4][u] += lum * w[1];
+            accs[5][u] += lum * w[2];
+        }
+    }
+}
+
+/* Writes the last nb staged slices of row v into the volume: for each u a
+ * contiguous run of nb voxels along x (the sweep axis). */
+static void flush_row(const lv_sweep *J, int v, int nb) {
+    const lightvol_state *st = J->st;
+    const int mu = J->mu, ch = st->ch;
+    const size_t m = (size_t)mu;
+    const size_t plane = (size_t)J->mu * (size_t)J->mv;
+    /* u outer so that the nb voxels of one x-run are written together */
+    const size_t su = J->vs[J->au] * (size_t)ch;
+    const int k_lo = J->s > 0 ? J->step - (nb - 1) : J->ma - 1 - J->step; /* lowest x of the runs */
+    const float *run0 = st->vol + ((size_t)k_lo * J->vs[J->a] + (size_t)v * J->vs[J->av]) * (size_t)ch;
+    const size_t run_bytes = (size_t)nb * (size_t)ch * sizeof(float);
+    for (int u = 0; u < mu; u++) {
+        /* the runs are a whole x-row apart: prefetch a few ahead */
+        if (u + 6 < mu)
+            for (size_t off = 0; off < run_bytes; off += 64)
+                __builtin_prefetch((const char *)(run0 + (size_t)(u + 6) * su) + off, 1, 3);
+        for (int b = 0; b < nb; b++) {
+            int step = J->step - (nb - 1 - b);
+            int k = J->s > 0 ? step : J->ma - 1 - step;
+            const float *src = st->stage + ((size_t)b * plane + (size_t)v * m + (size_t)u) * (size_t)ch;
+            float *p = st->vol + ((size_t)k * J->vs[J->a] + (size_t)v * J->vs[J->av]) * (size_t)ch + (size_t)u * su;
+            if (J->overwrite)
+                for (int c = 0; c < ch; c++) p[c] = src[c];
+            else
+                for (int c = 0; c < ch; c++) p[c] += src[c];
         }
     }
 }
@@ -877,6 +962,16 @@ static void sweep_row(const lv_sweep *J, int v, int thread) {
     size_t base = (size_t)J->k * J->vs[J->a] + (size_t)v * J->vs[J->av], su = J->vs[J->au];
     float *restrict vol = st->vol + base * (size_t)ch;
     const size_t stride = su * (size_t)ch;
+    if (J->defer) {
+        /* x sweep: park the row in the staging slab (slice-major, AoS) and
+         * flush runs of `defer` voxels along x every `defer` slices */
+        int b = J->step % J->defer;
+        float *restrict dst = st->stage + ((size_t)b * (size_t)J->mu * (size_t)J->mv + (size_t)v * m) * (size_t)ch;
+        for (int u = 0; u < mu; u++)
+            for (int c = 0; c < ch; c++) dst[(size_t)u * (size_t)ch + (size_t)c] = acc[(size_t)c * m + (size_t)u];
+        if (b == J->defer - 1 || J->step == J->ma - 1) flush_row(J, v, b + 1);
+        return;
+    }
     if (ch == 6) {
         const float *restrict q0 = acc, *restrict q1 = acc + m, *restrict q2 = acc + 2 * m, *restrict q3 = acc + 3 * m,
                               *restrict q4 = acc + 4 * m, *restrict q5 = acc + 5 * m;
@@ -933,6 +1028,13 @@ static void classify_item(void *user, int64_t item, int thread) {
 static volux_status ensure_scratch(lightvol_state *st, int entries) {
     volux_context *ctx = st->ctx;
     size_t need;
+    if (!st->stage) {
+        /* x slices are (y, z) planes */
+        need = (size_t)LV_DEFER * (size_t)st->dims[1] * (size_t)st->dims[2] * (size_t)st->ch * sizeof(float);
+        st->stage = volux_alloc_aligned(ctx, need);
+        if (!st->stage) return volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for the x-sweep staging");
+        st->stage_bytes = need;
+    }
     if (entries > st->slice_cap) {
         if (!volux_mul_size(st->area, (size_t)entries * 6 * sizeof(float), &need))
             return volux_error(ctx, VOLUX_ERR_LIMIT, "lightvol: slice buffers too large");
@@ -989,6 +1091,9 @@ static void sweep(lightvol_state *st, int g, const lv_item *items, const int *id
     J.rmin2 = rmin2(st);
     J.nplanes = J.forward ? 4 : 1;
     J.ne = n;
+    /* x sweeps write the volume a whole x-row apart per voxel; staging
+     * `LV_DEFER` slices turns that into runs along x (same values) */
+    J.defer = J.a == 0 ? LV_DEFER : 0;
     J.e = E;
     size_t plane = st->area;
     for (int i = 0; i < n; i++) {
