@@ -405,6 +405,9 @@ enum { E_SKIP, E_INIT, E_INIT_ATT, E_PROP };
  * sideways travel, so an oblique sweep (a light's second-closest group)
  * cannot step over a thin wall. */
 #define LV_MAX_SUB 16
+/* ... and along the segment light → voxel of the first slice after a light
+ * that lies between two slices (integrated once per pass). */
+#define LV_MAX_INIT_SUB 256
 
 typedef struct lv_tap {
     int di, dj;
@@ -573,25 +576,12 @@ static inline __attribute__((always_inline)) void med_accumulate(const lv_sweep 
         tau[q] += wp * med_fetch(J, J->mp + (size_t)q * area, x, y) + wc * med_fetch(J, J->mc + (size_t)q * area, x, y);
 }
 
-/* Medium of rows [v0, v1) of slice k into `dst` (4 planes): σt and
- * κ_c = σt − f·σs_c. */
-static void classify_rows(const lv_sweep *J, float *dst, int k, int v0, int v1) {
-    const lightvol_state *st = J->st;
-    const volux_volume *vol = st->volume;
-    int mu = J->mu;
-    size_t area = J->area;
-    const float f = J->fwd;
-    const int forward = J->forward;
-    /* node (u, v, k) → linear index: base(v) + u·step (data grid when on
-     * grid, else the medium grid; both x fastest) */
-    const int *dims = st->on_grid ? vol->dims : st->dims;
-    size_t stride[3] = {1, (size_t)dims[0], (size_t)dims[0] * (size_t)dims[1]};
-    size_t ustep = stride[J->au];
-    for (int v = v0; v < v1; v++) {
-        size_t off = (size_t)v * (size_t)mu;
-        float *restrict sig = dst + off, *restrict kr = dst + area + off, *restrict kg = dst + 2 * area + off,
-                        *restrict kb = dst + 3 * area + off;
-        size_t base = (size_t)k * stride[J->a] + (size_t)v * stride[J->av];
+/* One row of classify_rows. */
+static void classify_one_row(const lv_sweep *J, const lightvol_state *st, const volux_volume *vol, float *restrict sig,
+                             float *restrict kr, float *restrict kg, float *restrict kb, size_t base, size_t ustep,
+                             float f, int forward, int mu) {
+    (void)J;
+    {
         if (st->on_grid && st->have_u8) {
             const uint8_t *d = (const uint8_t *)vol->data + base;
             const float *tab = st->class_u8;
@@ -614,7 +604,7 @@ static void classify_rows(const lv_sweep *J, float *dst, int k, int v0, int v1) 
                     kb[u] = b > 0.0f ? b : 0.0f;
                 }
             }
-            continue;
+            return;
         }
         for (int u = 0; u < mu; u++) {
             float c[4];
@@ -631,12 +621,49 @@ static void classify_rows(const lv_sweep *J, float *dst, int k, int v0, int v1) 
     }
 }
 
+/* Medium of rows [v0, v1) of slice k into `dst` (4 planes): σt and
+ * κ_c = σt − f·σs_c. */
+static void classify_rows(const lv_sweep *J, float *dst, int k, int v0, int v1) {
+    const lightvol_state *st = J->st;
+    const volux_volume *vol = st->volume;
+    int mu = J->mu;
+    size_t area = J->area;
+    const float f = J->fwd;
+    const int forward = J->forward;
+    /* node (u, v, k) → linear index: base(v) + u·step (data grid when on
+     * grid, else the medium grid; both x fastest) */
+    const int *dims = st->on_grid ? vol->dims : st->dims;
+    size_t stride[3] = {1, (size_t)dims[0], (size_t)dims[0] * (size_t)dims[1]};
+    size_t ustep = stride[J->au];
+    for (int v = v0; v < v1; v++) {
+        size_t off = (size_t)v * (size_t)mu;
+        float *restrict sig = dst + off, *restrict kr = dst + area + off, *restrict kg = dst + 2 * area + off,
+                        *restrict kb = dst + 3 * area + off;
+        size_t base = (size_t)k * stride[J->a] + (size_t)v * stride[J->av];
+        classify_one_row(J, st, vol, sig, kr, kg, kb, base, ustep, f, forward, mu);
+        float mx = 0.0f;
+        for (int u = 0; u < mu; u++) mx = sig[u] > mx ? sig[u] : mx;
+        dst[4 * area + (size_t)v] = mx;
+    }
+}
+
 /* Row scratch layout (floats, per thread): acc[6·mu] T[mu] Tc[3·mu]
- * cone[3·mu] cen[3·mu] tau[4·mu]. */
-#define ROW_FLOATS 20
+ * cone[3·mu] cen[3·mu] tau[4·mu], then 16·mu for pos_row. */
+#define ROW_FLOATS 36
 
 /* Slices an x sweep stages before writing them to the volume as runs. */
 #define LV_DEFER 8
+
+/* 1 if rows [j0, j1] (clamped) of the previous and current slices hold no
+ * medium: every transmittance there is exactly 1. */
+static inline int rows_empty(const lv_sweep *J, int j0, int j1) {
+    if (j0 < 0) j0 = 0;
+    if (j1 > J->mv - 1) j1 = J->mv - 1;
+    const float *rp = J->mp + 4 * J->area, *rc = J->mc + 4 * J->area;
+    for (int j = j0; j <= j1; j++)
+        if (rp[j] > 0.0f || rc[j] > 0.0f) return 0;
+    return 1;
+}
 
 /* Optical depths of row v over directional entry e's segments (σt into
  * tau[0], κ_c into tau[1..3] when forward scattering): midpoint rule over
@@ -686,10 +713,13 @@ static void dir_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
     if (u0 < 0) u0 = 0;
     if (u1 > mu) u1 = mu;
     if (!row_ok || u1 < u0) u0 = u1 = 0;
+    /* No medium anywhere in the row's footprint (sub-sample and cone taps
+     * included): the light only moves on. */
+    int empty = rows_empty(J, v + e->dj_min - 1, v + e->dj_max + 2);
     /* Transmittances over the segments back to the previous slice; shared
      * by consecutive lights with the same geometry (same direction). */
     const lv_entry *l = *last;
-    if (!l || l->du != e->du || l->dv != e->dv || l->len != e->len) {
+    if (!empty && (!l || l->du != e->du || l->dv != e->dv || l->len != e->len)) {
         dir_tau(J, e, v, u0, u1, tau);
         {
             float *restrict Tr = T;
@@ -712,7 +742,7 @@ static void dir_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
             for (int u = u0; u < u1; u++)
                 cc[u] = t.w00 * p0[u] + t.w10 * p0[u + 1] + t.w01 * p1[u] + t.w11 * p1[u + 1];
         }
-        if (J->cone) {
+        if (J->cone && !empty) {
             for (int c = 0; c < 3; c++) {
                 float *cn = cone[c];
                 for (int u = u0; u < u1; u++) cn[u] = 0.0f;
@@ -734,7 +764,7 @@ static void dir_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
         float c3[3];
         fetch(J, e, (float)u + e->du, (float)v + e->dv, c3);
         for (int c = 0; c < 3; c++) cen[c][u] = c3[c];
-        if (J->cone) {
+        if (J->cone && !empty) {
             float s3[3] = {0, 0, 0};
             for (int q = 0; q < 4; q++) {
                 fetch(J, e, (float)u + e->cu[q], (float)v + e->cv[q], c3);
@@ -744,6 +774,10 @@ static void dir_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
         }
     }
     /* Combine: direct part sharp, forward-scattered part from the cone. */
+    if (empty) {
+        for (int c = 0; c < 3; c++) memcpy(out[c], cen[c], (size_t)mu * sizeof(float));
+        return;
+    }
     for (int c = 0; c < 3; c++) {
         float *restrict o = out[c];
         const float *restrict cc = cen[c];
@@ -769,14 +803,9 @@ static __attribute__((noinline)) void fetch_slow(const lv_sweep *J, const lv_ent
  * into acc. Per voxel: direction, Eq. 5 factor, and the previous-slice
  * point on the line towards the light (x' = u − (u − l_u)·f: affine in u,
  * and the same row y' for the whole row). */
-static void pos_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], float *acc, int ch) {
+static void pos_voxels(const lv_sweep *J, const lv_entry *e, int v, int ua, int ub, float *out[3], float *acc, int ch) {
     const lightvol_state *st = J->st;
     const int mu = J->mu, mv = J->mv;
-    const size_t area = J->area;
-    if (e->mode == E_SKIP) {
-        for (int c = 0; c < 3; c++) memset(out[c], 0, (size_t)mu * sizeof(float));
-        return;
-    }
     const int a = J->a, au = J->au, av = J->av, np = J->nplanes, forward = J->forward, cone = J->cone;
     const float sa = st->spacing[a], su = st->spacing[au], sv = st->spacing[av];
     const float la = e->lidx[a], lu = e->lidx[au], lv = e->lidx[av];
@@ -787,10 +816,7 @@ static void pos_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
     const float y = (float)v - ((float)v - lv) * f, ov = y - (float)v;
     float *accs[6];
     for (int c = 0; c < 6; c++) accs[c] = acc + (size_t)c * (size_t)mu;
-    const float *mp[4], *mc[4];
-    for (int q = 0; q < 4; q++) mp[q] = J->mp + (size_t)q * area, mc[q] = J->mc + (size_t)q * area;
-    (void)mp;
-    for (int u = 0; u < mu; u++) {
+    for (int u = ua; u < ub; u++) {
         float d[3];
         d[a] = da;
         d[au] = ((float)u - lu) * su;
@@ -812,18 +838,22 @@ static void pos_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
                  * box the medium is empty). */
                 float tau[4] = {0, 0, 0, 0};
                 float ou = lu - (float)u, ovl = lv - (float)v;
-                float lat = fmaxf(fabsf(ou), fabsf(ovl));
-                int n = lat <= 1.0f ? 1 : (int)fminf(ceilf(lat), 4096.0f);
+                /* only the part inside the slice's extent carries medium:
+                 * t ∈ [0, t1] (0 at the voxel, 1 at the light) */
+                float t1 = 1.0f;
+                if (ou > 0.0f) t1 = fminf(t1, ((float)(mu - 1) - (float)u) / ou);
+                if (ou < 0.0f) t1 = fminf(t1, -(float)u / ou);
+                if (ovl > 0.0f) t1 = fminf(t1, ((float)(mv - 1) - (float)v) / ovl);
+                if (ovl < 0.0f) t1 = fminf(t1, -(float)v / ovl);
+                float lat = fmaxf(fabsf(ou), fabsf(ovl)) * t1;
+                int n = lat <= 1.0f ? 1 : (int)fminf(ceilf(lat), (float)LV_MAX_INIT_SUB);
                 float axial = (float)J->s * ((float)J->k - la); /* in (0, 1] */
                 for (int i = 0; i < n; i++) {
-                    float t = ((float)i + 0.5f) / (float)n; /* 0 at the voxel, 1 at the light */
+                    float t = ((float)i + 0.5f) / (float)n * t1;
                     float px = (float)u + ou * t, py = (float)v + ovl * t;
                     float wprev = J->step > 0 ? t * axial : 0.0f; /* weight of slice kp at this point */
-                    float wp = wprev * r / (float)n, wc = (1.0f - t * axial) * r / (float)n;
-                    for (int q = 0; q < np; q++) {
-                        tau[q] += wc * med_fetch(J, mc[q], px, py);
-                        if (wp > 0.0f) tau[q] += wp * med_fetch(J, mp[q], px, py);
-                    }
+                    float wp = wprev * r * t1 / (float)n, wc = (1.0f - t * axial) * r * t1 / (float)n;
+                    med_accumulate(J, px, py, wp, wc, np, tau);
                 }
                 for (int c = 0; c < 3; c++) val[c] = p[c] * lv_exp_neg(tau[forward ? 1 + c : 0]);
             } else {
@@ -886,6 +916,171 @@ static void pos_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
             accs[5][u] += lum * w[2];
         }
     }
+}
+
+/* Positional light, row v. Propagation rows: the interior (every tap of
+ * every voxel inside the slice) in three phases — geometry and Eq. 5
+ * factors (vector loops), medium and light gathers without bounds checks,
+ * transmittances and accumulation (vector loops); the row ends and the
+ * initialisation slices per voxel (pos_voxels). */
+static void pos_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], float *acc, int ch, float *scr) {
+    const lightvol_state *st = J->st;
+    const int mu = J->mu, mv = J->mv;
+    if (e->mode == E_SKIP) {
+        for (int c = 0; c < 3; c++) memset(out[c], 0, (size_t)mu * sizeof(float));
+        return;
+    }
+    if (e->mode != E_PROP || mu < 8) {
+        pos_voxels(J, e, v, 0, mu, out, acc, ch);
+        return;
+    }
+    const size_t m = (size_t)mu, area = J->area;
+    const int a = J->a, au = J->au, av = J->av, np = J->nplanes, forward = J->forward, cone = J->cone;
+    const float su = st->spacing[au], sv = st->spacing[av];
+    const float la = e->lidx[a], lu = e->lidx[au], lv = e->lidx[av];
+    const float da = ((float)J->k - la) * st->spacing[a], dvw = ((float)v - lv) * sv;
+    const float f = e->f, rm2 = J->rmin2, sign = e->sign, tan_c = J->tan_c;
+    const float y = (float)v - ((float)v - lv) * f, ov = y - (float)v;
+    /* scratch: X LEN K WA WU WV TAU[4] CEN[3] CON[3] = 16·mu floats */
+    float *restrict X = scr, *restrict LEN = X + m, *restrict K = LEN + m, *restrict WA = K + m, *restrict WU = WA + m,
+                    *restrict WV = WU + m, *TAU = WV + m, *CEN = TAU + 4 * m, *CON = CEN + 3 * m;
+    /* Phase 1: geometry, factor of this group, 1/r² (vector loops) */
+    const float da2 = da * da, dv2 = dvw * dvw, ada = fabsf(da), adv = fabsf(dvw);
+    for (int u = 0; u < mu; u++) {
+        float du = ((float)u - lu) * su, du2 = du * du;
+        /* r² summed in x, y, z order like pos_voxels, so the factors of the
+         * groups of a voxel match theirs exactly */
+        float r2 = a == 0 ? (da2 + du2) + dv2 : a == 1 ? (du2 + da2) + dv2 : (du2 + dv2) + da2;
+        float r = sqrtf(r2), ir = 1.0f / r;
+        float mag[3];
+        mag[a] = ada * ir;
+        mag[au] = fabsf(du) * ir;
+        mag[av] = adv * ir;
+        float wg = lv_axis_weight(mag, a);
+        K[u] = sign * wg / (r2 > rm2 ? r2 : rm2);
+        WA[u] = da * ir;
+        WU[u] = du * ir;
+        WV[u] = dvw * ir;
+        X[u] = (float)u - ((float)u - lu) * f;
+        LEN[u] = r * f;
+    }
+    /* interior: X is increasing in u; cone radii are largest at a row end */
+    float rho_max = cone ? fmaxf(LEN[0], LEN[mu - 1]) * tan_c : 0.0f;
+    float ru_max = rho_max / su, rv_max = rho_max / sv;
+    int u0 = 0, u1 = 0;
+    if (y - rv_max >= 0.0f && y + rv_max <= (float)(mv - 1)) {
+        u0 = 0;
+        while (u0 < mu && X[u0] - ru_max < 0.0f) u0++;
+        u1 = mu;
+        while (u1 > u0 && X[u1 - 1] + ru_max > (float)(mu - 1)) u1--;
+    }
+    if (u1 > u0) {
+        /* Phase 2: gathers. Rows of the previous slice are row constants. */
+        float m0 = fabsf(X[0]), m1 = fabsf(X[mu - 1] - (float)(mu - 1));
+        float lat = fmaxf(fmaxf(m0, m1), fabsf(ov));
+        int n = lat <= 1.0f ? 1 : (lat >= (float)LV_MAX_SUB ? LV_MAX_SUB : (int)ceilf(lat));
+        float inv_n = 1.0f / (float)n;
+        int jrow[LV_MAX_SUB];
+        float ay[LV_MAX_SUB], tt[LV_MAX_SUB];
+        for (int i = 0; i < n; i++) {
+            tt[i] = ((float)i + 0.5f) * inv_n;
+            float py = (float)v + ov * (1.0f - tt[i]);
+            int j = (int)py;
+            if (j > mv - 2) j = mv - 2;
+            jrow[i] = j;
+            ay[i] = py - (float)j;
+        }
+        int jc = (int)y;
+        if (jc > mv - 2) jc = mv - 2;
+        float ayc = y - (float)jc;
+        /* rows between v and y (and the cone's) without medium: T = 1 */
+        int jlo = (int)floorf(fminf((float)v, y - rv_max)) - 1, jhi = (int)ceilf(fmaxf((float)v, y + rv_max)) + 1;
+        int empty = rows_empty(J, jlo, jhi);
+        for (int q = 0; q < np; q++) memset(TAU + (size_t)q * m + u0, 0, (size_t)(u1 - u0) * sizeof(float));
+        for (int i = 0; i < n && !empty; i++) {
+            const float t = tt[i], om = 1.0f - t, ayi = ay[i];
+            const size_t rb = (size_t)jrow[i] * m;
+            for (int u = u0; u < u1; u++) {
+                float px = (float)u + (X[u] - (float)u) * om;
+                int ix = (int)px;
+                if (ix > mu - 2) ix = mu - 2;
+                float ax = px - (float)ix;
+                float w00 = (1.0f - ax) * (1.0f - ayi), w10 = ax * (1.0f - ayi), w01 = (1.0f - ax) * ayi, w11 = ax * ayi;
+                float wp = om * LEN[u] * inv_n, wc = t * LEN[u] * inv_n;
+                size_t b = rb + (size_t)ix;
+                for (int q = 0; q < np; q++) {
+                    const float *P = J->mp + (size_t)q * area + b, *C = J->mc + (size_t)q * area + b;
+                    TAU[(size_t)q * m + (size_t)u] += wp * (w00 * P[0] + w10 * P[1] + w01 * P[mu] + w11 * P[mu + 1]) +
+                                                      wc * (w00 * C[0] + w10 * C[1] + w01 * C[mu] + w11 * C[mu + 1]);
+                }
+            }
+        }
+        const float *R0 = e->rd[0], *R1 = e->rd[1], *R2 = e->rd[2];
+        for (int u = u0; u < u1; u++) {
+            float px = X[u];
+            int ix = (int)px;
+            if (ix > mu - 2) ix = mu - 2;
+            float ax = px - (float)ix;
+            size_t b = (size_t)jc * m + (size_t)ix;
+            float w00 = (1.0f - ax) * (1.0f - ayc), w10 = ax * (1.0f - ayc), w01 = (1.0f - ax) * ayc, w11 = ax * ayc;
+            CEN[u] = w00 * R0[b] + w10 * R0[b + 1] + w01 * R0[b + m] + w11 * R0[b + m + 1];
+            CEN[m + (size_t)u] = w00 * R1[b] + w10 * R1[b + 1] + w01 * R1[b + m] + w11 * R1[b + m + 1];
+            CEN[2 * m + (size_t)u] = w00 * R2[b] + w10 * R2[b + 1] + w01 * R2[b + m] + w11 * R2[b + m + 1];
+        }
+        if (cone && !empty)
+            for (int u = u0; u < u1; u++) {
+                float rho = LEN[u] * tan_c, ru = rho / su, rv = rho / sv;
+                const float ox[4] = {ru, -ru, 0.0f, 0.0f}, oy[4] = {0.0f, 0.0f, rv, -rv};
+                float s3[3] = {0, 0, 0};
+                for (int q = 0; q < 4; q++) {
+                    float c3[3];
+                    fetch(J, e, X[u] + ox[q], y + oy[q], c3);
+                    for (int c = 0; c < 3; c++) s3[c] += 0.25f * c3[c];
+                }
+                for (int c = 0; c < 3; c++) CON[(size_t)c * m + (size_t)u] = s3[c];
+            }
+        /* Phase 3: transmittances, values, accumulation (vector loops) */
+        float *restrict o0 = out[0], *restrict o1 = out[1], *restrict o2 = out[2];
+        const float *restrict t0 = TAU;
+        for (int u = u0; u < u1; u++) {
+            float T = lv_exp_neg(t0[u]);
+            float v0 = T * CEN[u], v1 = T * CEN[m + (size_t)u], v2 = T * CEN[2 * m + (size_t)u];
+            if (forward && !empty) {
+                float T0 = lv_exp_neg(TAU[m + (size_t)u]), T1 = lv_exp_neg(TAU[2 * m + (size_t)u]),
+                      T2 = lv_exp_neg(TAU[3 * m + (size_t)u]);
+                if (cone) {
+                    v0 += (T0 - T) * CON[u];
+                    v1 += (T1 - T) * CON[m + (size_t)u];
+                    v2 += (T2 - T) * CON[2 * m + (size_t)u];
+                } else {
+                    v0 = T0 * CEN[u];
+                    v1 = T1 * CEN[m + (size_t)u];
+                    v2 = T2 * CEN[2 * m + (size_t)u];
+                }
+            }
+            o0[u] = v0, o1[u] = v1, o2[u] = v2;
+        }
+        float *restrict a0 = acc, *restrict a1 = acc + m, *restrict a2 = acc + 2 * m;
+        for (int u = u0; u < u1; u++) {
+            float k = K[u];
+            a0[u] += o0[u] * k;
+            a1[u] += o1[u] * k;
+            a2[u] += o2[u] * k;
+        }
+        if (ch == 6) {
+            float *restrict ad[3] = {acc + 3 * m, acc + 4 * m, acc + 5 * m};
+            float *restrict dx = ad[a], *restrict dy = ad[au], *restrict dz = ad[av];
+            for (int u = u0; u < u1; u++) {
+                float k = K[u];
+                float lum = (0.2126f * o0[u] + 0.7152f * o1[u] + 0.0722f * o2[u]) * k;
+                dx[u] += lum * WA[u];
+                dy[u] += lum * WU[u];
+                dz[u] += lum * WV[u];
+            }
+        }
+    }
+    if (u0 > 0) pos_voxels(J, e, v, 0, u0, out, acc, ch);
+    if (u1 < mu) pos_voxels(J, e, v, u1 > u0 ? u1 : u0, mu, out, acc, ch);
 }
 
 /* Writes the last nb staged slices of row v into the volume: for each u a
@@ -951,7 +1146,7 @@ static void sweep_row(const lv_sweep *J, int v, int thread) {
         const lv_entry *e = &J->e[i];
         float *out[3] = {e->wr[0] + off, e->wr[1] + off, e->wr[2] + off};
         if (e->s->kind == LV_POSITIONAL) {
-            pos_row(J, e, v, out, acc, ch);
+            pos_row(J, e, v, out, acc, ch, T + 14 * m);
             continue;
         }
         dir_row(J, e, v, out, T, Tc, cone, cen, tau, &last);
@@ -1025,6 +1220,14 @@ static void classify_item(void *user, int64_t item, int thread) {
     classify_rows(J, J->mn, J->kn, v0, v1);
 }
 
+/* A medium slice buffer: σt, κr, κg, κb planes, then the largest σt of
+ * each row (rows with an empty footprint skip the transmittance work). */
+static size_t med_stride(const lightvol_state *st) {
+    int mmax = st->dims[0] > st->dims[1] ? st->dims[0] : st->dims[1];
+    if (st->dims[2] > mmax) mmax = st->dims[2];
+    return 4 * st->area + (size_t)mmax;
+}
+
 static volux_status ensure_scratch(lightvol_state *st, int entries) {
     volux_context *ctx = st->ctx;
     size_t need;
@@ -1045,7 +1248,7 @@ static volux_status ensure_scratch(lightvol_state *st, int entries) {
         if (!st->slices) return volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for %d slice buffers", entries);
     }
     if (!st->med) {
-        need = st->area * 12 * sizeof(float); /* 3 slices × 4 planes */
+        need = 3 * med_stride(st) * sizeof(float); /* 3 slices × (4 planes + row maxima) */
         st->med = volux_alloc_aligned(ctx, need);
         if (!st->med) return volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for slice buffers");
         st->med_bytes = need;
@@ -1150,7 +1353,8 @@ static void sweep(lightvol_state *st, int g, const lv_item *items, const int *id
     }
     /* Work split: chunks of rows worth ~4k voxel·lights each; small slices
      * run on one thread (fork/join would cost more than the work). */
-    float *med[3] = {st->med, st->med + 4 * plane, st->med + 8 * plane};
+    const size_t sb = med_stride(st);
+    float *med[3] = {st->med, st->med + sb, st->med + 2 * sb};
     int threads = st->threads > 0 ? st->threads : 1;
     size_t work = (size_t)J.mu * (size_t)J.mv * (size_t)(n + 1);
     if (work < 16384) threads = 1;
