@@ -41,8 +41,8 @@ static inline int lv_group(int axis, int sign) { return 2 * axis + (sign < 0); }
 
 /* acos on [0,1] (Abramowitz & Stegun 4.4.46, |error| ≤ 2e-8 rad). */
 static inline float lv_acos01(float x) {
-    if (x > 1.0f) x = 1.0f;
-    if (x < 0.0f) x = 0.0f;
+    x = x > 1.0f ? 1.0f : x;
+    x = x < 0.0f ? 0.0f : x;
     float p = -0.0012624911f;
     p = p * x + 0.0066700901f;
     p = p * x - 0.0170881256f;
@@ -113,18 +113,21 @@ static inline unsigned lv_face_weights(volux_vec3 w, float out[LV_GROUPS]) {
  * lower axis first) and arithmetic as lv_face_weights, so the factors of a
  * direction's faces sum to 1 exactly as there. */
 static inline float lv_axis_weight(const float m[3], int a) {
-    int b = a == 0 ? 1 : 0, c = a == 2 ? 1 : 2; /* the other axes, b < c */
-    int rank = (m[b] > m[a] || (m[b] == m[a] && b < a)) + (m[c] > m[a] || (m[c] == m[a] && c < a));
-    if (rank == 2 || !(m[a] > 0.0f)) return 0.0f;
+    /* branch-free (selects only) so that row loops vectorise */
+    const int b = a == 0 ? 1 : 0, c = a == 2 ? 1 : 2; /* the other axes, b < c */
+    const float ma = m[a], mb = m[b], mc = m[c];
+    int rank = (mb > ma || (mb == ma && b < a)) + (mc > ma || (mc == ma && c < a));
     /* the other two in the order lv_face_weights would sort them */
-    int hi = (m[c] > m[b]) ? c : b, lo = hi == b ? c : b;
-    float ba = lv_acos01(m[a]), bh = lv_acos01(m[hi]), bl = lv_acos01(m[lo]);
+    float hi = mc > mb ? mc : mb, lo = mc > mb ? mb : mc;
+    float ba = lv_acos01(ma), bh = lv_acos01(hi), bl = lv_acos01(lo);
     float b1 = rank == 0 ? ba : bh, b2 = rank == 0 ? bh : ba;
     float den = 2.0f * bl - b1 - b2;
-    float w2 = den > 1e-6f ? (bl - b2) / den : 0.5f;
-    if (rank == 0 && !(m[hi] > 0.0f)) w2 = 0.0f;
+    float q = (bl - b2) / (den > 1e-6f ? den : 1.0f);
+    float w2 = den > 1e-6f ? q : 0.5f;
+    w2 = (rank == 0 && !(hi > 0.0f)) ? 0.0f : w2;
     w2 = w2 <= LV_MIN_FACTOR ? 0.0f : 0.5f * (w2 - LV_MIN_FACTOR) / (0.5f - LV_MIN_FACTOR);
-    return rank == 0 ? 1.0f - w2 : w2;
+    float w = rank == 0 ? 1.0f - w2 : w2;
+    return (rank == 2 || !(ma > 0.0f)) ? 0.0f : w;
 }
 
 /* Factor of group g only (0 if g is neither of the two closest faces). */

@@ -27,16 +27,15 @@
  *     l_i = l_{i−1} · exp(−len·(σt − f·σs)),   σs = albedo·c·σt,
  * with the forward-scattered share gathered from the cone.
  *
+ * Built with -fno-math-errno -fno-trapping-math (CMakeLists.txt): the
+ * sweeps never look at errno or FP exception flags, and without them the
+ * compiler can use sqrt instructions and if-convert lv_exp_neg and the Eq. 5
+ * factors, so the row loops vectorise (same operations, same rounding).
+ *
  * Slices are parallel within themselves (volux_parallel_for over rows);
  * every voxel depends only on the complete previous slice, so the result is
  * the same for any thread count.
  */
-#if defined(__GNUC__) && !defined(__clang__)
-/* The sweeps never look at FP exception flags; without trapping math GCC
- * can if-convert lv_exp_neg and vectorise the transmittance loops. Results
- * are unchanged (same operations, same rounding). */
-#pragma GCC optimize("no-trapping-math")
-#endif
 
 #include <math.h>
 #include <string.h>
