@@ -77,10 +77,16 @@ VOLUX_API volux_status volux_image_save(volux_context *ctx, const char *path, co
 VOLUX_API float volux_srgb_encode(float linear);
 VOLUX_API float volux_srgb_decode(float encoded);
 
-/* Scenes. Loads a scene file; `overrides` are "dotted.path=JSON" strings
+/* Scenes. Loads a scene file; `overrides` are "dotted.path=VALUE" strings
  * applied to the JSON before validation (e.g. "render.width=64",
- * "lights.0.irradiance=2"). Relative paths resolve against the scene's
- * folder. Unknown keys are VOLUX_ERR_INVALID naming their path. */
+ * "lights.0.irradiance=2", "render.technique=shaded"): VALUE is one JSON
+ * value, or a bare string when it is not JSON; a numeric segment indexes
+ * an array and one past its end appends; missing keys are created.
+ * Relative paths resolve against the scene's folder (a preset named in a
+ * TF file, against the TF file's folder). Unknown, duplicate and
+ * inapplicable keys are VOLUX_ERR_INVALID naming their path; NUL bytes,
+ * "\u0000" escapes and nesting deeper than 64 levels are rejected. Every
+ * message starts with the scene's file name. */
 VOLUX_API volux_status volux_scene_load(volux_context *ctx, const char *path, const char *const *overrides,
                                         int n_overrides, volux_scene **out);
 /* Same, from a JSON string; `base_dir` resolves relative paths ("." if NULL)
@@ -91,7 +97,8 @@ VOLUX_API volux_status volux_scene_load_string(volux_context *ctx, const char *j
 
 /* ParaView colour-map preset (JSON: a list of presets or one preset object
  * with "RGBPoints" [x,r,g,b,...]; "Points" opacity optional). Picks the
- * preset called `name`, or the first when name is NULL. Points are rescaled
+ * preset called `name` (a single object must carry that Name too), or the
+ * first when name is NULL. Points are rescaled
  * to [s_min, s_max] when s_min < s_max (as ParaView applies a preset to the
  * data range), else kept. Output arrays are allocated through ctx. */
 typedef struct volux_tf_preset {

@@ -50,6 +50,7 @@ typedef struct volux_render_limits {
 typedef struct volux_render_report {
     uint32_t spp;          /* samples per pixel in the framebuffer          */
     double ms;             /* wall time of this call                        */
+    double cpu_ms;         /* process CPU time of this call (all threads)   */
     double rel_error;      /* framebuffer rel. standard error               */
     uint64_t samples;      /* volume samples taken (if the technique counts)*/
     uint64_t vertices;     /* path vertices (if the technique counts)       */

@@ -63,6 +63,14 @@ static inline int volux_change_light(const volux_change_set *c, int slot) {
     return (int)((c->lights[slot >> 6] >> (slot & 63)) & 1u);
 }
 
+/* Everything changed (what a technique's create() applies). */
+static inline volux_change_set volux_change_all(void) {
+    volux_change_set c;
+    c.what = VOLUX_CHANGE_ALL;
+    for (int i = 0; i < VOLUX_MAX_LIGHTS / 64; i++) c.lights[i] = ~0ull;
+    return c;
+}
+
 /* The versions a consumer saw (opaque contents, copyable). */
 typedef struct volux_scene_stamp {
     uint64_t scene_id;

@@ -379,11 +379,7 @@ volux_scene_stamp volux_scene_stamp_now(const volux_scene *s) {
 volux_change_set volux_scene_changes_since(const volux_scene *s, const volux_scene_stamp *seen) {
     volux_change_set c;
     memset(&c, 0, sizeof c);
-    if (!seen || seen->scene_id != s->id) {
-        c.what = VOLUX_CHANGE_ALL;
-        memset(c.lights, 0xff, sizeof c.lights);
-        return c;
-    }
+    if (!seen || seen->scene_id != s->id) return volux_change_all();
     for (int a = 0; a < A_COUNT; a++)
         if (seen->aspect[a] != s->aspect[a]) c.what |= 1u << a;
     for (int i = 0; i < VOLUX_MAX_LIGHTS; i++)

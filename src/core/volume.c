@@ -243,6 +243,48 @@ volux_status volux_volume_create(volux_context *ctx, const volux_volume_desc *de
     return VOLUX_OK;
 }
 
+volux_status volux_volume_build_bricks(volux_volume *v) {
+    if (v->bricks) return VOLUX_OK;
+    int nb[3];
+    size_t count = 1;
+    for (int a = 0; a < 3; a++) {
+        nb[a] = (v->dims[a] - 1 + VOLUX_BRICK_CELLS - 1) / VOLUX_BRICK_CELLS;
+        if (nb[a] < 1) nb[a] = 1;
+        count *= (size_t)nb[a];
+    }
+    size_t elem = v->storage == VOLUX_STORE_U8 ? 1 : v->storage == VOLUX_STORE_U16 ? 2 : 4, bytes;
+    if (!volux_mul_size(count, (size_t)VOLUX_BRICK_VOXELS * elem, &bytes) || bytes > v->ctx->max_bytes)
+        return volux_error(v->ctx, VOLUX_ERR_LIMIT, "bricked volume copy exceeds the memory cap");
+    unsigned char *dst = volux_alloc_aligned(v->ctx, bytes);
+    if (!dst) return volux_error(v->ctx, VOLUX_ERR_NOMEM, "out of memory (%zu bytes) for the bricked volume", bytes);
+    /* Node (8b + l) of each axis, replicated at the far border. */
+    for (int bz = 0; bz < nb[2]; bz++)
+        for (int by = 0; by < nb[1]; by++)
+            for (int bx = 0; bx < nb[0]; bx++) {
+                size_t base = (((size_t)bz * (size_t)nb[1] + (size_t)by) * (size_t)nb[0] + (size_t)bx) *
+                              VOLUX_BRICK_VOXELS;
+                for (int lz = 0; lz < VOLUX_BRICK_NODES; lz++) {
+                    int k = bz * VOLUX_BRICK_CELLS + lz;
+                    if (k > v->dims[2] - 1) k = v->dims[2] - 1;
+                    for (int ly = 0; ly < VOLUX_BRICK_NODES; ly++) {
+                        int j = by * VOLUX_BRICK_CELLS + ly;
+                        if (j > v->dims[1] - 1) j = v->dims[1] - 1;
+                        for (int lx = 0; lx < VOLUX_BRICK_NODES; lx++) {
+                            int i = bx * VOLUX_BRICK_CELLS + lx;
+                            if (i > v->dims[0] - 1) i = v->dims[0] - 1;
+                            size_t d = base + (size_t)(lx + VOLUX_BRICK_NODES * (ly + VOLUX_BRICK_NODES * lz));
+                            memcpy(dst + d * elem, (const unsigned char *)v->data + volux_volume_index(v, i, j, k) * elem,
+                                   elem);
+                        }
+                    }
+                }
+            }
+    v->bricks = dst;
+    v->brick_bytes = bytes;
+    memcpy(v->brick_counts, nb, sizeof nb);
+    return VOLUX_OK;
+}
+
 void volux_volume_retain(volux_volume *v) { __atomic_add_fetch(&v->refcount, 1, __ATOMIC_RELAXED); }
 
 void volux_volume_release(volux_volume *v) {
@@ -250,6 +292,7 @@ void volux_volume_release(volux_volume *v) {
     if (__atomic_sub_fetch(&v->refcount, 1, __ATOMIC_ACQ_REL) != 0) return;
     volux_context *ctx = v->ctx;
     volux_free_aligned(ctx, v->data, v->data_bytes);
+    if (v->bricks) volux_free_aligned(ctx, v->bricks, v->brick_bytes);
     volux_free(ctx, v->cell_min, v->cell_bytes);
     volux_free(ctx, v->cell_max, v->cell_bytes);
     volux_free(ctx, v, sizeof *v);
@@ -270,7 +313,9 @@ void volux_volume_bounds(const volux_volume *v, volux_vec3 *lo, volux_vec3 *hi) 
              v->origin.y + (float)((v->dims[1] - 1) * v->spacing[1]),
              v->origin.z + (float)((v->dims[2] - 1) * v->spacing[2]));
 }
-size_t volux_volume_memory_bytes(const volux_volume *v) { return v->data_bytes + 2 * v->cell_bytes + sizeof *v; }
+size_t volux_volume_memory_bytes(const volux_volume *v) {
+    return v->data_bytes + v->brick_bytes + 2 * v->cell_bytes + sizeof *v;
+}
 
 float volux_volume_value_at(const volux_volume *v, int i, int j, int k) {
     return volux_volume_raw_at(v, volux_volume_index(v, i, j, k)) + v->value_offset;

@@ -345,12 +345,33 @@ static volux_status write_error(exr_job *job, exr_result_t rv) {
                        job->message[0] ? job->message : exr_get_default_error_message(rv));
 }
 
+/* OpenEXRCore 3.1.5 keeps a compressed chunk whose size EQUALS the raw size,
+ * but readers (the spec, the C++ library and the core itself) take a chunk
+ * with packed size == unpacked size as uncompressed, so such a chunk reads
+ * back as garbage. Found by our tests (a 5×4 uint Y image, ZIPS). We wrap
+ * the library's compressor and store the raw bytes whenever compression
+ * does not make the chunk strictly smaller, as the format intends. */
+typedef struct compress_wrap {
+    exr_result_t (*library_compress)(exr_encode_pipeline_t *enc);
+} compress_wrap;
+
+static exr_result_t compress_or_store_raw(exr_encode_pipeline_t *enc) {
+    const compress_wrap *w = enc->encoding_user_data;
+    exr_result_t rv = w->library_compress(enc);
+    if (rv || enc->compressed_bytes < enc->packed_bytes || enc->compressed_buffer == enc->packed_buffer) return rv;
+    if (!enc->compressed_buffer || enc->compressed_alloc_size < enc->packed_bytes) return EXR_ERR_CORRUPT_CHUNK;
+    memcpy(enc->compressed_buffer, enc->packed_buffer, (size_t)enc->packed_bytes);
+    enc->compressed_bytes = (size_t)enc->packed_bytes;
+    return EXR_ERR_SUCCESS;
+}
+
 static exr_result_t write_chunks(exr_context_t exr, int part, const volux_image *img) {
     static const char *const names[3] = {"R", "G", "B"};
     int32_t lines = 0;
     exr_result_t rv = exr_get_scanlines_per_chunk(exr, part, &lines);
     if (rv) return rv;
     exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
+    compress_wrap wrap = {NULL};
     int initialized = 0;
     for (int y = 0; y < img->height && !rv; y += lines) {
         exr_chunk_info_t ci;
@@ -370,6 +391,11 @@ static exr_result_t write_chunks(exr_context_t exr, int part, const volux_image 
             ch->user_data_type = EXR_PIXEL_FLOAT;
         }
         rv = exr_encoding_choose_default_routines(exr, part, &enc);
+        if (!rv && enc.compress_fn) {
+            wrap.library_compress = enc.compress_fn;
+            enc.encoding_user_data = &wrap;
+            enc.compress_fn = compress_or_store_raw;
+        }
         if (!rv) rv = exr_encoding_run(exr, part, &enc);
     }
     if (initialized) exr_encoding_destroy(exr, &enc);

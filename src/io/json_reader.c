@@ -4,10 +4,13 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "json_reader.h"
 
-#define JSON_MAX_BYTES (64u << 20)
+#define JSON_MAX_BYTES (16u << 20) /* cJSON needs ~30× the text for arrays of numbers */
+#define STR_(x) #x
+#define STR(x) STR_(x)
 
 volux_status volux_json_error(volux_json_reader *r, volux_status st, const char *path, const char *fmt, ...) {
     char msg[768];
@@ -21,47 +24,95 @@ volux_status volux_json_error(volux_json_reader *r, volux_status st, const char 
 volux_status volux_json_read_file(volux_context *ctx, const char *path, char **buf, size_t *n) {
     FILE *f = fopen(path, "rb");
     if (!f) return volux_error(ctx, VOLUX_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-    if (fseek(f, 0, SEEK_END) != 0) {
+    /* fstat, not fseek/ftell: a directory opens fine on Linux and ftell
+     * then reports LONG_MAX ("larger than 16 MiB"); pipes cannot seek. */
+    struct stat sb;
+    if (fstat(fileno(f), &sb) != 0 || !S_ISREG(sb.st_mode)) {
         fclose(f);
-        return volux_error(ctx, VOLUX_ERR_IO, "%s: cannot seek", path);
+        return volux_error(ctx, VOLUX_ERR_IO, "%s: not a regular file", path);
     }
-    long size = ftell(f);
-    if (size < 0 || (unsigned long)size > JSON_MAX_BYTES) {
+    if ((uint64_t)sb.st_size > JSON_MAX_BYTES) {
         fclose(f);
-        return volux_error(ctx, size < 0 ? VOLUX_ERR_IO : VOLUX_ERR_LIMIT, "%s: %s", path,
-                           size < 0 ? "cannot determine the size" : "larger than 64 MiB");
+        return volux_error(ctx, VOLUX_ERR_LIMIT, "%s: larger than 16 MiB", path);
     }
-    rewind(f);
-    char *b = volux_malloc(ctx, (size_t)size + 1);
+    size_t size = (size_t)sb.st_size;
+    char *b = volux_malloc(ctx, size + 1);
     if (!b) {
         fclose(f);
         return volux_error(ctx, VOLUX_ERR_NOMEM, "%s: out of memory", path);
     }
-    size_t got = fread(b, 1, (size_t)size, f);
+    size_t got = fread(b, 1, size, f);
     fclose(f);
-    if (got != (size_t)size) {
-        volux_free(ctx, b, (size_t)size + 1);
+    if (got != size) {
+        volux_free(ctx, b, size + 1);
         return volux_error(ctx, VOLUX_ERR_IO, "%s: read error", path);
     }
     b[size] = 0;
     *buf = b;
-    *n = (size_t)size;
+    *n = size;
+    return VOLUX_OK;
+}
+
+/* Offset → "line L, column C" for messages. */
+static volux_status error_at(volux_json_reader *r, volux_status st, const char *text, size_t at, const char *what) {
+    int line = 1, col = 1;
+    for (size_t i = 0; i < at; i++) {
+        if (text[i] == '\n') line++, col = 1;
+        else col++;
+    }
+    return volux_json_error(r, st, NULL, "%s at line %d, column %d", what, line, col);
+}
+
+/* One pass over the text before cJSON sees it. cJSON would stop at a NUL
+ * byte and turns "\u0000" into one, silently truncating a key or a file
+ * name ("vol.raw\u0000.png" would open vol.raw); and it recurses once per
+ * nesting level, so nesting is capped here, far below cJSON's own limit,
+ * with a message that says what is wrong. */
+static volux_status prescan(volux_json_reader *r, const char *text, size_t n) {
+    int depth = 0, in_string = 0, escaped = 0;
+    for (size_t i = 0; i < n; i++) {
+        char c = text[i];
+        if (c == 0) return error_at(r, VOLUX_ERR_FORMAT, text, i, "NUL byte");
+        if (in_string) {
+            if (escaped) escaped = 0;
+            else if (c == '\\') {
+                escaped = 1;
+                if (n - i > 5 && !memcmp(text + i + 1, "u0000", 5))
+                    return error_at(r, VOLUX_ERR_FORMAT, text, i, "\\u0000 (NUL) in a string");
+            } else if (c == '"') in_string = 0;
+            continue;
+        }
+        if (c == '"') in_string = 1;
+        else if (c == '[' || c == '{') {
+            if (++depth > VOLUX_JSON_MAX_DEPTH)
+                return error_at(r, VOLUX_ERR_LIMIT, text, i, "nesting deeper than " STR(VOLUX_JSON_MAX_DEPTH) " levels");
+        } else if ((c == ']' || c == '}') && depth > 0) depth--;
+    }
     return VOLUX_OK;
 }
 
 volux_status volux_json_parse(volux_json_reader *r, const char *text, size_t n, cJSON **out) {
-    if (n > JSON_MAX_BYTES) return volux_json_error(r, VOLUX_ERR_LIMIT, NULL, "JSON text larger than 64 MiB");
+    if (n > JSON_MAX_BYTES) return volux_json_error(r, VOLUX_ERR_LIMIT, NULL, "JSON text larger than 16 MiB");
+    volux_status st = prescan(r, text, n);
+    if (st) return st;
+    /* cJSON gets a NUL-terminated copy: callers (and fuzzers) may pass a
+     * buffer that ends exactly at n, and cJSON looks one byte past the
+     * end of some truncated tokens. */
+    char *copy = volux_malloc(r->ctx, n + 1);
+    if (!copy) return volux_json_error(r, VOLUX_ERR_NOMEM, NULL, "out of memory for %zu bytes of JSON", n);
+    if (n) memcpy(copy, text, n);
+    copy[n] = 0;
     const char *end = NULL;
-    cJSON *root = cJSON_ParseWithLengthOpts(text, n, &end, 0);
-    if (!root) {
-        /* Locate the failure for the message (cJSON reports a pointer). */
-        size_t at = end && end >= text && end <= text + n ? (size_t)(end - text) : 0;
-        int line = 1, col = 1;
-        for (size_t i = 0; i < at; i++) {
-            if (text[i] == '\n') line++, col = 1;
-            else col++;
-        }
-        return volux_json_error(r, VOLUX_ERR_FORMAT, NULL, "invalid JSON near line %d, column %d", line, col);
+    cJSON *root = cJSON_ParseWithLengthOpts(copy, n, &end, 0);
+    size_t at = end && end >= copy && end <= copy + n ? (size_t)(end - copy) : 0;
+    volux_free(r->ctx, copy, n + 1);
+    if (!root) return error_at(r, VOLUX_ERR_FORMAT, text, at, "invalid JSON");
+    /* cJSON stops after the first value; anything but whitespace after it
+     * is a mistake (a second object pasted in, a stray bracket). */
+    while (at < n && (text[at] == ' ' || text[at] == '\t' || text[at] == '\n' || text[at] == '\r')) at++;
+    if (at < n) {
+        cJSON_Delete(root);
+        return error_at(r, VOLUX_ERR_FORMAT, text, at, "unexpected text after the JSON value");
     }
     *out = root;
     return VOLUX_OK;
@@ -76,8 +127,8 @@ volux_status volux_json_check_keys(volux_json_reader *r, const cJSON *obj, const
                                    const char *const *allowed) {
     if (!cJSON_IsObject(obj)) return volux_json_error(r, VOLUX_ERR_INVALID, path, "expected an object");
     for (const cJSON *c = obj->child; c; c = c->next) {
-        int ok = 0;
-        for (const char *const *a = allowed; *a && !ok; a++) ok = c->string && !strcmp(c->string, *a);
+        int ok = !allowed;
+        for (const char *const *a = allowed; a && *a && !ok; a++) ok = c->string && !strcmp(c->string, *a);
         if (!ok) {
             char p[256];
             join(p, sizeof p, path, c->string ? c->string : "?");
@@ -89,7 +140,10 @@ volux_status volux_json_check_keys(volux_json_reader *r, const cJSON *obj, const
             }
             return volux_json_error(r, VOLUX_ERR_INVALID, p, "unknown key (expected one of: %s)", list);
         }
-        /* cJSON keeps duplicate keys; the second would be silently ignored. */
+        /* cJSON keeps duplicate keys; the second would be silently ignored.
+         * With a key list this stops at the first repeat, so the scan is
+         * O(keys in the list × object size); without one the caller bounds
+         * the object size. */
         for (const cJSON *d = c->next; d; d = d->next)
             if (d->string && c->string && !strcmp(d->string, c->string)) {
                 char p[256];
@@ -172,8 +226,11 @@ volux_status volux_json_vec3(volux_json_reader *r, const cJSON *obj, const char 
     float tmp[3];
     int i = 0;
     for (const cJSON *c = v->child; c; c = c->next, i++) {
-        if (!cJSON_IsNumber(c) || !isfinite(c->valuedouble) || c->valuedouble < lo || c->valuedouble > hi)
-            return volux_json_error(r, VOLUX_ERR_INVALID, p, "element %d must be a number in [%g, %g]", i, lo, hi);
+        if (!cJSON_IsNumber(c) || !isfinite(c->valuedouble) || c->valuedouble < lo || c->valuedouble > hi) {
+            char pi[280];
+            snprintf(pi, sizeof pi, "%s[%d]", p, i);
+            return volux_json_error(r, VOLUX_ERR_INVALID, pi, "must be a number in [%g, %g]", lo, hi);
+        }
         tmp[i] = (float)c->valuedouble;
     }
     memcpy(out, tmp, sizeof tmp);
@@ -196,15 +253,18 @@ volux_status volux_json_rows(volux_json_reader *r, const cJSON *obj, const char 
     if (!out) return volux_json_error(r, VOLUX_ERR_NOMEM, p, "out of memory");
     int i = 0;
     for (const cJSON *row = v->child; row; row = row->next, i++) {
+        char pi[300];
         if (!cJSON_IsArray(row) || cJSON_GetArraySize(row) != width) {
             volux_free(r->ctx, out, sizeof(float) * (size_t)n * (size_t)width);
-            return volux_json_error(r, VOLUX_ERR_INVALID, p, "row %d: expected %d numbers", i, width);
+            snprintf(pi, sizeof pi, "%s[%d]", p, i);
+            return volux_json_error(r, VOLUX_ERR_INVALID, pi, "expected a row of %d numbers", width);
         }
         int j = 0;
         for (const cJSON *c = row->child; c; c = c->next, j++) {
             if (!cJSON_IsNumber(c) || !isfinite(c->valuedouble) || fabs(c->valuedouble) > 1e30) {
                 volux_free(r->ctx, out, sizeof(float) * (size_t)n * (size_t)width);
-                return volux_json_error(r, VOLUX_ERR_INVALID, p, "row %d: element %d is not a finite number", i, j);
+                snprintf(pi, sizeof pi, "%s[%d][%d]", p, i, j);
+                return volux_json_error(r, VOLUX_ERR_INVALID, pi, "expected a number in [-1e30, 1e30]");
             }
             out[(size_t)i * (size_t)width + (size_t)j] = (float)c->valuedouble;
         }
@@ -214,69 +274,138 @@ volux_status volux_json_rows(volux_json_reader *r, const cJSON *obj, const char 
     return VOLUX_OK;
 }
 
+/* A segment that is all digits (no sign, space or exponent, as strtol
+ * would accept) and small enough to be an index. */
 static int is_index(const char *s, long *out) {
-    if (!*s) return 0;
-    char *end;
-    errno = 0;
-    long v = strtol(s, &end, 10);
-    if (*end || errno || v < 0) return 0;
+    size_t n = strlen(s);
+    if (n == 0 || n > 9) return 0;
+    long v = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (s[i] < '0' || s[i] > '9') return 0;
+        v = v * 10 + (s[i] - '0');
+    }
     *out = v;
     return 1;
+}
+
+/* The value of an override: JSON when it is JSON, else the text as a
+ * string so bare words work (render.technique=shaded). The whole text must
+ * be one value: "64abc" or "true_x" must not become 64 or true. Text that
+ * starts like a JSON array/object/string but does not parse is an error,
+ * not a string, so a typo in "[1,2" is reported where it is. */
+static volux_status override_value(volux_json_reader *r, const char *assignment, const char *text, cJSON **out) {
+    volux_context *ctx = r->ctx;
+    char saved[VOLUX_ERROR_MAX];
+    volux_status saved_status = volux_context_error_status(ctx);
+    memcpy(saved, ctx->error, sizeof saved);
+    volux_json_reader quiet = {ctx, assignment};
+    cJSON *v = NULL;
+    volux_status st = volux_json_parse(&quiet, text, strlen(text), &v);
+    if (!st) {
+        *out = v;
+        return VOLUX_OK;
+    }
+    if (st == VOLUX_ERR_NOMEM) return st;
+    const char *first = text + strspn(text, " \t\r\n");
+    if (*first == '[' || *first == '{' || *first == '"') {
+        /* Keep the parser's "at line, column" but name the override. */
+        volux_error_prefix(ctx, "%s: --set ", r->file);
+        return VOLUX_ERR_INVALID;
+    }
+    memcpy(ctx->error, saved, sizeof saved); /* a bare word is not an error */
+    ctx->error_status = saved_status;
+    v = cJSON_CreateString(text);
+    if (!v) return volux_json_error(r, VOLUX_ERR_NOMEM, NULL, "--set %s: out of memory", assignment);
+    *out = v;
+    return VOLUX_OK;
+}
+
+/* An empty array or object for a path segment that does not exist yet:
+ * an array when the next segment is an index ("lights.0.type=point" in a
+ * scene without lights). */
+static cJSON *new_container(const char *next) {
+    size_t len = strcspn(next, ".");
+    int digits = len > 0 && strspn(next, "0123456789") >= len;
+    return digits ? cJSON_CreateArray() : cJSON_CreateObject();
 }
 
 volux_status volux_json_apply_override(volux_json_reader *r, cJSON *root, const char *assignment) {
     const char *eq = strchr(assignment, '=');
     if (!eq || eq == assignment)
-        return volux_error(r->ctx, VOLUX_ERR_INVALID, "--set %s: expected dotted.path=value", assignment);
+        return volux_json_error(r, VOLUX_ERR_INVALID, NULL, "--set %s: expected dotted.path=value", assignment);
     size_t path_len = (size_t)(eq - assignment);
     char path[512];
-    if (path_len >= sizeof path) return volux_error(r->ctx, VOLUX_ERR_INVALID, "--set: path too long");
+    if (path_len >= sizeof path)
+        return volux_json_error(r, VOLUX_ERR_INVALID, NULL, "--set %.64s...: path longer than %zu characters",
+                                assignment, sizeof path - 1);
     memcpy(path, assignment, path_len);
     path[path_len] = 0;
-    const char *value_text = eq + 1;
-    cJSON *value = cJSON_Parse(value_text);
-    if (!value) value = cJSON_CreateString(value_text); /* bare words: render.technique=shaded */
-    if (!value) return volux_error(r->ctx, VOLUX_ERR_NOMEM, "--set: out of memory");
+    /* Reject "a..b", ".a", "a." before touching the tree (strtok would
+     * silently merge them into "a.b"). */
+    if (path[0] == '.' || path[path_len - 1] == '.' || strstr(path, ".."))
+        return volux_json_error(r, VOLUX_ERR_INVALID, NULL, "--set %.*s: empty key in the path", (int)path_len,
+                                assignment);
+    cJSON *value = NULL;
+    volux_status st = override_value(r, assignment, eq + 1, &value);
+    if (st) return st;
 
-    cJSON *node = root;
-    char *save = NULL;
-    char *seg = strtok_r(path, ".", &save);
-    while (seg) {
-        char *next = strtok_r(NULL, ".", &save);
+    cJSON *node = root, *child = NULL;
+    char *seg = path;
+    for (;;) {
+        char *dot = strchr(seg, '.');
+        char *next = NULL;
+        if (dot) {
+            *dot = 0;
+            next = dot + 1;
+        }
+        /* The path up to and including this segment, for messages. */
+        int upto = (int)(seg - path + (ptrdiff_t)strlen(seg));
         long idx;
+        child = NULL;
         if (cJSON_IsArray(node)) {
-            if (!is_index(seg, &idx) || idx >= cJSON_GetArraySize(node)) {
+            int size = cJSON_GetArraySize(node);
+            if (!is_index(seg, &idx) || idx > size) {
                 cJSON_Delete(value);
-                return volux_error(r->ctx, VOLUX_ERR_INVALID, "--set %.*s: '%s' is not an index of the array",
-                                   (int)path_len, assignment, seg);
+                char range[48] = "empty";
+                if (size > 0) snprintf(range, sizeof range, "0..%d", size - 1);
+                return volux_json_error(r, VOLUX_ERR_INVALID, NULL,
+                                        "--set %.*s: '%s' is not an index of the array (%s; %d appends)", upto,
+                                        assignment, seg, range, size);
             }
-            if (!next) {
-                cJSON_ReplaceItemInArray(node, (int)idx, value);
+            if (idx == size) { /* append */
+                child = next ? new_container(next) : value;
+                if (!child || !cJSON_AddItemToArray(node, child)) goto nomem_child;
+                if (!next) return VOLUX_OK;
+            } else if (!next) {
+                if (!cJSON_ReplaceItemInArray(node, (int)idx, value)) goto nomem;
                 return VOLUX_OK;
+            } else {
+                child = cJSON_GetArrayItem(node, (int)idx);
             }
-            node = cJSON_GetArrayItem(node, (int)idx);
         } else if (cJSON_IsObject(node)) {
-            cJSON *child = cJSON_GetObjectItemCaseSensitive(node, seg);
+            child = cJSON_GetObjectItemCaseSensitive(node, seg);
             if (!next) {
-                if (child) cJSON_ReplaceItemInObjectCaseSensitive(node, seg, value);
-                else cJSON_AddItemToObject(node, seg, value);
+                if (child ? !cJSON_ReplaceItemInObjectCaseSensitive(node, seg, value)
+                          : !cJSON_AddItemToObject(node, seg, value))
+                    goto nomem;
                 return VOLUX_OK;
             }
             if (!child) {
-                child = cJSON_AddObjectToObject(node, seg);
-                if (!child) {
-                    cJSON_Delete(value);
-                    return volux_error(r->ctx, VOLUX_ERR_NOMEM, "--set: out of memory");
-                }
+                child = new_container(next);
+                if (!child || !cJSON_AddItemToObject(node, seg, child)) goto nomem_child;
             }
-            node = child;
         } else {
             cJSON_Delete(value);
-            return volux_error(r->ctx, VOLUX_ERR_INVALID, "--set %.*s: '%s' is inside a value that is not an object",
-                               (int)path_len, assignment, seg);
+            int before = seg > path ? (int)(seg - path - 1) : 0;
+            return volux_json_error(r, VOLUX_ERR_INVALID, NULL, "--set %.*s: '%.*s' is a value, not an object or array",
+                                    (int)path_len, assignment, before, assignment);
         }
+        node = child;
         seg = next;
     }
+nomem_child:
+    if (child && child != value) cJSON_Delete(child);
+nomem:
     cJSON_Delete(value);
-    return volux_error(r->ctx, VOLUX_ERR_INVALID, "--set %s: empty path", assignment);
+    return volux_json_error(r, VOLUX_ERR_NOMEM, NULL, "--set %s: out of memory", assignment);
 }

@@ -100,7 +100,7 @@ static volux_status parse_bool(parser *p, int id, int *out) {
 static volux_status scan_lines(parser *p, const char *bytes, size_t n, uint64_t *header_end) {
     char q[80];
     size_t pos = 0;
-    volux_text line;
+    volux_text line = {"", 0};
     int terminated, lineno = 0;
     while (volux_text_line(bytes, n, &pos, &line, &terminated)) {
         lineno++;

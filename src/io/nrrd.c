@@ -133,7 +133,7 @@ static volux_status parse_vector(parser *p, const char *field, volux_text *rest,
 static volux_status scan_lines(parser *p, const char *bytes, size_t n, uint64_t *data_offset, int *ended) {
     char q[80];
     size_t pos = 0;
-    volux_text line;
+    volux_text line = {"", 0}; /* an empty input has no first line */
     int terminated, lineno = 1;
     if (!volux_text_line(bytes, n, &pos, &line, &terminated) || line.n != 8 || memcmp(line.p, "NRRD000", 7) != 0 ||
         line.p[7] < '1' || line.p[7] > '5')
@@ -168,6 +168,9 @@ static volux_status scan_lines(parser *p, const char *bytes, size_t n, uint64_t 
             return volux_error(p->ctx, VOLUX_ERR_FORMAT, "%s: %s: given twice", p->name, field_name(id));
         p->present[id] = 1;
         p->value[id] = value;
+        volux_text rest = value, first;
+        if (id == F_DATA_FILE && volux_text_token(&rest, &first) && volux_text_eq(first, "LIST"))
+            break; /* the remaining lines are file names; reported as unsupported */
     }
     if (!*ended && n >= VOLUX_MAX_HEADER_BYTES)
         return volux_error(p->ctx, VOLUX_ERR_LIMIT, "%s: header is longer than the limit of %u bytes", p->name,

@@ -11,21 +11,33 @@
 #include <string.h>
 
 #include "json_reader.h"
-#include "volux/io.h"
+#include "scene_formats.h"
 
 #define BIG 1e30
+/* Positions and directions: the core squares float lengths, so a
+ * coordinate near 1e19 already overflows to inf (a degenerate camera that
+ * renders black, or a misleading "up is parallel" error). 1e15 world
+ * units is far beyond any volume and keeps squared distances finite. */
+#define COORD 1e15
 
 typedef struct scene_reader {
     volux_json_reader json;
     const char *base_dir;
     volux_scene *scene;
+    unsigned flags; /* VOLUX_SCENE_* */
 } scene_reader;
 
-/* dir + "/" + name unless name is absolute. */
-static volux_status resolve_path(scene_reader *sr, const char *base_dir, const char *name, char *out, size_t n) {
+/* dir + "/" + name unless name is absolute. `key` is the scene path of the
+ * name, for messages. Every file the scene names passes through here, so
+ * this is where VOLUX_SCENE_NO_FILES stops them. */
+static volux_status resolve_path(scene_reader *sr, const char *base_dir, const char *name, const char *key,
+                                 char *out, size_t n) {
+    if (sr->flags & VOLUX_SCENE_NO_FILES)
+        return volux_json_error(&sr->json, VOLUX_ERR_UNSUPPORTED, key, "file references are disabled here");
+    if (!*name) return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "empty file name");
     int w = name[0] == '/' || !base_dir || !*base_dir ? snprintf(out, n, "%s", name)
                                                       : snprintf(out, n, "%s/%s", base_dir, name);
-    if (w < 0 || (size_t)w >= n) return volux_error(sr->json.ctx, VOLUX_ERR_INVALID, "%s: path too long", name);
+    if (w < 0 || (size_t)w >= n) return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "path too long");
     return VOLUX_OK;
 }
 
@@ -40,19 +52,25 @@ static void dir_of(const char *path, char *out, size_t n) {
 
 static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
     volux_json_reader *r = &sr->json;
-    static const char *const keys[] = {"file",    "procedural",  "dims",   "type", "endian", "spacing",
-                                       "byte_skip", "use_file_origin", "seed", "allow_outside_dir", "comment",
-                                       NULL};
+    /* Keys per kind: a raw-file key on a procedural volume (or a seed on a
+     * file) would otherwise be silently ignored. */
+    static const char *const file_keys[] = {"file",      "dims",           "type",   "endian",
+                                            "spacing",   "byte_skip",      "use_file_origin",
+                                            "allow_outside_dir", "comment", NULL};
+    static const char *const proc_keys[] = {"procedural", "dims", "seed", "comment", NULL};
     volux_status st;
     if (!obj) return volux_json_error(r, VOLUX_ERR_INVALID, "volume", "missing (a file or a procedural volume)");
-    if ((st = volux_json_check_keys(r, obj, "volume", keys))) return st;
+    if (!cJSON_IsObject(obj)) return volux_json_error(r, VOLUX_ERR_INVALID, "volume", "expected an object");
+    int has_file = cJSON_GetObjectItemCaseSensitive(obj, "file") != NULL;
+    if (has_file == (cJSON_GetObjectItemCaseSensitive(obj, "procedural") != NULL))
+        return volux_json_error(r, VOLUX_ERR_INVALID, "volume", "give exactly one of file, procedural");
+    if ((st = volux_json_check_keys(r, obj, "volume", has_file ? file_keys : proc_keys))) return st;
     const char *file = NULL, *proc = NULL, *type = NULL, *endian = NULL;
     if ((st = volux_json_string(r, obj, "volume", "file", &file)) ||
         (st = volux_json_string(r, obj, "volume", "procedural", &proc)) ||
         (st = volux_json_string(r, obj, "volume", "type", &type)) ||
         (st = volux_json_string(r, obj, "volume", "endian", &endian)))
         return st;
-    if (!file == !proc) return volux_json_error(r, VOLUX_ERR_INVALID, "volume", "give exactly one of file, procedural");
     int dims[3] = {0, 0, 0}, use_file_origin = 0, allow_outside = 0;
     float spacing[3] = {1, 1, 1};
     double seed = 1, byte_skip = 0;
@@ -63,9 +81,11 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
         int i = 0;
         for (const cJSON *c = jd->child; c; c = c->next, i++) {
             if (!cJSON_IsNumber(c) || c->valuedouble != floor(c->valuedouble) || c->valuedouble < 1 ||
-                c->valuedouble > VOLUX_MAX_DIM)
-                return volux_json_error(r, VOLUX_ERR_INVALID, "volume.dims", "element %d must be an integer in [1, %d]",
-                                        i, VOLUX_MAX_DIM);
+                c->valuedouble > VOLUX_MAX_DIM) {
+                char p[32];
+                snprintf(p, sizeof p, "volume.dims[%d]", i);
+                return volux_json_error(r, VOLUX_ERR_INVALID, p, "must be an integer in [1, %d]", VOLUX_MAX_DIM);
+            }
             dims[i] = (int)c->valuedouble;
         }
     }
@@ -75,8 +95,9 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
         (st = volux_json_bool(r, obj, "volume", "use_file_origin", &use_file_origin)) ||
         (st = volux_json_bool(r, obj, "volume", "allow_outside_dir", &allow_outside)))
         return st;
-    for (int a = 0; a < 3; a++)
-        if (!(spacing[a] > 0.0f)) return volux_json_error(r, VOLUX_ERR_INVALID, "volume.spacing", "must be > 0");
+    if (seed != floor(seed)) return volux_json_error(r, VOLUX_ERR_INVALID, "volume.seed", "expected an integer");
+    if (byte_skip != floor(byte_skip))
+        return volux_json_error(r, VOLUX_ERR_INVALID, "volume.byte_skip", "expected an integer");
 
     volux_volume *vol = NULL;
     if (proc) {
@@ -86,15 +107,18 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
             volux_error_prefix(r->ctx, "%s: volume.procedural: ", r->file);
             return st;
         }
-        /* A procedural volume honours a given spacing by re-wrapping. */
-        if (cJSON_GetObjectItemCaseSensitive(obj, "spacing")) {
-            volux_json_error(r, VOLUX_ERR_INVALID, "volume.spacing", "not supported for procedural volumes");
-            volux_volume_release(vol);
-            return VOLUX_ERR_INVALID;
-        }
     } else {
-        char path[4096];
-        if ((st = resolve_path(sr, sr->base_dir, file, path, sizeof path))) return st;
+        /* Layout keys describe a raw file; with a self-describing header
+         * they would be silently ignored. */
+        static const char *const raw_only[] = {"endian", "spacing", "byte_skip"};
+        if (!jd && !type)
+            for (int k = 0; k < 3; k++)
+                if (cJSON_GetObjectItemCaseSensitive(obj, raw_only[k])) {
+                    char p[32];
+                    snprintf(p, sizeof p, "volume.%s", raw_only[k]);
+                    return volux_json_error(r, VOLUX_ERR_INVALID, p,
+                                            "only for a raw file (give dims and type too)");
+                }
         volux_volume_load_options opt = {0};
         volux_raw_desc raw;
         opt.use_file_origin = use_file_origin;
@@ -114,6 +138,9 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
             raw.byte_skip = (uint64_t)byte_skip;
             opt.raw = &raw;
         }
+        /* The layout is checked first: its errors do not depend on the file. */
+        char path[4096];
+        if ((st = resolve_path(sr, sr->base_dir, file, "volume.file", path, sizeof path))) return st;
         st = volux_volume_load(r->ctx, path, &opt, &vol);
         if (st) {
             /* The loader's message names the file; add where it came from. */
@@ -136,7 +163,7 @@ static volux_status read_transfer(scene_reader *sr, const cJSON *obj) {
     if (cJSON_IsString(obj)) {
         /* "transfer_function": "tf.json" — the same TF file the peers read. */
         char path[4096];
-        volux_status st = resolve_path(sr, sr->base_dir, obj->valuestring, path, sizeof path);
+        volux_status st = resolve_path(sr, sr->base_dir, obj->valuestring, "transfer_function", path, sizeof path);
         if (st) return st;
         char *text;
         size_t n;
@@ -144,16 +171,20 @@ static volux_status read_transfer(scene_reader *sr, const cJSON *obj) {
             volux_error_prefix(r->ctx, "%s: transfer_function: ", r->file);
             return st;
         }
+        /* Messages from inside the TF file name that file (keys are read
+         * under the same "transfer_function." paths), after the scene. */
         volux_json_reader sub = {r->ctx, path};
         cJSON *tree = NULL;
         st = volux_json_parse(&sub, text, n, &tree);
         volux_free(r->ctx, text, n + 1);
-        if (st) return st;
-        char dir[4096];
-        dir_of(path, dir, sizeof dir);
-        scene_reader sub_sr = {sub, sr->base_dir, sr->scene};
-        st = read_tf_object(&sub_sr, tree, dir);
-        cJSON_Delete(tree);
+        if (!st) {
+            char dir[4096];
+            dir_of(path, dir, sizeof dir);
+            scene_reader sub_sr = {sub, sr->base_dir, sr->scene, sr->flags};
+            st = read_tf_object(&sub_sr, tree, dir);
+            cJSON_Delete(tree);
+        }
+        if (st) volux_error_prefix(r->ctx, "%s: transfer_function: ", r->file);
         return st;
     }
     return read_tf_object(sr, obj, sr->base_dir);
@@ -201,9 +232,19 @@ static volux_status read_tf_object(scene_reader *sr, const cJSON *obj, const cha
         st = volux_json_error(r, VOLUX_ERR_INVALID, P, "give color points or a preset, not both");
         goto done;
     }
+    if (!preset_file && (preset_name || cJSON_GetObjectItemCaseSensitive(obj, "preset_rescale"))) {
+        st = volux_json_error(r, VOLUX_ERR_INVALID, P, "preset_name and preset_rescale need a preset");
+        goto done;
+    }
+    if (n_ext && cJSON_GetObjectItemCaseSensitive(obj, "opacity_unit_distance")) {
+        /* σt is given directly; a unit distance would be silently ignored. */
+        st = volux_json_error(r, VOLUX_ERR_INVALID, "transfer_function.opacity_unit_distance",
+                              "only applies to opacity, not extinction");
+        goto done;
+    }
     if (preset_file) {
         char path[4096];
-        if ((st = resolve_path(sr, tf_dir, preset_file, path, sizeof path))) goto done;
+        if ((st = resolve_path(sr, tf_dir, preset_file, "transfer_function.preset", path, sizeof path))) goto done;
         double lo = 0, hi = 0;
         volux_volume *vol = volux_scene_volume(sr->scene);
         if (rescale && vol) volux_volume_range(vol, &lo, &hi);
@@ -276,15 +317,17 @@ static volux_status read_camera(scene_reader *sr, const cJSON *obj) {
     const cJSON *orbit = cJSON_GetObjectItemCaseSensitive(obj, "orbit");
     const cJSON *eye = cJSON_GetObjectItemCaseSensitive(obj, "eye");
     if (orbit && eye) return volux_json_error(r, VOLUX_ERR_INVALID, "camera", "give eye/look_at or orbit, not both");
+    if (d.projection == VOLUX_PERSPECTIVE && cJSON_GetObjectItemCaseSensitive(obj, "height"))
+        return volux_json_error(r, VOLUX_ERR_INVALID, "camera.height", "only for \"type\": \"orthographic\"");
     if ((st = volux_json_float(r, obj, "camera", "fov_y", 1e-3, 179.999, &d.fov_y_deg)) ||
         (st = volux_json_float(r, obj, "camera", "height", 1e-9, BIG, &d.height)))
         return st;
     if (eye) {
         float e[3], at[3] = {0, 0, 0}, up[3] = {0, 1, 0};
         d.use_orbit = 0;
-        if ((st = volux_json_vec3(r, obj, "camera", "eye", -BIG, BIG, e)) ||
-            (st = volux_json_vec3(r, obj, "camera", "look_at", -BIG, BIG, at)) ||
-            (st = volux_json_vec3(r, obj, "camera", "up", -BIG, BIG, up)))
+        if ((st = volux_json_vec3(r, obj, "camera", "eye", -COORD, COORD, e)) ||
+            (st = volux_json_vec3(r, obj, "camera", "look_at", -COORD, COORD, at)) ||
+            (st = volux_json_vec3(r, obj, "camera", "up", -COORD, COORD, up)))
             return st;
         d.eye = (volux_vec3){e[0], e[1], e[2]};
         d.look_at = (volux_vec3){at[0], at[1], at[2]};
@@ -292,19 +335,36 @@ static volux_status read_camera(scene_reader *sr, const cJSON *obj) {
     } else {
         if (cJSON_GetObjectItemCaseSensitive(obj, "look_at") || cJSON_GetObjectItemCaseSensitive(obj, "up"))
             return volux_json_error(r, VOLUX_ERR_INVALID, "camera", "look_at/up need an eye");
+        /* DESIGN §3: the default distance fits the bounding sphere for this
+         * fov_y (also without an "orbit" object, where the defaults'
+         * distance would only fit their own 30°). */
+        d.distance = 1.0f / sinf(0.5f * d.fov_y_deg * 3.14159265f / 180.0f);
         if (orbit) {
             if ((st = volux_json_check_keys(r, orbit, "camera.orbit", orbit_keys)) ||
                 (st = volux_json_float(r, orbit, "camera.orbit", "azimuth", -1e6, 1e6, &d.azimuth_deg)) ||
-                (st = volux_json_float(r, orbit, "camera.orbit", "elevation", -90, 90, &d.elevation_deg)))
+                (st = volux_json_float(r, orbit, "camera.orbit", "elevation", -90, 90, &d.elevation_deg)) ||
+                (st = volux_json_float(r, orbit, "camera.orbit", "distance", 1e-6, 1e6, &d.distance)))
                 return st;
-            /* DESIGN §3: the default distance fits the bounding sphere. */
-            d.distance = 1.0f / sinf(0.5f * d.fov_y_deg * 3.14159265f / 180.0f);
-            if ((st = volux_json_float(r, orbit, "camera.orbit", "distance", 1e-6, BIG, &d.distance))) return st;
         }
     }
     st = volux_scene_set_camera(sr->scene, &d);
-    if (st) volux_error_prefix(r->ctx, "%s: ", r->file);
-    return st;
+    if (st) {
+        volux_error_prefix(r->ctx, "%s: ", r->file);
+        return st;
+    }
+    /* set_camera checks the frame against a unit sphere; an orbit scales
+     * with the volume's radius, so resolve it for the real volume too. */
+    volux_camera cam;
+    if ((st = volux_scene_camera(sr->scene, &cam))) {
+        volux_error_prefix(r->ctx, "%s: ", r->file);
+        return st;
+    }
+    float sum = cam.eye.x + cam.eye.y + cam.eye.z + cam.forward.x + cam.forward.y + cam.forward.z + cam.right.x +
+                cam.right.y + cam.right.z + cam.up.x + cam.up.y + cam.up.z + cam.tan_half_fov + cam.half_height;
+    if (!isfinite(sum))
+        return volux_json_error(r, VOLUX_ERR_INVALID, "camera",
+                                "the view is not finite for this volume (eye too far away?)");
+    return VOLUX_OK;
 }
 
 /* ------------------------------------------------------------------ lights */
@@ -338,20 +398,23 @@ static volux_status read_light(scene_reader *sr, const cJSON *obj, int index) {
     int t = -1;
     for (int i = 0; i < 5; i++)
         if (!strcmp(type, types[i].name)) t = i;
-    if (t < 0)
-        return volux_json_error(r, VOLUX_ERR_INVALID, P,
-                                "type: unknown light type '%s' (directional, point, spot, sphere, environment)", type);
+    if (t < 0) {
+        char pt[48];
+        snprintf(pt, sizeof pt, "%s.type", P);
+        return volux_json_error(r, VOLUX_ERR_INVALID, pt,
+                                "unknown light type '%.64s' (directional, point, spot, sphere, environment)", type);
+    }
     if ((st = volux_json_check_keys(r, obj, P, types[t].keys))) return st;
     volux_light_desc d;
     volux_light_desc_defaults(&d, types[t].type);
     float color[3] = {1, 1, 1}, dir[3] = {0, 0, -1}, pos[3] = {0, 0, 0};
     if ((st = volux_json_vec3(r, obj, P, "color", 0, BIG, color)) ||
-        (st = volux_json_vec3(r, obj, P, "direction", -BIG, BIG, dir)) ||
-        (st = volux_json_vec3(r, obj, P, "position", -BIG, BIG, pos)) ||
+        (st = volux_json_vec3(r, obj, P, "direction", -COORD, COORD, dir)) ||
+        (st = volux_json_vec3(r, obj, P, "position", -COORD, COORD, pos)) ||
         (st = volux_json_float(r, obj, P, "irradiance", 0, BIG, &d.irradiance)) ||
         (st = volux_json_float(r, obj, P, "intensity", 0, BIG, &d.intensity)) ||
         (st = volux_json_float(r, obj, P, "radiance", 0, BIG, &d.radiance)) ||
-        (st = volux_json_float(r, obj, P, "radius", 1e-9, BIG, &d.radius)) ||
+        (st = volux_json_float(r, obj, P, "radius", 1e-9, COORD, &d.radius)) ||
         (st = volux_json_float(r, obj, P, "cone_angle", 1e-6, 90, &d.cone_angle_deg)) ||
         (st = volux_json_float(r, obj, P, "falloff_angle", 0, 90, &d.falloff_angle_deg)) ||
         (st = volux_json_float(r, obj, P, "rotation_y", -1e6, 1e6, &d.rotation_y_deg)) ||
@@ -370,8 +433,9 @@ static volux_status read_light(scene_reader *sr, const cJSON *obj, int index) {
     if (file) {
         if (cJSON_GetObjectItemCaseSensitive(obj, "radiance"))
             return volux_json_error(r, VOLUX_ERR_INVALID, P, "give radiance (constant) or file (map), not both");
-        char path[4096];
-        if ((st = resolve_path(sr, sr->base_dir, file, path, sizeof path))) return st;
+        char path[4096], pf[48];
+        snprintf(pf, sizeof pf, "%s.file", P);
+        if ((st = resolve_path(sr, sr->base_dir, file, pf, path, sizeof path))) return st;
         if ((st = volux_image_load(r->ctx, path, &map))) {
             volux_error_prefix(r->ctx, "%s: %s.file: ", r->file, P);
             return st;
@@ -443,16 +507,28 @@ static volux_status read_techniques(scene_reader *sr, const cJSON *obj) {
     volux_json_reader *r = &sr->json;
     if (!obj) return VOLUX_OK;
     if (!cJSON_IsObject(obj)) return volux_json_error(r, VOLUX_ERR_INVALID, "techniques", "expected an object");
+    /* Names are free-form here (the technique registry checks them), so
+     * bound the counts before the quadratic duplicate-key check. */
+    if (cJSON_GetArraySize(obj) > VOLUX_MAX_PARAMS)
+        return volux_json_error(r, VOLUX_ERR_LIMIT, "techniques", "more than %d techniques", VOLUX_MAX_PARAMS);
+    volux_status st = volux_json_check_keys(r, obj, "techniques", NULL);
+    if (st) return st;
     for (const cJSON *t = obj->child; t; t = t->next) {
         char P[128];
         snprintf(P, sizeof P, "techniques.%.64s", t->string);
         if (!cJSON_IsObject(t)) return volux_json_error(r, VOLUX_ERR_INVALID, P, "expected an object of parameters");
+        if (cJSON_GetArraySize(t) > VOLUX_MAX_PARAMS)
+            return volux_json_error(r, VOLUX_ERR_LIMIT, P, "more than %d parameters", VOLUX_MAX_PARAMS);
+        if ((st = volux_json_check_keys(r, t, P, NULL))) return st;
         for (const cJSON *p = t->child; p; p = p->next) {
-            volux_status st;
             if (cJSON_IsNumber(p)) st = volux_scene_set_param(sr->scene, t->string, p->string, p->valuedouble, NULL);
             else if (cJSON_IsBool(p)) st = volux_scene_set_param(sr->scene, t->string, p->string, cJSON_IsTrue(p), NULL);
             else if (cJSON_IsString(p)) st = volux_scene_set_param(sr->scene, t->string, p->string, 0, p->valuestring);
-            else return volux_json_error(r, VOLUX_ERR_INVALID, P, "%s: expected a number, boolean or string", p->string);
+            else {
+                char pp[192];
+                snprintf(pp, sizeof pp, "%s.%.48s", P, p->string);
+                return volux_json_error(r, VOLUX_ERR_INVALID, pp, "expected a number, boolean or string");
+            }
             if (st) {
                 volux_error_prefix(r->ctx, "%s: ", r->file);
                 return st;
@@ -484,11 +560,12 @@ static volux_status read_scene(scene_reader *sr, const cJSON *root) {
     return VOLUX_OK;
 }
 
-volux_status volux_scene_load_string(volux_context *ctx, const char *json, const char *base_dir, const char *name,
-                                     const char *const *overrides, int n_overrides, volux_scene **out) {
-    scene_reader sr = {{ctx, name ? name : "scene"}, base_dir ? base_dir : ".", NULL};
+volux_status volux_scene_parse(volux_context *ctx, const char *text, size_t n, const char *base_dir,
+                               const char *name, const char *const *overrides, int n_overrides, unsigned flags,
+                               volux_scene **out) {
+    scene_reader sr = {{ctx, name ? name : "scene"}, base_dir ? base_dir : ".", NULL, flags};
     cJSON *root = NULL;
-    volux_status st = volux_json_parse(&sr.json, json, strlen(json), &root);
+    volux_status st = volux_json_parse(&sr.json, text, n, &root);
     if (st) return st;
     if (!cJSON_IsObject(root)) {
         cJSON_Delete(root);
@@ -513,19 +590,21 @@ volux_status volux_scene_load_string(volux_context *ctx, const char *json, const
     return VOLUX_OK;
 }
 
+volux_status volux_scene_load_string(volux_context *ctx, const char *json, const char *base_dir, const char *name,
+                                     const char *const *overrides, int n_overrides, volux_scene **out) {
+    return volux_scene_parse(ctx, json, strlen(json), base_dir, name, overrides, n_overrides, 0, out);
+}
+
 volux_status volux_scene_load(volux_context *ctx, const char *path, const char *const *overrides, int n_overrides,
                               volux_scene **out) {
     char *text;
     size_t n;
     volux_status st = volux_json_read_file(ctx, path, &text, &n);
     if (st) return st;
-    if (strlen(text) != n) {
-        volux_free(ctx, text, n + 1);
-        return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: contains a NUL byte", path);
-    }
     char dir[4096];
     dir_of(path, dir, sizeof dir);
-    st = volux_scene_load_string(ctx, text, dir, path, overrides, n_overrides, out);
+    /* The parser rejects NUL bytes with their line and column. */
+    st = volux_scene_parse(ctx, text, n, dir, path, overrides, n_overrides, 0, out);
     volux_free(ctx, text, n + 1);
     return st;
 }

@@ -5,12 +5,14 @@
  * [x, opacity, midpoint, sharpness, ...]. ParaView applies a preset over the
  * data range, so we map the preset's [x_first, x_last] onto [s_min, s_max].
  * Midpoint/sharpness are not modelled (piecewise-linear only); documented.
+ * Other keys (ColorSpace, NanColor, ...) are ParaView's business and are
+ * ignored, but the ones we read must not repeat.
  */
 #include <math.h>
 #include <string.h>
 
 #include "json_reader.h"
-#include "volux/io.h"
+#include "scene_formats.h"
 
 void volux_tf_preset_free(volux_context *ctx, volux_tf_preset *p) {
     if (!p) return;
@@ -41,8 +43,9 @@ static volux_status read_tuples(volux_json_reader *r, const cJSON *arr, const ch
             return volux_json_error(r, VOLUX_ERR_FORMAT, what, "point %d: x must not decrease", i / stride);
         }
         if (i % stride != 0 && (v[i] < 0.0 || v[i] > 1.0)) { /* colours, opacity, midpoint, sharpness */
+            double bad = v[i]; /* read before the free below */
             volux_free(r->ctx, v, sizeof(double) * (size_t)n);
-            return volux_json_error(r, VOLUX_ERR_FORMAT, what, "element %d = %g is outside [0, 1]", i, v[i]);
+            return volux_json_error(r, VOLUX_ERR_FORMAT, what, "element %d = %g is outside [0, 1]", i, bad);
         }
     }
     *out = v;
@@ -50,16 +53,19 @@ static volux_status read_tuples(volux_json_reader *r, const cJSON *arr, const ch
     return VOLUX_OK;
 }
 
-volux_status volux_tf_preset_load(volux_context *ctx, const char *path, const char *name, double s_min, double s_max,
-                                  volux_tf_preset *out) {
-    volux_json_reader r = {ctx, path};
-    char *text;
-    size_t n;
-    volux_status st = volux_json_read_file(ctx, path, &text, &n);
-    if (st) return st;
+/* cJSON keeps repeated keys and returns the first; a file that says
+ * "RGBPoints" twice is ambiguous, so it is an error. */
+static int repeated(const cJSON *obj, const char *key) {
+    int n = 0;
+    for (const cJSON *c = obj->child; c; c = c->next) n += c->string && !strcmp(c->string, key);
+    return n > 1;
+}
+
+volux_status volux_tf_preset_parse(volux_context *ctx, const char *text, size_t n, const char *name,
+                                   const char *preset_name, double s_min, double s_max, volux_tf_preset *out) {
+    volux_json_reader r = {ctx, name ? name : "preset"};
     cJSON *root = NULL;
-    st = volux_json_parse(&r, text, n, &root);
-    volux_free(ctx, text, n + 1);
+    volux_status st = volux_json_parse(&r, text, n, &root);
     if (st) return st;
     const cJSON *preset = NULL;
     if (cJSON_IsObject(root)) preset = root;
@@ -67,14 +73,26 @@ volux_status volux_tf_preset_load(volux_context *ctx, const char *path, const ch
         for (const cJSON *c = root->child; c && !preset; c = c->next) {
             if (!cJSON_IsObject(c)) continue;
             const cJSON *nm = cJSON_GetObjectItemCaseSensitive(c, "Name");
-            if (!name || (cJSON_IsString(nm) && !strcmp(nm->valuestring, name))) preset = c;
+            if (!preset_name || (cJSON_IsString(nm) && !strcmp(nm->valuestring, preset_name))) preset = c;
         }
+    }
+    /* A single preset object must also carry the asked-for name: picking
+     * it anyway would silently show the wrong colours. */
+    if (preset && preset == root && preset_name) {
+        const cJSON *nm = cJSON_GetObjectItemCaseSensitive(preset, "Name");
+        if (!cJSON_IsString(nm) || strcmp(nm->valuestring, preset_name)) preset = NULL;
     }
     if (!preset) {
         cJSON_Delete(root);
-        return volux_json_error(&r, name ? VOLUX_ERR_INVALID : VOLUX_ERR_FORMAT, NULL,
-                                name ? "no preset named '%s'" : "no preset object found%s", name ? name : "");
+        if (preset_name) return volux_json_error(&r, VOLUX_ERR_INVALID, NULL, "no preset named '%.128s'", preset_name);
+        return volux_json_error(&r, VOLUX_ERR_FORMAT, NULL, "expected a preset object or a list of them");
     }
+    static const char *const read_keys[] = {"Name", "RGBPoints", "Points"};
+    for (int k = 0; k < 3; k++)
+        if (repeated(preset, read_keys[k])) {
+            cJSON_Delete(root);
+            return volux_json_error(&r, VOLUX_ERR_FORMAT, read_keys[k], "duplicate key");
+        }
     const cJSON *rgb = cJSON_GetObjectItemCaseSensitive(preset, "RGBPoints");
     if (!rgb) {
         cJSON_Delete(root);
@@ -94,9 +112,20 @@ volux_status volux_tf_preset_load(volux_context *ctx, const char *path, const ch
         scale = (s_max - s_min) / (x1 - x0);
         shift = s_min - x0 * scale;
     }
+    /* A tiny preset span mapped onto a wide range can overflow float; say
+     * so here instead of failing later on a non-finite TF point. */
+    for (int i = 0; i < nc + no; i++) {
+        double x = (i < nc ? cv[4 * i] : ov[4 * (i - nc)]) * scale + shift;
+        if (!(fabs(x) <= 1e30)) {
+            st = volux_json_error(&r, VOLUX_ERR_FORMAT, i < nc ? "RGBPoints" : "Points",
+                                  "point %d does not map to a finite value on [%g, %g]", i < nc ? i : i - nc, s_min,
+                                  s_max);
+            goto done;
+        }
+    }
     p.color = volux_malloc(ctx, sizeof *p.color * (size_t)nc);
     if (!p.color) {
-        st = volux_error(ctx, VOLUX_ERR_NOMEM, "%s: out of memory", path);
+        st = volux_json_error(&r, VOLUX_ERR_NOMEM, NULL, "out of memory");
         goto done;
     }
     p.n_color = nc;
@@ -106,7 +135,7 @@ volux_status volux_tf_preset_load(volux_context *ctx, const char *path, const ch
     if (no) {
         p.opacity = volux_malloc(ctx, sizeof *p.opacity * (size_t)no);
         if (!p.opacity) {
-            st = volux_error(ctx, VOLUX_ERR_NOMEM, "%s: out of memory", path);
+            st = volux_json_error(&r, VOLUX_ERR_NOMEM, NULL, "out of memory");
             goto done;
         }
         p.n_opacity = no;
@@ -123,4 +152,15 @@ done:
     }
     *out = p;
     return VOLUX_OK;
+}
+
+volux_status volux_tf_preset_load(volux_context *ctx, const char *path, const char *name, double s_min, double s_max,
+                                  volux_tf_preset *out) {
+    char *text;
+    size_t n;
+    volux_status st = volux_json_read_file(ctx, path, &text, &n);
+    if (st) return st;
+    st = volux_tf_preset_parse(ctx, text, n, path, name, s_min, s_max, out);
+    volux_free(ctx, text, n + 1);
+    return st;
 }

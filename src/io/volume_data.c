@@ -446,6 +446,21 @@ volux_status volux_volume_read_data(volux_context *ctx, const volux_volume_heade
                          (unsigned long long)src->size);
         goto fail;
     }
+    if (zlib) {
+        /* Deflate expands at most 1032:1 (zlib's technical notes), so a
+         * short stream cannot hold a big volume: refuse before allocating
+         * what the header claims rather than after inflating. The slack
+         * covers stored blocks and member headers of tiny streams. */
+        uint64_t packed = src->size - begin, decoded = need + (uint64_t)(h->byte_skip > 0 ? h->byte_skip : 0);
+        if (packed < (UINT64_MAX - 4096) / 1032 && decoded > packed * 1032 + 4096) {
+            st = volux_error(ctx, VOLUX_ERR_FORMAT,
+                             "%s: data is truncated: %llu bytes of compressed data cannot hold the %llu bytes of "
+                             "%dx%dx%d %s",
+                             name, (unsigned long long)packed, (unsigned long long)need, h->dims[0], h->dims[1],
+                             h->dims[2], volux_scalar_type_name(h->type));
+            goto fail;
+        }
+    }
 
     st = volux_volume_create_storage(ctx, h->dims, h->spacing, stored_type(h), &v);
     if (st) {

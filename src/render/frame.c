@@ -138,11 +138,12 @@ static void render_one_tile(void *user, int64_t index, int thread) {
     }
 }
 
-static double now_ms(void) {
+static double clock_ms(clockid_t id) {
     struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
+    clock_gettime(id, &ts);
     return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
 }
+static double now_ms(void) { return clock_ms(CLOCK_MONOTONIC); }
 
 /* Internal accessors implemented in techniques/technique.c. */
 const void *volux_technique_state(const volux_technique *t);
@@ -169,7 +170,7 @@ volux_status volux_render(volux_technique *t, volux_scene *scene, volux_framebuf
     int done = 0, busy = 0, cancelled = 0;
     wave_job job = {cls, volux_technique_state(t), scene, fb, ctx, tiles_x, tiles, 0, stats, &done, &busy, &cancelled,
                     0.0, 1.0};
-    double start = now_ms();
+    double start = now_ms(), cpu_start = clock_ms(CLOCK_PROCESS_CPUTIME_ID);
     uint32_t start_spp = fb->spp;
     uint64_t samples = 0, vertices = 0;
     volux_status st = VOLUX_OK;
@@ -198,6 +199,7 @@ volux_status volux_render(volux_technique *t, volux_scene *scene, volux_framebuf
     if (report) {
         report->spp = fb->spp;
         report->ms = now_ms() - start;
+        report->cpu_ms = clock_ms(CLOCK_PROCESS_CPUTIME_ID) - cpu_start;
         report->rel_error = volux_framebuffer_rel_error(fb);
         report->samples = samples;
         report->vertices = vertices;

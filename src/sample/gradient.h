@@ -39,22 +39,14 @@ void volux_gradient_cache_free(volux_context *ctx, volux_gradient_cache *gc);
  * index-space position q, which must lie inside the volume. */
 static inline volux_vec3 volux_gradient_cache_sample(const volux_gradient_cache *gc, const volux_volume *v,
                                                      volux_vec3 q) {
-    int nx = v->dims[0], ny = v->dims[1], nz = v->dims[2];
-    int i = (int)q.x, j = (int)q.y, k = (int)q.z;
-    if (i > nx - 2) i = nx > 1 ? nx - 2 : 0;
-    if (j > ny - 2) j = ny > 1 ? ny - 2 : 0;
-    if (k > nz - 2) k = nz > 1 ? nz - 2 : 0;
-    float fx = q.x - (float)i, fy = q.y - (float)j, fz = q.z - (float)k;
-    size_t sx = nx > 1 ? 3 : 0, sy = ny > 1 ? 3 * (size_t)nx : 0, sz = nz > 1 ? 3 * (size_t)nx * (size_t)ny : 0;
-    const int16_t *b = gc->grad + 3 * volux_volume_index(v, i, j, k);
+    volux_cell c = volux_volume_cell(v, q.x, q.y, q.z);
+    const int16_t *b = gc->grad + 3 * c.base;
+    size_t sx = 3 * c.sx, sy = 3 * c.sy, sz = 3 * c.sz;
     float g[3];
     for (int a = 0; a < 3; a++) {
-        float c00 = b[a] + (b[sx + a] - b[a]) * fx;
-        float c10 = b[sy + a] + (b[sy + sx + a] - b[sy + a]) * fx;
-        float c01 = b[sz + a] + (b[sz + sx + a] - b[sz + a]) * fx;
-        float c11 = b[sz + sy + a] + (b[sz + sy + sx + a] - b[sz + sy + a]) * fx;
-        float c0 = c00 + (c10 - c00) * fy, c1 = c01 + (c11 - c01) * fy;
-        g[a] = (c0 + (c1 - c0) * fz) * gc->scale;
+        float n[8] = {b[a],      b[sx + a],      b[sy + a],      b[sy + sx + a],
+                      b[sz + a], b[sz + sx + a], b[sz + sy + a], b[sz + sy + sx + a]};
+        g[a] = volux_lerp3(n, c.fx, c.fy, c.fz) * gc->scale;
     }
     return v3(g[0], g[1], g[2]);
 }

@@ -5,11 +5,13 @@
 
 extern const volux_technique_class volux_ea_class;
 extern const volux_technique_class volux_shaded_class;
+extern const volux_technique_class volux_pathtrace_class;
 extern const volux_technique_class volux_lightvol_class;
 
 static const volux_technique_class *const classes[] = {
     &volux_ea_class,
     &volux_shaded_class,
+    &volux_pathtrace_class,
     &volux_lightvol_class,
 };
 

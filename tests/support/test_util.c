@@ -1,6 +1,7 @@
 /* tests/support/test_util.c — see test_util.h. */
 #include "test_util.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -58,4 +59,47 @@ int tu_run_cli(const char *args, const char **err) {
     }
     if (err) *err = buf;
     return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+volux_scene *tu_scene(volux_context *ctx, const char *json) {
+    volux_scene *s = NULL;
+    volux_status st = volux_scene_load_string(ctx, json, tu_temp_path(""), "test-scene", NULL, 0, &s);
+    if (st) fail_msg("scene: %s", volux_context_error(ctx));
+    return s;
+}
+
+volux_image tu_render_with(volux_context *ctx, volux_scene *s, volux_technique *t) {
+    const volux_render_settings *rs = volux_scene_render(s);
+    volux_framebuffer *fb = NULL;
+    volux_image img = {0};
+    assert_int_equal(volux_framebuffer_create(ctx, rs->width, rs->height, &fb), VOLUX_OK);
+    volux_status st = volux_render(t, s, fb, NULL, NULL);
+    if (st) fail_msg("render: %s", volux_context_error(ctx));
+    assert_int_equal(volux_framebuffer_resolve(fb, &img), VOLUX_OK);
+    volux_framebuffer_destroy(fb);
+    return img;
+}
+
+volux_image tu_render(volux_context *ctx, volux_scene *s, const char *technique) {
+    volux_technique *t = NULL;
+    volux_status st = volux_technique_create(ctx, technique ? technique : volux_scene_render(s)->technique, s, &t);
+    if (st) fail_msg("technique: %s", volux_context_error(ctx));
+    volux_image img = tu_render_with(ctx, s, t);
+    volux_technique_destroy(t);
+    return img;
+}
+
+double tu_max_abs_diff(const volux_image *a, const volux_image *b) {
+    assert_int_equal(a->width, b->width);
+    assert_int_equal(a->height, b->height);
+    double m = 0.0;
+    for (size_t i = 0; i < (size_t)a->width * (size_t)a->height * 3; i++) {
+        double d = fabs((double)a->rgb[i] - (double)b->rgb[i]);
+        if (d > m || d != d) m = d != d ? INFINITY : d;
+    }
+    return m;
+}
+
+float tu_pixel(const volux_image *img, int x, int y, int c) {
+    return img->rgb[3 * ((size_t)y * (size_t)img->width + (size_t)x) + (size_t)c];
 }

@@ -38,3 +38,18 @@ int tu_run_cli(const char *args, const char **err);
     } while (0)
 
 #endif
+
+#ifndef VOLUX_TEST_UTIL_RENDER
+#define VOLUX_TEST_UTIL_RENDER
+/* Loads a scene from a JSON string (relative paths against the temp dir). */
+volux_scene *tu_scene(volux_context *ctx, const char *json);
+/* Renders the scene's spp with a fresh instance of `technique` (NULL: the
+ * scene's) and returns the resolved image (caller frees). */
+volux_image tu_render(volux_context *ctx, volux_scene *s, const char *technique);
+/* Renders with an existing technique into a fresh framebuffer. */
+volux_image tu_render_with(volux_context *ctx, volux_scene *s, volux_technique *t);
+/* Largest |a − b| over all channels (asserts equal sizes). */
+double tu_max_abs_diff(const volux_image *a, const volux_image *b);
+/* Pixel channel c at (x, y). */
+float tu_pixel(const volux_image *img, int x, int y, int c);
+#endif

@@ -171,24 +171,40 @@ int cli_bench(int argc, char **argv) {
     /* render_ms: one warm-up frame, then the median of `repeat` frames. */
     volux_render_report rep;
     if ((st = volux_render(tech, scene, fb, NULL, &rep))) goto fail;
-    double samples_rate[MAX_REPEAT], vertex_rate[MAX_REPEAT];
+    double samples_rate[MAX_REPEAT], vertex_rate[MAX_REPEAT], cpu[MAX_REPEAT], cpu_rate[MAX_REPEAT],
+        vertex_cpu_rate[MAX_REPEAT];
     for (int k = 0; k < repeat; k++) {
         volux_framebuffer_reset(fb);
         if ((st = volux_render(tech, scene, fb, NULL, &rep))) goto fail;
         times[k] = rep.ms;
         samples_rate[k] = rep.ms > 0 ? (double)rep.samples / (rep.ms * 1e-3) : 0.0;
         vertex_rate[k] = rep.ms > 0 ? (double)rep.vertices / (rep.ms * 1e-3) : 0.0;
+        cpu[k] = rep.cpu_ms;
+        /* per core from CPU time: robust against other jobs on a shared machine */
+        cpu_rate[k] = rep.cpu_ms > 0 ? (double)rep.samples / (rep.cpu_ms * 1e-3) : 0.0;
+        vertex_cpu_rate[k] = rep.cpu_ms > 0 ? (double)rep.vertices / (rep.cpu_ms * 1e-3) : 0.0;
     }
     char extra[96];
     snprintf(extra, sizeof extra, "\"spp\":%u", rep.spp);
     emit(&o, "render_ms", median(times, repeat), "ms", extra);
+    emit(&o, "render_cpu_ms", median(cpu, repeat), "ms", NULL);
     double sps = median(samples_rate, repeat), vps = median(vertex_rate, repeat);
     if (sps > 0) {
         emit(&o, "samples_per_s", sps, "1/s", NULL);
         emit(&o, "samples_per_s_per_thread", sps / o.threads, "1/s", NULL);
+        emit(&o, "samples_per_cpu_s", median(cpu_rate, repeat), "1/s", NULL);
     }
-    if (vps > 0) emit(&o, "vertices_per_s", vps, "1/s", NULL);
+    if (vps > 0) {
+        emit(&o, "vertices_per_s", vps, "1/s", NULL);
+        emit(&o, "vertices_per_cpu_s", median(vertex_cpu_rate, repeat), "1/s", NULL);
+    }
+    /* pixel samples (camera paths for a path tracer) per second */
+    emit(&o, "pixel_samples_per_s",
+         (double)rs->width * rs->height * rep.spp / (median(times, repeat) * 1e-3), "1/s", NULL);
     emit(&o, "memory_bytes", (double)(volux_technique_memory_bytes(tech)), "bytes", NULL);
+
+    /* Convergence before the edits: they leave the scene changed. */
+    if (reference && (st = convergence(ctx, tech, scene, fb, &ref, &o))) goto fail;
 
     /* update_ms.<edit>: only the technique's reaction to the edit. */
     for (int e = 0; e < n_edits; e++) {
@@ -213,7 +229,6 @@ int cli_bench(int argc, char **argv) {
         snprintf(metric, sizeof metric, "update_ms.%s", edits[e]->name);
         emit(&o, metric, median(times, repeat), "ms", NULL);
     }
-    if (reference && (st = convergence(ctx, tech, scene, fb, &ref, &o))) goto fail;
     goto done;
 fail:
     rc = cli_fail("bench", ctx, st);

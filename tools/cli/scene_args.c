@@ -9,6 +9,13 @@ static int add_override(const char *cmd, cli_scene_args *a, const char *fmt, con
         fprintf(stderr, "volux %s: too many overrides (max %d)\n", cmd, CLI_MAX_OVERRIDES);
         return -1;
     }
+    if (!strcmp(fmt, "%s")) {
+        /* --set is used as given: point at argv (which outlives the
+         * load) instead of copying, so a long value such as a whole TF
+         * array is not cut at the storage slot's size. */
+        a->overrides[a->n_overrides++] = value;
+        return 1;
+    }
     char *dst = a->storage[a->n_overrides];
     int n = snprintf(dst, sizeof a->storage[0], fmt, value);
     if (n < 0 || (size_t)n >= sizeof a->storage[0]) {

@@ -91,6 +91,7 @@ volux_status volux_dvr_update(void *state, volux_scene *scene, const volux_chang
         volux_volume_retain(v);
         volux_volume_release(st->volume);
         st->volume = v;
+        if ((s = volux_volume_build_bricks(v))) return s;
         if (st->shaded && (s = volux_gradient_cache_build(st->ctx, st->volume, &st->grad, "shaded"))) return s;
     }
     if (c->what & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY | VOLUX_CHANGE_COLOR)) {
@@ -118,9 +119,7 @@ volux_status volux_dvr_create(volux_context *ctx, volux_scene *scene, const volu
     st->ctx = ctx;
     st->cls = cls;
     st->shaded = shaded;
-    volux_change_set all;
-    memset(&all, 0xff, sizeof all);
-    all.what = VOLUX_CHANGE_ALL;
+    volux_change_set all = volux_change_all();
     volux_status s = volux_dvr_update(st, scene, &all);
     if (s) {
         volux_dvr_destroy(st);
@@ -172,15 +171,18 @@ static inline void shade(const dvr_state *st, volux_vec3 p_world, volux_vec3 q, 
     for (int a = 0; a < 3; a++) c[a] += (lit[a] - c[a]) * m;
 }
 
-static inline float sample_at(const volux_volume *v, const volux_ray *r, float t) {
-    return volux_volume_sample_index(v, r->q0.x + r->dq.x * t, r->q0.y + r->dq.y * t, r->q0.z + r->dq.z * t);
+static inline __attribute__((always_inline)) float sample_at(const volux_volume *v, const volux_ray *r, float t,
+                                                              volux_storage storage) {
+    return volux_volume_sample_bricked(v, r->q0.x + r->dq.x * t, r->q0.y + r->dq.y * t, r->q0.z + r->dq.z * t,
+                                       storage);
 }
 
 /* Integrates one ray. Segments: seg 0 = [t0, t0 + j·h], seg k ≥ 1 =
  * [t0 + (j+k−1)·h, t0 + (j+k)·h], clipped to t1 — fixed positions, so
  * skipping empty intervals never changes which segments are integrated. */
 static inline __attribute__((always_inline)) volux_vec3
-march(const dvr_state *st, const volux_ray *ray, float jitter, float *T_out, uint64_t *samples, int shaded, int preint) {
+march(const dvr_state *st, const volux_ray *ray, float jitter, float *T_out, uint64_t *samples, int shaded, int preint,
+      volux_storage storage) {
     const volux_volume *v = st->volume;
     const volux_transfer_lut *lut = st->lut;
     const float h = st->step, t0 = ray->t0, t1 = ray->t1;
@@ -210,11 +212,11 @@ march(const dvr_state *st, const volux_ray *ray, float jitter, float *T_out, uin
             float len = b - a;
             if (len <= 0.0f) continue;
             if (preint && !have_prev) {
-                s_prev = sample_at(v, ray, a);
+                s_prev = sample_at(v, ray, a, storage);
                 I_prev = volux_lut_int_sigma(lut, s_prev, Ic_prev);
                 count++;
             }
-            float s = sample_at(v, ray, b);
+            float s = sample_at(v, ray, b, storage);
             count++;
             float tau, c[3];
             if (preint) {
@@ -269,7 +271,8 @@ done:
 
 static inline __attribute__((always_inline)) void render_tile_impl(const dvr_state *st, const volux_scene *scene,
                                                                    const volux_tile *tile, float *rgb,
-                                                                   volux_tile_stats *stats, int shaded, int preint) {
+                                                                   volux_tile_stats *stats, int shaded, int preint,
+                                                                   volux_storage storage) {
     const volux_camera *cam = &st->camera;
     uint64_t samples = 0;
     for (int y = 0; y < tile->h; y++)
@@ -295,7 +298,7 @@ static inline __attribute__((always_inline)) void render_tile_impl(const dvr_sta
                 continue;
             }
             float T;
-            volux_vec3 c = march(st, &ray, jitter, &T, &samples, shaded, preint);
+            volux_vec3 c = march(st, &ray, jitter, &T, &samples, shaded, preint, storage);
             out[0] = c.x + T * bg.x;
             out[1] = c.y + T * bg.y;
             out[2] = c.z + T * bg.z;
@@ -303,16 +306,23 @@ static inline __attribute__((always_inline)) void render_tile_impl(const dvr_sta
     stats->samples += samples;
 }
 
+/* One kernel, specialised at compile time by (shaded, preintegrate,
+ * storage): the flags are constants inside each instance. */
+#define DVR_STORAGE_SWITCH(SH, PRE)                                                                               \
+    switch (st->volume->storage) {                                                                              \
+    case VOLUX_STORE_U8: render_tile_impl(st, scene, tile, rgb, stats, SH, PRE, VOLUX_STORE_U8); break;        \
+    case VOLUX_STORE_U16: render_tile_impl(st, scene, tile, rgb, stats, SH, PRE, VOLUX_STORE_U16); break;      \
+    default: render_tile_impl(st, scene, tile, rgb, stats, SH, PRE, VOLUX_STORE_F32); break;                   \
+    }
+
 void volux_dvr_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
                            volux_tile_stats *stats) {
     const dvr_state *st = state;
-    /* Four specialisations of one kernel; the flags are compile-time
-     * constants inside each. */
     if (st->shaded) {
-        if (st->preintegrate) render_tile_impl(st, scene, tile, rgb, stats, 1, 1);
-        else render_tile_impl(st, scene, tile, rgb, stats, 1, 0);
+        if (st->preintegrate) DVR_STORAGE_SWITCH(1, 1)
+        else DVR_STORAGE_SWITCH(1, 0)
     } else {
-        if (st->preintegrate) render_tile_impl(st, scene, tile, rgb, stats, 0, 1);
-        else render_tile_impl(st, scene, tile, rgb, stats, 0, 0);
+        if (st->preintegrate) DVR_STORAGE_SWITCH(0, 1)
+        else DVR_STORAGE_SWITCH(0, 0)
     }
 }

@@ -1,0 +1,57 @@
+/*
+ * tests/robustness/test_info_cli.c — `volux info`: exit statuses and
+ * messages (DESIGN §4: 0 on success, 2 + a message naming the file for bad
+ * input or usage).
+ */
+#include <stdio.h>
+#include <string.h>
+
+#include "tu_volume.h"
+
+static void test_info_reads_volumes_and_procedurals(void **state) {
+    (void)state;
+    unsigned char data[24] = {0};
+    const char *path = tu_write_parts("ok.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 4 3 2\nencoding: raw\n\n",
+                                      data, sizeof data);
+    char args[1024];
+    const char *err;
+    snprintf(args, sizeof args, "info '%s'", path);
+    assert_int_equal(tu_run_cli(args, &err), 0);
+    assert_int_equal(tu_run_cli("info procedural:sphere:16", &err), 0);
+    assert_int_equal(tu_run_cli("info procedural:cloud:8 --seed 3 --bins 4", &err), 0);
+    path = tu_write_file("ok.bin", data, sizeof data);
+    snprintf(args, sizeof args, "info '%s' --raw-dims 3 2 2 --raw-type uint16 --raw-endian big --raw-spacing 1 2 3",
+             path);
+    assert_int_equal(tu_run_cli(args, &err), 0);
+}
+
+static void test_info_bad_input_exits_2_naming_the_file(void **state) {
+    (void)state;
+    const char *err;
+    char args[1024];
+    const char *path = tu_write_parts("bad.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 4 3\nencoding: raw\n\n",
+                                      "", 0);
+    snprintf(args, sizeof args, "info '%s'", path);
+    assert_int_equal(tu_run_cli(args, &err), 2);
+    assert_non_null(strstr(err, "bad.nrrd"));
+    assert_non_null(strstr(err, "sizes"));
+
+    assert_int_equal(tu_run_cli("info /nonexistent/vol.nhdr", &err), 2);
+    assert_non_null(strstr(err, "/nonexistent/vol.nhdr"));
+    assert_int_equal(tu_run_cli("info procedural:teapot", &err), 2);
+    assert_non_null(strstr(err, "teapot"));
+    assert_int_equal(tu_run_cli("info procedural:sphere:0", &err), 2);
+    assert_int_equal(tu_run_cli("info", &err), 2);
+    assert_int_equal(tu_run_cli("info a.nrrd --frobnicate", &err), 2);
+    assert_int_equal(tu_run_cli("info x.raw --raw-dims 2 2 2", &err), 2);
+    assert_non_null(strstr(err, "--raw-type"));
+    assert_int_equal(tu_run_cli("info x.raw --raw-dims 2 2 2 --raw-type int32", &err), 2);
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_info_reads_volumes_and_procedurals),
+        cmocka_unit_test(test_info_bad_input_exits_2_naming_the_file),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
