@@ -58,6 +58,60 @@ static float unocc(const lightvol_state *st, int i, int j, int k) {
     return u[0];
 }
 
+
+
+/* Oblique directional light through a homogeneous cube: at every node
+ * E = E0·exp(−σ·s) with s the distance back along the light to the box
+ * boundary (both groups of the light, side entry included). Each step is
+ * exact in a homogeneous medium; what remains is the bilinear fetch from
+ * the previous slice, which is biased upwards where its stencil straddles
+ * a kink of E — here the kink between light that entered through one face
+ * and light that entered through another, which runs parallel to the light
+ * so the bias adds up along whole paths and numerical diffusion spreads it
+ * sideways (tails up to ~60 % near a face the light grazes at 17°). Over all
+ * nodes: mean |error| < 3 %, 80th percentile < 5 %. */
+static void test_beer_lambert_oblique(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(2);
+    const int n = 24;
+    float *data = filled(n * n * n, 0.05f);
+    volux_scene *s = lvf_scene(ctx, n, n, n, data, 0.9f, NULL);
+    const float dirs[3][3] = {{-0.5f, -0.8f, -0.3f}, {0.7f, -0.2f, 0.69f}, {0.05f, 0.3f, -1.0f}};
+    for (int di = 0; di < 3; di++) {
+        volux_light_desc l = lvf_directional(dirs[di][0], dirs[di][1], dirs[di][2], 2.0f);
+        assert_int_equal(volux_scene_set_light(s, 0, &l), VOLUX_OK);
+        volux_technique *t = lvf_create(ctx, s);
+        const lightvol_state *st = lvf_state(t);
+        float len = sqrtf(dirs[di][0] * dirs[di][0] + dirs[di][1] * dirs[di][1] + dirs[di][2] * dirs[di][2]);
+        float w[3] = {dirs[di][0] / len, dirs[di][1] / len, dirs[di][2] / len};
+        double worst = 0.0, sum = 0.0;
+        int cnt = 0, over = 0;
+        for (int k = 0; k < n; k++)
+            for (int j = 0; j < n; j++)
+                for (int i = 0; i < n; i++) {
+                    float p[3] = {(float)i, (float)j, (float)k}, tmax = INFINITY;
+                    for (int a = 0; a < 3; a++) { /* back along −w to the boundary */
+                        float ta = w[a] > 0.0f ? p[a] / w[a] : w[a] < 0.0f ? ((float)(n - 1) - p[a]) / -w[a] : INFINITY;
+                        if (ta < tmax) tmax = ta;
+                    }
+                    double want = 2.0 * exp(-0.05 * tmax), got = lvf_at(st, i, j, k)[0];
+                    double rel = fabs(got / want - 1.0);
+                    over += rel > 0.05;
+                    if (rel > worst) worst = rel;
+                    sum += rel;
+                    cnt++;
+                }
+        print_message("direction %d: |relative error| mean %.3g, worst %.3g, %.1f %% of nodes above 5 %%\n", di,
+                      sum / cnt, worst, 100.0 * over / cnt);
+        assert_true(sum / cnt < 0.03);
+        assert_true(over < cnt / 5);
+        volux_technique_destroy(t);
+    }
+    volux_scene_destroy(s);
+    free(data);
+    volux_context_destroy(ctx);
+}
+
 /* An opaque closed shell (walls 2 nodes thick, σt = 1000) in an empty
  * volume: every path into the hollow is blocked, so no light may arrive
  * there — from oblique directional lights (two groups each), a point light
@@ -268,6 +322,7 @@ static void test_spot_light_respects_its_cone(void **state) {
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_beer_lambert_along_the_sweep),
+        cmocka_unit_test(test_beer_lambert_oblique),
         cmocka_unit_test(test_blocked_light_contributes_nothing_behind_the_blocker),
         cmocka_unit_test(test_energy_never_grows_along_a_propagation),
         cmocka_unit_test(test_point_light_in_vacuum_falls_off_as_inverse_square),
