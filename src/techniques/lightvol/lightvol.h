@@ -260,8 +260,13 @@ typedef struct lightvol_state {
     float *vol;                    /* dims[0]·dims[1]·dims[2]·ch floats     */
     size_t vol_bytes;
 
-    /* medium seen by the sweeps: σt and σs (rgb) per illumination node */
+    /* medium seen by the sweeps. On the data grid it is post-classified:
+     * slices hold scalar values, every medium sample interpolates the scalar
+     * and looks σt, σs up in the TF table (as the camera ray and pathtrace
+     * do); on a coarser grid it is the box mean of σt and σs. */
     int on_grid;                   /* 1: illumination nodes = data nodes    */
+    int *lut_nz;                   /* prefix counts of TF entries with σt > 0 */
+    size_t lut_nz_bytes;
     float *medium;                 /* scale < 1: 4 floats per node (box means) */
     size_t medium_bytes;
     float class_u8[256 * 4];       /* u8 storage: σt, σs rgb per value      */

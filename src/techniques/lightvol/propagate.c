@@ -64,6 +64,9 @@ void volux_lightvol_free_buffers(lightvol_state *st) {
     if (st->medium) volux_free_aligned(st->ctx, st->medium, st->medium_bytes);
     st->vol = st->medium = NULL;
     st->vol_bytes = st->medium_bytes = 0;
+    if (st->lut_nz) volux_free(st->ctx, st->lut_nz, st->lut_nz_bytes);
+    st->lut_nz = NULL;
+    st->lut_nz_bytes = 0;
 }
 
 size_t volux_lightvol_scratch_bytes(const lightvol_state *st) {
@@ -178,6 +181,16 @@ static void medium_slice(void *user, int64_t k64, int thread) {
 
 volux_status volux_lightvol_build_medium(lightvol_state *st) {
     const volux_volume *v = st->volume;
+    const volux_transfer_lut *lut = st->lut;
+    size_t nzb = ((size_t)lut->n + 1) * sizeof(int);
+    if (st->lut_nz_bytes != nzb) {
+        if (st->lut_nz) volux_free(st->ctx, st->lut_nz, st->lut_nz_bytes);
+        st->lut_nz = volux_malloc(st->ctx, nzb);
+        st->lut_nz_bytes = st->lut_nz ? nzb : 0;
+        if (!st->lut_nz) return volux_error(st->ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for the TF range table");
+    }
+    st->lut_nz[0] = 0;
+    for (int i = 0; i < lut->n; i++) st->lut_nz[i + 1] = st->lut_nz[i] + (lut->sigma_t[i] > 0.0f);
     st->have_u8 = v->storage == VOLUX_STORE_U8;
     if (st->have_u8)
         for (int i = 0; i < 256; i++) {
@@ -453,6 +466,9 @@ typedef struct lv_sweep {
     int overwrite;
     int forward, cone;
     int nplanes;        /* medium planes propagation reads: 1 (σt) or 4    */
+    int post;           /* slices hold scalars (post-classification)       */
+    const volux_transfer_lut *lut;
+    float albedo;
     float fwd, tan_c;   /* f, tan(cone)/√2                                 */
     float rmin2;
 } lv_sweep;
@@ -528,9 +544,27 @@ static inline __attribute__((always_inline)) float med_fetch(const lv_sweep *J, 
     return t0 + (t1 - t0) * ay;
 }
 
+/* σt and κ_c = σt − f·σs_c (first np of them) of scalar value s. */
+static inline __attribute__((always_inline)) void classify_s(const lv_sweep *J, float s, float m[4]) {
+    if (!J->forward) {
+        m[0] = volux_lut_sigma(J->lut, s);
+        return;
+    }
+    float rgba[4];
+    volux_lut_rgba(J->lut, s, rgba);
+    float sg = rgba[3], k = J->fwd * J->albedo * sg;
+    m[0] = sg;
+    for (int c = 0; c < 3; c++) {
+        float kc = sg - k * rgba[c];
+        m[1 + c] = kc > 0.0f ? kc : 0.0f;
+    }
+}
+
 /* Adds wp·M_prev(x, y) + wc·M_cur(x, y) of the first np medium planes to
  * tau[] (one bilinear footprint for all planes and both slices; outside
- * the slice the medium is empty). */
+ * the slice the medium is empty). Post-classified slices: the scalar is
+ * interpolated to the point ((1 − t)·prev + t·cur, t = wc/(wp + wc)) and
+ * classified there, adding (wp + wc)·M(s). */
 static inline __attribute__((always_inline)) void med_accumulate(const lv_sweep *J, float x, float y, float wp,
                                                                  float wc, int np, float tau[4]) {
     const int mu = J->mu, mv = J->mv;
@@ -542,6 +576,17 @@ static inline __attribute__((always_inline)) void med_accumulate(const lv_sweep 
         float ax = x - (float)i, ay = y - (float)j;
         float w00 = (1.0f - ax) * (1.0f - ay), w10 = ax * (1.0f - ay), w01 = (1.0f - ax) * ay, w11 = ax * ay;
         size_t b = (size_t)j * (size_t)mu + (size_t)i;
+        if (J->post) {
+            const float *P = J->mp + b, *C = J->mc + b;
+            float sp = w00 * P[0] + w10 * P[1] + w01 * P[mu] + w11 * P[mu + 1];
+            float sc = w00 * C[0] + w10 * C[1] + w01 * C[mu] + w11 * C[mu + 1];
+            float l = wp + wc;
+            if (!(l > 0.0f)) return;
+            float m[4];
+            classify_s(J, sp + (sc - sp) * (wc / l), m);
+            for (int q = 0; q < np; q++) tau[q] += l * m[q];
+            return;
+        }
         for (int q = 0; q < np; q++) {
             const float *P = J->mp + (size_t)q * area + b, *C = J->mc + (size_t)q * area + b;
             tau[q] += wp * (w00 * P[0] + w10 * P[1] + w01 * P[mu] + w11 * P[mu + 1]) +
@@ -616,10 +661,35 @@ static void classify_rows(const lv_sweep *J, float *dst, int k, int v0, int v1) 
         float *restrict sig = dst + off, *restrict kr = dst + area + off, *restrict kg = dst + 2 * area + off,
                         *restrict kb = dst + 3 * area + off;
         size_t base = (size_t)k * stride[J->a] + (size_t)v * stride[J->av];
+        float *info = dst + 4 * area + 2 * (size_t)v; /* row min, max */
+        if (J->post) {
+            /* scalar values (file units); the row's value range */
+            const float off_v = vol->value_offset;
+            float lo = INFINITY, hi = -INFINITY;
+            if (vol->storage == VOLUX_STORE_U8) {
+                const uint8_t *d = (const uint8_t *)vol->data + base;
+                if (ustep > 16)
+                    for (int u = 0; u < mu && u < 32; u++) __builtin_prefetch(d + (size_t)u * ustep, 0, 1);
+                for (int u = 0; u < mu; u++) {
+                    if (ustep > 16 && u + 32 < mu) __builtin_prefetch(d + (size_t)(u + 32) * ustep, 0, 1);
+                    sig[u] = (float)d[(size_t)u * ustep] + off_v;
+                }
+            } else {
+                for (int u = 0; u < mu; u++) sig[u] = volux_volume_raw_at(vol, base + (size_t)u * ustep) + off_v;
+            }
+            for (int u = 0; u < mu; u++) {
+                lo = sig[u] < lo ? sig[u] : lo;
+                hi = sig[u] > hi ? sig[u] : hi;
+            }
+            info[0] = lo;
+            info[1] = hi;
+            continue;
+        }
         classify_one_row(J, st, vol, sig, kr, kg, kb, base, ustep, f, forward, mu);
         float mx = 0.0f;
         for (int u = 0; u < mu; u++) mx = sig[u] > mx ? sig[u] : mx;
-        dst[4 * area + (size_t)v] = mx;
+        info[0] = 0.0f;
+        info[1] = mx;
     }
 }
 
@@ -636,9 +706,21 @@ static inline int rows_empty(const lv_sweep *J, int j0, int j1) {
     if (j0 < 0) j0 = 0;
     if (j1 > J->mv - 1) j1 = J->mv - 1;
     const float *rp = J->mp + 4 * J->area, *rc = J->mc + 4 * J->area;
-    for (int j = j0; j <= j1; j++)
-        if (rp[j] > 0.0f || rc[j] > 0.0f) return 0;
-    return 1;
+    float lo = INFINITY, hi = -INFINITY;
+    for (int j = j0; j <= j1; j++) {
+        lo = fminf(lo, fminf(rp[2 * j], rc[2 * j]));
+        hi = fmaxf(hi, fmaxf(rp[2 * j + 1], rc[2 * j + 1]));
+    }
+    if (!J->post) return !(hi > 0.0f);
+    /* every value interpolated there lies in [lo, hi]: is σt zero on it?
+     * (the table is linear between entries: look at the bracketing ones) */
+    const volux_transfer_lut *lut = J->lut;
+    const int last = lut->n - 1;
+    float u0 = (lo - lut->s_min) * lut->inv_ds, u1 = (hi - lut->s_min) * lut->inv_ds;
+    int i0 = (int)floorf(u0), i1 = (int)ceilf(u1);
+    i0 = i0 < 0 ? 0 : (i0 > last ? last : i0);
+    i1 = i1 < 0 ? 0 : (i1 > last ? last : i1);
+    return J->st->lut_nz[i1 + 1] - J->st->lut_nz[i0] == 0;
 }
 
 /* Optical depths of row v over directional entry e's segments (σt into
@@ -651,7 +733,19 @@ static void dir_tau(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1,
     for (int i = 0; i < e->nsub; i++) {
         const lv_tap t = e->ts[i];
         const float wp = e->wp[i], wc = e->wc[i];
-        for (int q = 0; q < np; q++) {
+        if (J->post && u1 > u0) {
+            const float l = wp + wc, tf = wc / l;
+            const float *P0 = J->mp + (ptrdiff_t)(v + t.dj) * mu + t.di, *P1 = P0 + mu;
+            const float *C0 = J->mc + (ptrdiff_t)(v + t.dj) * mu + t.di, *C1 = C0 + mu;
+            for (int u = u0; u < u1; u++) {
+                float sp = t.w00 * P0[u] + t.w10 * P0[u + 1] + t.w01 * P1[u] + t.w11 * P1[u + 1];
+                float sc = t.w00 * C0[u] + t.w10 * C0[u + 1] + t.w01 * C1[u] + t.w11 * C1[u + 1];
+                float m[4];
+                classify_s(J, sp + (sc - sp) * tf, m);
+                for (int q = 0; q < np; q++) tau[q][u] += l * m[q];
+            }
+        }
+        for (int q = 0; q < np && !J->post; q++) {
             float *d = tau[q];
             if (u1 > u0) {
                 const float *P0 = J->mp + (size_t)q * area + (ptrdiff_t)(v + t.dj) * mu + t.di, *P1 = P0 + mu;
@@ -984,6 +1078,15 @@ static void pos_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
                 float w00 = (1.0f - ax) * (1.0f - ayi), w10 = ax * (1.0f - ayi), w01 = (1.0f - ax) * ayi, w11 = ax * ayi;
                 float wp = om * LEN[u] * inv_n, wc = t * LEN[u] * inv_n;
                 size_t b = rb + (size_t)ix;
+                if (J->post) {
+                    const float *P = J->mp + b, *C = J->mc + b;
+                    float sp = w00 * P[0] + w10 * P[1] + w01 * P[mu] + w11 * P[mu + 1];
+                    float sc = w00 * C[0] + w10 * C[1] + w01 * C[mu] + w11 * C[mu + 1];
+                    float mm[4];
+                    classify_s(J, sp + (sc - sp) * t, mm);
+                    for (int q = 0; q < np; q++) TAU[(size_t)q * m + (size_t)u] += (wp + wc) * mm[q];
+                    continue;
+                }
                 for (int q = 0; q < np; q++) {
                     const float *P = J->mp + (size_t)q * area + b, *C = J->mc + (size_t)q * area + b;
                     TAU[(size_t)q * m + (size_t)u] += wp * (w00 * P[0] + w10 * P[1] + w01 * P[mu] + w11 * P[mu + 1]) +
@@ -1196,12 +1299,14 @@ static void classify_item(void *user, int64_t item, int thread) {
     classify_rows(J, J->mn, J->kn, v0, v1);
 }
 
-/* A medium slice buffer: σt, κr, κg, κb planes, then the largest σt of
- * each row (rows with an empty footprint skip the transmittance work). */
+/* A medium slice buffer: σt, κr, κg, κb planes (or the scalar in plane 0
+ * when post-classified), then per row a (min, max) pair — of the scalar, or
+ * 0 and the largest σt — so rows with an empty footprint skip the
+ * transmittance work. */
 static size_t med_stride(const lightvol_state *st) {
     int mmax = st->dims[0] > st->dims[1] ? st->dims[0] : st->dims[1];
     if (st->dims[2] > mmax) mmax = st->dims[2];
-    return 4 * st->area + (size_t)mmax;
+    return 4 * st->area + 2 * (size_t)mmax;
 }
 
 static volux_status ensure_scratch(lightvol_state *st, int entries) {
@@ -1224,7 +1329,7 @@ static volux_status ensure_scratch(lightvol_state *st, int entries) {
         if (!st->slices) return volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for %d slice buffers", entries);
     }
     if (!st->med) {
-        need = 3 * med_stride(st) * sizeof(float); /* 3 slices × (4 planes + row maxima) */
+        need = 3 * med_stride(st) * sizeof(float); /* 3 slices × (4 planes + row ranges) */
         st->med = volux_alloc_aligned(ctx, need);
         if (!st->med) return volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for slice buffers");
         st->med_bytes = need;
@@ -1269,6 +1374,9 @@ static void sweep(lightvol_state *st, int g, const lv_item *items, const int *id
     J.tan_c = tanf(st->p.cone_deg * VOLUX_PI / 180.0f) * 0.70710678f; /* disc of radius ρ ↔ 4 taps at ρ/√2 */
     J.rmin2 = rmin2(st);
     J.nplanes = J.forward ? 4 : 1;
+    J.post = st->on_grid;
+    J.lut = st->lut;
+    J.albedo = st->albedo;
     J.ne = n;
     /* x sweeps write the volume a whole x-row apart per voxel; staging
      * `LV_DEFER` slices turns that into runs along x (same values) */
