@@ -37,6 +37,8 @@ done
 # the coherence target's setup without forward scattering, and all-directional
 for scale in 1 0.25; do
   table lightvol_engine_3in2 $scale "engine, 3 lights in 2 groups, f=0" --set techniques.lightvol.forward_scattering=0
+  table lightvol_engine_3in2_dir $scale "engine, 3 directional lights in 2 groups"
+  table lightvol_engine_3in2_dir $scale "engine, 3 directional lights in 2 groups, f=0" --set techniques.lightvol.forward_scattering=0
 done
 # Fig. 10: 1..40 lights with the direction of the scene's first light
 for f in 0.5 0; do

@@ -304,7 +304,8 @@ static void test_rebaseline_after_interval(void **state) {
 
 /* §5 cost rules. Rule 1 (lights): selective iff at most half of the lights
  * changed. Rule 2 (passes): selective iff fewer passes than an entire
- * update, ties decided by rule 1. */
+ * update, ties decided by rule 1. Work (default): rule 2 with the passes
+ * weighted by the lights they carry. */
 static void test_cost_rules_choose_as_the_paper_says(void **state) {
     (void)state;
     fixture f;
@@ -353,8 +354,30 @@ static void test_cost_rules_choose_as_the_paper_says(void **state) {
     assert_int_equal(st->stats.changed, 3);
     assert_true(st->stats.passes_selective < st->stats.passes_full);
     assert_int_equal(st->stats.last, LV_UPDATE_SELECTIVE);
-    /* all lights removed: an entire update (a clear) */
+    /* work rule (default): a point light's state change propagates it twice
+     * (remove + add), which can cost more than an entire update carrying it
+     * once beside cheap directional lights — the pass count alone does not
+     * see that. A directional light's change stays selective. */
     for (int i = 0; i < 5; i++) assert_int_equal(volux_scene_remove_light(f.s, i), VOLUX_OK);
+    volux_light_desc pt = lvf_point(-30, 20, 25, 4000.0f), d1 = lvf_directional(0.2f, -1, -0.3f, 1.0f),
+                     d2 = lvf_directional(-0.7f, -0.4f, 0.5f, 1.0f);
+    assert_int_equal(volux_scene_set_light(f.s, 0, &pt), VOLUX_OK);
+    assert_int_equal(volux_scene_set_light(f.s, 1, &d1), VOLUX_OK);
+    assert_int_equal(volux_scene_set_light(f.s, 2, &d2), VOLUX_OK);
+    assert_int_equal(volux_scene_set_param(f.s, "lightvol", "cost_rule", 0, "work"), VOLUX_OK);
+    lvf_update(t, f.s);
+    pt.position.x -= 2.0f;
+    assert_int_equal(volux_scene_set_light(f.s, 0, &pt), VOLUX_OK);
+    lvf_update(t, f.s);
+    assert_true(st->stats.work_selective >= st->stats.work_full);
+    assert_int_equal(st->stats.last, LV_UPDATE_FULL);
+    assert_true(st->stats.passes_selective <= st->stats.passes_full); /* rule 2 alone would go selective */
+    d1.direction.x += 0.1f;
+    assert_int_equal(volux_scene_set_light(f.s, 1, &d1), VOLUX_OK);
+    lvf_update(t, f.s);
+    assert_int_equal(st->stats.last, LV_UPDATE_SELECTIVE);
+    /* all lights removed: an entire update (a clear) */
+    for (int i = 0; i < 3; i++) assert_int_equal(volux_scene_remove_light(f.s, i), VOLUX_OK);
     lvf_update(t, f.s);
     assert_int_equal(st->stats.last, LV_UPDATE_FULL);
     for (size_t i = 0; i < lvf_count(st); i++) assert_true(st->vol[i] == 0.0f);

@@ -30,9 +30,10 @@ static const volux_param_info lightvol_params[] = {
     {"propagation", VOLUX_PARAM_STRING, 0, 0, 0, "coherent",
      "coherent: all lights of a propagation group in one sweep (Sec. 4); sequential: one sweep per light and "
      "group (baseline)"},
-    {"cost_rule", VOLUX_PARAM_STRING, 0, 0, 0, "passes",
-     "selective vs entire light update (Sec. 5): passes (fewer propagation passes; ties: at most half of the "
-     "lights changed), lights (at most half of the lights changed), selective, full"},
+    {"cost_rule", VOLUX_PARAM_STRING, 0, 0, 0, "work",
+     "selective vs entire light update (Sec. 5): passes (rule 2: fewer propagation passes; ties by rule 1), lights "
+     "(rule 1: at most half of the lights changed), work (rule 2 with each pass weighted by the lights it carries, "
+     "point/spot lights costing ~13x a directional one; ties by rule 1), selective, full"},
     {"max_lights_per_pass", VOLUX_PARAM_INT, 32, 1, 256, NULL,
      "lights propagated together in one sweep; larger groups are split (bounds slice-buffer memory)"},
     {"forward_scattering", VOLUX_PARAM_NUMBER, 0, 0, 1, NULL,
@@ -80,14 +81,15 @@ static volux_status read_params(lightvol_state *st, const volux_scene *scene, lv
     else
         return volux_error(ctx, VOLUX_ERR_INVALID,
                            "techniques.lightvol.propagation: expected \"coherent\" or \"sequential\", got \"%s\"", prop);
-    const char *rule = volux_scene_param_string(scene, "lightvol", "cost_rule", "passes");
-    if (!strcmp(rule, "passes")) p->cost_rule = LV_RULE_PASSES;
+    const char *rule = volux_scene_param_string(scene, "lightvol", "cost_rule", "work");
+    if (!strcmp(rule, "work")) p->cost_rule = LV_RULE_WORK;
+    else if (!strcmp(rule, "passes")) p->cost_rule = LV_RULE_PASSES;
     else if (!strcmp(rule, "lights")) p->cost_rule = LV_RULE_LIGHTS;
     else if (!strcmp(rule, "selective")) p->cost_rule = LV_RULE_SELECTIVE;
     else if (!strcmp(rule, "full")) p->cost_rule = LV_RULE_FULL;
     else
         return volux_error(ctx, VOLUX_ERR_INVALID,
-                           "techniques.lightvol.cost_rule: expected \"passes\", \"lights\", \"selective\" or \"full\", "
+                           "techniques.lightvol.cost_rule: expected \"work\", \"passes\", \"lights\", \"selective\" or \"full\", "
                            "got \"%s\"",
                            rule);
     p->max_per_pass = (int)volux_technique_param(scene, cls, "max_lights_per_pass");

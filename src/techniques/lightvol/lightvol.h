@@ -200,7 +200,7 @@ typedef struct lv_applied {
 
 /* --------------------------------------------------------------- params */
 
-enum { LV_RULE_PASSES, LV_RULE_LIGHTS, LV_RULE_SELECTIVE, LV_RULE_FULL };
+enum { LV_RULE_WORK, LV_RULE_PASSES, LV_RULE_LIGHTS, LV_RULE_SELECTIVE, LV_RULE_FULL };
 
 typedef struct lv_params {
     float scale[3];         /* illumination resolution / data resolution  */
@@ -230,6 +230,7 @@ typedef struct lv_stats {
     int entries;               /* light×group sweeps it ran                */
     int changed, total;        /* lights changed / lights in the setup    */
     int passes_selective, passes_full; /* the cost estimate (§5)          */
+    double work_selective, work_full;  /* ... weighted by entry kind       */
     int selective_since_full;  /* selective updates since the last full   */
     uint64_t full_rebuilds, selective_updates;
 } lv_stats;
