@@ -15,7 +15,7 @@ BUILD="${1:-$ROOT/build}"
 OUT="${2:-$ROOT/bench/lightvol/results.jsonl}"
 THREADS="${THREADS:-1}"
 REPEAT="${REPEAT:-3}"
-BENCH="$BUILD/bench_lightvol_bench"
+BENCH="$BUILD/bench/bench_lightvol"
 S="$ROOT/bench/scenes"
 : > "$OUT"
 note() { echo "{\"note\":\"$*\",\"load\":\"$(cut -d' ' -f1-3 /proc/loadavg)\",\"date\":\"$(date -u +%FT%TZ)\"}" >> "$OUT"; }

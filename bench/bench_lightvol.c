@@ -1,9 +1,9 @@
 /*
- * bench/lightvol_bench.c — Sundén & Ropinski 2015 measurements for the
+ * bench/bench_lightvol.c — Sundén & Ropinski 2015 measurements for the
  * `lightvol` technique (public API only).
  *
- *   lightvol_bench table   SCENE.json [--repeat R] [--threads T] [--set path=value]...
- *   lightvol_bench scaling SCENE.json [--max N] [--step S] [--repeat R]
+ *   bench_lightvol table   SCENE.json [--repeat R] [--threads T] [--set path=value]...
+ *   bench_lightvol scaling SCENE.json [--max N] [--step S] [--repeat R]
  *                          [--threads T] [--jitter DEG] [--set path=value]...
  *
  * table (Table 1): update_ms.full_sequential (every light, one light per
@@ -48,7 +48,7 @@ static double median(double *v, int n) {
 }
 
 static int fail(volux_context *ctx, const char *what) {
-    fprintf(stderr, "lightvol_bench: %s: %s\n", what, volux_context_error(ctx));
+    fprintf(stderr, "bench_lightvol: %s: %s\n", what, volux_context_error(ctx));
     return 1;
 }
 
@@ -98,7 +98,7 @@ static int run_table(volux_context *ctx, volux_scene *scene, const char *path, i
     for (int i = 0; i < volux_scene_light_slots(scene) && first < 0; i++)
         if (volux_scene_light(scene, i)) first = i;
     if (first < 0) {
-        fprintf(stderr, "lightvol_bench: the scene has no light\n");
+        fprintf(stderr, "bench_lightvol: the scene has no light\n");
         return 2;
     }
     timing t = {calloc((size_t)repeat, sizeof(double)), calloc((size_t)repeat, sizeof(double)), repeat};
@@ -170,7 +170,7 @@ static int run_scaling(volux_context *ctx, volux_scene *scene, const char *path,
     for (int i = 0; i < volux_scene_light_slots(scene) && first < 0; i++)
         if (volux_scene_light(scene, i)) first = i;
     if (first < 0) {
-        fprintf(stderr, "lightvol_bench: the scene needs a light to copy\n");
+        fprintf(stderr, "bench_lightvol: the scene needs a light to copy\n");
         return 2;
     }
     volux_light_desc base = *volux_scene_light(scene, first);
@@ -215,7 +215,7 @@ int main(int argc, char **argv) {
     double jitter = 0.0;
     int table = !strcmp(mode, "table");
     if (!table && strcmp(mode, "scaling")) {
-        fprintf(stderr, "usage: lightvol_bench table|scaling SCENE.json [options] (see the source header)\n");
+        fprintf(stderr, "usage: bench_lightvol table|scaling SCENE.json [options] (see the source header)\n");
         return 2;
     }
     for (int i = 2; i < argc; i++) {
@@ -228,12 +228,12 @@ int main(int argc, char **argv) {
         else if (!strcmp(a, "--set") && i + 1 < argc && n_sets < MAX_SET) sets[n_sets++] = argv[++i];
         else if (a[0] != '-' && !scene_path) scene_path = a;
         else {
-            fprintf(stderr, "lightvol_bench: unknown or incomplete option '%s'\n", a);
+            fprintf(stderr, "bench_lightvol: unknown or incomplete option '%s'\n", a);
             return 2;
         }
     }
     if (!scene_path || max_lights < 1 || max_lights > 200 || step < 1 || repeat < 1 || repeat > 100) {
-        fprintf(stderr, "lightvol_bench: bad arguments (SCENE.json, 1 <= --max <= 200, --repeat 1..100)\n");
+        fprintf(stderr, "bench_lightvol: bad arguments (SCENE.json, 1 <= --max <= 200, --repeat 1..100)\n");
         return 2;
     }
     sets[n_sets] = NULL;
