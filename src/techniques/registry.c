@@ -9,6 +9,7 @@ extern const volux_technique_class volux_pathtrace_class;
 extern const volux_technique_class volux_single_class;
 extern const volux_technique_class volux_ao_class;
 extern const volux_technique_class volux_ambient_class;
+extern const volux_technique_class volux_lightvol_class;
 
 static const volux_technique_class *const classes[] = {
     &volux_ea_class,
@@ -17,6 +18,7 @@ static const volux_technique_class *const classes[] = {
     &volux_single_class,
     &volux_ao_class,
     &volux_ambient_class,
+    &volux_lightvol_class,
 };
 
 int volux_technique_count(void) { return (int)(sizeof classes / sizeof classes[0]); }

@@ -213,7 +213,9 @@ int cli_bench(int argc, char **argv) {
             st = edits[e]->apply(scene, k);
             if (st) {
                 fprintf(stderr, "volux bench: edit %s does not apply to this scene (%s)\n", edits[e]->name,
-                        st == VOLUX_ERR_INVALID ? "no light?" : volux_context_error(ctx));
+                        st == VOLUX_ERR_INVALID       ? "no light?"
+                        : st == VOLUX_ERR_UNSUPPORTED ? "not supported by this technique"
+                                                      : volux_context_error(ctx));
                 st = VOLUX_OK;
                 ok = 0;
                 break;

@@ -90,6 +90,21 @@ static volux_status edit_volume(volux_scene *s, int k) {
     return volux_scene_set_volume(s, volux_scene_volume(s)); /* a new time step: same data, full rebuild */
 }
 
+/* lightvol: an entire light update (every light re-propagated) in the
+ * given propagation mode, forced through the technique's `rebuild_token`
+ * parameter; other techniques do not support it. Sets the mode for the
+ * edits that follow. */
+static volux_status edit_full(volux_scene *s, int k, const char *mode) {
+    if (strcmp(volux_scene_render(s)->technique, "lightvol") != 0) return VOLUX_ERR_UNSUPPORTED;
+    volux_status st = volux_scene_set_param(s, "lightvol", "propagation", 0, mode);
+    if (st) return st;
+    double token = volux_scene_param(s, "lightvol", "rebuild_token", 0.0);
+    (void)k;
+    return volux_scene_set_param(s, "lightvol", "rebuild_token", token + 1.0, NULL);
+}
+static volux_status edit_full_coherent(volux_scene *s, int k) { return edit_full(s, k, "coherent"); }
+static volux_status edit_full_sequential(volux_scene *s, int k) { return edit_full(s, k, "sequential"); }
+
 static const bench_edit edits[] = {
     {"tf", "scale the opacity/extinction curve", edit_tf},
     {"tf_color", "change colours only", edit_tf_color},
@@ -99,6 +114,8 @@ static const bench_edit edits[] = {
     {"light_toggle", "switch the first light off/on", edit_light_toggle},
     {"camera", "orbit the camera by 5 degrees", edit_camera},
     {"time_step", "replace the volume (same data)", edit_volume},
+    {"full_sequential", "lightvol: entire light update, one light per propagation pass", edit_full_sequential},
+    {"full_coherent", "lightvol: entire light update, lights grouped by propagation direction", edit_full_coherent},
 };
 
 const bench_edit *bench_edit_find(const char *name) {

@@ -9,55 +9,6 @@
 
 /* ------------------------------------------------------------------ caches */
 
-/* Per-voxel gradient by central differences (one-sided at the border), in
- * file units per world unit, quantised to int16 with one global scale: a
- * 6-byte/voxel cache that turns 6 trilinear fetches per sample into one. */
-static volux_status build_gradients(dvr_state *st) {
-    const volux_volume *v = st->volume;
-    size_t n = (size_t)v->dims[0] * (size_t)v->dims[1] * (size_t)v->dims[2];
-    size_t bytes;
-    if (!volux_mul_size(n, 3 * sizeof(int16_t), &bytes) || bytes > volux_context_max_bytes(st->ctx))
-        return volux_error(st->ctx, VOLUX_ERR_LIMIT, "shaded: gradient cache of %zu voxels exceeds the memory cap", n);
-    if (st->grad) volux_free_aligned(st->ctx, st->grad, st->grad_bytes);
-    st->grad = volux_alloc_aligned(st->ctx, bytes);
-    if (!st->grad) return volux_error(st->ctx, VOLUX_ERR_NOMEM, "shaded: out of memory for the gradient cache");
-    st->grad_bytes = bytes;
-    float *tmp = volux_malloc(st->ctx, (size_t)v->dims[0] * 3 * sizeof(float));
-    if (!tmp) return volux_error(st->ctx, VOLUX_ERR_NOMEM, "shaded: out of memory");
-    /* Two passes: find the largest magnitude for the scale, then quantise. */
-    float gmax = 0.0f;
-    for (int pass = 0; pass < 2; pass++) {
-        float q = pass ? (gmax > 0.0f ? 32767.0f / gmax : 0.0f) : 0.0f;
-        for (int k = 0; k < v->dims[2]; k++)
-            for (int j = 0; j < v->dims[1]; j++) {
-                for (int i = 0; i < v->dims[0]; i++) {
-                    int c[3] = {i, j, k};
-                    for (int a = 0; a < 3; a++) {
-                        int lo[3] = {i, j, k}, hi[3] = {i, j, k};
-                        if (c[a] > 0) lo[a]--;
-                        if (c[a] < v->dims[a] - 1) hi[a]++;
-                        int h = hi[a] - lo[a];
-                        float d = h ? (volux_volume_value_at(v, hi[0], hi[1], hi[2]) -
-                                       volux_volume_value_at(v, lo[0], lo[1], lo[2])) /
-                                          ((float)h * (float)v->spacing[a])
-                                    : 0.0f;
-                        tmp[3 * i + a] = d;
-                    }
-                }
-                if (!pass) {
-                    for (int i = 0; i < 3 * v->dims[0]; i++)
-                        if (fabsf(tmp[i]) > gmax) gmax = fabsf(tmp[i]);
-                } else {
-                    int16_t *row = st->grad + 3 * volux_volume_index(v, 0, j, k);
-                    for (int i = 0; i < 3 * v->dims[0]; i++) row[i] = (int16_t)lrintf(tmp[i] * q);
-                }
-            }
-    }
-    volux_free(st->ctx, tmp, (size_t)v->dims[0] * 3 * sizeof(float));
-    st->grad_scale = gmax > 0.0f ? gmax / 32767.0f : 0.0f;
-    return VOLUX_OK;
-}
-
 static void prepare_lights(dvr_state *st, const volux_scene *scene) {
     st->n_lights = 0;
     volux_vec3 ambient = v3(0, 0, 0);
@@ -141,7 +92,7 @@ volux_status volux_dvr_update(void *state, volux_scene *scene, const volux_chang
         volux_volume_release(st->volume);
         st->volume = v;
         if ((s = volux_volume_build_bricks(v))) return s;
-        if (st->shaded && (s = build_gradients(st))) return s;
+        if (st->shaded && (s = volux_gradient_cache_build(st->ctx, st->volume, &st->grad, "shaded"))) return s;
     }
     if (c->what & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY | VOLUX_CHANGE_COLOR)) {
         st->lut = volux_scene_transfer_lut(scene);
@@ -180,44 +131,26 @@ volux_status volux_dvr_create(volux_context *ctx, volux_scene *scene, const volu
 
 size_t volux_dvr_memory_bytes(const void *state) {
     const dvr_state *st = state;
-    return sizeof *st + st->grid.bytes + st->grad_bytes;
+    return sizeof *st + st->grid.bytes + st->grad.bytes;
 }
 
 void volux_dvr_destroy(void *state) {
     dvr_state *st = state;
     if (!st) return;
     volux_majorant_grid_free(st->ctx, &st->grid);
-    if (st->grad) volux_free_aligned(st->ctx, st->grad, st->grad_bytes);
+    volux_gradient_cache_free(st->ctx, &st->grad);
     volux_volume_release(st->volume);
     volux_free(st->ctx, st, sizeof *st);
 }
 
 /* ------------------------------------------------------------------ kernel */
 
-/* Interpolated gradient from the cache (world units). */
-static inline volux_vec3 cached_gradient(const dvr_state *st, volux_vec3 q) {
-    volux_cell c = volux_volume_cell(st->volume, q.x, q.y, q.z);
-    const int16_t *b = st->grad + 3 * c.base;
-    size_t sx = 3 * c.sx, sy = 3 * c.sy, sz = 3 * c.sz;
-    float g[3];
-    for (int a = 0; a < 3; a++) {
-        float n[8] = {b[a],      b[sx + a],      b[sy + a],      b[sy + sx + a],
-                      b[sz + a], b[sz + sx + a], b[sz + sy + a], b[sz + sy + sx + a]};
-        g[a] = volux_lerp3(n, c.fx, c.fy, c.fz) * st->grad_scale;
-    }
-    return v3(g[0], g[1], g[2]);
-}
-
 /* Blinn–Phong with the normal flipped towards the viewer (as VTK's CPU ray
  * caster does), faded by gradient magnitude. c: emission colour in/out. */
 static inline void shade(const dvr_state *st, volux_vec3 p_world, volux_vec3 q, volux_vec3 view_dir, float c[3]) {
-    volux_vec3 g = cached_gradient(st, q);
-    float gl = v3_length(g);
-    float m = st->grad_ref > 0.0f ? gl / st->grad_ref : 1.0f;
+    volux_vec3 n;
+    float m = volux_shading_normal(volux_gradient_cache_sample(&st->grad, st->volume, q), st->grad_ref, view_dir, &n);
     if (m <= 0.0f) return;
-    if (m > 1.0f) m = 1.0f;
-    volux_vec3 n = v3_scale(g, 1.0f / gl);
-    if (v3_dot(n, view_dir) > 0.0f) n = v3_scale(n, -1.0f);
     const volux_material *mat = &st->material;
     volux_vec3 diff = v3_scale(st->ambient, mat->ambient), spec = v3(0, 0, 0);
     for (int i = 0; i < st->n_lights; i++) {
@@ -232,12 +165,7 @@ static inline void shade(const dvr_state *st, volux_vec3 p_world, volux_vec3 q, 
             if (l->spot) f *= volux_spot_falloff(&l->desc, -v3_dot(L, l->spot_dir));
             E = v3_scale(E, f);
         }
-        float ndl = v3_dot(n, L);
-        if (ndl <= 0.0f) continue;
-        diff = v3_add(diff, v3_scale(E, mat->diffuse * ndl));
-        volux_vec3 h = v3_normalize(v3_sub(L, view_dir));
-        float ndh = v3_dot(n, h);
-        if (ndh > 0.0f) spec = v3_add(spec, v3_scale(E, mat->specular * powf(ndh, mat->specular_power)));
+        volux_blinn_phong(mat, n, L, view_dir, E, &diff, &spec);
     }
     float lit[3] = {c[0] * diff.x + spec.x, c[1] * diff.y + spec.y, c[2] * diff.z + spec.z};
     for (int a = 0; a < 3; a++) c[a] += (lit[a] - c[a]) * m;

@@ -13,6 +13,7 @@
 #ifndef VOLUX_DVR_H
 #define VOLUX_DVR_H
 
+#include "sample/gradient.h"
 #include "sample/march.h"
 #include "volux/technique.h"
 
@@ -46,9 +47,7 @@ typedef struct dvr_state {
     int preintegrate, skip_empty;
     float t_min;                   /* early termination when T < t_min   */
     /* shading */
-    int16_t *grad;                 /* 3 per voxel, world units × grad_scale⁻¹ */
-    size_t grad_bytes;
-    float grad_scale;
+    volux_gradient_cache grad;     /* shared helper (sample/gradient.h)  */
     float grad_ref;                /* |∇s| at which shading is fully on    */
     volux_material material;
     volux_vec3 ambient;
