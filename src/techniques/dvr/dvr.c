@@ -118,10 +118,27 @@ static void prepare_lights(dvr_state *st, const volux_scene *scene) {
     st->ambient = have_env ? ambient : v3(1, 1, 1);
 }
 
-static void read_params(dvr_state *st, const volux_scene *scene) {
+static volux_status read_params(dvr_state *st, const volux_scene *scene) {
     st->preintegrate = (int)volux_technique_param(scene, st->cls, "preintegrate");
     st->skip_empty = (int)volux_technique_param(scene, st->cls, "skip_empty");
     st->t_min = (float)volux_technique_param(scene, st->cls, "early_termination");
+    const char *kernel = volux_scene_param_string(scene, st->cls->name, "kernel", "auto");
+    int simd_ok = volux_dvr_simd_available() && !st->shaded;
+    if (!strcmp(kernel, "auto")) {
+        st->use_simd = simd_ok;
+    } else if (!strcmp(kernel, "scalar")) {
+        st->use_simd = 0;
+    } else if (!strcmp(kernel, "simd")) {
+        if (!simd_ok)
+            return volux_error(st->ctx, VOLUX_ERR_UNSUPPORTED, "techniques.%s.kernel: \"simd\" needs %s",
+                               st->cls->name,
+                               st->shaded ? "the ea technique (shaded has no SIMD kernel)" : "a CPU with AVX2 and FMA");
+        st->use_simd = 1;
+    } else {
+        return volux_error(st->ctx, VOLUX_ERR_INVALID,
+                           "techniques.%s.kernel: expected \"auto\", \"scalar\" or \"simd\", got \"%s\"",
+                           st->cls->name, kernel);
+    }
     if (st->shaded) {
         double lo, hi, sp[3];
         volux_volume_range(st->volume, &lo, &hi);
@@ -130,6 +147,35 @@ static void read_params(dvr_state *st, const volux_scene *scene) {
         st->grad_ref = (float)(volux_technique_param(scene, st->cls, "gradient_threshold") * range /
                                fmin(sp[0], fmin(sp[1], sp[2])));
     }
+    return VOLUX_OK;
+}
+
+/* The SIMD kernel's float copy of the pre-integration integrals (layout in
+ * dvr.h). P is rounded once from the double table; D is the float
+ * difference of the rounded P, so P[i+1] − P[i] − D[i] is exactly 0 in
+ * float and a segment straddling one node boundary loses nothing to
+ * cancellation. Intervals where σt is 0 keep D = 0 exactly (equal doubles
+ * round to equal floats), so empty space stays exactly empty. */
+static volux_status build_float_tables(dvr_state *st) {
+    const volux_transfer_lut *lut = st->lut;
+    size_t bytes = (size_t)lut->n * 8 * sizeof(float);
+    if (bytes != st->pre_bytes) {
+        if (st->pre_f) volux_free_aligned(st->ctx, st->pre_f, st->pre_bytes);
+        st->pre_bytes = 0;
+        st->pre_f = volux_alloc_aligned(st->ctx, bytes);
+        if (!st->pre_f) return volux_error(st->ctx, VOLUX_ERR_NOMEM, "out of memory for the pre-integration table");
+        st->pre_bytes = bytes;
+    }
+    for (int i = 0; i < lut->n; i++) {
+        float *r = st->pre_f + 8 * (size_t)i;
+        r[0] = (float)lut->int_sigma[i];
+        for (int c = 0; c < 3; c++) r[1 + c] = (float)lut->int_sigma_c[3 * i + c];
+    }
+    for (int i = 0; i < lut->n; i++) {
+        float *r = st->pre_f + 8 * (size_t)i;
+        for (int c = 0; c < 4; c++) r[4 + c] = i + 1 < lut->n ? r[8 + c] - r[c] : 0.0f;
+    }
+    return VOLUX_OK;
 }
 
 volux_status volux_dvr_update(void *state, volux_scene *scene, const volux_change_set *c) {
@@ -146,6 +192,7 @@ volux_status volux_dvr_update(void *state, volux_scene *scene, const volux_chang
     if (c->what & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY | VOLUX_CHANGE_COLOR)) {
         st->lut = volux_scene_transfer_lut(scene);
         if (!st->lut) return volux_context_error_status(st->ctx) ? volux_context_error_status(st->ctx) : VOLUX_ERR_INVALID;
+        if ((s = build_float_tables(st))) return s;
     }
     if (c->what & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY))
         if ((s = volux_majorant_grid_build(st->ctx, st->volume, st->lut, &st->grid))) return s;
@@ -155,7 +202,8 @@ volux_status volux_dvr_update(void *state, volux_scene *scene, const volux_chang
         st->step = volux_scene_step_world(scene);
         st->seed = volux_scene_render(scene)->seed;
     }
-    if (c->what & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME)) read_params(st, scene);
+    if (c->what & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME))
+        if ((s = read_params(st, scene))) return s;
     if (c->what & (VOLUX_CHANGE_COLOR | VOLUX_CHANGE_VOLUME)) st->material = volux_scene_transfer(scene)->material;
     if (st->shaded && (c->what & VOLUX_CHANGE_LIGHTS)) prepare_lights(st, scene);
     return VOLUX_OK;
@@ -182,7 +230,7 @@ volux_status volux_dvr_create(volux_context *ctx, volux_scene *scene, const volu
 
 size_t volux_dvr_memory_bytes(const void *state) {
     const dvr_state *st = state;
-    return sizeof *st + st->grid.bytes + st->grad_bytes;
+    return sizeof *st + st->grid.bytes + st->grad_bytes + st->pre_bytes;
 }
 
 void volux_dvr_destroy(void *state) {
@@ -190,6 +238,7 @@ void volux_dvr_destroy(void *state) {
     if (!st) return;
     volux_majorant_grid_free(st->ctx, &st->grid);
     if (st->grad) volux_free_aligned(st->ctx, st->grad, st->grad_bytes);
+    if (st->pre_f) volux_free_aligned(st->ctx, st->pre_f, st->pre_bytes);
     volux_volume_release(st->volume);
     volux_free(st->ctx, st, sizeof *st);
 }
@@ -275,7 +324,7 @@ march(const dvr_state *st, const volux_ray *ray, float jitter, float *T_out, uin
     volux_interval iv = {t0, t1, 1.0f};
     if (st->skip_empty) volux_march_init(&it, &st->grid, ray, t0, t1);
     int have_prev = 0, next_k = 0;
-    float s_prev = 0.0f;
+    float u_prev = 0.0f;
     double I_prev = 0.0, Ic_prev[3] = {0, 0, 0};
     for (;;) {
         if (st->skip_empty) {
@@ -295,32 +344,35 @@ march(const dvr_state *st, const volux_ray *ray, float jitter, float *T_out, uin
             float len = b - a;
             if (len <= 0.0f) continue;
             if (preint && !have_prev) {
-                s_prev = sample_at(v, ray, a, storage);
-                I_prev = volux_lut_int_sigma(lut, s_prev, Ic_prev);
+                u_prev = volux_lut_coord(lut, sample_at(v, ray, a, storage));
+                I_prev = volux_lut_int_at(lut, u_prev, Ic_prev);
                 count++;
             }
             float s = sample_at(v, ray, b, storage);
             count++;
             float tau, c[3];
             if (preint) {
-                /* Pre-integrated segment with s linear from s_prev to s:
-                 * τ = len·(I(s) − I(s_prev))/(s − s_prev); colour is the
-                 * σt-weighted mean of c over [s_prev, s]. */
-                double Ic[3], I = volux_lut_int_sigma(lut, s, Ic);
-                double dI = I - I_prev, ds = (double)s - (double)s_prev;
-                if (fabs(ds) * lut->inv_ds > 1e-3) {
-                    tau = (float)(len * dI / ds);
-                    if (dI != 0.0)
-                        for (int a2 = 0; a2 < 3; a2++) c[a2] = (float)((Ic[a2] - Ic_prev[a2]) / dI);
-                    else
-                        c[0] = c[1] = c[2] = 0.0f;
+                /* Pre-integrated segment, s linear from s_prev to s. The
+                 * integral tables are linear between nodes, so within one
+                 * table interval σt and σt·c are that interval's means:
+                 * τ = len·σ̄, c = (σc)‾/σ̄ — no division by a tiny Δs.
+                 * Across intervals τ = len·ΔI/Δs and c = ΔI_c/ΔI (Engel et
+                 * al. 2001). Δs is measured in table units u, the same
+                 * numbers that chose the intervals. */
+                float u = volux_lut_coord(lut, s);
+                double Ic[3], I = volux_lut_int_at(lut, u, Ic);
+                int i = volux_lut_interval(lut, u);
+                if (i == volux_lut_interval(lut, u_prev)) {
+                    const double *P = lut->int_sigma + i, *Pc = lut->int_sigma_c + 3 * i;
+                    double D = P[1] - P[0];
+                    tau = (float)((double)len * (double)lut->inv_ds * D);
+                    for (int a2 = 0; a2 < 3; a2++) c[a2] = D > 0.0 ? (float)((Pc[3 + a2] - Pc[a2]) / D) : 0.0f;
                 } else {
-                    float rgba[4];
-                    volux_lut_rgba(lut, 0.5f * (s + s_prev), rgba);
-                    tau = rgba[3] * len;
-                    c[0] = rgba[0], c[1] = rgba[1], c[2] = rgba[2];
+                    double dI = I - I_prev;
+                    tau = (float)((double)len * (double)lut->inv_ds * dI / (double)(u - u_prev));
+                    for (int a2 = 0; a2 < 3; a2++) c[a2] = dI != 0.0 ? (float)((Ic[a2] - Ic_prev[a2]) / dI) : 0.0f;
                 }
-                s_prev = s;
+                u_prev = u;
                 I_prev = I;
                 memcpy(Ic_prev, Ic, sizeof Ic);
                 have_prev = 1;
@@ -401,6 +453,10 @@ static inline __attribute__((always_inline)) void render_tile_impl(const dvr_sta
 void volux_dvr_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
                            volux_tile_stats *stats) {
     const dvr_state *st = state;
+    if (st->use_simd) {
+        volux_dvr_render_tile_avx2(st, scene, tile, rgb, stats);
+        return;
+    }
     if (st->shaded) {
         if (st->preintegrate) DVR_STORAGE_SWITCH(1, 1)
         else DVR_STORAGE_SWITCH(1, 0)

@@ -8,7 +8,14 @@
  *   gradient cache (shaded only)         ← volume
  *   prepared lights (shaded only)        ← lights
  *   resolved camera                      ← camera, image size
+ *   float pre-integration table (SIMD)   ← extinction, density, colour
  * Colour/albedo/material edits re-read the scene's LUT only.
+ *
+ * Two kernels compute the same image: the scalar one in dvr.c (portable,
+ * the reference) and 8-ray AVX2+FMA packets in dvr_avx2.c (chosen at run
+ * time when the CPU has AVX2 and FMA; parameter `kernel`). They share the
+ * segment positions, the pre-integration model and the skipping rule; they
+ * differ by float rounding (the SIMD kernel's integral tables are float).
  */
 #ifndef VOLUX_DVR_H
 #define VOLUX_DVR_H
@@ -44,6 +51,7 @@ typedef struct dvr_state {
     uint64_t seed;
     /* parameters */
     int preintegrate, skip_empty;
+    int use_simd;                  /* resolved `kernel` parameter          */
     float t_min;                   /* early termination when T < t_min   */
     /* shading */
     int16_t *grad;                 /* 3 per voxel, world units × grad_scale⁻¹ */
@@ -54,7 +62,20 @@ typedef struct dvr_state {
     volux_vec3 ambient;
     dvr_light lights[DVR_MAX_LIGHTS];
     int n_lights;
+    /* Float pre-integration table for the SIMD kernel: per table node i,
+     * 8 floats {P_σ, P_σr, P_σg, P_σb, D_σ, D_σr, D_σg, D_σb} where P is the
+     * running integral rounded to float and D[i] = P[i+1] − P[i] computed in
+     * float (so adjacent-interval differences cancel exactly, see
+     * dvr_avx2.c). 32 bytes: one unaligned 256-bit load per lane. */
+    float *pre_f;
+    size_t pre_bytes;
 } dvr_state;
+
+/* 1 if this CPU can run the AVX2+FMA kernel (and it was compiled in). */
+int volux_dvr_simd_available(void);
+/* The SIMD kernel for one tile (`ea` only; same contract as render_tile). */
+void volux_dvr_render_tile_avx2(const dvr_state *st, const volux_scene *scene, const volux_tile *tile, float *rgb,
+                                volux_tile_stats *stats);
 
 volux_status volux_dvr_create(volux_context *ctx, volux_scene *scene, const volux_technique_class *cls, int shaded,
                               void **out);
