@@ -207,9 +207,67 @@ typedef struct skip8 {
     const float *sigma_max;
     __m256i cells_max[3], ncx, ncy;
     __m256i up[3];       /* 1 where the ray moves up the axis           */
+    __m256i step[3];     /* +1 / −1: the DDA step along each axis         */
     __m256 inv_dq[3];    /* 1/dq (inf where dq = 0, masked below)        */
     __m256 flat[3];      /* dq == 0                                      */
 } skip8;
+
+/* Empty-space check at world t for the lanes in `need`: walks the
+ * macrocells along the ray from the one holding q(t) (a 3-D DDA, Amanatides
+ * & Woo 1987) while they are empty (majorant 0), at most 1 + MAX_RUN cells.
+ * Returns the lanes that start in an empty cell; *t_exit is the exit of the
+ * last empty cell of the run for those, else of the cell at t; *m is the
+ * last segment index whose start is ≤ *t_exit (with a margin of 10⁻³ h, so
+ * rounding never skips into a non-empty cell). Ties between axes step all
+ * tied axes: the ray touches the skipped neighbours in a single point. */
+enum { MAX_RUN = 6 };
+A2I __m256 check_cells(const skip8 *sk, const __m256 q0[3], const __m256 dq[3], __m256 t0, __m256 jit, __m256 inv_h,
+                       __m256 t, __m256 need, __m256 *t_exit, __m256 *m) {
+    const __m256i zero_i = _mm256_setzero_si256();
+    __m256 q[3], t_axis[3];
+    __m256i c[3];
+    for (int ax = 0; ax < 3; ax++) {
+        q[ax] = _mm256_add_ps(q0[ax], _mm256_mul_ps(dq[ax], t));
+        c[ax] = _mm256_cvttps_epi32(_mm256_mul_ps(q[ax], _mm256_set1_ps(1.0f / VOLUX_CELL_SIZE)));
+        c[ax] = _mm256_max_epi32(_mm256_min_epi32(c[ax], sk->cells_max[ax]), zero_i);
+    }
+    __m256 empty = _mm256_setzero_ps(), run = need, exit_t = _mm256_setzero_ps();
+    for (int n = 0; n <= MAX_RUN; n++) {
+        __m256 tmin = _mm256_set1_ps(INFINITY);
+        for (int ax = 0; ax < 3; ax++) {
+            __m256 bound = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_add_epi32(c[ax], sk->up[ax])),
+                                         _mm256_set1_ps((float)VOLUX_CELL_SIZE));
+            t_axis[ax] = _mm256_mul_ps(_mm256_sub_ps(bound, q[ax]), sk->inv_dq[ax]);
+            t_axis[ax] = _mm256_blendv_ps(t_axis[ax], _mm256_set1_ps(INFINITY), sk->flat[ax]);
+            tmin = _mm256_min_ps(tmin, t_axis[ax]);
+        }
+        __m256i cell = _mm256_add_epi32(
+            _mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(c[2], sk->ncy), c[1]), sk->ncx), c[0]);
+        __m256 sig = _mm256_mask_i32gather_ps(_mm256_setzero_ps(), sk->sigma_max, cell, run, 4);
+        __m256 cell_exit = _mm256_add_ps(t, tmin);
+        if (n == 0) exit_t = cell_exit; /* the cell at t, empty or not */
+        run = _mm256_and_ps(run, _mm256_cmp_ps(sig, _mm256_setzero_ps(), _CMP_LE_OQ));
+        if (n == 0) empty = run;
+        else exit_t = _mm256_blendv_ps(exit_t, cell_exit, run);
+        if (!_mm256_movemask_ps(run) || n == MAX_RUN) break;
+        /* step into the next cell; lanes leaving the grid have left the box */
+        __m256i inside = _mm256_set1_epi32(-1);
+        for (int ax = 0; ax < 3; ax++) {
+            __m256i stepping = _mm256_castps_si256(_mm256_and_ps(run, _mm256_cmp_ps(t_axis[ax], tmin, _CMP_EQ_OQ)));
+            c[ax] = _mm256_add_epi32(c[ax], _mm256_and_si256(stepping, sk->step[ax]));
+            inside = _mm256_andnot_si256(_mm256_or_si256(_mm256_cmpgt_epi32(zero_i, c[ax]),
+                                                         _mm256_cmpgt_epi32(c[ax], sk->cells_max[ax])),
+                                         inside);
+            c[ax] = _mm256_max_epi32(_mm256_min_epi32(c[ax], sk->cells_max[ax]), zero_i);
+        }
+        run = _mm256_and_ps(run, _mm256_castsi256_ps(inside));
+    }
+    *t_exit = exit_t;
+    *m = _mm256_add_ps(_mm256_floor_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_sub_ps(exit_t, t0), inv_h),
+                                                     _mm256_add_ps(jit, _mm256_set1_ps(1e-3f)))),
+                       _mm256_set1_ps(1.0f));
+    return empty;
+}
 
 /* Marches one packet. out: premultiplied colour and transmittance per lane.
  *
@@ -245,6 +303,7 @@ A2I void march8(const dvr_state *st, const packet_rays *pr, int lanes, __m256 C[
             sk.up[a] = _mm256_and_si256(_mm256_castps_si256(_mm256_cmp_ps(dq[a], zero, _CMP_GT_OQ)),
                                         _mm256_set1_epi32(1));
             sk.flat[a] = _mm256_cmp_ps(dq[a], zero, _CMP_EQ_OQ);
+            sk.step[a] = _mm256_sub_epi32(_mm256_add_epi32(sk.up[a], sk.up[a]), _mm256_set1_epi32(1));
             sk.inv_dq[a] = _mm256_div_ps(one, dq[a]);
         }
         sk.ncx = _mm256_set1_epi32(g->cells[0]);
@@ -265,56 +324,40 @@ A2I void march8(const dvr_state *st, const packet_rays *pr, int lanes, __m256 C[
     __m256 u_p = zero, f_p = zero, P_p[4] = {zero, zero, zero, zero}, D_p[4] = {zero, zero, zero, zero};
     __m256i i_p = _mm256_setzero_si256();
     uint64_t count = 0;
+    /* Empty-space skipping. A lane whose next segment start has left the
+     * last macrocell it checked (t ≥ t_check) looks up the cell there.
+     * Empty (majorant 0): it jumps to the last segment m that starts inside
+     * that cell (m may reach into the next cell, so it is still evaluated)
+     * and re-samples its start. Otherwise it remembers the cell's exit. A
+     * lane checks once per cell, and the check for segment k+1 is issued
+     * while segment k is sampled, so the gather's latency is hidden. */
+    if (skip) {
+        __m256 t_exit, m;
+        __m256 empty = check_cells(&sk, q0, dq, t0, jit, inv_h, t0, active, &t_exit, &m);
+        __m256 jump = _mm256_and_ps(empty, _mm256_cmp_ps(m, kf, _CMP_GT_OQ));
+        kf = _mm256_blendv_ps(kf, m, jump);
+        t_check = _mm256_blendv_ps(t_check, t_exit, active);
+    }
     for (;;) {
         /* Segment k of each lane: [max(t0, t0+(k−1+j)·h), min(t0+(k+j)·h, t1)] */
         __m256 a = _mm256_max_ps(t0, _mm256_add_ps(t0, _mm256_mul_ps(_mm256_add_ps(_mm256_sub_ps(kf, one), jit), h)));
         active = _mm256_and_ps(active, _mm256_cmp_ps(a, t1, _CMP_LT_OQ));
         if (!_mm256_movemask_ps(active)) break;
-        if (skip) {
-            /* Lanes whose segment start left the last macrocell they checked
-             * look up the cell at a. Empty (majorant 0): jump to the last
-             * segment that starts inside it (it may reach into the next
-             * cell, so it is still evaluated). Otherwise remember the cell's
-             * exit. One gather per check, and checks happen once per cell. */
-            __m256 need = _mm256_and_ps(active, _mm256_cmp_ps(a, t_check, _CMP_GE_OQ));
-            if (_mm256_movemask_ps(need)) {
-                __m256 q[3], t_axis[3];
-                __m256i c[3];
-                for (int ax = 0; ax < 3; ax++) {
-                    q[ax] = _mm256_add_ps(q0[ax], _mm256_mul_ps(dq[ax], a));
-                    c[ax] = _mm256_cvttps_epi32(_mm256_mul_ps(q[ax], _mm256_set1_ps(1.0f / VOLUX_CELL_SIZE)));
-                    c[ax] = _mm256_max_epi32(_mm256_min_epi32(c[ax], sk.cells_max[ax]), _mm256_setzero_si256());
-                    __m256 bound = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_add_epi32(c[ax], sk.up[ax])),
-                                                 _mm256_set1_ps((float)VOLUX_CELL_SIZE));
-                    t_axis[ax] = _mm256_mul_ps(_mm256_sub_ps(bound, q[ax]), sk.inv_dq[ax]);
-                    t_axis[ax] = _mm256_blendv_ps(t_axis[ax], _mm256_set1_ps(INFINITY), sk.flat[ax]);
-                }
-                __m256i cell = _mm256_add_epi32(
-                    _mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(c[2], sk.ncy), c[1]), sk.ncx), c[0]);
-                __m256 sig = _mm256_i32gather_ps(sk.sigma_max, cell, 4);
-                __m256 t_exit = _mm256_add_ps(a, _mm256_min_ps(t_axis[0], _mm256_min_ps(t_axis[1], t_axis[2])));
-                /* last segment m with start ≤ t_exit (with a margin) */
-                __m256 m = _mm256_add_ps(
-                    _mm256_floor_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_sub_ps(t_exit, t0), inv_h),
-                                                  _mm256_add_ps(jit, _mm256_set1_ps(1e-3f)))),
-                    one);
-                __m256 jump = _mm256_and_ps(_mm256_and_ps(need, _mm256_cmp_ps(sig, zero, _CMP_LE_OQ)),
-                                            _mm256_cmp_ps(m, kf, _CMP_GT_OQ));
-                kf = _mm256_blendv_ps(kf, m, jump);
-                need_prev = _mm256_or_ps(need_prev, jump);
-                t_check = _mm256_blendv_ps(t_check, t_exit, need);
-                if (_mm256_movemask_ps(jump)) {
-                    a = _mm256_max_ps(
-                        t0, _mm256_add_ps(t0, _mm256_mul_ps(_mm256_add_ps(_mm256_sub_ps(kf, one), jit), h)));
-                    active = _mm256_and_ps(active, _mm256_cmp_ps(a, t1, _CMP_LT_OQ));
-                    if (!_mm256_movemask_ps(active)) break;
-                }
-            }
-        }
         __m256 b = _mm256_min_ps(_mm256_add_ps(t0, _mm256_mul_ps(_mm256_add_ps(kf, jit), h)), t1);
         __m256 len = _mm256_sub_ps(b, a);
         __m256 seg = _mm256_and_ps(active, _mm256_cmp_ps(len, zero, _CMP_GT_OQ));
         int seg_bits = _mm256_movemask_ps(seg);
+        __m256 kf_next = _mm256_add_ps(kf, one), jump = zero;
+        if (skip) {
+            __m256 need = _mm256_and_ps(active, _mm256_cmp_ps(b, t_check, _CMP_GE_OQ));
+            if (_mm256_movemask_ps(need)) {
+                __m256 t_exit, m;
+                __m256 empty = check_cells(&sk, q0, dq, t0, jit, inv_h, b, need, &t_exit, &m);
+                jump = _mm256_and_ps(empty, _mm256_cmp_ps(m, kf_next, _CMP_GT_OQ));
+                kf_next = _mm256_blendv_ps(kf_next, m, jump);
+                t_check = _mm256_blendv_ps(t_check, t_exit, need);
+            }
+        }
         if (seg_bits) {
             __m256 tau, cr, cg, cb;
             if (preint) {
@@ -385,7 +428,8 @@ A2I void march8(const dvr_state *st, const packet_rays *pr, int lanes, __m256 C[
             /* early termination: the scalar kernel stops when T < t_min */
             active = _mm256_andnot_ps(_mm256_cmp_ps(T, t_min, _CMP_LT_OQ), active);
         }
-        kf = _mm256_add_ps(kf, one);
+        need_prev = _mm256_or_ps(need_prev, jump);
+        kf = kf_next;
     }
     C[0] = Cr, C[1] = Cg, C[2] = Cb;
     *T_out = T;
