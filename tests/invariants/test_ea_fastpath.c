@@ -1,4 +1,5 @@
-/* The SIMD `ea` kernel (dvr_avx2.c) against the scalar reference (dvr.c):
+/* The SIMD kernel (dvr_avx2.c) of `ea` and `shaded` against the scalar
+ * reference (dvr.c):
  * same image within a stated float tolerance on every storage type, with
  * and without pre-integration, skipping and early termination, for
  * perspective and orthographic cameras; thread-count independence;
@@ -11,7 +12,9 @@
  *   - with pre-integration the SIMD kernel reads float integral tables
  *     (the scalar one double); the error bound per segment is
  *     ≈ 3·2⁻²⁴·len·(n−1)·σ̄ (dvr_avx2.c), summed over a ray and weighted by
- *     transmittance: max 1e-4, mean 1e-6 (measured: 1.8e-5, 1.4e-7). */
+ *     transmittance: max 1e-4, mean 1e-6 (measured: 1.8e-5, 1.4e-7);
+ *   - `shaded` adds vector sqrt/log/exp in Blinn–Phong (same gradient
+ *     cache, same operation order): the same bounds hold. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -76,8 +79,8 @@ static const char *write_volume(const storage_case *sc) {
 }
 
 /* Scene JSON for storage `sc`; TF positions are fractions of its range. */
-static volux_scene *make_scene(volux_context *ctx, const storage_case *sc, const char *file, int ortho, int preint,
-                               int skip, double early) {
+static volux_scene *make_scene_t(volux_context *ctx, const char *tech, const storage_case *sc, const char *file,
+                                 int ortho, int preint, int skip, double early) {
 #define S_(f) (sc->lo + (sc->hi - sc->lo) * (f))
     char json[4096];
     snprintf(json, sizeof json,
@@ -87,18 +90,30 @@ static volux_scene *make_scene(volux_context *ctx, const storage_case *sc, const
              "   \"color\": [[%g, 0.2, 0.4, 1], [%g, 1, 0.9, 0.6], [%g, 1, 0.4, 0.1], [%g, 1, 1, 1]]},"
              " \"camera\": {%s\"orbit\": {\"azimuth\": %s, \"elevation\": %s}},"
              " \"background\": [0.1, 0.2, 0.3],"
+             " \"lights\": [{\"type\": \"directional\", \"direction\": [-1, -0.5, -0.8], \"irradiance\": 1.5},"
+             "              {\"type\": \"directional\", \"direction\": [0.6, -1, 0.2], \"irradiance\": 0.7,"
+             "               \"color\": [1, 0.7, 0.4]}],"
              " \"render\": {\"width\": %d, \"height\": %d, \"spp\": 2, \"step\": 0.45},"
-             " \"techniques\": {\"ea\": {\"preintegrate\": %s, \"skip_empty\": %s, \"early_termination\": %g}}}",
+             " \"techniques\": {\"%s\": {\"preintegrate\": %s, \"skip_empty\": %s, \"early_termination\": %g}}}",
              file, NX, NY, NZ, sc->type, S_(0), S_(0.3), S_(0.36), S_(0.42), S_(0.6), S_(0.8), S_(1.0), S_(0),
              S_(0.36), S_(0.7), S_(1.0), ortho ? "\"type\": \"orthographic\", " : "", ortho ? "-60" : "35",
-             ortho ? "10" : "25", W, H, preint ? "true" : "false", skip ? "true" : "false", early);
+             ortho ? "10" : "25", W, H, tech, preint ? "true" : "false", skip ? "true" : "false", early);
 #undef S_
     return tu_scene(ctx, json);
 }
 
+static volux_scene *make_scene(volux_context *ctx, const storage_case *sc, const char *file, int ortho, int preint,
+                               int skip, double early) {
+    return make_scene_t(ctx, "ea", sc, file, ortho, preint, skip, early);
+}
+
+static volux_image render_kernel_t(volux_context *ctx, volux_scene *s, const char *tech, const char *kernel) {
+    assert_int_equal(volux_scene_set_param(s, tech, "kernel", 0, kernel), VOLUX_OK);
+    return tu_render(ctx, s, tech);
+}
+
 static volux_image render_kernel(volux_context *ctx, volux_scene *s, const char *kernel) {
-    assert_int_equal(volux_scene_set_param(s, "ea", "kernel", 0, kernel), VOLUX_OK);
-    return tu_render(ctx, s, "ea");
+    return render_kernel_t(ctx, s, "ea", kernel);
 }
 
 static double mean_abs_diff(const volux_image *a, const volux_image *b) {
@@ -114,8 +129,7 @@ static int simd_or_skip(void) {
     return 0;
 }
 
-static void test_simd_matches_scalar(void **state) {
-    (void)state;
+static void simd_matches_scalar(const char *tech) {
     if (!simd_or_skip()) skip();
     volux_context *ctx = tu_context(2);
     double worst[2] = {0, 0}, worst_mean[2] = {0, 0};
@@ -125,14 +139,14 @@ static void test_simd_matches_scalar(void **state) {
             for (int preint = 0; preint < 2; preint++)
                 for (int skip_empty = 0; skip_empty < 2; skip_empty++) {
                     double early = skip_empty ? 0.002 : 0.0; /* both on = the defaults */
-                    volux_scene *s = make_scene(ctx, &storages[t], file, ortho, preint, skip_empty, early);
-                    volux_image a = render_kernel(ctx, s, "scalar"), b = render_kernel(ctx, s, "simd");
+                    volux_scene *s = make_scene_t(ctx, tech, &storages[t], file, ortho, preint, skip_empty, early);
+                    volux_image a = render_kernel_t(ctx, s, tech, "scalar"), b = render_kernel_t(ctx, s, tech, "simd");
                     double d = tu_max_abs_diff(&a, &b), m = mean_abs_diff(&a, &b);
                     double tol = preint ? 1e-4 : 2e-6, tol_mean = preint ? 1e-6 : 5e-8;
                     if (d > worst[preint]) worst[preint] = d;
                     if (m > worst_mean[preint]) worst_mean[preint] = m;
                     if (!(d <= tol) || !(m <= tol_mean))
-                        fail_msg("%s %s preint=%d skip=%d: SIMD vs scalar max %g (tol %g), mean %g (tol %g)",
+                        fail_msg("%s %s %s preint=%d skip=%d: SIMD vs scalar max %g (tol %g), mean %g (tol %g)", tech,
                                  storages[t].type, ortho ? "ortho" : "persp", preint, skip_empty, d, tol, m, tol_mean);
                     /* the test is not vacuous: the volume is visible */
                     double sum = 0;
@@ -143,28 +157,63 @@ static void test_simd_matches_scalar(void **state) {
                     volux_scene_destroy(s);
                 }
     }
-    fprintf(stderr, "worst SIMD-scalar difference: plain max %.3g mean %.3g, pre-integrated max %.3g mean %.3g\n",
-            worst[0], worst_mean[0], worst[1], worst_mean[1]);
+    fprintf(stderr, "%s: worst SIMD-scalar difference: plain max %.3g mean %.3g, pre-integrated max %.3g mean %.3g\n",
+            tech, worst[0], worst_mean[0], worst[1], worst_mean[1]);
+    volux_context_destroy(ctx);
+}
+
+static void test_simd_matches_scalar(void **state) {
+    (void)state;
+    simd_matches_scalar("ea");
+}
+
+static void test_simd_shaded_matches_scalar(void **state) {
+    (void)state;
+    simd_matches_scalar("shaded");
+}
+
+/* Point, spot and sphere lights have no SIMD shading: "auto" keeps the
+ * scalar kernel (same image) and "simd" is refused. */
+static void test_shaded_with_point_light_uses_scalar(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(1);
+    const char *file = write_volume(&storages[0]);
+    volux_scene *s = make_scene_t(ctx, "shaded", &storages[0], file, 0, 1, 1, 0.002);
+    volux_light_desc point;
+    volux_light_desc_defaults(&point, VOLUX_LIGHT_POINT);
+    point.position = (volux_vec3){40, 30, 40};
+    point.intensity = 2000;
+    assert_int_equal(volux_scene_set_light(s, 2, &point), VOLUX_OK);
+    volux_image a = render_kernel_t(ctx, s, "shaded", "auto"), b = render_kernel_t(ctx, s, "shaded", "scalar");
+    assert_memory_equal(a.rgb, b.rgb, sizeof(float) * 3 * W * H);
+    volux_technique *t = NULL;
+    assert_int_equal(volux_scene_set_param(s, "shaded", "kernel", 0, "simd"), VOLUX_OK);
+    assert_int_equal(volux_technique_create(ctx, "shaded", s, &t), VOLUX_ERR_UNSUPPORTED);
+    volux_image_free(ctx, &a);
+    volux_image_free(ctx, &b);
+    volux_scene_destroy(s);
     volux_context_destroy(ctx);
 }
 
 static void test_simd_is_thread_count_independent(void **state) {
     (void)state;
     if (!simd_or_skip()) skip();
-    for (int preint = 0; preint < 2; preint++) {
-        volux_context *c1 = tu_context(1), *c2 = tu_context(2);
-        const char *file = write_volume(&storages[0]);
-        volux_scene *s1 = make_scene(c1, &storages[0], file, 0, preint, 1, 0.002);
-        volux_scene *s2 = make_scene(c2, &storages[0], file, 0, preint, 1, 0.002);
-        volux_image a = render_kernel(c1, s1, "simd"), b = render_kernel(c2, s2, "simd");
-        assert_memory_equal(a.rgb, b.rgb, sizeof(float) * 3 * W * H);
-        volux_image_free(c1, &a);
-        volux_image_free(c2, &b);
-        volux_scene_destroy(s1);
-        volux_scene_destroy(s2);
-        volux_context_destroy(c1);
-        volux_context_destroy(c2);
-    }
+    static const char *techs[] = {"ea", "shaded"};
+    for (int t = 0; t < 2; t++)
+        for (int preint = 0; preint < 2; preint++) {
+            volux_context *c1 = tu_context(1), *c2 = tu_context(2);
+            const char *file = write_volume(&storages[0]);
+            volux_scene *s1 = make_scene_t(c1, techs[t], &storages[0], file, 0, preint, 1, 0.002);
+            volux_scene *s2 = make_scene_t(c2, techs[t], &storages[0], file, 0, preint, 1, 0.002);
+            volux_image a = render_kernel_t(c1, s1, techs[t], "simd"), b = render_kernel_t(c2, s2, techs[t], "simd");
+            assert_memory_equal(a.rgb, b.rgb, sizeof(float) * 3 * W * H);
+            volux_image_free(c1, &a);
+            volux_image_free(c2, &b);
+            volux_scene_destroy(s1);
+            volux_scene_destroy(s2);
+            volux_context_destroy(c1);
+            volux_context_destroy(c2);
+        }
 }
 
 /* The SIMD kernel drops only segments inside empty macrocells, whose
@@ -214,6 +263,8 @@ static void test_kernel_parameter_is_validated(void **state) {
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_simd_matches_scalar),
+        cmocka_unit_test(test_simd_shaded_matches_scalar),
+        cmocka_unit_test(test_shaded_with_point_light_uses_scalar),
         cmocka_unit_test(test_simd_is_thread_count_independent),
         cmocka_unit_test(test_simd_skipping_is_exact),
         cmocka_unit_test(test_kernel_parameter_is_validated),

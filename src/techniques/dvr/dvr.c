@@ -9,52 +9,72 @@
 
 /* ------------------------------------------------------------------ caches */
 
-/* Per-voxel gradient by central differences (one-sided at the border), in
- * file units per world unit, quantised to int16 with one global scale: a
- * 6-byte/voxel cache that turns 6 trilinear fetches per sample into one. */
+/* Central-difference gradient at node (i,j,k) (one-sided at the border), in
+ * file units per world unit. */
+static void node_gradient(const volux_volume *v, int i, int j, int k, float g[3]) {
+    int c[3] = {i, j, k};
+    for (int a = 0; a < 3; a++) {
+        int lo[3] = {i, j, k}, hi[3] = {i, j, k};
+        if (c[a] > 0) lo[a]--;
+        if (c[a] < v->dims[a] - 1) hi[a]++;
+        int h = hi[a] - lo[a];
+        g[a] = h ? (volux_volume_value_at(v, hi[0], hi[1], hi[2]) - volux_volume_value_at(v, lo[0], lo[1], lo[2])) /
+                       ((float)h * (float)v->spacing[a])
+                 : 0.0f;
+    }
+}
+
+/* Per-node gradient cache in the volume's brick layout (9³ nodes per 8³
+ * cells, like volux_volume_build_bricks), each node one 32-bit word of
+ * three signed 10-bit fields (x bits 0–9, y 10–19, z 20–29) with one global
+ * scale. Why: 4 bytes/node (the old linear int16×3 cache took 6), the 8
+ * corners of a lookup are 4 pairs of adjacent words at the same offsets as
+ * the bricked scalars, so the SIMD kernel reuses the sample's brick offset
+ * and fetches a corner pair with one 64-bit gather. 10 bits resolve 1/511
+ * of the largest gradient per component: finer than VTK's quantised
+ * normals and invisible in shading; both kernels read the same cache. */
 static volux_status build_gradients(dvr_state *st) {
     const volux_volume *v = st->volume;
-    size_t n = (size_t)v->dims[0] * (size_t)v->dims[1] * (size_t)v->dims[2];
-    size_t bytes;
-    if (!volux_mul_size(n, 3 * sizeof(int16_t), &bytes) || bytes > volux_context_max_bytes(st->ctx))
-        return volux_error(st->ctx, VOLUX_ERR_LIMIT, "shaded: gradient cache of %zu voxels exceeds the memory cap", n);
+    size_t nb = (size_t)v->brick_counts[0] * (size_t)v->brick_counts[1] * (size_t)v->brick_counts[2], bytes;
+    if (!volux_mul_size(nb, (size_t)VOLUX_BRICK_VOXELS * sizeof(uint32_t), &bytes) ||
+        bytes > volux_context_max_bytes(st->ctx))
+        return volux_error(st->ctx, VOLUX_ERR_LIMIT, "shaded: gradient cache of %zu bricks exceeds the memory cap", nb);
     if (st->grad) volux_free_aligned(st->ctx, st->grad, st->grad_bytes);
+    st->grad_bytes = 0;
     st->grad = volux_alloc_aligned(st->ctx, bytes);
     if (!st->grad) return volux_error(st->ctx, VOLUX_ERR_NOMEM, "shaded: out of memory for the gradient cache");
     st->grad_bytes = bytes;
-    float *tmp = volux_malloc(st->ctx, (size_t)v->dims[0] * 3 * sizeof(float));
-    if (!tmp) return volux_error(st->ctx, VOLUX_ERR_NOMEM, "shaded: out of memory");
-    /* Two passes: find the largest magnitude for the scale, then quantise. */
-    float gmax = 0.0f;
-    for (int pass = 0; pass < 2; pass++) {
-        float q = pass ? (gmax > 0.0f ? 32767.0f / gmax : 0.0f) : 0.0f;
-        for (int k = 0; k < v->dims[2]; k++)
-            for (int j = 0; j < v->dims[1]; j++) {
-                for (int i = 0; i < v->dims[0]; i++) {
-                    int c[3] = {i, j, k};
-                    for (int a = 0; a < 3; a++) {
-                        int lo[3] = {i, j, k}, hi[3] = {i, j, k};
-                        if (c[a] > 0) lo[a]--;
-                        if (c[a] < v->dims[a] - 1) hi[a]++;
-                        int h = hi[a] - lo[a];
-                        float d = h ? (volux_volume_value_at(v, hi[0], hi[1], hi[2]) -
-                                       volux_volume_value_at(v, lo[0], lo[1], lo[2])) /
-                                          ((float)h * (float)v->spacing[a])
-                                    : 0.0f;
-                        tmp[3 * i + a] = d;
-                    }
-                }
-                if (!pass) {
-                    for (int i = 0; i < 3 * v->dims[0]; i++)
-                        if (fabsf(tmp[i]) > gmax) gmax = fabsf(tmp[i]);
-                } else {
-                    int16_t *row = st->grad + 3 * volux_volume_index(v, 0, j, k);
-                    for (int i = 0; i < 3 * v->dims[0]; i++) row[i] = (int16_t)lrintf(tmp[i] * q);
-                }
+    /* Pass 1: the largest component sets the scale. */
+    float gmax = 0.0f, g[3];
+    for (int k = 0; k < v->dims[2]; k++)
+        for (int j = 0; j < v->dims[1]; j++)
+            for (int i = 0; i < v->dims[0]; i++) {
+                node_gradient(v, i, j, k, g);
+                for (int a = 0; a < 3; a++)
+                    if (fabsf(g[a]) > gmax) gmax = fabsf(g[a]);
             }
-    }
-    volux_free(st->ctx, tmp, (size_t)v->dims[0] * 3 * sizeof(float));
-    st->grad_scale = gmax > 0.0f ? gmax / 32767.0f : 0.0f;
+    float q = gmax > 0.0f ? (float)DVR_GRAD_MAX / gmax : 0.0f;
+    /* Pass 2: quantise into bricks (node 8b + l, replicated at the far border). */
+    const int *n = v->brick_counts;
+    for (int bz = 0; bz < n[2]; bz++)
+        for (int by = 0; by < n[1]; by++)
+            for (int bx = 0; bx < n[0]; bx++) {
+                uint32_t *dst = st->grad + (((size_t)bz * (size_t)n[1] + (size_t)by) * (size_t)n[0] + (size_t)bx) *
+                                               VOLUX_BRICK_VOXELS;
+                for (int lz = 0; lz < VOLUX_BRICK_NODES; lz++)
+                    for (int ly = 0; ly < VOLUX_BRICK_NODES; ly++)
+                        for (int lx = 0; lx < VOLUX_BRICK_NODES; lx++) {
+                            int i = bx * VOLUX_BRICK_CELLS + lx, j = by * VOLUX_BRICK_CELLS + ly,
+                                k = bz * VOLUX_BRICK_CELLS + lz;
+                            node_gradient(v, i < v->dims[0] ? i : v->dims[0] - 1, j < v->dims[1] ? j : v->dims[1] - 1,
+                                          k < v->dims[2] ? k : v->dims[2] - 1, g);
+                            uint32_t w = 0;
+                            for (int a = 0; a < 3; a++)
+                                w |= ((uint32_t)(int32_t)lrintf(g[a] * q) & 0x3ffu) << (10 * a);
+                            dst[lx + VOLUX_BRICK_NODES * (ly + VOLUX_BRICK_NODES * lz)] = w;
+                        }
+            }
+    st->grad_scale = gmax > 0.0f ? gmax / (float)DVR_GRAD_MAX : 0.0f;
     return VOLUX_OK;
 }
 
@@ -123,22 +143,13 @@ static volux_status read_params(dvr_state *st, const volux_scene *scene) {
     st->skip_empty = (int)volux_technique_param(scene, st->cls, "skip_empty");
     st->t_min = (float)volux_technique_param(scene, st->cls, "early_termination");
     const char *kernel = volux_scene_param_string(scene, st->cls->name, "kernel", "auto");
-    int simd_ok = volux_dvr_simd_available() && !st->shaded;
-    if (!strcmp(kernel, "auto")) {
-        st->use_simd = simd_ok;
-    } else if (!strcmp(kernel, "scalar")) {
-        st->use_simd = 0;
-    } else if (!strcmp(kernel, "simd")) {
-        if (!simd_ok)
-            return volux_error(st->ctx, VOLUX_ERR_UNSUPPORTED, "techniques.%s.kernel: \"simd\" needs %s",
-                               st->cls->name,
-                               st->shaded ? "the ea technique (shaded has no SIMD kernel)" : "a CPU with AVX2 and FMA");
-        st->use_simd = 1;
-    } else {
+    if (!strcmp(kernel, "auto")) st->kernel = DVR_KERNEL_AUTO;
+    else if (!strcmp(kernel, "scalar")) st->kernel = DVR_KERNEL_SCALAR;
+    else if (!strcmp(kernel, "simd")) st->kernel = DVR_KERNEL_SIMD;
+    else
         return volux_error(st->ctx, VOLUX_ERR_INVALID,
                            "techniques.%s.kernel: expected \"auto\", \"scalar\" or \"simd\", got \"%s\"",
                            st->cls->name, kernel);
-    }
     if (st->shaded) {
         double lo, hi, sp[3];
         volux_volume_range(st->volume, &lo, &hi);
@@ -178,6 +189,21 @@ static volux_status build_float_tables(dvr_state *st) {
     return VOLUX_OK;
 }
 
+/* Chooses the kernel from the `kernel` parameter, the CPU and (shaded) the
+ * lights: the SIMD shading handles directional lights and the ambient term;
+ * point, spot and sphere lights keep the scalar kernel under "auto". */
+static volux_status resolve_kernel(dvr_state *st) {
+    int directional_only = 1;
+    for (int i = 0; i < st->n_lights; i++) directional_only &= st->lights[i].kind == 0;
+    int ok = volux_dvr_simd_available() && (!st->shaded || directional_only);
+    if (st->kernel == DVR_KERNEL_SIMD && !ok)
+        return volux_error(st->ctx, VOLUX_ERR_UNSUPPORTED, "techniques.%s.kernel: \"simd\" needs %s",
+                           st->cls->name,
+                           volux_dvr_simd_available() ? "directional lights only (shaded)" : "a CPU with AVX2 and FMA");
+    st->use_simd = st->kernel != DVR_KERNEL_SCALAR && ok;
+    return VOLUX_OK;
+}
+
 volux_status volux_dvr_update(void *state, volux_scene *scene, const volux_change_set *c) {
     dvr_state *st = state;
     volux_status s;
@@ -206,6 +232,8 @@ volux_status volux_dvr_update(void *state, volux_scene *scene, const volux_chang
         if ((s = read_params(st, scene))) return s;
     if (c->what & (VOLUX_CHANGE_COLOR | VOLUX_CHANGE_VOLUME)) st->material = volux_scene_transfer(scene)->material;
     if (st->shaded && (c->what & VOLUX_CHANGE_LIGHTS)) prepare_lights(st, scene);
+    if (c->what & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_LIGHTS))
+        if ((s = resolve_kernel(st))) return s;
     return VOLUX_OK;
 }
 
@@ -245,7 +273,10 @@ void volux_dvr_destroy(void *state) {
 
 /* ------------------------------------------------------------------ kernel */
 
-/* Interpolated gradient from the cache (world units). */
+/* Interpolated gradient from the bricked cache (world units); the same
+ * clamping, corner order and arithmetic as the SIMD kernel's gradient8. */
+static inline float grad_field(uint32_t w, int a) { return (float)((int32_t)(w << (22 - 10 * a)) >> 22); }
+
 static inline volux_vec3 cached_gradient(const dvr_state *st, volux_vec3 q) {
     const volux_volume *v = st->volume;
     int nx = v->dims[0], ny = v->dims[1], nz = v->dims[2];
@@ -253,15 +284,22 @@ static inline volux_vec3 cached_gradient(const dvr_state *st, volux_vec3 q) {
     if (i > nx - 2) i = nx > 1 ? nx - 2 : 0;
     if (j > ny - 2) j = ny > 1 ? ny - 2 : 0;
     if (k > nz - 2) k = nz > 1 ? nz - 2 : 0;
+    if (i < 0) i = 0;
+    if (j < 0) j = 0;
+    if (k < 0) k = 0;
     float fx = q.x - (float)i, fy = q.y - (float)j, fz = q.z - (float)k;
-    size_t sx = nx > 1 ? 3 : 0, sy = ny > 1 ? 3 * (size_t)nx : 0, sz = nz > 1 ? 3 * (size_t)nx * (size_t)ny : 0;
-    const int16_t *b = st->grad + 3 * volux_volume_index(v, i, j, k);
+    size_t brick = ((size_t)(k >> 3) * (size_t)v->brick_counts[1] + (size_t)(j >> 3)) * (size_t)v->brick_counts[0] +
+                   (size_t)(i >> 3);
+    const uint32_t *p = st->grad + brick * VOLUX_BRICK_VOXELS +
+                        (size_t)((i & 7) + VOLUX_BRICK_NODES * (j & 7) + VOLUX_BRICK_NODES * VOLUX_BRICK_NODES * (k & 7));
+    enum { SY = VOLUX_BRICK_NODES, SZ = VOLUX_BRICK_NODES * VOLUX_BRICK_NODES };
     float g[3];
     for (int a = 0; a < 3; a++) {
-        float c00 = b[a] + (b[sx + a] - b[a]) * fx;
-        float c10 = b[sy + a] + (b[sy + sx + a] - b[sy + a]) * fx;
-        float c01 = b[sz + a] + (b[sz + sx + a] - b[sz + a]) * fx;
-        float c11 = b[sz + sy + a] + (b[sz + sy + sx + a] - b[sz + sy + a]) * fx;
+        float c000 = grad_field(p[0], a), c100 = grad_field(p[1], a), c010 = grad_field(p[SY], a),
+              c110 = grad_field(p[SY + 1], a), c001 = grad_field(p[SZ], a), c101 = grad_field(p[SZ + 1], a),
+              c011 = grad_field(p[SZ + SY], a), c111 = grad_field(p[SZ + SY + 1], a);
+        float c00 = c000 + (c100 - c000) * fx, c10 = c010 + (c110 - c010) * fx;
+        float c01 = c001 + (c101 - c001) * fx, c11 = c011 + (c111 - c011) * fx;
         float c0 = c00 + (c10 - c00) * fy, c1 = c01 + (c11 - c01) * fy;
         g[a] = (c0 + (c1 - c0) * fz) * st->grad_scale;
     }

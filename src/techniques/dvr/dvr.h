@@ -5,7 +5,7 @@
  *
  * Caches and what invalidates them:
  *   majorant grid (empty-space skipping) ← volume, extinction, density
- *   gradient cache (shaded only)         ← volume
+ *   gradient cache (shaded only)         ← volume (bricked, see dvr.c)
  *   prepared lights (shaded only)        ← lights
  *   resolved camera                      ← camera, image size
  *   float pre-integration table (SIMD)   ← extinction, density, colour
@@ -24,6 +24,9 @@
 #include "volux/technique.h"
 
 #define DVR_MAX_LIGHTS 64
+#define DVR_GRAD_MAX 511 /* gradient cache: signed 10-bit fields */
+
+typedef enum dvr_kernel { DVR_KERNEL_AUTO, DVR_KERNEL_SCALAR, DVR_KERNEL_SIMD } dvr_kernel;
 
 extern const volux_technique_class volux_ea_class;
 extern const volux_technique_class volux_shaded_class;
@@ -51,10 +54,12 @@ typedef struct dvr_state {
     uint64_t seed;
     /* parameters */
     int preintegrate, skip_empty;
-    int use_simd;                  /* resolved `kernel` parameter          */
+    dvr_kernel kernel;             /* `kernel` parameter                   */
+    int use_simd;                  /* resolved: parameter, CPU, lights     */
     float t_min;                   /* early termination when T < t_min   */
     /* shading */
-    int16_t *grad;                 /* 3 per voxel, world units × grad_scale⁻¹ */
+    uint32_t *grad;                /* bricked, 10-bit x|y|z per node, world
+                                      units × grad_scale⁻¹ (dvr.c)          */
     size_t grad_bytes;
     float grad_scale;
     float grad_ref;                /* |∇s| at which shading is fully on    */
@@ -73,7 +78,8 @@ typedef struct dvr_state {
 
 /* 1 if this CPU can run the AVX2+FMA kernel (and it was compiled in). */
 int volux_dvr_simd_available(void);
-/* The SIMD kernel for one tile (`ea` only; same contract as render_tile). */
+/* The SIMD kernel for one tile (same contract as render_tile; `shaded`
+ * only with directional lights, see resolve_kernel in dvr.c). */
 void volux_dvr_render_tile_avx2(const dvr_state *st, const volux_scene *scene, const volux_tile *tile, float *rgb,
                                 volux_tile_stats *stats);
 

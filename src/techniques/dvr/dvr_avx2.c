@@ -21,7 +21,11 @@
  * Differences are float rounding (exp approximation ≤ 2 ulp, float
  * integral tables); tests/invariants/test_ea_fastpath.c bounds them.
  *
- * DOES NOT: shade (the `shaded` technique uses the scalar kernel).
+ * `shaded` runs here too when all its lights are directional: the bricked
+ * 10-bit gradient cache (dvr.c) is read at the sample's cell with 64-bit
+ * gathers, and Blinn–Phong uses vector log/exp for the specular power.
+ *
+ * DOES NOT: shade with point, spot or sphere lights (scalar kernel).
  */
 #include <math.h>
 #include <string.h>
@@ -48,6 +52,7 @@ enum { PW = 4, PH = 2 };
 typedef struct packet_rays {
     float t0[8], t1[8], jit[8];
     float q0[3][8], dq[3][8];
+    float d[3][8]; /* world direction (view direction for shading) */
 } packet_rays;
 
 /* Volume constants broadcast once per packet. */
@@ -74,7 +79,14 @@ A2I __m256 lerp(__m256 a, __m256 b, __m256 f) {
 /* Trilinear samples at index-space (x, y, z) for 8 lanes from the bricked
  * copy; same clamping and arithmetic as volux_volume_sample_bricked. Every
  * lane gets a valid address (indices are clamped), so no masks are needed. */
-A2I __m256 sample8(const vol_consts *vc, __m256 x, __m256 y, __m256 z, volux_storage storage) {
+/* Where a sample fell: brick offset of its cell's low corner and the
+ * fractions, for the bricked gradient cache (same layout). */
+typedef struct cell8 {
+    __m256i b;
+    __m256 fx, fy, fz;
+} cell8;
+
+A2I __m256 sample8(const vol_consts *vc, __m256 x, __m256 y, __m256 z, volux_storage storage, cell8 *cell) {
     const __m256i zero = _mm256_setzero_si256(), seven = _mm256_set1_epi32(7);
     __m256i i = _mm256_max_epi32(_mm256_min_epi32(_mm256_cvttps_epi32(x), vc->imax[0]), zero);
     __m256i j = _mm256_max_epi32(_mm256_min_epi32(_mm256_cvttps_epi32(y), vc->imax[1]), zero);
@@ -91,6 +103,7 @@ A2I __m256 sample8(const vol_consts *vc, __m256 x, __m256 y, __m256 z, volux_sto
     __m256i local = _mm256_add_epi32(_mm256_and_si256(i, seven),
                                      _mm256_madd_epi16(jk, _mm256_set1_epi32((81 << 16) | 9)));
     __m256i b = _mm256_add_epi32(brick, local);
+    if (cell) cell->b = b, cell->fx = fx, cell->fy = fy, cell->fz = fz;
     enum { SY = VOLUX_BRICK_NODES, SZ = VOLUX_BRICK_NODES * VOLUX_BRICK_NODES };
     __m256 c000, c100, c010, c110, c001, c101, c011, c111;
     if (storage == VOLUX_STORE_U8 || storage == VOLUX_STORE_U16) {
@@ -269,6 +282,114 @@ A2I __m256 check_cells(const skip8 *sk, const __m256 q0[3], const __m256 dq[3], 
     return empty;
 }
 
+/* ln x for x > 0 (Cephes logf: mantissa in [√½, √2), degree-8
+ * polynomial); ≤ 2 ulp from libm. With DAZ, denormal x reads as 0: callers
+ * mask x ≤ 0. */
+A2I __m256 log_pos(__m256 x) {
+    __m256i xi = _mm256_castps_si256(x);
+    __m256 e = _mm256_cvtepi32_ps(_mm256_sub_epi32(_mm256_srli_epi32(xi, 23), _mm256_set1_epi32(126)));
+    __m256 m = _mm256_castsi256_ps(
+        _mm256_or_si256(_mm256_and_si256(xi, _mm256_set1_epi32(0x807fffff)), _mm256_set1_epi32(0x3f000000)));
+    __m256 small = _mm256_cmp_ps(m, _mm256_set1_ps(0.707106781186547524f), _CMP_LT_OQ);
+    e = _mm256_sub_ps(e, _mm256_and_ps(small, _mm256_set1_ps(1.0f)));
+    __m256 t = _mm256_sub_ps(_mm256_add_ps(m, _mm256_and_ps(small, m)), _mm256_set1_ps(1.0f));
+    __m256 z = _mm256_mul_ps(t, t);
+    __m256 y = _mm256_set1_ps(7.0376836292e-2f);
+    y = _mm256_fmadd_ps(y, t, _mm256_set1_ps(-1.1514610310e-1f));
+    y = _mm256_fmadd_ps(y, t, _mm256_set1_ps(1.1676998740e-1f));
+    y = _mm256_fmadd_ps(y, t, _mm256_set1_ps(-1.2420140846e-1f));
+    y = _mm256_fmadd_ps(y, t, _mm256_set1_ps(1.4249322787e-1f));
+    y = _mm256_fmadd_ps(y, t, _mm256_set1_ps(-1.6668057665e-1f));
+    y = _mm256_fmadd_ps(y, t, _mm256_set1_ps(2.0000714765e-1f));
+    y = _mm256_fmadd_ps(y, t, _mm256_set1_ps(-2.4999993993e-1f));
+    y = _mm256_fmadd_ps(y, t, _mm256_set1_ps(3.3333331174e-1f));
+    y = _mm256_mul_ps(_mm256_mul_ps(y, t), z);
+    y = _mm256_fmadd_ps(e, _mm256_set1_ps(-2.12194440e-4f), y);
+    y = _mm256_fnmadd_ps(z, _mm256_set1_ps(0.5f), y);
+    return _mm256_fmadd_ps(e, _mm256_set1_ps(0.693359375f), _mm256_add_ps(t, y));
+}
+
+/* Interpolated gradient (world units) from the bricked 10-bit cache at the
+ * sample's cell: each corner pair (x, x+1) is one 64-bit gather, 4 rows;
+ * the same corner order and arithmetic as cached_gradient in dvr.c. */
+A2I void gradient8(const dvr_state *st, const cell8 *cell, __m256 g[3]) {
+    enum { SY = VOLUX_BRICK_NODES, SZ = VOLUX_BRICK_NODES * VOLUX_BRICK_NODES };
+    static const int rows[4] = {0, SY, SZ, SZ + SY};
+    __m128i b_lo = _mm256_castsi256_si128(cell->b), b_hi = _mm256_extracti128_si256(cell->b, 1);
+    __m256i w0[4], w1[4]; /* node x and x+1 of each row, lanes 0..7 */
+    for (int r = 0; r < 4; r++) {
+        const long long *base = (const long long *)(const void *)(st->grad + rows[r]);
+        __m256 lo = _mm256_castsi256_ps(_mm256_i32gather_epi64(base, b_lo, 4));
+        __m256 hi = _mm256_castsi256_ps(_mm256_i32gather_epi64(base, b_hi, 4));
+        /* even dwords are node x, odd ones node x+1; the shuffle leaves the
+         * lanes in order 0 1 4 5 2 3 6 7, the permute restores it */
+        w0[r] = _mm256_permute4x64_epi64(_mm256_castps_si256(_mm256_shuffle_ps(lo, hi, 0x88)), 0xD8);
+        w1[r] = _mm256_permute4x64_epi64(_mm256_castps_si256(_mm256_shuffle_ps(lo, hi, 0xDD)), 0xD8);
+    }
+    const __m256 scale = _mm256_set1_ps(st->grad_scale);
+    for (int a = 0; a < 3; a++) {
+        const int up = 22 - 10 * a;
+#define VOLUX_FIELD_(w) _mm256_cvtepi32_ps(_mm256_srai_epi32(_mm256_slli_epi32(w, up), 22))
+        __m256 c00 = lerp(VOLUX_FIELD_(w0[0]), VOLUX_FIELD_(w1[0]), cell->fx);
+        __m256 c10 = lerp(VOLUX_FIELD_(w0[1]), VOLUX_FIELD_(w1[1]), cell->fx);
+        __m256 c01 = lerp(VOLUX_FIELD_(w0[2]), VOLUX_FIELD_(w1[2]), cell->fx);
+        __m256 c11 = lerp(VOLUX_FIELD_(w0[3]), VOLUX_FIELD_(w1[3]), cell->fx);
+#undef VOLUX_FIELD_
+        __m256 c0 = lerp(c00, c10, cell->fy), c1 = lerp(c01, c11, cell->fy);
+        g[a] = _mm256_mul_ps(lerp(c0, c1, cell->fz), scale);
+    }
+}
+
+A2I __m256 dot3(const __m256 a[3], const __m256 b[3]) {
+    return _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(a[0], b[0]), _mm256_mul_ps(a[1], b[1])), _mm256_mul_ps(a[2], b[2]));
+}
+
+/* Blinn–Phong for directional lights, as shade() in dvr.c: normal flipped
+ * towards the viewer, faded by gradient magnitude; c: colour in/out. */
+A2I void shade8(const dvr_state *st, const __m256 g[3], const __m256 view[3], __m256 c[3]) {
+    const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f), sign = _mm256_set1_ps(-0.0f);
+    const volux_material *mat = &st->material;
+    __m256 gl = _mm256_sqrt_ps(dot3(g, g));
+    __m256 m = st->grad_ref > 0.0f ? _mm256_div_ps(gl, _mm256_set1_ps(st->grad_ref)) : one;
+    __m256 on = _mm256_cmp_ps(m, zero, _CMP_GT_OQ);
+    if (!_mm256_movemask_ps(on)) return;
+    m = _mm256_min_ps(m, one);
+    __m256 inv = _mm256_div_ps(one, gl), n[3];
+    for (int a = 0; a < 3; a++) n[a] = _mm256_mul_ps(g[a], inv);
+    __m256 flip = _mm256_and_ps(_mm256_cmp_ps(dot3(n, view), zero, _CMP_GT_OQ), sign);
+    for (int a = 0; a < 3; a++) n[a] = _mm256_xor_ps(n[a], flip);
+    const float amb[3] = {st->ambient.x, st->ambient.y, st->ambient.z};
+    __m256 diff[3], spec[3] = {zero, zero, zero};
+    for (int a = 0; a < 3; a++) diff[a] = _mm256_set1_ps(amb[a] * mat->ambient);
+    for (int i = 0; i < st->n_lights; i++) {
+        const dvr_light *l = &st->lights[i];
+        const __m256 L[3] = {_mm256_set1_ps(l->dir_to.x), _mm256_set1_ps(l->dir_to.y), _mm256_set1_ps(l->dir_to.z)};
+        const float E[3] = {l->power.x, l->power.y, l->power.z};
+        __m256 ndl = dot3(n, L);
+        __m256 lit = _mm256_cmp_ps(ndl, zero, _CMP_GT_OQ);
+        __m256 kd = _mm256_and_ps(_mm256_mul_ps(_mm256_set1_ps(mat->diffuse), ndl), lit);
+        __m256 hv[3];
+        for (int a = 0; a < 3; a++) hv[a] = _mm256_sub_ps(L[a], view[a]);
+        __m256 hl = _mm256_sqrt_ps(dot3(hv, hv));
+        __m256 hinv = _mm256_div_ps(one, hl), hn[3];
+        __m256 hpos = _mm256_cmp_ps(hl, zero, _CMP_GT_OQ);
+        for (int a = 0; a < 3; a++) hn[a] = _mm256_blendv_ps(hv[a], _mm256_mul_ps(hv[a], hinv), hpos);
+        __m256 ndh = dot3(n, hn);
+        __m256 sp = _mm256_and_ps(lit, _mm256_cmp_ps(ndh, zero, _CMP_GT_OQ));
+        __m256 pw = exp_nonpos(_mm256_mul_ps(_mm256_set1_ps(mat->specular_power),
+                                             log_pos(_mm256_blendv_ps(one, ndh, sp))));
+        __m256 ks = _mm256_and_ps(_mm256_mul_ps(_mm256_set1_ps(mat->specular), pw), sp);
+        for (int a = 0; a < 3; a++) {
+            diff[a] = _mm256_add_ps(diff[a], _mm256_mul_ps(_mm256_set1_ps(E[a]), kd));
+            spec[a] = _mm256_add_ps(spec[a], _mm256_mul_ps(_mm256_set1_ps(E[a]), ks));
+        }
+    }
+    for (int a = 0; a < 3; a++) {
+        __m256 lit_c = _mm256_add_ps(_mm256_mul_ps(c[a], diff[a]), spec[a]);
+        c[a] = _mm256_blendv_ps(c[a], _mm256_add_ps(c[a], _mm256_mul_ps(_mm256_sub_ps(lit_c, c[a]), m)), on);
+    }
+}
+
 /* Marches NP packets together. out: colour and transmittance per lane.
  *
  * Why NP = 4 packets in one loop: one sample is a ~200-cycle dependency
@@ -295,7 +416,7 @@ A2I __m256 check_cells(const skip8 *sk, const __m256 q0[3], const __m256 dq[3], 
 enum { NP = 4 };
 
 typedef struct packet_state {
-    __m256 t0, t1, jit, q0[3], dq[3];
+    __m256 t0, t1, jit, q0[3], dq[3], d[3];
     __m256 active, kf, T, C[3], t_check, need_prev;
     __m256 u_p, f_p, P_p[4], D_p[4]; /* previous segment end (pre-integration) */
     __m256i i_p;
@@ -307,14 +428,14 @@ A2I __m256 seg_start(const packet_state *ps, __m256 kf, __m256 h) {
     return _mm256_max_ps(ps->t0, _mm256_add_ps(ps->t0, _mm256_mul_ps(_mm256_add_ps(_mm256_sub_ps(kf, _mm256_set1_ps(1.0f)), ps->jit), h)));
 }
 
-A2I __m256 sample_at_t(const vol_consts *vc, const packet_state *ps, __m256 t, volux_storage storage) {
+A2I __m256 sample_at_t(const vol_consts *vc, const packet_state *ps, __m256 t, volux_storage storage, cell8 *cell) {
     return sample8(vc, _mm256_add_ps(ps->q0[0], _mm256_mul_ps(ps->dq[0], t)),
                    _mm256_add_ps(ps->q0[1], _mm256_mul_ps(ps->dq[1], t)),
-                   _mm256_add_ps(ps->q0[2], _mm256_mul_ps(ps->dq[2], t)), storage);
+                   _mm256_add_ps(ps->q0[2], _mm256_mul_ps(ps->dq[2], t)), storage, cell);
 }
 
 A2I void march_packets(const dvr_state *st, const packet_rays pr[NP], const int lanes[NP], __m256 C[NP][3],
-                       __m256 T_out[NP], uint64_t *samples, int preint, volux_storage storage) {
+                       __m256 T_out[NP], uint64_t *samples, int shaded, int preint, volux_storage storage) {
     const volux_transfer_lut *lut = st->lut;
     vol_consts vc;
     vol_consts_init(&vc, st->volume);
@@ -331,7 +452,10 @@ A2I void march_packets(const dvr_state *st, const packet_rays pr[NP], const int 
         ps->t0 = _mm256_loadu_ps(pr[p].t0);
         ps->t1 = _mm256_loadu_ps(pr[p].t1);
         ps->jit = _mm256_loadu_ps(pr[p].jit);
-        for (int a = 0; a < 3; a++) ps->q0[a] = _mm256_loadu_ps(pr[p].q0[a]), ps->dq[a] = _mm256_loadu_ps(pr[p].dq[a]);
+        for (int a = 0; a < 3; a++) {
+            ps->q0[a] = _mm256_loadu_ps(pr[p].q0[a]), ps->dq[a] = _mm256_loadu_ps(pr[p].dq[a]);
+            ps->d[a] = _mm256_loadu_ps(pr[p].d[a]);
+        }
         ps->active = _mm256_castsi256_ps(
             _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(lanes[p]), lane_bits), lane_bits));
         ps->active = _mm256_and_ps(ps->active, _mm256_cmp_ps(ps->t0, ps->t1, _CMP_LT_OQ));
@@ -375,6 +499,7 @@ A2I void march_packets(const dvr_state *st, const packet_rays pr[NP], const int 
     uint64_t count = 0;
     for (;;) {
         __m256 a[NP], b[NP], len[NP], seg[NP], kf_next[NP], jump[NP], s[NP] = {zero, zero, zero, zero};
+        cell8 cells[NP];
         int seg_bits[NP], any = 0;
         /* Phase 1: segment bounds, activity, the pipelined skip check. */
         for (int p = 0; p < NP; p++) {
@@ -409,14 +534,14 @@ A2I void march_packets(const dvr_state *st, const packet_rays pr[NP], const int 
                 packet_state *ps = &P[p];
                 int np = _mm256_movemask_ps(_mm256_and_ps(seg[p], ps->need_prev));
                 if (!np) continue;
-                lut_coord8(lut, sample_at_t(&vc, ps, a[p], storage), &ps->u_p, &ps->i_p, &ps->f_p);
+                lut_coord8(lut, sample_at_t(&vc, ps, a[p], storage, NULL), &ps->u_p, &ps->i_p, &ps->f_p);
                 pre_record8(st->pre_f, ps->i_p, ps->P_p, ps->D_p);
                 count += (uint64_t)__builtin_popcount((unsigned)np);
             }
         /* Phase 3: the samples at the segment ends. */
         for (int p = 0; p < NP; p++)
             if (seg_bits[p]) {
-                s[p] = sample_at_t(&vc, &P[p], b[p], storage);
+                s[p] = sample_at_t(&vc, &P[p], b[p], storage, shaded ? &cells[p] : NULL);
                 count += (uint64_t)__builtin_popcount((unsigned)seg_bits[p]);
             }
         /* Phase 4: classification, pre-integration and compositing. */
@@ -464,9 +589,15 @@ A2I void march_packets(const dvr_state *st, const packet_rays pr[NP], const int 
                     cb = lerp(o[2], o[6], f);
                     tau = _mm256_mul_ps(lerp(o[3], o[7], f), len[p]);
                 }
+                __m256 lit = _mm256_and_ps(seg[p], _mm256_cmp_ps(tau, zero, _CMP_GT_OQ));
+                if (shaded && _mm256_movemask_ps(lit)) {
+                    __m256 g[3], c3[3] = {cr, cg, cb};
+                    gradient8(st, &cells[p], g);
+                    shade8(st, g, ps->d, c3);
+                    cr = c3[0], cg = c3[1], cb = c3[2];
+                }
                 __m256 alpha = _mm256_sub_ps(one, exp_nonpos(_mm256_xor_ps(tau, sign)));
-                __m256 w = _mm256_and_ps(_mm256_mul_ps(ps->T, alpha),
-                                         _mm256_and_ps(seg[p], _mm256_cmp_ps(tau, zero, _CMP_GT_OQ)));
+                __m256 w = _mm256_and_ps(_mm256_mul_ps(ps->T, alpha), lit);
                 ps->C[0] = _mm256_add_ps(ps->C[0], _mm256_mul_ps(w, cr));
                 ps->C[1] = _mm256_add_ps(ps->C[1], _mm256_mul_ps(w, cg));
                 ps->C[2] = _mm256_add_ps(ps->C[2], _mm256_mul_ps(w, cb));
@@ -521,13 +652,14 @@ static A2 int setup_packet(const dvr_state *st, const volux_scene *scene, const 
         pr->jit[l] = jitter;
         pr->q0[0][l] = ray.q0.x, pr->q0[1][l] = ray.q0.y, pr->q0[2][l] = ray.q0.z;
         pr->dq[0][l] = ray.dq.x, pr->dq[1][l] = ray.dq.y, pr->dq[2][l] = ray.dq.z;
+        pr->d[0][l] = d.x, pr->d[1][l] = d.y, pr->d[2][l] = d.z;
         lanes |= 1 << l;
     }
     return lanes;
 }
 
 A2I void render_tile_impl(const dvr_state *st, const volux_scene *scene, const volux_tile *tile, float *rgb,
-                          volux_tile_stats *stats, int preint, volux_storage storage) {
+                          volux_tile_stats *stats, int shaded, int preint, volux_storage storage) {
     uint64_t samples = 0;
     /* NP packets stacked vertically: a PW × (NP·PH) = 4×8 pixel block */
     for (int y0 = 0; y0 < tile->h; y0 += NP * PH)
@@ -538,7 +670,7 @@ A2I void render_tile_impl(const dvr_state *st, const volux_scene *scene, const v
             for (int p = 0; p < NP; p++) any |= lanes[p] = setup_packet(st, scene, tile, x0, y0 + p * PH, rgb, &pr[p], bg[p]);
             if (!any) continue;
             __m256 C[NP][3], T[NP];
-            march_packets(st, pr, lanes, C, T, &samples, preint, storage);
+            march_packets(st, pr, lanes, C, T, &samples, shaded, preint, storage);
             for (int p = 0; p < NP; p++) {
                 float c[3][8], t[8];
                 for (int a = 0; a < 3; a++) _mm256_storeu_ps(c[a], C[p][a]);
@@ -556,33 +688,41 @@ A2I void render_tile_impl(const dvr_state *st, const volux_scene *scene, const v
     stats->samples += samples;
 }
 
-#define VOLUX_INSTANCE_(NAME, PRE, STORE)                                                                             \
+#define VOLUX_INSTANCE_(NAME, SH, PRE, STORE)                                                                         \
     static A2 __attribute__((noinline)) void NAME(const dvr_state *st, const volux_scene *scene,                      \
                                                   const volux_tile *tile, float *rgb, volux_tile_stats *stats) {      \
-        render_tile_impl(st, scene, tile, rgb, stats, PRE, STORE);                                                    \
+        render_tile_impl(st, scene, tile, rgb, stats, SH, PRE, STORE);                                                \
     }
-VOLUX_INSTANCE_(tile_u8_pre, 1, VOLUX_STORE_U8)
-VOLUX_INSTANCE_(tile_u8, 0, VOLUX_STORE_U8)
-VOLUX_INSTANCE_(tile_u16_pre, 1, VOLUX_STORE_U16)
-VOLUX_INSTANCE_(tile_u16, 0, VOLUX_STORE_U16)
-VOLUX_INSTANCE_(tile_f32_pre, 1, VOLUX_STORE_F32)
-VOLUX_INSTANCE_(tile_f32, 0, VOLUX_STORE_F32)
+VOLUX_INSTANCE_(ea_u8_pre, 0, 1, VOLUX_STORE_U8)
+VOLUX_INSTANCE_(ea_u8, 0, 0, VOLUX_STORE_U8)
+VOLUX_INSTANCE_(ea_u16_pre, 0, 1, VOLUX_STORE_U16)
+VOLUX_INSTANCE_(ea_u16, 0, 0, VOLUX_STORE_U16)
+VOLUX_INSTANCE_(ea_f32_pre, 0, 1, VOLUX_STORE_F32)
+VOLUX_INSTANCE_(ea_f32, 0, 0, VOLUX_STORE_F32)
+VOLUX_INSTANCE_(sh_u8_pre, 1, 1, VOLUX_STORE_U8)
+VOLUX_INSTANCE_(sh_u8, 1, 0, VOLUX_STORE_U8)
+VOLUX_INSTANCE_(sh_u16_pre, 1, 1, VOLUX_STORE_U16)
+VOLUX_INSTANCE_(sh_u16, 1, 0, VOLUX_STORE_U16)
+VOLUX_INSTANCE_(sh_f32_pre, 1, 1, VOLUX_STORE_F32)
+VOLUX_INSTANCE_(sh_f32, 1, 0, VOLUX_STORE_F32)
 #undef VOLUX_INSTANCE_
+
+typedef void (*tile_fn)(const dvr_state *, const volux_scene *, const volux_tile *, float *, volux_tile_stats *);
 
 A2 void volux_dvr_render_tile_avx2(const dvr_state *st, const volux_scene *scene, const volux_tile *tile, float *rgb,
                                    volux_tile_stats *stats) {
+    static const tile_fn table[2][2][3] = {
+        {{ea_u8, ea_u16, ea_f32}, {ea_u8_pre, ea_u16_pre, ea_f32_pre}},
+        {{sh_u8, sh_u16, sh_f32}, {sh_u8_pre, sh_u16_pre, sh_f32_pre}},
+    };
+    int storage = st->volume->storage == VOLUX_STORE_U8 ? 0 : st->volume->storage == VOLUX_STORE_U16 ? 1 : 2;
     /* Flush denormals to zero while this worker renders: transmittance
      * products underflow on long opaque rays, and denormal arithmetic costs
      * ~100 cycles per operation. Restored before returning, so the caller's
      * floating-point environment is unchanged. */
     unsigned int csr = _mm_getcsr();
     _mm_setcsr(csr | 0x8040u); /* FTZ | DAZ */
-    int pre = st->preintegrate;
-    switch (st->volume->storage) {
-    case VOLUX_STORE_U8: (pre ? tile_u8_pre : tile_u8)(st, scene, tile, rgb, stats); break;
-    case VOLUX_STORE_U16: (pre ? tile_u16_pre : tile_u16)(st, scene, tile, rgb, stats); break;
-    default: (pre ? tile_f32_pre : tile_f32)(st, scene, tile, rgb, stats); break;
-    }
+    table[st->shaded ? 1 : 0][st->preintegrate ? 1 : 0][storage](st, scene, tile, rgb, stats);
     _mm_setcsr(csr);
 }
 
