@@ -5,6 +5,7 @@
  *
  * Caches and what invalidates them:
  *   majorant grid (empty-space skipping) ← volume, extinction, density
+ *   skip distances (SIMD skipping)       ← with the majorant grid
  *   gradient cache (shaded only)         ← volume (bricked, see dvr.c)
  *   prepared lights (shaded only)        ← lights
  *   resolved camera                      ← camera, image size
@@ -74,6 +75,10 @@ typedef struct dvr_state {
      * dvr_avx2.c). 32 bytes: one unaligned 256-bit load per lane. */
     float *pre_f;
     size_t pre_bytes;
+    /* Signed chessboard distance per macrocell to the nearest cell of the
+     * other kind (empty > 0, non-empty < 0); see build_skip_distance. */
+    int32_t *skip_dist;
+    size_t skip_bytes;
 } dvr_state;
 
 /* 1 if this CPU can run the AVX2+FMA kernel (and it was compiled in). */

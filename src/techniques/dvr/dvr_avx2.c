@@ -217,69 +217,49 @@ A2I void pre_record8(const float *pre_f, __m256i i, __m256 P[4], __m256 D[4]) {
 
 /* Skipping state and constants of one packet. */
 typedef struct skip8 {
-    const float *sigma_max;
+    const int *dist;     /* dvr_state.skip_dist                         */
     __m256i cells_max[3], ncx, ncy;
-    __m256i up[3];       /* 1 where the ray moves up the axis           */
-    __m256i step[3];     /* +1 / −1: the DDA step along each axis         */
+    __m256i up[3];       /* all ones where the ray moves up the axis    */
     __m256 inv_dq[3];    /* 1/dq (inf where dq = 0, masked below)        */
     __m256 flat[3];      /* dq == 0                                      */
 } skip8;
 
-/* Empty-space check at world t for the lanes in `need`: walks the
- * macrocells along the ray from the one holding q(t) (a 3-D DDA, Amanatides
- * & Woo 1987) while they are empty (majorant 0), at most 1 + MAX_RUN cells.
- * Returns the lanes that start in an empty cell; *t_exit is the exit of the
- * last empty cell of the run for those, else of the cell at t; *m is the
- * last segment index whose start is ≤ *t_exit (with a margin of 10⁻³ h, so
- * rounding never skips into a non-empty cell). Ties between axes step all
- * tied axes: the ray touches the skipped neighbours in a single point. */
-enum { MAX_RUN = 6 };
+/* Empty-space check at world t for the lanes in `need`. One lookup of the
+ * signed skip distance d of the macrocell holding q(t) (dvr.c,
+ * build_skip_distance) gives a cube of r = |d| − 1 rings of cells around
+ * it that are all empty (d > 0) or all non-empty (d < 0); *t_exit is where
+ * the ray leaves that cube. Returns the lanes in an empty cube, which may
+ * skip to *m, the last segment index whose start is ≤ *t_exit (with a
+ * margin of 10⁻³ h, so rounding never skips into a non-empty cell); lanes
+ * in a non-empty cube need not check again before *t_exit. */
 A2I __m256 check_cells(const skip8 *sk, const __m256 q0[3], const __m256 dq[3], __m256 t0, __m256 jit, __m256 inv_h,
                        __m256 t, __m256 need, __m256 *t_exit, __m256 *m) {
-    const __m256i zero_i = _mm256_setzero_si256();
-    __m256 q[3], t_axis[3];
+    const __m256i zero_i = _mm256_setzero_si256(), one_i = _mm256_set1_epi32(1);
+    __m256 q[3];
     __m256i c[3];
     for (int ax = 0; ax < 3; ax++) {
         q[ax] = _mm256_add_ps(q0[ax], _mm256_mul_ps(dq[ax], t));
         c[ax] = _mm256_cvttps_epi32(_mm256_mul_ps(q[ax], _mm256_set1_ps(1.0f / VOLUX_CELL_SIZE)));
         c[ax] = _mm256_max_epi32(_mm256_min_epi32(c[ax], sk->cells_max[ax]), zero_i);
     }
-    __m256 empty = _mm256_setzero_ps(), run = need, exit_t = _mm256_setzero_ps();
-    for (int n = 0; n <= MAX_RUN; n++) {
-        __m256 tmin = _mm256_set1_ps(INFINITY);
-        for (int ax = 0; ax < 3; ax++) {
-            __m256 bound = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_add_epi32(c[ax], sk->up[ax])),
-                                         _mm256_set1_ps((float)VOLUX_CELL_SIZE));
-            t_axis[ax] = _mm256_mul_ps(_mm256_sub_ps(bound, q[ax]), sk->inv_dq[ax]);
-            t_axis[ax] = _mm256_blendv_ps(t_axis[ax], _mm256_set1_ps(INFINITY), sk->flat[ax]);
-            tmin = _mm256_min_ps(tmin, t_axis[ax]);
-        }
-        __m256i cell = _mm256_add_epi32(
-            _mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(c[2], sk->ncy), c[1]), sk->ncx), c[0]);
-        __m256 sig = _mm256_mask_i32gather_ps(_mm256_setzero_ps(), sk->sigma_max, cell, run, 4);
-        __m256 cell_exit = _mm256_add_ps(t, tmin);
-        if (n == 0) exit_t = cell_exit; /* the cell at t, empty or not */
-        run = _mm256_and_ps(run, _mm256_cmp_ps(sig, _mm256_setzero_ps(), _CMP_LE_OQ));
-        if (n == 0) empty = run;
-        else exit_t = _mm256_blendv_ps(exit_t, cell_exit, run);
-        if (!_mm256_movemask_ps(run) || n == MAX_RUN) break;
-        /* step into the next cell; lanes leaving the grid have left the box */
-        __m256i inside = _mm256_set1_epi32(-1);
-        for (int ax = 0; ax < 3; ax++) {
-            __m256i stepping = _mm256_castps_si256(_mm256_and_ps(run, _mm256_cmp_ps(t_axis[ax], tmin, _CMP_EQ_OQ)));
-            c[ax] = _mm256_add_epi32(c[ax], _mm256_and_si256(stepping, sk->step[ax]));
-            inside = _mm256_andnot_si256(_mm256_or_si256(_mm256_cmpgt_epi32(zero_i, c[ax]),
-                                                         _mm256_cmpgt_epi32(c[ax], sk->cells_max[ax])),
-                                         inside);
-            c[ax] = _mm256_max_epi32(_mm256_min_epi32(c[ax], sk->cells_max[ax]), zero_i);
-        }
-        run = _mm256_and_ps(run, _mm256_castsi256_ps(inside));
+    __m256i cell =
+        _mm256_add_epi32(_mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(c[2], sk->ncy), c[1]), sk->ncx), c[0]);
+    __m256i d = _mm256_mask_i32gather_epi32(zero_i, sk->dist, cell, _mm256_castps_si256(need), 4);
+    __m256i r = _mm256_max_epi32(_mm256_sub_epi32(_mm256_abs_epi32(d), one_i), zero_i);
+    __m256 tmin = _mm256_set1_ps(INFINITY);
+    for (int ax = 0; ax < 3; ax++) {
+        /* the cube's far face along the ray: cell c + r + 1 going up, c − r going down */
+        __m256i face = _mm256_blendv_epi8(_mm256_sub_epi32(c[ax], r), _mm256_add_epi32(_mm256_add_epi32(c[ax], r), one_i),
+                                          sk->up[ax]);
+        __m256 bound = _mm256_mul_ps(_mm256_cvtepi32_ps(face), _mm256_set1_ps((float)VOLUX_CELL_SIZE));
+        __m256 ta = _mm256_mul_ps(_mm256_sub_ps(bound, q[ax]), sk->inv_dq[ax]);
+        tmin = _mm256_min_ps(tmin, _mm256_blendv_ps(ta, _mm256_set1_ps(INFINITY), sk->flat[ax]));
     }
-    *t_exit = exit_t;
-    *m = _mm256_add_ps(_mm256_floor_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_sub_ps(exit_t, t0), inv_h),
+    *t_exit = _mm256_add_ps(t, tmin);
+    *m = _mm256_add_ps(_mm256_floor_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_sub_ps(*t_exit, t0), inv_h),
                                                      _mm256_add_ps(jit, _mm256_set1_ps(1e-3f)))),
                        _mm256_set1_ps(1.0f));
-    return empty;
+    return _mm256_and_ps(need, _mm256_castsi256_ps(_mm256_cmpgt_epi32(d, zero_i)));
 }
 
 /* ln x for x > 0 (Cephes logf: mantissa in [√½, √2), degree-8
@@ -469,26 +449,24 @@ A2I void march_packets(const dvr_state *st, const packet_rays pr[NP], const int 
         if (skip) {
             const volux_majorant_grid *g = &st->grid;
             skip8 *sk = &ps->sk;
-            sk->sigma_max = g->sigma_max;
+            sk->dist = st->skip_dist;
             for (int a = 0; a < 3; a++) {
                 sk->cells_max[a] = _mm256_set1_epi32(g->cells[a] - 1);
-                sk->up[a] = _mm256_and_si256(_mm256_castps_si256(_mm256_cmp_ps(ps->dq[a], zero, _CMP_GT_OQ)),
-                                             _mm256_set1_epi32(1));
-                sk->step[a] = _mm256_sub_epi32(_mm256_add_epi32(sk->up[a], sk->up[a]), _mm256_set1_epi32(1));
+                sk->up[a] = _mm256_castps_si256(_mm256_cmp_ps(ps->dq[a], zero, _CMP_GT_OQ));
                 sk->flat[a] = _mm256_cmp_ps(ps->dq[a], zero, _CMP_EQ_OQ);
                 sk->inv_dq[a] = _mm256_div_ps(one, ps->dq[a]);
             }
             sk->ncx = _mm256_set1_epi32(g->cells[0]);
             sk->ncy = _mm256_set1_epi32(g->cells[1]);
             /* Empty-space skipping. A lane whose next segment start has
-             * left the last macrocell it checked (t ≥ t_check) looks up the
-             * cell there. Empty (majorant 0): it jumps to the last segment
-             * m that starts inside that run of empty cells (m may reach
-             * into the next cell, so it is still evaluated) and re-samples
-             * its start. Otherwise it remembers the cell's exit. A lane
-             * checks once per cell, and the check for segment k+1 is issued
-             * while segment k is sampled, so the gather's latency is
-             * hidden. This is the check of segment 0. */
+             * left the cube of cells it last checked (t ≥ t_check) looks up
+             * the skip distance there. In an empty cube it jumps to the last
+             * segment m that starts inside it (m may reach into the next
+             * cell, so it is still evaluated) and re-samples its start; in a
+             * non-empty cube it marches on unchecked until the cube's exit.
+             * The check for segment k+1 is issued while segment k is
+             * sampled, so the gather's latency is hidden. This is the check
+             * of segment 0. */
             __m256 t_exit, m;
             __m256 empty = check_cells(sk, ps->q0, ps->dq, ps->t0, ps->jit, inv_h, ps->t0, ps->active, &t_exit, &m);
             __m256 jump = _mm256_and_ps(empty, _mm256_cmp_ps(m, ps->kf, _CMP_GT_OQ));
