@@ -397,7 +397,7 @@ enum { NP = 4 };
 
 typedef struct packet_state {
     __m256 t0, t1, jit, q0[3], dq[3], d[3];
-    __m256 active, kf, T, C[3], t_check, need_prev;
+    __m256 active, kf, T, C[3], t_check, need_prev, warm;
     __m256 u_p, f_p, P_p[4], D_p[4]; /* previous segment end (pre-integration) */
     __m256i i_p;
     skip8 sk;
@@ -443,6 +443,7 @@ A2I void march_packets(const dvr_state *st, const packet_rays pr[NP], const int 
         ps->C[0] = ps->C[1] = ps->C[2] = zero;
         ps->t_check = _mm256_set1_ps(skip ? -INFINITY : INFINITY);
         ps->need_prev = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
+        ps->warm = zero;
         ps->u_p = ps->f_p = zero;
         for (int c = 0; c < 4; c++) ps->P_p[c] = ps->D_p[c] = zero;
         ps->i_p = _mm256_setzero_si256();
@@ -496,6 +497,13 @@ A2I void march_packets(const dvr_state *st, const packet_rays pr[NP], const int 
                 if (_mm256_movemask_ps(need)) {
                     __m256 t_exit, m;
                     __m256 empty = check_cells(&ps->sk, ps->q0, ps->dq, ps->t0, ps->jit, inv_h, b[p], need, &t_exit, &m);
+                    /* With pre-integration the lane lands one segment early,
+                     * on m − 1 (inside the empty cube, contribution 0), and
+                     * spends that iteration "warm": it samples the end of
+                     * m − 1 = the start of m and composites nothing. Cheaper
+                     * than an extra sampling pass for the whole packet
+                     * whenever one lane jumps. */
+                    if (preint) m = _mm256_sub_ps(m, one);
                     jump[p] = _mm256_and_ps(empty, _mm256_cmp_ps(m, kf_next[p], _CMP_GT_OQ));
                     kf_next[p] = _mm256_blendv_ps(kf_next[p], m, jump[p]);
                     ps->t_check = _mm256_blendv_ps(ps->t_check, t_exit, need);
@@ -503,10 +511,10 @@ A2I void march_packets(const dvr_state *st, const packet_rays pr[NP], const int 
             }
         }
         if (!any) break;
-        /* Phase 2: segment starts that must be re-sampled (pre-integration:
-         * the first segment and the first after a skip). Every lane of the
-         * packet re-samples: for lanes that did not need it this is the
-         * previous end at the same t, i.e. the identical value. */
+        /* Phase 2: segment starts that must be sampled first (pre-integration:
+         * the first segment, and after the first check at t0). Every lane
+         * of the packet re-samples: for lanes that did not need it this is
+         * the previous end at the same t, i.e. the identical value. */
         if (preint)
             for (int p = 0; p < NP; p++) {
                 packet_state *ps = &P[p];
@@ -567,7 +575,7 @@ A2I void march_packets(const dvr_state *st, const packet_rays pr[NP], const int 
                     cb = lerp(o[2], o[6], f);
                     tau = _mm256_mul_ps(lerp(o[3], o[7], f), len[p]);
                 }
-                __m256 lit = _mm256_and_ps(seg[p], _mm256_cmp_ps(tau, zero, _CMP_GT_OQ));
+                __m256 lit = _mm256_andnot_ps(ps->warm, _mm256_and_ps(seg[p], _mm256_cmp_ps(tau, zero, _CMP_GT_OQ)));
                 if (shaded && _mm256_movemask_ps(lit)) {
                     __m256 g[3], c3[3] = {cr, cg, cb};
                     gradient8(st, &cells[p], g);
@@ -583,7 +591,7 @@ A2I void march_packets(const dvr_state *st, const packet_rays pr[NP], const int 
                 /* early termination: the scalar kernel stops when T < t_min */
                 ps->active = _mm256_andnot_ps(_mm256_cmp_ps(ps->T, t_min, _CMP_LT_OQ), ps->active);
             }
-            ps->need_prev = _mm256_or_ps(ps->need_prev, jump[p]);
+            ps->warm = jump[p];
             ps->kf = kf_next[p];
         }
     }
