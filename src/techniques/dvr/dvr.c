@@ -249,16 +249,17 @@ static volux_status build_skip_distance(dvr_state *st) {
 }
 
 /* Chooses the kernel from the `kernel` parameter, the CPU and (shaded) the
- * lights: the SIMD shading handles directional lights and the ambient term;
- * point, spot and sphere lights keep the scalar kernel under "auto". */
+ * lights: the SIMD shading handles up to DVR_SIMD_MAX_LIGHTS directional
+ * lights and the ambient term; point, spot and sphere lights (or more
+ * lights) keep the scalar kernel under "auto". */
 static volux_status resolve_kernel(dvr_state *st) {
-    int directional_only = 1;
+    int directional_only = st->n_lights <= DVR_SIMD_MAX_LIGHTS;
     for (int i = 0; i < st->n_lights; i++) directional_only &= st->lights[i].kind == 0;
     int ok = volux_dvr_simd_available() && (!st->shaded || directional_only);
     if (st->kernel == DVR_KERNEL_SIMD && !ok)
         return volux_error(st->ctx, VOLUX_ERR_UNSUPPORTED, "techniques.%s.kernel: \"simd\" needs %s",
                            st->cls->name,
-                           volux_dvr_simd_available() ? "directional lights only (shaded)" : "a CPU with AVX2 and FMA");
+                           volux_dvr_simd_available() ? "at most 4 lights, all directional (shaded)" : "a CPU with AVX2 and FMA");
     st->use_simd = st->kernel != DVR_KERNEL_SCALAR && ok;
     return VOLUX_OK;
 }

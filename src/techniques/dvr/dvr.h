@@ -26,6 +26,7 @@
 
 #define DVR_MAX_LIGHTS 64
 #define DVR_GRAD_MAX 511 /* gradient cache: signed 10-bit fields */
+#define DVR_SIMD_MAX_LIGHTS 4 /* directional lights the SIMD shading takes */
 
 typedef enum dvr_kernel { DVR_KERNEL_AUTO, DVR_KERNEL_SCALAR, DVR_KERNEL_SIMD } dvr_kernel;
 

@@ -324,37 +324,53 @@ A2I __m256 dot3(const __m256 a[3], const __m256 b[3]) {
     return _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(a[0], b[0]), _mm256_mul_ps(a[1], b[1])), _mm256_mul_ps(a[2], b[2]));
 }
 
+/* Per-lane half vectors h = normalize(L − view) of the directional lights:
+ * constant along a ray, so computed once per packet, not per sample. */
+A2I void half_vectors(const dvr_state *st, const __m256 view[3], __m256 hn[DVR_SIMD_MAX_LIGHTS][3]) {
+    const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
+    for (int i = 0; i < st->n_lights && i < DVR_SIMD_MAX_LIGHTS; i++) {
+        const dvr_light *l = &st->lights[i];
+        __m256 hv[3] = {_mm256_sub_ps(_mm256_set1_ps(l->dir_to.x), view[0]),
+                        _mm256_sub_ps(_mm256_set1_ps(l->dir_to.y), view[1]),
+                        _mm256_sub_ps(_mm256_set1_ps(l->dir_to.z), view[2])};
+        __m256 hl = _mm256_sqrt_ps(dot3(hv, hv));
+        __m256 hinv = _mm256_div_ps(one, hl), hpos = _mm256_cmp_ps(hl, zero, _CMP_GT_OQ);
+        for (int a = 0; a < 3; a++) hn[i][a] = _mm256_blendv_ps(hv[a], _mm256_mul_ps(hv[a], hinv), hpos);
+    }
+}
+
 /* Blinn–Phong for directional lights, as shade() in dvr.c: normal flipped
- * towards the viewer, faded by gradient magnitude; c: colour in/out. */
-A2I void shade8(const dvr_state *st, const __m256 g[3], const __m256 view[3], __m256 c[3]) {
+ * towards the viewer, faded by gradient magnitude; c: colour in/out.
+ * 1/|g| comes from rsqrt with one Newton step (≈ 1 ulp from sqrt+div, and
+ * no 12-cycle sqrt/div on the per-sample path). */
+A2I void shade8(const dvr_state *st, const __m256 g[3], const __m256 view[3],
+                const __m256 hn[DVR_SIMD_MAX_LIGHTS][3], __m256 c[3]) {
     const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f), sign = _mm256_set1_ps(-0.0f);
     const volux_material *mat = &st->material;
-    __m256 gl = _mm256_sqrt_ps(dot3(g, g));
-    __m256 m = st->grad_ref > 0.0f ? _mm256_div_ps(gl, _mm256_set1_ps(st->grad_ref)) : one;
+    __m256 g2 = dot3(g, g);
+    __m256 y = _mm256_rsqrt_ps(g2);
+    __m256 inv = _mm256_mul_ps(y, _mm256_fnmadd_ps(_mm256_mul_ps(_mm256_mul_ps(g2, _mm256_set1_ps(0.5f)), y), y,
+                                                   _mm256_set1_ps(1.5f)));
+    __m256 gl = _mm256_mul_ps(g2, inv);
+    __m256 m = st->grad_ref > 0.0f ? _mm256_mul_ps(gl, _mm256_set1_ps(1.0f / st->grad_ref)) : one;
     __m256 on = _mm256_cmp_ps(m, zero, _CMP_GT_OQ);
     if (!_mm256_movemask_ps(on)) return;
     m = _mm256_min_ps(m, one);
-    __m256 inv = _mm256_div_ps(one, gl), n[3];
+    __m256 n[3];
     for (int a = 0; a < 3; a++) n[a] = _mm256_mul_ps(g[a], inv);
     __m256 flip = _mm256_and_ps(_mm256_cmp_ps(dot3(n, view), zero, _CMP_GT_OQ), sign);
     for (int a = 0; a < 3; a++) n[a] = _mm256_xor_ps(n[a], flip);
     const float amb[3] = {st->ambient.x, st->ambient.y, st->ambient.z};
     __m256 diff[3], spec[3] = {zero, zero, zero};
     for (int a = 0; a < 3; a++) diff[a] = _mm256_set1_ps(amb[a] * mat->ambient);
-    for (int i = 0; i < st->n_lights; i++) {
+    for (int i = 0; i < st->n_lights && i < DVR_SIMD_MAX_LIGHTS; i++) {
         const dvr_light *l = &st->lights[i];
         const __m256 L[3] = {_mm256_set1_ps(l->dir_to.x), _mm256_set1_ps(l->dir_to.y), _mm256_set1_ps(l->dir_to.z)};
         const float E[3] = {l->power.x, l->power.y, l->power.z};
         __m256 ndl = dot3(n, L);
         __m256 lit = _mm256_cmp_ps(ndl, zero, _CMP_GT_OQ);
         __m256 kd = _mm256_and_ps(_mm256_mul_ps(_mm256_set1_ps(mat->diffuse), ndl), lit);
-        __m256 hv[3];
-        for (int a = 0; a < 3; a++) hv[a] = _mm256_sub_ps(L[a], view[a]);
-        __m256 hl = _mm256_sqrt_ps(dot3(hv, hv));
-        __m256 hinv = _mm256_div_ps(one, hl), hn[3];
-        __m256 hpos = _mm256_cmp_ps(hl, zero, _CMP_GT_OQ);
-        for (int a = 0; a < 3; a++) hn[a] = _mm256_blendv_ps(hv[a], _mm256_mul_ps(hv[a], hinv), hpos);
-        __m256 ndh = dot3(n, hn);
+        __m256 ndh = dot3(n, hn[i]);
         __m256 sp = _mm256_and_ps(lit, _mm256_cmp_ps(ndh, zero, _CMP_GT_OQ));
         __m256 pw = exp_nonpos(_mm256_mul_ps(_mm256_set1_ps(mat->specular_power),
                                              log_pos(_mm256_blendv_ps(one, ndh, sp))));
@@ -401,6 +417,7 @@ typedef struct packet_state {
     __m256 u_p, f_p, P_p[4], D_p[4]; /* previous segment end (pre-integration) */
     __m256i i_p;
     skip8 sk;
+    __m256 hn[DVR_SIMD_MAX_LIGHTS][3]; /* shaded: half vectors per light */
 } packet_state;
 
 A2I __m256 seg_start(const packet_state *ps, __m256 kf, __m256 h) {
@@ -436,6 +453,7 @@ A2I void march_packets(const dvr_state *st, const packet_rays pr[NP], const int 
             ps->q0[a] = _mm256_loadu_ps(pr[p].q0[a]), ps->dq[a] = _mm256_loadu_ps(pr[p].dq[a]);
             ps->d[a] = _mm256_loadu_ps(pr[p].d[a]);
         }
+        if (shaded) half_vectors(st, ps->d, ps->hn);
         ps->active = _mm256_castsi256_ps(
             _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(lanes[p]), lane_bits), lane_bits));
         ps->active = _mm256_and_ps(ps->active, _mm256_cmp_ps(ps->t0, ps->t1, _CMP_LT_OQ));
@@ -579,7 +597,7 @@ A2I void march_packets(const dvr_state *st, const packet_rays pr[NP], const int 
                 if (shaded && _mm256_movemask_ps(lit)) {
                     __m256 g[3], c3[3] = {cr, cg, cb};
                     gradient8(st, &cells[p], g);
-                    shade8(st, g, ps->d, c3);
+                    shade8(st, g, ps->d, (const __m256(*)[3])ps->hn, c3);
                     cr = c3[0], cg = c3[1], cb = c3[2];
                 }
                 __m256 alpha = _mm256_sub_ps(one, exp_nonpos(_mm256_xor_ps(tau, sign)));
