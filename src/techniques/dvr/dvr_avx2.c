@@ -150,28 +150,22 @@ A2I __m256 sample8(const vol_consts *vc, __m256 x, __m256 y, __m256 z, volux_sto
 }
 
 /* Rows of 8 floats at base + offs[l] (one per lane), transposed: o[e] holds
- * element e of every lane. 8 loads + 24 shuffles, no gathers. */
+ * element e of every lane. Each vector pairs the halves of lanes l and l+4
+ * (128-bit loads into both halves: load-port work, no shuffle), then two
+ * in-lane 4×4 transposes: 16 shuffles instead of 24, and no gathers. */
 A2I void load_transpose8(const float *base, const int32_t offs[8], __m256 o[8]) {
-    __m256 r0 = _mm256_loadu_ps(base + offs[0]), r1 = _mm256_loadu_ps(base + offs[1]);
-    __m256 r2 = _mm256_loadu_ps(base + offs[2]), r3 = _mm256_loadu_ps(base + offs[3]);
-    __m256 r4 = _mm256_loadu_ps(base + offs[4]), r5 = _mm256_loadu_ps(base + offs[5]);
-    __m256 r6 = _mm256_loadu_ps(base + offs[6]), r7 = _mm256_loadu_ps(base + offs[7]);
-    __m256 t0 = _mm256_unpacklo_ps(r0, r1), t1 = _mm256_unpackhi_ps(r0, r1);
-    __m256 t2 = _mm256_unpacklo_ps(r2, r3), t3 = _mm256_unpackhi_ps(r2, r3);
-    __m256 t4 = _mm256_unpacklo_ps(r4, r5), t5 = _mm256_unpackhi_ps(r4, r5);
-    __m256 t6 = _mm256_unpacklo_ps(r6, r7), t7 = _mm256_unpackhi_ps(r6, r7);
-    __m256 s0 = _mm256_shuffle_ps(t0, t2, 0x44), s1 = _mm256_shuffle_ps(t0, t2, 0xEE);
-    __m256 s2 = _mm256_shuffle_ps(t1, t3, 0x44), s3 = _mm256_shuffle_ps(t1, t3, 0xEE);
-    __m256 s4 = _mm256_shuffle_ps(t4, t6, 0x44), s5 = _mm256_shuffle_ps(t4, t6, 0xEE);
-    __m256 s6 = _mm256_shuffle_ps(t5, t7, 0x44), s7 = _mm256_shuffle_ps(t5, t7, 0xEE);
-    o[0] = _mm256_permute2f128_ps(s0, s4, 0x20);
-    o[1] = _mm256_permute2f128_ps(s1, s5, 0x20);
-    o[2] = _mm256_permute2f128_ps(s2, s6, 0x20);
-    o[3] = _mm256_permute2f128_ps(s3, s7, 0x20);
-    o[4] = _mm256_permute2f128_ps(s0, s4, 0x31);
-    o[5] = _mm256_permute2f128_ps(s1, s5, 0x31);
-    o[6] = _mm256_permute2f128_ps(s2, s6, 0x31);
-    o[7] = _mm256_permute2f128_ps(s3, s7, 0x31);
+    for (int h = 0; h < 2; h++) { /* h = 0: elements 0–3, h = 1: elements 4–7 */
+        __m256 r[4];
+        for (int l = 0; l < 4; l++)
+            r[l] = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(base + offs[l] + 4 * h)),
+                                        _mm_loadu_ps(base + offs[l + 4] + 4 * h), 1);
+        __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]), t1 = _mm256_unpackhi_ps(r[0], r[1]);
+        __m256 t2 = _mm256_unpacklo_ps(r[2], r[3]), t3 = _mm256_unpackhi_ps(r[2], r[3]);
+        o[4 * h + 0] = _mm256_shuffle_ps(t0, t2, 0x44);
+        o[4 * h + 1] = _mm256_shuffle_ps(t0, t2, 0xEE);
+        o[4 * h + 2] = _mm256_shuffle_ps(t1, t3, 0x44);
+        o[4 * h + 3] = _mm256_shuffle_ps(t1, t3, 0xEE);
+    }
 }
 
 /* e^x for x ≤ 0 (Cephes expf: round to the nearest power of two, degree-6
