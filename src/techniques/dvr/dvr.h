@@ -5,7 +5,8 @@
  *
  * Caches and what invalidates them:
  *   majorant grid (empty-space skipping) ← volume, extinction, density
- *   skip distances (SIMD skipping)       ← with the majorant grid
+ *   skip cell ranges (SIMD skipping)     ← volume
+ *   skip distances (SIMD skipping)       ← volume, extinction, density
  *   gradient cache (shaded only)         ← volume (bricked, see dvr.c)
  *   prepared lights (shaded only)        ← lights
  *   resolved camera                      ← camera, image size
@@ -27,6 +28,7 @@
 #define DVR_MAX_LIGHTS 64
 #define DVR_GRAD_MAX 511 /* gradient cache: signed 10-bit fields */
 #define DVR_SIMD_MAX_LIGHTS 4 /* directional lights the SIMD shading takes */
+#define DVR_SKIP_CELL 4       /* SIMD skip cells: 4³ voxels (macrocells are 8³) */
 
 typedef enum dvr_kernel { DVR_KERNEL_AUTO, DVR_KERNEL_SCALAR, DVR_KERNEL_SIMD } dvr_kernel;
 
@@ -80,6 +82,9 @@ typedef struct dvr_state {
      * other kind (empty > 0, non-empty < 0); see build_skip_distance. */
     int32_t *skip_dist;
     size_t skip_bytes;
+    float *skip_range;             /* [2·cells] min, max per skip cell     */
+    size_t range_bytes;
+    int skip_cells[3];
 } dvr_state;
 
 /* 1 if this CPU can run the AVX2+FMA kernel (and it was compiled in). */

@@ -233,7 +233,7 @@ A2I __m256 check_cells(const skip8 *sk, const __m256 q0[3], const __m256 dq[3], 
     __m256i c[3];
     for (int ax = 0; ax < 3; ax++) {
         q[ax] = _mm256_add_ps(q0[ax], _mm256_mul_ps(dq[ax], t));
-        c[ax] = _mm256_cvttps_epi32(_mm256_mul_ps(q[ax], _mm256_set1_ps(1.0f / VOLUX_CELL_SIZE)));
+        c[ax] = _mm256_cvttps_epi32(_mm256_mul_ps(q[ax], _mm256_set1_ps(1.0f / DVR_SKIP_CELL)));
         c[ax] = _mm256_max_epi32(_mm256_min_epi32(c[ax], sk->cells_max[ax]), zero_i);
     }
     __m256i cell =
@@ -245,7 +245,7 @@ A2I __m256 check_cells(const skip8 *sk, const __m256 q0[3], const __m256 dq[3], 
         /* the cube's far face along the ray: cell c + r + 1 going up, c − r going down */
         __m256i face = _mm256_blendv_epi8(_mm256_sub_epi32(c[ax], r), _mm256_add_epi32(_mm256_add_epi32(c[ax], r), one_i),
                                           sk->up[ax]);
-        __m256 bound = _mm256_mul_ps(_mm256_cvtepi32_ps(face), _mm256_set1_ps((float)VOLUX_CELL_SIZE));
+        __m256 bound = _mm256_mul_ps(_mm256_cvtepi32_ps(face), _mm256_set1_ps((float)DVR_SKIP_CELL));
         __m256 ta = _mm256_mul_ps(_mm256_sub_ps(bound, q[ax]), sk->inv_dq[ax]);
         tmin = _mm256_min_ps(tmin, _mm256_blendv_ps(ta, _mm256_set1_ps(INFINITY), sk->flat[ax]));
     }
@@ -461,17 +461,17 @@ A2I void march_packets(const dvr_state *st, const packet_rays pr[NP], const int 
         for (int c = 0; c < 4; c++) ps->P_p[c] = ps->D_p[c] = zero;
         ps->i_p = _mm256_setzero_si256();
         if (skip) {
-            const volux_majorant_grid *g = &st->grid;
+            const int *cells = st->skip_cells;
             skip8 *sk = &ps->sk;
             sk->dist = st->skip_dist;
             for (int a = 0; a < 3; a++) {
-                sk->cells_max[a] = _mm256_set1_epi32(g->cells[a] - 1);
+                sk->cells_max[a] = _mm256_set1_epi32(cells[a] - 1);
                 sk->up[a] = _mm256_castps_si256(_mm256_cmp_ps(ps->dq[a], zero, _CMP_GT_OQ));
                 sk->flat[a] = _mm256_cmp_ps(ps->dq[a], zero, _CMP_EQ_OQ);
                 sk->inv_dq[a] = _mm256_div_ps(one, ps->dq[a]);
             }
-            sk->ncx = _mm256_set1_epi32(g->cells[0]);
-            sk->ncy = _mm256_set1_epi32(g->cells[1]);
+            sk->ncx = _mm256_set1_epi32(cells[0]);
+            sk->ncy = _mm256_set1_epi32(cells[1]);
             /* Empty-space skipping. A lane whose next segment start has
              * left the cube of cells it last checked (t ≥ t_check) looks up
              * the skip distance there. In an empty cube it jumps to the last
