@@ -150,7 +150,8 @@ static void simd_matches_scalar(const char *tech) {
                                  storages[t].type, ortho ? "ortho" : "persp", preint, skip_empty, d, tol, m, tol_mean);
                     /* the test is not vacuous: the volume is visible */
                     double sum = 0;
-                    for (int i = 0; i < W * H * 3; i++) sum += fabs(a.rgb[i] - (i % 3 == 0 ? 0.1 : i % 3 == 1 ? 0.2 : 0.3));
+                    for (int i = 0; i < W * H * 3; i++)
+                        sum += fabs(a.rgb[i] - (i % 3 == 0 ? 0.1 : i % 3 == 1 ? 0.2 : 0.3));
                     if (sum < 1.0) fail_msg("%s: the volume is not visible (sum %g)", storages[t].type, sum);
                     volux_image_free(ctx, &a);
                     volux_image_free(ctx, &b);

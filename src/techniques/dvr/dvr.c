@@ -232,7 +232,8 @@ static volux_status build_skip_ranges(dvr_state *st) {
                 for (int z = lo[2]; z <= hi[2]; z++)
                     for (int y = lo[1]; y <= hi[1]; y++)
                         for (int x = lo[0]; x <= hi[0]; x++) {
-                            float *r = st->skip_range + 2 * (((size_t)z * (size_t)c[1] + (size_t)y) * (size_t)c[0] + (size_t)x);
+                            size_t cell = ((size_t)z * (size_t)c[1] + (size_t)y) * (size_t)c[0] + (size_t)x;
+                            float *r = st->skip_range + 2 * cell;
                             if (val < r[0]) r[0] = val;
                             if (val > r[1]) r[1] = val;
                         }
@@ -353,7 +354,8 @@ static volux_status resolve_kernel(dvr_state *st) {
     if (st->kernel == DVR_KERNEL_SIMD && !ok)
         return volux_error(st->ctx, VOLUX_ERR_UNSUPPORTED, "techniques.%s.kernel: \"simd\" needs %s",
                            st->cls->name,
-                           volux_dvr_simd_available() ? "at most 4 lights, all directional (shaded)" : "a CPU with AVX2 and FMA");
+                           volux_dvr_simd_available() ? "at most 4 lights, all directional (shaded)"
+                                                      : "a CPU with AVX2 and FMA");
     st->use_simd = st->kernel != DVR_KERNEL_SCALAR && ok;
     return VOLUX_OK;
 }
@@ -448,7 +450,7 @@ static inline volux_vec3 cached_gradient(const dvr_state *st, volux_vec3 q) {
     size_t brick = ((size_t)(k >> 3) * (size_t)v->brick_counts[1] + (size_t)(j >> 3)) * (size_t)v->brick_counts[0] +
                    (size_t)(i >> 3);
     const uint32_t *p = st->grad + brick * VOLUX_BRICK_VOXELS +
-                        (size_t)((i & 7) + VOLUX_BRICK_NODES * (j & 7) + VOLUX_BRICK_NODES * VOLUX_BRICK_NODES * (k & 7));
+                        (size_t)((i & 7) + VOLUX_BRICK_NODES * ((j & 7) + VOLUX_BRICK_NODES * (k & 7)));
     enum { SY = VOLUX_BRICK_NODES, SZ = VOLUX_BRICK_NODES * VOLUX_BRICK_NODES };
     float g[3];
     for (int a = 0; a < 3; a++) {

@@ -1,9 +1,12 @@
 /*
- * techniques/dvr/dvr_avx2.c — the `ea` ray caster on 8-ray packets with
- * AVX2+FMA. All intrinsics of the DVR techniques live in this file.
+ * techniques/dvr/dvr_avx2.c — the `ea` / `shaded` ray caster on 8-ray
+ * packets with AVX2+FMA. All intrinsics of the DVR techniques live in this
+ * file; it is compiled with target attributes and chosen at run time
+ * (volux_dvr_simd_available), so the default build runs on any x86-64.
  *
  * Layout (perf/LIMITS.md): a 16×16 tile is cut into 4×2-pixel packets, one
- * ray per SIMD lane; lanes gather their trilinear corners from the volume's
+ * ray per SIMD lane, 4 packets (a 4×8 block) marched together to hide
+ * latencies (march_packets); lanes gather their trilinear corners from the volume's
  * bricked copy (8³ cells as 9³ nodes, so the 8 corners are at 4 fixed
  * offsets: one 32-bit gather returns a corner pair for 8- and 16-bit data)
  * and read their transfer-function records with one 32-byte load each,
@@ -13,10 +16,12 @@
  *   - the same segment positions (fixed grid t0 + (k−1+jitter)·h, the same
  *     RNG stream for the jitter), the same sample positions and trilinear
  *     arithmetic (no FMA contraction there, so samples are bit-identical);
- *   - the same pre-integration model (see march8), evaluated in float from
- *     dvr_state.pre_f instead of double;
- *   - empty-space skipping that only drops segments lying inside macrocells
- *     whose majorant is 0, i.e. segments the scalar kernel's DDA drops too;
+ *   - the same pre-integration model (see march_packets), evaluated in
+ *     float from dvr_state.pre_f instead of double;
+ *   - empty-space skipping that only drops segments lying inside skip cells
+ *     (4³, finer than the scalar kernel's 8³ macrocells) where σt = 0 on
+ *     every table node of the cell's value range: their contribution is
+ *     exactly 0, so skipping never changes pixels;
  *   - the same early-termination test.
  * Differences are float rounding (exp approximation ≤ 2 ulp, float
  * integral tables); tests/invariants/test_ea_fastpath.c bounds them.
@@ -219,7 +224,7 @@ typedef struct skip8 {
 } skip8;
 
 /* Empty-space check at world t for the lanes in `need`. One lookup of the
- * signed skip distance d of the macrocell holding q(t) (dvr.c,
+ * signed skip distance d of the skip cell holding q(t) (dvr.c,
  * build_skip_distance) gives a cube of r = |d| − 1 rings of cells around
  * it that are all empty (d > 0) or all non-empty (d < 0); *t_exit is where
  * the ray leaves that cube. Returns the lanes in an empty cube, which may
@@ -243,8 +248,8 @@ A2I __m256 check_cells(const skip8 *sk, const __m256 q0[3], const __m256 dq[3], 
     __m256 tmin = _mm256_set1_ps(INFINITY);
     for (int ax = 0; ax < 3; ax++) {
         /* the cube's far face along the ray: cell c + r + 1 going up, c − r going down */
-        __m256i face = _mm256_blendv_epi8(_mm256_sub_epi32(c[ax], r), _mm256_add_epi32(_mm256_add_epi32(c[ax], r), one_i),
-                                          sk->up[ax]);
+        __m256i face = _mm256_blendv_epi8(_mm256_sub_epi32(c[ax], r),
+                                          _mm256_add_epi32(_mm256_add_epi32(c[ax], r), one_i), sk->up[ax]);
         __m256 bound = _mm256_mul_ps(_mm256_cvtepi32_ps(face), _mm256_set1_ps((float)DVR_SKIP_CELL));
         __m256 ta = _mm256_mul_ps(_mm256_sub_ps(bound, q[ax]), sk->inv_dq[ax]);
         tmin = _mm256_min_ps(tmin, _mm256_blendv_ps(ta, _mm256_set1_ps(INFINITY), sk->flat[ax]));
@@ -315,7 +320,8 @@ A2I void gradient8(const dvr_state *st, const cell8 *cell, __m256 g[3]) {
 }
 
 A2I __m256 dot3(const __m256 a[3], const __m256 b[3]) {
-    return _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(a[0], b[0]), _mm256_mul_ps(a[1], b[1])), _mm256_mul_ps(a[2], b[2]));
+    return _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(a[0], b[0]), _mm256_mul_ps(a[1], b[1])),
+                         _mm256_mul_ps(a[2], b[2]));
 }
 
 /* Per-lane half vectors h = normalize(L − view) of the directional lights:
@@ -417,7 +423,8 @@ typedef struct packet_state {
 
 A2I __m256 seg_start(const packet_state *ps, __m256 kf, __m256 h) {
     /* segment k: [max(t0, t0+(k−1+j)·h), min(t0+(k+j)·h, t1)] */
-    return _mm256_max_ps(ps->t0, _mm256_add_ps(ps->t0, _mm256_mul_ps(_mm256_add_ps(_mm256_sub_ps(kf, _mm256_set1_ps(1.0f)), ps->jit), h)));
+    __m256 k1 = _mm256_add_ps(_mm256_sub_ps(kf, _mm256_set1_ps(1.0f)), ps->jit);
+    return _mm256_max_ps(ps->t0, _mm256_add_ps(ps->t0, _mm256_mul_ps(k1, h)));
 }
 
 A2I __m256 sample_at_t(const vol_consts *vc, const packet_state *ps, __m256 t, volux_storage storage, cell8 *cell) {
@@ -509,7 +516,8 @@ A2I void march_packets(const dvr_state *st, const packet_rays pr[NP], const int 
                 __m256 need = _mm256_and_ps(ps->active, _mm256_cmp_ps(b[p], ps->t_check, _CMP_GE_OQ));
                 if (_mm256_movemask_ps(need)) {
                     __m256 t_exit, m;
-                    __m256 empty = check_cells(&ps->sk, ps->q0, ps->dq, ps->t0, ps->jit, inv_h, b[p], need, &t_exit, &m);
+                    __m256 empty =
+                        check_cells(&ps->sk, ps->q0, ps->dq, ps->t0, ps->jit, inv_h, b[p], need, &t_exit, &m);
                     /* With pre-integration the lane lands one segment early,
                      * on m − 1 (inside the empty cube, contribution 0), and
                      * spends that iteration "warm": it samples the end of
@@ -668,7 +676,8 @@ A2I void render_tile_impl(const dvr_state *st, const volux_scene *scene, const v
             packet_rays pr[NP];
             float bg[NP][3][8];
             int lanes[NP], any = 0;
-            for (int p = 0; p < NP; p++) any |= lanes[p] = setup_packet(st, scene, tile, x0, y0 + p * PH, rgb, &pr[p], bg[p]);
+            for (int p = 0; p < NP; p++)
+                any |= lanes[p] = setup_packet(st, scene, tile, x0, y0 + p * PH, rgb, &pr[p], bg[p]);
             if (!any) continue;
             __m256 C[NP][3], T[NP];
             march_packets(st, pr, lanes, C, T, &samples, shaded, preint, storage);
