@@ -145,8 +145,8 @@ void *volux_alloc_aligned(volux_context *ctx, size_t n) {
 #ifdef MADV_HUGEPAGE
     if (n >= (2u << 20)) {
         /* Huge pages help random access in large volumes (perf/LIMITS.md);
-         * advisory only, failures are harmless. Advised before the memset
-         * below touches the pages, so the first touch can get huge pages. */
+         * advisory only, failures are harmless. Advise before the memset
+         * below touches the pages, so they are faulted in as huge pages. */
         uintptr_t a = (start + (2u << 20) - 1) & ~(uintptr_t)((2u << 20) - 1);
         uintptr_t e = (start + n) & ~(uintptr_t)((2u << 20) - 1);
         if (e > a) madvise((void *)a, e - a, MADV_HUGEPAGE);

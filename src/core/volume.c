@@ -255,6 +255,9 @@ volux_status volux_volume_build_bricks(volux_volume *v) {
     size_t elem = v->storage == VOLUX_STORE_U8 ? 1 : v->storage == VOLUX_STORE_U16 ? 2 : 4, bytes;
     if (!volux_mul_size(count, (size_t)VOLUX_BRICK_VOXELS * elem, &bytes) || bytes > v->ctx->max_bytes)
         return volux_error(v->ctx, VOLUX_ERR_LIMIT, "bricked volume copy exceeds the memory cap");
+    /* SIMD gathers read whole 32-bit words, i.e. up to 3 bytes past the last
+     * node they need: a zeroed tail keeps them inside the allocation. */
+    bytes += VOLUX_BRICK_TAIL;
     unsigned char *dst = volux_alloc_aligned(v->ctx, bytes);
     if (!dst) return volux_error(v->ctx, VOLUX_ERR_NOMEM, "out of memory (%zu bytes) for the bricked volume", bytes);
     /* Node (8b + l) of each axis, replicated at the far border. */

@@ -48,6 +48,7 @@ struct volux_volume {
 #define VOLUX_BRICK_CELLS 8
 #define VOLUX_BRICK_NODES 9
 #define VOLUX_BRICK_VOXELS (VOLUX_BRICK_NODES * VOLUX_BRICK_NODES * VOLUX_BRICK_NODES)
+#define VOLUX_BRICK_TAIL 64 /* zeroed bytes after the last brick (see build) */
 
 /* Builds the bricked copy if missing (not thread-safe: call from setup code,
  * never from render_tile). Fails only on memory. */

@@ -1,54 +1,75 @@
-/* sample/gradient.c — the quantised gradient cache (see gradient.h). */
+/* sample/gradient.c — the bricked, quantised gradient cache (see gradient.h). */
 #include <math.h>
 
 #include "gradient.h"
 
+/* File value at node (i,j,k), inlined (the build reads every node 6 times
+ * per pass). */
+static inline float node_value(const volux_volume *v, int i, int j, int k) {
+    return volux_volume_raw_at(v, volux_volume_index(v, i, j, k)) + v->value_offset;
+}
+
+/* Central-difference gradient at node (i,j,k) (one-sided at the border), in
+ * file units per world unit. */
+static inline void node_gradient(const volux_volume *v, int i, int j, int k, float g[3]) {
+    int c[3] = {i, j, k};
+    for (int a = 0; a < 3; a++) {
+        int lo[3] = {i, j, k}, hi[3] = {i, j, k};
+        if (c[a] > 0) lo[a]--;
+        if (c[a] < v->dims[a] - 1) hi[a]++;
+        int h = hi[a] - lo[a];
+        g[a] = h ? (node_value(v, hi[0], hi[1], hi[2]) - node_value(v, lo[0], lo[1], lo[2])) /
+                       ((float)h * (float)v->spacing[a])
+                 : 0.0f;
+    }
+}
+
 volux_status volux_gradient_cache_build(volux_context *ctx, const volux_volume *v, volux_gradient_cache *gc,
                                         const char *who) {
-    size_t n = (size_t)v->dims[0] * (size_t)v->dims[1] * (size_t)v->dims[2];
-    size_t bytes;
-    if (!volux_mul_size(n, 3 * sizeof(int16_t), &bytes) || bytes > volux_context_max_bytes(ctx))
-        return volux_error(ctx, VOLUX_ERR_LIMIT, "%s: gradient cache of %zu voxels exceeds the memory cap", who, n);
+    int n[3];
+    size_t nb = 1, bytes;
+    for (int a = 0; a < 3; a++) {
+        n[a] = (v->dims[a] - 1 + VOLUX_BRICK_CELLS - 1) / VOLUX_BRICK_CELLS;
+        if (n[a] < 1) n[a] = 1;
+        nb *= (size_t)n[a];
+    }
+    if (!volux_mul_size(nb, (size_t)VOLUX_BRICK_VOXELS * sizeof(uint32_t), &bytes) ||
+        bytes > volux_context_max_bytes(ctx))
+        return volux_error(ctx, VOLUX_ERR_LIMIT, "%s: gradient cache of %zu bricks exceeds the memory cap", who, nb);
     volux_gradient_cache_free(ctx, gc);
     gc->grad = volux_alloc_aligned(ctx, bytes);
     if (!gc->grad) return volux_error(ctx, VOLUX_ERR_NOMEM, "%s: out of memory for the gradient cache", who);
     gc->bytes = bytes;
-    float *tmp = volux_malloc(ctx, (size_t)v->dims[0] * 3 * sizeof(float));
-    if (!tmp) {
-        volux_gradient_cache_free(ctx, gc);
-        return volux_error(ctx, VOLUX_ERR_NOMEM, "%s: out of memory", who);
-    }
-    /* Two passes: find the largest magnitude for the scale, then quantise. */
-    float gmax = 0.0f;
-    for (int pass = 0; pass < 2; pass++) {
-        float q = pass ? (gmax > 0.0f ? 32767.0f / gmax : 0.0f) : 0.0f;
-        for (int k = 0; k < v->dims[2]; k++)
-            for (int j = 0; j < v->dims[1]; j++) {
-                for (int i = 0; i < v->dims[0]; i++) {
-                    int c[3] = {i, j, k};
-                    for (int a = 0; a < 3; a++) {
-                        int lo[3] = {i, j, k}, hi[3] = {i, j, k};
-                        if (c[a] > 0) lo[a]--;
-                        if (c[a] < v->dims[a] - 1) hi[a]++;
-                        int h = hi[a] - lo[a];
-                        float d = h ? (volux_volume_value_at(v, hi[0], hi[1], hi[2]) -
-                                       volux_volume_value_at(v, lo[0], lo[1], lo[2])) /
-                                          ((float)h * (float)v->spacing[a])
-                                    : 0.0f;
-                        tmp[3 * i + a] = d;
-                    }
-                }
-                if (!pass) {
-                    for (int i = 0; i < 3 * v->dims[0]; i++)
-                        if (fabsf(tmp[i]) > gmax) gmax = fabsf(tmp[i]);
-                } else {
-                    int16_t *row = gc->grad + 3 * volux_volume_index(v, 0, j, k);
-                    for (int i = 0; i < 3 * v->dims[0]; i++) row[i] = (int16_t)lrintf(tmp[i] * q);
-                }
+    /* Pass 1: the largest component sets the scale. */
+    float gmax = 0.0f, g[3];
+    for (int k = 0; k < v->dims[2]; k++)
+        for (int j = 0; j < v->dims[1]; j++)
+            for (int i = 0; i < v->dims[0]; i++) {
+                node_gradient(v, i, j, k, g);
+                for (int a = 0; a < 3; a++)
+                    if (fabsf(g[a]) > gmax) gmax = fabsf(g[a]);
             }
-    }
-    volux_free(ctx, tmp, (size_t)v->dims[0] * 3 * sizeof(float));
-    gc->scale = gmax > 0.0f ? gmax / 32767.0f : 0.0f;
+    float q = gmax > 0.0f ? (float)VOLUX_GRAD_MAX / gmax : 0.0f;
+    /* Pass 2: quantise into bricks (node 8b + l, replicated at the far border). */
+    for (int bz = 0; bz < n[2]; bz++)
+        for (int by = 0; by < n[1]; by++)
+            for (int bx = 0; bx < n[0]; bx++) {
+                uint32_t *dst = gc->grad + (((size_t)bz * (size_t)n[1] + (size_t)by) * (size_t)n[0] + (size_t)bx) *
+                                               VOLUX_BRICK_VOXELS;
+                for (int lz = 0; lz < VOLUX_BRICK_NODES; lz++)
+                    for (int ly = 0; ly < VOLUX_BRICK_NODES; ly++)
+                        for (int lx = 0; lx < VOLUX_BRICK_NODES; lx++) {
+                            int i = bx * VOLUX_BRICK_CELLS + lx, j = by * VOLUX_BRICK_CELLS + ly,
+                                k = bz * VOLUX_BRICK_CELLS + lz;
+                            node_gradient(v, i < v->dims[0] ? i : v->dims[0] - 1, j < v->dims[1] ? j : v->dims[1] - 1,
+                                          k < v->dims[2] ? k : v->dims[2] - 1, g);
+                            uint32_t w = 0;
+                            for (int a = 0; a < 3; a++)
+                                w |= ((uint32_t)(int32_t)lrintf(g[a] * q) & 0x3ffu) << (10 * a);
+                            dst[lx + VOLUX_BRICK_NODES * (ly + VOLUX_BRICK_NODES * lz)] = w;
+                        }
+            }
+    gc->scale = gmax > 0.0f ? gmax / (float)VOLUX_GRAD_MAX : 0.0f;
     return VOLUX_OK;
 }
 

@@ -3,9 +3,16 @@
  * gradient-based local shading (Blinn–Phong) shared by the ray casters.
  *
  * The cache holds central differences (one-sided at the border) in file
- * units per world unit, quantised to int16 with one global scale: 6 bytes
- * per voxel that turn 6 trilinear fetches per sample into one. It depends
- * on the volume only (rebuild on VOLUME).
+ * units per world unit, one 32-bit word per node with three signed 10-bit
+ * fields (x bits 0–9, y 10–19, z 20–29) and one global scale, stored in the
+ * volume's brick layout (9³ nodes per 8³ cells, see volume_internal.h).
+ * Why: 4 bytes per node turn 6 trilinear fetches per sample into one; the 8
+ * corners of a lookup are 4 pairs of adjacent words at the same offsets as
+ * the bricked scalars, so the SIMD ray caster reuses a sample's brick
+ * offset and fetches a corner pair with one 64-bit gather. 10 bits resolve
+ * 1/511 of the largest gradient per component: finer than VTK's quantised
+ * normals and invisible in shading. It depends on the volume only (rebuild
+ * on VOLUME).
  *
  * Shading helpers: volux_shading_normal() turns a gradient into a unit
  * normal facing the viewer plus a fade m ∈ [0,1] (gradient magnitude over a
@@ -24,10 +31,12 @@
 #include "core/volume_internal.h"
 #include "volux/transfer.h"
 
+#define VOLUX_GRAD_MAX 511 /* largest quantised component (signed 10 bits) */
+
 typedef struct volux_gradient_cache {
-    int16_t *grad; /* 3 per voxel, x fastest (volume layout)            */
+    uint32_t *grad; /* one word per node, bricked (VOLUX_BRICK_VOXELS per brick) */
     size_t bytes;
-    float scale;   /* world gradient = stored · scale                  */
+    float scale;    /* world gradient = stored field · scale                  */
 } volux_gradient_cache;
 
 /* (Re)builds the cache for v. `who` prefixes error messages ("shaded"). */
@@ -35,17 +44,33 @@ volux_status volux_gradient_cache_build(volux_context *ctx, const volux_volume *
                                         const char *who);
 void volux_gradient_cache_free(volux_context *ctx, volux_gradient_cache *gc);
 
+/* Signed 10-bit field a of a cache word. */
+static inline float volux_gradient_field(uint32_t w, int a) { return (float)((int32_t)(w << (22 - 10 * a)) >> 22); }
+
+/* Offset of node (i,j,k) in the bricked layout (same as the scalars'). */
+static inline size_t volux_brick_offset(const volux_volume *v, int i, int j, int k) {
+    int bx = (v->dims[0] - 1 + VOLUX_BRICK_CELLS - 1) / VOLUX_BRICK_CELLS,
+        by = (v->dims[1] - 1 + VOLUX_BRICK_CELLS - 1) / VOLUX_BRICK_CELLS;
+    if (bx < 1) bx = 1;
+    if (by < 1) by = 1;
+    size_t brick = ((size_t)(k >> 3) * (size_t)by + (size_t)(j >> 3)) * (size_t)bx + (size_t)(i >> 3);
+    return brick * VOLUX_BRICK_VOXELS + (size_t)((i & 7) + VOLUX_BRICK_NODES * ((j & 7) + VOLUX_BRICK_NODES * (k & 7)));
+}
+
 /* Trilinearly interpolated gradient (file units per world unit) at the
- * index-space position q, which must lie inside the volume. */
+ * index-space position q, which must lie inside the volume. Same clamping,
+ * corner order and arithmetic as the SIMD kernel (dvr_avx2.c). */
 static inline volux_vec3 volux_gradient_cache_sample(const volux_gradient_cache *gc, const volux_volume *v,
                                                      volux_vec3 q) {
     volux_cell c = volux_volume_cell(v, q.x, q.y, q.z);
-    const int16_t *b = gc->grad + 3 * c.base;
-    size_t sx = 3 * c.sx, sy = 3 * c.sy, sz = 3 * c.sz;
+    const uint32_t *p = gc->grad + volux_brick_offset(v, c.i, c.j, c.k);
+    enum { SY = VOLUX_BRICK_NODES, SZ = VOLUX_BRICK_NODES * VOLUX_BRICK_NODES };
     float g[3];
     for (int a = 0; a < 3; a++) {
-        float n[8] = {b[a],      b[sx + a],      b[sy + a],      b[sy + sx + a],
-                      b[sz + a], b[sz + sx + a], b[sz + sy + a], b[sz + sy + sx + a]};
+        float n[8] = {volux_gradient_field(p[0], a),       volux_gradient_field(p[1], a),
+                      volux_gradient_field(p[SY], a),      volux_gradient_field(p[SY + 1], a),
+                      volux_gradient_field(p[SZ], a),      volux_gradient_field(p[SZ + 1], a),
+                      volux_gradient_field(p[SZ + SY], a), volux_gradient_field(p[SZ + SY + 1], a)};
         g[a] = volux_lerp3(n, c.fx, c.fy, c.fz) * gc->scale;
     }
     return v3(g[0], g[1], g[2]);

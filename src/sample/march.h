@@ -83,18 +83,35 @@ static inline void volux_lut_rgba(const volux_transfer_lut *lut, float s, float 
     for (int c = 0; c < 4; c++) out[c] = a[c] + (b[c] - a[c]) * f;
 }
 
-/* Running integrals at s (linear between nodes). */
-static inline double volux_lut_int_sigma(const volux_transfer_lut *lut, float s, double rgb[3]) {
+/* Table coordinate u ∈ [0, n−1] of s (clamped), and the table interval
+ * [i, i+1] holding it (i ∈ [0, n−2]). Both kernels (scalar and SIMD) derive
+ * every pre-integration quantity from u, so they agree on which interval a
+ * sample falls in. */
+static inline float volux_lut_coord(const volux_transfer_lut *lut, float s) {
     float u = (s - lut->s_min) * lut->inv_ds;
-    int last = lut->n - 1;
+    float last = (float)(lut->n - 1);
     if (u < 0.0f) u = 0.0f;
-    if (u > (float)last) u = (float)last;
+    if (u > last) u = last;
+    return u;
+}
+
+static inline int volux_lut_interval(const volux_transfer_lut *lut, float u) {
     int i = (int)u;
-    if (i >= last) i = last - 1;
+    return i > lut->n - 2 ? lut->n - 2 : i;
+}
+
+/* Running integrals at table coordinate u (linear between nodes). */
+static inline double volux_lut_int_at(const volux_transfer_lut *lut, float u, double rgb[3]) {
+    int i = volux_lut_interval(lut, u);
     double f = (double)(u - (float)i);
     for (int c = 0; c < 3; c++)
         rgb[c] = lut->int_sigma_c[3 * i + c] + (lut->int_sigma_c[3 * (i + 1) + c] - lut->int_sigma_c[3 * i + c]) * f;
     return lut->int_sigma[i] + (lut->int_sigma[i + 1] - lut->int_sigma[i]) * f;
+}
+
+/* Running integrals at s (linear between nodes). */
+static inline double volux_lut_int_sigma(const volux_transfer_lut *lut, float s, double rgb[3]) {
+    return volux_lut_int_at(lut, volux_lut_coord(lut, s), rgb);
 }
 
 #endif

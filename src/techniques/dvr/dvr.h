@@ -5,10 +5,19 @@
  *
  * Caches and what invalidates them:
  *   majorant grid (empty-space skipping) ← volume, extinction, density
- *   gradient cache (shaded only)         ← volume
+ *   skip cell ranges (SIMD skipping)     ← volume
+ *   skip distances (SIMD skipping)       ← volume, extinction, density
+ *   gradient cache (shaded only)         ← volume (bricked, see dvr.c)
  *   prepared lights (shaded only)        ← lights
  *   resolved camera                      ← camera, image size
+ *   float pre-integration table (SIMD)   ← extinction, density, colour
  * Colour/albedo/material edits re-read the scene's LUT only.
+ *
+ * Two kernels compute the same image: the scalar one in dvr.c (portable,
+ * the reference) and 8-ray AVX2+FMA packets in dvr_avx2.c (chosen at run
+ * time when the CPU has AVX2 and FMA; parameter `kernel`). They share the
+ * segment positions, the pre-integration model and the skipping rule; they
+ * differ by float rounding (the SIMD kernel's integral tables are float).
  */
 #ifndef VOLUX_DVR_H
 #define VOLUX_DVR_H
@@ -18,6 +27,10 @@
 #include "volux/technique.h"
 
 #define DVR_MAX_LIGHTS 64
+#define DVR_SIMD_MAX_LIGHTS 4 /* directional lights the SIMD shading takes */
+#define DVR_SKIP_CELL 4       /* SIMD skip cells: 4³ voxels (macrocells are 8³) */
+
+typedef enum dvr_kernel { DVR_KERNEL_AUTO, DVR_KERNEL_SCALAR, DVR_KERNEL_SIMD } dvr_kernel;
 
 extern const volux_technique_class volux_ea_class;
 extern const volux_technique_class volux_shaded_class;
@@ -45,6 +58,8 @@ typedef struct dvr_state {
     uint64_t seed;
     /* parameters */
     int preintegrate, skip_empty;
+    dvr_kernel kernel;             /* `kernel` parameter                   */
+    int use_simd;                  /* resolved: parameter, CPU, lights     */
     float t_min;                   /* early termination when T < t_min   */
     /* shading */
     volux_gradient_cache grad;     /* shared helper (sample/gradient.h)  */
@@ -53,7 +68,28 @@ typedef struct dvr_state {
     volux_vec3 ambient;
     dvr_light lights[DVR_MAX_LIGHTS];
     int n_lights;
+    /* Float pre-integration table for the SIMD kernel: per table node i,
+     * 8 floats {P_σ, P_σr, P_σg, P_σb, D_σ, D_σr, D_σg, D_σb} where P is the
+     * running integral rounded to float and D[i] = P[i+1] − P[i] computed in
+     * float (so adjacent-interval differences cancel exactly, see
+     * dvr_avx2.c). 32 bytes: one unaligned 256-bit load per lane. */
+    float *pre_f;
+    size_t pre_bytes;
+    /* Signed chessboard distance per macrocell to the nearest cell of the
+     * other kind (empty > 0, non-empty < 0); see build_skip_distance. */
+    int32_t *skip_dist;
+    size_t skip_bytes;
+    float *skip_range;             /* [2·cells] min, max per skip cell     */
+    size_t range_bytes;
+    int skip_cells[3];
 } dvr_state;
+
+/* 1 if this CPU can run the AVX2+FMA kernel (and it was compiled in). */
+int volux_dvr_simd_available(void);
+/* The SIMD kernel for one tile (same contract as render_tile; `shaded`
+ * only with directional lights, see resolve_kernel in dvr.c). */
+void volux_dvr_render_tile_avx2(const dvr_state *st, const volux_scene *scene, const volux_tile *tile, float *rgb,
+                                volux_tile_stats *stats);
 
 volux_status volux_dvr_create(volux_context *ctx, volux_scene *scene, const volux_technique_class *cls, int shaded,
                               void **out);

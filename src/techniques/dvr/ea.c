@@ -8,7 +8,10 @@
         {"early_termination", VOLUX_PARAM_NUMBER, 0.002, 0, 1, NULL,                                             \
          "stop a ray when its transmittance falls below this (0 = never)"},                                      \
         {"skip_empty", VOLUX_PARAM_BOOL, 1, 0, 1, NULL,                                                          \
-         "skip macrocells whose TF extinction is zero (does not change the image)"}
+         "skip macrocells whose TF extinction is zero (does not change the image)"},                             \
+        {"kernel", VOLUX_PARAM_STRING, 0, 0, 0, "auto",                                                          \
+         "\"auto\" (SIMD when the CPU has AVX2+FMA; shaded: with at most 4 lights, all directional), "         \
+         "\"scalar\" (portable reference) or \"simd\" (error if unavailable); same image up to float rounding"}
 
 static const volux_param_info ea_params[] = {DVR_COMMON_PARAMS, {NULL, 0, 0, 0, 0, NULL, NULL}};
 
