@@ -6,6 +6,7 @@
 #include "core/rng.h"
 #include "core/vecmath.h"
 #include "dvr.h"
+#include "sample/primary.h"
 
 /* ------------------------------------------------------------------ caches */
 
@@ -490,28 +491,16 @@ static inline __attribute__((always_inline)) void render_tile_impl(const dvr_sta
     uint64_t samples = 0;
     for (int y = 0; y < tile->h; y++)
         for (int x = 0; x < tile->w; x++) {
-            int px = tile->x0 + x, py = tile->y0 + y;
-            uint64_t pixel = (uint64_t)py * (uint64_t)cam->width + (uint64_t)px;
-            volux_rng rng = volux_rng_make(st->seed, pixel, tile->sample_index, 0);
-            /* Sample 0 goes through the pixel centre; later samples are
-             * spread over the pixel's square footprint (box filter). */
-            float jx = 0.5f, jy = 0.5f;
-            if (tile->sample_index > 0) {
-                jx = volux_rng_float(&rng);
-                jy = volux_rng_float(&rng);
-            }
-            float jitter = volux_rng_float(&rng);
-            volux_vec3 o, d;
-            volux_camera_ray(cam, (float)px + jx, (float)py + jy, &o, &d);
+            volux_primary pr = volux_primary_ray(cam, st->seed, tile->x0 + x, tile->y0 + y, tile->sample_index);
             volux_ray ray;
-            volux_vec3 bg = volux_scene_escape_radiance(scene, d);
+            volux_vec3 bg = volux_scene_escape_radiance(scene, pr.d);
             float *out = &rgb[3 * (y * tile->w + x)];
-            if (!volux_ray_clip(st->volume, o, d, &ray)) {
+            if (!volux_ray_clip(st->volume, pr.o, pr.d, &ray)) {
                 out[0] = bg.x, out[1] = bg.y, out[2] = bg.z;
                 continue;
             }
             float T;
-            volux_vec3 c = march(st, &ray, jitter, &T, &samples, shaded, preint, storage);
+            volux_vec3 c = march(st, &ray, pr.jitter, &T, &samples, shaded, preint, storage);
             out[0] = c.x + T * bg.x;
             out[1] = c.y + T * bg.y;
             out[2] = c.z + T * bg.z;

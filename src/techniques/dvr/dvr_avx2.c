@@ -38,6 +38,7 @@
 #include "core/rng.h"
 #include "core/vecmath.h"
 #include "dvr.h"
+#include "sample/primary.h"
 
 #if defined(__x86_64__) && defined(__GNUC__)
 #include <immintrin.h>
@@ -637,20 +638,12 @@ static A2 int setup_packet(const dvr_state *st, const volux_scene *scene, const 
     for (int l = 0; l < 8; l++) {
         int x = x0 + (l & (PW - 1)), y = y0 + l / PW;
         if (x >= tile->w || y >= tile->h) continue;
-        int px = tile->x0 + x, py = tile->y0 + y;
-        uint64_t pixel = (uint64_t)py * (uint64_t)cam->width + (uint64_t)px;
-        volux_rng rng = volux_rng_make(st->seed, pixel, tile->sample_index, 0);
-        float jx = 0.5f, jy = 0.5f;
-        if (tile->sample_index > 0) {
-            jx = volux_rng_float(&rng);
-            jy = volux_rng_float(&rng);
-        }
-        float jitter = volux_rng_float(&rng);
-        volux_vec3 o, d;
-        volux_camera_ray(cam, (float)px + jx, (float)py + jy, &o, &d);
+        volux_primary prim = volux_primary_ray(cam, st->seed, tile->x0 + x, tile->y0 + y, tile->sample_index);
+        const volux_vec3 d = prim.d;
+        const float jitter = prim.jitter;
         volux_vec3 e = volux_scene_escape_radiance(scene, d);
         volux_ray ray;
-        if (!volux_ray_clip(st->volume, o, d, &ray)) {
+        if (!volux_ray_clip(st->volume, prim.o, d, &ray)) {
             float *out = &rgb[3 * (y * tile->w + x)];
             out[0] = e.x, out[1] = e.y, out[2] = e.z;
             continue;

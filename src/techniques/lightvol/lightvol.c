@@ -20,6 +20,7 @@
 #include "core/rng.h"
 #include "core/vecmath.h"
 #include "lightvol.h"
+#include "sample/primary.h"
 
 static const volux_param_info lightvol_params[] = {
     {"scale", VOLUX_PARAM_NUMBER, 1, 0.0625, 1, NULL,
@@ -390,27 +391,16 @@ static inline __attribute__((always_inline)) void render_impl(const lightvol_sta
     uint64_t samples = 0;
     for (int y = 0; y < tile->h; y++)
         for (int x = 0; x < tile->w; x++) {
-            int px = tile->x0 + x, py = tile->y0 + y;
-            uint64_t pixel = (uint64_t)py * (uint64_t)cam->width + (uint64_t)px;
-            volux_rng rng = volux_rng_make(st->seed, pixel, tile->sample_index, 0);
-            /* sample 0 through the pixel centre, later ones over the pixel */
-            float jx = 0.5f, jy = 0.5f;
-            if (tile->sample_index > 0) {
-                jx = volux_rng_float(&rng);
-                jy = volux_rng_float(&rng);
-            }
-            float jitter = volux_rng_float(&rng);
-            volux_vec3 o, d;
-            volux_camera_ray(cam, (float)px + jx, (float)py + jy, &o, &d);
+            volux_primary pr = volux_primary_ray(cam, st->seed, tile->x0 + x, tile->y0 + y, tile->sample_index);
             volux_ray ray;
-            volux_vec3 bg = volux_scene_escape_radiance(scene, d);
+            volux_vec3 bg = volux_scene_escape_radiance(scene, pr.d);
             float *out = &rgb[3 * (y * tile->w + x)];
-            if (!volux_ray_clip(st->volume, o, d, &ray)) {
+            if (!volux_ray_clip(st->volume, pr.o, pr.d, &ray)) {
                 out[0] = bg.x, out[1] = bg.y, out[2] = bg.z;
                 continue;
             }
             float T;
-            volux_vec3 c = march(st, &ray, jitter, &T, &samples, preint, local);
+            volux_vec3 c = march(st, &ray, pr.jitter, &T, &samples, preint, local);
             out[0] = c.x + T * bg.x;
             out[1] = c.y + T * bg.y;
             out[2] = c.z + T * bg.z;

@@ -28,6 +28,7 @@
 #include "fastmath.h"
 #include "lights.h"
 #include "sample/march.h"
+#include "sample/primary.h"
 #include "volux/technique.h"
 
 /* Parameters every scattering technique has. */
@@ -94,22 +95,13 @@ scatter_render_tile(const scatter_base *b, const void *tech, const volux_scene *
     float rec[SCATTER_LAG_RECORDS][4];
     for (int y = 0; y < tile->h; y++)
         for (int x = 0; x < tile->w; x++) {
-            int px = tile->x0 + x, py = tile->y0 + y;
-            uint64_t pixel = (uint64_t)py * (uint64_t)cam->width + (uint64_t)px;
-            volux_rng rng = volux_rng_make(b->seed, pixel, tile->sample_index, 0);
-            /* Sample 0 through the pixel centre, later ones over the pixel. */
-            float jx = 0.5f, jy = 0.5f;
-            if (tile->sample_index > 0) {
-                jx = volux_rng_float(&rng);
-                jy = volux_rng_float(&rng);
-            }
-            float jitter = volux_rng_float(&rng);
-            volux_vec3 o, d;
-            volux_camera_ray(cam, (float)px + jx, (float)py + jy, &o, &d);
+            volux_primary pr = volux_primary_ray(cam, b->seed, tile->x0 + x, tile->y0 + y, tile->sample_index);
+            const volux_vec3 d = pr.d;
+            const float jitter = pr.jitter;
             volux_vec3 bg = volux_scene_escape_radiance(scene, d);
             float *out = &rgb[3 * (y * tile->w + x)];
             volux_ray ray;
-            if (!volux_ray_clip(v, o, d, &ray)) {
+            if (!volux_ray_clip(v, pr.o, d, &ray)) {
                 out[0] = bg.x, out[1] = bg.y, out[2] = bg.z;
                 continue;
             }
