@@ -11,7 +11,7 @@ what=${1:-all}
 [[ -d ../shared/data/volumes ]] || { echo "bench/run.sh: needs ../shared/data beside the checkout" >&2; exit 2; }
 run() { echo "== $*"; "$@"; }
 case $what in
-  classical|all) run bench/kernel_rates.sh; run bench/thread_scaling.sh; run bench/vtk_compare.sh ;;&
+  classical|all) run bench/kernel_rates.sh; run bench/thread_scaling.sh; run bench/classical_metrics.sh; run bench/vtk_compare.sh ;;&
   pathtrace|all) run build/volux bench bench/scenes/pt_bonsai_env.json --repeat 3 --spp 16 --width 128 --height 128 --json
                  run build/volux bench bench/scenes/pt_bonsai_env.json --repeat 3 --spp 16 --width 128 --height 128 --json \
                      --set techniques.pathtrace.majorant=global ;;&
