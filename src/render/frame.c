@@ -13,6 +13,7 @@
 
 #include "core/context_internal.h"
 #include "core/parallel.h"
+#include "technique_internal.h"
 #include "volux/render.h"
 
 struct volux_framebuffer {
@@ -145,8 +146,6 @@ static double clock_ms(clockid_t id) {
 }
 static double now_ms(void) { return clock_ms(CLOCK_MONOTONIC); }
 
-/* Internal accessors implemented in techniques/technique.c. */
-const void *volux_technique_state(const volux_technique *t);
 
 volux_status volux_render(volux_technique *t, volux_scene *scene, volux_framebuffer *fb,
                           const volux_render_limits *limits, volux_render_report *report) {

@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "render/technique_internal.h"
 #include "techniques/ambient/ambient.h"
 #include "techniques/ao/ao.h"
 #include "techniques/single/single.h"
@@ -159,7 +160,6 @@ static void test_ambient_edits_do_least_work(void **state) {
     volux_scene *s = load(ctx);
     volux_technique *t;
     assert_int_equal(volux_technique_create(ctx, "ambient", s, &t), VOLUX_OK);
-    extern const void *volux_technique_state(const volux_technique *t);
     const ambient_state *st = volux_technique_state(t);
     ambient_stats before = st->stats;
     /* camera: nothing */
@@ -208,7 +208,6 @@ static void test_single_and_ao_edits_do_least_work(void **state) {
     volux_technique *ts, *ta;
     assert_int_equal(volux_technique_create(ctx, "single", s, &ts), VOLUX_OK);
     assert_int_equal(volux_technique_create(ctx, "ao", s, &ta), VOLUX_OK);
-    extern const void *volux_technique_state(const volux_technique *t);
     const single_state *ss = volux_technique_state(ts);
     const ao_state *as = volux_technique_state(ta);
     uint64_t c0 = ss->cache_builds[0], c1 = ss->cache_builds[1], sat = as->sat_builds;

@@ -12,6 +12,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "render/technique_internal.h"
+
 #include "techniques/lightvol/lightvol.h"
 #include "test_util.h"
 

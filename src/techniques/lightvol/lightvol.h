@@ -309,7 +309,4 @@ void volux_lightvol_unoccluded(const lightvol_state *st, const lv_source *s, vol
 size_t volux_lightvol_scratch_bytes(const lightvol_state *st);
 void volux_lightvol_free_buffers(lightvol_state *st);
 
-/* Internal accessor (techniques/technique.c). */
-const void *volux_technique_state(const volux_technique *t);
-
 #endif

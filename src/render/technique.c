@@ -1,9 +1,10 @@
-/* techniques/technique.c — technique instances: create, stamp-based update,
+/* render/technique.c — technique instances: create, stamp-based update,
  * parameter validation. */
 #include <math.h>
 #include <string.h>
 
 #include "core/context_internal.h"
+#include "technique_internal.h"
 #include "volux/technique.h"
 
 struct volux_technique {
