@@ -20,6 +20,7 @@
 #include "core/rng.h"
 #include "core/vecmath.h"
 #include "lightvol.h"
+#include "sweep.h"
 #include "sample/primary.h"
 
 static const volux_param_info lightvol_params[] = {
@@ -57,6 +58,9 @@ static const volux_param_info lightvol_params[] = {
     {"early_termination", VOLUX_PARAM_NUMBER, 0.002, 0, 1, NULL,
      "stop a ray when its transmittance falls below this (0 = never)"},
     {"skip_empty", VOLUX_PARAM_BOOL, 1, 0, 1, NULL, "skip macrocells whose TF extinction is zero"},
+    {"kernel", VOLUX_PARAM_STRING, 0, 0, 0, "auto",
+     "propagation row kernels: auto (AVX2+FMA where the CPU has them), scalar (portable reference) or simd (error "
+     "if unavailable); same volume up to float rounding"},
     {"rebuild_token", VOLUX_PARAM_NUMBER, 0, 0, 1e15, NULL,
      "benchmark hook: changing this value forces an entire light update"},
     {NULL, 0, 0, 0, 0, NULL, NULL}};
@@ -93,6 +97,15 @@ static volux_status read_params(lightvol_state *st, const volux_scene *scene, lv
                            "techniques.lightvol.cost_rule: expected \"work\", \"passes\", \"lights\", \"selective\" or \"full\", "
                            "got \"%s\"",
                            rule);
+    const char *kernel = volux_scene_param_string(scene, "lightvol", "kernel", "auto");
+    if (!strcmp(kernel, "auto")) p->kernel = LV_KERNEL_AUTO;
+    else if (!strcmp(kernel, "scalar")) p->kernel = LV_KERNEL_SCALAR;
+    else if (!strcmp(kernel, "simd")) p->kernel = LV_KERNEL_SIMD;
+    else
+        return volux_error(ctx, VOLUX_ERR_INVALID,
+                           "techniques.lightvol.kernel: expected \"auto\", \"scalar\" or \"simd\", got \"%s\"", kernel);
+    if (p->kernel == LV_KERNEL_SIMD && !volux_lightvol_simd_available())
+        return volux_error(ctx, VOLUX_ERR_UNSUPPORTED, "techniques.lightvol.kernel: \"simd\" needs a CPU with AVX2 and FMA");
     p->max_per_pass = (int)volux_technique_param(scene, cls, "max_lights_per_pass");
     p->forward = (float)volux_technique_param(scene, cls, "forward_scattering");
     p->cone_deg = (float)volux_technique_param(scene, cls, "scatter_cone");
@@ -154,11 +167,15 @@ static volux_status lightvol_update(void *state, volux_scene *scene, const volux
         if ((s = read_params(st, scene, &np))) return s;
         const lv_params *op = &st->p;
         if (memcmp(np.scale, op->scale, sizeof np.scale) != 0 || np.directional != op->directional) realloc_vol = 1;
-        if (np.forward != op->forward || np.cone_deg != op->cone_deg || np.rebuild_token != op->rebuild_token) {
+        /* a kernel switch rebuilds, so that selective updates never mix two
+         * kernels' rounding in one volume */
+        if (np.forward != op->forward || np.cone_deg != op->cone_deg || np.rebuild_token != op->rebuild_token ||
+            np.kernel != op->kernel) {
             full = 1;
             if (!reason) reason = "parameters changed";
         }
         st->p = np;
+        st->use_simd = np.kernel != LV_KERNEL_SCALAR && volux_lightvol_simd_available();
         double lo, hi, sp[3];
         volux_volume_range(st->volume, &lo, &hi);
         volux_volume_spacing(st->volume, sp);

@@ -44,6 +44,7 @@
 #include "core/parallel.h"
 #include "core/vecmath.h"
 #include "lightvol.h"
+#include "sweep.h"
 
 /* ------------------------------------------------------------ allocation */
 
@@ -441,67 +442,7 @@ static double plan_work(const lv_item *items, int n, int coherent, int max_per_p
     return work;
 }
 
-enum { E_SKIP, E_INIT, E_INIT_ATT, E_PROP };
-
-/* Sub-samples of the medium along one propagation segment: one per voxel of
- * sideways travel, so an oblique sweep (a light's second-closest group)
- * cannot step over a thin wall. */
-#define LV_MAX_SUB 16
-/* ... and along the segment light → voxel of the first slice after a light
- * that lies between two slices (integrated once per pass). */
-#define LV_MAX_INIT_SUB 256
-
-typedef struct lv_tap {
-    int di, dj;
-    float w00, w10, w01, w11;
-} lv_tap;
-
-typedef struct lv_entry {
-    const lv_source *s;
-    float sign;
-    float sw;           /* directional: sign·factor                       */
-    volux_vec3 dsw;     /* directional: sign·factor·direction             */
-    float *rd[3], *wr[3];
-    int mode;
-    /* directional, fixed for the pass */
-    float du, dv, len;  /* previous-slice offset (index units), length    */
-    float cu[4], cv[4]; /* cone tap offsets                               */
-    lv_tap tc, tcone[4];
-    int nsub;
-    float su[LV_MAX_SUB], sv[LV_MAX_SUB]; /* medium sample offsets       */
-    float wp[LV_MAX_SUB], wc[LV_MAX_SUB]; /* their weights (prev / current
-                                             slice) × len / nsub          */
-    lv_tap ts[LV_MAX_SUB];
-    int di_min, di_max, dj_min, dj_max;   /* tap extents (interior test)   */
-    /* positional */
-    float lidx[3];      /* light position in illumination index space     */
-    float f;            /* 1/dist for the current slice                   */
-} lv_entry;
-
-typedef struct lv_sweep {
-    lightvol_state *st;
-    int g, a, au, av, s;
-    int mu, mv, ma;
-    int k, kp, step;
-    size_t vs[3];       /* illumination strides (voxels) per axis         */
-    lv_entry *e;
-    int ne;
-    const float *mp;    /* medium of the previous slice: σt, κr, κg, κb planes */
-    float *mc;          /* medium of the current slice                     */
-    float *mn;          /* medium of the next slice (classified meanwhile) */
-    int kn;             /* next slice, or −1                               */
-    int rows_per_item, sweep_items, class_items;
-    int defer;          /* x sweeps: slices staged before a flush (0: none) */
-    size_t area;
-    int overwrite;
-    int forward, cone;
-    int nplanes;        /* medium planes propagation reads: 1 (σt) or 4    */
-    int post;           /* slices hold scalars (post-classification)       */
-    const volux_transfer_lut *lut;
-    float albedo;
-    float fwd, tan_c;   /* f, tan(cone)/√2                                 */
-    float rmin2;
-} lv_sweep;
+/* pass state (lv_sweep, lv_entry, lv_tap) and the SIMD kernels: sweep.h */
 
 static inline lv_tap make_tap(float du, float dv) {
     float fu = floorf(du), fv = floorf(dv);
@@ -737,9 +678,10 @@ static inline int rows_empty(const lv_sweep *J, int j0, int j1) {
     if (j1 > J->mv - 1) j1 = J->mv - 1;
     const float *rp = J->mp + 4 * J->area, *rc = J->mc + 4 * J->area;
     float lo = INFINITY, hi = -INFINITY;
-    for (int j = j0; j <= j1; j++) {
-        lo = fminf(lo, fminf(rp[2 * j], rc[2 * j]));
-        hi = fmaxf(hi, fmaxf(rp[2 * j + 1], rc[2 * j + 1]));
+    for (int j = j0; j <= j1; j++) { /* (no NaN here: ranges come from comparisons) */
+        float l = rp[2 * j] < rc[2 * j] ? rp[2 * j] : rc[2 * j], h = rp[2 * j + 1] > rc[2 * j + 1] ? rp[2 * j + 1] : rc[2 * j + 1];
+        lo = l < lo ? l : lo;
+        hi = h > hi ? h : hi;
     }
     if (!J->post) return !(hi > 0.0f);
     /* every value interpolated there lies in [lo, hi]: is σt zero on it?
@@ -753,6 +695,22 @@ static inline int rows_empty(const lv_sweep *J, int j0, int j1) {
     return J->st->lut_nz[i1 + 1] - J->st->lut_nz[i0] == 0;
 }
 
+static void accumulate(float *restrict a, const float *restrict o, float w, int n) {
+    for (int u = 0; u < n; u++) a[u] += w * o[u];
+}
+
+/* D += lum(value)·(sign·factor·direction) */
+static void accumulate_dir(float *a, size_t m, float *const out[3], volux_vec3 d, int n) {
+    float *restrict ax = a, *restrict ay = a + m, *restrict az = a + 2 * m;
+    const float *restrict o0 = out[0], *restrict o1 = out[1], *restrict o2 = out[2];
+    for (int u = 0; u < n; u++) {
+        float lum = 0.2126f * o0[u] + 0.7152f * o1[u] + 0.0722f * o2[u];
+        ax[u] += d.x * lum;
+        ay[u] += d.y * lum;
+        az[u] += d.z * lum;
+    }
+}
+
 /* Optical depths of row v over directional entry e's segments (σt into
  * tau[0], κ_c into tau[1..3] when forward scattering): midpoint rule over
  * e->nsub points, the medium interpolated between the two slices. */
@@ -760,7 +718,7 @@ static void dir_tau(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1,
     const int mu = J->mu, np = J->nplanes;
     const size_t area = J->area;
     for (int q = 0; q < np; q++) memset(tau[q], 0, (size_t)mu * sizeof(float));
-    for (int i = 0; i < e->nsub; i++) {
+    for (int i = 0; i < e->nsub && !J->simd; i++) {
         const lv_tap t = e->ts[i];
         const float wp = e->wp[i], wc = e->wc[i];
         if (J->post && u1 > u0) {
@@ -785,16 +743,20 @@ static void dir_tau(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1,
                             wc * (t.w00 * C0[u] + t.w10 * C0[u + 1] + t.w01 * C1[u] + t.w11 * C1[u + 1]);
             }
         }
+    }
+    /* row ends: per voxel, outside taps see empty medium */
+    for (int i = 0; i < e->nsub; i++)
         for (int u = 0; u < mu; u++) {
             if (u == u0 && u1 > u0) {
                 u = u1 - 1;
                 continue;
             }
             float tq[4] = {0, 0, 0, 0};
-            med_accumulate(J, (float)u + e->su[i], (float)v + e->sv[i], wp, wc, np, tq);
+            med_accumulate(J, (float)u + e->su[i], (float)v + e->sv[i], e->wp[i], e->wc[i], np, tq);
             for (int q = 0; q < np; q++) tau[q][u] += tq[q];
         }
-    }
+    /* (after the row ends: its masked last step must not be read back at once) */
+    if (J->simd && u1 > u0) volux_lightvol_dir_tau_avx2(J, e, v, u0, u1, tau);
 }
 
 /* Directional light, row v: values into out[c][0..mu). */
@@ -891,6 +853,68 @@ static void dir_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
             for (int u = 0; u < mu; u++) o[u] = T[u] * cc[u] + (tc[u] - T[u]) * cn[u];
         }
     }
+}
+
+/* Directional light, row v, with the AVX2 kernels: as dir_row followed by
+ * sweep_row's accumulation, but the row interior in one fused pass
+ * (volux_lightvol_dir_light_avx2) and only the row ends per voxel. */
+static void dir_row_simd(const lv_sweep *J, const lv_entry *e, int v, float *out[3], float *T, float *Tc[3],
+                         float *tau[4], const lv_entry **last, float *acc, int ch) {
+    const int mu = J->mu, mv = J->mv;
+    const size_t m = (size_t)mu;
+    if (e->mode == E_INIT) {
+        float pw[3] = {e->s->power.x, e->s->power.y, e->s->power.z};
+        for (int c = 0; c < 3; c++)
+            for (int u = 0; u < mu; u++) out[c][u] = pw[c];
+        for (int c = 0; c < 3; c++) accumulate(acc + (size_t)c * m, out[c], e->sw, mu);
+        if (ch == 6) accumulate_dir(acc + 3 * m, m, out, e->dsw, mu);
+        return;
+    }
+    int u0 = -e->di_min, u1 = mu - 1 - e->di_max;
+    int row_ok = v + e->dj_min >= 0 && v + e->dj_max + 1 <= mv - 1;
+    if (u0 < 0) u0 = 0;
+    if (u1 > mu) u1 = mu;
+    if (!row_ok || u1 < u0) u0 = u1 = 0;
+    int empty = rows_empty(J, v + e->dj_min - 1, v + e->dj_max + 2);
+    const lv_entry *l = *last;
+    if (!empty && (!l || l->du != e->du || l->dv != e->dv || l->len != e->len)) {
+        dir_tau(J, e, v, u0, u1, tau);
+        volux_lightvol_exp_avx2(T, tau[0], mu);
+        if (J->forward)
+            for (int c = 0; c < 3; c++) volux_lightvol_exp_avx2(Tc[c], tau[1 + c], mu);
+        *last = e;
+    }
+    /* row ends: generic fetches (outside taps see the unoccluded light) */
+    const int cone = J->cone && !empty;
+    for (int u = 0; u < mu; u++) {
+        if (u == u0 && u1 > u0) {
+            u = u1 - 1;
+            continue;
+        }
+        float cc[3], cn[3] = {0, 0, 0}, c3[3], o[3];
+        fetch(J, e, (float)u + e->du, (float)v + e->dv, cc);
+        if (cone)
+            for (int q = 0; q < 4; q++) {
+                fetch(J, e, (float)u + e->cu[q], (float)v + e->cv[q], c3);
+                for (int c = 0; c < 3; c++) cn[c] += 0.25f * c3[c];
+            }
+        for (int c = 0; c < 3; c++) {
+            if (empty) o[c] = cc[c];
+            else if (!J->forward) o[c] = T[u] * cc[c];
+            else if (!J->cone) o[c] = Tc[c][u] * cc[c];
+            else o[c] = T[u] * cc[c] + (Tc[c][u] - T[u]) * cn[c];
+            out[c][u] = o[c];
+            acc[(size_t)c * m + (size_t)u] += e->sw * o[c];
+        }
+        if (ch == 6) {
+            float lum = 0.2126f * o[0] + 0.7152f * o[1] + 0.0722f * o[2];
+            acc[3 * m + (size_t)u] += e->dsw.x * lum;
+            acc[4 * m + (size_t)u] += e->dsw.y * lum;
+            acc[5 * m + (size_t)u] += e->dsw.z * lum;
+        }
+    }
+    /* the interior last, so that its masked last step is not read back at once */
+    if (u1 > u0) volux_lightvol_dir_light_avx2(J, e, v, u0, u1, T, Tc, empty, out, acc, m, ch);
 }
 
 /* Outside-slice fallback of fetch(), kept out of line. */
@@ -1222,22 +1246,6 @@ static void flush_row(const lv_sweep *J, int v, int nb) {
     }
 }
 
-static void accumulate(float *restrict a, const float *restrict o, float w, int n) {
-    for (int u = 0; u < n; u++) a[u] += w * o[u];
-}
-
-/* D += lum(value)·(sign·factor·direction) */
-static void accumulate_dir(float *a, size_t m, float *const out[3], volux_vec3 d, int n) {
-    float *restrict ax = a, *restrict ay = a + m, *restrict az = a + 2 * m;
-    const float *restrict o0 = out[0], *restrict o1 = out[1], *restrict o2 = out[2];
-    for (int u = 0; u < n; u++) {
-        float lum = 0.2126f * o0[u] + 0.7152f * o1[u] + 0.0722f * o2[u];
-        ax[u] += d.x * lum;
-        ay[u] += d.y * lum;
-        az[u] += d.z * lum;
-    }
-}
-
 static void sweep_row(const lv_sweep *J, int v, int thread) {
     lightvol_state *st = J->st;
     int mu = J->mu, ch = st->ch;
@@ -1256,6 +1264,10 @@ static void sweep_row(const lv_sweep *J, int v, int thread) {
         float *out[3] = {e->wr[0] + off, e->wr[1] + off, e->wr[2] + off};
         if (e->s->kind == LV_POSITIONAL) {
             pos_row(J, e, v, out, acc, ch, T + 14 * m);
+            continue;
+        }
+        if (J->simd) {
+            dir_row_simd(J, e, v, out, T, Tc, tau, &last, acc, ch);
             continue;
         }
         dir_row(J, e, v, out, T, Tc, cone, cen, tau, &last);
@@ -1407,6 +1419,7 @@ static void sweep(lightvol_state *st, int g, const lv_item *items, const int *id
     J.post = st->on_grid;
     J.lut = st->lut;
     J.albedo = st->albedo;
+    J.simd = st->use_simd;
     J.ne = n;
     /* x sweeps write the volume a whole x-row apart per voxel; staging
      * `LV_DEFER` slices turns that into runs along x (same values) */

@@ -1,0 +1,303 @@
+/*
+ * techniques/lightvol/propagate_avx2.c — AVX2+FMA row kernels of the
+ * propagation sweeps. All intrinsics of `lightvol` live in this file; it is
+ * compiled with target attributes and chosen at run time
+ * (volux_lightvol_simd_available, techniques.lightvol.kernel), so the
+ * default build runs on any x86-64 and the portable loops of propagate.c
+ * stay the reference the tests compare against.
+ *
+ * Each kernel evaluates the same formula as the portable loop it replaces,
+ * eight voxels of a row per step, over the row interior where every tap of
+ * every voxel lies inside the slice (constant bilinear weights for a
+ * directional light); a row's last partial step uses masked loads and
+ * stores, so nothing outside the row is read or written. Differences to the
+ * portable loops are float rounding (FMA contraction, the bilinear sums'
+ * order), well inside the tests' tolerances; results do not depend on the
+ * thread count (every voxel is computed by the same code whatever the row
+ * split).
+ *
+ * Why a fused light kernel: the portable code makes one pass over the row
+ * per step (fetch, cone, attenuate, store, accumulate colour, accumulate
+ * direction), re-reading its row temporaries each time; here one pass reads
+ * the light's previous slice once, writes its current slice once and adds
+ * into the accumulators while the values are in registers — the per-light
+ * work of a coherent pass (docs/techniques/lightvol.md, "CPU engineering").
+ */
+#include <math.h>
+#include <string.h>
+
+#include "sweep.h"
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+
+int volux_lightvol_simd_available(void) {
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+}
+
+#define A2 __attribute__((target("avx2,fma")))
+#define A2I static inline __attribute__((always_inline, target("avx2,fma")))
+
+/* Lanes [0, n) of a step (n ≤ 8 for a row's last, partial step). */
+A2I __m256i lane_mask(int n) {
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    return _mm256_cmpgt_epi32(_mm256_set1_epi32(n), lane);
+}
+
+/* Full steps load and store plainly; the partial last step masks (the
+ * masked lanes neither fault nor read: they are 0). `full` is a constant
+ * after inlining. */
+A2I __m256 ld(const float *p, int full, __m256i mk) { return full ? _mm256_loadu_ps(p) : _mm256_maskload_ps(p, mk); }
+A2I void st8(float *p, __m256 x, int full, __m256i mk) {
+    if (full) _mm256_storeu_ps(p, x);
+    else _mm256_maskstore_ps(p, mk, x);
+}
+
+/* Bilinear combination of rows r0 (w00, w10 at u, u + 1) and r1 (w01, w11). */
+A2I __m256 bil(const float *r0, const float *r1, __m256 w00, __m256 w10, __m256 w01, __m256 w11, int full,
+               __m256i mk, __m256i mk1) {
+    __m256 x = _mm256_mul_ps(w00, ld(r0, full, mk));
+    x = _mm256_fmadd_ps(w10, ld(r0 + 1, full, mk1), x);
+    x = _mm256_fmadd_ps(w01, ld(r1, full, mk), x);
+    return _mm256_fmadd_ps(w11, ld(r1 + 1, full, mk1), x);
+}
+
+/* lv_exp_neg, eight lanes: the same reduction and polynomial. */
+A2I __m256 exp_neg8(__m256 x) {
+    const __m256 lim = _mm256_set1_ps(126.0f);
+    __m256 y = _mm256_mul_ps(x, _mm256_set1_ps(1.44269504088896341f));
+    __m256 ok = _mm256_cmp_ps(y, lim, _CMP_LT_OQ); /* false for NaN and beyond 2^−126 */
+    y = _mm256_blendv_ps(lim, y, ok);
+    __m256i n = _mm256_cvttps_epi32(_mm256_add_ps(y, _mm256_set1_ps(0.5f)));
+    __m256 nf = _mm256_cvtepi32_ps(n);
+    __m256 r = _mm256_fnmadd_ps(nf, _mm256_set1_ps(0.693145752f), x);
+    r = _mm256_fnmadd_ps(nf, _mm256_set1_ps(1.42860677e-6f), r);
+    __m256 p = _mm256_set1_ps(-1.0f / 5040.0f);
+    p = _mm256_fmadd_ps(p, r, _mm256_set1_ps(1.0f / 720.0f));
+    p = _mm256_fmadd_ps(p, r, _mm256_set1_ps(-1.0f / 120.0f));
+    p = _mm256_fmadd_ps(p, r, _mm256_set1_ps(1.0f / 24.0f));
+    p = _mm256_fmadd_ps(p, r, _mm256_set1_ps(-1.0f / 6.0f));
+    p = _mm256_fmadd_ps(p, r, _mm256_set1_ps(0.5f));
+    p = _mm256_fmadd_ps(p, r, _mm256_set1_ps(-1.0f));
+    p = _mm256_fmadd_ps(p, r, _mm256_set1_ps(1.0f));
+    __m256 scale = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_sub_epi32(_mm256_set1_epi32(127), n), 23));
+    __m256 e = _mm256_min_ps(_mm256_mul_ps(p, scale), _mm256_set1_ps(1.0f));
+    return _mm256_and_ps(e, ok);
+}
+
+/* Transfer-function table position of scalar s: entry i ∈ [0, n − 2] and
+ * fraction f, u clamped to [0, n − 1] (NaN → 0) as volux_lut_rgba does. */
+A2I void lut_pos(const volux_transfer_lut *lut, __m256 s, __m256i *i, __m256 *f) {
+    const float last = (float)(lut->n - 1);
+    __m256 u = _mm256_mul_ps(_mm256_sub_ps(s, _mm256_set1_ps(lut->s_min)), _mm256_set1_ps(lut->inv_ds));
+    u = _mm256_max_ps(u, _mm256_setzero_ps()); /* NaN → 0 */
+    u = _mm256_min_ps(u, _mm256_set1_ps(last));
+    __m256i k = _mm256_min_epi32(_mm256_cvttps_epi32(u), _mm256_set1_epi32(lut->n - 2));
+    *i = k;
+    *f = _mm256_sub_ps(u, _mm256_cvtepi32_ps(k));
+}
+
+/* σt(s) (volux_lut_sigma) */
+A2I __m256 lut_sigma8(const volux_transfer_lut *lut, __m256 s) {
+    __m256i i;
+    __m256 f;
+    lut_pos(lut, s, &i, &f);
+    __m256 a = _mm256_i32gather_ps(lut->sigma_t, i, 4), b = _mm256_i32gather_ps(lut->sigma_t + 1, i, 4);
+    return _mm256_fmadd_ps(_mm256_sub_ps(b, a), f, a);
+}
+
+/* 8×8 transpose: row k of the input becomes lane k of every output. */
+A2I void transpose8(__m256 r[8]) {
+    __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]), t1 = _mm256_unpackhi_ps(r[0], r[1]);
+    __m256 t2 = _mm256_unpacklo_ps(r[2], r[3]), t3 = _mm256_unpackhi_ps(r[2], r[3]);
+    __m256 t4 = _mm256_unpacklo_ps(r[4], r[5]), t5 = _mm256_unpackhi_ps(r[4], r[5]);
+    __m256 t6 = _mm256_unpacklo_ps(r[6], r[7]), t7 = _mm256_unpackhi_ps(r[6], r[7]);
+    __m256 s0 = _mm256_shuffle_ps(t0, t2, 0x44), s1 = _mm256_shuffle_ps(t0, t2, 0xEE);
+    __m256 s2 = _mm256_shuffle_ps(t1, t3, 0x44), s3 = _mm256_shuffle_ps(t1, t3, 0xEE);
+    __m256 s4 = _mm256_shuffle_ps(t4, t6, 0x44), s5 = _mm256_shuffle_ps(t4, t6, 0xEE);
+    __m256 s6 = _mm256_shuffle_ps(t5, t7, 0x44), s7 = _mm256_shuffle_ps(t5, t7, 0xEE);
+    r[0] = _mm256_permute2f128_ps(s0, s4, 0x20);
+    r[1] = _mm256_permute2f128_ps(s1, s5, 0x20);
+    r[2] = _mm256_permute2f128_ps(s2, s6, 0x20);
+    r[3] = _mm256_permute2f128_ps(s3, s7, 0x20);
+    r[4] = _mm256_permute2f128_ps(s0, s4, 0x31);
+    r[5] = _mm256_permute2f128_ps(s1, s5, 0x31);
+    r[6] = _mm256_permute2f128_ps(s2, s6, 0x31);
+    r[7] = _mm256_permute2f128_ps(s3, s7, 0x31);
+}
+
+/* σt and κ_c = max(σt − f·albedo·σt·c_c, 0) of scalar s (classify_s with
+ * forward scattering): each lane reads its two table entries (8 floats,
+ * rgba rgba) with one load, transposed into r0 g0 b0 a0 r1 g1 b1 a1. */
+A2I void lut_kappa8(const lv_sweep *J, __m256 s, __m256 m[4]) {
+    const volux_transfer_lut *lut = J->lut;
+    __m256i i;
+    __m256 f;
+    lut_pos(lut, s, &i, &f);
+    int idx[8];
+    _mm256_storeu_si256((__m256i *)idx, i);
+    __m256 r[8];
+    for (int l = 0; l < 8; l++) r[l] = _mm256_loadu_ps(lut->rgba + 4 * (size_t)idx[l]);
+    transpose8(r);
+    __m256 c[4];
+    for (int q = 0; q < 4; q++) c[q] = _mm256_fmadd_ps(_mm256_sub_ps(r[4 + q], r[q]), f, r[q]);
+    __m256 sg = c[3], k = _mm256_mul_ps(_mm256_set1_ps(J->fwd * J->albedo), sg);
+    m[0] = sg;
+    for (int q = 0; q < 3; q++) m[1 + q] = _mm256_max_ps(_mm256_fnmadd_ps(k, c[q], sg), _mm256_setzero_ps());
+}
+
+/* One step of dir_tau: sub-sample tap t of rows P0/P1 (previous slice) and
+ * C0/C1 (current), lanes u … u + 7. */
+A2I void tau_step(const lv_sweep *J, const float *P0, const float *P1, const float *C0, const float *C1, lv_tap t,
+                  float wp, float wc, float *const tau[4], int u, int full, __m256i mk, __m256i mk1) {
+    const int np = J->nplanes;
+    const size_t area = J->area;
+    const __m256 w00 = _mm256_set1_ps(t.w00), w10 = _mm256_set1_ps(t.w10), w01 = _mm256_set1_ps(t.w01),
+                 w11 = _mm256_set1_ps(t.w11);
+    if (J->post) {
+        /* interpolate the scalar between the slices, then classify */
+        const float l = wp + wc;
+        __m256 sp = bil(P0 + u, P1 + u, w00, w10, w01, w11, full, mk, mk1);
+        __m256 sc = bil(C0 + u, C1 + u, w00, w10, w01, w11, full, mk, mk1);
+        __m256 s = _mm256_fmadd_ps(_mm256_sub_ps(sc, sp), _mm256_set1_ps(wc / l), sp);
+        __m256 m[4];
+        if (J->forward) lut_kappa8(J, s, m);
+        else m[0] = lut_sigma8(J->lut, s);
+        const __m256 vl = _mm256_set1_ps(l);
+        for (int q = 0; q < np; q++) st8(tau[q] + u, _mm256_fmadd_ps(vl, m[q], ld(tau[q] + u, full, mk)), full, mk);
+        return;
+    }
+    const __m256 vp = _mm256_set1_ps(wp), vc = _mm256_set1_ps(wc);
+    for (int q = 0; q < np; q++) {
+        const size_t o = (size_t)q * area;
+        __m256 a = bil(P0 + o + u, P1 + o + u, w00, w10, w01, w11, full, mk, mk1);
+        __m256 b = bil(C0 + o + u, C1 + o + u, w00, w10, w01, w11, full, mk, mk1);
+        __m256 x = _mm256_fmadd_ps(vp, a, _mm256_mul_ps(vc, b));
+        st8(tau[q] + u, _mm256_add_ps(ld(tau[q] + u, full, mk), x), full, mk);
+    }
+}
+
+A2 void volux_lightvol_dir_tau_avx2(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, float *const tau[4]) {
+    const int mu = J->mu;
+    for (int i = 0; i < e->nsub; i++) {
+        const lv_tap t = e->ts[i];
+        if (e->wp[i] + e->wc[i] <= 0.0f) continue;
+        const float *P0 = J->mp + (ptrdiff_t)(v + t.dj) * mu + t.di, *P1 = P0 + mu;
+        const float *C0 = J->mc + (ptrdiff_t)(v + t.dj) * mu + t.di, *C1 = C0 + mu;
+        int u = u0;
+        const __m256i all = _mm256_set1_epi32(-1);
+        for (; u + 8 <= u1; u += 8) tau_step(J, P0, P1, C0, C1, t, e->wp[i], e->wc[i], tau, u, 1, all, all);
+        if (u < u1) {
+            __m256i mk = lane_mask(u1 - u);
+            tau_step(J, P0, P1, C0, C1, t, e->wp[i], e->wc[i], tau, u, 0, mk, mk);
+        }
+    }
+}
+
+A2 void volux_lightvol_exp_avx2(float *T, const float *tau, int n) {
+    int u = 0;
+    for (; u + 8 <= n; u += 8) _mm256_storeu_ps(T + u, exp_neg8(_mm256_loadu_ps(tau + u)));
+    for (; u < n; u++) T[u] = lv_exp_neg(tau[u]); /* the row ends read these right away: no masked store */
+}
+
+/* Constants of the fused directional light kernel for one row, broadcast
+ * once (the loop stores through pointers the compiler cannot tell apart
+ * from the entry, so it would reload them every step). */
+typedef struct light_consts {
+    __m256 w[5][4];          /* centre tap, then the 4 cone taps: w00 w10 w01 w11 */
+    const float *r[5][3];    /* their upper rows per channel (+ mu: lower)         */
+    __m256 sw, d[3], q4;
+    int cone, empty, forward;
+} light_consts;
+
+/* a[0..8) += w·x on the lanes of mk. The row accumulators are read back
+ * by the next light's row ends at once, and a masked store would block
+ * store-to-load forwarding there (a stall per row and light): the partial
+ * step loads all 8 lanes, blends and stores all 8 — lanes past the
+ * interior hold this thread's row-end values or the next accumulator
+ * row's (row scratch, ROW_FLOATS·mu + padding per thread), stored back
+ * unchanged. */
+A2I void acc_add(float *a, __m256 w, __m256 x, int full, __m256i mk) {
+    __m256 old = _mm256_loadu_ps(a), sum = _mm256_fmadd_ps(w, x, old);
+    _mm256_storeu_ps(a, full ? sum : _mm256_blendv_ps(old, sum, _mm256_castsi256_ps(mk)));
+}
+
+A2I void light_step(const light_consts *K, ptrdiff_t mu, const float *T, float *const Tc[3], float *const out[3],
+                    float *acc, size_t m, int ch, int u, int full, __m256i mk) {
+    __m256 o[3];
+    for (int c = 0; c < 3; c++)
+        o[c] = bil(K->r[0][c] + u, K->r[0][c] + mu + u, K->w[0][0], K->w[0][1], K->w[0][2], K->w[0][3], full, mk, mk);
+    if (!K->empty) {
+        __m256 Tv = ld(T + u, full, mk);
+        if (!K->forward) {
+            for (int c = 0; c < 3; c++) o[c] = _mm256_mul_ps(Tv, o[c]);
+        } else if (!K->cone) {
+            for (int c = 0; c < 3; c++) o[c] = _mm256_mul_ps(ld(Tc[c] + u, full, mk), o[c]);
+        } else {
+            /* direct part sharp, forward-scattered part from the cone's 4 taps */
+            for (int c = 0; c < 3; c++) {
+                __m256 cn = bil(K->r[1][c] + u, K->r[1][c] + mu + u, K->w[1][0], K->w[1][1], K->w[1][2], K->w[1][3],
+                                full, mk, mk);
+                for (int q = 2; q < 5; q++)
+                    cn = _mm256_add_ps(cn, bil(K->r[q][c] + u, K->r[q][c] + mu + u, K->w[q][0], K->w[q][1],
+                                               K->w[q][2], K->w[q][3], full, mk, mk));
+                cn = _mm256_mul_ps(K->q4, cn);
+                o[c] = _mm256_fmadd_ps(Tv, o[c], _mm256_mul_ps(_mm256_sub_ps(ld(Tc[c] + u, full, mk), Tv), cn));
+            }
+        }
+    }
+    for (int c = 0; c < 3; c++) {
+        st8(out[c] + u, o[c], full, mk);
+        acc_add(acc + (size_t)c * m + (size_t)u, K->sw, o[c], full, mk);
+    }
+    if (ch == 6) {
+        __m256 lum = _mm256_mul_ps(_mm256_set1_ps(0.2126f), o[0]);
+        lum = _mm256_fmadd_ps(_mm256_set1_ps(0.7152f), o[1], lum);
+        lum = _mm256_fmadd_ps(_mm256_set1_ps(0.0722f), o[2], lum);
+        for (int i = 0; i < 3; i++) acc_add(acc + (size_t)(3 + i) * m + (size_t)u, K->d[i], lum, full, mk);
+    }
+}
+
+A2 void volux_lightvol_dir_light_avx2(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, const float *T,
+                                      float *const Tc[3], int empty, float *const out[3], float *acc, size_t m,
+                                      int ch) {
+    const ptrdiff_t mu = J->mu;
+    light_consts K;
+    const lv_tap *taps[5] = {&e->tc, &e->tcone[0], &e->tcone[1], &e->tcone[2], &e->tcone[3]};
+    for (int q = 0; q < 5; q++) {
+        const lv_tap *t = taps[q];
+        K.w[q][0] = _mm256_set1_ps(t->w00);
+        K.w[q][1] = _mm256_set1_ps(t->w10);
+        K.w[q][2] = _mm256_set1_ps(t->w01);
+        K.w[q][3] = _mm256_set1_ps(t->w11);
+        for (int c = 0; c < 3; c++) K.r[q][c] = e->rd[c] + (v + t->dj) * mu + t->di;
+    }
+    K.sw = _mm256_set1_ps(e->sw);
+    K.d[0] = _mm256_set1_ps(e->dsw.x);
+    K.d[1] = _mm256_set1_ps(e->dsw.y);
+    K.d[2] = _mm256_set1_ps(e->dsw.z);
+    K.q4 = _mm256_set1_ps(0.25f);
+    K.cone = J->cone;
+    K.empty = empty;
+    K.forward = J->forward;
+    const __m256i all = _mm256_set1_epi32(-1);
+    int u = u0;
+    for (; u + 8 <= u1; u += 8) light_step(&K, mu, T, Tc, out, acc, m, ch, u, 1, all);
+    if (u < u1) light_step(&K, mu, T, Tc, out, acc, m, ch, u, 0, lane_mask(u1 - u));
+}
+
+#else /* not x86-64 GCC/Clang: the portable loops only */
+
+int volux_lightvol_simd_available(void) { return 0; }
+void volux_lightvol_dir_tau_avx2(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, float *const tau[4]) {
+    (void)J, (void)e, (void)v, (void)u0, (void)u1, (void)tau;
+}
+void volux_lightvol_exp_avx2(float *T, const float *tau, int n) { (void)T, (void)tau, (void)n; }
+void volux_lightvol_dir_light_avx2(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, const float *T,
+                                   float *const Tc[3], int empty, float *const out[3], float *acc, size_t m, int ch) {
+    (void)J, (void)e, (void)v, (void)u0, (void)u1, (void)T, (void)Tc, (void)empty, (void)out, (void)acc, (void)m,
+        (void)ch;
+}
+
+#endif

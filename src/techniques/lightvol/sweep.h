@@ -1,0 +1,102 @@
+/*
+ * techniques/lightvol/sweep.h — the state of one propagation pass (group,
+ * lights, slice buffers, medium slices), shared by the portable sweep code
+ * (propagate.c) and the AVX2 kernels (propagate_avx2.c).
+ *
+ * Internal to the technique.
+ */
+#ifndef VOLUX_LIGHTVOL_SWEEP_H
+#define VOLUX_LIGHTVOL_SWEEP_H
+
+#include "lightvol.h"
+
+enum { E_SKIP, E_INIT, E_INIT_ATT, E_PROP };
+
+/* Sub-samples of the medium along one propagation segment: one per voxel of
+ * sideways travel, so an oblique sweep (a light's second-closest group)
+ * cannot step over a thin wall. */
+#define LV_MAX_SUB 16
+/* ... and along the segment light → voxel of the first slice after a light
+ * that lies between two slices (integrated once per pass). */
+#define LV_MAX_INIT_SUB 256
+
+typedef struct lv_tap {
+    int di, dj;
+    float w00, w10, w01, w11;
+} lv_tap;
+
+typedef struct lv_entry {
+    const lv_source *s;
+    float sign;
+    float sw;           /* directional: sign·factor                       */
+    volux_vec3 dsw;     /* directional: sign·factor·direction             */
+    float *rd[3], *wr[3];
+    int mode;
+    /* directional, fixed for the pass */
+    float du, dv, len;  /* previous-slice offset (index units), length    */
+    float cu[4], cv[4]; /* cone tap offsets                               */
+    lv_tap tc, tcone[4];
+    int nsub;
+    float su[LV_MAX_SUB], sv[LV_MAX_SUB]; /* medium sample offsets       */
+    float wp[LV_MAX_SUB], wc[LV_MAX_SUB]; /* their weights (prev / current
+                                             slice) × len / nsub          */
+    lv_tap ts[LV_MAX_SUB];
+    int di_min, di_max, dj_min, dj_max;   /* tap extents (interior test)   */
+    /* positional */
+    float lidx[3];      /* light position in illumination index space     */
+    float f;            /* 1/dist for the current slice                   */
+} lv_entry;
+
+typedef struct lv_sweep {
+    lightvol_state *st;
+    int g, a, au, av, s;
+    int mu, mv, ma;
+    int k, kp, step;
+    size_t vs[3];       /* illumination strides (voxels) per axis         */
+    lv_entry *e;
+    int ne;
+    const float *mp;    /* medium of the previous slice: σt, κr, κg, κb planes */
+    float *mc;          /* medium of the current slice                     */
+    float *mn;          /* medium of the next slice (classified meanwhile) */
+    int kn;             /* next slice, or −1                               */
+    int rows_per_item, sweep_items, class_items;
+    int defer;          /* x sweeps: slices staged before a flush (0: none) */
+    size_t area;
+    int overwrite;
+    int forward, cone;
+    int nplanes;        /* medium planes propagation reads: 1 (σt) or 4    */
+    int post;           /* slices hold scalars (post-classification)       */
+    const volux_transfer_lut *lut;
+    float albedo;
+    float fwd, tan_c;   /* f, tan(cone)/√2                                 */
+    float rmin2;
+    int simd;           /* run the AVX2 kernels (propagate_avx2.c)        */
+} lv_sweep;
+
+/* ------------------------------------------------------- AVX2 kernels
+ * propagate_avx2.c; chosen at run time (techniques.lightvol.kernel). Each
+ * computes the same quantity as the portable loop it replaces, over the
+ * interior range [u0, u1) of a row where every tap lies inside the slice
+ * (the row ends stay on the portable path); results differ from it by
+ * float rounding only (FMA, polynomial order), bounded by the tests. */
+
+/* 1 if this CPU runs the AVX2+FMA kernels. */
+int volux_lightvol_simd_available(void);
+
+/* Directional entry e, row v: optical depths over its segments (σt into
+ * tau[0], κ_c into tau[1..3] when forward scattering), added to tau[q][u]
+ * for u in [u0, u1). */
+void volux_lightvol_dir_tau_avx2(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, float *const tau[4]);
+
+/* T[u] = exp(−tau[u]) for u in [0, n). */
+void volux_lightvol_exp_avx2(float *T, const float *tau, int n);
+
+/* Directional entry e, row v, u in [u0, u1): the light fetched from the
+ * previous slice (and the forward-scattering cone unless `empty`),
+ * attenuated by T (and Tc_c with forward scattering) into out[c][u], and
+ * accumulated: acc[c][u] += sw·out, acc[3 + i][u] += dsw_i·lum(out) when
+ * ch = 6. */
+void volux_lightvol_dir_light_avx2(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, const float *T,
+                                   float *const Tc[3], int empty, float *const out[3], float *acc, size_t m, int ch);
+
+#endif
