@@ -1065,12 +1065,17 @@ static void pos_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
     const float da = ((float)J->k - la) * st->spacing[a], dvw = ((float)v - lv) * sv;
     const float f = e->f, rm2 = J->rmin2, sign = e->sign, tan_c = J->tan_c;
     const float y = (float)v - ((float)v - lv) * f, ov = y - (float)v;
-    /* scratch: X LEN K WA WU WV TAU[4] CEN[3] CON[3] = 16·mu floats */
-    float *restrict X = scr, *restrict LEN = X + m, *restrict K = LEN + m, *restrict WA = K + m, *restrict WU = WA + m,
-                    *restrict WV = WU + m, *TAU = WV + m, *CEN = TAU + 4 * m, *CON = CEN + 3 * m;
+    /* scratch: X LEN K WA WU WV TAU[4] CEN[3] CON[3] = 16·mu floats; the
+     * AVX2 kernels use the first 10 with a stride rounded up to 8 */
+    const int simd = J->simd;
+    const size_t ms = simd ? (m + 7) & ~(size_t)7 : m;
+    float *restrict X = scr, *restrict LEN = X + ms, *restrict K = LEN + ms, *restrict WA = K + ms,
+                    *restrict WU = WA + ms, *restrict WV = WU + ms, *TAU = WV + ms, *CEN = TAU + 4 * m, *CON = CEN + 3 * m;
+    lv_pos_row R = {.v = v, .ms = ms, .X = X, .LEN = LEN, .K = K, .WA = WA, .WU = WU, .WV = WV, .TAU = TAU, .y = y};
     /* Phase 1: geometry, factor of this group, 1/r² (vector loops) */
     const float da2 = da * da, dv2 = dvw * dvw, ada = fabsf(da), adv = fabsf(dvw);
-    for (int u = 0; u < mu; u++) {
+    if (simd) volux_lightvol_pos_geometry_avx2(J, e, &R);
+    for (int u = 0; u < mu && !simd; u++) {
         float du = ((float)u - lu) * su, du2 = du * du;
         /* r² summed in x, y, z order like pos_voxels, so the factors of the
          * groups of a voxel match theirs exactly */
@@ -1120,7 +1125,14 @@ static void pos_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
         /* rows between v and y (and the cone's) without medium: T = 1 */
         int jlo = (int)floorf(fminf((float)v, y - rv_max)) - 1, jhi = (int)ceilf(fmaxf((float)v, y + rv_max)) + 1;
         int empty = rows_empty(J, jlo, jhi);
-        for (int q = 0; q < np; q++) memset(TAU + (size_t)q * m + u0, 0, (size_t)(u1 - u0) * sizeof(float));
+        for (int q = 0; q < np; q++) memset(TAU + (size_t)q * ms + u0, 0, (size_t)(u1 - u0) * sizeof(float));
+        if (simd) {
+            R.u0 = u0, R.u1 = u1, R.n = n, R.inv_n = inv_n, R.jc = jc, R.ayc = ayc, R.empty = empty;
+            for (int i = 0; i < n; i++) R.tt[i] = tt[i], R.ay[i] = ay[i], R.jrow[i] = jrow[i];
+            if (!empty) volux_lightvol_pos_tau_avx2(J, &R);
+            volux_lightvol_pos_light_avx2(J, e, &R, out, acc, m, ch);
+            goto ends;
+        }
         for (int i = 0; i < n && !empty; i++) {
             const float t = tt[i], om = 1.0f - t, ayi = ay[i];
             const size_t rb = (size_t)jrow[i] * m;
@@ -1212,6 +1224,7 @@ static void pos_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
             }
         }
     }
+ends:
     if (u0 > 0) pos_voxels(J, e, v, 0, u0, out, acc, ch);
     if (u1 < mu) pos_voxels(J, e, v, u1 > u0 ? u1 : u0, mu, out, acc, ch);
 }
@@ -1379,7 +1392,9 @@ static volux_status ensure_scratch(lightvol_state *st, int entries) {
     int mmax = st->dims[0] > st->dims[1] ? st->dims[0] : st->dims[1];
     if (st->dims[2] > mmax) mmax = st->dims[2];
     int threads = st->threads > 0 ? st->threads : 1;
-    size_t stride = (size_t)ROW_FLOATS * (size_t)mmax + 16; /* + pad: threads never share a cache line */
+    /* + pad: threads never share a cache line, and the AVX2 kernels' last
+     * steps may read 8 floats past an array */
+    size_t stride = (size_t)ROW_FLOATS * (size_t)mmax + 64;
     if (!st->rows || st->rows_threads < threads || st->row_stride != stride) {
         if (st->rows) volux_free_aligned(ctx, st->rows, st->rows_bytes);
         need = stride * (size_t)threads * sizeof(float);

@@ -287,6 +287,212 @@ A2 void volux_lightvol_dir_light_avx2(const lv_sweep *J, const lv_entry *e, int 
     if (u < u1) light_step(&K, mu, T, Tc, out, acc, m, ch, u, 0, lane_mask(u1 - u));
 }
 
+/* ------------------------------------------------------------ positional */
+
+/* lv_acos01 with plain mul/add (no FMA): bit-identical to the scalar one. */
+A2I __m256 acos01_8(__m256 x) {
+    x = _mm256_min_ps(_mm256_max_ps(x, _mm256_setzero_ps()), _mm256_set1_ps(1.0f));
+    static const float c[8] = {-0.0012624911f, 0.0066700901f, -0.0170881256f, 0.0308918810f,
+                               -0.0501743046f, 0.0889789874f, -0.2145988016f, 1.5707963050f};
+    __m256 p = _mm256_set1_ps(c[0]);
+    for (int i = 1; i < 8; i++) p = _mm256_add_ps(_mm256_mul_ps(p, x), _mm256_set1_ps(c[i]));
+    return _mm256_mul_ps(_mm256_sqrt_ps(_mm256_sub_ps(_mm256_set1_ps(1.0f), x)), p);
+}
+
+A2I __m256 sel(__m256 mask, __m256 t, __m256 f) { return _mm256_blendv_ps(f, t, mask); }
+
+/* lv_axis_weight for the face of axis a, magnitudes ma (axis a), mb and mc
+ * (the other two axes b < c: here always au, av); same selects. */
+A2I __m256 axis_weight8(__m256 ma, __m256 mb, __m256 mc, int a) {
+    const __m256 zero = _mm256_setzero_ps();
+    const int b_lt_a = a >= 1, c_lt_a = a == 2;
+    __m256 gb = _mm256_cmp_ps(mb, ma, _CMP_GT_OQ), gc = _mm256_cmp_ps(mc, ma, _CMP_GT_OQ);
+    if (b_lt_a) gb = _mm256_or_ps(gb, _mm256_cmp_ps(mb, ma, _CMP_EQ_OQ));
+    if (c_lt_a) gc = _mm256_or_ps(gc, _mm256_cmp_ps(mc, ma, _CMP_EQ_OQ));
+    __m256 rank0 = _mm256_andnot_ps(_mm256_or_ps(gb, gc), _mm256_castsi256_ps(_mm256_set1_epi32(-1)));
+    __m256 rank2 = _mm256_and_ps(gb, gc);
+    __m256 cm = _mm256_cmp_ps(mc, mb, _CMP_GT_OQ);
+    __m256 hi = sel(cm, mc, mb), lo = sel(cm, mb, mc);
+    __m256 ba = acos01_8(ma), bh = acos01_8(hi), bl = acos01_8(lo);
+    __m256 b1 = sel(rank0, ba, bh), b2 = sel(rank0, bh, ba);
+    __m256 den = _mm256_sub_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_set1_ps(2.0f), bl), b1), b2);
+    __m256 big = _mm256_cmp_ps(den, _mm256_set1_ps(1e-6f), _CMP_GT_OQ);
+    __m256 q = _mm256_div_ps(_mm256_sub_ps(bl, b2), sel(big, den, _mm256_set1_ps(1.0f)));
+    __m256 w2 = sel(big, q, _mm256_set1_ps(0.5f));
+    w2 = sel(_mm256_andnot_ps(_mm256_cmp_ps(hi, zero, _CMP_GT_OQ), rank0), zero, w2);
+    const float eps = LV_MIN_FACTOR;
+    __m256 rem = _mm256_div_ps(_mm256_mul_ps(_mm256_set1_ps(0.5f), _mm256_sub_ps(w2, _mm256_set1_ps(eps))),
+                               _mm256_set1_ps(0.5f - eps));
+    w2 = sel(_mm256_cmp_ps(w2, _mm256_set1_ps(eps), _CMP_LE_OQ), zero, rem);
+    __m256 w = sel(rank0, _mm256_sub_ps(_mm256_set1_ps(1.0f), w2), w2);
+    __m256 off = _mm256_or_ps(rank2, _mm256_cmp_ps(ma, zero, _CMP_NGT_UQ)); /* rank 2 or !(ma > 0) */
+    return sel(off, zero, w);
+}
+
+A2 void volux_lightvol_pos_geometry_avx2(const lv_sweep *J, const lv_entry *e, lv_pos_row *R) {
+    const lightvol_state *st = J->st;
+    const int a = J->a, au = J->au, av = J->av;
+    const float su = st->spacing[au], sv = st->spacing[av];
+    const float la = e->lidx[a], lu = e->lidx[au], lv = e->lidx[av];
+    const float da = ((float)J->k - la) * st->spacing[a], dvw = ((float)R->v - lv) * sv;
+    const float f = e->f, rm2 = J->rmin2, sign = e->sign;
+    const __m256 vda2 = _mm256_set1_ps(da * da), vdv2 = _mm256_set1_ps(dvw * dvw);
+    const __m256 vada = _mm256_set1_ps(fabsf(da)), vadv = _mm256_set1_ps(fabsf(dvw));
+    const __m256 vda = _mm256_set1_ps(da), vdvw = _mm256_set1_ps(dvw), vlu = _mm256_set1_ps(lu),
+                 vsu = _mm256_set1_ps(su), vf = _mm256_set1_ps(f), vrm2 = _mm256_set1_ps(rm2),
+                 vsign = _mm256_set1_ps(sign), one = _mm256_set1_ps(1.0f);
+    const __m256 absmask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+    const __m256 lane = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
+    for (size_t u = 0; u < R->ms; u += 8) {
+        __m256 uf = _mm256_add_ps(_mm256_set1_ps((float)u), lane);
+        __m256 du = _mm256_mul_ps(_mm256_sub_ps(uf, vlu), vsu), du2 = _mm256_mul_ps(du, du);
+        /* r² summed in x, y, z order like pos_voxels */
+        __m256 r2 = a == 0   ? _mm256_add_ps(_mm256_add_ps(vda2, du2), vdv2)
+                    : a == 1 ? _mm256_add_ps(_mm256_add_ps(du2, vda2), vdv2)
+                             : _mm256_add_ps(_mm256_add_ps(du2, vdv2), vda2);
+        __m256 r = _mm256_sqrt_ps(r2), ir = _mm256_div_ps(one, r);
+        __m256 wg = axis_weight8(_mm256_mul_ps(vada, ir), _mm256_mul_ps(_mm256_and_ps(du, absmask), ir),
+                                 _mm256_mul_ps(vadv, ir), a);
+        __m256 r2c = _mm256_blendv_ps(vrm2, r2, _mm256_cmp_ps(r2, vrm2, _CMP_GT_OQ));
+        _mm256_storeu_ps(R->K + u, _mm256_div_ps(_mm256_mul_ps(vsign, wg), r2c));
+        _mm256_storeu_ps(R->WA + u, _mm256_mul_ps(vda, ir));
+        _mm256_storeu_ps(R->WU + u, _mm256_mul_ps(du, ir));
+        _mm256_storeu_ps(R->WV + u, _mm256_mul_ps(vdvw, ir));
+        _mm256_storeu_ps(R->X + u, _mm256_sub_ps(uf, _mm256_mul_ps(_mm256_sub_ps(uf, vlu), vf)));
+        _mm256_storeu_ps(R->LEN + u, _mm256_mul_ps(r, vf));
+    }
+}
+
+/* Bilinear gather of plane p at (ix, row base rb) with weights. */
+A2I __m256 gbil(const float *p, __m256i b, int mu, __m256 w00, __m256 w10, __m256 w01, __m256 w11) {
+    const __m256i one = _mm256_set1_epi32(1), row = _mm256_set1_epi32(mu);
+    __m256 x = _mm256_mul_ps(w00, _mm256_i32gather_ps(p, b, 4));
+    x = _mm256_fmadd_ps(w10, _mm256_i32gather_ps(p, _mm256_add_epi32(b, one), 4), x);
+    __m256i b1 = _mm256_add_epi32(b, row);
+    x = _mm256_fmadd_ps(w01, _mm256_i32gather_ps(p, b1, 4), x);
+    return _mm256_fmadd_ps(w11, _mm256_i32gather_ps(p, _mm256_add_epi32(b1, one), 4), x);
+}
+
+/* Cell and weights of x (per lane) on row j (constant) with fraction ay:
+ * index base j·mu + ix, ix = min((int)x, mu − 2) as fetch() does. */
+A2I __m256i cell(__m256 x, int j, int mu, __m256 ay, __m256 *w00, __m256 *w10, __m256 *w01, __m256 *w11) {
+    __m256i ix = _mm256_min_epi32(_mm256_cvttps_epi32(x), _mm256_set1_epi32(mu - 2));
+    __m256 ax = _mm256_sub_ps(x, _mm256_cvtepi32_ps(ix));
+    const __m256 one = _mm256_set1_ps(1.0f);
+    __m256 bx = _mm256_sub_ps(one, ax), by = _mm256_sub_ps(one, ay);
+    *w00 = _mm256_mul_ps(bx, by);
+    *w10 = _mm256_mul_ps(ax, by);
+    *w01 = _mm256_mul_ps(bx, ay);
+    *w11 = _mm256_mul_ps(ax, ay);
+    return _mm256_add_epi32(ix, _mm256_set1_epi32(j * mu));
+}
+
+A2 void volux_lightvol_pos_tau_avx2(const lv_sweep *J, const lv_pos_row *R) {
+    const int mu = J->mu, np = J->nplanes;
+    const size_t area = J->area, ms = R->ms;
+    const __m256 lane = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
+    for (int i = 0; i < R->n; i++) {
+        const float t = R->tt[i], om = 1.0f - t;
+        const __m256 vom = _mm256_set1_ps(om), vt = _mm256_set1_ps(t), ayi = _mm256_set1_ps(R->ay[i]),
+                     winv = _mm256_set1_ps(R->inv_n);
+        for (int u = R->u0; u < R->u1; u += 8) {
+            /* lanes past the interior: masked gathers (their results are not used) */
+            const __m256 mk = _mm256_castsi256_ps(lane_mask(R->u1 - u));
+            __m256 uf = _mm256_add_ps(_mm256_set1_ps((float)u), lane);
+            __m256 Xv = _mm256_loadu_ps(R->X + u), Lv = _mm256_loadu_ps(R->LEN + u);
+            __m256 px = _mm256_add_ps(uf, _mm256_mul_ps(_mm256_sub_ps(Xv, uf), vom));
+            px = _mm256_and_ps(px, mk); /* masked lanes: cell 0, always inside */
+            __m256 w00, w10, w01, w11;
+            __m256i b = cell(px, R->jrow[i], mu, ayi, &w00, &w10, &w01, &w11);
+            __m256 wp = _mm256_mul_ps(_mm256_mul_ps(vom, Lv), winv), wc = _mm256_mul_ps(_mm256_mul_ps(vt, Lv), winv);
+            if (J->post) {
+                __m256 sp = gbil(J->mp, b, mu, w00, w10, w01, w11), sc = gbil(J->mc, b, mu, w00, w10, w01, w11);
+                __m256 s = _mm256_fmadd_ps(_mm256_sub_ps(sc, sp), vt, sp), m[4];
+                if (J->forward) lut_kappa8(J, s, m);
+                else m[0] = lut_sigma8(J->lut, s);
+                __m256 l = _mm256_add_ps(wp, wc);
+                for (int q = 0; q < np; q++) {
+                    float *d = R->TAU + (size_t)q * ms + (size_t)u;
+                    _mm256_storeu_ps(d, _mm256_fmadd_ps(l, m[q], _mm256_loadu_ps(d)));
+                }
+                continue;
+            }
+            for (int q = 0; q < np; q++) {
+                __m256 x = gbil(J->mp + (size_t)q * area, b, mu, w00, w10, w01, w11);
+                __m256 y = gbil(J->mc + (size_t)q * area, b, mu, w00, w10, w01, w11);
+                float *d = R->TAU + (size_t)q * ms + (size_t)u;
+                _mm256_storeu_ps(d, _mm256_add_ps(_mm256_loadu_ps(d), _mm256_fmadd_ps(wp, x, _mm256_mul_ps(wc, y))));
+            }
+        }
+    }
+}
+
+A2 void volux_lightvol_pos_light_avx2(const lv_sweep *J, const lv_entry *e, const lv_pos_row *R, float *const out[3],
+                                      float *acc, size_t m, int ch) {
+    const lightvol_state *st = J->st;
+    const int mu = J->mu, mv = J->mv, a = J->a, au = J->au, av = J->av;
+    const size_t ms = R->ms;
+    const int forward = J->forward && !R->empty, cone = J->cone && !R->empty;
+    const __m256 ayc = _mm256_set1_ps(R->ayc), yv = _mm256_set1_ps(R->y), q4 = _mm256_set1_ps(0.25f),
+                 tanc = _mm256_set1_ps(J->tan_c), isu = _mm256_set1_ps(1.0f / st->spacing[au]),
+                 isv = _mm256_set1_ps(1.0f / st->spacing[av]);
+    const float *Rd[3] = {e->rd[0], e->rd[1], e->rd[2]};
+    float *ad[3] = {acc + 3 * m, acc + 4 * m, acc + 5 * m};
+    float *dx = ad[a], *dy = ad[au], *dz = ad[av];
+    for (int u = R->u0; u < R->u1; u += 8) {
+        const int full = u + 8 <= R->u1;
+        const __m256i mki = lane_mask(R->u1 - u);
+        const __m256 mk = _mm256_castsi256_ps(mki);
+        __m256 Xv = _mm256_and_ps(_mm256_loadu_ps(R->X + u), mk); /* masked lanes: cell 0 */
+        __m256 w00, w10, w01, w11;
+        __m256i b = cell(Xv, R->jc, mu, ayc, &w00, &w10, &w01, &w11);
+        __m256 o[3];
+        for (int c = 0; c < 3; c++) o[c] = gbil(Rd[c], b, mu, w00, w10, w01, w11);
+        __m256 T = exp_neg8(_mm256_loadu_ps(R->TAU + u));
+        if (forward) {
+            __m256 Tc[3];
+            for (int c = 0; c < 3; c++) Tc[c] = exp_neg8(_mm256_loadu_ps(R->TAU + (size_t)(1 + c) * ms + u));
+            if (cone) {
+                /* 4 taps at ±ρ/√2 along u and v, ρ = len·tan(cone) (fetch() inside the slice) */
+                __m256 rho = _mm256_mul_ps(_mm256_loadu_ps(R->LEN + u), tanc);
+                __m256 ru = _mm256_and_ps(_mm256_mul_ps(rho, isu), mk), rv = _mm256_and_ps(_mm256_mul_ps(rho, isv), mk);
+                __m256 s3[3] = {_mm256_setzero_ps(), _mm256_setzero_ps(), _mm256_setzero_ps()};
+                for (int q = 0; q < 4; q++) {
+                    __m256 x = q == 0 ? _mm256_add_ps(Xv, ru) : q == 1 ? _mm256_sub_ps(Xv, ru) : Xv;
+                    __m256 yq = q == 2 ? _mm256_add_ps(yv, rv) : q == 3 ? _mm256_sub_ps(yv, rv) : yv;
+                    /* per-lane row: j = min((int)y, mv − 2) */
+                    __m256i jq = _mm256_min_epi32(_mm256_cvttps_epi32(yq), _mm256_set1_epi32(mv - 2));
+                    __m256 ay = _mm256_sub_ps(yq, _mm256_cvtepi32_ps(jq));
+                    __m256 c00, c10, c01, c11;
+                    __m256i bq = cell(x, 0, mu, ay, &c00, &c10, &c01, &c11);
+                    bq = _mm256_add_epi32(bq, _mm256_mullo_epi32(jq, _mm256_set1_epi32(mu)));
+                    for (int c = 0; c < 3; c++)
+                        s3[c] = _mm256_fmadd_ps(q4, gbil(Rd[c], bq, mu, c00, c10, c01, c11), s3[c]);
+                }
+                for (int c = 0; c < 3; c++)
+                    o[c] = _mm256_fmadd_ps(T, o[c], _mm256_mul_ps(_mm256_sub_ps(Tc[c], T), s3[c]));
+            } else {
+                for (int c = 0; c < 3; c++) o[c] = _mm256_mul_ps(Tc[c], o[c]);
+            }
+        } else {
+            for (int c = 0; c < 3; c++) o[c] = _mm256_mul_ps(T, o[c]);
+        }
+        __m256 K = _mm256_loadu_ps(R->K + u);
+        for (int c = 0; c < 3; c++) {
+            st8(out[c] + u, o[c], full, mki);
+            acc_add(acc + (size_t)c * m + (size_t)u, K, o[c], full, mki);
+        }
+        if (ch == 6) {
+            __m256 lum = _mm256_mul_ps(_mm256_set1_ps(0.2126f), o[0]);
+            lum = _mm256_fmadd_ps(_mm256_set1_ps(0.7152f), o[1], lum);
+            lum = _mm256_mul_ps(_mm256_fmadd_ps(_mm256_set1_ps(0.0722f), o[2], lum), K);
+            acc_add(dx + u, _mm256_loadu_ps(R->WA + u), lum, full, mki);
+            acc_add(dy + u, _mm256_loadu_ps(R->WU + u), lum, full, mki);
+            acc_add(dz + u, _mm256_loadu_ps(R->WV + u), lum, full, mki);
+        }
+    }
+}
+
 #else /* not x86-64 GCC/Clang: the portable loops only */
 
 int volux_lightvol_simd_available(void) { return 0; }
@@ -298,6 +504,12 @@ void volux_lightvol_dir_light_avx2(const lv_sweep *J, const lv_entry *e, int v, 
                                    float *const Tc[3], int empty, float *const out[3], float *acc, size_t m, int ch) {
     (void)J, (void)e, (void)v, (void)u0, (void)u1, (void)T, (void)Tc, (void)empty, (void)out, (void)acc, (void)m,
         (void)ch;
+}
+void volux_lightvol_pos_geometry_avx2(const lv_sweep *J, const lv_entry *e, lv_pos_row *R) { (void)J, (void)e, (void)R; }
+void volux_lightvol_pos_tau_avx2(const lv_sweep *J, const lv_pos_row *R) { (void)J, (void)R; }
+void volux_lightvol_pos_light_avx2(const lv_sweep *J, const lv_entry *e, const lv_pos_row *R, float *const out[3],
+                                   float *acc, size_t m, int ch) {
+    (void)J, (void)e, (void)R, (void)out, (void)acc, (void)m, (void)ch;
 }
 
 #endif

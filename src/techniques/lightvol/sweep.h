@@ -73,6 +73,23 @@ typedef struct lv_sweep {
     int simd;           /* run the AVX2 kernels (propagate_avx2.c)        */
 } lv_sweep;
 
+/* One row of a positional light's propagation (pos_row): per-voxel arrays
+ * (stride ms) and the row's constants. */
+typedef struct lv_pos_row {
+    int v, u0, u1;          /* row; interior [u0, u1) (every tap inside)    */
+    size_t ms;              /* array stride (≥ mu, a multiple of 8 for SIMD) */
+    float *X, *LEN, *K;     /* previous-slice u, segment length, sign·factor/r² */
+    float *WA, *WU, *WV;    /* unit direction along a, au, av                */
+    float *TAU;             /* optical depths: σt, κr, κg, κb (stride ms)    */
+    float y;                /* previous-slice row (the same for the row)     */
+    int n;                  /* medium sub-samples along the segments         */
+    float inv_n, tt[LV_MAX_SUB], ay[LV_MAX_SUB];
+    int jrow[LV_MAX_SUB];
+    int jc;                 /* light fetch: row jc, weight ayc               */
+    float ayc;
+    int empty;              /* no medium in the footprint: T = 1             */
+} lv_pos_row;
+
 /* ------------------------------------------------------- AVX2 kernels
  * propagate_avx2.c; chosen at run time (techniques.lightvol.kernel). Each
  * computes the same quantity as the portable loop it replaces, over the
@@ -98,5 +115,20 @@ void volux_lightvol_exp_avx2(float *T, const float *tau, int n);
  * ch = 6. */
 void volux_lightvol_dir_light_avx2(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, const float *T,
                                    float *const Tc[3], int empty, float *const out[3], float *acc, size_t m, int ch);
+
+/* Positional entry e, row R->v: geometry (X, LEN, K, WA, WU, WV) for u in
+ * [0, R->ms), bit-identical to pos_row's loop (no FMA there, so the Eq. 5
+ * factors of a voxel's groups still sum to 1 exactly). */
+void volux_lightvol_pos_geometry_avx2(const lv_sweep *J, const lv_entry *e, lv_pos_row *R);
+
+/* Optical depths of the segments of u in [R->u0, R->u1) into R->TAU
+ * (zeroed by the caller; the medium is gathered per voxel). */
+void volux_lightvol_pos_tau_avx2(const lv_sweep *J, const lv_pos_row *R);
+
+/* u in [R->u0, R->u1): the light gathered from the previous slice (and the
+ * cone unless R->empty), attenuated, into out[c][u]; weighted by K into
+ * acc (and the direction channels when ch = 6). */
+void volux_lightvol_pos_light_avx2(const lv_sweep *J, const lv_entry *e, const lv_pos_row *R, float *const out[3],
+                                   float *acc, size_t m, int ch);
 
 #endif
