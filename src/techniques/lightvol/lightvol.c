@@ -35,7 +35,8 @@ static const volux_param_info lightvol_params[] = {
     {"cost_rule", VOLUX_PARAM_STRING, 0, 0, 0, "work",
      "selective vs entire light update (Sec. 5): passes (rule 2: fewer propagation passes; ties by rule 1), lights "
      "(rule 1: at most half of the lights changed), work (rule 2 with each pass weighted by the lights it carries, "
-     "point/spot lights costing ~13x a directional one; ties by rule 1), selective, full"},
+     "point/spot lights costing ~3x (AVX2 kernels) or ~13x (portable) a directional one; ties by rule 1), selective, "
+     "full"},
     {"max_lights_per_pass", VOLUX_PARAM_INT, 32, 1, 256, NULL,
      "lights propagated together in one sweep; larger groups are split (bounds slice-buffer memory)"},
     {"forward_scattering", VOLUX_PARAM_NUMBER, 0, 0, 1, NULL,

@@ -414,14 +414,18 @@ static int plan(const lv_item *items, int n, int coherent, int max_per_pass, lv_
 
 /* Estimated work of a plan in units of one pass's per-voxel fixed cost
  * (reading and classifying a slice, writing the volume): each pass costs
- * 1 plus, per light entry, LV_WORK_DIR (directional) or LV_WORK_POS
- * (point, spot, sphere: per-voxel geometry and Eq. 5 factors). Calibrated
- * on the engine at scale 1 and 1/2 (bench/lightvol): a directional entry
- * costs ~0.3 of the fixed part, a positional one ~4. */
-#define LV_WORK_DIR 0.3
-#define LV_WORK_POS 4.0
+ * 1 plus, per light entry, the entry's weight (directional; point, spot,
+ * sphere: per-voxel geometry, Eq. 5 factors and gathers). Calibrated on the
+ * engine at scale 1 (bench/lightvol, docs/techniques/lightvol.md): with the
+ * portable kernel a directional entry costs ~0.3 of the fixed part and a
+ * positional one ~4; with the AVX2 kernels 0.23–0.47 and 0.75–1.45 (f = 0
+ * and f = 0.5 with a 10° cone). */
+typedef struct lv_work_weights {
+    double dir, pos;
+} lv_work_weights;
+static const lv_work_weights LV_WORK_SCALAR = {0.3, 4.0}, LV_WORK_SIMD = {0.35, 1.1};
 
-static double plan_work(const lv_item *items, int n, int coherent, int max_per_pass) {
+static double plan_work(const lv_item *items, int n, int coherent, int max_per_pass, lv_work_weights w) {
     double work = 0.0;
     if (coherent) {
         for (int g = 0; g < LV_GROUPS; g++) {
@@ -429,7 +433,7 @@ static double plan_work(const lv_item *items, int n, int coherent, int max_per_p
             for (int i = 0; i < n; i++) {
                 if (!(items[i].src.groups & (1u << g))) continue;
                 count++;
-                work += items[i].src.kind == LV_DIRECTIONAL ? LV_WORK_DIR : LV_WORK_POS;
+                work += items[i].src.kind == LV_DIRECTIONAL ? w.dir : w.pos;
             }
             work += (double)((count + max_per_pass - 1) / max_per_pass);
         }
@@ -437,7 +441,7 @@ static double plan_work(const lv_item *items, int n, int coherent, int max_per_p
         for (int i = 0; i < n; i++)
             for (int g = 0; g < LV_GROUPS; g++)
                 if (items[i].src.groups & (1u << g))
-                    work += 1.0 + (items[i].src.kind == LV_DIRECTIONAL ? LV_WORK_DIR : LV_WORK_POS);
+                    work += 1.0 + (items[i].src.kind == LV_DIRECTIONAL ? w.dir : w.pos);
     }
     return work;
 }
@@ -744,8 +748,9 @@ static void dir_tau(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1,
             }
         }
     }
-    /* row ends: per voxel, outside taps see empty medium */
-    for (int i = 0; i < e->nsub; i++)
+    /* row ends: per voxel, outside taps see empty medium (the AVX2 kernel
+     * does the whole row) */
+    for (int i = 0; i < e->nsub && !J->simd; i++)
         for (int u = 0; u < mu; u++) {
             if (u == u0 && u1 > u0) {
                 u = u1 - 1;
@@ -755,8 +760,7 @@ static void dir_tau(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1,
             med_accumulate(J, (float)u + e->su[i], (float)v + e->sv[i], e->wp[i], e->wc[i], np, tq);
             for (int q = 0; q < np; q++) tau[q][u] += tq[q];
         }
-    /* (after the row ends: its masked last step must not be read back at once) */
-    if (J->simd && u1 > u0) volux_lightvol_dir_tau_avx2(J, e, v, u0, u1, tau);
+    if (J->simd) volux_lightvol_dir_tau_avx2(J, e, v, u0, u1, tau);
 }
 
 /* Directional light, row v: values into out[c][0..mu). */
@@ -862,12 +866,20 @@ static void dir_row_simd(const lv_sweep *J, const lv_entry *e, int v, float *out
                          float *tau[4], const lv_entry **last, float *acc, int ch) {
     const int mu = J->mu, mv = J->mv;
     const size_t m = (size_t)mu;
+    const int one = e->nch == 1;
     if (e->mode == E_INIT) {
         float pw[3] = {e->s->power.x, e->s->power.y, e->s->power.z};
-        for (int c = 0; c < 3; c++)
+        for (int c = 0; c < e->nch; c++)
             for (int u = 0; u < mu; u++) out[c][u] = pw[c];
-        for (int c = 0; c < 3; c++) accumulate(acc + (size_t)c * m, out[c], e->sw, mu);
-        if (ch == 6) accumulate_dir(acc + 3 * m, m, out, e->dsw, mu);
+        float *o3[3] = {out[0], out[one ? 0 : 1], out[one ? 0 : 2]};
+        for (int c = 0; c < 3; c++) accumulate(acc + (size_t)c * m, o3[c], e->sw * e->gain[c], mu);
+        if (ch == 6) {
+            volux_vec3 d = e->dsw;
+            if (one) d = v3_scale(d, 0.2126f * e->gain[0] + 0.7152f * e->gain[1] + 0.0722f * e->gain[2]);
+            if (one) accumulate(acc + 3 * m, out[0], d.x, mu), accumulate(acc + 4 * m, out[0], d.y, mu),
+                accumulate(acc + 5 * m, out[0], d.z, mu);
+            else accumulate_dir(acc + 3 * m, m, o3, d, mu);
+        }
         return;
     }
     int u0 = -e->di_min, u1 = mu - 1 - e->di_max;
@@ -884,37 +896,7 @@ static void dir_row_simd(const lv_sweep *J, const lv_entry *e, int v, float *out
             for (int c = 0; c < 3; c++) volux_lightvol_exp_avx2(Tc[c], tau[1 + c], mu);
         *last = e;
     }
-    /* row ends: generic fetches (outside taps see the unoccluded light) */
-    const int cone = J->cone && !empty;
-    for (int u = 0; u < mu; u++) {
-        if (u == u0 && u1 > u0) {
-            u = u1 - 1;
-            continue;
-        }
-        float cc[3], cn[3] = {0, 0, 0}, c3[3], o[3];
-        fetch(J, e, (float)u + e->du, (float)v + e->dv, cc);
-        if (cone)
-            for (int q = 0; q < 4; q++) {
-                fetch(J, e, (float)u + e->cu[q], (float)v + e->cv[q], c3);
-                for (int c = 0; c < 3; c++) cn[c] += 0.25f * c3[c];
-            }
-        for (int c = 0; c < 3; c++) {
-            if (empty) o[c] = cc[c];
-            else if (!J->forward) o[c] = T[u] * cc[c];
-            else if (!J->cone) o[c] = Tc[c][u] * cc[c];
-            else o[c] = T[u] * cc[c] + (Tc[c][u] - T[u]) * cn[c];
-            out[c][u] = o[c];
-            acc[(size_t)c * m + (size_t)u] += e->sw * o[c];
-        }
-        if (ch == 6) {
-            float lum = 0.2126f * o[0] + 0.7152f * o[1] + 0.0722f * o[2];
-            acc[3 * m + (size_t)u] += e->dsw.x * lum;
-            acc[4 * m + (size_t)u] += e->dsw.y * lum;
-            acc[5 * m + (size_t)u] += e->dsw.z * lum;
-        }
-    }
-    /* the interior last, so that its masked last step is not read back at once */
-    if (u1 > u0) volux_lightvol_dir_light_avx2(J, e, v, u0, u1, T, Tc, empty, out, acc, m, ch);
+    volux_lightvol_dir_light_avx2(J, e, v, u0, u1, T, Tc, empty, out, acc, m, ch);
 }
 
 /* Outside-slice fallback of fetch(), kept out of line. */
@@ -1029,7 +1011,10 @@ static void pos_voxels(const lv_sweep *J, const lv_entry *e, int v, int ua, int 
         float wg = lv_axis_weight(mag, a);
         if (wg <= 0.0f) continue;
         float k = sign * wg / (r2 > rm2 ? r2 : rm2);
-        float er = val[0] * k, eg = val[1] * k, eb = val[2] * k;
+        /* (one channel: val[1], val[2] are not propagated; × gain = power) */
+        const int one = e->nch == 1;
+        float er = val[0] * k * e->gain[0], eg = (one ? val[0] : val[1]) * k * e->gain[1],
+              eb = (one ? val[0] : val[2]) * k * e->gain[2];
         accs[0][u] += er;
         accs[1][u] += eg;
         accs[2][u] += eb;
@@ -1407,6 +1392,38 @@ static volux_status ensure_scratch(lightvol_state *st, int entries) {
     return VOLUX_OK;
 }
 
+/* Fills e->nst/sj/si/swc/swk (see lv_entry) from the centre and cone taps. */
+static void build_stencil(lv_entry *e) {
+    int c0 = e->tc.di, c1 = c0, r0 = e->tc.dj, r1 = r0;
+    for (int q = 0; q < 4; q++) {
+        const lv_tap *t = &e->tcone[q];
+        c0 = t->di < c0 ? t->di : c0, c1 = t->di > c1 ? t->di : c1;
+        r0 = t->dj < r0 ? t->dj : r0, r1 = t->dj > r1 ? t->dj : r1;
+    }
+    e->nst = 0;
+    if (c1 - c0 > 1 || r1 - r0 > 1) return; /* footprint wider than 3×3 */
+    float wk[3][3] = {{0}};
+    for (int q = 0; q < 4; q++) {
+        const lv_tap *t = &e->tcone[q];
+        int j = t->dj - r0, i = t->di - c0;
+        wk[j][i] += 0.25f * t->w00, wk[j][i + 1] += 0.25f * t->w10;
+        wk[j + 1][i] += 0.25f * t->w01, wk[j + 1][i + 1] += 0.25f * t->w11;
+    }
+    const float wc[4] = {e->tc.w00, e->tc.w10, e->tc.w01, e->tc.w11};
+    int used[3][3] = {{0}}, n = 0;
+    for (int k = 0; k < 4; k++) { /* the centre's nodes first */
+        int j = e->tc.dj - r0 + k / 2, i = e->tc.di - c0 + k % 2;
+        e->sj[n] = r0 + j, e->si[n] = c0 + i, e->swc[n] = wc[k], e->swk[n] = wk[j][i];
+        used[j][i] = 1;
+        n++;
+    }
+    for (int j = 0; j < 3; j++)
+        for (int i = 0; i < 3; i++)
+            if (!used[j][i] && wk[j][i] != 0.0f) e->sj[n] = r0 + j, e->si[n] = c0 + i, e->swk[n] = wk[j][i], n++;
+    for (; n < 9; n++) e->sj[n] = e->tc.dj, e->si[n] = e->tc.di, e->swk[n] = 0.0f; /* padding: a node already read */
+    e->nst = 9;
+}
+
 /* One propagation pass: group g, the given lights. */
 static void sweep(lightvol_state *st, int g, const lv_item *items, const int *idx, int n, int overwrite, lv_entry *E) {
     lv_sweep J;
@@ -1434,7 +1451,8 @@ static void sweep(lightvol_state *st, int g, const lv_item *items, const int *id
     J.post = st->on_grid;
     J.lut = st->lut;
     J.albedo = st->albedo;
-    J.simd = st->use_simd;
+    /* the AVX2 row-end steps read 9-column windows */
+    J.simd = st->use_simd && J.mu >= 9;
     J.ne = n;
     /* x sweeps write the volume a whole x-row apart per voxel; staging
      * `LV_DEFER` slices turns that into runs along x (same values) */
@@ -1447,6 +1465,15 @@ static void sweep(lightvol_state *st, int g, const lv_item *items, const int *id
         const lv_item *it = &items[idx[i]];
         e->s = &it->src;
         e->sign = it->sign;
+        e->nch = 3;
+        e->gain[0] = e->gain[1] = e->gain[2] = 1.0f;
+        if (J.simd && !J.forward) {
+            e->nch = 1;
+            e->norm = it->src;
+            e->norm.power = v3(1.0f, 1.0f, 1.0f);
+            e->s = &e->norm;
+            e->gain[0] = it->src.power.x, e->gain[1] = it->src.power.y, e->gain[2] = it->src.power.z;
+        }
         float *b = st->slices + (size_t)i * 6 * plane;
         for (int c = 0; c < 3; c++) {
             e->rd[c] = b + (size_t)c * plane;
@@ -1476,6 +1503,7 @@ static void sweep(lightvol_state *st, int g, const lv_item *items, const int *id
                     extend(e, e->tcone[q]);
                 }
             }
+            if (J.cone) build_stencil(e);
             e->nsub = sub_count(e->du, e->dv);
             for (int q = 0; q < e->nsub; q++) {
                 float tq = ((float)q + 0.5f) / (float)e->nsub;
@@ -1651,8 +1679,9 @@ volux_status volux_lightvol_update_lights(lightvol_state *st, const volux_scene 
          * since add and remove usually share their passes). */
         int ps = plan(items, n, st->p.coherent, st->p.max_per_pass, NULL, NULL);
         int pf = plan(full_items, nf, st->p.coherent, st->p.max_per_pass, NULL, NULL);
-        double ws = plan_work(items, n, st->p.coherent, st->p.max_per_pass);
-        double wf = plan_work(full_items, nf, st->p.coherent, st->p.max_per_pass);
+        const lv_work_weights ww = st->use_simd ? LV_WORK_SIMD : LV_WORK_SCALAR;
+        double ws = plan_work(items, n, st->p.coherent, st->p.max_per_pass, ww);
+        double wf = plan_work(full_items, nf, st->p.coherent, st->p.max_per_pass, ww);
         st->stats.passes_selective = ps;
         st->stats.passes_full = pf;
         st->stats.work_selective = ws;

@@ -147,6 +147,82 @@ A2I void lut_kappa8(const lv_sweep *J, __m256 s, __m256 m[4]) {
     for (int q = 0; q < 3; q++) m[1 + q] = _mm256_max_ps(_mm256_fnmadd_ps(k, c[q], sg), _mm256_setzero_ps());
 }
 
+/* A tap at a constant offset (du, row y) for the eight voxels u … u + 7 of
+ * a row end, where some lanes fall outside the slice: fetch()'s rules per
+ * lane (inside iff 0 ≤ x ≤ mu − 1 and 0 ≤ y ≤ mv − 1; cell min((int)x,
+ * mu − 2); outside: a given value). The lanes' cells lie in a window of 9
+ * columns starting at s, read with two loads per row and permuted into
+ * place (masked gathers in the rare case they do not). */
+typedef struct edge_tap {
+    int rowin, gather;
+    ptrdiff_t o0;          /* plane offset of the window: j·mu + s */
+    __m256i rel, idx;      /* lane → window column; lane → plane index */
+    __m256 in;             /* lanes inside the slice (and the row)     */
+    __m256 w00, w10, w01, w11;
+} edge_tap;
+
+A2I void edge_tap_init(edge_tap *E, int u, float du, int di, float y, int mu, int mv) {
+    E->rowin = y >= 0.0f && y <= (float)(mv - 1);
+    if (!E->rowin) return;
+    int j = (int)y;
+    if (j > mv - 2) j = mv - 2;
+    const __m256 ay = _mm256_set1_ps(y - (float)j), one = _mm256_set1_ps(1.0f);
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    __m256 x = _mm256_add_ps(_mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(u), lane)), _mm256_set1_ps(du));
+    __m256 in = _mm256_and_ps(_mm256_cmp_ps(x, _mm256_setzero_ps(), _CMP_GE_OQ),
+                              _mm256_cmp_ps(x, _mm256_set1_ps((float)(mu - 1)), _CMP_LE_OQ));
+    E->in = _mm256_and_ps(in, _mm256_castsi256_ps(lane_mask(mu - u)));
+    __m256i ix = _mm256_min_epi32(_mm256_cvttps_epi32(x), _mm256_set1_epi32(mu - 2));
+    ix = _mm256_and_si256(ix, _mm256_castps_si256(E->in)); /* outside lanes: column 0 */
+    __m256 ax = _mm256_sub_ps(x, _mm256_cvtepi32_ps(ix)), bx = _mm256_sub_ps(one, ax), by = _mm256_sub_ps(one, ay);
+    E->w00 = _mm256_mul_ps(bx, by);
+    E->w10 = _mm256_mul_ps(ax, by);
+    E->w01 = _mm256_mul_ps(bx, ay);
+    E->w11 = _mm256_mul_ps(ax, ay);
+    int s = u + di;
+    s = s < 0 ? 0 : (s > mu - 9 ? mu - 9 : s);
+    __m256i rel = _mm256_sub_epi32(ix, _mm256_set1_epi32(s));
+    __m256i bad = _mm256_or_si256(_mm256_cmpgt_epi32(_mm256_setzero_si256(), rel),
+                                  _mm256_cmpgt_epi32(rel, _mm256_set1_epi32(7)));
+    E->gather = !_mm256_testz_si256(bad, _mm256_castps_si256(E->in));
+    E->rel = rel;
+    E->o0 = (ptrdiff_t)j * mu + s;
+    E->idx = _mm256_add_epi32(ix, _mm256_set1_epi32(j * mu));
+}
+
+/* The tap's bilinear value on `plane`, `outside` where a lane is outside. */
+A2I __m256 edge_val(const edge_tap *E, const float *plane, int mu, __m256 outside) {
+    if (!E->rowin) return outside;
+    __m256 a, b, c, d;
+    if (!E->gather) {
+        const float *p = plane + E->o0;
+        a = _mm256_permutevar8x32_ps(_mm256_loadu_ps(p), E->rel);
+        b = _mm256_permutevar8x32_ps(_mm256_loadu_ps(p + 1), E->rel);
+        c = _mm256_permutevar8x32_ps(_mm256_loadu_ps(p + mu), E->rel);
+        d = _mm256_permutevar8x32_ps(_mm256_loadu_ps(p + mu + 1), E->rel);
+    } else {
+        const __m256i one = _mm256_set1_epi32(1), row = _mm256_set1_epi32(mu);
+        const __m256 z = _mm256_setzero_ps();
+        a = _mm256_mask_i32gather_ps(z, plane, E->idx, E->in, 4);
+        b = _mm256_mask_i32gather_ps(z, plane, _mm256_add_epi32(E->idx, one), E->in, 4);
+        c = _mm256_mask_i32gather_ps(z, plane, _mm256_add_epi32(E->idx, row), E->in, 4);
+        d = _mm256_mask_i32gather_ps(z, plane, _mm256_add_epi32(_mm256_add_epi32(E->idx, row), one), E->in, 4);
+    }
+    __m256 x = _mm256_mul_ps(E->w00, a);
+    x = _mm256_fmadd_ps(E->w10, b, x);
+    x = _mm256_fmadd_ps(E->w01, c, x);
+    x = _mm256_fmadd_ps(E->w11, d, x);
+    return _mm256_blendv_ps(outside, x, E->in);
+}
+
+/* a[0..8) += x on the lanes of mk, all 8 lanes loaded and stored (see
+ * acc_add: lanes past the row are this thread's scratch, stored back
+ * unchanged). */
+A2I void add_blend(float *a, __m256 x, __m256 mk) {
+    __m256 old = _mm256_loadu_ps(a);
+    _mm256_storeu_ps(a, _mm256_blendv_ps(old, _mm256_add_ps(old, x), mk));
+}
+
 /* One step of dir_tau: sub-sample tap t of rows P0/P1 (previous slice) and
  * C0/C1 (current), lanes u … u + 7. */
 A2I void tau_step(const lv_sweep *J, const float *P0, const float *P1, const float *C0, const float *C1, lv_tap t,
@@ -179,18 +255,39 @@ A2I void tau_step(const lv_sweep *J, const float *P0, const float *P1, const flo
 }
 
 A2 void volux_lightvol_dir_tau_avx2(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, float *const tau[4]) {
-    const int mu = J->mu;
+    const int mu = J->mu, mv = J->mv, np = J->nplanes;
+    const size_t area = J->area;
+    const __m256i all = _mm256_set1_epi32(-1);
+    const __m256 zero = _mm256_setzero_ps();
     for (int i = 0; i < e->nsub; i++) {
         const lv_tap t = e->ts[i];
-        if (e->wp[i] + e->wc[i] <= 0.0f) continue;
+        const float wp = e->wp[i], wc = e->wc[i], l = wp + wc;
+        if (!(l > 0.0f)) continue;
         const float *P0 = J->mp + (ptrdiff_t)(v + t.dj) * mu + t.di, *P1 = P0 + mu;
         const float *C0 = J->mc + (ptrdiff_t)(v + t.dj) * mu + t.di, *C1 = C0 + mu;
-        int u = u0;
-        const __m256i all = _mm256_set1_epi32(-1);
-        for (; u + 8 <= u1; u += 8) tau_step(J, P0, P1, C0, C1, t, e->wp[i], e->wc[i], tau, u, 1, all, all);
-        if (u < u1) {
-            __m256i mk = lane_mask(u1 - u);
-            tau_step(J, P0, P1, C0, C1, t, e->wp[i], e->wc[i], tau, u, 0, mk, mk);
+        for (int u = 0; u < mu; u += 8) {
+            if (u >= u0 && u + 8 <= u1) { /* interior: constant weights, plain loads */
+                tau_step(J, P0, P1, C0, C1, t, wp, wc, tau, u, 1, all, all);
+                continue;
+            }
+            /* row ends: per-lane fetch rules, outside the slice the medium is empty */
+            edge_tap E;
+            edge_tap_init(&E, u, e->su[i], t.di, (float)v + e->sv[i], mu, mv);
+            if (!E.rowin) continue;
+            if (J->post) {
+                __m256 sp = edge_val(&E, J->mp, mu, zero), sc = edge_val(&E, J->mc, mu, zero);
+                __m256 s = _mm256_fmadd_ps(_mm256_sub_ps(sc, sp), _mm256_set1_ps(wc / l), sp), m[4];
+                if (J->forward) lut_kappa8(J, s, m);
+                else m[0] = lut_sigma8(J->lut, s);
+                for (int q = 0; q < np; q++) add_blend(tau[q] + u, _mm256_mul_ps(_mm256_set1_ps(l), m[q]), E.in);
+                continue;
+            }
+            for (int q = 0; q < np; q++) {
+                __m256 x = edge_val(&E, J->mp + (size_t)q * area, mu, zero);
+                __m256 y = edge_val(&E, J->mc + (size_t)q * area, mu, zero);
+                add_blend(tau[q] + u, _mm256_fmadd_ps(_mm256_set1_ps(wp), x, _mm256_mul_ps(_mm256_set1_ps(wc), y)),
+                          E.in);
+            }
         }
     }
 }
@@ -200,16 +297,6 @@ A2 void volux_lightvol_exp_avx2(float *T, const float *tau, int n) {
     for (; u + 8 <= n; u += 8) _mm256_storeu_ps(T + u, exp_neg8(_mm256_loadu_ps(tau + u)));
     for (; u < n; u++) T[u] = lv_exp_neg(tau[u]); /* the row ends read these right away: no masked store */
 }
-
-/* Constants of the fused directional light kernel for one row, broadcast
- * once (the loop stores through pointers the compiler cannot tell apart
- * from the entry, so it would reload them every step). */
-typedef struct light_consts {
-    __m256 w[5][4];          /* centre tap, then the 4 cone taps: w00 w10 w01 w11 */
-    const float *r[5][3];    /* their upper rows per channel (+ mu: lower)         */
-    __m256 sw, d[3], q4;
-    int cone, empty, forward;
-} light_consts;
 
 /* a[0..8) += w·x on the lanes of mk. The row accumulators are read back
  * by the next light's row ends at once, and a masked store would block
@@ -223,6 +310,32 @@ A2I void acc_add(float *a, __m256 w, __m256 x, int full, __m256i mk) {
     _mm256_storeu_ps(a, full ? sum : _mm256_blendv_ps(old, sum, _mm256_castsi256_ps(mk)));
 }
 
+/* Constants of the fused directional light kernel for one row, broadcast
+ * once (the loop stores through pointers the compiler cannot tell apart
+ * from the entry, so it would reload them every step). */
+typedef struct light_consts {
+    __m256 w[5][4];          /* centre tap, then the 4 cone taps: w00 w10 w01 w11 */
+    const float *r[5][3];    /* their upper rows per channel (+ mu: lower)         */
+    __m256 sw, d[3], q4;
+    __m256 g[3], d1[3];      /* one channel: sw·gain_c, dsw_i·lum(gain)          */
+    int cone, empty, forward;
+    int nst;                 /* the centre + cone stencil (lv_entry): 9 nodes   */
+    const float *sr[3][9];   /* its nodes' rows per channel (+ si)              */
+    __m256 swc[4], swk[9];
+} light_consts;
+
+/* One channel (no forward scattering): the light's scalar, attenuated,
+ * stored, and accumulated as gain·scalar. */
+A2I void light_step1(const light_consts *K, ptrdiff_t mu, const float *T, float *out0, float *acc, size_t m, int ch,
+                     int u, int full, __m256i mk) {
+    __m256 o = bil(K->r[0][0] + u, K->r[0][0] + mu + u, K->w[0][0], K->w[0][1], K->w[0][2], K->w[0][3], full, mk, mk);
+    if (!K->empty) o = _mm256_mul_ps(ld(T + u, full, mk), o);
+    st8(out0 + u, o, full, mk);
+    for (int c = 0; c < 3; c++) acc_add(acc + (size_t)c * m + (size_t)u, K->g[c], o, full, mk);
+    if (ch == 6)
+        for (int i = 0; i < 3; i++) acc_add(acc + (size_t)(3 + i) * m + (size_t)u, K->d1[i], o, full, mk);
+}
+
 A2I void light_step(const light_consts *K, ptrdiff_t mu, const float *T, float *const Tc[3], float *const out[3],
                     float *acc, size_t m, int ch, int u, int full, __m256i mk) {
     __m256 o[3];
@@ -234,6 +347,19 @@ A2I void light_step(const light_consts *K, ptrdiff_t mu, const float *T, float *
             for (int c = 0; c < 3; c++) o[c] = _mm256_mul_ps(Tv, o[c]);
         } else if (!K->cone) {
             for (int c = 0; c < 3; c++) o[c] = _mm256_mul_ps(ld(Tc[c] + u, full, mk), o[c]);
+        } else if (K->nst) {
+            /* direct part sharp, forward-scattered part from the cone: both
+             * from one read of the stencil's 9 nodes */
+            for (int c = 0; c < 3; c++) {
+                __m256 cen = _mm256_setzero_ps(), cn = _mm256_setzero_ps();
+                for (int p = 0; p < 4; p++) {
+                    __m256 x = ld(K->sr[c][p] + u, full, mk);
+                    cen = _mm256_fmadd_ps(K->swc[p], x, cen);
+                    cn = _mm256_fmadd_ps(K->swk[p], x, cn);
+                }
+                for (int p = 4; p < 9; p++) cn = _mm256_fmadd_ps(K->swk[p], ld(K->sr[c][p] + u, full, mk), cn);
+                o[c] = _mm256_fmadd_ps(Tv, cen, _mm256_mul_ps(_mm256_sub_ps(ld(Tc[c] + u, full, mk), Tv), cn));
+            }
         } else {
             /* direct part sharp, forward-scattered part from the cone's 4 taps */
             for (int c = 0; c < 3; c++) {
@@ -259,6 +385,58 @@ A2I void light_step(const light_consts *K, ptrdiff_t mu, const float *T, float *
     }
 }
 
+/* Row-end step of the directional light kernel: every tap per lane by
+ * fetch()'s rules (edge_tap), outside the slice the unoccluded value. */
+A2I void light_edge_step(const lv_sweep *J, const lv_entry *e, const light_consts *K, int v, int u, const float *T,
+                         float *const Tc[3], float *const out[3], float *acc, size_t m, int ch) {
+    const int mu = J->mu, mv = J->mv;
+    const int ntap = K->cone && !K->empty ? 5 : 1;
+    edge_tap E[5];
+    edge_tap_init(&E[0], u, e->du, e->tc.di, (float)v + e->dv, mu, mv);
+    for (int q = 1; q < ntap; q++) edge_tap_init(&E[q], u, e->cu[q - 1], e->tcone[q - 1].di, (float)v + e->cv[q - 1], mu, mv);
+    const float pw[3] = {e->s->power.x, e->s->power.y, e->s->power.z};
+    const __m256i mk = lane_mask(mu - u);
+    const __m256 mkf = _mm256_castsi256_ps(mk);
+    const int full = u + 8 <= mu;
+    __m256 Tv = _mm256_loadu_ps(T + u);
+    if (e->nch == 1) {
+        __m256 o = edge_val(&E[0], e->rd[0], mu, _mm256_set1_ps(pw[0]));
+        if (!K->empty) o = _mm256_mul_ps(Tv, o);
+        st8(out[0] + u, o, full, mk);
+        for (int c = 0; c < 3; c++) acc_add(acc + (size_t)c * m + (size_t)u, K->g[c], o, 0, mk);
+        if (ch == 6)
+            for (int i = 0; i < 3; i++) acc_add(acc + (size_t)(3 + i) * m + (size_t)u, K->d1[i], o, 0, mk);
+        return;
+    }
+    __m256 o[3];
+    for (int c = 0; c < 3; c++) {
+        const __m256 outside = _mm256_set1_ps(pw[c]);
+        o[c] = edge_val(&E[0], e->rd[c], mu, outside);
+        if (K->empty) continue;
+        if (!K->forward) {
+            o[c] = _mm256_mul_ps(Tv, o[c]);
+        } else if (!K->cone) {
+            o[c] = _mm256_mul_ps(_mm256_loadu_ps(Tc[c] + u), o[c]);
+        } else {
+            __m256 cn = edge_val(&E[1], e->rd[c], mu, outside);
+            for (int q = 2; q < 5; q++) cn = _mm256_add_ps(cn, edge_val(&E[q], e->rd[c], mu, outside));
+            cn = _mm256_mul_ps(K->q4, cn);
+            o[c] = _mm256_fmadd_ps(Tv, o[c], _mm256_mul_ps(_mm256_sub_ps(_mm256_loadu_ps(Tc[c] + u), Tv), cn));
+        }
+    }
+    for (int c = 0; c < 3; c++) {
+        st8(out[c] + u, o[c], full, mk);
+        acc_add(acc + (size_t)c * m + (size_t)u, K->sw, o[c], 0, mk);
+    }
+    if (ch == 6) {
+        __m256 lum = _mm256_mul_ps(_mm256_set1_ps(0.2126f), o[0]);
+        lum = _mm256_fmadd_ps(_mm256_set1_ps(0.7152f), o[1], lum);
+        lum = _mm256_fmadd_ps(_mm256_set1_ps(0.0722f), o[2], lum);
+        for (int i = 0; i < 3; i++) acc_add(acc + (size_t)(3 + i) * m + (size_t)u, K->d[i], lum, 0, mk);
+    }
+    (void)mkf;
+}
+
 A2 void volux_lightvol_dir_light_avx2(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, const float *T,
                                       float *const Tc[3], int empty, float *const out[3], float *acc, size_t m,
                                       int ch) {
@@ -271,7 +449,8 @@ A2 void volux_lightvol_dir_light_avx2(const lv_sweep *J, const lv_entry *e, int 
         K.w[q][1] = _mm256_set1_ps(t->w10);
         K.w[q][2] = _mm256_set1_ps(t->w01);
         K.w[q][3] = _mm256_set1_ps(t->w11);
-        for (int c = 0; c < 3; c++) K.r[q][c] = e->rd[c] + (v + t->dj) * mu + t->di;
+        /* (only dereferenced for interior steps, where they are in the slice) */
+        for (int c = 0; c < 3; c++) K.r[q][c] = e->rd[c] + (u1 > u0 ? (v + t->dj) * mu + t->di : 0);
     }
     K.sw = _mm256_set1_ps(e->sw);
     K.d[0] = _mm256_set1_ps(e->dsw.x);
@@ -281,10 +460,24 @@ A2 void volux_lightvol_dir_light_avx2(const lv_sweep *J, const lv_entry *e, int 
     K.cone = J->cone;
     K.empty = empty;
     K.forward = J->forward;
+    K.nst = e->nst && u1 > u0;
+    for (int p = 0; p < 9 && K.nst; p++) {
+        if (p < 4) K.swc[p] = _mm256_set1_ps(e->swc[p]);
+        K.swk[p] = _mm256_set1_ps(e->swk[p]);
+        for (int c = 0; c < 3; c++) K.sr[c][p] = e->rd[c] + (v + e->sj[p]) * mu + e->si[p];
+    }
+    const float lg = 0.2126f * e->gain[0] + 0.7152f * e->gain[1] + 0.0722f * e->gain[2];
+    const float d[3] = {e->dsw.x, e->dsw.y, e->dsw.z};
+    for (int c = 0; c < 3; c++) K.g[c] = _mm256_set1_ps(e->sw * e->gain[c]), K.d1[c] = _mm256_set1_ps(d[c] * lg);
     const __m256i all = _mm256_set1_epi32(-1);
-    int u = u0;
-    for (; u + 8 <= u1; u += 8) light_step(&K, mu, T, Tc, out, acc, m, ch, u, 1, all);
-    if (u < u1) light_step(&K, mu, T, Tc, out, acc, m, ch, u, 0, lane_mask(u1 - u));
+    for (int u = 0; u < mu; u += 8) {
+        if (u >= u0 && u + 8 <= u1) {
+            if (e->nch == 1) light_step1(&K, mu, T, out[0], acc, m, ch, u, 1, all);
+            else light_step(&K, mu, T, Tc, out, acc, m, ch, u, 1, all);
+        } else {
+            light_edge_step(J, e, &K, v, u, T, Tc, out, acc, m, ch);
+        }
+    }
 }
 
 /* ------------------------------------------------------------ positional */
@@ -439,6 +632,9 @@ A2 void volux_lightvol_pos_light_avx2(const lv_sweep *J, const lv_entry *e, cons
     const float *Rd[3] = {e->rd[0], e->rd[1], e->rd[2]};
     float *ad[3] = {acc + 3 * m, acc + 4 * m, acc + 5 * m};
     float *dx = ad[a], *dy = ad[au], *dz = ad[av];
+    const int one = e->nch == 1;
+    const __m256 g[3] = {_mm256_set1_ps(e->gain[0]), _mm256_set1_ps(e->gain[1]), _mm256_set1_ps(e->gain[2])};
+    const __m256 lg = _mm256_set1_ps(0.2126f * e->gain[0] + 0.7152f * e->gain[1] + 0.0722f * e->gain[2]);
     for (int u = R->u0; u < R->u1; u += 8) {
         const int full = u + 8 <= R->u1;
         const __m256i mki = lane_mask(R->u1 - u);
@@ -446,9 +642,22 @@ A2 void volux_lightvol_pos_light_avx2(const lv_sweep *J, const lv_entry *e, cons
         __m256 Xv = _mm256_and_ps(_mm256_loadu_ps(R->X + u), mk); /* masked lanes: cell 0 */
         __m256 w00, w10, w01, w11;
         __m256i b = cell(Xv, R->jc, mu, ayc, &w00, &w10, &w01, &w11);
+        __m256 T = exp_neg8(_mm256_loadu_ps(R->TAU + u)), K = _mm256_loadu_ps(R->K + u);
+        if (one) {
+            /* no forward scattering: one channel, accumulated as gain·value */
+            __m256 o = _mm256_mul_ps(T, gbil(Rd[0], b, mu, w00, w10, w01, w11)), ok = _mm256_mul_ps(o, K);
+            st8(out[0] + u, o, full, mki);
+            for (int c = 0; c < 3; c++) acc_add(acc + (size_t)c * m + (size_t)u, g[c], ok, full, mki);
+            if (ch == 6) {
+                __m256 lum = _mm256_mul_ps(lg, ok);
+                acc_add(dx + u, _mm256_loadu_ps(R->WA + u), lum, full, mki);
+                acc_add(dy + u, _mm256_loadu_ps(R->WU + u), lum, full, mki);
+                acc_add(dz + u, _mm256_loadu_ps(R->WV + u), lum, full, mki);
+            }
+            continue;
+        }
         __m256 o[3];
         for (int c = 0; c < 3; c++) o[c] = gbil(Rd[c], b, mu, w00, w10, w01, w11);
-        __m256 T = exp_neg8(_mm256_loadu_ps(R->TAU + u));
         if (forward) {
             __m256 Tc[3];
             for (int c = 0; c < 3; c++) Tc[c] = exp_neg8(_mm256_loadu_ps(R->TAU + (size_t)(1 + c) * ms + u));
@@ -477,7 +686,6 @@ A2 void volux_lightvol_pos_light_avx2(const lv_sweep *J, const lv_entry *e, cons
         } else {
             for (int c = 0; c < 3; c++) o[c] = _mm256_mul_ps(T, o[c]);
         }
-        __m256 K = _mm256_loadu_ps(R->K + u);
         for (int c = 0; c < 3; c++) {
             st8(out[c] + u, o[c], full, mki);
             acc_add(acc + (size_t)c * m + (size_t)u, K, o[c], full, mki);

@@ -27,6 +27,14 @@ typedef struct lv_tap {
 
 typedef struct lv_entry {
     const lv_source *s;
+    /* Channels its slice buffers carry. Without forward scattering the
+     * attenuation is achromatic, so a light's value is its power times a
+     * scalar: the AVX2 path then propagates that scalar alone (nch = 1,
+     * s → `norm`, a copy with unit power) and scales by `gain` = the power
+     * when accumulating; otherwise nch = 3 and gain = 1. */
+    int nch;
+    float gain[3];
+    lv_source norm;
     float sign;
     float sw;           /* directional: sign·factor                       */
     volux_vec3 dsw;     /* directional: sign·factor·direction             */
@@ -42,6 +50,14 @@ typedef struct lv_entry {
                                              slice) × len / nsub          */
     lv_tap ts[LV_MAX_SUB];
     int di_min, di_max, dj_min, dj_max;   /* tap extents (interior test)   */
+    /* the centre and cone taps as one stencil on the previous slice (their
+     * footprints overlap: ≤ 3×3 nodes when the cone is narrower than a
+     * voxel): nodes (sj, si) relative to the voxel, the first 4 with the
+     * centre's weights swc, all with the cone's (¼ Σ of its taps) swk;
+     * nst = 0: no such stencil (the AVX2 kernel reads the taps one by one) */
+    int nst;
+    int sj[9], si[9];
+    float swc[4], swk[9];
     /* positional */
     float lidx[3];      /* light position in illumination index space     */
     float f;            /* 1/dist for the current slice                   */
