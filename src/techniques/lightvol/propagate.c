@@ -863,7 +863,7 @@ static void dir_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
  * sweep_row's accumulation, but the row interior in one fused pass
  * (volux_lightvol_dir_light_avx2) and only the row ends per voxel. */
 static void dir_row_simd(const lv_sweep *J, const lv_entry *e, int v, float *out[3], float *T, float *Tc[3],
-                         float *tau[4], const lv_entry **last, float *acc, int ch) {
+                         float *tau[4], const lv_entry **last, float *acc, int ch, float *S) {
     const int mu = J->mu, mv = J->mv;
     const size_t m = (size_t)mu;
     const int one = e->nch == 1;
@@ -896,7 +896,7 @@ static void dir_row_simd(const lv_sweep *J, const lv_entry *e, int v, float *out
             for (int c = 0; c < 3; c++) volux_lightvol_exp_avx2(Tc[c], tau[1 + c], mu);
         *last = e;
     }
-    volux_lightvol_dir_light_avx2(J, e, v, u0, u1, T, Tc, empty, out, acc, m, ch);
+    volux_lightvol_dir_light_avx2(J, e, v, u0, u1, T, Tc, empty, out, acc, m, ch, S);
 }
 
 /* Outside-slice fallback of fetch(), kept out of line. */
@@ -1244,6 +1244,16 @@ static void flush_row(const lv_sweep *J, int v, int nb) {
     }
 }
 
+/* D += ω·S over a row (a run of same-direction lights, see sweep_row). */
+static void flush_run(float *d, size_t m, const float *restrict S, volux_vec3 w, int n) {
+    float *restrict dx = d, *restrict dy = d + m, *restrict dz = d + 2 * m;
+    for (int u = 0; u < n; u++) {
+        dx[u] += w.x * S[u];
+        dy[u] += w.y * S[u];
+        dz[u] += w.z * S[u];
+    }
+}
+
 static void sweep_row(const lv_sweep *J, int v, int thread) {
     lightvol_state *st = J->st;
     int mu = J->mu, ch = st->ch;
@@ -1257,6 +1267,7 @@ static void sweep_row(const lv_sweep *J, int v, int thread) {
     memset(acc, 0, (size_t)ch * m * sizeof(float));
     const lv_entry *last = NULL;
     size_t off = (size_t)v * m;
+    int run = 0; /* a run of same-direction lights is open (SIMD, ch = 6) */
     for (int i = 0; i < J->ne; i++) {
         const lv_entry *e = &J->e[i];
         float *out[3] = {e->wr[0] + off, e->wr[1] + off, e->wr[2] + off};
@@ -1265,7 +1276,24 @@ static void sweep_row(const lv_sweep *J, int v, int thread) {
             continue;
         }
         if (J->simd) {
-            dir_row_simd(J, e, v, out, T, Tc, tau, &last, acc, ch);
+            /* Consecutive lights with one direction: D += ω·Σ sw·lum(E_l)
+             * once for the run (lum is linear), not per light; the run's sum
+             * lives in the row scratch that the portable path uses for cen. */
+            float *S = NULL;
+            if (ch == 6) {
+                const lv_entry *nx = i + 1 < J->ne ? &J->e[i + 1] : NULL;
+                int same_next = nx && nx->s->kind == LV_DIRECTIONAL && nx->s->dir.x == e->s->dir.x &&
+                                nx->s->dir.y == e->s->dir.y && nx->s->dir.z == e->s->dir.z;
+                if (!run && same_next) memset(cen[0], 0, m * sizeof(float)), run = 1;
+                S = run ? cen[0] : NULL;
+                dir_row_simd(J, e, v, out, T, Tc, tau, &last, acc, ch, S);
+                if (run && !same_next) {
+                    flush_run(acc + 3 * m, m, cen[0], e->s->dir, mu);
+                    run = 0;
+                }
+                continue;
+            }
+            dir_row_simd(J, e, v, out, T, Tc, tau, &last, acc, ch, S);
             continue;
         }
         dir_row(J, e, v, out, T, Tc, cone, cen, tau, &last);
@@ -1420,8 +1448,7 @@ static void build_stencil(lv_entry *e) {
     for (int j = 0; j < 3; j++)
         for (int i = 0; i < 3; i++)
             if (!used[j][i] && wk[j][i] != 0.0f) e->sj[n] = r0 + j, e->si[n] = c0 + i, e->swk[n] = wk[j][i], n++;
-    for (; n < 9; n++) e->sj[n] = e->tc.dj, e->si[n] = e->tc.di, e->swk[n] = 0.0f; /* padding: a node already read */
-    e->nst = 9;
+    e->nst = n;
 }
 
 /* One propagation pass: group g, the given lights. */

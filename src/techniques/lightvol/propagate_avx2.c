@@ -319,7 +319,9 @@ typedef struct light_consts {
     __m256 sw, d[3], q4;
     __m256 g[3], d1[3];      /* one channel: sw·gain_c, dsw_i·lum(gain)          */
     int cone, empty, forward;
-    int nst;                 /* the centre + cone stencil (lv_entry): 9 nodes   */
+    int nst;                 /* the centre + cone stencil (lv_entry): its nodes */
+    float *S;                /* run sum of sw·lum (sweep_row), or NULL: D here  */
+    __m256 swl, swl1;        /* sw, sw·lum(gain) (one channel)                  */
     const float *sr[3][9];   /* its nodes' rows per channel (+ si)              */
     __m256 swc[4], swk[9];
 } light_consts;
@@ -332,7 +334,8 @@ A2I void light_step1(const light_consts *K, ptrdiff_t mu, const float *T, float 
     if (!K->empty) o = _mm256_mul_ps(ld(T + u, full, mk), o);
     st8(out0 + u, o, full, mk);
     for (int c = 0; c < 3; c++) acc_add(acc + (size_t)c * m + (size_t)u, K->g[c], o, full, mk);
-    if (ch == 6)
+    if (ch == 6 && K->S) acc_add(K->S + u, K->swl1, o, full, mk);
+    else if (ch == 6)
         for (int i = 0; i < 3; i++) acc_add(acc + (size_t)(3 + i) * m + (size_t)u, K->d1[i], o, full, mk);
 }
 
@@ -357,7 +360,7 @@ A2I void light_step(const light_consts *K, ptrdiff_t mu, const float *T, float *
                     cen = _mm256_fmadd_ps(K->swc[p], x, cen);
                     cn = _mm256_fmadd_ps(K->swk[p], x, cn);
                 }
-                for (int p = 4; p < 9; p++) cn = _mm256_fmadd_ps(K->swk[p], ld(K->sr[c][p] + u, full, mk), cn);
+                for (int p = 4; p < K->nst; p++) cn = _mm256_fmadd_ps(K->swk[p], ld(K->sr[c][p] + u, full, mk), cn);
                 o[c] = _mm256_fmadd_ps(Tv, cen, _mm256_mul_ps(_mm256_sub_ps(ld(Tc[c] + u, full, mk), Tv), cn));
             }
         } else {
@@ -381,7 +384,9 @@ A2I void light_step(const light_consts *K, ptrdiff_t mu, const float *T, float *
         __m256 lum = _mm256_mul_ps(_mm256_set1_ps(0.2126f), o[0]);
         lum = _mm256_fmadd_ps(_mm256_set1_ps(0.7152f), o[1], lum);
         lum = _mm256_fmadd_ps(_mm256_set1_ps(0.0722f), o[2], lum);
-        for (int i = 0; i < 3; i++) acc_add(acc + (size_t)(3 + i) * m + (size_t)u, K->d[i], lum, full, mk);
+        if (K->S) acc_add(K->S + u, K->swl, lum, full, mk);
+        else
+            for (int i = 0; i < 3; i++) acc_add(acc + (size_t)(3 + i) * m + (size_t)u, K->d[i], lum, full, mk);
     }
 }
 
@@ -404,7 +409,8 @@ A2I void light_edge_step(const lv_sweep *J, const lv_entry *e, const light_const
         if (!K->empty) o = _mm256_mul_ps(Tv, o);
         st8(out[0] + u, o, full, mk);
         for (int c = 0; c < 3; c++) acc_add(acc + (size_t)c * m + (size_t)u, K->g[c], o, 0, mk);
-        if (ch == 6)
+        if (ch == 6 && K->S) acc_add(K->S + u, K->swl1, o, 0, mk);
+        else if (ch == 6)
             for (int i = 0; i < 3; i++) acc_add(acc + (size_t)(3 + i) * m + (size_t)u, K->d1[i], o, 0, mk);
         return;
     }
@@ -432,14 +438,16 @@ A2I void light_edge_step(const lv_sweep *J, const lv_entry *e, const light_const
         __m256 lum = _mm256_mul_ps(_mm256_set1_ps(0.2126f), o[0]);
         lum = _mm256_fmadd_ps(_mm256_set1_ps(0.7152f), o[1], lum);
         lum = _mm256_fmadd_ps(_mm256_set1_ps(0.0722f), o[2], lum);
-        for (int i = 0; i < 3; i++) acc_add(acc + (size_t)(3 + i) * m + (size_t)u, K->d[i], lum, 0, mk);
+        if (K->S) acc_add(K->S + u, K->swl, lum, 0, mk);
+        else
+            for (int i = 0; i < 3; i++) acc_add(acc + (size_t)(3 + i) * m + (size_t)u, K->d[i], lum, 0, mk);
     }
     (void)mkf;
 }
 
 A2 void volux_lightvol_dir_light_avx2(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, const float *T,
-                                      float *const Tc[3], int empty, float *const out[3], float *acc, size_t m,
-                                      int ch) {
+                                      float *const Tc[3], int empty, float *const out[3], float *acc, size_t m, int ch,
+                                      float *S) {
     const ptrdiff_t mu = J->mu;
     light_consts K;
     const lv_tap *taps[5] = {&e->tc, &e->tcone[0], &e->tcone[1], &e->tcone[2], &e->tcone[3]};
@@ -460,8 +468,8 @@ A2 void volux_lightvol_dir_light_avx2(const lv_sweep *J, const lv_entry *e, int 
     K.cone = J->cone;
     K.empty = empty;
     K.forward = J->forward;
-    K.nst = e->nst && u1 > u0;
-    for (int p = 0; p < 9 && K.nst; p++) {
+    K.nst = u1 > u0 ? e->nst : 0;
+    for (int p = 0; p < K.nst; p++) {
         if (p < 4) K.swc[p] = _mm256_set1_ps(e->swc[p]);
         K.swk[p] = _mm256_set1_ps(e->swk[p]);
         for (int c = 0; c < 3; c++) K.sr[c][p] = e->rd[c] + (v + e->sj[p]) * mu + e->si[p];
@@ -469,6 +477,9 @@ A2 void volux_lightvol_dir_light_avx2(const lv_sweep *J, const lv_entry *e, int 
     const float lg = 0.2126f * e->gain[0] + 0.7152f * e->gain[1] + 0.0722f * e->gain[2];
     const float d[3] = {e->dsw.x, e->dsw.y, e->dsw.z};
     for (int c = 0; c < 3; c++) K.g[c] = _mm256_set1_ps(e->sw * e->gain[c]), K.d1[c] = _mm256_set1_ps(d[c] * lg);
+    K.S = S;
+    K.swl = _mm256_set1_ps(e->sw);
+    K.swl1 = _mm256_set1_ps(e->sw * lg);
     const __m256i all = _mm256_set1_epi32(-1);
     for (int u = 0; u < mu; u += 8) {
         if (u >= u0 && u + 8 <= u1) {
@@ -709,9 +720,10 @@ void volux_lightvol_dir_tau_avx2(const lv_sweep *J, const lv_entry *e, int v, in
 }
 void volux_lightvol_exp_avx2(float *T, const float *tau, int n) { (void)T, (void)tau, (void)n; }
 void volux_lightvol_dir_light_avx2(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, const float *T,
-                                   float *const Tc[3], int empty, float *const out[3], float *acc, size_t m, int ch) {
+                                   float *const Tc[3], int empty, float *const out[3], float *acc, size_t m, int ch,
+                                   float *S) {
     (void)J, (void)e, (void)v, (void)u0, (void)u1, (void)T, (void)Tc, (void)empty, (void)out, (void)acc, (void)m,
-        (void)ch;
+        (void)ch, (void)S;
 }
 void volux_lightvol_pos_geometry_avx2(const lv_sweep *J, const lv_entry *e, lv_pos_row *R) { (void)J, (void)e, (void)R; }
 void volux_lightvol_pos_tau_avx2(const lv_sweep *J, const lv_pos_row *R) { (void)J, (void)R; }

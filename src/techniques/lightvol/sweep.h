@@ -52,8 +52,8 @@ typedef struct lv_entry {
     int di_min, di_max, dj_min, dj_max;   /* tap extents (interior test)   */
     /* the centre and cone taps as one stencil on the previous slice (their
      * footprints overlap: ≤ 3×3 nodes when the cone is narrower than a
-     * voxel): nodes (sj, si) relative to the voxel, the first 4 with the
-     * centre's weights swc, all with the cone's (¼ Σ of its taps) swk;
+     * voxel): nst nodes (sj, si) relative to the voxel, the first 4 with
+     * the centre's weights swc, all with the cone's (¼ Σ of its taps) swk;
      * nst = 0: no such stencil (the AVX2 kernel reads the taps one by one) */
     int nst;
     int sj[9], si[9];
@@ -118,19 +118,22 @@ int volux_lightvol_simd_available(void);
 
 /* Directional entry e, row v: optical depths over its segments (σt into
  * tau[0], κ_c into tau[1..3] when forward scattering), added to tau[q][u]
- * for u in [u0, u1). */
+ * over the whole row (zeroed by the caller; [u0, u1) is the interior). */
 void volux_lightvol_dir_tau_avx2(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, float *const tau[4]);
 
 /* T[u] = exp(−tau[u]) for u in [0, n). */
 void volux_lightvol_exp_avx2(float *T, const float *tau, int n);
 
-/* Directional entry e, row v, u in [u0, u1): the light fetched from the
- * previous slice (and the forward-scattering cone unless `empty`),
- * attenuated by T (and Tc_c with forward scattering) into out[c][u], and
- * accumulated: acc[c][u] += sw·out, acc[3 + i][u] += dsw_i·lum(out) when
- * ch = 6. */
+/* Directional entry e, row v, the whole row ([u0, u1): interior, every
+ * tap inside the slice; the row ends by fetch()'s rules, 9-column windows):
+ * the light fetched from the previous slice (and the forward-scattering
+ * cone unless `empty`), attenuated by T (and Tc_c with forward scattering)
+ * into out[c][u], and accumulated: acc[c][u] += sw·gain_c·out and, when
+ * ch = 6, acc[3 + i][u] += dsw_i·lum(out) — or S[u] += sw·lum(out) when S
+ * is given (a run of same-direction lights, added as ω·S at its end). */
 void volux_lightvol_dir_light_avx2(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, const float *T,
-                                   float *const Tc[3], int empty, float *const out[3], float *acc, size_t m, int ch);
+                                   float *const Tc[3], int empty, float *const out[3], float *acc, size_t m, int ch,
+                                   float *S);
 
 /* Positional entry e, row R->v: geometry (X, LEN, K, WA, WU, WV) for u in
  * [0, R->ms), bit-identical to pos_row's loop (no FMA there, so the Eq. 5
