@@ -477,6 +477,16 @@ A2 void volux_lightvol_dir_light_avx2(const lv_sweep *J, const lv_entry *e, int 
     const float lg = 0.2126f * e->gain[0] + 0.7152f * e->gain[1] + 0.0722f * e->gain[2];
     const float d[3] = {e->dsw.x, e->dsw.y, e->dsw.z};
     for (int c = 0; c < 3; c++) K.g[c] = _mm256_set1_ps(e->sw * e->gain[c]), K.d1[c] = _mm256_set1_ps(d[c] * lg);
+    /* The rows the next row of this light will read first (its lowest new
+     * previous-slice row) and write: requested now, they arrive from L3
+     * while the pass's other lights run (a pass's slice buffers exceed L2). */
+    {
+        const int jn = v + 1 + e->dj_max + 1, mv = J->mv;
+        for (int c = 0; c < e->nch; c++) {
+            if (jn <= mv - 1)
+                for (ptrdiff_t x = 0; x < mu; x += 16) _mm_prefetch((const char *)(e->rd[c] + jn * mu + x), _MM_HINT_T1);
+        }
+    }
     K.S = S;
     K.swl = _mm256_set1_ps(e->sw);
     K.swl1 = _mm256_set1_ps(e->sw * lg);
