@@ -619,7 +619,8 @@ static void test_bad_parameters_are_named(void **state) {
                {"scale_x", 0.01, NULL, "techniques.lightvol.scale_x"},
                {"scale", 2.0, NULL, "techniques.lightvol.scale"},
                {"forward_scattering", 1.5, NULL, "techniques.lightvol.forward_scattering"},
-               {"max_lights_per_pass", 0, NULL, "techniques.lightvol.max_lights_per_pass"}};
+               {"max_lights_per_pass", 0, NULL, "techniques.lightvol.max_lights_per_pass"},
+               {"kernel", 0, "gpu", "techniques.lightvol.kernel"}};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         fixture g;
         fx_setup(&g, 1);

@@ -60,8 +60,9 @@ static const volux_param_info lightvol_params[] = {
      "stop a ray when its transmittance falls below this (0 = never)"},
     {"skip_empty", VOLUX_PARAM_BOOL, 1, 0, 1, NULL, "skip macrocells whose TF extinction is zero"},
     {"kernel", VOLUX_PARAM_STRING, 0, 0, 0, "auto",
-     "propagation row kernels: auto (AVX2+FMA where the CPU has them), scalar (portable reference) or simd (error "
-     "if unavailable); same volume up to float rounding"},
+     "propagation row kernels: auto (AVX2+FMA where the CPU has them, AVX-512 steps where it has those too), "
+     "scalar (portable reference), simd (as auto; error if unavailable) or avx2 (AVX2 only); same volume up to "
+     "float rounding"},
     {"rebuild_token", VOLUX_PARAM_NUMBER, 0, 0, 1e15, NULL,
      "benchmark hook: changing this value forces an entire light update"},
     {NULL, 0, 0, 0, 0, NULL, NULL}};
@@ -102,10 +103,12 @@ static volux_status read_params(lightvol_state *st, const volux_scene *scene, lv
     if (!strcmp(kernel, "auto")) p->kernel = LV_KERNEL_AUTO;
     else if (!strcmp(kernel, "scalar")) p->kernel = LV_KERNEL_SCALAR;
     else if (!strcmp(kernel, "simd")) p->kernel = LV_KERNEL_SIMD;
+    else if (!strcmp(kernel, "avx2")) p->kernel = LV_KERNEL_AVX2;
     else
         return volux_error(ctx, VOLUX_ERR_INVALID,
-                           "techniques.lightvol.kernel: expected \"auto\", \"scalar\" or \"simd\", got \"%s\"", kernel);
-    if (p->kernel == LV_KERNEL_SIMD && !volux_lightvol_simd_available())
+                           "techniques.lightvol.kernel: expected \"auto\", \"scalar\", \"simd\" or \"avx2\", got \"%s\"",
+                           kernel);
+    if ((p->kernel == LV_KERNEL_SIMD || p->kernel == LV_KERNEL_AVX2) && !volux_lightvol_simd_available())
         return volux_error(ctx, VOLUX_ERR_UNSUPPORTED, "techniques.lightvol.kernel: \"simd\" needs a CPU with AVX2 and FMA");
     p->max_per_pass = (int)volux_technique_param(scene, cls, "max_lights_per_pass");
     p->forward = (float)volux_technique_param(scene, cls, "forward_scattering");
@@ -177,6 +180,7 @@ static volux_status lightvol_update(void *state, volux_scene *scene, const volux
         }
         st->p = np;
         st->use_simd = np.kernel != LV_KERNEL_SCALAR && volux_lightvol_simd_available();
+        st->use_avx512 = st->use_simd && np.kernel != LV_KERNEL_AVX2 && volux_lightvol_avx512_available();
         double lo, hi, sp[3];
         volux_volume_range(st->volume, &lo, &hi);
         volux_volume_spacing(st->volume, sp);

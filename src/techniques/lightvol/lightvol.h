@@ -200,7 +200,7 @@ typedef struct lv_applied {
 
 /* --------------------------------------------------------------- params */
 
-enum { LV_KERNEL_AUTO, LV_KERNEL_SCALAR, LV_KERNEL_SIMD };
+enum { LV_KERNEL_AUTO, LV_KERNEL_SCALAR, LV_KERNEL_SIMD, LV_KERNEL_AVX2 };
 
 enum { LV_RULE_WORK, LV_RULE_PASSES, LV_RULE_LIGHTS, LV_RULE_SELECTIVE, LV_RULE_FULL };
 
@@ -253,6 +253,7 @@ typedef struct lightvol_state {
     lv_params p;
     int threads;
     int use_simd;                  /* resolved kernel: AVX2 row kernels      */
+    int use_avx512;                /* ... and AVX-512 directional steps       */
     float grad_ref;
 
     /* illumination grid: node (i,j,k) at lo + (i,j,k)·spacing; node-centred

@@ -896,7 +896,8 @@ static void dir_row_simd(const lv_sweep *J, const lv_entry *e, int v, float *out
             for (int c = 0; c < 3; c++) volux_lightvol_exp_avx2(Tc[c], tau[1 + c], mu);
         *last = e;
     }
-    volux_lightvol_dir_light_avx2(J, e, v, u0, u1, T, Tc, empty, out, acc, m, ch, S);
+    if (J->avx512) volux_lightvol_dir_light_avx512(J, e, v, u0, u1, T, Tc, empty, out, acc, m, ch, S);
+    else volux_lightvol_dir_light_avx2(J, e, v, u0, u1, T, Tc, empty, out, acc, m, ch, S);
 }
 
 /* Outside-slice fallback of fetch(), kept out of line. */
@@ -1480,6 +1481,7 @@ static void sweep(lightvol_state *st, int g, const lv_item *items, const int *id
     J.albedo = st->albedo;
     /* the AVX2 row-end steps read 9-column windows */
     J.simd = st->use_simd && J.mu >= 9;
+    J.avx512 = J.simd && st->use_avx512;
     J.ne = n;
     /* x sweeps write the volume a whole x-row apart per voxel; staging
      * `LV_DEFER` slices turns that into runs along x (same values) */

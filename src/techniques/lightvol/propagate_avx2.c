@@ -445,51 +445,55 @@ A2I void light_edge_step(const lv_sweep *J, const lv_entry *e, const light_const
     (void)mkf;
 }
 
+/* The row's constants of entry e (see light_consts). */
+A2I void light_consts_init(light_consts *K, const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, int empty,
+                           float *S) {
+    const ptrdiff_t mu = J->mu;
+    const lv_tap *taps[5] = {&e->tc, &e->tcone[0], &e->tcone[1], &e->tcone[2], &e->tcone[3]};
+    for (int q = 0; q < 5; q++) {
+        const lv_tap *t = taps[q];
+        K->w[q][0] = _mm256_set1_ps(t->w00);
+        K->w[q][1] = _mm256_set1_ps(t->w10);
+        K->w[q][2] = _mm256_set1_ps(t->w01);
+        K->w[q][3] = _mm256_set1_ps(t->w11);
+        /* (only dereferenced for interior steps, where they are in the slice) */
+        for (int c = 0; c < 3; c++) K->r[q][c] = e->rd[c] + (u1 > u0 ? (v + t->dj) * mu + t->di : 0);
+    }
+    K->sw = _mm256_set1_ps(e->sw);
+    K->d[0] = _mm256_set1_ps(e->dsw.x);
+    K->d[1] = _mm256_set1_ps(e->dsw.y);
+    K->d[2] = _mm256_set1_ps(e->dsw.z);
+    K->q4 = _mm256_set1_ps(0.25f);
+    K->cone = J->cone;
+    K->empty = empty;
+    K->forward = J->forward;
+    K->nst = u1 > u0 ? e->nst : 0;
+    for (int p = 0; p < K->nst; p++) {
+        if (p < 4) K->swc[p] = _mm256_set1_ps(e->swc[p]);
+        K->swk[p] = _mm256_set1_ps(e->swk[p]);
+        for (int c = 0; c < 3; c++) K->sr[c][p] = e->rd[c] + (v + e->sj[p]) * mu + e->si[p];
+    }
+    const float lg = 0.2126f * e->gain[0] + 0.7152f * e->gain[1] + 0.0722f * e->gain[2];
+    const float d[3] = {e->dsw.x, e->dsw.y, e->dsw.z};
+    for (int c = 0; c < 3; c++) K->g[c] = _mm256_set1_ps(e->sw * e->gain[c]), K->d1[c] = _mm256_set1_ps(d[c] * lg);
+    /* The row the next row of this light will read first (its lowest new
+     * previous-slice row): requested now, it arrives from L3 while the
+     * pass's other lights run (a large pass's slice buffers exceed L2). */
+    const int jn = v + 1 + e->dj_max + 1;
+    if (jn <= J->mv - 1)
+        for (int c = 0; c < e->nch; c++)
+            for (ptrdiff_t x = 0; x < mu; x += 16) _mm_prefetch((const char *)(e->rd[c] + jn * mu + x), _MM_HINT_T1);
+    K->S = S;
+    K->swl = _mm256_set1_ps(e->sw);
+    K->swl1 = _mm256_set1_ps(e->sw * lg);
+}
+
 A2 void volux_lightvol_dir_light_avx2(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, const float *T,
                                       float *const Tc[3], int empty, float *const out[3], float *acc, size_t m, int ch,
                                       float *S) {
     const ptrdiff_t mu = J->mu;
     light_consts K;
-    const lv_tap *taps[5] = {&e->tc, &e->tcone[0], &e->tcone[1], &e->tcone[2], &e->tcone[3]};
-    for (int q = 0; q < 5; q++) {
-        const lv_tap *t = taps[q];
-        K.w[q][0] = _mm256_set1_ps(t->w00);
-        K.w[q][1] = _mm256_set1_ps(t->w10);
-        K.w[q][2] = _mm256_set1_ps(t->w01);
-        K.w[q][3] = _mm256_set1_ps(t->w11);
-        /* (only dereferenced for interior steps, where they are in the slice) */
-        for (int c = 0; c < 3; c++) K.r[q][c] = e->rd[c] + (u1 > u0 ? (v + t->dj) * mu + t->di : 0);
-    }
-    K.sw = _mm256_set1_ps(e->sw);
-    K.d[0] = _mm256_set1_ps(e->dsw.x);
-    K.d[1] = _mm256_set1_ps(e->dsw.y);
-    K.d[2] = _mm256_set1_ps(e->dsw.z);
-    K.q4 = _mm256_set1_ps(0.25f);
-    K.cone = J->cone;
-    K.empty = empty;
-    K.forward = J->forward;
-    K.nst = u1 > u0 ? e->nst : 0;
-    for (int p = 0; p < K.nst; p++) {
-        if (p < 4) K.swc[p] = _mm256_set1_ps(e->swc[p]);
-        K.swk[p] = _mm256_set1_ps(e->swk[p]);
-        for (int c = 0; c < 3; c++) K.sr[c][p] = e->rd[c] + (v + e->sj[p]) * mu + e->si[p];
-    }
-    const float lg = 0.2126f * e->gain[0] + 0.7152f * e->gain[1] + 0.0722f * e->gain[2];
-    const float d[3] = {e->dsw.x, e->dsw.y, e->dsw.z};
-    for (int c = 0; c < 3; c++) K.g[c] = _mm256_set1_ps(e->sw * e->gain[c]), K.d1[c] = _mm256_set1_ps(d[c] * lg);
-    /* The rows the next row of this light will read first (its lowest new
-     * previous-slice row) and write: requested now, they arrive from L3
-     * while the pass's other lights run (a pass's slice buffers exceed L2). */
-    {
-        const int jn = v + 1 + e->dj_max + 1, mv = J->mv;
-        for (int c = 0; c < e->nch; c++) {
-            if (jn <= mv - 1)
-                for (ptrdiff_t x = 0; x < mu; x += 16) _mm_prefetch((const char *)(e->rd[c] + jn * mu + x), _MM_HINT_T1);
-        }
-    }
-    K.S = S;
-    K.swl = _mm256_set1_ps(e->sw);
-    K.swl1 = _mm256_set1_ps(e->sw * lg);
+    light_consts_init(&K, J, e, v, u0, u1, empty, S);
     const __m256i all = _mm256_set1_epi32(-1);
     for (int u = 0; u < mu; u += 8) {
         if (u >= u0 && u + 8 <= u1) {
@@ -498,6 +502,121 @@ A2 void volux_lightvol_dir_light_avx2(const lv_sweep *J, const lv_entry *e, int 
         } else {
             light_edge_step(J, e, &K, v, u, T, Tc, out, acc, m, ch);
         }
+    }
+}
+
+/* ------------------------------------------- AVX-512: 16 voxels a step
+ * The interior steps of the directional light kernel again, 16 lanes wide
+ * where the CPU has AVX-512F (the per-light work of a pass is bound by its
+ * FMAs and loads: twice the lanes per instruction); the same formulas as
+ * light_step/light_step1, the row ends and short rests by them. */
+#define A5 __attribute__((target("avx512f,avx2,fma")))
+#define A5I static inline __attribute__((always_inline, target("avx512f,avx2,fma")))
+
+int volux_lightvol_avx512_available(void) {
+    __builtin_cpu_init();
+    return volux_lightvol_simd_available() && __builtin_cpu_supports("avx512f");
+}
+
+typedef struct light_consts16 {
+    __m512 w[4], swc[4], swk[9], sw, g[3], d[3], d1[3], swl, swl1;
+} light_consts16;
+
+A5I void light_consts16_init(light_consts16 *Z, const lv_entry *e) {
+    const float w[4] = {e->tc.w00, e->tc.w10, e->tc.w01, e->tc.w11};
+    for (int i = 0; i < 4; i++) Z->w[i] = _mm512_set1_ps(w[i]), Z->swc[i] = _mm512_set1_ps(e->swc[i]);
+    for (int p = 0; p < 9; p++) Z->swk[p] = _mm512_set1_ps(p < e->nst ? e->swk[p] : 0.0f);
+    const float lg = 0.2126f * e->gain[0] + 0.7152f * e->gain[1] + 0.0722f * e->gain[2];
+    const float d[3] = {e->dsw.x, e->dsw.y, e->dsw.z};
+    Z->sw = _mm512_set1_ps(e->sw);
+    for (int c = 0; c < 3; c++) {
+        Z->g[c] = _mm512_set1_ps(e->sw * e->gain[c]);
+        Z->d[c] = _mm512_set1_ps(d[c]);
+        Z->d1[c] = _mm512_set1_ps(d[c] * lg);
+    }
+    Z->swl = Z->sw;
+    Z->swl1 = _mm512_set1_ps(e->sw * lg);
+}
+
+A5I void acc_add16(float *a, __m512 w, __m512 x) { _mm512_storeu_ps(a, _mm512_fmadd_ps(w, x, _mm512_loadu_ps(a))); }
+
+A5I __m512 bil16(const float *r0, const float *r1, const __m512 w[4]) {
+    __m512 x = _mm512_mul_ps(w[0], _mm512_loadu_ps(r0));
+    x = _mm512_fmadd_ps(w[1], _mm512_loadu_ps(r0 + 1), x);
+    x = _mm512_fmadd_ps(w[2], _mm512_loadu_ps(r1), x);
+    return _mm512_fmadd_ps(w[3], _mm512_loadu_ps(r1 + 1), x);
+}
+
+/* One interior step of 16 voxels (light_step1 / light_step; the cone only
+ * through the stencil — the caller takes 8-wide steps otherwise). */
+A5I void light_step16(const light_consts *K, const light_consts16 *Z, int nch, ptrdiff_t mu, const float *T,
+                      float *const Tc[3], float *const out[3], float *acc, size_t m, int ch, int u) {
+    const __m512 Tv = _mm512_loadu_ps(T + u);
+    if (nch == 1) {
+        __m512 o = bil16(K->r[0][0] + u, K->r[0][0] + mu + u, Z->w);
+        if (!K->empty) o = _mm512_mul_ps(Tv, o);
+        _mm512_storeu_ps(out[0] + u, o);
+        for (int c = 0; c < 3; c++) acc_add16(acc + (size_t)c * m + (size_t)u, Z->g[c], o);
+        if (ch == 6 && K->S) acc_add16(K->S + u, Z->swl1, o);
+        else if (ch == 6)
+            for (int i = 0; i < 3; i++) acc_add16(acc + (size_t)(3 + i) * m + (size_t)u, Z->d1[i], o);
+        return;
+    }
+    __m512 o[3];
+    for (int c = 0; c < 3; c++) {
+        if (K->empty || !K->cone) {
+            o[c] = bil16(K->r[0][c] + u, K->r[0][c] + mu + u, Z->w);
+            if (K->empty) continue;
+            o[c] = _mm512_mul_ps(K->forward ? _mm512_loadu_ps(Tc[c] + u) : Tv, o[c]);
+            continue;
+        }
+        __m512 cen = _mm512_setzero_ps(), cn = _mm512_setzero_ps();
+        for (int p = 0; p < 4; p++) {
+            __m512 x = _mm512_loadu_ps(K->sr[c][p] + u);
+            cen = _mm512_fmadd_ps(Z->swc[p], x, cen);
+            cn = _mm512_fmadd_ps(Z->swk[p], x, cn);
+        }
+        for (int p = 4; p < K->nst; p++) cn = _mm512_fmadd_ps(Z->swk[p], _mm512_loadu_ps(K->sr[c][p] + u), cn);
+        o[c] = _mm512_fmadd_ps(Tv, cen, _mm512_mul_ps(_mm512_sub_ps(_mm512_loadu_ps(Tc[c] + u), Tv), cn));
+    }
+    for (int c = 0; c < 3; c++) {
+        _mm512_storeu_ps(out[c] + u, o[c]);
+        acc_add16(acc + (size_t)c * m + (size_t)u, Z->sw, o[c]);
+    }
+    if (ch == 6) {
+        __m512 lum = _mm512_mul_ps(_mm512_set1_ps(0.2126f), o[0]);
+        lum = _mm512_fmadd_ps(_mm512_set1_ps(0.7152f), o[1], lum);
+        lum = _mm512_fmadd_ps(_mm512_set1_ps(0.0722f), o[2], lum);
+        if (K->S) acc_add16(K->S + u, Z->swl, lum);
+        else
+            for (int i = 0; i < 3; i++) acc_add16(acc + (size_t)(3 + i) * m + (size_t)u, Z->d[i], lum);
+    }
+}
+
+A5 void volux_lightvol_dir_light_avx512(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, const float *T,
+                                        float *const Tc[3], int empty, float *const out[3], float *acc, size_t m,
+                                        int ch, float *S) {
+    const ptrdiff_t mu = J->mu;
+    light_consts K;
+    light_consts_init(&K, J, e, v, u0, u1, empty, S);
+    light_consts16 Z;
+    light_consts16_init(&Z, e);
+    /* 16 wide unless the cone is read tap by tap (no stencil) */
+    const int wide = e->nch == 1 || empty || !J->cone || K.nst > 0;
+    const __m256i all = _mm256_set1_epi32(-1);
+    for (int u = 0; u < mu;) {
+        if (wide && u >= u0 && u + 16 <= u1) {
+            light_step16(&K, &Z, e->nch, mu, T, Tc, out, acc, m, ch, u);
+            u += 16;
+            continue;
+        }
+        if (u >= u0 && u + 8 <= u1) {
+            if (e->nch == 1) light_step1(&K, mu, T, out[0], acc, m, ch, u, 1, all);
+            else light_step(&K, mu, T, Tc, out, acc, m, ch, u, 1, all);
+        } else {
+            light_edge_step(J, e, &K, v, u, T, Tc, out, acc, m, ch);
+        }
+        u += 8;
     }
 }
 
@@ -725,6 +844,13 @@ A2 void volux_lightvol_pos_light_avx2(const lv_sweep *J, const lv_entry *e, cons
 #else /* not x86-64 GCC/Clang: the portable loops only */
 
 int volux_lightvol_simd_available(void) { return 0; }
+int volux_lightvol_avx512_available(void) { return 0; }
+void volux_lightvol_dir_light_avx512(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, const float *T,
+                                     float *const Tc[3], int empty, float *const out[3], float *acc, size_t m, int ch,
+                                     float *S) {
+    (void)J, (void)e, (void)v, (void)u0, (void)u1, (void)T, (void)Tc, (void)empty, (void)out, (void)acc, (void)m,
+        (void)ch, (void)S;
+}
 void volux_lightvol_dir_tau_avx2(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, float *const tau[4]) {
     (void)J, (void)e, (void)v, (void)u0, (void)u1, (void)tau;
 }

@@ -87,6 +87,7 @@ typedef struct lv_sweep {
     float fwd, tan_c;   /* f, tan(cone)/√2                                 */
     float rmin2;
     int simd;           /* run the AVX2 kernels (propagate_avx2.c)        */
+    int avx512;         /* ... with the 16-wide directional light steps   */
 } lv_sweep;
 
 /* One row of a positional light's propagation (pos_row): per-voxel arrays
@@ -113,8 +114,10 @@ typedef struct lv_pos_row {
  * (the row ends stay on the portable path); results differ from it by
  * float rounding only (FMA, polynomial order), bounded by the tests. */
 
-/* 1 if this CPU runs the AVX2+FMA kernels. */
+/* 1 if this CPU runs the AVX2+FMA kernels; ... and AVX-512F as well (the
+ * directional light kernel then takes 16 voxels a step in row interiors). */
 int volux_lightvol_simd_available(void);
+int volux_lightvol_avx512_available(void);
 
 /* Directional entry e, row v: optical depths over its segments (σt into
  * tau[0], κ_c into tau[1..3] when forward scattering), added to tau[q][u]
@@ -134,6 +137,9 @@ void volux_lightvol_exp_avx2(float *T, const float *tau, int n);
 void volux_lightvol_dir_light_avx2(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, const float *T,
                                    float *const Tc[3], int empty, float *const out[3], float *acc, size_t m, int ch,
                                    float *S);
+void volux_lightvol_dir_light_avx512(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, const float *T,
+                                     float *const Tc[3], int empty, float *const out[3], float *acc, size_t m, int ch,
+                                     float *S);
 
 /* Positional entry e, row R->v: geometry (X, LEN, K, WA, WU, WV) for u in
  * [0, R->ms), bit-identical to pos_row's loop (no FMA there, so the Eq. 5
