@@ -416,14 +416,16 @@ static int plan(const lv_item *items, int n, int coherent, int max_per_pass, lv_
  * (reading and classifying a slice, writing the volume): each pass costs
  * 1 plus, per light entry, the entry's weight (directional; point, spot,
  * sphere: per-voxel geometry, Eq. 5 factors and gathers). Calibrated on the
- * engine at scale 1 (bench/lightvol, docs/techniques/lightvol.md): with the
- * portable kernel a directional entry costs ~0.3 of the fixed part and a
- * positional one ~4; with the AVX2 kernels 0.23–0.47 and 0.75–1.45 (f = 0
- * and f = 0.5 with a 10° cone). */
+ * engine and bonsai at scale 1 (bench/lightvol, docs/techniques/lightvol.md):
+ * with the portable kernel a directional entry costs ~0.3 of the fixed part
+ * and a positional one ~4; with the AVX2 kernels ~0.2 and ~0.65 without
+ * forward scattering, ~0.5 and 1.0–1.3 with it (f = 0.5, 10° cone: four
+ * medium planes, the cone's taps). */
 typedef struct lv_work_weights {
     double dir, pos;
 } lv_work_weights;
-static const lv_work_weights LV_WORK_SCALAR = {0.3, 4.0}, LV_WORK_SIMD = {0.35, 1.1};
+static const lv_work_weights LV_WORK_SCALAR = {0.3, 4.0}, LV_WORK_SIMD = {0.2, 0.7},
+                             LV_WORK_SIMD_FORWARD = {0.5, 1.2};
 
 static double plan_work(const lv_item *items, int n, int coherent, int max_per_pass, lv_work_weights w) {
     double work = 0.0;
@@ -1708,7 +1710,7 @@ volux_status volux_lightvol_update_lights(lightvol_state *st, const volux_scene 
          * since add and remove usually share their passes). */
         int ps = plan(items, n, st->p.coherent, st->p.max_per_pass, NULL, NULL);
         int pf = plan(full_items, nf, st->p.coherent, st->p.max_per_pass, NULL, NULL);
-        const lv_work_weights ww = st->use_simd ? LV_WORK_SIMD : LV_WORK_SCALAR;
+        const lv_work_weights ww = !st->use_simd ? LV_WORK_SCALAR : st->p.forward > 0.0f ? LV_WORK_SIMD_FORWARD : LV_WORK_SIMD;
         double ws = plan_work(items, n, st->p.coherent, st->p.max_per_pass, ww);
         double wf = plan_work(full_items, nf, st->p.coherent, st->p.max_per_pass, ww);
         st->stats.passes_selective = ps;

@@ -760,6 +760,78 @@ A2 void volux_lightvol_pos_tau_avx2(const lv_sweep *J, const lv_pos_row *R) {
     }
 }
 
+/* A light tap of a positional entry for 8 voxels: per-lane position x
+ * (inside the slice), row j and fraction ay per lane. The lanes' x advance
+ * by at most one column per voxel (x' = u − (u − l_u)·f, 0 < f ≤ 1, plus a
+ * slowly varying cone offset), so when they share their row and span at
+ * most 8 cells, a 9-column window read with two loads per row and
+ * permuted into place replaces the 4 gathers (else: gathers). Inactive
+ * lanes (mk) copy lane 0. */
+typedef struct pos_tap {
+    int win;
+    ptrdiff_t off;        /* window: plane offset of (j, s)        */
+    __m256i rel, idx;     /* window column per lane; gather index */
+    __m256 w00, w10, w01, w11;
+} pos_tap;
+
+A2I int hmin_epi32(__m256i v) {
+    __m256i m = _mm256_min_epi32(v, _mm256_permute2x128_si256(v, v, 1));
+    m = _mm256_min_epi32(m, _mm256_shuffle_epi32(m, 0x4E));
+    m = _mm256_min_epi32(m, _mm256_shuffle_epi32(m, 0xB1));
+    return _mm256_cvtsi256_si32(m);
+}
+A2I int hmax_epi32(__m256i v) {
+    __m256i m = _mm256_max_epi32(v, _mm256_permute2x128_si256(v, v, 1));
+    m = _mm256_max_epi32(m, _mm256_shuffle_epi32(m, 0x4E));
+    m = _mm256_max_epi32(m, _mm256_shuffle_epi32(m, 0xB1));
+    return _mm256_cvtsi256_si32(m);
+}
+
+A2I void pos_tap_init(pos_tap *P, __m256 x, __m256i j, __m256 ay, int mu, __m256i mk) {
+    __m256i ix = _mm256_min_epi32(_mm256_cvttps_epi32(x), _mm256_set1_epi32(mu - 2));
+    const __m256i zero = _mm256_setzero_si256();
+    ix = _mm256_blendv_epi8(_mm256_permutevar8x32_epi32(ix, zero), ix, mk);
+    j = _mm256_blendv_epi8(_mm256_permutevar8x32_epi32(j, zero), j, mk);
+    x = _mm256_blendv_ps(_mm256_permutevar8x32_ps(x, zero), x, _mm256_castsi256_ps(mk));
+    ay = _mm256_blendv_ps(_mm256_permutevar8x32_ps(ay, zero), ay, _mm256_castsi256_ps(mk));
+    const __m256 one = _mm256_set1_ps(1.0f);
+    __m256 ax = _mm256_sub_ps(x, _mm256_cvtepi32_ps(ix)), bx = _mm256_sub_ps(one, ax), by = _mm256_sub_ps(one, ay);
+    P->w00 = _mm256_mul_ps(bx, by);
+    P->w10 = _mm256_mul_ps(ax, by);
+    P->w01 = _mm256_mul_ps(bx, ay);
+    P->w11 = _mm256_mul_ps(ax, ay);
+    P->idx = _mm256_add_epi32(_mm256_mullo_epi32(j, _mm256_set1_epi32(mu)), ix);
+    const int j0 = _mm256_cvtsi256_si32(j);
+    const int same_row = _mm256_movemask_epi8(_mm256_cmpeq_epi32(j, _mm256_set1_epi32(j0))) == -1;
+    const int lo = hmin_epi32(ix), hi = hmax_epi32(ix);
+    P->win = same_row && hi - lo <= 7 && mu >= 9;
+    if (!P->win) return;
+    int s = lo > mu - 9 ? mu - 9 : lo;
+    P->rel = _mm256_sub_epi32(ix, _mm256_set1_epi32(s));
+    P->off = (ptrdiff_t)j0 * mu + s;
+}
+
+A2I __m256 pos_tap_val(const pos_tap *P, const float *plane, int mu) {
+    __m256 a, b, c, d;
+    if (P->win) {
+        const float *p = plane + P->off;
+        a = _mm256_permutevar8x32_ps(_mm256_loadu_ps(p), P->rel);
+        b = _mm256_permutevar8x32_ps(_mm256_loadu_ps(p + 1), P->rel);
+        c = _mm256_permutevar8x32_ps(_mm256_loadu_ps(p + mu), P->rel);
+        d = _mm256_permutevar8x32_ps(_mm256_loadu_ps(p + mu + 1), P->rel);
+    } else {
+        const __m256i one = _mm256_set1_epi32(1), row = _mm256_set1_epi32(mu);
+        a = _mm256_i32gather_ps(plane, P->idx, 4);
+        b = _mm256_i32gather_ps(plane, _mm256_add_epi32(P->idx, one), 4);
+        c = _mm256_i32gather_ps(plane, _mm256_add_epi32(P->idx, row), 4);
+        d = _mm256_i32gather_ps(plane, _mm256_add_epi32(_mm256_add_epi32(P->idx, row), one), 4);
+    }
+    __m256 x = _mm256_mul_ps(P->w00, a);
+    x = _mm256_fmadd_ps(P->w10, b, x);
+    x = _mm256_fmadd_ps(P->w01, c, x);
+    return _mm256_fmadd_ps(P->w11, d, x);
+}
+
 A2 void volux_lightvol_pos_light_avx2(const lv_sweep *J, const lv_entry *e, const lv_pos_row *R, float *const out[3],
                                       float *acc, size_t m, int ch) {
     const lightvol_state *st = J->st;
@@ -780,12 +852,13 @@ A2 void volux_lightvol_pos_light_avx2(const lv_sweep *J, const lv_entry *e, cons
         const __m256i mki = lane_mask(R->u1 - u);
         const __m256 mk = _mm256_castsi256_ps(mki);
         __m256 Xv = _mm256_and_ps(_mm256_loadu_ps(R->X + u), mk); /* masked lanes: cell 0 */
-        __m256 w00, w10, w01, w11;
-        __m256i b = cell(Xv, R->jc, mu, ayc, &w00, &w10, &w01, &w11);
+        const __m256i jcv = _mm256_set1_epi32(R->jc);
+        pos_tap P;
+        pos_tap_init(&P, Xv, jcv, ayc, mu, mki);
         __m256 T = exp_neg8(_mm256_loadu_ps(R->TAU + u)), K = _mm256_loadu_ps(R->K + u);
         if (one) {
             /* no forward scattering: one channel, accumulated as gain·value */
-            __m256 o = _mm256_mul_ps(T, gbil(Rd[0], b, mu, w00, w10, w01, w11)), ok = _mm256_mul_ps(o, K);
+            __m256 o = _mm256_mul_ps(T, pos_tap_val(&P, Rd[0], mu)), ok = _mm256_mul_ps(o, K);
             st8(out[0] + u, o, full, mki);
             for (int c = 0; c < 3; c++) acc_add(acc + (size_t)c * m + (size_t)u, g[c], ok, full, mki);
             if (ch == 6) {
@@ -797,7 +870,7 @@ A2 void volux_lightvol_pos_light_avx2(const lv_sweep *J, const lv_entry *e, cons
             continue;
         }
         __m256 o[3];
-        for (int c = 0; c < 3; c++) o[c] = gbil(Rd[c], b, mu, w00, w10, w01, w11);
+        for (int c = 0; c < 3; c++) o[c] = pos_tap_val(&P, Rd[c], mu);
         if (forward) {
             __m256 Tc[3];
             for (int c = 0; c < 3; c++) Tc[c] = exp_neg8(_mm256_loadu_ps(R->TAU + (size_t)(1 + c) * ms + u));
@@ -812,11 +885,9 @@ A2 void volux_lightvol_pos_light_avx2(const lv_sweep *J, const lv_entry *e, cons
                     /* per-lane row: j = min((int)y, mv − 2) */
                     __m256i jq = _mm256_min_epi32(_mm256_cvttps_epi32(yq), _mm256_set1_epi32(mv - 2));
                     __m256 ay = _mm256_sub_ps(yq, _mm256_cvtepi32_ps(jq));
-                    __m256 c00, c10, c01, c11;
-                    __m256i bq = cell(x, 0, mu, ay, &c00, &c10, &c01, &c11);
-                    bq = _mm256_add_epi32(bq, _mm256_mullo_epi32(jq, _mm256_set1_epi32(mu)));
-                    for (int c = 0; c < 3; c++)
-                        s3[c] = _mm256_fmadd_ps(q4, gbil(Rd[c], bq, mu, c00, c10, c01, c11), s3[c]);
+                    pos_tap Q;
+                    pos_tap_init(&Q, x, jq, ay, mu, mki);
+                    for (int c = 0; c < 3; c++) s3[c] = _mm256_fmadd_ps(q4, pos_tap_val(&Q, Rd[c], mu), s3[c]);
                 }
                 for (int c = 0; c < 3; c++)
                     o[c] = _mm256_fmadd_ps(T, o[c], _mm256_mul_ps(_mm256_sub_ps(Tc[c], T), s3[c]));
