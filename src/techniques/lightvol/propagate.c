@@ -419,13 +419,15 @@ static int plan(const lv_item *items, int n, int coherent, int max_per_pass, lv_
  * engine and bonsai at scale 1 (bench/lightvol, docs/techniques/lightvol.md):
  * with the portable kernel a directional entry costs ~0.3 of the fixed part
  * and a positional one ~4; with the AVX2 kernels ~0.2 and ~0.65 without
- * forward scattering, ~0.5 and 1.0–1.3 with it (f = 0.5, 10° cone: four
- * medium planes, the cone's taps). */
+ * forward scattering, ~0.5 and 1.0–1.5 with it (f = 0.5, 10° cone: four
+ * medium planes, the cone's taps; a close spot, sampled more densely along
+ * its oblique segments, at the top). Near a tie either choice costs the
+ * same, so the weights err towards the entire update. */
 typedef struct lv_work_weights {
     double dir, pos;
 } lv_work_weights;
 static const lv_work_weights LV_WORK_SCALAR = {0.3, 4.0}, LV_WORK_SIMD = {0.2, 0.7},
-                             LV_WORK_SIMD_FORWARD = {0.5, 1.2};
+                             LV_WORK_SIMD_FORWARD = {0.5, 1.4};
 
 static double plan_work(const lv_item *items, int n, int coherent, int max_per_pass, lv_work_weights w) {
     double work = 0.0;
