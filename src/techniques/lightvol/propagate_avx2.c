@@ -1,27 +1,37 @@
 /*
- * techniques/lightvol/propagate_avx2.c — AVX2+FMA row kernels of the
- * propagation sweeps. All intrinsics of `lightvol` live in this file; it is
- * compiled with target attributes and chosen at run time
+ * techniques/lightvol/propagate_avx2.c — AVX2+FMA (and AVX-512) row kernels
+ * of the propagation sweeps. All intrinsics of `lightvol` live in this
+ * file; it is compiled with target attributes and chosen at run time
  * (volux_lightvol_simd_available, techniques.lightvol.kernel), so the
  * default build runs on any x86-64 and the portable loops of propagate.c
- * stay the reference the tests compare against.
+ * stay the reference the tests compare against
+ * (tests/invariants/test_lightvol_simd.c).
  *
- * Each kernel evaluates the same formula as the portable loop it replaces,
- * eight voxels of a row per step, over the row interior where every tap of
- * every voxel lies inside the slice (constant bilinear weights for a
- * directional light); a row's last partial step uses masked loads and
- * stores, so nothing outside the row is read or written. Differences to the
- * portable loops are float rounding (FMA contraction, the bilinear sums'
- * order), well inside the tests' tolerances; results do not depend on the
- * thread count (every voxel is computed by the same code whatever the row
- * split).
+ * Each kernel evaluates the same formulas as the portable loops it
+ * replaces, eight voxels of a row per step (16 in the interior of a
+ * directional light's rows with AVX-512F):
+ *   - row interiors, where every tap of every voxel lies inside the slice,
+ *     with constant bilinear weights (directional lights) or per-lane ones
+ *     (point/spot lights: the previous-slice point advances by less than a
+ *     column per voxel, so 9-column windows replace gathers);
+ *   - row ends by fetch()'s rules per lane (inside the slice: bilinear;
+ *     outside: the unoccluded light, or empty medium), on 9-column windows;
+ *   - reads of slices stay inside their rows, and stores to slice buffers
+ *     are masked past the row; this thread's row scratch (accumulators,
+ *     temporaries; ROW_FLOATS·mu + padding) is loaded and stored whole,
+ *     the lanes past the row left unchanged or unused: the accumulators are
+ *     read back by the next light at once, and a masked store there would
+ *     block store-to-load forwarding.
+ * Differences to the portable loops are float rounding (FMA contraction,
+ * summation order); results do not depend on the thread count (every
+ * voxel is computed by the same code whatever the row split).
  *
- * Why a fused light kernel: the portable code makes one pass over the row
- * per step (fetch, cone, attenuate, store, accumulate colour, accumulate
+ * Why fused kernels: the portable code makes one pass over the row per
+ * step (fetch, cone, attenuate, store, accumulate colour, accumulate
  * direction), re-reading its row temporaries each time; here one pass reads
  * the light's previous slice once, writes its current slice once and adds
  * into the accumulators while the values are in registers — the per-light
- * work of a coherent pass (docs/techniques/lightvol.md, "CPU engineering").
+ * work of a coherent pass (docs/techniques/lightvol.md, "Row kernels").
  */
 #include <math.h>
 #include <string.h>
@@ -401,7 +411,6 @@ A2I void light_edge_step(const lv_sweep *J, const lv_entry *e, const light_const
     for (int q = 1; q < ntap; q++) edge_tap_init(&E[q], u, e->cu[q - 1], e->tcone[q - 1].di, (float)v + e->cv[q - 1], mu, mv);
     const float pw[3] = {e->s->power.x, e->s->power.y, e->s->power.z};
     const __m256i mk = lane_mask(mu - u);
-    const __m256 mkf = _mm256_castsi256_ps(mk);
     const int full = u + 8 <= mu;
     __m256 Tv = _mm256_loadu_ps(T + u);
     if (e->nch == 1) {
@@ -442,7 +451,6 @@ A2I void light_edge_step(const lv_sweep *J, const lv_entry *e, const light_const
         else
             for (int i = 0; i < 3; i++) acc_add(acc + (size_t)(3 + i) * m + (size_t)u, K->d[i], lum, 0, mk);
     }
-    (void)mkf;
 }
 
 /* The row's constants of entry e (see light_consts). */
