@@ -863,11 +863,21 @@ static void dir_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
     }
 }
 
+/* What the previous directional entry of a row left in the row scratch. */
+typedef struct lv_row_geom {
+    const lv_entry *e; /* its geometry (offsets, taps)          */
+    int empty;         /* its footprint holds no medium         */
+    int have_T;        /* T, Tc hold its transmittances          */
+} lv_row_geom;
+
 /* Directional light, row v, with the AVX2 kernels: as dir_row followed by
- * sweep_row's accumulation, but the row interior in one fused pass
- * (volux_lightvol_dir_light_avx2) and only the row ends per voxel. */
+ * sweep_row's accumulation, the whole row in one fused pass
+ * (volux_lightvol_dir_light_avx2/avx512; the row ends by fetch()'s rules
+ * per lane); the transmittances and footprint test shared with the
+ * previous light of the same geometry. */
+
 static void dir_row_simd(const lv_sweep *J, const lv_entry *e, int v, float *out[3], float *T, float *Tc[3],
-                         float *tau[4], const lv_entry **last, float *acc, int ch, float *S) {
+                         float *tau[4], lv_row_geom *G, float *acc, int ch, float *S) {
     const int mu = J->mu, mv = J->mv;
     const size_t m = (size_t)mu;
     const int one = e->nch == 1;
@@ -891,14 +901,19 @@ static void dir_row_simd(const lv_sweep *J, const lv_entry *e, int v, float *out
     if (u0 < 0) u0 = 0;
     if (u1 > mu) u1 = mu;
     if (!row_ok || u1 < u0) u0 = u1 = 0;
-    int empty = rows_empty(J, v + e->dj_min - 1, v + e->dj_max + 2);
-    const lv_entry *l = *last;
-    if (!empty && (!l || l->du != e->du || l->dv != e->dv || l->len != e->len)) {
+    /* a light with the previous one's geometry shares its footprint test and
+     * transmittances */
+    const lv_entry *l = G->e;
+    const int same = l && l->du == e->du && l->dv == e->dv && l->len == e->len && l->dj_min == e->dj_min &&
+                     l->dj_max == e->dj_max && l->di_min == e->di_min && l->di_max == e->di_max;
+    int empty = same ? G->empty : rows_empty(J, v + e->dj_min - 1, v + e->dj_max + 2);
+    if (!same) G->e = e, G->empty = empty, G->have_T = 0;
+    if (!empty && !G->have_T) {
         dir_tau(J, e, v, u0, u1, tau);
         volux_lightvol_exp_avx2(T, tau[0], mu);
         if (J->forward)
             for (int c = 0; c < 3; c++) volux_lightvol_exp_avx2(Tc[c], tau[1 + c], mu);
-        *last = e;
+        G->have_T = 1;
     }
     if (J->avx512) volux_lightvol_dir_light_avx512(J, e, v, u0, u1, T, Tc, empty, out, acc, m, ch, S);
     else volux_lightvol_dir_light_avx2(J, e, v, u0, u1, T, Tc, empty, out, acc, m, ch, S);
@@ -1273,6 +1288,7 @@ static void sweep_row(const lv_sweep *J, int v, int thread) {
     const lv_entry *last = NULL;
     size_t off = (size_t)v * m;
     int run = 0; /* a run of same-direction lights is open (SIMD, ch = 6) */
+    lv_row_geom G = {NULL, 0, 0};
     for (int i = 0; i < J->ne; i++) {
         const lv_entry *e = &J->e[i];
         float *out[3] = {e->wr[0] + off, e->wr[1] + off, e->wr[2] + off};
@@ -1291,14 +1307,14 @@ static void sweep_row(const lv_sweep *J, int v, int thread) {
                                 nx->s->dir.y == e->s->dir.y && nx->s->dir.z == e->s->dir.z;
                 if (!run && same_next) memset(cen[0], 0, m * sizeof(float)), run = 1;
                 S = run ? cen[0] : NULL;
-                dir_row_simd(J, e, v, out, T, Tc, tau, &last, acc, ch, S);
+                dir_row_simd(J, e, v, out, T, Tc, tau, &G, acc, ch, S);
                 if (run && !same_next) {
                     flush_run(acc + 3 * m, m, cen[0], e->s->dir, mu);
                     run = 0;
                 }
                 continue;
             }
-            dir_row_simd(J, e, v, out, T, Tc, tau, &last, acc, ch, S);
+            dir_row_simd(J, e, v, out, T, Tc, tau, &G, acc, ch, S);
             continue;
         }
         dir_row(J, e, v, out, T, Tc, cone, cen, tau, &last);

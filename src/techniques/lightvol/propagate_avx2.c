@@ -457,33 +457,41 @@ A2I void light_edge_step(const lv_sweep *J, const lv_entry *e, const light_const
 A2I void light_consts_init(light_consts *K, const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, int empty,
                            float *S) {
     const ptrdiff_t mu = J->mu;
+    K->cone = J->cone;
+    K->empty = empty;
+    K->forward = J->forward;
+    K->nst = u1 > u0 && e->nch == 3 && J->cone && !empty ? e->nst : 0;
+    /* only what this row's steps read: the centre tap; the cone's taps one
+     * by one only without a stencil (the row ends read the entry) */
+    const int ntap = e->nch == 3 && J->cone && !empty && !K->nst ? 5 : 1;
     const lv_tap *taps[5] = {&e->tc, &e->tcone[0], &e->tcone[1], &e->tcone[2], &e->tcone[3]};
-    for (int q = 0; q < 5; q++) {
+    for (int q = 0; q < ntap; q++) {
         const lv_tap *t = taps[q];
         K->w[q][0] = _mm256_set1_ps(t->w00);
         K->w[q][1] = _mm256_set1_ps(t->w10);
         K->w[q][2] = _mm256_set1_ps(t->w01);
         K->w[q][3] = _mm256_set1_ps(t->w11);
         /* (only dereferenced for interior steps, where they are in the slice) */
-        for (int c = 0; c < 3; c++) K->r[q][c] = e->rd[c] + (u1 > u0 ? (v + t->dj) * mu + t->di : 0);
+        for (int c = 0; c < e->nch; c++) K->r[q][c] = e->rd[c] + (u1 > u0 ? (v + t->dj) * mu + t->di : 0);
     }
-    K->sw = _mm256_set1_ps(e->sw);
-    K->d[0] = _mm256_set1_ps(e->dsw.x);
-    K->d[1] = _mm256_set1_ps(e->dsw.y);
-    K->d[2] = _mm256_set1_ps(e->dsw.z);
-    K->q4 = _mm256_set1_ps(0.25f);
-    K->cone = J->cone;
-    K->empty = empty;
-    K->forward = J->forward;
-    K->nst = u1 > u0 ? e->nst : 0;
     for (int p = 0; p < K->nst; p++) {
         if (p < 4) K->swc[p] = _mm256_set1_ps(e->swc[p]);
         K->swk[p] = _mm256_set1_ps(e->swk[p]);
         for (int c = 0; c < 3; c++) K->sr[c][p] = e->rd[c] + (v + e->sj[p]) * mu + e->si[p];
     }
-    const float lg = 0.2126f * e->gain[0] + 0.7152f * e->gain[1] + 0.0722f * e->gain[2];
-    const float d[3] = {e->dsw.x, e->dsw.y, e->dsw.z};
-    for (int c = 0; c < 3; c++) K->g[c] = _mm256_set1_ps(e->sw * e->gain[c]), K->d1[c] = _mm256_set1_ps(d[c] * lg);
+    K->S = S;
+    if (e->nch == 1) {
+        const float lg = 0.2126f * e->gain[0] + 0.7152f * e->gain[1] + 0.0722f * e->gain[2];
+        const float d[3] = {e->dsw.x, e->dsw.y, e->dsw.z};
+        for (int c = 0; c < 3; c++) K->g[c] = _mm256_set1_ps(e->sw * e->gain[c]), K->d1[c] = _mm256_set1_ps(d[c] * lg);
+        K->swl1 = _mm256_set1_ps(e->sw * lg);
+    } else {
+        K->sw = K->swl = _mm256_set1_ps(e->sw);
+        K->d[0] = _mm256_set1_ps(e->dsw.x);
+        K->d[1] = _mm256_set1_ps(e->dsw.y);
+        K->d[2] = _mm256_set1_ps(e->dsw.z);
+        K->q4 = _mm256_set1_ps(0.25f);
+    }
     /* The row the next row of this light will read first (its lowest new
      * previous-slice row): requested now, it arrives from L3 while the
      * pass's other lights run (a large pass's slice buffers exceed L2). */
@@ -491,9 +499,6 @@ A2I void light_consts_init(light_consts *K, const lv_sweep *J, const lv_entry *e
     if (jn <= J->mv - 1)
         for (int c = 0; c < e->nch; c++)
             for (ptrdiff_t x = 0; x < mu; x += 16) _mm_prefetch((const char *)(e->rd[c] + jn * mu + x), _MM_HINT_T1);
-    K->S = S;
-    K->swl = _mm256_set1_ps(e->sw);
-    K->swl1 = _mm256_set1_ps(e->sw * lg);
 }
 
 A2 void volux_lightvol_dir_light_avx2(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, const float *T,
