@@ -8,6 +8,7 @@
 #include <stdio.h>
 
 #include "lightvol_fixture.h"
+#include "techniques/lightvol/sweep.h"
 
 #define N 16
 
@@ -365,6 +366,9 @@ static void test_cost_rules_choose_as_the_paper_says(void **state) {
     assert_int_equal(volux_scene_set_light(f.s, 1, &d1), VOLUX_OK);
     assert_int_equal(volux_scene_set_light(f.s, 2, &d2), VOLUX_OK);
     assert_int_equal(volux_scene_set_param(f.s, "lightvol", "cost_rule", 0, "work"), VOLUX_OK);
+    /* (the weights are the portable kernel's; with the AVX2 kernels a point
+     * light costs ~3x a directional one, not ~13x: below) */
+    assert_int_equal(volux_scene_set_param(f.s, "lightvol", "kernel", 0, "scalar"), VOLUX_OK);
     lvf_update(t, f.s);
     pt.position.x -= 2.0f;
     assert_int_equal(volux_scene_set_light(f.s, 0, &pt), VOLUX_OK);
@@ -376,6 +380,16 @@ static void test_cost_rules_choose_as_the_paper_says(void **state) {
     assert_int_equal(volux_scene_set_light(f.s, 1, &d1), VOLUX_OK);
     lvf_update(t, f.s);
     assert_int_equal(st->stats.last, LV_UPDATE_SELECTIVE);
+    if (volux_lightvol_simd_available()) {
+        /* the AVX2 kernels' weights: the decision follows their estimate */
+        assert_int_equal(volux_scene_set_param(f.s, "lightvol", "kernel", 0, "simd"), VOLUX_OK);
+        lvf_update(t, f.s);
+        pt.position.x += 2.0f;
+        assert_int_equal(volux_scene_set_light(f.s, 0, &pt), VOLUX_OK);
+        lvf_update(t, f.s);
+        assert_int_equal(st->stats.last, st->stats.work_selective < st->stats.work_full ? LV_UPDATE_SELECTIVE
+                                                                                         : LV_UPDATE_FULL);
+    }
     /* all lights removed: an entire update (a clear) */
     for (int i = 0; i < 3; i++) assert_int_equal(volux_scene_remove_light(f.s, i), VOLUX_OK);
     lvf_update(t, f.s);
@@ -605,7 +619,8 @@ static void test_bad_parameters_are_named(void **state) {
                {"scale_x", 0.01, NULL, "techniques.lightvol.scale_x"},
                {"scale", 2.0, NULL, "techniques.lightvol.scale"},
                {"forward_scattering", 1.5, NULL, "techniques.lightvol.forward_scattering"},
-               {"max_lights_per_pass", 0, NULL, "techniques.lightvol.max_lights_per_pass"}};
+               {"max_lights_per_pass", 0, NULL, "techniques.lightvol.max_lights_per_pass"},
+               {"kernel", 0, "gpu", "techniques.lightvol.kernel"}};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         fixture g;
         fx_setup(&g, 1);

@@ -20,6 +20,7 @@
 #include "core/rng.h"
 #include "core/vecmath.h"
 #include "lightvol.h"
+#include "sweep.h"
 #include "sample/primary.h"
 
 static const volux_param_info lightvol_params[] = {
@@ -34,7 +35,8 @@ static const volux_param_info lightvol_params[] = {
     {"cost_rule", VOLUX_PARAM_STRING, 0, 0, 0, "work",
      "selective vs entire light update (Sec. 5): passes (rule 2: fewer propagation passes; ties by rule 1), lights "
      "(rule 1: at most half of the lights changed), work (rule 2 with each pass weighted by the lights it carries, "
-     "point/spot lights costing ~13x a directional one; ties by rule 1), selective, full"},
+     "point/spot lights costing ~3x (AVX2 kernels) or ~13x (portable) a directional one; ties by rule 1), selective, "
+     "full"},
     {"max_lights_per_pass", VOLUX_PARAM_INT, 32, 1, 256, NULL,
      "lights propagated together in one sweep; larger groups are split (bounds slice-buffer memory)"},
     {"forward_scattering", VOLUX_PARAM_NUMBER, 0, 0, 1, NULL,
@@ -57,6 +59,10 @@ static const volux_param_info lightvol_params[] = {
     {"early_termination", VOLUX_PARAM_NUMBER, 0.002, 0, 1, NULL,
      "stop a ray when its transmittance falls below this (0 = never)"},
     {"skip_empty", VOLUX_PARAM_BOOL, 1, 0, 1, NULL, "skip macrocells whose TF extinction is zero"},
+    {"kernel", VOLUX_PARAM_STRING, 0, 0, 0, "auto",
+     "propagation row kernels: auto (AVX2+FMA where the CPU has them, AVX-512 steps where it has those too), "
+     "scalar (portable reference), simd (as auto; error if unavailable) or avx2 (AVX2 only); same volume up to "
+     "float rounding"},
     {"rebuild_token", VOLUX_PARAM_NUMBER, 0, 0, 1e15, NULL,
      "benchmark hook: changing this value forces an entire light update"},
     {NULL, 0, 0, 0, 0, NULL, NULL}};
@@ -93,6 +99,17 @@ static volux_status read_params(lightvol_state *st, const volux_scene *scene, lv
                            "techniques.lightvol.cost_rule: expected \"work\", \"passes\", \"lights\", \"selective\" or \"full\", "
                            "got \"%s\"",
                            rule);
+    const char *kernel = volux_scene_param_string(scene, "lightvol", "kernel", "auto");
+    if (!strcmp(kernel, "auto")) p->kernel = LV_KERNEL_AUTO;
+    else if (!strcmp(kernel, "scalar")) p->kernel = LV_KERNEL_SCALAR;
+    else if (!strcmp(kernel, "simd")) p->kernel = LV_KERNEL_SIMD;
+    else if (!strcmp(kernel, "avx2")) p->kernel = LV_KERNEL_AVX2;
+    else
+        return volux_error(ctx, VOLUX_ERR_INVALID,
+                           "techniques.lightvol.kernel: expected \"auto\", \"scalar\", \"simd\" or \"avx2\", got \"%s\"",
+                           kernel);
+    if ((p->kernel == LV_KERNEL_SIMD || p->kernel == LV_KERNEL_AVX2) && !volux_lightvol_simd_available())
+        return volux_error(ctx, VOLUX_ERR_UNSUPPORTED, "techniques.lightvol.kernel: \"simd\" needs a CPU with AVX2 and FMA");
     p->max_per_pass = (int)volux_technique_param(scene, cls, "max_lights_per_pass");
     p->forward = (float)volux_technique_param(scene, cls, "forward_scattering");
     p->cone_deg = (float)volux_technique_param(scene, cls, "scatter_cone");
@@ -154,11 +171,16 @@ static volux_status lightvol_update(void *state, volux_scene *scene, const volux
         if ((s = read_params(st, scene, &np))) return s;
         const lv_params *op = &st->p;
         if (memcmp(np.scale, op->scale, sizeof np.scale) != 0 || np.directional != op->directional) realloc_vol = 1;
-        if (np.forward != op->forward || np.cone_deg != op->cone_deg || np.rebuild_token != op->rebuild_token) {
+        /* a kernel switch rebuilds, so that selective updates never mix two
+         * kernels' rounding in one volume */
+        if (np.forward != op->forward || np.cone_deg != op->cone_deg || np.rebuild_token != op->rebuild_token ||
+            np.kernel != op->kernel) {
             full = 1;
             if (!reason) reason = "parameters changed";
         }
         st->p = np;
+        st->use_simd = np.kernel != LV_KERNEL_SCALAR && volux_lightvol_simd_available();
+        st->use_avx512 = st->use_simd && np.kernel != LV_KERNEL_AVX2 && volux_lightvol_avx512_available();
         double lo, hi, sp[3];
         volux_volume_range(st->volume, &lo, &hi);
         volux_volume_spacing(st->volume, sp);

@@ -200,6 +200,8 @@ typedef struct lv_applied {
 
 /* --------------------------------------------------------------- params */
 
+enum { LV_KERNEL_AUTO, LV_KERNEL_SCALAR, LV_KERNEL_SIMD, LV_KERNEL_AVX2 };
+
 enum { LV_RULE_WORK, LV_RULE_PASSES, LV_RULE_LIGHTS, LV_RULE_SELECTIVE, LV_RULE_FULL };
 
 typedef struct lv_params {
@@ -217,6 +219,7 @@ typedef struct lv_params {
     int preintegrate, skip_empty;
     float t_min;
     double rebuild_token;
+    int kernel;             /* LV_KERNEL_*                                 */
 } lv_params;
 
 /* ---------------------------------------------------------------- state */
@@ -249,6 +252,8 @@ typedef struct lightvol_state {
     volux_material material;
     lv_params p;
     int threads;
+    int use_simd;                  /* resolved kernel: AVX2 row kernels      */
+    int use_avx512;                /* ... and AVX-512 directional steps       */
     float grad_ref;
 
     /* illumination grid: node (i,j,k) at lo + (i,j,k)·spacing; node-centred

@@ -44,6 +44,7 @@
 #include "core/parallel.h"
 #include "core/vecmath.h"
 #include "lightvol.h"
+#include "sweep.h"
 
 /* ------------------------------------------------------------ allocation */
 
@@ -413,14 +414,22 @@ static int plan(const lv_item *items, int n, int coherent, int max_per_pass, lv_
 
 /* Estimated work of a plan in units of one pass's per-voxel fixed cost
  * (reading and classifying a slice, writing the volume): each pass costs
- * 1 plus, per light entry, LV_WORK_DIR (directional) or LV_WORK_POS
- * (point, spot, sphere: per-voxel geometry and Eq. 5 factors). Calibrated
- * on the engine at scale 1 and 1/2 (bench/lightvol): a directional entry
- * costs ~0.3 of the fixed part, a positional one ~4. */
-#define LV_WORK_DIR 0.3
-#define LV_WORK_POS 4.0
+ * 1 plus, per light entry, the entry's weight (directional; point, spot,
+ * sphere: per-voxel geometry, Eq. 5 factors and gathers). Calibrated on the
+ * engine and bonsai at scale 1 (bench/lightvol, docs/techniques/lightvol.md):
+ * with the portable kernel a directional entry costs ~0.3 of the fixed part
+ * and a positional one ~4; with the AVX2 kernels ~0.2 and ~0.65 without
+ * forward scattering, ~0.5 and 1.0–1.5 with it (f = 0.5, 10° cone: four
+ * medium planes, the cone's taps; a close spot, sampled more densely along
+ * its oblique segments, at the top). Near a tie either choice costs the
+ * same, so the weights err towards the entire update. */
+typedef struct lv_work_weights {
+    double dir, pos;
+} lv_work_weights;
+static const lv_work_weights LV_WORK_SCALAR = {0.3, 4.0}, LV_WORK_SIMD = {0.2, 0.7},
+                             LV_WORK_SIMD_FORWARD = {0.5, 1.4};
 
-static double plan_work(const lv_item *items, int n, int coherent, int max_per_pass) {
+static double plan_work(const lv_item *items, int n, int coherent, int max_per_pass, lv_work_weights w) {
     double work = 0.0;
     if (coherent) {
         for (int g = 0; g < LV_GROUPS; g++) {
@@ -428,7 +437,7 @@ static double plan_work(const lv_item *items, int n, int coherent, int max_per_p
             for (int i = 0; i < n; i++) {
                 if (!(items[i].src.groups & (1u << g))) continue;
                 count++;
-                work += items[i].src.kind == LV_DIRECTIONAL ? LV_WORK_DIR : LV_WORK_POS;
+                work += items[i].src.kind == LV_DIRECTIONAL ? w.dir : w.pos;
             }
             work += (double)((count + max_per_pass - 1) / max_per_pass);
         }
@@ -436,72 +445,12 @@ static double plan_work(const lv_item *items, int n, int coherent, int max_per_p
         for (int i = 0; i < n; i++)
             for (int g = 0; g < LV_GROUPS; g++)
                 if (items[i].src.groups & (1u << g))
-                    work += 1.0 + (items[i].src.kind == LV_DIRECTIONAL ? LV_WORK_DIR : LV_WORK_POS);
+                    work += 1.0 + (items[i].src.kind == LV_DIRECTIONAL ? w.dir : w.pos);
     }
     return work;
 }
 
-enum { E_SKIP, E_INIT, E_INIT_ATT, E_PROP };
-
-/* Sub-samples of the medium along one propagation segment: one per voxel of
- * sideways travel, so an oblique sweep (a light's second-closest group)
- * cannot step over a thin wall. */
-#define LV_MAX_SUB 16
-/* ... and along the segment light → voxel of the first slice after a light
- * that lies between two slices (integrated once per pass). */
-#define LV_MAX_INIT_SUB 256
-
-typedef struct lv_tap {
-    int di, dj;
-    float w00, w10, w01, w11;
-} lv_tap;
-
-typedef struct lv_entry {
-    const lv_source *s;
-    float sign;
-    float sw;           /* directional: sign·factor                       */
-    volux_vec3 dsw;     /* directional: sign·factor·direction             */
-    float *rd[3], *wr[3];
-    int mode;
-    /* directional, fixed for the pass */
-    float du, dv, len;  /* previous-slice offset (index units), length    */
-    float cu[4], cv[4]; /* cone tap offsets                               */
-    lv_tap tc, tcone[4];
-    int nsub;
-    float su[LV_MAX_SUB], sv[LV_MAX_SUB]; /* medium sample offsets       */
-    float wp[LV_MAX_SUB], wc[LV_MAX_SUB]; /* their weights (prev / current
-                                             slice) × len / nsub          */
-    lv_tap ts[LV_MAX_SUB];
-    int di_min, di_max, dj_min, dj_max;   /* tap extents (interior test)   */
-    /* positional */
-    float lidx[3];      /* light position in illumination index space     */
-    float f;            /* 1/dist for the current slice                   */
-} lv_entry;
-
-typedef struct lv_sweep {
-    lightvol_state *st;
-    int g, a, au, av, s;
-    int mu, mv, ma;
-    int k, kp, step;
-    size_t vs[3];       /* illumination strides (voxels) per axis         */
-    lv_entry *e;
-    int ne;
-    const float *mp;    /* medium of the previous slice: σt, κr, κg, κb planes */
-    float *mc;          /* medium of the current slice                     */
-    float *mn;          /* medium of the next slice (classified meanwhile) */
-    int kn;             /* next slice, or −1                               */
-    int rows_per_item, sweep_items, class_items;
-    int defer;          /* x sweeps: slices staged before a flush (0: none) */
-    size_t area;
-    int overwrite;
-    int forward, cone;
-    int nplanes;        /* medium planes propagation reads: 1 (σt) or 4    */
-    int post;           /* slices hold scalars (post-classification)       */
-    const volux_transfer_lut *lut;
-    float albedo;
-    float fwd, tan_c;   /* f, tan(cone)/√2                                 */
-    float rmin2;
-} lv_sweep;
+/* pass state (lv_sweep, lv_entry, lv_tap) and the SIMD kernels: sweep.h */
 
 static inline lv_tap make_tap(float du, float dv) {
     float fu = floorf(du), fv = floorf(dv);
@@ -737,9 +686,10 @@ static inline int rows_empty(const lv_sweep *J, int j0, int j1) {
     if (j1 > J->mv - 1) j1 = J->mv - 1;
     const float *rp = J->mp + 4 * J->area, *rc = J->mc + 4 * J->area;
     float lo = INFINITY, hi = -INFINITY;
-    for (int j = j0; j <= j1; j++) {
-        lo = fminf(lo, fminf(rp[2 * j], rc[2 * j]));
-        hi = fmaxf(hi, fmaxf(rp[2 * j + 1], rc[2 * j + 1]));
+    for (int j = j0; j <= j1; j++) { /* (no NaN here: ranges come from comparisons) */
+        float l = rp[2 * j] < rc[2 * j] ? rp[2 * j] : rc[2 * j], h = rp[2 * j + 1] > rc[2 * j + 1] ? rp[2 * j + 1] : rc[2 * j + 1];
+        lo = l < lo ? l : lo;
+        hi = h > hi ? h : hi;
     }
     if (!J->post) return !(hi > 0.0f);
     /* every value interpolated there lies in [lo, hi]: is σt zero on it?
@@ -753,6 +703,22 @@ static inline int rows_empty(const lv_sweep *J, int j0, int j1) {
     return J->st->lut_nz[i1 + 1] - J->st->lut_nz[i0] == 0;
 }
 
+static void accumulate(float *restrict a, const float *restrict o, float w, int n) {
+    for (int u = 0; u < n; u++) a[u] += w * o[u];
+}
+
+/* D += lum(value)·(sign·factor·direction) */
+static void accumulate_dir(float *a, size_t m, float *const out[3], volux_vec3 d, int n) {
+    float *restrict ax = a, *restrict ay = a + m, *restrict az = a + 2 * m;
+    const float *restrict o0 = out[0], *restrict o1 = out[1], *restrict o2 = out[2];
+    for (int u = 0; u < n; u++) {
+        float lum = 0.2126f * o0[u] + 0.7152f * o1[u] + 0.0722f * o2[u];
+        ax[u] += d.x * lum;
+        ay[u] += d.y * lum;
+        az[u] += d.z * lum;
+    }
+}
+
 /* Optical depths of row v over directional entry e's segments (σt into
  * tau[0], κ_c into tau[1..3] when forward scattering): midpoint rule over
  * e->nsub points, the medium interpolated between the two slices. */
@@ -760,7 +726,7 @@ static void dir_tau(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1,
     const int mu = J->mu, np = J->nplanes;
     const size_t area = J->area;
     for (int q = 0; q < np; q++) memset(tau[q], 0, (size_t)mu * sizeof(float));
-    for (int i = 0; i < e->nsub; i++) {
+    for (int i = 0; i < e->nsub && !J->simd; i++) {
         const lv_tap t = e->ts[i];
         const float wp = e->wp[i], wc = e->wc[i];
         if (J->post && u1 > u0) {
@@ -785,16 +751,20 @@ static void dir_tau(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1,
                             wc * (t.w00 * C0[u] + t.w10 * C0[u + 1] + t.w01 * C1[u] + t.w11 * C1[u + 1]);
             }
         }
+    }
+    /* row ends: per voxel, outside taps see empty medium (the AVX2 kernel
+     * does the whole row) */
+    for (int i = 0; i < e->nsub && !J->simd; i++)
         for (int u = 0; u < mu; u++) {
             if (u == u0 && u1 > u0) {
                 u = u1 - 1;
                 continue;
             }
             float tq[4] = {0, 0, 0, 0};
-            med_accumulate(J, (float)u + e->su[i], (float)v + e->sv[i], wp, wc, np, tq);
+            med_accumulate(J, (float)u + e->su[i], (float)v + e->sv[i], e->wp[i], e->wc[i], np, tq);
             for (int q = 0; q < np; q++) tau[q][u] += tq[q];
         }
-    }
+    if (J->simd) volux_lightvol_dir_tau_avx2(J, e, v, u0, u1, tau);
 }
 
 /* Directional light, row v: values into out[c][0..mu). */
@@ -891,6 +861,62 @@ static void dir_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
             for (int u = 0; u < mu; u++) o[u] = T[u] * cc[u] + (tc[u] - T[u]) * cn[u];
         }
     }
+}
+
+/* What the previous directional entry of a row left in the row scratch. */
+typedef struct lv_row_geom {
+    const lv_entry *e; /* its geometry (offsets, taps)          */
+    int empty;         /* its footprint holds no medium         */
+    int have_T;        /* T, Tc hold its transmittances          */
+} lv_row_geom;
+
+/* Directional light, row v, with the AVX2 kernels: as dir_row followed by
+ * sweep_row's accumulation, the whole row in one fused pass
+ * (volux_lightvol_dir_light_avx2/avx512; the row ends by fetch()'s rules
+ * per lane); the transmittances and footprint test shared with the
+ * previous light of the same geometry. */
+
+static void dir_row_simd(const lv_sweep *J, const lv_entry *e, int v, float *out[3], float *T, float *Tc[3],
+                         float *tau[4], lv_row_geom *G, float *acc, int ch, float *S) {
+    const int mu = J->mu, mv = J->mv;
+    const size_t m = (size_t)mu;
+    const int one = e->nch == 1;
+    if (e->mode == E_INIT) {
+        float pw[3] = {e->s->power.x, e->s->power.y, e->s->power.z};
+        for (int c = 0; c < e->nch; c++)
+            for (int u = 0; u < mu; u++) out[c][u] = pw[c];
+        float *o3[3] = {out[0], out[one ? 0 : 1], out[one ? 0 : 2]};
+        for (int c = 0; c < 3; c++) accumulate(acc + (size_t)c * m, o3[c], e->sw * e->gain[c], mu);
+        if (ch == 6) {
+            volux_vec3 d = e->dsw;
+            if (one) d = v3_scale(d, 0.2126f * e->gain[0] + 0.7152f * e->gain[1] + 0.0722f * e->gain[2]);
+            if (one) accumulate(acc + 3 * m, out[0], d.x, mu), accumulate(acc + 4 * m, out[0], d.y, mu),
+                accumulate(acc + 5 * m, out[0], d.z, mu);
+            else accumulate_dir(acc + 3 * m, m, o3, d, mu);
+        }
+        return;
+    }
+    int u0 = -e->di_min, u1 = mu - 1 - e->di_max;
+    int row_ok = v + e->dj_min >= 0 && v + e->dj_max + 1 <= mv - 1;
+    if (u0 < 0) u0 = 0;
+    if (u1 > mu) u1 = mu;
+    if (!row_ok || u1 < u0) u0 = u1 = 0;
+    /* a light with the previous one's geometry shares its footprint test and
+     * transmittances */
+    const lv_entry *l = G->e;
+    const int same = l && l->du == e->du && l->dv == e->dv && l->len == e->len && l->dj_min == e->dj_min &&
+                     l->dj_max == e->dj_max && l->di_min == e->di_min && l->di_max == e->di_max;
+    int empty = same ? G->empty : rows_empty(J, v + e->dj_min - 1, v + e->dj_max + 2);
+    if (!same) G->e = e, G->empty = empty, G->have_T = 0;
+    if (!empty && !G->have_T) {
+        dir_tau(J, e, v, u0, u1, tau);
+        volux_lightvol_exp_avx2(T, tau[0], mu);
+        if (J->forward)
+            for (int c = 0; c < 3; c++) volux_lightvol_exp_avx2(Tc[c], tau[1 + c], mu);
+        G->have_T = 1;
+    }
+    if (J->avx512) volux_lightvol_dir_light_avx512(J, e, v, u0, u1, T, Tc, empty, out, acc, m, ch, S);
+    else volux_lightvol_dir_light_avx2(J, e, v, u0, u1, T, Tc, empty, out, acc, m, ch, S);
 }
 
 /* Outside-slice fallback of fetch(), kept out of line. */
@@ -1005,7 +1031,10 @@ static void pos_voxels(const lv_sweep *J, const lv_entry *e, int v, int ua, int 
         float wg = lv_axis_weight(mag, a);
         if (wg <= 0.0f) continue;
         float k = sign * wg / (r2 > rm2 ? r2 : rm2);
-        float er = val[0] * k, eg = val[1] * k, eb = val[2] * k;
+        /* (one channel: val[1], val[2] are not propagated; × gain = power) */
+        const int one = e->nch == 1;
+        float er = val[0] * k * e->gain[0], eg = (one ? val[0] : val[1]) * k * e->gain[1],
+              eb = (one ? val[0] : val[2]) * k * e->gain[2];
         accs[0][u] += er;
         accs[1][u] += eg;
         accs[2][u] += eb;
@@ -1041,12 +1070,17 @@ static void pos_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
     const float da = ((float)J->k - la) * st->spacing[a], dvw = ((float)v - lv) * sv;
     const float f = e->f, rm2 = J->rmin2, sign = e->sign, tan_c = J->tan_c;
     const float y = (float)v - ((float)v - lv) * f, ov = y - (float)v;
-    /* scratch: X LEN K WA WU WV TAU[4] CEN[3] CON[3] = 16·mu floats */
-    float *restrict X = scr, *restrict LEN = X + m, *restrict K = LEN + m, *restrict WA = K + m, *restrict WU = WA + m,
-                    *restrict WV = WU + m, *TAU = WV + m, *CEN = TAU + 4 * m, *CON = CEN + 3 * m;
+    /* scratch: X LEN K WA WU WV TAU[4] CEN[3] CON[3] = 16·mu floats; the
+     * AVX2 kernels use the first 10 with a stride rounded up to 8 */
+    const int simd = J->simd;
+    const size_t ms = simd ? (m + 7) & ~(size_t)7 : m;
+    float *restrict X = scr, *restrict LEN = X + ms, *restrict K = LEN + ms, *restrict WA = K + ms,
+                    *restrict WU = WA + ms, *restrict WV = WU + ms, *TAU = WV + ms, *CEN = TAU + 4 * m, *CON = CEN + 3 * m;
+    lv_pos_row R = {.v = v, .ms = ms, .X = X, .LEN = LEN, .K = K, .WA = WA, .WU = WU, .WV = WV, .TAU = TAU, .y = y};
     /* Phase 1: geometry, factor of this group, 1/r² (vector loops) */
     const float da2 = da * da, dv2 = dvw * dvw, ada = fabsf(da), adv = fabsf(dvw);
-    for (int u = 0; u < mu; u++) {
+    if (simd) volux_lightvol_pos_geometry_avx2(J, e, &R);
+    for (int u = 0; u < mu && !simd; u++) {
         float du = ((float)u - lu) * su, du2 = du * du;
         /* r² summed in x, y, z order like pos_voxels, so the factors of the
          * groups of a voxel match theirs exactly */
@@ -1096,7 +1130,14 @@ static void pos_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
         /* rows between v and y (and the cone's) without medium: T = 1 */
         int jlo = (int)floorf(fminf((float)v, y - rv_max)) - 1, jhi = (int)ceilf(fmaxf((float)v, y + rv_max)) + 1;
         int empty = rows_empty(J, jlo, jhi);
-        for (int q = 0; q < np; q++) memset(TAU + (size_t)q * m + u0, 0, (size_t)(u1 - u0) * sizeof(float));
+        for (int q = 0; q < np; q++) memset(TAU + (size_t)q * ms + u0, 0, (size_t)(u1 - u0) * sizeof(float));
+        if (simd) {
+            R.u0 = u0, R.u1 = u1, R.n = n, R.inv_n = inv_n, R.jc = jc, R.ayc = ayc, R.empty = empty;
+            for (int i = 0; i < n; i++) R.tt[i] = tt[i], R.ay[i] = ay[i], R.jrow[i] = jrow[i];
+            if (!empty) volux_lightvol_pos_tau_avx2(J, &R);
+            volux_lightvol_pos_light_avx2(J, e, &R, out, acc, m, ch);
+            goto ends;
+        }
         for (int i = 0; i < n && !empty; i++) {
             const float t = tt[i], om = 1.0f - t, ayi = ay[i];
             const size_t rb = (size_t)jrow[i] * m;
@@ -1188,6 +1229,7 @@ static void pos_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
             }
         }
     }
+ends:
     if (u0 > 0) pos_voxels(J, e, v, 0, u0, out, acc, ch);
     if (u1 < mu) pos_voxels(J, e, v, u1 > u0 ? u1 : u0, mu, out, acc, ch);
 }
@@ -1222,19 +1264,13 @@ static void flush_row(const lv_sweep *J, int v, int nb) {
     }
 }
 
-static void accumulate(float *restrict a, const float *restrict o, float w, int n) {
-    for (int u = 0; u < n; u++) a[u] += w * o[u];
-}
-
-/* D += lum(value)·(sign·factor·direction) */
-static void accumulate_dir(float *a, size_t m, float *const out[3], volux_vec3 d, int n) {
-    float *restrict ax = a, *restrict ay = a + m, *restrict az = a + 2 * m;
-    const float *restrict o0 = out[0], *restrict o1 = out[1], *restrict o2 = out[2];
+/* D += ω·S over a row (a run of same-direction lights, see sweep_row). */
+static void flush_run(float *d, size_t m, const float *restrict S, volux_vec3 w, int n) {
+    float *restrict dx = d, *restrict dy = d + m, *restrict dz = d + 2 * m;
     for (int u = 0; u < n; u++) {
-        float lum = 0.2126f * o0[u] + 0.7152f * o1[u] + 0.0722f * o2[u];
-        ax[u] += d.x * lum;
-        ay[u] += d.y * lum;
-        az[u] += d.z * lum;
+        dx[u] += w.x * S[u];
+        dy[u] += w.y * S[u];
+        dz[u] += w.z * S[u];
     }
 }
 
@@ -1251,11 +1287,34 @@ static void sweep_row(const lv_sweep *J, int v, int thread) {
     memset(acc, 0, (size_t)ch * m * sizeof(float));
     const lv_entry *last = NULL;
     size_t off = (size_t)v * m;
+    int run = 0; /* a run of same-direction lights is open (SIMD, ch = 6) */
+    lv_row_geom G = {NULL, 0, 0};
     for (int i = 0; i < J->ne; i++) {
         const lv_entry *e = &J->e[i];
         float *out[3] = {e->wr[0] + off, e->wr[1] + off, e->wr[2] + off};
         if (e->s->kind == LV_POSITIONAL) {
             pos_row(J, e, v, out, acc, ch, T + 14 * m);
+            continue;
+        }
+        if (J->simd) {
+            /* Consecutive lights with one direction: D += ω·Σ sw·lum(E_l)
+             * once for the run (lum is linear), not per light; the run's sum
+             * lives in the row scratch that the portable path uses for cen. */
+            float *S = NULL;
+            if (ch == 6) {
+                const lv_entry *nx = i + 1 < J->ne ? &J->e[i + 1] : NULL;
+                int same_next = nx && nx->s->kind == LV_DIRECTIONAL && nx->s->dir.x == e->s->dir.x &&
+                                nx->s->dir.y == e->s->dir.y && nx->s->dir.z == e->s->dir.z;
+                if (!run && same_next) memset(cen[0], 0, m * sizeof(float)), run = 1;
+                S = run ? cen[0] : NULL;
+                dir_row_simd(J, e, v, out, T, Tc, tau, &G, acc, ch, S);
+                if (run && !same_next) {
+                    flush_run(acc + 3 * m, m, cen[0], e->s->dir, mu);
+                    run = 0;
+                }
+                continue;
+            }
+            dir_row_simd(J, e, v, out, T, Tc, tau, &G, acc, ch, S);
             continue;
         }
         dir_row(J, e, v, out, T, Tc, cone, cen, tau, &last);
@@ -1367,7 +1426,9 @@ static volux_status ensure_scratch(lightvol_state *st, int entries) {
     int mmax = st->dims[0] > st->dims[1] ? st->dims[0] : st->dims[1];
     if (st->dims[2] > mmax) mmax = st->dims[2];
     int threads = st->threads > 0 ? st->threads : 1;
-    size_t stride = (size_t)ROW_FLOATS * (size_t)mmax + 16; /* + pad: threads never share a cache line */
+    /* + pad: threads never share a cache line, and the AVX2 kernels' last
+     * steps may read 8 floats past an array */
+    size_t stride = (size_t)ROW_FLOATS * (size_t)mmax + 64;
     if (!st->rows || st->rows_threads < threads || st->row_stride != stride) {
         if (st->rows) volux_free_aligned(ctx, st->rows, st->rows_bytes);
         need = stride * (size_t)threads * sizeof(float);
@@ -1378,6 +1439,37 @@ static volux_status ensure_scratch(lightvol_state *st, int entries) {
         st->row_stride = stride;
     }
     return VOLUX_OK;
+}
+
+/* Fills e->nst/sj/si/swc/swk (see lv_entry) from the centre and cone taps. */
+static void build_stencil(lv_entry *e) {
+    int c0 = e->tc.di, c1 = c0, r0 = e->tc.dj, r1 = r0;
+    for (int q = 0; q < 4; q++) {
+        const lv_tap *t = &e->tcone[q];
+        c0 = t->di < c0 ? t->di : c0, c1 = t->di > c1 ? t->di : c1;
+        r0 = t->dj < r0 ? t->dj : r0, r1 = t->dj > r1 ? t->dj : r1;
+    }
+    e->nst = 0;
+    if (c1 - c0 > 1 || r1 - r0 > 1) return; /* footprint wider than 3×3 */
+    float wk[3][3] = {{0}};
+    for (int q = 0; q < 4; q++) {
+        const lv_tap *t = &e->tcone[q];
+        int j = t->dj - r0, i = t->di - c0;
+        wk[j][i] += 0.25f * t->w00, wk[j][i + 1] += 0.25f * t->w10;
+        wk[j + 1][i] += 0.25f * t->w01, wk[j + 1][i + 1] += 0.25f * t->w11;
+    }
+    const float wc[4] = {e->tc.w00, e->tc.w10, e->tc.w01, e->tc.w11};
+    int used[3][3] = {{0}}, n = 0;
+    for (int k = 0; k < 4; k++) { /* the centre's nodes first */
+        int j = e->tc.dj - r0 + k / 2, i = e->tc.di - c0 + k % 2;
+        e->sj[n] = r0 + j, e->si[n] = c0 + i, e->swc[n] = wc[k], e->swk[n] = wk[j][i];
+        used[j][i] = 1;
+        n++;
+    }
+    for (int j = 0; j < 3; j++)
+        for (int i = 0; i < 3; i++)
+            if (!used[j][i] && wk[j][i] != 0.0f) e->sj[n] = r0 + j, e->si[n] = c0 + i, e->swk[n] = wk[j][i], n++;
+    e->nst = n;
 }
 
 /* One propagation pass: group g, the given lights. */
@@ -1407,6 +1499,9 @@ static void sweep(lightvol_state *st, int g, const lv_item *items, const int *id
     J.post = st->on_grid;
     J.lut = st->lut;
     J.albedo = st->albedo;
+    /* the AVX2 row-end steps read 9-column windows */
+    J.simd = st->use_simd && J.mu >= 9;
+    J.avx512 = J.simd && st->use_avx512;
     J.ne = n;
     /* x sweeps write the volume a whole x-row apart per voxel; staging
      * `LV_DEFER` slices turns that into runs along x (same values) */
@@ -1419,6 +1514,15 @@ static void sweep(lightvol_state *st, int g, const lv_item *items, const int *id
         const lv_item *it = &items[idx[i]];
         e->s = &it->src;
         e->sign = it->sign;
+        e->nch = 3;
+        e->gain[0] = e->gain[1] = e->gain[2] = 1.0f;
+        if (J.simd && !J.forward) {
+            e->nch = 1;
+            e->norm = it->src;
+            e->norm.power = v3(1.0f, 1.0f, 1.0f);
+            e->s = &e->norm;
+            e->gain[0] = it->src.power.x, e->gain[1] = it->src.power.y, e->gain[2] = it->src.power.z;
+        }
         float *b = st->slices + (size_t)i * 6 * plane;
         for (int c = 0; c < 3; c++) {
             e->rd[c] = b + (size_t)c * plane;
@@ -1448,6 +1552,7 @@ static void sweep(lightvol_state *st, int g, const lv_item *items, const int *id
                     extend(e, e->tcone[q]);
                 }
             }
+            if (J.cone) build_stencil(e);
             e->nsub = sub_count(e->du, e->dv);
             for (int q = 0; q < e->nsub; q++) {
                 float tq = ((float)q + 0.5f) / (float)e->nsub;
@@ -1623,8 +1728,9 @@ volux_status volux_lightvol_update_lights(lightvol_state *st, const volux_scene 
          * since add and remove usually share their passes). */
         int ps = plan(items, n, st->p.coherent, st->p.max_per_pass, NULL, NULL);
         int pf = plan(full_items, nf, st->p.coherent, st->p.max_per_pass, NULL, NULL);
-        double ws = plan_work(items, n, st->p.coherent, st->p.max_per_pass);
-        double wf = plan_work(full_items, nf, st->p.coherent, st->p.max_per_pass);
+        const lv_work_weights ww = !st->use_simd ? LV_WORK_SCALAR : st->p.forward > 0.0f ? LV_WORK_SIMD_FORWARD : LV_WORK_SIMD;
+        double ws = plan_work(items, n, st->p.coherent, st->p.max_per_pass, ww);
+        double wf = plan_work(full_items, nf, st->p.coherent, st->p.max_per_pass, ww);
         st->stats.passes_selective = ps;
         st->stats.passes_full = pf;
         st->stats.work_selective = ws;
