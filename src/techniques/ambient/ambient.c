@@ -212,7 +212,7 @@ static volux_status build_cache(ambient_state *st, const scatter_light *l) {
     volux_status s = scatter_grid_alloc(st->b.ctx, st->b.volume, st->cache_scale, V, "ambient: radiance cache");
     if (s) return s;
     tube_input in = {&st->rho_c, st->kappa, st->table.desc.n_sigma, (float)st->table.desc.sigma_max, st->radius,
-                     st->b.threads};
+                     st->b.threads, 0};
     if ((s = tube_march(st->b.ctx, &in, l, V))) return s;
     st->stats.cache_builds[l->slot]++;
     return VOLUX_OK;

@@ -43,6 +43,7 @@ typedef struct tube_input {
     float sigma_max;         /* table Σ̃t                                  */
     float radius;            /* r, world units                             */
     int threads;
+    int scalar_only;         /* 1: never the 8-wide node update (tests)    */
 } tube_input;
 
 /* κ(ρ') = −ln τ(ρ'), linear over the table's σ̃t nodes (clamped). */

@@ -1,0 +1,229 @@
+/*
+ * techniques/ambient/tube_avx2.c — tube.c's node update on 8 nodes at a
+ * time with AVX2 (see tube_simd.h). All intrinsics of the tube marcher live
+ * here; the file is compiled with target attributes and chosen at run time,
+ * so the default build runs on any x86-64.
+ *
+ * BIT-IDENTICAL to the scalar `node`: every lane performs the scalar
+ * operations in the same order (target "avx2" without "fma", so nothing
+ * is contracted; sqrt and division are IEEE in both), the branches become
+ * blends that select the value the scalar branch computes, and clamped
+ * indices are computed as the scalar code computes them. Any change to
+ * tube.c's `node`, `chain_start`, `box_exit`, `sample_strict`,
+ * `tube_kappa` or scatter_grid_sample must be mirrored here (the test
+ * compares the two paths bit for bit).
+ */
+#include "tube_simd.h"
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#include <math.h>
+
+int tube_simd_available(void) {
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx2");
+}
+
+#define A2 __attribute__((target("avx2")))
+#define A2I static inline __attribute__((always_inline, target("avx2")))
+
+/* a where m, else b */
+A2I __m256 sel(__m256 m, __m256 a, __m256 b) { return _mm256_blendv_ps(b, a, m); }
+
+/* a + (b − a)·f, unfused (as the scalar code rounds it) */
+A2I __m256 lerp(__m256 a, __m256 b, __m256 f) { return _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), f)); }
+
+/* Grid constants broadcast once per run. */
+typedef struct grid8 {
+    __m256 lo[3], inv_h[3], m[3]; /* m: highest node index as float */
+    __m256i imax[3];              /* n − 2: highest cell index        */
+    __m256i sy, sz;               /* strides in nodes                 */
+} grid8;
+
+/* Index-space position of world p, clamped to [0, n − 1] per axis, as
+ * scatter_grid_sample / sample_strict compute it. */
+A2I void to_index(const grid8 *g, const __m256 p[3], __m256 u[3]) {
+    const __m256 zero = _mm256_setzero_ps();
+    for (int a = 0; a < 3; a++) {
+        __m256 v = _mm256_mul_ps(_mm256_sub_ps(p[a], g->lo[a]), g->inv_h[a]);
+        /* u < 0 ? 0 : (u > m ? m : u) */
+        v = sel(_mm256_cmp_ps(v, zero, _CMP_LT_OQ), zero, sel(_mm256_cmp_ps(v, g->m[a], _CMP_GT_OQ), g->m[a], v));
+        u[a] = v;
+    }
+}
+
+/* scatter_grid_sample_index on a grid with every dimension ≥ 2. */
+A2I __m256 sample_clamped(const float *v, const grid8 *g, const __m256 p[3]) {
+    __m256 u[3], f[3];
+    __m256i c[3];
+    to_index(g, p, u);
+    for (int a = 0; a < 3; a++) {
+        c[a] = _mm256_min_epi32(_mm256_cvttps_epi32(u[a]), g->imax[a]);
+        f[a] = _mm256_sub_ps(u[a], _mm256_cvtepi32_ps(c[a]));
+    }
+    __m256i b = _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(c[2], g->sz), _mm256_mullo_epi32(c[1], g->sy)), c[0]);
+    const __m256i one = _mm256_set1_epi32(1);
+    __m256i by = _mm256_add_epi32(b, g->sy), bz = _mm256_add_epi32(b, g->sz), byz = _mm256_add_epi32(by, g->sz);
+    __m256 a000 = _mm256_i32gather_ps(v, b, 4), a100 = _mm256_i32gather_ps(v, _mm256_add_epi32(b, one), 4);
+    __m256 a010 = _mm256_i32gather_ps(v, by, 4), a110 = _mm256_i32gather_ps(v, _mm256_add_epi32(by, one), 4);
+    __m256 a001 = _mm256_i32gather_ps(v, bz, 4), a101 = _mm256_i32gather_ps(v, _mm256_add_epi32(bz, one), 4);
+    __m256 a011 = _mm256_i32gather_ps(v, byz, 4), a111 = _mm256_i32gather_ps(v, _mm256_add_epi32(byz, one), 4);
+    __m256 c00 = lerp(a000, a100, f[0]), c10 = lerp(a010, a110, f[0]);
+    __m256 c01 = lerp(a001, a101, f[0]), c11 = lerp(a011, a111, f[0]);
+    __m256 c0 = lerp(c00, c10, f[1]), c1 = lerp(c01, c11, f[1]);
+    return lerp(c0, c1, f[2]);
+}
+
+/* tube.c's sample_strict for the lanes in `mask` (others: 0, no load): the
+ * upper corner of an axis only where the fraction is > 0. */
+A2I __m256 sample_strict8(const float *v, const grid8 *g, const __m256 p[3], __m256 mask) {
+    const __m256 zero = _mm256_setzero_ps();
+    __m256 u[3], f[3];
+    __m256i c[3], up[3];
+    to_index(g, p, u);
+    for (int a = 0; a < 3; a++) {
+        c[a] = _mm256_cvttps_epi32(u[a]);
+        f[a] = _mm256_sub_ps(u[a], _mm256_cvtepi32_ps(c[a]));
+        up[a] = _mm256_castps_si256(_mm256_cmp_ps(f[a], zero, _CMP_GT_OQ)); /* all ones where f > 0 */
+    }
+    __m256i ox = _mm256_and_si256(up[0], _mm256_set1_epi32(1));
+    __m256i oy = _mm256_and_si256(up[1], g->sy), oz = _mm256_and_si256(up[2], g->sz);
+    __m256i b = _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(c[2], g->sz), _mm256_mullo_epi32(c[1], g->sy)), c[0]);
+    __m256i by = _mm256_add_epi32(b, oy), bz = _mm256_add_epi32(b, oz), byz = _mm256_add_epi32(by, oz);
+#define G_(idx) _mm256_mask_i32gather_ps(zero, v, (idx), mask, 4)
+    __m256 a000 = G_(b), a100 = G_(_mm256_add_epi32(b, ox));
+    __m256 a010 = G_(by), a110 = G_(_mm256_add_epi32(by, ox));
+    __m256 a001 = G_(bz), a101 = G_(_mm256_add_epi32(bz, ox));
+    __m256 a011 = G_(byz), a111 = G_(_mm256_add_epi32(byz, ox));
+#undef G_
+    __m256 c00 = lerp(a000, a100, f[0]), c10 = lerp(a010, a110, f[0]);
+    __m256 c01 = lerp(a001, a101, f[0]), c11 = lerp(a011, a111, f[0]);
+    __m256 c0 = lerp(c00, c10, f[1]), c1 = lerp(c01, c11, f[1]);
+    return lerp(c0, c1, f[2]);
+}
+
+/* tube_kappa for 8 arguments. */
+A2I __m256 kappa8(const tube_lanes *t, __m256 rho) {
+    const __m256 zero = _mm256_setzero_ps(), last = _mm256_set1_ps((float)(t->n_sigma - 1));
+    __m256 u = _mm256_div_ps(_mm256_mul_ps(rho, last), _mm256_set1_ps(t->sigma_max));
+    __m256 below = _mm256_cmp_ps(u, zero, _CMP_LE_OQ), above = _mm256_cmp_ps(u, last, _CMP_GE_OQ);
+    __m256 uc = _mm256_min_ps(_mm256_max_ps(u, zero), last);
+    __m256i i = _mm256_min_epi32(_mm256_cvttps_epi32(uc), _mm256_set1_epi32(t->n_sigma - 2));
+    __m256 f = _mm256_sub_ps(uc, _mm256_cvtepi32_ps(i));
+    __m256 k0 = _mm256_i32gather_ps(t->kappa, i, 4);
+    __m256 k1 = _mm256_i32gather_ps(t->kappa, _mm256_add_epi32(i, _mm256_set1_epi32(1)), 4);
+    __m256 k = lerp(k0, k1, f);
+    k = sel(below, _mm256_set1_ps(t->kappa[0]), k);
+    return sel(above, _mm256_set1_ps(t->kappa[t->n_sigma - 1]), k);
+}
+
+A2 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count) {
+    const int nx = t->dims[0], ny = t->dims[1];
+    grid8 g;
+    for (int a = 0; a < 3; a++) {
+        g.lo[a] = _mm256_set1_ps(t->lo[a]);
+        g.inv_h[a] = _mm256_set1_ps(t->inv_h[a]);
+        g.m[a] = _mm256_set1_ps((float)(t->dims[a] - 1));
+        g.imax[a] = _mm256_set1_epi32(t->dims[a] - 2);
+    }
+    g.sy = _mm256_set1_epi32(nx);
+    g.sz = _mm256_set1_epi32(nx * ny);
+    const __m256 zero = _mm256_setzero_ps(), inf = _mm256_set1_ps(INFINITY);
+    const float s = t->s, half = 0.5f * s;
+    const __m256 vs = _mm256_set1_ps(s), vhalf = _mm256_set1_ps(half), s_tol = _mm256_set1_ps(s * 1.0001f);
+    const __m256 inv_r = _mm256_set1_ps(t->inv_r), neg_s = _mm256_set1_ps(-s), neg_half = _mm256_set1_ps(-half);
+    const __m256 m_half = _mm256_set1_ps(-0.5f), p_half = _mm256_set1_ps(0.5f);
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const int start[3] = {i, j, k};
+    const ptrdiff_t stride = axis == 0 ? 1 : axis == 1 ? (ptrdiff_t)nx : (ptrdiff_t)nx * ny;
+    float *out = t->D + ((size_t)k * (size_t)ny + (size_t)j) * (size_t)nx + (size_t)i;
+    for (int n0 = 0; n0 < count; n0 += 8) {
+        __m256i ln = _mm256_add_epi32(_mm256_set1_epi32(n0), lane);
+        __m256 valid = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(count), ln));
+        /* the node: lo + (float)i·h (scatter_grid_node) */
+        __m256 x[3], w[3], dl = inf, tiny = zero;
+        for (int a = 0; a < 3; a++) {
+            __m256i idx = _mm256_set1_epi32(start[a]);
+            if (a == axis) idx = _mm256_add_epi32(idx, ln);
+            x[a] = _mm256_add_ps(g.lo[a], _mm256_mul_ps(_mm256_cvtepi32_ps(idx), _mm256_set1_ps(t->h[a])));
+        }
+        /* chain_start: travel direction and the distance to the light */
+        if (t->positional) {
+            __m256 d[3];
+            for (int a = 0; a < 3; a++) d[a] = _mm256_sub_ps(x[a], _mm256_set1_ps(t->pos[a]));
+            __m256 d2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(d[0], d[0]), _mm256_mul_ps(d[1], d[1])),
+                                      _mm256_mul_ps(d[2], d[2]));
+            dl = _mm256_sqrt_ps(d2);
+            tiny = _mm256_cmp_ps(dl, _mm256_set1_ps(1e-20f), _CMP_LT_OQ);
+            __m256 inv = _mm256_div_ps(_mm256_set1_ps(1.0f), dl);
+            for (int a = 0; a < 3; a++) w[a] = _mm256_mul_ps(d[a], inv);
+        } else {
+            for (int a = 0; a < 3; a++) w[a] = _mm256_set1_ps(t->dir[a]);
+        }
+        /* box_exit along back = −ω */
+        __m256 texit = inf;
+        for (int a = 0; a < 3; a++) {
+            __m256 b = _mm256_mul_ps(w[a], _mm256_set1_ps(-1.0f));
+            __m256 pos = _mm256_cmp_ps(b, zero, _CMP_GT_OQ), neg = _mm256_cmp_ps(b, zero, _CMP_LT_OQ);
+            __m256 bound = sel(pos, _mm256_set1_ps(t->hi[a]), _mm256_set1_ps(t->lo[a]));
+            __m256 ta = _mm256_div_ps(_mm256_sub_ps(bound, x[a]), b);
+            ta = sel(_mm256_or_ps(pos, neg), ta, inf);
+            texit = sel(_mm256_cmp_ps(ta, texit, _CMP_LT_OQ), ta, texit);
+        }
+        texit = sel(_mm256_cmp_ps(texit, zero, _CMP_GT_OQ), texit, zero);
+        __m256 delta = sel(_mm256_cmp_ps(texit, dl, _CMP_LT_OQ), texit, dl);
+        /* a node at the light: δ = 0, ω = +z */
+        delta = sel(tiny, zero, delta);
+        w[0] = sel(tiny, zero, w[0]);
+        w[1] = sel(tiny, zero, w[1]);
+        w[2] = sel(tiny, _mm256_set1_ps(1.0f), w[2]);
+
+        /* the sphere between the node and the chain start (Eq. 17) or s
+         * back (Eq. 16) */
+        __m256 near = _mm256_cmp_ps(delta, s_tol, _CMP_LE_OQ);
+        __m256 cA = sel(near, _mm256_mul_ps(m_half, delta), neg_half), m[3];
+        for (int a = 0; a < 3; a++) m[a] = _mm256_add_ps(x[a], _mm256_mul_ps(w[a], cA));
+        __m256 rhoA = sample_clamped(t->rho, &g, m);
+        __m256 argA = sel(near, _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(rhoA, p_half), vs), inv_r),
+                          _mm256_mul_ps(_mm256_mul_ps(rhoA, vhalf), inv_r));
+        __m256 kA = kappa8(t, argA);
+        __m256 v_near = _mm256_mul_ps(_mm256_div_ps(delta, vs), kA);
+
+        __m256 y[3];
+        for (int a = 0; a < 3; a++) y[a] = _mm256_add_ps(x[a], _mm256_mul_ps(w[a], neg_s));
+        __m256 dy = _mm256_sub_ps(delta, vs);
+        __m256 mid = _mm256_andnot_ps(near, _mm256_cmp_ps(dy, vs, _CMP_LE_OQ));
+        __m256 deep = _mm256_andnot_ps(_mm256_or_ps(near, mid), valid);
+        __m256 back = zero;
+        if (_mm256_movemask_ps(_mm256_and_ps(mid, valid))) {
+            /* y within the first step: its D exactly (Eq. 17) */
+            __m256 cB = _mm256_mul_ps(m_half, dy), mB[3];
+            for (int a = 0; a < 3; a++) mB[a] = _mm256_add_ps(y[a], _mm256_mul_ps(w[a], cB));
+            __m256 rhoB = sample_clamped(t->rho, &g, mB);
+            __m256 kB = kappa8(t, _mm256_mul_ps(_mm256_mul_ps(rhoB, vhalf), inv_r));
+            back = sel(mid, _mm256_mul_ps(_mm256_div_ps(dy, vs), kB), back);
+        }
+        if (_mm256_movemask_ps(deep)) back = sel(deep, sample_strict8(t->D, &g, y, deep), back);
+        __m256 v = sel(near, v_near, _mm256_add_ps(back, kA));
+
+        int left = count - n0;
+        if (axis == 0 && left >= 8) {
+            _mm256_storeu_ps(out + n0, v);
+        } else {
+            float tmp[8];
+            _mm256_storeu_ps(tmp, v);
+            int m8 = left < 8 ? left : 8;
+            for (int l = 0; l < m8; l++) out[(ptrdiff_t)(n0 + l) * stride] = tmp[l];
+        }
+    }
+}
+
+#else /* no AVX2 on this target: tube.c uses its scalar node update */
+
+int tube_simd_available(void) { return 0; }
+
+void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count) {
+    (void)t, (void)i, (void)j, (void)k, (void)axis, (void)count;
+}
+
+#endif

@@ -1,0 +1,46 @@
+/*
+ * techniques/ambient/tube_simd.h — the tube-marching node update (tube.c's
+ * `node`) for 8 nodes at a time, with AVX2 (tube_avx2.c, chosen at run
+ * time by tube_simd_available; all intrinsics live in that file).
+ *
+ * It evaluates, per node, exactly the scalar arithmetic of tube.c — the
+ * same operations in the same order, no FMA contraction, IEEE sqrt and
+ * division — so its results are bit-identical to the scalar path
+ * (tests/physics/test_tube_marching.c asserts it). What it saves is the
+ * per-node overhead: the light direction, the box exit, both trilinear
+ * reads (gathers) and the κ look-up run 8 lanes wide, and the three cases
+ * of a node (within one step of the chain start, within two, further)
+ * are blends instead of branches.
+ *
+ * Precondition: ρ and D share dims and box (the technique's layout), every
+ * dimension ≥ 2, fewer than 2^31 nodes, n_sigma ≥ 2. Reads of D touch only
+ * the strict trilinear corners the sweep order guarantees (as
+ * sample_strict), and only for lanes that need them (masked gathers).
+ */
+#ifndef VOLUX_AMBIENT_TUBE_SIMD_H
+#define VOLUX_AMBIENT_TUBE_SIMD_H
+
+#include <stddef.h>
+
+typedef struct tube_lanes {
+    const float *rho; /* ρ = r·σ̃t at the cache's nodes                  */
+    float *D;         /* the cache being filled                          */
+    int dims[3];
+    float lo[3], hi[3], h[3], inv_h[3];
+    int positional;
+    float pos[3];     /* point/spot: light position                      */
+    float dir[3];     /* directional: travel direction                   */
+    float s;          /* marching step                                   */
+    float inv_r;      /* 1/r (0 for r = 0)                               */
+    const float *kappa;
+    int n_sigma;
+    float sigma_max;
+} tube_lanes;
+
+/* 1 when this CPU runs tube_nodes_avx2 (AVX2). */
+int tube_simd_available(void);
+
+/* Fills D at the `count` nodes (i, j, k) + n·e_axis, n ∈ [0, count). */
+void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count);
+
+#endif
