@@ -50,6 +50,7 @@
 
 #include "ambient.h"
 #include "core/context_internal.h"
+#include "core/parallel.h"
 #include "table_internal.h"
 #include "sample/phase.h"
 #include "techniques/scatter/occlusion.h"
@@ -86,6 +87,16 @@ static const volux_param_info ambient_params[] = {
 
 /* ------------------------------------------------------------------ caches */
 
+static void free_ln_cols(ambient_state *st) {
+    if (!st->ln_col) return;
+    size_t col = (size_t)st->table.desc.n_sigma * (size_t)st->table.desc.n_theta * sizeof(double);
+    for (int i = 0; i < st->ln_n; i++)
+        if (st->ln_col[i]) volux_free(st->b.ctx, st->ln_col[i], col);
+    volux_free(st->b.ctx, st->ln_col, (size_t)st->ln_n * sizeof *st->ln_col);
+    st->ln_col = NULL;
+    st->ln_n = 0;
+}
+
 static volux_status load_table(ambient_state *st) {
     volux_context *ctx = st->b.ctx;
     volux_ambient_table t;
@@ -96,6 +107,7 @@ static volux_status load_table(ambient_state *st) {
         volux_error_prefix(ctx, "ambient: ");
         return s;
     }
+    free_ln_cols(st);
     if (st->have_table) volux_ambient_table_free(ctx, &st->table);
     st->table = t;
     st->have_table = 1;
@@ -111,6 +123,42 @@ static int table_matches(const ambient_state *st) {
     return a->n_theta == b->n_theta && a->n_sigma == b->n_sigma && a->n_g == b->n_g && a->sigma_max == b->sigma_max &&
            a->albedo == b->albedo && a->paths == b->paths && a->g_min == b->g_min && a->g_max == b->g_max &&
            a->seed == b->seed;
+}
+
+typedef struct slice_job {
+    ambient_state *st;
+    double *ln[2];
+    double f;
+    int ig;
+} slice_job;
+
+/* ln of one σ row of g column ig (0 where the entry is not positive: the
+ * slice then interpolates linearly). */
+static void ln_row(void *user, int64_t is, int thread) {
+    (void)thread;
+    const slice_job *j = user;
+    const volux_ambient_table_desc *d = &j->st->table.desc;
+    size_t nt = (size_t)d->n_theta;
+    for (size_t it = 0; it < nt; it++) {
+        double a = j->st->table.data[volux_ambient_table_index(d, (int)it, (int)is, j->ig)];
+        j->ln[0][(size_t)is * nt + it] = a > 0.0 ? log(a) : 0.0;
+    }
+}
+
+/* One σ row of the slice between g columns ig and ig + 1. */
+static void slice_row(void *user, int64_t is, int thread) {
+    (void)thread;
+    const slice_job *j = user;
+    const volux_ambient_table_desc *d = &j->st->table.desc;
+    size_t nt = (size_t)d->n_theta;
+    const double f = j->f;
+    for (size_t it = 0; it < nt; it++) {
+        size_t k = (size_t)is * nt + it;
+        double a = j->st->table.data[volux_ambient_table_index(d, (int)it, (int)is, j->ig)];
+        double b = j->st->table.data[volux_ambient_table_index(d, (int)it, (int)is, j->ig + 1)];
+        double v = a > 0.0 && b > 0.0 ? exp(j->ln[0][k] * (1.0 - f) + j->ln[1][k] * f) : a * (1.0 - f) + b * f;
+        j->st->slice[k] = (float)v;
+    }
 }
 
 /* The table slice at g (log-linear between g nodes, as the table's own
@@ -133,14 +181,27 @@ static volux_status build_slice(ambient_state *st) {
     if (u > d->n_g - 1) u = d->n_g - 1;
     int i0 = (int)u;
     if (i0 > d->n_g - 2) i0 = d->n_g - 2;
-    double f = u - i0;
-    for (size_t is = 0; is < ns; is++)
-        for (size_t it = 0; it < nt; it++) {
-            double a = st->table.data[volux_ambient_table_index(d, (int)it, (int)is, i0)];
-            double b = st->table.data[volux_ambient_table_index(d, (int)it, (int)is, i0 + 1)];
-            double v = a > 0.0 && b > 0.0 ? exp(log(a) * (1.0 - f) + log(b) * f) : a * (1.0 - f) + b * f;
-            st->slice[is * nt + it] = (float)v;
+    /* The logarithms of the two g columns are kept: a phase edit then
+     * costs one exp per entry (both threads) instead of two logs and an
+     * exp on one (≈ 4 ms for the paper's table, most of an edit's budget). */
+    if (!st->ln_col) {
+        st->ln_col = volux_calloc(st->b.ctx, (size_t)d->n_g, sizeof *st->ln_col);
+        if (!st->ln_col) return volux_error(st->b.ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the table slice");
+        st->ln_n = d->n_g;
+    }
+    slice_job job = {st, {NULL, NULL}, u - i0, i0};
+    for (int c = 0; c < 2; c++) {
+        double **col = &st->ln_col[i0 + c];
+        if (!*col) {
+            *col = volux_malloc(st->b.ctx, ns * nt * sizeof(double));
+            if (!*col) return volux_error(st->b.ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the table slice");
+            job.ln[0] = *col;
+            job.ig = i0 + c;
+            volux_parallel_for(st->b.threads, (int64_t)ns, ln_row, &job);
         }
+    }
+    job.ln[0] = st->ln_col[i0], job.ln[1] = st->ln_col[i0 + 1], job.ig = i0;
+    volux_parallel_for(st->b.threads, (int64_t)ns, slice_row, &job);
     float vac = st->slice[0];
     for (size_t is = 0; is < ns; is++) {
         float t = vac > 0.0f ? st->slice[is * nt] / vac : 0.0f;
@@ -297,6 +358,7 @@ static void ambient_destroy(void *state) {
     scatter_grid_free(ctx, &st->rho_c);
     scatter_grid_free(ctx, &st->occ);
     scatter_sat_free(ctx, &st->sat);
+    free_ln_cols(st);
     if (st->have_table) volux_ambient_table_free(ctx, &st->table);
     volux_free(ctx, st->slice, st->slice_bytes);
     volux_free(ctx, st->kappa, st->kappa_bytes);
@@ -329,6 +391,9 @@ static size_t ambient_memory_bytes(const void *state) {
         n += values * sizeof(float) * (st->table.rel_error ? 2 : 1); /* data (+ error block) */
     }
     for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) n += st->cache[i].bytes;
+    for (int i = 0; i < st->ln_n; i++)
+        if (st->ln_col[i]) n += (size_t)st->table.desc.n_sigma * (size_t)st->table.desc.n_theta * sizeof(double);
+    n += (size_t)st->ln_n * sizeof *st->ln_col;
     return n;
 }
 

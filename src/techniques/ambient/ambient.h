@@ -36,6 +36,9 @@ typedef struct ambient_state {
     char loaded_file[1024];
     float *slice;                 /* [n_sigma][n_theta]                      */
     float *kappa;                 /* [n_sigma] −ln of the normalised θ = 0 column */
+    double **ln_col;              /* [n_g] ln of the table's g columns, each
+                                     [n_sigma][n_theta], computed on first use */
+    int ln_n;                     /* entries of ln_col                       */
     size_t slice_bytes, kappa_bytes;
     float u_theta, u_sigma;       /* (n−1)/π and (n−1)/Σ̃t                   */
     /* caches */

@@ -46,10 +46,27 @@ A2I void to_index(const grid8 *g, const __m256 p[3], __m256 u[3]) {
     const __m256 zero = _mm256_setzero_ps();
     for (int a = 0; a < 3; a++) {
         __m256 v = _mm256_mul_ps(_mm256_sub_ps(p[a], g->lo[a]), g->inv_h[a]);
-        /* u < 0 ? 0 : (u > m ? m : u) */
-        v = sel(_mm256_cmp_ps(v, zero, _CMP_LT_OQ), zero, sel(_mm256_cmp_ps(v, g->m[a], _CMP_GT_OQ), g->m[a], v));
-        u[a] = v;
+        /* u < 0 ? 0 : (u > m ? m : u); max/min differ from it only in the
+         * sign of a zero, which no later operation turns into a different
+         * value (cell 0, fraction ±0, a + (b − a)·(±0) = a) */
+        u[a] = _mm256_min_ps(_mm256_max_ps(v, zero), g->m[a]);
     }
+}
+
+/* Whether the 8 lanes' cells lie in one row of the grid at consecutive x
+ * (same y and z cells, x cell = lane 0's + lane): then each corner of the
+ * trilinear read is one contiguous 8-float load instead of a gather. Along
+ * a run in x this holds for most blocks (the read points advance by about
+ * one cell per node); it is the common case of the shells' rows and of
+ * the directional sweep's rows. */
+A2I int one_row(const __m256i c[3]) {
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    __m256i x0 = _mm256_add_epi32(_mm256_broadcastd_epi32(_mm256_castsi256_si128(c[0])), lane);
+    __m256i eq = _mm256_and_si256(
+        _mm256_cmpeq_epi32(c[0], x0),
+        _mm256_and_si256(_mm256_cmpeq_epi32(c[1], _mm256_broadcastd_epi32(_mm256_castsi256_si128(c[1]))),
+                         _mm256_cmpeq_epi32(c[2], _mm256_broadcastd_epi32(_mm256_castsi256_si128(c[2])))));
+    return _mm256_movemask_epi8(eq) == -1;
 }
 
 /* scatter_grid_sample_index on a grid with every dimension ≥ 2. */
@@ -62,6 +79,17 @@ A2I __m256 sample_clamped(const float *v, const grid8 *g, const __m256 p[3]) {
         f[a] = _mm256_sub_ps(u[a], _mm256_cvtepi32_ps(c[a]));
     }
     __m256i b = _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(c[2], g->sz), _mm256_mullo_epi32(c[1], g->sy)), c[0]);
+    if (one_row(c)) {
+        /* x cells ≤ n − 2: lane 7's upper corner exists */
+        const float *r = v + _mm_cvtsi128_si32(_mm256_castsi256_si128(b));
+        const ptrdiff_t sy = _mm256_extract_epi32(g->sy, 0), sz = _mm256_extract_epi32(g->sz, 0);
+        __m256 c00 = lerp(_mm256_loadu_ps(r), _mm256_loadu_ps(r + 1), f[0]);
+        __m256 c10 = lerp(_mm256_loadu_ps(r + sy), _mm256_loadu_ps(r + sy + 1), f[0]);
+        __m256 c01 = lerp(_mm256_loadu_ps(r + sz), _mm256_loadu_ps(r + sz + 1), f[0]);
+        __m256 c11 = lerp(_mm256_loadu_ps(r + sz + sy), _mm256_loadu_ps(r + sz + sy + 1), f[0]);
+        __m256 c0 = lerp(c00, c10, f[1]), c1 = lerp(c01, c11, f[1]);
+        return lerp(c0, c1, f[2]);
+    }
     const __m256i one = _mm256_set1_epi32(1);
     __m256i by = _mm256_add_epi32(b, g->sy), bz = _mm256_add_epi32(b, g->sz), byz = _mm256_add_epi32(by, g->sz);
     __m256 a000 = _mm256_i32gather_ps(v, b, 4), a100 = _mm256_i32gather_ps(v, _mm256_add_epi32(b, one), 4);
@@ -86,9 +114,32 @@ A2I __m256 sample_strict8(const float *v, const grid8 *g, const __m256 p[3], __m
         f[a] = _mm256_sub_ps(u[a], _mm256_cvtepi32_ps(c[a]));
         up[a] = _mm256_castps_si256(_mm256_cmp_ps(f[a], zero, _CMP_GT_OQ)); /* all ones where f > 0 */
     }
+    __m256i b0 = _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(c[2], g->sz), _mm256_mullo_epi32(c[1], g->sy)), c[0]);
+    /* Contiguous loads when every lane is wanted, the cells form one row
+     * (one_row) and the upper y and z corners are the same for all lanes.
+     * The loads then read every node between lane 0's lower and lane 7's
+     * upper x corner. Those are valid reads: lane 7's upper x corner is
+     * read only if its fraction is > 0 (so sample_strict reads it too), and
+     * the nodes of earlier slices/shells along a row form an interval (a
+     * Chebyshev distance or slice index is convex along it), so the nodes
+     * between two readable ones are readable. A lane whose x fraction is 0
+     * gets its neighbour's value with weight 0: the same result. */
+    if (_mm256_movemask_ps(mask) == 0xff && one_row(c) && _mm256_extract_epi32(up[0], 7) &&
+        _mm256_movemask_epi8(_mm256_cmpeq_epi32(up[1], _mm256_broadcastd_epi32(_mm256_castsi256_si128(up[1])))) == -1 &&
+        _mm256_movemask_epi8(_mm256_cmpeq_epi32(up[2], _mm256_broadcastd_epi32(_mm256_castsi256_si128(up[2])))) == -1) {
+        const float *r = v + _mm_cvtsi128_si32(_mm256_castsi256_si128(b0));
+        const ptrdiff_t sy = _mm256_extract_epi32(up[1], 0) ? _mm256_extract_epi32(g->sy, 0) : 0;
+        const ptrdiff_t sz = _mm256_extract_epi32(up[2], 0) ? _mm256_extract_epi32(g->sz, 0) : 0;
+        __m256 c00 = lerp(_mm256_loadu_ps(r), _mm256_loadu_ps(r + 1), f[0]);
+        __m256 c10 = lerp(_mm256_loadu_ps(r + sy), _mm256_loadu_ps(r + sy + 1), f[0]);
+        __m256 c01 = lerp(_mm256_loadu_ps(r + sz), _mm256_loadu_ps(r + sz + 1), f[0]);
+        __m256 c11 = lerp(_mm256_loadu_ps(r + sz + sy), _mm256_loadu_ps(r + sz + sy + 1), f[0]);
+        __m256 c0 = lerp(c00, c10, f[1]), c1 = lerp(c01, c11, f[1]);
+        return lerp(c0, c1, f[2]);
+    }
     __m256i ox = _mm256_and_si256(up[0], _mm256_set1_epi32(1));
     __m256i oy = _mm256_and_si256(up[1], g->sy), oz = _mm256_and_si256(up[2], g->sz);
-    __m256i b = _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(c[2], g->sz), _mm256_mullo_epi32(c[1], g->sy)), c[0]);
+    __m256i b = b0;
     __m256i by = _mm256_add_epi32(b, oy), bz = _mm256_add_epi32(b, oz), byz = _mm256_add_epi32(by, oz);
 #define G_(idx) _mm256_mask_i32gather_ps(zero, v, (idx), mask, 4)
     __m256 a000 = G_(b), a100 = G_(_mm256_add_epi32(b, ox));
@@ -137,83 +188,117 @@ A2 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int 
     const int start[3] = {i, j, k};
     const ptrdiff_t stride = axis == 0 ? 1 : axis == 1 ? (ptrdiff_t)nx : (ptrdiff_t)nx * ny;
     float *out = t->D + ((size_t)k * (size_t)ny + (size_t)j) * (size_t)nx + (size_t)i;
-    for (int n0 = 0; n0 < count; n0 += 8) {
-        __m256i ln = _mm256_add_epi32(_mm256_set1_epi32(n0), lane);
-        __m256 valid = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(count), ln));
-        /* the node: lo + (float)i·h (scatter_grid_node) */
-        __m256 x[3], w[3], dl = inf, tiny = zero;
-        for (int a = 0; a < 3; a++) {
-            __m256i idx = _mm256_set1_epi32(start[a]);
-            if (a == axis) idx = _mm256_add_epi32(idx, ln);
-            x[a] = _mm256_add_ps(g.lo[a], _mm256_mul_ps(_mm256_cvtepi32_ps(idx), _mm256_set1_ps(t->h[a])));
+    /* Stages over chunks of up to 64 nodes (8 blocks of 8), with the
+     * intermediate vectors in small arrays: one block's work is a long
+     * dependency chain (sqrt → divisions → gather → κ index → κ gather →
+     * gather) that no core can overlap with the next block's when both sit
+     * in one loop iteration (hundreds of instructions each); as separate
+     * short loops, the blocks of a stage are independent iterations and
+     * their latencies overlap. */
+    enum { CHUNK = 64, BLOCKS = CHUNK / 8 };
+    __m256 c_w[3][BLOCKS], c_m[3][BLOCKS], c_delta[BLOCKS], c_arg[BLOCKS], c_k[BLOCKS];
+    const __m256 hx = _mm256_set1_ps(t->h[0]), hy = _mm256_set1_ps(t->h[1]), hz = _mm256_set1_ps(t->h[2]);
+    for (int c0 = 0; c0 < count; c0 += CHUNK) {
+        int nb = (count - c0 + 7) / 8;
+        if (nb > BLOCKS) nb = BLOCKS;
+        /* 1. chain geometry: ω, δ and the centre of the sphere towards
+         *    the light */
+        for (int bi = 0; bi < nb; bi++) {
+            __m256i ln = _mm256_add_epi32(_mm256_set1_epi32(c0 + 8 * bi), lane);
+            /* the node: lo + (float)i·h (scatter_grid_node) */
+            __m256 x[3], w[3], dl = inf, tiny = zero;
+            for (int a = 0; a < 3; a++) {
+                __m256i idx = _mm256_set1_epi32(start[a]);
+                if (a == axis) idx = _mm256_add_epi32(idx, ln);
+                x[a] = _mm256_add_ps(g.lo[a], _mm256_mul_ps(_mm256_cvtepi32_ps(idx), a == 0 ? hx : a == 1 ? hy : hz));
+            }
+            /* chain_start: travel direction and the distance to the light */
+            if (t->positional) {
+                __m256 d[3];
+                for (int a = 0; a < 3; a++) d[a] = _mm256_sub_ps(x[a], _mm256_set1_ps(t->pos[a]));
+                __m256 d2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(d[0], d[0]), _mm256_mul_ps(d[1], d[1])),
+                                          _mm256_mul_ps(d[2], d[2]));
+                dl = _mm256_sqrt_ps(d2);
+                tiny = _mm256_cmp_ps(dl, _mm256_set1_ps(1e-20f), _CMP_LT_OQ);
+                __m256 inv = _mm256_div_ps(_mm256_set1_ps(1.0f), dl);
+                for (int a = 0; a < 3; a++) w[a] = _mm256_mul_ps(d[a], inv);
+            } else {
+                for (int a = 0; a < 3; a++) w[a] = _mm256_set1_ps(t->dir[a]);
+            }
+            /* box_exit along back = −ω */
+            __m256 texit = inf;
+            for (int a = 0; a < 3; a++) {
+                __m256 b = _mm256_mul_ps(w[a], _mm256_set1_ps(-1.0f));
+                __m256 pos = _mm256_cmp_ps(b, zero, _CMP_GT_OQ), neg = _mm256_cmp_ps(b, zero, _CMP_LT_OQ);
+                __m256 bound = sel(pos, _mm256_set1_ps(t->hi[a]), _mm256_set1_ps(t->lo[a]));
+                __m256 ta = _mm256_div_ps(_mm256_sub_ps(bound, x[a]), b);
+                ta = sel(_mm256_or_ps(pos, neg), ta, inf);
+                texit = sel(_mm256_cmp_ps(ta, texit, _CMP_LT_OQ), ta, texit);
+            }
+            texit = sel(_mm256_cmp_ps(texit, zero, _CMP_GT_OQ), texit, zero);
+            __m256 delta = sel(_mm256_cmp_ps(texit, dl, _CMP_LT_OQ), texit, dl);
+            /* a node at the light: δ = 0, ω = +z */
+            delta = sel(tiny, zero, delta);
+            w[0] = sel(tiny, zero, w[0]);
+            w[1] = sel(tiny, zero, w[1]);
+            w[2] = sel(tiny, _mm256_set1_ps(1.0f), w[2]);
+            /* the sphere between the node and the chain start (Eq. 17) or
+             * s back (Eq. 16) */
+            __m256 near = _mm256_cmp_ps(delta, s_tol, _CMP_LE_OQ);
+            __m256 cA = sel(near, _mm256_mul_ps(m_half, delta), neg_half);
+            for (int a = 0; a < 3; a++) {
+                c_w[a][bi] = w[a];
+                c_m[a][bi] = _mm256_add_ps(x[a], _mm256_mul_ps(w[a], cA));
+            }
+            c_delta[bi] = delta;
         }
-        /* chain_start: travel direction and the distance to the light */
-        if (t->positional) {
-            __m256 d[3];
-            for (int a = 0; a < 3; a++) d[a] = _mm256_sub_ps(x[a], _mm256_set1_ps(t->pos[a]));
-            __m256 d2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(d[0], d[0]), _mm256_mul_ps(d[1], d[1])),
-                                      _mm256_mul_ps(d[2], d[2]));
-            dl = _mm256_sqrt_ps(d2);
-            tiny = _mm256_cmp_ps(dl, _mm256_set1_ps(1e-20f), _CMP_LT_OQ);
-            __m256 inv = _mm256_div_ps(_mm256_set1_ps(1.0f), dl);
-            for (int a = 0; a < 3; a++) w[a] = _mm256_mul_ps(d[a], inv);
-        } else {
-            for (int a = 0; a < 3; a++) w[a] = _mm256_set1_ps(t->dir[a]);
+        /* 2. ρ there, as the table argument */
+        for (int bi = 0; bi < nb; bi++) {
+            __m256 m[3] = {c_m[0][bi], c_m[1][bi], c_m[2][bi]};
+            __m256 rhoA = sample_clamped(t->rho, &g, m);
+            __m256 near = _mm256_cmp_ps(c_delta[bi], s_tol, _CMP_LE_OQ);
+            c_arg[bi] = sel(near, _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(rhoA, p_half), vs), inv_r),
+                            _mm256_mul_ps(_mm256_mul_ps(rhoA, vhalf), inv_r));
         }
-        /* box_exit along back = −ω */
-        __m256 texit = inf;
-        for (int a = 0; a < 3; a++) {
-            __m256 b = _mm256_mul_ps(w[a], _mm256_set1_ps(-1.0f));
-            __m256 pos = _mm256_cmp_ps(b, zero, _CMP_GT_OQ), neg = _mm256_cmp_ps(b, zero, _CMP_LT_OQ);
-            __m256 bound = sel(pos, _mm256_set1_ps(t->hi[a]), _mm256_set1_ps(t->lo[a]));
-            __m256 ta = _mm256_div_ps(_mm256_sub_ps(bound, x[a]), b);
-            ta = sel(_mm256_or_ps(pos, neg), ta, inf);
-            texit = sel(_mm256_cmp_ps(ta, texit, _CMP_LT_OQ), ta, texit);
-        }
-        texit = sel(_mm256_cmp_ps(texit, zero, _CMP_GT_OQ), texit, zero);
-        __m256 delta = sel(_mm256_cmp_ps(texit, dl, _CMP_LT_OQ), texit, dl);
-        /* a node at the light: δ = 0, ω = +z */
-        delta = sel(tiny, zero, delta);
-        w[0] = sel(tiny, zero, w[0]);
-        w[1] = sel(tiny, zero, w[1]);
-        w[2] = sel(tiny, _mm256_set1_ps(1.0f), w[2]);
-
-        /* the sphere between the node and the chain start (Eq. 17) or s
-         * back (Eq. 16) */
-        __m256 near = _mm256_cmp_ps(delta, s_tol, _CMP_LE_OQ);
-        __m256 cA = sel(near, _mm256_mul_ps(m_half, delta), neg_half), m[3];
-        for (int a = 0; a < 3; a++) m[a] = _mm256_add_ps(x[a], _mm256_mul_ps(w[a], cA));
-        __m256 rhoA = sample_clamped(t->rho, &g, m);
-        __m256 argA = sel(near, _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(rhoA, p_half), vs), inv_r),
-                          _mm256_mul_ps(_mm256_mul_ps(rhoA, vhalf), inv_r));
-        __m256 kA = kappa8(t, argA);
-        __m256 v_near = _mm256_mul_ps(_mm256_div_ps(delta, vs), kA);
-
-        __m256 y[3];
-        for (int a = 0; a < 3; a++) y[a] = _mm256_add_ps(x[a], _mm256_mul_ps(w[a], neg_s));
-        __m256 dy = _mm256_sub_ps(delta, vs);
-        __m256 mid = _mm256_andnot_ps(near, _mm256_cmp_ps(dy, vs, _CMP_LE_OQ));
-        __m256 deep = _mm256_andnot_ps(_mm256_or_ps(near, mid), valid);
-        __m256 back = zero;
-        if (_mm256_movemask_ps(_mm256_and_ps(mid, valid))) {
-            /* y within the first step: its D exactly (Eq. 17) */
-            __m256 cB = _mm256_mul_ps(m_half, dy), mB[3];
-            for (int a = 0; a < 3; a++) mB[a] = _mm256_add_ps(y[a], _mm256_mul_ps(w[a], cB));
-            __m256 rhoB = sample_clamped(t->rho, &g, mB);
-            __m256 kB = kappa8(t, _mm256_mul_ps(_mm256_mul_ps(rhoB, vhalf), inv_r));
-            back = sel(mid, _mm256_mul_ps(_mm256_div_ps(dy, vs), kB), back);
-        }
-        if (_mm256_movemask_ps(deep)) back = sel(deep, sample_strict8(t->D, &g, y, deep), back);
-        __m256 v = sel(near, v_near, _mm256_add_ps(back, kA));
-
-        int left = count - n0;
-        if (axis == 0 && left >= 8) {
-            _mm256_storeu_ps(out + n0, v);
-        } else {
-            float tmp[8];
-            _mm256_storeu_ps(tmp, v);
-            int m8 = left < 8 ? left : 8;
-            for (int l = 0; l < m8; l++) out[(ptrdiff_t)(n0 + l) * stride] = tmp[l];
+        /* 3. κ of that sphere */
+        for (int bi = 0; bi < nb; bi++) c_k[bi] = kappa8(t, c_arg[bi]);
+        /* 4. the front s back (or the exact first step), and the sum */
+        for (int bi = 0; bi < nb; bi++) {
+            int n0 = c0 + 8 * bi;
+            __m256i ln = _mm256_add_epi32(_mm256_set1_epi32(n0), lane);
+            __m256 valid = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(count), ln));
+            __m256 w[3] = {c_w[0][bi], c_w[1][bi], c_w[2][bi]}, delta = c_delta[bi], kA = c_k[bi], y[3];
+            for (int a = 0; a < 3; a++) {
+                __m256i idx = _mm256_set1_epi32(start[a]);
+                if (a == axis) idx = _mm256_add_epi32(idx, ln);
+                __m256 x = _mm256_add_ps(g.lo[a], _mm256_mul_ps(_mm256_cvtepi32_ps(idx), a == 0 ? hx : a == 1 ? hy : hz));
+                y[a] = _mm256_add_ps(x, _mm256_mul_ps(w[a], neg_s));
+            }
+            __m256 near = _mm256_cmp_ps(delta, s_tol, _CMP_LE_OQ);
+            __m256 v_near = _mm256_mul_ps(_mm256_div_ps(delta, vs), kA);
+            __m256 dy = _mm256_sub_ps(delta, vs);
+            __m256 mid = _mm256_andnot_ps(near, _mm256_cmp_ps(dy, vs, _CMP_LE_OQ));
+            __m256 deep = _mm256_andnot_ps(_mm256_or_ps(near, mid), valid);
+            __m256 back = zero;
+            if (_mm256_movemask_ps(_mm256_and_ps(mid, valid))) {
+                /* y within the first step: its D exactly (Eq. 17) */
+                __m256 cB = _mm256_mul_ps(m_half, dy), mB[3];
+                for (int a = 0; a < 3; a++) mB[a] = _mm256_add_ps(y[a], _mm256_mul_ps(w[a], cB));
+                __m256 rhoB = sample_clamped(t->rho, &g, mB);
+                __m256 kB = kappa8(t, _mm256_mul_ps(_mm256_mul_ps(rhoB, vhalf), inv_r));
+                back = sel(mid, _mm256_mul_ps(_mm256_div_ps(dy, vs), kB), back);
+            }
+            if (_mm256_movemask_ps(deep)) back = sel(deep, sample_strict8(t->D, &g, y, deep), back);
+            __m256 v = sel(near, v_near, _mm256_add_ps(back, kA));
+            int left = count - n0;
+            if (axis == 0 && left >= 8) {
+                _mm256_storeu_ps(out + n0, v);
+            } else {
+                float tmp[8];
+                _mm256_storeu_ps(tmp, v);
+                int m8 = left < 8 ? left : 8;
+                for (int l = 0; l < m8; l++) out[(ptrdiff_t)(n0 + l) * stride] = tmp[l];
+            }
         }
     }
 }
