@@ -204,6 +204,13 @@ static inline float fast_delta(const sweep *sw, volux_vec3 x) {
     return delta;
 }
 
+/* Whether node idx with idx[b1] = c takes the fast path (δ of y > s). */
+static inline int fast_ok(const sweep *sw, const int idx[3], int c) {
+    int at[3] = {idx[0], idx[1], idx[2]};
+    at[sw->b1] = c;
+    return fast_delta(sw, scatter_grid_node(sw->V, at[0], at[1], at[2])) > 2.0f * sw->s * 1.0001f;
+}
+
 static void slice_row(void *user, int64_t item, int thread) {
     (void)thread;
     const sweep *sw = user;
@@ -218,15 +225,32 @@ static void slice_row(void *user, int64_t item, int thread) {
         idx[sw->b2] >= sw->valid_lo[sw->b2] && idx[sw->b2] <= sw->valid_hi[sw->b2]) {
         /* Nodes whose y = x − sω is more than a step from the chain start
          * (the generic path would interpolate there too) and whose reads
-         * stay inside the grids. δ is concave along the row (a min of
-         * linear functions), so they form one run [c0, c1]. */
-        float need = 2.0f * sw->s * 1.0001f;
-        for (int c = sw->valid_lo[sw->b1]; c <= sw->valid_hi[sw->b1]; c++) {
-            idx[sw->b1] = c;
-            if (fast_delta(sw, scatter_grid_node(V, idx[0], idx[1], idx[2])) > need) {
-                if (c < c0) c0 = c;
-                c1 = c;
+         * stay inside the grids. Along the row only the box-exit term of
+         * axis b1 varies, and it is monotone in the node index even in
+         * float (x = lo + c·h, then a subtraction and a product by a
+         * constant: each rounding is monotone), so the nodes form a prefix
+         * or a suffix of the valid range: bisection finds it with the same
+         * test a scan would apply to every node. */
+        int lo = sw->valid_lo[sw->b1], hi = sw->valid_hi[sw->b1];
+        int p_lo = lo <= hi && fast_ok(sw, idx, lo), p_hi = lo <= hi && fast_ok(sw, idx, hi);
+        if (p_lo && p_hi) {
+            c0 = lo, c1 = hi;
+        } else if (p_lo) { /* prefix: the last node that passes */
+            int a = lo, b = hi; /* p(a), !p(b) */
+            while (b - a > 1) {
+                int m = a + (b - a) / 2;
+                if (fast_ok(sw, idx, m)) a = m;
+                else b = m;
             }
+            c0 = lo, c1 = a;
+        } else if (p_hi) { /* suffix: the first node that passes */
+            int a = lo, b = hi; /* !p(a), p(b) */
+            while (b - a > 1) {
+                int m = a + (b - a) / 2;
+                if (fast_ok(sw, idx, m)) b = m;
+                else a = m;
+            }
+            c0 = b, c1 = hi;
         }
     }
     /* nodes before the fast run, the fast run, nodes after it */
