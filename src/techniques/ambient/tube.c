@@ -100,6 +100,7 @@ typedef struct sweep {
     /* the 8-wide node update (tube_simd.h), when usable */
     int simd;
     tube_lanes lanes;
+    tube_fast fr;
     /* directional fast path (ρ grid aligned with V): constant corner offsets
      * and weights of the two reads, and the box-exit reciprocals */
     int fast;
@@ -173,7 +174,12 @@ static void fast_run(float *out, const float *D, const float *restrict R, int co
     const float kscale = 0.5f * sw->s * sw->inv_r * (float)(sw->in->n_sigma - 1) / sw->in->sigma_max;
     const float last = (float)(sw->in->n_sigma - 1) - 1e-3f;
     float back[256], u[256];
-    for (int i0 = 0; i0 < count; i0 += 256) {
+    int done = 0;
+    if (sw->simd && count >= 8) {
+        done = count & ~7;
+        tube_fast_run_avx2(&sw->fr, out, D, R, done);
+    }
+    for (int i0 = done; i0 < count; i0 += 256) {
         int m = count - i0 < 256 ? count - i0 : 256;
         const float *d = D + i0, *r = R + i0;
         /* vectorisable part: 16 loads at constant offsets */
@@ -389,6 +395,14 @@ volux_status tube_march(volux_context *ctx, const tube_input *in, const scatter_
             for (int a = 0; a < 3; a++) sw.valid_lo[a] = 0, sw.valid_hi[a] = V->dims[a] - 1;
             displaced_corners(V, v3_scale(l->dir, -sw.s), sw.off_v, sw.w_v, sw.valid_lo, sw.valid_hi);
             displaced_corners(R, v3_scale(l->dir, -0.5f * sw.s), sw.off_r, sw.w_r, sw.valid_lo, sw.valid_hi);
+            memcpy(sw.fr.off_v, sw.off_v, sizeof sw.off_v);
+            memcpy(sw.fr.off_r, sw.off_r, sizeof sw.off_r);
+            memcpy(sw.fr.w_v, sw.w_v, sizeof sw.w_v);
+            memcpy(sw.fr.w_r, sw.w_r, sizeof sw.w_r);
+            /* as fast_run computes them */
+            sw.fr.kscale = 0.5f * sw.s * sw.inv_r * (float)(in->n_sigma - 1) / in->sigma_max;
+            sw.fr.last = (float)(in->n_sigma - 1) - 1e-3f;
+            sw.fr.kappa = in->kappa;
             float lo[3] = {sw.lo.x, sw.lo.y, sw.lo.z}, hi[3] = {sw.hi.x, sw.hi.y, sw.hi.z};
             for (int a = 0; a < 3; a++) {
                 /* walking back along −ω towards the light */

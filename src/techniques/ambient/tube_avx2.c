@@ -201,6 +201,12 @@ A2 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int 
     for (int c0 = 0; c0 < count; c0 += CHUNK) {
         int nb = (count - c0 + 7) / 8;
         if (nb > BLOCKS) nb = BLOCKS;
+        /* ρ at the nodes being written is read by the nodes half a step
+         * further from the light, a few slices/shells later; touching it
+         * now brings its lines into the cache before those reads (which
+         * otherwise miss: ρ, unlike D, was not written recently). */
+        for (int bi = 0; bi < nb; bi += 2)
+            _mm_prefetch((const char *)(t->rho + (out - t->D) + (ptrdiff_t)(c0 + 8 * bi) * stride), _MM_HINT_T0);
         /* 1. chain geometry: ω, δ and the centre of the sphere towards
          *    the light */
         for (int bi = 0; bi < nb; bi++) {
@@ -303,12 +309,44 @@ A2 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int 
     }
 }
 
+A2 void tube_fast_run_avx2(const tube_fast *fr, float *out, const float *D, const float *R, int count) {
+    const ptrdiff_t *ov = fr->off_v, *orr = fr->off_r;
+    __m256 a[8], b[8];
+    for (int c = 0; c < 8; c++) a[c] = _mm256_set1_ps(fr->w_v[c]), b[c] = _mm256_set1_ps(fr->w_r[c]);
+    const __m256 kscale = _mm256_set1_ps(fr->kscale), last = _mm256_set1_ps(fr->last), half = _mm256_set1_ps(0.5f);
+    const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+    for (int i = 0; i + 8 <= count; i += 8) {
+        /* the scalar loop's sums, left to right, unfused */
+        const float *d = D + i, *r = R + i;
+        __m256 back = _mm256_mul_ps(a[0], _mm256_loadu_ps(d + ov[0]));
+        __m256 x = _mm256_mul_ps(b[0], _mm256_loadu_ps(r + orr[0]));
+        for (int c = 1; c < 8; c++) {
+            back = _mm256_add_ps(back, _mm256_mul_ps(a[c], _mm256_loadu_ps(d + ov[c])));
+            x = _mm256_add_ps(x, _mm256_mul_ps(b[c], _mm256_loadu_ps(r + orr[c])));
+        }
+        x = _mm256_mul_ps(x, kscale);
+        /* min(x, last) as the scalar code writes it: 0.5 (x + last − |x − last|) */
+        __m256 u = _mm256_mul_ps(half, _mm256_sub_ps(_mm256_add_ps(x, last),
+                                                     _mm256_and_ps(_mm256_sub_ps(x, last), abs_mask)));
+        __m256i j = _mm256_cvttps_epi32(u);
+        __m256 f = _mm256_sub_ps(u, _mm256_cvtepi32_ps(j));
+        __m256 k0 = _mm256_i32gather_ps(fr->kappa, j, 4);
+        __m256 k1 = _mm256_i32gather_ps(fr->kappa, _mm256_add_epi32(j, _mm256_set1_epi32(1)), 4);
+        __m256 v = _mm256_add_ps(_mm256_add_ps(back, k0), _mm256_mul_ps(_mm256_sub_ps(k1, k0), f));
+        _mm256_storeu_ps(out + i, v);
+    }
+}
+
 #else /* no AVX2 on this target: tube.c uses its scalar node update */
 
 int tube_simd_available(void) { return 0; }
 
 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count) {
     (void)t, (void)i, (void)j, (void)k, (void)axis, (void)count;
+}
+
+void tube_fast_run_avx2(const tube_fast *f, float *out, const float *D, const float *R, int count) {
+    (void)f, (void)out, (void)D, (void)R, (void)count;
 }
 
 #endif

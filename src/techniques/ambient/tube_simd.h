@@ -37,10 +37,27 @@ typedef struct tube_lanes {
     float sigma_max;
 } tube_lanes;
 
+/* The directional sweep's fast path (tube.c's fast_run): constant corner
+ * offsets and weights of both reads for every node of a run. */
+typedef struct tube_fast {
+    ptrdiff_t off_v[8], off_r[8]; /* corner offsets of the D and ρ reads  */
+    float w_v[8], w_r[8];         /* their trilinear weights             */
+    float kscale;                 /* ρ → κ-table coordinate              */
+    float last;                   /* highest coordinate (n_sigma − 1 − 1e−3) */
+    const float *kappa;
+} tube_fast;
+
 /* 1 when this CPU runs tube_nodes_avx2 (AVX2). */
 int tube_simd_available(void);
 
 /* Fills D at the `count` nodes (i, j, k) + n·e_axis, n ∈ [0, count). */
 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count);
+
+/* fast_run on 8 nodes at a time, bit-identical to the scalar loop: out[i]
+ * for i < count from D and R at the constant offsets (out and D point into
+ * the same grid; every D read lies in an earlier slice). count must be a
+ * multiple of 8 (the caller runs the tail: loads past the run could leave
+ * the grid). */
+void tube_fast_run_avx2(const tube_fast *f, float *out, const float *D, const float *R, int count);
 
 #endif
