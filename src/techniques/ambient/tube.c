@@ -98,6 +98,9 @@ typedef struct sweep {
     int (*runs)[5];
     int64_t n_runs;
     /* the 8-wide node update (tube_simd.h), when usable */
+    /* point: the light in grid index units, the last shell */
+    float P[3];
+    int K;
     int simd;
     tube_lanes lanes;
     tube_fast fr;
@@ -374,6 +377,23 @@ static void setup_lanes(sweep *sw) {
     t->kappa = in->kappa, t->n_sigma = in->n_sigma, t->sigma_max = in->sigma_max;
 }
 
+/* Phase p of the directional sweep: `group` slices from p·group on. */
+static int64_t slice_group(void *user, int p) {
+    sweep *sw = user;
+    int n = sw->V->dims[sw->a], t = p * sw->group, m = n - t < sw->group ? n - t : sw->group;
+    sw->slice = t;
+    return (int64_t)m * sw->V->dims[sw->b2];
+}
+
+/* Phase p of the point sweep: the runs of `group` shells from p·group on. */
+static int64_t shell_group(void *user, int p) {
+    sweep *sw = user;
+    int k = p * sw->group;
+    sw->n_runs = 0;
+    for (int j = k; j < k + sw->group && j <= sw->K; j++) shell_runs(sw, sw->P, j);
+    return sw->n_runs;
+}
+
 volux_status tube_march(volux_context *ctx, const tube_input *in, const scatter_light *l, scatter_grid *V) {
     sweep sw;
     memset(&sw, 0, sizeof sw);
@@ -417,11 +437,8 @@ volux_status tube_march(volux_context *ctx, const tube_input *in, const scatter_
         int n = V->dims[sw.a], group = (int)floorf(sw.s * fabsf(w[sw.a]) * V->inv_h[sw.a] * 0.9999f);
         if (group < 1) group = 1;
         sw.slice_step = w[sw.a] >= 0.0f ? 1 : -1;
-        for (int t = 0; t < n; t += group) {
-            sw.slice = t;
-            int m = n - t < group ? n - t : group;
-            volux_parallel_for(in->threads, (int64_t)m * V->dims[sw.b2], slice_row, &sw);
-        }
+        sw.group = group;
+        volux_parallel_phases(in->threads, (n + group - 1) / group, slice_group, slice_row, &sw);
         return VOLUX_OK;
     }
     float P[3] = {(l->pos.x - V->lo.x) * V->inv_h[0], (l->pos.y - V->lo.y) * V->inv_h[1],
@@ -443,11 +460,10 @@ volux_status tube_march(volux_context *ctx, const tube_input *in, const scatter_
     size_t bytes = sizeof *sw.runs * ((size_t)V->dims[1] + 2) * (size_t)V->dims[2] * (size_t)group;
     sw.runs = volux_malloc(ctx, bytes);
     if (!sw.runs) return volux_error(ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for tube marching");
-    for (int k = 0; k <= K; k += group) {
-        sw.n_runs = 0;
-        for (int j = k; j < k + group && j <= K; j++) shell_runs(&sw, P, j);
-        if (sw.n_runs) volux_parallel_for(in->threads, sw.n_runs, shell_run, &sw);
-    }
+    memcpy(sw.P, P, sizeof P);
+    sw.K = K;
+    sw.group = group;
+    volux_parallel_phases(in->threads, K / group + 1, shell_group, shell_run, &sw);
     volux_free(ctx, sw.runs, bytes);
     return VOLUX_OK;
 }
