@@ -74,6 +74,9 @@ static const volux_param_info ambient_params[] = {
      "always added this way)"},
     {"ao_radius", VOLUX_PARAM_NUMBER, 0, 0, 128, NULL, "occlusion radius in voxels (0 = the ambient radius)"},
     {"ao_shells", VOLUX_PARAM_INT, 3, 1, 8, NULL, "nested SAT boxes of the occlusion term"},
+    {"phase_cache", VOLUX_PARAM_BOOL, 1, 0, 1, NULL,
+     "keep each radiance cache's g-independent tube geometry (20 bytes per cache node and light) so that a phase "
+     "edit only re-sums the new extinction factors"},
     {"table_file", VOLUX_PARAM_STRING, 0, 0, 0, "",
      "preintegration table to load (`volux ambient-table`); empty: built on first use and cached"},
     {"table_theta", VOLUX_PARAM_INT, 256, 2, 4096, NULL, "table entries in theta (paper: 256)"},
@@ -268,14 +271,31 @@ static volux_status build_rho_c(ambient_state *st) {
     return VOLUX_OK;
 }
 
-static volux_status build_cache(ambient_state *st, const scatter_light *l) {
-    scatter_grid *V = &st->cache[l->slot];
+/* Light l's radiance cache: a re-sum from its kept geometry when only κ
+ * changed (a phase edit) and the geometry is valid, else a march (which
+ * records the geometry when phase_cache is on). */
+static volux_status build_cache(ambient_state *st, const scatter_light *l, int kappa_only) {
+    int slot = l->slot;
+    scatter_grid *V = &st->cache[slot];
     volux_status s = scatter_grid_alloc(st->b.ctx, st->b.volume, st->cache_scale, V, "ambient: radiance cache");
     if (s) return s;
     tube_input in = {&st->rho_c, st->kappa, st->table.desc.n_sigma, (float)st->table.desc.sigma_max, st->radius,
-                     st->b.threads, 0};
+                     st->b.threads, 0, NULL};
+    if (kappa_only && st->phase_cache && st->geo_ok[slot]) {
+        in.geo = &st->geo[slot];
+        if ((s = tube_resum(st->b.ctx, &in, l, V))) return s;
+        st->stats.cache_resums[slot]++;
+        return VOLUX_OK;
+    }
+    st->geo_ok[slot] = 0;
+    if (st->phase_cache) {
+        size_t n = (size_t)V->dims[0] * (size_t)V->dims[1] * (size_t)V->dims[2];
+        if ((s = tube_geometry_alloc(st->b.ctx, n, &st->geo[slot]))) return s;
+        in.geo = &st->geo[slot];
+    }
     if ((s = tube_march(st->b.ctx, &in, l, V))) return s;
-    st->stats.cache_builds[l->slot]++;
+    st->geo_ok[slot] = st->phase_cache;
+    st->stats.cache_builds[slot]++;
     return VOLUX_OK;
 }
 
@@ -285,7 +305,7 @@ static volux_status ambient_update(void *state, volux_scene *scene, const volux_
     volux_status s = scatter_base_update(b, scene, c);
     if (s) return s;
     int need_ext = (c->what & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY)) != 0;
-    int need_slice = (c->what & VOLUX_CHANGE_PHASE) != 0, all_caches = 0, scale_changed = 0;
+    int need_slice = (c->what & VOLUX_CHANGE_PHASE) != 0, all_caches = 0, scale_changed = 0, table_loaded = 0;
     if (c->what & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME)) {
         const volux_technique_class *cls = b->cls;
         float radius = (float)volux_technique_param(scene, cls, "radius") * b->min_spacing;
@@ -298,6 +318,7 @@ static volux_status ambient_update(void *state, volux_scene *scene, const volux_
         if (scale != st->cache_scale) all_caches = scale_changed = 1;
         st->radius = radius, st->cache_scale = scale, st->ao = ao, st->ao_radius = ao_r, st->ao_shells = shells;
         st->specular = (int)volux_technique_param(scene, cls, "specular");
+        st->phase_cache = (int)volux_technique_param(scene, cls, "phase_cache");
         st->offset = (float)volux_technique_param(scene, cls, "offset");
         double lo, hi;
         volux_volume_range(b->volume, &lo, &hi);
@@ -320,7 +341,7 @@ static volux_status ambient_update(void *state, volux_scene *scene, const volux_
         st->material = volux_scene_transfer(scene)->material;
         if (!table_matches(st)) {
             if ((s = load_table(st))) return s;
-            need_slice = 1;
+            need_slice = table_loaded = 1;
         }
     }
     /* The occlusion volume exists iff the AO term is on (weight or an
@@ -337,14 +358,21 @@ static volux_status ambient_update(void *state, volux_scene *scene, const volux_
     }
     if (need_ext || scale_changed)
         if ((s = build_rho_c(st))) return s;
+    /* The kept tube geometry depends on ρ_c, the radius, the cache grid
+     * and the table's σ̃t axis, not on g: only a phase edit can re-sum. */
+    int kappa_only = !need_ext && !scale_changed && !table_loaded;
     int live[VOLUX_MAX_LIGHTS] = {0};
     for (int i = 0; i < b->n_lights; i++) live[b->lights[i].slot] = 1;
-    for (int slot = 0; slot < VOLUX_MAX_LIGHTS; slot++)
+    for (int slot = 0; slot < VOLUX_MAX_LIGHTS; slot++) {
         if (st->cache[slot].v && !live[slot]) scatter_grid_free(b->ctx, &st->cache[slot]);
+        if (!kappa_only || !live[slot]) st->geo_ok[slot] = 0;
+        if (st->geo[slot].arg && (!live[slot] || !st->phase_cache)) tube_geometry_free(b->ctx, &st->geo[slot]);
+    }
     for (int i = 0; i < b->n_lights; i++) {
         const scatter_light *l = &b->lights[i];
-        if (all_caches || volux_change_light(c, l->slot) || !st->cache[l->slot].v)
-            if ((s = build_cache(st, l))) return s;
+        int light_changed = volux_change_light(c, l->slot) || !st->cache[l->slot].v;
+        if (all_caches || light_changed)
+            if ((s = build_cache(st, l, kappa_only && !light_changed))) return s;
     }
     return VOLUX_OK;
 }
@@ -354,6 +382,7 @@ static void ambient_destroy(void *state) {
     if (!st) return;
     volux_context *ctx = st->b.ctx;
     for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) scatter_grid_free(ctx, &st->cache[i]);
+    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) tube_geometry_free(ctx, &st->geo[i]);
     scatter_grid_free(ctx, &st->rho);
     scatter_grid_free(ctx, &st->rho_c);
     scatter_grid_free(ctx, &st->occ);
@@ -390,7 +419,7 @@ static size_t ambient_memory_bytes(const void *state) {
         size_t values = (size_t)st->table.desc.n_theta * (size_t)st->table.desc.n_sigma * (size_t)st->table.desc.n_g;
         n += values * sizeof(float) * (st->table.rel_error ? 2 : 1); /* data (+ error block) */
     }
-    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) n += st->cache[i].bytes;
+    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) n += st->cache[i].bytes + st->geo[i].bytes;
     for (int i = 0; i < st->ln_n; i++)
         if (st->ln_col[i]) n += (size_t)st->table.desc.n_sigma * (size_t)st->table.desc.n_theta * sizeof(double);
     n += (size_t)st->ln_n * sizeof *st->ln_col;

@@ -25,26 +25,31 @@ static inline float box_exit(volux_vec3 lo, volux_vec3 hi, volux_vec3 x, volux_v
     return t > 0.0f ? t : 0.0f;
 }
 
-/* Trilinear read that touches only floor(u) and, if u is fractional,
- * floor(u) + 1 per axis: exactly the nodes the sweep order guarantees. */
-static inline float sample_strict(const scatter_grid *g, volux_vec3 p) {
+/* A trilinear read of the cache that touches only floor(u) and, if u is
+ * fractional, floor(u) + 1 per axis: exactly the nodes the sweep order
+ * guarantees. strict_cell finds the cell (index of its lower corner) and
+ * the fractions; strict_at reads it. The split lets a phase edit keep the
+ * cell and fractions (they do not depend on g) and only re-read. */
+static inline int64_t strict_cell(const scatter_grid *g, volux_vec3 p, float f[3]) {
     float u[3] = {(p.x - g->lo.x) * g->inv_h[0], (p.y - g->lo.y) * g->inv_h[1], (p.z - g->lo.z) * g->inv_h[2]};
-    int i0[3], i1[3];
-    float f[3];
+    int i0[3];
     for (int a = 0; a < 3; a++) {
         float m = (float)(g->dims[a] - 1), x = u[a] < 0.0f ? 0.0f : (u[a] > m ? m : u[a]);
-        int i = (int)x;
-        f[a] = x - (float)i;
-        i0[a] = i;
-        i1[a] = f[a] > 0.0f && i + 1 < g->dims[a] ? i + 1 : i;
+        i0[a] = (int)x;
+        f[a] = x - (float)i0[a];
     }
-    size_t nx = (size_t)g->dims[0], ny = (size_t)g->dims[1];
-#define AT(X, Y, Z) g->v[((size_t)(Z)*ny + (size_t)(Y)) * nx + (size_t)(X)]
-    float c00 = AT(i0[0], i0[1], i0[2]) + (AT(i1[0], i0[1], i0[2]) - AT(i0[0], i0[1], i0[2])) * f[0];
-    float c10 = AT(i0[0], i1[1], i0[2]) + (AT(i1[0], i1[1], i0[2]) - AT(i0[0], i1[1], i0[2])) * f[0];
-    float c01 = AT(i0[0], i0[1], i1[2]) + (AT(i1[0], i0[1], i1[2]) - AT(i0[0], i0[1], i1[2])) * f[0];
-    float c11 = AT(i0[0], i1[1], i1[2]) + (AT(i1[0], i1[1], i1[2]) - AT(i0[0], i1[1], i1[2])) * f[0];
-#undef AT
+    return ((int64_t)i0[2] * g->dims[1] + i0[1]) * g->dims[0] + i0[0];
+}
+
+static inline float strict_at(const scatter_grid *g, int64_t base, const float f[3]) {
+    /* u ≤ n − 1, so a fraction > 0 means the upper node exists */
+    const float *b = g->v + base;
+    size_t ox = f[0] > 0.0f ? 1 : 0, oy = f[1] > 0.0f ? (size_t)g->dims[0] : 0,
+           oz = f[2] > 0.0f ? (size_t)g->dims[0] * (size_t)g->dims[1] : 0;
+    float c00 = b[0] + (b[ox] - b[0]) * f[0];
+    float c10 = b[oy] + (b[oy + ox] - b[oy]) * f[0];
+    float c01 = b[oz] + (b[oz + ox] - b[oz]) * f[0];
+    float c11 = b[oz + oy] + (b[oz + oy + ox] - b[oz + oy]) * f[0];
     float c0 = c00 + (c10 - c00) * f[1], c1 = c01 + (c11 - c01) * f[1];
     return c0 + (c1 - c0) * f[2];
 }
@@ -104,6 +109,10 @@ typedef struct sweep {
     int simd;
     tube_lanes lanes;
     tube_fast fr;
+    /* the g-independent records (tube_geometry): written by a march when
+     * present, read back by a re-sum (resum = 1) */
+    tube_geometry *geo;
+    int resum;
     /* directional fast path (ρ grid aligned with V): constant corner offsets
      * and weights of the two reads, and the box-exit reciprocals */
     int fast;
@@ -114,11 +123,19 @@ typedef struct sweep {
     int valid_lo[3], valid_hi[3]; /* node indices whose fast-path reads stay in the grid */
 } sweep;
 
-static inline void node(const sweep *sw, int i, int j, int k) {
+/* What node (i, j, k) adds to D apart from κ: the g-independent record
+ * (tube_geometry). */
+typedef struct node_rec {
+    float arg;
+    int64_t tag;
+    float aux[3];
+} node_rec;
+
+static inline node_rec node_record(const sweep *sw, int i, int j, int k) {
     const tube_input *in = sw->in;
-    scatter_grid *V = sw->V;
-    volux_vec3 x = scatter_grid_node(V, i, j, k);
-    float delta, v;
+    volux_vec3 x = scatter_grid_node(sw->V, i, j, k);
+    float delta;
+    node_rec r = {0.0f, 0, {0.0f, 0.0f, 0.0f}};
     volux_vec3 w = chain_start(sw->l, sw->lo, sw->hi, x, &delta);
     if (delta <= sw->s * 1.0001f) {
         /* Eq. 17 between the chain start (D = 0) and the first node a full
@@ -126,25 +143,55 @@ static inline void node(const sweep *sw, int i, int j, int k) {
          * in δ, so a homogeneous medium gives D exactly linear along every
          * chain and the sweep's interpolation exact. */
         float rho = scatter_grid_sample(in->rho, v3_madd(x, w, -0.5f * delta));
-        v = delta / sw->s * tube_kappa(in, rho * 0.5f * sw->s * sw->inv_r);
+        r.arg = rho * 0.5f * sw->s * sw->inv_r;
+        r.tag = TUBE_NEAR;
+        r.aux[0] = delta / sw->s;
     } else {
         /* Eq. 16 (as D = −ln V): the front from s back, through the
          * sphere between. */
-        float half = 0.5f * sw->s, dy = delta - sw->s, back;
+        float half = 0.5f * sw->s, dy = delta - sw->s;
         float rho = scatter_grid_sample(in->rho, v3_madd(x, w, -half));
         volux_vec3 y = v3_madd(x, w, -sw->s);
+        r.arg = rho * half * sw->inv_r;
         if (dy <= sw->s) {
             /* y is within the first step: evaluate it exactly rather than
              * interpolate the kink at the chain start (a cone around a
              * point light inside the volume). */
             float rho_y = scatter_grid_sample(in->rho, v3_madd(y, w, -0.5f * dy));
-            back = dy / sw->s * tube_kappa(in, rho_y * half * sw->inv_r);
+            r.tag = TUBE_MID;
+            r.aux[0] = dy / sw->s;
+            r.aux[1] = rho_y * half * sw->inv_r;
         } else {
-            back = sample_strict(V, y);
+            r.tag = strict_cell(sw->V, y, r.aux);
         }
-        v = back + tube_kappa(in, rho * half * sw->inv_r);
     }
-    V->v[((size_t)k * (size_t)V->dims[1] + (size_t)j) * (size_t)V->dims[0] + (size_t)i] = v;
+    return r;
+}
+
+/* D at a node from its record and the current κ. */
+static inline float node_value(const sweep *sw, const node_rec *r) {
+    const tube_input *in = sw->in;
+    if (r->tag == TUBE_NEAR) return r->aux[0] * tube_kappa(in, r->arg);
+    float back = r->tag == TUBE_MID ? r->aux[0] * tube_kappa(in, r->aux[1]) : strict_at(sw->V, r->tag, r->aux);
+    return back + tube_kappa(in, r->arg);
+}
+
+static inline void node(const sweep *sw, int i, int j, int k) {
+    scatter_grid *V = sw->V;
+    size_t at = ((size_t)k * (size_t)V->dims[1] + (size_t)j) * (size_t)V->dims[0] + (size_t)i;
+    node_rec r;
+    tube_geometry *geo = sw->geo;
+    if (sw->resum) {
+        r.arg = geo->arg[at], r.tag = geo->tag[at];
+        for (int a = 0; a < 3; a++) r.aux[a] = geo->aux[a][at];
+    } else {
+        r = node_record(sw, i, j, k);
+        if (geo) {
+            geo->arg[at] = r.arg, geo->tag[at] = (int32_t)r.tag;
+            for (int a = 0; a < 3; a++) geo->aux[a][at] = r.aux[a];
+        }
+    }
+    V->v[at] = node_value(sw, &r);
 }
 
 /* The nodes start + n·e_axis, n ∈ [0, count): 8 at a time where the CPU
@@ -152,7 +199,8 @@ static inline void node(const sweep *sw, int i, int j, int k) {
 static void nodes(const sweep *sw, const int start[3], int axis, int count) {
     if (count <= 0) return;
     if (sw->simd) {
-        tube_nodes_avx2(&sw->lanes, start[0], start[1], start[2], axis, count);
+        if (sw->resum) tube_resum_avx2(&sw->lanes, start[0], start[1], start[2], axis, count);
+        else tube_nodes_avx2(&sw->lanes, start[0], start[1], start[2], axis, count);
         return;
     }
     int idx[3] = {start[0], start[1], start[2]};
@@ -160,10 +208,16 @@ static void nodes(const sweep *sw, const int start[3], int axis, int count) {
 }
 
 /* The fast path over a run of `count` nodes of one row that are contiguous
- * in memory (stride 1): loads at constant offsets, vectorisable. out and D
- * point into the same grid, but out is the slice being written and every D
- * read lies in an earlier slice, so the accessed elements are disjoint. */
-static void fast_run(float *out, const float *D, const float *restrict R, int count, const sweep *sw) {
+ * in memory (stride 1), from node index `at`: loads at constant offsets,
+ * vectorisable. The written slice and the read slices of D are disjoint
+ * (every read lies in an earlier slice). The κ-table coordinate u of each
+ * node is its g-independent record (TUBE_FAST): stored by a march, read by
+ * a re-sum. */
+static void fast_run(const sweep *sw, size_t at, int count) {
+    float *out = sw->V->v + at;
+    const float *D = sw->V->v + at, *R = sw->in->rho->v + at;
+    float *geo_u = sw->geo ? sw->geo->arg + at : NULL;
+    int32_t *geo_tag = sw->geo && !sw->resum ? sw->geo->tag + at : NULL;
     /* locals, so the loop does not reload them through `sw` (which could alias out) */
     const ptrdiff_t v0 = sw->off_v[0], v1 = sw->off_v[1], v2 = sw->off_v[2], v3 = sw->off_v[3], v4 = sw->off_v[4],
                     v5 = sw->off_v[5], v6 = sw->off_v[6], v7 = sw->off_v[7];
@@ -174,25 +228,33 @@ static void fast_run(float *out, const float *D, const float *restrict R, int co
     const float b0 = sw->w_r[0], b1 = sw->w_r[1], b2 = sw->w_r[2], b3 = sw->w_r[3], b4 = sw->w_r[4],
                 b5 = sw->w_r[5], b6 = sw->w_r[6], b7 = sw->w_r[7];
     const float *restrict kappa = sw->in->kappa;
-    const float kscale = 0.5f * sw->s * sw->inv_r * (float)(sw->in->n_sigma - 1) / sw->in->sigma_max;
-    const float last = (float)(sw->in->n_sigma - 1) - 1e-3f;
+    const float kscale = sw->fr.kscale, last = sw->fr.last;
     float back[256], u[256];
     int done = 0;
     if (sw->simd && count >= 8) {
         done = count & ~7;
-        tube_fast_run_avx2(&sw->fr, out, D, R, done);
+        tube_fast_run_avx2(&sw->fr, out, D, R, geo_u, geo_tag, sw->resum, done);
     }
     for (int i0 = done; i0 < count; i0 += 256) {
         int m = count - i0 < 256 ? count - i0 : 256;
         const float *d = D + i0, *r = R + i0;
         /* vectorisable part: 16 loads at constant offsets */
-        for (int i = 0; i < m; i++) {
+        for (int i = 0; i < m; i++)
             back[i] = a0 * d[i + v0] + a1 * d[i + v1] + a2 * d[i + v2] + a3 * d[i + v3] + a4 * d[i + v4] +
                       a5 * d[i + v5] + a6 * d[i + v6] + a7 * d[i + v7];
-            float x = (b0 * r[i + r0] + b1 * r[i + r1] + b2 * r[i + r2] + b3 * r[i + r3] + b4 * r[i + r4] +
-                       b5 * r[i + r5] + b6 * r[i + r6] + b7 * r[i + r7]) *
-                      kscale;
-            u[i] = 0.5f * (x + last - fabsf(x - last)); /* min(x, last); ρ ≥ 0 */
+        if (sw->resum) {
+            memcpy(u, geo_u + i0, (size_t)m * sizeof *u);
+        } else {
+            for (int i = 0; i < m; i++) {
+                float x = (b0 * r[i + r0] + b1 * r[i + r1] + b2 * r[i + r2] + b3 * r[i + r3] + b4 * r[i + r4] +
+                           b5 * r[i + r5] + b6 * r[i + r6] + b7 * r[i + r7]) *
+                          kscale;
+                u[i] = 0.5f * (x + last - fabsf(x - last)); /* min(x, last); ρ ≥ 0 */
+            }
+            if (geo_u) {
+                memcpy(geo_u + i0, u, (size_t)m * sizeof *u);
+                for (int i = 0; i < m; i++) geo_tag[i0 + i] = TUBE_FAST;
+            }
         }
         /* the κ table look-up is a gather: scalar */
         for (int i = 0; i < m; i++) {
@@ -270,13 +332,12 @@ static void slice_row(void *user, int64_t item, int thread) {
         idx[sw->b1] = c0;
         size_t at = ((size_t)idx[2] * (size_t)V->dims[1] + (size_t)idx[1]) * (size_t)V->dims[0] + (size_t)idx[0];
         if (sw->b1 == 0) {
-            fast_run(V->v + at, V->v + at, sw->in->rho->v + at, c1 - c0 + 1, sw);
+            fast_run(sw, at, c1 - c0 + 1);
         } else {
             for (int cc = c0; cc <= c1; cc++) {
                 idx[sw->b1] = cc;
-                size_t a2 = ((size_t)idx[2] * (size_t)V->dims[1] + (size_t)idx[1]) * (size_t)V->dims[0] +
-                            (size_t)idx[0];
-                fast_run(V->v + a2, V->v + a2, sw->in->rho->v + a2, 1, sw);
+                fast_run(sw, ((size_t)idx[2] * (size_t)V->dims[1] + (size_t)idx[1]) * (size_t)V->dims[0] + (size_t)idx[0],
+                         1);
             }
         }
     }
@@ -375,6 +436,9 @@ static void setup_lanes(sweep *sw) {
     t->dir[0] = sw->l->dir.x, t->dir[1] = sw->l->dir.y, t->dir[2] = sw->l->dir.z;
     t->s = sw->s, t->inv_r = sw->inv_r;
     t->kappa = in->kappa, t->n_sigma = in->n_sigma, t->sigma_max = in->sigma_max;
+    t->g_arg = sw->geo ? sw->geo->arg : NULL;
+    t->g_tag = sw->geo ? sw->geo->tag : NULL;
+    for (int a = 0; a < 3; a++) t->g_aux[a] = sw->geo ? sw->geo->aux[a] : NULL;
 }
 
 /* Phase p of the directional sweep: `group` slices from p·group on. */
@@ -394,10 +458,14 @@ static int64_t shell_group(void *user, int p) {
     return sw->n_runs;
 }
 
-volux_status tube_march(volux_context *ctx, const tube_input *in, const scatter_light *l, scatter_grid *V) {
+/* A march (resum = 0: records into geo if given) or a re-sum (resum = 1:
+ * from geo) of light l into V. */
+static volux_status sweep_run(volux_context *ctx, const tube_input *in, const scatter_light *l, scatter_grid *V,
+                              tube_geometry *geo, int resum) {
     sweep sw;
     memset(&sw, 0, sizeof sw);
     sw.in = in, sw.l = l, sw.V = V;
+    sw.geo = geo, sw.resum = resum;
     sw.lo = V->lo, sw.hi = grid_hi(V);
     sw.s = tube_step(in, V, l);
     sw.inv_r = in->radius > 0.0f ? 1.0f / in->radius : 0.0f;
@@ -466,6 +534,38 @@ volux_status tube_march(volux_context *ctx, const tube_input *in, const scatter_
     volux_parallel_phases(in->threads, K / group + 1, shell_group, shell_run, &sw);
     volux_free(ctx, sw.runs, bytes);
     return VOLUX_OK;
+}
+
+volux_status tube_march(volux_context *ctx, const tube_input *in, const scatter_light *l, scatter_grid *V) {
+    return sweep_run(ctx, in, l, V, in->geo, 0);
+}
+
+volux_status tube_resum(volux_context *ctx, const tube_input *in, const scatter_light *l, scatter_grid *V) {
+    if (!in->geo || in->geo->n != (size_t)V->dims[0] * (size_t)V->dims[1] * (size_t)V->dims[2])
+        return volux_error(ctx, VOLUX_ERR_INVALID, "ambient: re-sum of a radiance cache without its geometry");
+    return sweep_run(ctx, in, l, V, in->geo, 1);
+}
+
+volux_status tube_geometry_alloc(volux_context *ctx, size_t n, tube_geometry *g) {
+    if (g->arg && g->n == n) return VOLUX_OK;
+    tube_geometry_free(ctx, g);
+    size_t bytes;
+    /* tags are 32-bit node indices */
+    if (n >= (size_t)INT32_MAX || !volux_mul_size(n, 5 * sizeof(float), &bytes) ||
+        bytes > volux_context_max_bytes(ctx))
+        return volux_error(ctx, VOLUX_ERR_LIMIT, "ambient: radiance cache geometry of %zu nodes exceeds the limits", n);
+    char *p = volux_alloc_aligned(ctx, bytes);
+    if (!p) return volux_error(ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the radiance cache geometry");
+    g->arg = (float *)(void *)p;
+    g->tag = (int32_t *)(void *)(p + n * sizeof(float));
+    for (int a = 0; a < 3; a++) g->aux[a] = (float *)(void *)(p + (size_t)(2 + a) * n * sizeof(float));
+    g->n = n, g->bytes = bytes;
+    return VOLUX_OK;
+}
+
+void tube_geometry_free(volux_context *ctx, tube_geometry *g) {
+    if (g->arg) volux_free_aligned(ctx, g->arg, g->bytes);
+    memset(g, 0, sizeof *g);
 }
 
 float tube_chain(const tube_input *in, const scatter_light *l, const scatter_grid *V, volux_vec3 x) {

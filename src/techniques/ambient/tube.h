@@ -33,8 +33,33 @@
 #ifndef VOLUX_AMBIENT_TUBE_H
 #define VOLUX_AMBIENT_TUBE_H
 
+#include <stdint.h>
+
 #include "techniques/scatter/grid.h"
 #include "techniques/scatter/lights.h"
+
+/* The g-independent part of a radiance cache. The phase enters tube
+ * marching only through κ (the table's θ = 0 column at g); which nodes a
+ * node reads, with which weights, and the optical radius of each sphere do
+ * not depend on it. A march records, per node:
+ *   arg   the κ argument ρ·(s/2)/r of the sphere towards the light (the
+ *         directional fast path: the κ-table coordinate itself)
+ *   tag   ≥ 0: the node reads D at y = x − sω, in the cell with this
+ *         lower-corner index, at fractions aux[0..2];
+ *         TUBE_NEAR: D = aux[0]·κ(arg)   (aux[0] = δ/s, Eq. 17);
+ *         TUBE_MID:  D = aux[0]·κ(aux[1]) + κ(arg)   (y within a step of
+ *         the chain start);
+ *         TUBE_FAST: the directional fast path (constant offsets)
+ * and a re-sum (tube_resum) recomputes D from these with a new κ, in the
+ * same sweep order, bit-identical to a march with that κ. 20 bytes per
+ * node (5 arrays of n). */
+enum { TUBE_NEAR = -1, TUBE_MID = -2, TUBE_FAST = -3 };
+typedef struct tube_geometry {
+    float *arg;
+    int32_t *tag;
+    float *aux[3];
+    size_t n, bytes;
+} tube_geometry;
 
 typedef struct tube_input {
     const scatter_grid *rho; /* optical radius r·σ̃t                       */
@@ -44,6 +69,8 @@ typedef struct tube_input {
     float radius;            /* r, world units                             */
     int threads;
     int scalar_only;         /* 1: never the 8-wide node update (tests)    */
+    tube_geometry *geo;      /* march: record here (allocated for V's nodes)
+                                if not NULL; re-sum: read from here        */
 } tube_input;
 
 /* κ(ρ') = −ln τ(ρ'), linear over the table's σ̃t nodes (clamped). */
@@ -66,6 +93,14 @@ float tube_step(const tube_input *in, const scatter_grid *V, const scatter_light
 /* Fills the cache (already allocated over the volume box) with D = −ln V
  * for light l. Allocates a little scratch through ctx (point lights). */
 volux_status tube_march(volux_context *ctx, const tube_input *in, const scatter_light *l, scatter_grid *V);
+
+/* Recomputes D from in->geo (recorded by a march of the same light on the
+ * same grid, ρ, radius and table size) with in->kappa. */
+volux_status tube_resum(volux_context *ctx, const tube_input *in, const scatter_light *l, scatter_grid *V);
+
+/* (Re)allocates g for n nodes (kept if it has that size) / frees it. */
+volux_status tube_geometry_alloc(volux_context *ctx, size_t n, tube_geometry *g);
+void tube_geometry_free(volux_context *ctx, tube_geometry *g);
 
 /* V (not D) at one point by walking the chain directly (no cache reads):
  * the closed-form product of table look-ups the sweep must reproduce, for

@@ -21,11 +21,14 @@
 
 int tube_simd_available(void) {
     __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2");
+    return __builtin_cpu_supports("avx2") != 0;
 }
 
 #define A2 __attribute__((target("avx2")))
 #define A2I static inline __attribute__((always_inline, target("avx2")))
+
+/* tube.h's record tags (kept in sync: tube.h is not included here) */
+enum { NEAR_ = -1, MID_ = -2, FAST_ = -3 };
 
 /* a where m, else b */
 A2I __m256 sel(__m256 m, __m256 a, __m256 b) { return _mm256_blendv_ps(b, a, m); }
@@ -33,15 +36,19 @@ A2I __m256 sel(__m256 m, __m256 a, __m256 b) { return _mm256_blendv_ps(b, a, m);
 /* a + (b − a)·f, unfused (as the scalar code rounds it) */
 A2I __m256 lerp(__m256 a, __m256 b, __m256 f) { return _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), f)); }
 
+A2I __m256i bcast0(__m256i v) { return _mm256_broadcastd_epi32(_mm256_castsi256_si128(v)); }
+A2I int all_lanes(__m256i m) { return _mm256_movemask_epi8(m) == -1; }
+
 /* Grid constants broadcast once per run. */
 typedef struct grid8 {
     __m256 lo[3], inv_h[3], m[3]; /* m: highest node index as float */
     __m256i imax[3];              /* n − 2: highest cell index        */
     __m256i sy, sz;               /* strides in nodes                 */
+    int nx, nxy;
 } grid8;
 
 /* Index-space position of world p, clamped to [0, n − 1] per axis, as
- * scatter_grid_sample / sample_strict compute it. */
+ * scatter_grid_sample / strict_cell compute it. */
 A2I void to_index(const grid8 *g, const __m256 p[3], __m256 u[3]) {
     const __m256 zero = _mm256_setzero_ps();
     for (int a = 0; a < 3; a++) {
@@ -53,23 +60,32 @@ A2I void to_index(const grid8 *g, const __m256 p[3], __m256 u[3]) {
     }
 }
 
-/* Whether the 8 lanes' cells lie in one row of the grid at consecutive x
- * (same y and z cells, x cell = lane 0's + lane): then each corner of the
- * trilinear read is one contiguous 8-float load instead of a gather. Along
- * a run in x this holds for most blocks (the read points advance by about
- * one cell per node); it is the common case of the shells' rows and of
- * the directional sweep's rows. */
-A2I int one_row(const __m256i c[3]) {
-    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-    __m256i x0 = _mm256_add_epi32(_mm256_broadcastd_epi32(_mm256_castsi256_si128(c[0])), lane);
-    __m256i eq = _mm256_and_si256(
-        _mm256_cmpeq_epi32(c[0], x0),
-        _mm256_and_si256(_mm256_cmpeq_epi32(c[1], _mm256_broadcastd_epi32(_mm256_castsi256_si128(c[1]))),
-                         _mm256_cmpeq_epi32(c[2], _mm256_broadcastd_epi32(_mm256_castsi256_si128(c[2])))));
-    return _mm256_movemask_epi8(eq) == -1;
+A2I __m256i cell_index(const grid8 *g, const __m256i c[3]) {
+    return _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(c[2], g->sz), _mm256_mullo_epi32(c[1], g->sy)), c[0]);
 }
 
-/* scatter_grid_sample_index on a grid with every dimension ≥ 2. */
+/* Row reads. When the 8 lanes' cells have consecutive indices (lane 0's +
+ * lane: along a run in x the read points advance by about one cell per
+ * node, so this is the common case of the shells' rows and of the
+ * directional sweep's rows), every corner of a trilinear read is at lane
+ * 0's address + a common offset + lane: one contiguous 8-float load per
+ * corner instead of a gather, and each loaded element is one that some
+ * lane reads anyway. */
+A2I int consecutive(__m256i base) {
+    return all_lanes(_mm256_cmpeq_epi32(base, _mm256_add_epi32(bcast0(base), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7))));
+}
+
+/* The trilinear value from 8 corner vectors. */
+A2I __m256 trilerp(__m256 a000, __m256 a100, __m256 a010, __m256 a110, __m256 a001, __m256 a101, __m256 a011,
+                   __m256 a111, const __m256 f[3]) {
+    __m256 c00 = lerp(a000, a100, f[0]), c10 = lerp(a010, a110, f[0]);
+    __m256 c01 = lerp(a001, a101, f[0]), c11 = lerp(a011, a111, f[0]);
+    __m256 c0 = lerp(c00, c10, f[1]), c1 = lerp(c01, c11, f[1]);
+    return lerp(c0, c1, f[2]);
+}
+
+/* scatter_grid_sample_index on a grid with every dimension ≥ 2 (cells
+ * clamped to n − 2: all 8 corners exist). */
 A2I __m256 sample_clamped(const float *v, const grid8 *g, const __m256 p[3]) {
     __m256 u[3], f[3];
     __m256i c[3];
@@ -78,107 +94,131 @@ A2I __m256 sample_clamped(const float *v, const grid8 *g, const __m256 p[3]) {
         c[a] = _mm256_min_epi32(_mm256_cvttps_epi32(u[a]), g->imax[a]);
         f[a] = _mm256_sub_ps(u[a], _mm256_cvtepi32_ps(c[a]));
     }
-    __m256i b = _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(c[2], g->sz), _mm256_mullo_epi32(c[1], g->sy)), c[0]);
-    if (one_row(c)) {
-        /* x cells ≤ n − 2: lane 7's upper corner exists */
+    __m256i b = cell_index(g, c);
+    const ptrdiff_t sy = g->nx, sz = g->nxy;
+    if (consecutive(b)) {
         const float *r = v + _mm_cvtsi128_si32(_mm256_castsi256_si128(b));
-        const ptrdiff_t sy = _mm256_extract_epi32(g->sy, 0), sz = _mm256_extract_epi32(g->sz, 0);
-        __m256 c00 = lerp(_mm256_loadu_ps(r), _mm256_loadu_ps(r + 1), f[0]);
-        __m256 c10 = lerp(_mm256_loadu_ps(r + sy), _mm256_loadu_ps(r + sy + 1), f[0]);
-        __m256 c01 = lerp(_mm256_loadu_ps(r + sz), _mm256_loadu_ps(r + sz + 1), f[0]);
-        __m256 c11 = lerp(_mm256_loadu_ps(r + sz + sy), _mm256_loadu_ps(r + sz + sy + 1), f[0]);
-        __m256 c0 = lerp(c00, c10, f[1]), c1 = lerp(c01, c11, f[1]);
-        return lerp(c0, c1, f[2]);
+#define L_(o) _mm256_loadu_ps(r + (o))
+        return trilerp(L_(0), L_(1), L_(sy), L_(sy + 1), L_(sz), L_(sz + 1), L_(sz + sy), L_(sz + sy + 1), f);
+#undef L_
     }
     const __m256i one = _mm256_set1_epi32(1);
     __m256i by = _mm256_add_epi32(b, g->sy), bz = _mm256_add_epi32(b, g->sz), byz = _mm256_add_epi32(by, g->sz);
-    __m256 a000 = _mm256_i32gather_ps(v, b, 4), a100 = _mm256_i32gather_ps(v, _mm256_add_epi32(b, one), 4);
-    __m256 a010 = _mm256_i32gather_ps(v, by, 4), a110 = _mm256_i32gather_ps(v, _mm256_add_epi32(by, one), 4);
-    __m256 a001 = _mm256_i32gather_ps(v, bz, 4), a101 = _mm256_i32gather_ps(v, _mm256_add_epi32(bz, one), 4);
-    __m256 a011 = _mm256_i32gather_ps(v, byz, 4), a111 = _mm256_i32gather_ps(v, _mm256_add_epi32(byz, one), 4);
-    __m256 c00 = lerp(a000, a100, f[0]), c10 = lerp(a010, a110, f[0]);
-    __m256 c01 = lerp(a001, a101, f[0]), c11 = lerp(a011, a111, f[0]);
-    __m256 c0 = lerp(c00, c10, f[1]), c1 = lerp(c01, c11, f[1]);
-    return lerp(c0, c1, f[2]);
+#define G_(idx) _mm256_i32gather_ps(v, (idx), 4)
+    return trilerp(G_(b), G_(_mm256_add_epi32(b, one)), G_(by), G_(_mm256_add_epi32(by, one)), G_(bz),
+                   G_(_mm256_add_epi32(bz, one)), G_(byz), G_(_mm256_add_epi32(byz, one)), f);
+#undef G_
 }
 
-/* tube.c's sample_strict for the lanes in `mask` (others: 0, no load): the
- * upper corner of an axis only where the fraction is > 0. */
-A2I __m256 sample_strict8(const float *v, const grid8 *g, const __m256 p[3], __m256 mask) {
-    const __m256 zero = _mm256_setzero_ps();
-    __m256 u[3], f[3];
-    __m256i c[3], up[3];
+/* The cell of a strict read (tube.c: strict_cell): lower-corner index and
+ * fractions. */
+A2I __m256i strict_cell8(const grid8 *g, const __m256 p[3], __m256 f[3]) {
+    __m256 u[3];
+    __m256i c[3];
     to_index(g, p, u);
     for (int a = 0; a < 3; a++) {
         c[a] = _mm256_cvttps_epi32(u[a]);
         f[a] = _mm256_sub_ps(u[a], _mm256_cvtepi32_ps(c[a]));
-        up[a] = _mm256_castps_si256(_mm256_cmp_ps(f[a], zero, _CMP_GT_OQ)); /* all ones where f > 0 */
     }
-    __m256i b0 = _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(c[2], g->sz), _mm256_mullo_epi32(c[1], g->sy)), c[0]);
-    /* Contiguous loads when every lane is wanted, the cells form one row
-     * (one_row) and the upper y and z corners are the same for all lanes.
-     * The loads then read every node between lane 0's lower and lane 7's
-     * upper x corner. Those are valid reads: lane 7's upper x corner is
-     * read only if its fraction is > 0 (so sample_strict reads it too), and
-     * the nodes of earlier slices/shells along a row form an interval (a
-     * Chebyshev distance or slice index is convex along it), so the nodes
-     * between two readable ones are readable. A lane whose x fraction is 0
-     * gets its neighbour's value with weight 0: the same result. */
-    if (_mm256_movemask_ps(mask) == 0xff && one_row(c) && _mm256_extract_epi32(up[0], 7) &&
-        _mm256_movemask_epi8(_mm256_cmpeq_epi32(up[1], _mm256_broadcastd_epi32(_mm256_castsi256_si128(up[1])))) == -1 &&
-        _mm256_movemask_epi8(_mm256_cmpeq_epi32(up[2], _mm256_broadcastd_epi32(_mm256_castsi256_si128(up[2])))) == -1) {
-        const float *r = v + _mm_cvtsi128_si32(_mm256_castsi256_si128(b0));
-        const ptrdiff_t sy = _mm256_extract_epi32(up[1], 0) ? _mm256_extract_epi32(g->sy, 0) : 0;
-        const ptrdiff_t sz = _mm256_extract_epi32(up[2], 0) ? _mm256_extract_epi32(g->sz, 0) : 0;
-        __m256 c00 = lerp(_mm256_loadu_ps(r), _mm256_loadu_ps(r + 1), f[0]);
-        __m256 c10 = lerp(_mm256_loadu_ps(r + sy), _mm256_loadu_ps(r + sy + 1), f[0]);
-        __m256 c01 = lerp(_mm256_loadu_ps(r + sz), _mm256_loadu_ps(r + sz + 1), f[0]);
-        __m256 c11 = lerp(_mm256_loadu_ps(r + sz + sy), _mm256_loadu_ps(r + sz + sy + 1), f[0]);
-        __m256 c0 = lerp(c00, c10, f[1]), c1 = lerp(c01, c11, f[1]);
-        return lerp(c0, c1, f[2]);
+    return cell_index(g, c);
+}
+
+/* tube.c's strict_at for the lanes in `mask` (others: 0, no load): the
+ * upper corner of an axis only where the fraction is > 0. */
+A2I __m256 strict_at8(const float *v, const grid8 *g, __m256i b, const __m256 f[3], __m256 mask) {
+    const __m256 zero = _mm256_setzero_ps();
+    __m256i up[3];
+    for (int a = 0; a < 3; a++) up[a] = _mm256_castps_si256(_mm256_cmp_ps(f[a], zero, _CMP_GT_OQ));
+    /* Row reads when every lane is wanted, the indices are consecutive and
+     * the upper y and z corners are the same for all lanes: every loaded
+     * element is then a corner some lane reads — lane 7's upper x corner
+     * only if its fraction is > 0 (checked); a lane whose x fraction is 0
+     * gets lane + 1's lower corner as its upper one, with weight 0: the
+     * same result. */
+    if (_mm256_movemask_ps(mask) == 0xff && _mm256_extract_epi32(up[0], 7) && consecutive(b) &&
+        all_lanes(_mm256_cmpeq_epi32(up[1], bcast0(up[1]))) && all_lanes(_mm256_cmpeq_epi32(up[2], bcast0(up[2])))) {
+        const float *r = v + _mm_cvtsi128_si32(_mm256_castsi256_si128(b));
+        const ptrdiff_t sy = _mm256_extract_epi32(up[1], 0) ? g->nx : 0;
+        const ptrdiff_t sz = _mm256_extract_epi32(up[2], 0) ? g->nxy : 0;
+#define L_(o) _mm256_loadu_ps(r + (o))
+        return trilerp(L_(0), L_(1), L_(sy), L_(sy + 1), L_(sz), L_(sz + 1), L_(sz + sy), L_(sz + sy + 1), f);
+#undef L_
     }
     __m256i ox = _mm256_and_si256(up[0], _mm256_set1_epi32(1));
     __m256i oy = _mm256_and_si256(up[1], g->sy), oz = _mm256_and_si256(up[2], g->sz);
-    __m256i b = b0;
     __m256i by = _mm256_add_epi32(b, oy), bz = _mm256_add_epi32(b, oz), byz = _mm256_add_epi32(by, oz);
 #define G_(idx) _mm256_mask_i32gather_ps(zero, v, (idx), mask, 4)
-    __m256 a000 = G_(b), a100 = G_(_mm256_add_epi32(b, ox));
-    __m256 a010 = G_(by), a110 = G_(_mm256_add_epi32(by, ox));
-    __m256 a001 = G_(bz), a101 = G_(_mm256_add_epi32(bz, ox));
-    __m256 a011 = G_(byz), a111 = G_(_mm256_add_epi32(byz, ox));
+    return trilerp(G_(b), G_(_mm256_add_epi32(b, ox)), G_(by), G_(_mm256_add_epi32(by, ox)), G_(bz),
+                   G_(_mm256_add_epi32(bz, ox)), G_(byz), G_(_mm256_add_epi32(byz, ox)), f);
 #undef G_
-    __m256 c00 = lerp(a000, a100, f[0]), c10 = lerp(a010, a110, f[0]);
-    __m256 c01 = lerp(a001, a101, f[0]), c11 = lerp(a011, a111, f[0]);
-    __m256 c0 = lerp(c00, c10, f[1]), c1 = lerp(c01, c11, f[1]);
-    return lerp(c0, c1, f[2]);
 }
 
 /* tube_kappa for 8 arguments. */
 A2I __m256 kappa8(const tube_lanes *t, __m256 rho) {
     const __m256 zero = _mm256_setzero_ps(), last = _mm256_set1_ps((float)(t->n_sigma - 1));
     __m256 u = _mm256_div_ps(_mm256_mul_ps(rho, last), _mm256_set1_ps(t->sigma_max));
-    __m256 below = _mm256_cmp_ps(u, zero, _CMP_LE_OQ), above = _mm256_cmp_ps(u, last, _CMP_GE_OQ);
+    __m256 above = _mm256_cmp_ps(u, last, _CMP_GE_OQ);
+    /* u ≤ 0 gives cell 0 and fraction 0: κ[0] + (κ[1] − κ[0])·0 = κ[0] */
     __m256 uc = _mm256_min_ps(_mm256_max_ps(u, zero), last);
     __m256i i = _mm256_min_epi32(_mm256_cvttps_epi32(uc), _mm256_set1_epi32(t->n_sigma - 2));
     __m256 f = _mm256_sub_ps(uc, _mm256_cvtepi32_ps(i));
     __m256 k0 = _mm256_i32gather_ps(t->kappa, i, 4);
     __m256 k1 = _mm256_i32gather_ps(t->kappa, _mm256_add_epi32(i, _mm256_set1_epi32(1)), 4);
-    __m256 k = lerp(k0, k1, f);
-    k = sel(below, _mm256_set1_ps(t->kappa[0]), k);
-    return sel(above, _mm256_set1_ps(t->kappa[t->n_sigma - 1]), k);
+    return sel(above, _mm256_set1_ps(t->kappa[t->n_sigma - 1]), lerp(k0, k1, f));
+}
+
+A2I void grid_consts(const tube_lanes *t, grid8 *g) {
+    for (int a = 0; a < 3; a++) {
+        g->lo[a] = _mm256_set1_ps(t->lo[a]);
+        g->inv_h[a] = _mm256_set1_ps(t->inv_h[a]);
+        g->m[a] = _mm256_set1_ps((float)(t->dims[a] - 1));
+        g->imax[a] = _mm256_set1_epi32(t->dims[a] - 2);
+    }
+    g->nx = t->dims[0], g->nxy = t->dims[0] * t->dims[1];
+    g->sy = _mm256_set1_epi32(g->nx);
+    g->sz = _mm256_set1_epi32(g->nxy);
+}
+
+/* Stores lanes [0, n) of v at p + l·stride. */
+A2I void store_ps(float *p, ptrdiff_t stride, __m256 v, int n) {
+    if (stride == 1 && n == 8) {
+        _mm256_storeu_ps(p, v);
+        return;
+    }
+    float tmp[8];
+    _mm256_storeu_ps(tmp, v);
+    for (int l = 0; l < n; l++) p[(ptrdiff_t)l * stride] = tmp[l];
+}
+
+A2I void store_epi32(int32_t *p, ptrdiff_t stride, __m256i v, int n) {
+    if (stride == 1 && n == 8) {
+        _mm256_storeu_si256((__m256i *)(void *)p, v);
+        return;
+    }
+    int32_t tmp[8];
+    _mm256_storeu_si256((__m256i *)(void *)tmp, v);
+    for (int l = 0; l < n; l++) p[(ptrdiff_t)l * stride] = tmp[l];
+}
+
+/* Loads lanes [0, n) from p + l·stride (others 0). */
+A2I __m256 load_ps(const float *p, ptrdiff_t stride, int n) {
+    if (stride == 1 && n == 8) return _mm256_loadu_ps(p);
+    float tmp[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    for (int l = 0; l < n; l++) tmp[l] = p[(ptrdiff_t)l * stride];
+    return _mm256_loadu_ps(tmp);
+}
+
+A2I __m256i load_epi32(const int32_t *p, ptrdiff_t stride, int n) {
+    if (stride == 1 && n == 8) return _mm256_loadu_si256((const __m256i *)(const void *)p);
+    int32_t tmp[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    for (int l = 0; l < n; l++) tmp[l] = p[(ptrdiff_t)l * stride];
+    return _mm256_loadu_si256((const __m256i *)(const void *)tmp);
 }
 
 A2 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count) {
     const int nx = t->dims[0], ny = t->dims[1];
     grid8 g;
-    for (int a = 0; a < 3; a++) {
-        g.lo[a] = _mm256_set1_ps(t->lo[a]);
-        g.inv_h[a] = _mm256_set1_ps(t->inv_h[a]);
-        g.m[a] = _mm256_set1_ps((float)(t->dims[a] - 1));
-        g.imax[a] = _mm256_set1_epi32(t->dims[a] - 2);
-    }
-    g.sy = _mm256_set1_epi32(nx);
-    g.sz = _mm256_set1_epi32(nx * ny);
+    grid_consts(t, &g);
     const __m256 zero = _mm256_setzero_ps(), inf = _mm256_set1_ps(INFINITY);
     const float s = t->s, half = 0.5f * s;
     const __m256 vs = _mm256_set1_ps(s), vhalf = _mm256_set1_ps(half), s_tol = _mm256_set1_ps(s * 1.0001f);
@@ -187,7 +227,8 @@ A2 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int 
     const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
     const int start[3] = {i, j, k};
     const ptrdiff_t stride = axis == 0 ? 1 : axis == 1 ? (ptrdiff_t)nx : (ptrdiff_t)nx * ny;
-    float *out = t->D + ((size_t)k * (size_t)ny + (size_t)j) * (size_t)nx + (size_t)i;
+    const size_t at0 = ((size_t)k * (size_t)ny + (size_t)j) * (size_t)nx + (size_t)i;
+    float *out = t->D + at0;
     /* Stages over chunks of up to 64 nodes (8 blocks of 8), with the
      * intermediate vectors in small arrays: one block's work is a long
      * dependency chain (sqrt → divisions → gather → κ index → κ gather →
@@ -197,7 +238,7 @@ A2 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int 
      * their latencies overlap. */
     enum { CHUNK = 64, BLOCKS = CHUNK / 8 };
     __m256 c_w[3][BLOCKS], c_m[3][BLOCKS], c_delta[BLOCKS], c_arg[BLOCKS], c_k[BLOCKS];
-    const __m256 hx = _mm256_set1_ps(t->h[0]), hy = _mm256_set1_ps(t->h[1]), hz = _mm256_set1_ps(t->h[2]);
+    const __m256 hv[3] = {_mm256_set1_ps(t->h[0]), _mm256_set1_ps(t->h[1]), _mm256_set1_ps(t->h[2])};
     for (int c0 = 0; c0 < count; c0 += CHUNK) {
         int nb = (count - c0 + 7) / 8;
         if (nb > BLOCKS) nb = BLOCKS;
@@ -206,7 +247,7 @@ A2 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int 
          * now brings its lines into the cache before those reads (which
          * otherwise miss: ρ, unlike D, was not written recently). */
         for (int bi = 0; bi < nb; bi += 2)
-            _mm_prefetch((const char *)(t->rho + (out - t->D) + (ptrdiff_t)(c0 + 8 * bi) * stride), _MM_HINT_T0);
+            _mm_prefetch((const char *)(t->rho + at0 + (ptrdiff_t)(c0 + 8 * bi) * stride), _MM_HINT_T0);
         /* 1. chain geometry: ω, δ and the centre of the sphere towards
          *    the light */
         for (int bi = 0; bi < nb; bi++) {
@@ -216,7 +257,7 @@ A2 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int 
             for (int a = 0; a < 3; a++) {
                 __m256i idx = _mm256_set1_epi32(start[a]);
                 if (a == axis) idx = _mm256_add_epi32(idx, ln);
-                x[a] = _mm256_add_ps(g.lo[a], _mm256_mul_ps(_mm256_cvtepi32_ps(idx), a == 0 ? hx : a == 1 ? hy : hz));
+                x[a] = _mm256_add_ps(g.lo[a], _mm256_mul_ps(_mm256_cvtepi32_ps(idx), hv[a]));
             }
             /* chain_start: travel direction and the distance to the light */
             if (t->positional) {
@@ -268,48 +309,82 @@ A2 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int 
         }
         /* 3. κ of that sphere */
         for (int bi = 0; bi < nb; bi++) c_k[bi] = kappa8(t, c_arg[bi]);
-        /* 4. the front s back (or the exact first step), and the sum */
+        /* 4. the front s back (or the exact first step), the sum, the
+         *    records */
         for (int bi = 0; bi < nb; bi++) {
-            int n0 = c0 + 8 * bi;
+            int n0 = c0 + 8 * bi, left = count - n0 < 8 ? count - n0 : 8;
             __m256i ln = _mm256_add_epi32(_mm256_set1_epi32(n0), lane);
             __m256 valid = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(count), ln));
             __m256 w[3] = {c_w[0][bi], c_w[1][bi], c_w[2][bi]}, delta = c_delta[bi], kA = c_k[bi], y[3];
             for (int a = 0; a < 3; a++) {
                 __m256i idx = _mm256_set1_epi32(start[a]);
                 if (a == axis) idx = _mm256_add_epi32(idx, ln);
-                __m256 x = _mm256_add_ps(g.lo[a], _mm256_mul_ps(_mm256_cvtepi32_ps(idx), a == 0 ? hx : a == 1 ? hy : hz));
+                __m256 x = _mm256_add_ps(g.lo[a], _mm256_mul_ps(_mm256_cvtepi32_ps(idx), hv[a]));
                 y[a] = _mm256_add_ps(x, _mm256_mul_ps(w[a], neg_s));
             }
             __m256 near = _mm256_cmp_ps(delta, s_tol, _CMP_LE_OQ);
-            __m256 v_near = _mm256_mul_ps(_mm256_div_ps(delta, vs), kA);
+            __m256 q_near = _mm256_div_ps(delta, vs);
             __m256 dy = _mm256_sub_ps(delta, vs);
             __m256 mid = _mm256_andnot_ps(near, _mm256_cmp_ps(dy, vs, _CMP_LE_OQ));
             __m256 deep = _mm256_andnot_ps(_mm256_or_ps(near, mid), valid);
-            __m256 back = zero;
+            __m256 back = zero, q_mid = zero, argB = zero, f[3];
             if (_mm256_movemask_ps(_mm256_and_ps(mid, valid))) {
                 /* y within the first step: its D exactly (Eq. 17) */
                 __m256 cB = _mm256_mul_ps(m_half, dy), mB[3];
                 for (int a = 0; a < 3; a++) mB[a] = _mm256_add_ps(y[a], _mm256_mul_ps(w[a], cB));
                 __m256 rhoB = sample_clamped(t->rho, &g, mB);
-                __m256 kB = kappa8(t, _mm256_mul_ps(_mm256_mul_ps(rhoB, vhalf), inv_r));
-                back = sel(mid, _mm256_mul_ps(_mm256_div_ps(dy, vs), kB), back);
+                argB = _mm256_mul_ps(_mm256_mul_ps(rhoB, vhalf), inv_r);
+                q_mid = _mm256_div_ps(dy, vs);
+                back = sel(mid, _mm256_mul_ps(q_mid, kappa8(t, argB)), back);
             }
-            if (_mm256_movemask_ps(deep)) back = sel(deep, sample_strict8(t->D, &g, y, deep), back);
-            __m256 v = sel(near, v_near, _mm256_add_ps(back, kA));
-            int left = count - n0;
-            if (axis == 0 && left >= 8) {
-                _mm256_storeu_ps(out + n0, v);
-            } else {
-                float tmp[8];
-                _mm256_storeu_ps(tmp, v);
-                int m8 = left < 8 ? left : 8;
-                for (int l = 0; l < m8; l++) out[(ptrdiff_t)(n0 + l) * stride] = tmp[l];
+            __m256i cell = strict_cell8(&g, y, f);
+            if (_mm256_movemask_ps(deep)) back = sel(deep, strict_at8(t->D, &g, cell, f, deep), back);
+            store_ps(out + (ptrdiff_t)n0 * stride, stride, sel(near, _mm256_mul_ps(q_near, kA), _mm256_add_ps(back, kA)),
+                     left);
+            if (t->g_arg) {
+                size_t at = at0 + (size_t)((ptrdiff_t)n0 * stride);
+                __m256i tag = _mm256_castps_si256(sel(deep, _mm256_castsi256_ps(cell),
+                                                      sel(mid, _mm256_castsi256_ps(_mm256_set1_epi32(MID_)),
+                                                          _mm256_castsi256_ps(_mm256_set1_epi32(NEAR_)))));
+                store_ps(t->g_arg + at, stride, c_arg[bi], left);
+                store_epi32(t->g_tag + at, stride, tag, left);
+                store_ps(t->g_aux[0] + at, stride, sel(deep, f[0], sel(mid, q_mid, q_near)), left);
+                store_ps(t->g_aux[1] + at, stride, sel(deep, f[1], sel(mid, argB, zero)), left);
+                store_ps(t->g_aux[2] + at, stride, sel(deep, f[2], zero), left);
             }
         }
     }
 }
 
-A2 void tube_fast_run_avx2(const tube_fast *fr, float *out, const float *D, const float *R, int count) {
+A2 void tube_resum_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count) {
+    const int nx = t->dims[0], ny = t->dims[1];
+    grid8 g;
+    grid_consts(t, &g);
+    const __m256 zero = _mm256_setzero_ps();
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const ptrdiff_t stride = axis == 0 ? 1 : axis == 1 ? (ptrdiff_t)nx : (ptrdiff_t)nx * ny;
+    const size_t at0 = ((size_t)k * (size_t)ny + (size_t)j) * (size_t)nx + (size_t)i;
+    for (int n0 = 0; n0 < count; n0 += 8) {
+        int left = count - n0 < 8 ? count - n0 : 8;
+        size_t at = at0 + (size_t)((ptrdiff_t)n0 * stride);
+        __m256 valid = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(count - n0), lane));
+        __m256 arg = load_ps(t->g_arg + at, stride, left);
+        __m256i tag = load_epi32(t->g_tag + at, stride, left);
+        __m256 f[3];
+        for (int a = 0; a < 3; a++) f[a] = load_ps(t->g_aux[a] + at, stride, left);
+        __m256 kA = kappa8(t, arg);
+        __m256 near = _mm256_castsi256_ps(_mm256_cmpeq_epi32(tag, _mm256_set1_epi32(NEAR_)));
+        __m256 mid = _mm256_and_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(tag, _mm256_set1_epi32(MID_))), valid);
+        __m256 deep = _mm256_and_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(tag, _mm256_set1_epi32(-1))), valid);
+        __m256 back = zero;
+        if (_mm256_movemask_ps(mid)) back = sel(mid, _mm256_mul_ps(f[0], kappa8(t, f[1])), back);
+        if (_mm256_movemask_ps(deep)) back = sel(deep, strict_at8(t->D, &g, tag, f, deep), back);
+        store_ps(t->D + at, stride, sel(near, _mm256_mul_ps(f[0], kA), _mm256_add_ps(back, kA)), left);
+    }
+}
+
+A2 void tube_fast_run_avx2(const tube_fast *fr, float *out, const float *D, const float *R, float *u_io,
+                           int32_t *tag_out, int resum, int count) {
     const ptrdiff_t *ov = fr->off_v, *orr = fr->off_r;
     __m256 a[8], b[8];
     for (int c = 0; c < 8; c++) a[c] = _mm256_set1_ps(fr->w_v[c]), b[c] = _mm256_set1_ps(fr->w_r[c]);
@@ -319,21 +394,27 @@ A2 void tube_fast_run_avx2(const tube_fast *fr, float *out, const float *D, cons
         /* the scalar loop's sums, left to right, unfused */
         const float *d = D + i, *r = R + i;
         __m256 back = _mm256_mul_ps(a[0], _mm256_loadu_ps(d + ov[0]));
-        __m256 x = _mm256_mul_ps(b[0], _mm256_loadu_ps(r + orr[0]));
-        for (int c = 1; c < 8; c++) {
-            back = _mm256_add_ps(back, _mm256_mul_ps(a[c], _mm256_loadu_ps(d + ov[c])));
-            x = _mm256_add_ps(x, _mm256_mul_ps(b[c], _mm256_loadu_ps(r + orr[c])));
+        for (int c = 1; c < 8; c++) back = _mm256_add_ps(back, _mm256_mul_ps(a[c], _mm256_loadu_ps(d + ov[c])));
+        __m256 u;
+        if (resum) {
+            u = _mm256_loadu_ps(u_io + i);
+        } else {
+            __m256 x = _mm256_mul_ps(b[0], _mm256_loadu_ps(r + orr[0]));
+            for (int c = 1; c < 8; c++) x = _mm256_add_ps(x, _mm256_mul_ps(b[c], _mm256_loadu_ps(r + orr[c])));
+            x = _mm256_mul_ps(x, kscale);
+            /* min(x, last) as the scalar code writes it: 0.5 (x + last − |x − last|) */
+            u = _mm256_mul_ps(half, _mm256_sub_ps(_mm256_add_ps(x, last),
+                                                  _mm256_and_ps(_mm256_sub_ps(x, last), abs_mask)));
+            if (u_io) {
+                _mm256_storeu_ps(u_io + i, u);
+                _mm256_storeu_si256((__m256i *)(void *)(tag_out + i), _mm256_set1_epi32(FAST_));
+            }
         }
-        x = _mm256_mul_ps(x, kscale);
-        /* min(x, last) as the scalar code writes it: 0.5 (x + last − |x − last|) */
-        __m256 u = _mm256_mul_ps(half, _mm256_sub_ps(_mm256_add_ps(x, last),
-                                                     _mm256_and_ps(_mm256_sub_ps(x, last), abs_mask)));
         __m256i j = _mm256_cvttps_epi32(u);
         __m256 f = _mm256_sub_ps(u, _mm256_cvtepi32_ps(j));
         __m256 k0 = _mm256_i32gather_ps(fr->kappa, j, 4);
         __m256 k1 = _mm256_i32gather_ps(fr->kappa, _mm256_add_epi32(j, _mm256_set1_epi32(1)), 4);
-        __m256 v = _mm256_add_ps(_mm256_add_ps(back, k0), _mm256_mul_ps(_mm256_sub_ps(k1, k0), f));
-        _mm256_storeu_ps(out + i, v);
+        _mm256_storeu_ps(out + i, _mm256_add_ps(_mm256_add_ps(back, k0), _mm256_mul_ps(_mm256_sub_ps(k1, k0), f)));
     }
 }
 
@@ -345,8 +426,13 @@ void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int cou
     (void)t, (void)i, (void)j, (void)k, (void)axis, (void)count;
 }
 
-void tube_fast_run_avx2(const tube_fast *f, float *out, const float *D, const float *R, int count) {
-    (void)f, (void)out, (void)D, (void)R, (void)count;
+void tube_resum_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count) {
+    (void)t, (void)i, (void)j, (void)k, (void)axis, (void)count;
+}
+
+void tube_fast_run_avx2(const tube_fast *f, float *out, const float *D, const float *R, float *u_io,
+                        int32_t *tag_out, int resum, int count) {
+    (void)f, (void)out, (void)D, (void)R, (void)u_io, (void)tag_out, (void)resum, (void)count;
 }
 
 #endif
