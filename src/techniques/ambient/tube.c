@@ -123,75 +123,49 @@ typedef struct sweep {
     int valid_lo[3], valid_hi[3]; /* node indices whose fast-path reads stay in the grid */
 } sweep;
 
-/* What node (i, j, k) adds to D apart from κ: the g-independent record
- * (tube_geometry). */
-typedef struct node_rec {
-    float arg;
-    int64_t tag;
-    float aux[3];
-} node_rec;
-
-static inline node_rec node_record(const sweep *sw, int i, int j, int k) {
+/* D at node (i, j, k). The κ argument of the sphere towards the light is
+ * computed (and stored to *arg_out if given), or taken from *arg_in (a
+ * re-sum). */
+static inline float node_value(const sweep *sw, int i, int j, int k, const float *arg_in, float *arg_out) {
     const tube_input *in = sw->in;
     volux_vec3 x = scatter_grid_node(sw->V, i, j, k);
-    float delta;
-    node_rec r = {0.0f, 0, {0.0f, 0.0f, 0.0f}};
+    float delta, arg, v;
     volux_vec3 w = chain_start(sw->l, sw->lo, sw->hi, x, &delta);
     if (delta <= sw->s * 1.0001f) {
         /* Eq. 17 between the chain start (D = 0) and the first node a full
          * step on (D = κ of a sphere of radius s/2): D = (δ/s)·κ. Linear
          * in δ, so a homogeneous medium gives D exactly linear along every
          * chain and the sweep's interpolation exact. */
-        float rho = scatter_grid_sample(in->rho, v3_madd(x, w, -0.5f * delta));
-        r.arg = rho * 0.5f * sw->s * sw->inv_r;
-        r.tag = TUBE_NEAR;
-        r.aux[0] = delta / sw->s;
+        arg = arg_in ? *arg_in : scatter_grid_sample(in->rho, v3_madd(x, w, -0.5f * delta)) * 0.5f * sw->s * sw->inv_r;
+        v = delta / sw->s * tube_kappa(in, arg);
     } else {
         /* Eq. 16 (as D = −ln V): the front from s back, through the
          * sphere between. */
-        float half = 0.5f * sw->s, dy = delta - sw->s;
-        float rho = scatter_grid_sample(in->rho, v3_madd(x, w, -half));
+        float half = 0.5f * sw->s, dy = delta - sw->s, back;
+        arg = arg_in ? *arg_in : scatter_grid_sample(in->rho, v3_madd(x, w, -half)) * half * sw->inv_r;
         volux_vec3 y = v3_madd(x, w, -sw->s);
-        r.arg = rho * half * sw->inv_r;
         if (dy <= sw->s) {
             /* y is within the first step: evaluate it exactly rather than
              * interpolate the kink at the chain start (a cone around a
              * point light inside the volume). */
             float rho_y = scatter_grid_sample(in->rho, v3_madd(y, w, -0.5f * dy));
-            r.tag = TUBE_MID;
-            r.aux[0] = dy / sw->s;
-            r.aux[1] = rho_y * half * sw->inv_r;
+            back = dy / sw->s * tube_kappa(in, rho_y * half * sw->inv_r);
         } else {
-            r.tag = strict_cell(sw->V, y, r.aux);
+            float f[3];
+            int64_t cell = strict_cell(sw->V, y, f);
+            back = strict_at(sw->V, cell, f);
         }
+        v = back + tube_kappa(in, arg);
     }
-    return r;
-}
-
-/* D at a node from its record and the current κ. */
-static inline float node_value(const sweep *sw, const node_rec *r) {
-    const tube_input *in = sw->in;
-    if (r->tag == TUBE_NEAR) return r->aux[0] * tube_kappa(in, r->arg);
-    float back = r->tag == TUBE_MID ? r->aux[0] * tube_kappa(in, r->aux[1]) : strict_at(sw->V, r->tag, r->aux);
-    return back + tube_kappa(in, r->arg);
+    if (arg_out) *arg_out = arg;
+    return v;
 }
 
 static inline void node(const sweep *sw, int i, int j, int k) {
     scatter_grid *V = sw->V;
     size_t at = ((size_t)k * (size_t)V->dims[1] + (size_t)j) * (size_t)V->dims[0] + (size_t)i;
-    node_rec r;
-    tube_geometry *geo = sw->geo;
-    if (sw->resum) {
-        r.arg = geo->arg[at], r.tag = geo->tag[at];
-        for (int a = 0; a < 3; a++) r.aux[a] = geo->aux[a][at];
-    } else {
-        r = node_record(sw, i, j, k);
-        if (geo) {
-            geo->arg[at] = r.arg, geo->tag[at] = (int32_t)r.tag;
-            for (int a = 0; a < 3; a++) geo->aux[a][at] = r.aux[a];
-        }
-    }
-    V->v[at] = node_value(sw, &r);
+    float *rec = sw->geo ? sw->geo->arg + at : NULL;
+    V->v[at] = node_value(sw, i, j, k, sw->resum ? rec : NULL, sw->resum ? NULL : rec);
 }
 
 /* The nodes start + n·e_axis, n ∈ [0, count): 8 at a time where the CPU
@@ -199,8 +173,7 @@ static inline void node(const sweep *sw, int i, int j, int k) {
 static void nodes(const sweep *sw, const int start[3], int axis, int count) {
     if (count <= 0) return;
     if (sw->simd) {
-        if (sw->resum) tube_resum_avx2(&sw->lanes, start[0], start[1], start[2], axis, count);
-        else tube_nodes_avx2(&sw->lanes, start[0], start[1], start[2], axis, count);
+        tube_nodes_avx2(&sw->lanes, start[0], start[1], start[2], axis, count);
         return;
     }
     int idx[3] = {start[0], start[1], start[2]};
@@ -211,13 +184,12 @@ static void nodes(const sweep *sw, const int start[3], int axis, int count) {
  * in memory (stride 1), from node index `at`: loads at constant offsets,
  * vectorisable. The written slice and the read slices of D are disjoint
  * (every read lies in an earlier slice). The κ-table coordinate u of each
- * node is its g-independent record (TUBE_FAST): stored by a march, read by
+ * node is its g-independent record (tube_geometry): stored by a march, read by
  * a re-sum. */
 static void fast_run(const sweep *sw, size_t at, int count) {
     float *out = sw->V->v + at;
     const float *D = sw->V->v + at, *R = sw->in->rho->v + at;
     float *geo_u = sw->geo ? sw->geo->arg + at : NULL;
-    int32_t *geo_tag = sw->geo && !sw->resum ? sw->geo->tag + at : NULL;
     /* locals, so the loop does not reload them through `sw` (which could alias out) */
     const ptrdiff_t v0 = sw->off_v[0], v1 = sw->off_v[1], v2 = sw->off_v[2], v3 = sw->off_v[3], v4 = sw->off_v[4],
                     v5 = sw->off_v[5], v6 = sw->off_v[6], v7 = sw->off_v[7];
@@ -233,7 +205,7 @@ static void fast_run(const sweep *sw, size_t at, int count) {
     int done = 0;
     if (sw->simd && count >= 8) {
         done = count & ~7;
-        tube_fast_run_avx2(&sw->fr, out, D, R, geo_u, geo_tag, sw->resum, done);
+        tube_fast_run_avx2(&sw->fr, out, D, R, geo_u, sw->resum, done);
     }
     for (int i0 = done; i0 < count; i0 += 256) {
         int m = count - i0 < 256 ? count - i0 : 256;
@@ -251,10 +223,7 @@ static void fast_run(const sweep *sw, size_t at, int count) {
                           kscale;
                 u[i] = 0.5f * (x + last - fabsf(x - last)); /* min(x, last); ρ ≥ 0 */
             }
-            if (geo_u) {
-                memcpy(geo_u + i0, u, (size_t)m * sizeof *u);
-                for (int i = 0; i < m; i++) geo_tag[i0 + i] = TUBE_FAST;
-            }
+            if (geo_u) memcpy(geo_u + i0, u, (size_t)m * sizeof *u);
         }
         /* the κ table look-up is a gather: scalar */
         for (int i = 0; i < m; i++) {
@@ -437,8 +406,7 @@ static void setup_lanes(sweep *sw) {
     t->s = sw->s, t->inv_r = sw->inv_r;
     t->kappa = in->kappa, t->n_sigma = in->n_sigma, t->sigma_max = in->sigma_max;
     t->g_arg = sw->geo ? sw->geo->arg : NULL;
-    t->g_tag = sw->geo ? sw->geo->tag : NULL;
-    for (int a = 0; a < 3; a++) t->g_aux[a] = sw->geo ? sw->geo->aux[a] : NULL;
+    t->resum = sw->resum;
 }
 
 /* Phase p of the directional sweep: `group` slices from p·group on. */
@@ -550,15 +518,10 @@ volux_status tube_geometry_alloc(volux_context *ctx, size_t n, tube_geometry *g)
     if (g->arg && g->n == n) return VOLUX_OK;
     tube_geometry_free(ctx, g);
     size_t bytes;
-    /* tags are 32-bit node indices */
-    if (n >= (size_t)INT32_MAX || !volux_mul_size(n, 5 * sizeof(float), &bytes) ||
-        bytes > volux_context_max_bytes(ctx))
+    if (!volux_mul_size(n, sizeof(float), &bytes) || bytes > volux_context_max_bytes(ctx))
         return volux_error(ctx, VOLUX_ERR_LIMIT, "ambient: radiance cache geometry of %zu nodes exceeds the limits", n);
-    char *p = volux_alloc_aligned(ctx, bytes);
-    if (!p) return volux_error(ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the radiance cache geometry");
-    g->arg = (float *)(void *)p;
-    g->tag = (int32_t *)(void *)(p + n * sizeof(float));
-    for (int a = 0; a < 3; a++) g->aux[a] = (float *)(void *)(p + (size_t)(2 + a) * n * sizeof(float));
+    g->arg = volux_alloc_aligned(ctx, bytes);
+    if (!g->arg) return volux_error(ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the radiance cache geometry");
     g->n = n, g->bytes = bytes;
     return VOLUX_OK;
 }

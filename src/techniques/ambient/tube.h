@@ -38,26 +38,20 @@
 #include "techniques/scatter/grid.h"
 #include "techniques/scatter/lights.h"
 
-/* The g-independent part of a radiance cache. The phase enters tube
- * marching only through κ (the table's θ = 0 column at g); which nodes a
- * node reads, with which weights, and the optical radius of each sphere do
- * not depend on it. A march records, per node:
- *   arg   the κ argument ρ·(s/2)/r of the sphere towards the light (the
- *         directional fast path: the κ-table coordinate itself)
- *   tag   ≥ 0: the node reads D at y = x − sω, in the cell with this
- *         lower-corner index, at fractions aux[0..2];
- *         TUBE_NEAR: D = aux[0]·κ(arg)   (aux[0] = δ/s, Eq. 17);
- *         TUBE_MID:  D = aux[0]·κ(aux[1]) + κ(arg)   (y within a step of
- *         the chain start);
- *         TUBE_FAST: the directional fast path (constant offsets)
- * and a re-sum (tube_resum) recomputes D from these with a new κ, in the
- * same sweep order, bit-identical to a march with that κ. 20 bytes per
- * node (5 arrays of n). */
-enum { TUBE_NEAR = -1, TUBE_MID = -2, TUBE_FAST = -3 };
+/* The g-independent part of a radiance cache that is worth keeping. The
+ * phase enters tube marching only through κ (the table's θ = 0 column at
+ * g); which nodes a node reads, with which weights, and the optical radius
+ * of each sphere do not depend on it. The expensive g-independent part is
+ * the trilinear read of ρ at the centre of the sphere towards the light
+ * (about 40 % of a march); the chain geometry is cheaper to recompute than
+ * to store and stream back (20 bytes per node measured slower than
+ * recomputing it). A march records, per node, the κ argument
+ * arg = ρ·(s/2)/r of that sphere (the directional fast path: the κ-table
+ * coordinate itself); a re-sum (tube_resum) recomputes D from it with a
+ * new κ, in the same sweep order, bit-identical to a march with that κ.
+ * 4 bytes per cache node. */
 typedef struct tube_geometry {
     float *arg;
-    int32_t *tag;
-    float *aux[3];
     size_t n, bytes;
 } tube_geometry;
 

@@ -27,9 +27,6 @@ int tube_simd_available(void) {
 #define A2 __attribute__((target("avx2")))
 #define A2I static inline __attribute__((always_inline, target("avx2")))
 
-/* tube.h's record tags (kept in sync: tube.h is not included here) */
-enum { NEAR_ = -1, MID_ = -2, FAST_ = -3 };
-
 /* a where m, else b */
 A2I __m256 sel(__m256 m, __m256 a, __m256 b) { return _mm256_blendv_ps(b, a, m); }
 
@@ -190,29 +187,12 @@ A2I void store_ps(float *p, ptrdiff_t stride, __m256 v, int n) {
     for (int l = 0; l < n; l++) p[(ptrdiff_t)l * stride] = tmp[l];
 }
 
-A2I void store_epi32(int32_t *p, ptrdiff_t stride, __m256i v, int n) {
-    if (stride == 1 && n == 8) {
-        _mm256_storeu_si256((__m256i *)(void *)p, v);
-        return;
-    }
-    int32_t tmp[8];
-    _mm256_storeu_si256((__m256i *)(void *)tmp, v);
-    for (int l = 0; l < n; l++) p[(ptrdiff_t)l * stride] = tmp[l];
-}
-
 /* Loads lanes [0, n) from p + l·stride (others 0). */
 A2I __m256 load_ps(const float *p, ptrdiff_t stride, int n) {
     if (stride == 1 && n == 8) return _mm256_loadu_ps(p);
     float tmp[8] = {0, 0, 0, 0, 0, 0, 0, 0};
     for (int l = 0; l < n; l++) tmp[l] = p[(ptrdiff_t)l * stride];
     return _mm256_loadu_ps(tmp);
-}
-
-A2I __m256i load_epi32(const int32_t *p, ptrdiff_t stride, int n) {
-    if (stride == 1 && n == 8) return _mm256_loadu_si256((const __m256i *)(const void *)p);
-    int32_t tmp[8] = {0, 0, 0, 0, 0, 0, 0, 0};
-    for (int l = 0; l < n; l++) tmp[l] = p[(ptrdiff_t)l * stride];
-    return _mm256_loadu_si256((const __m256i *)(const void *)tmp);
 }
 
 A2 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count) {
@@ -299,13 +279,20 @@ A2 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int 
             }
             c_delta[bi] = delta;
         }
-        /* 2. ρ there, as the table argument */
+        /* 2. ρ there, as the table argument (a re-sum: the recorded one) */
         for (int bi = 0; bi < nb; bi++) {
+            int n0 = c0 + 8 * bi, left = count - n0 < 8 ? count - n0 : 8;
+            size_t at = at0 + (size_t)((ptrdiff_t)n0 * stride);
+            if (t->resum) {
+                c_arg[bi] = load_ps(t->g_arg + at, stride, left);
+                continue;
+            }
             __m256 m[3] = {c_m[0][bi], c_m[1][bi], c_m[2][bi]};
             __m256 rhoA = sample_clamped(t->rho, &g, m);
             __m256 near = _mm256_cmp_ps(c_delta[bi], s_tol, _CMP_LE_OQ);
             c_arg[bi] = sel(near, _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(rhoA, p_half), vs), inv_r),
                             _mm256_mul_ps(_mm256_mul_ps(rhoA, vhalf), inv_r));
+            if (t->g_arg) store_ps(t->g_arg + at, stride, c_arg[bi], left);
         }
         /* 3. κ of that sphere */
         for (int bi = 0; bi < nb; bi++) c_k[bi] = kappa8(t, c_arg[bi]);
@@ -323,68 +310,31 @@ A2 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int 
                 y[a] = _mm256_add_ps(x, _mm256_mul_ps(w[a], neg_s));
             }
             __m256 near = _mm256_cmp_ps(delta, s_tol, _CMP_LE_OQ);
-            __m256 q_near = _mm256_div_ps(delta, vs);
+            __m256 v_near = _mm256_mul_ps(_mm256_div_ps(delta, vs), kA);
             __m256 dy = _mm256_sub_ps(delta, vs);
             __m256 mid = _mm256_andnot_ps(near, _mm256_cmp_ps(dy, vs, _CMP_LE_OQ));
             __m256 deep = _mm256_andnot_ps(_mm256_or_ps(near, mid), valid);
-            __m256 back = zero, q_mid = zero, argB = zero, f[3];
+            __m256 back = zero;
             if (_mm256_movemask_ps(_mm256_and_ps(mid, valid))) {
                 /* y within the first step: its D exactly (Eq. 17) */
                 __m256 cB = _mm256_mul_ps(m_half, dy), mB[3];
                 for (int a = 0; a < 3; a++) mB[a] = _mm256_add_ps(y[a], _mm256_mul_ps(w[a], cB));
                 __m256 rhoB = sample_clamped(t->rho, &g, mB);
-                argB = _mm256_mul_ps(_mm256_mul_ps(rhoB, vhalf), inv_r);
-                q_mid = _mm256_div_ps(dy, vs);
-                back = sel(mid, _mm256_mul_ps(q_mid, kappa8(t, argB)), back);
+                __m256 kB = kappa8(t, _mm256_mul_ps(_mm256_mul_ps(rhoB, vhalf), inv_r));
+                back = sel(mid, _mm256_mul_ps(_mm256_div_ps(dy, vs), kB), back);
             }
-            __m256i cell = strict_cell8(&g, y, f);
-            if (_mm256_movemask_ps(deep)) back = sel(deep, strict_at8(t->D, &g, cell, f, deep), back);
-            store_ps(out + (ptrdiff_t)n0 * stride, stride, sel(near, _mm256_mul_ps(q_near, kA), _mm256_add_ps(back, kA)),
-                     left);
-            if (t->g_arg) {
-                size_t at = at0 + (size_t)((ptrdiff_t)n0 * stride);
-                __m256i tag = _mm256_castps_si256(sel(deep, _mm256_castsi256_ps(cell),
-                                                      sel(mid, _mm256_castsi256_ps(_mm256_set1_epi32(MID_)),
-                                                          _mm256_castsi256_ps(_mm256_set1_epi32(NEAR_)))));
-                store_ps(t->g_arg + at, stride, c_arg[bi], left);
-                store_epi32(t->g_tag + at, stride, tag, left);
-                store_ps(t->g_aux[0] + at, stride, sel(deep, f[0], sel(mid, q_mid, q_near)), left);
-                store_ps(t->g_aux[1] + at, stride, sel(deep, f[1], sel(mid, argB, zero)), left);
-                store_ps(t->g_aux[2] + at, stride, sel(deep, f[2], zero), left);
+            if (_mm256_movemask_ps(deep)) {
+                __m256 f[3];
+                __m256i cell = strict_cell8(&g, y, f);
+                back = sel(deep, strict_at8(t->D, &g, cell, f, deep), back);
             }
+            store_ps(out + (ptrdiff_t)n0 * stride, stride, sel(near, v_near, _mm256_add_ps(back, kA)), left);
         }
     }
 }
 
-A2 void tube_resum_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count) {
-    const int nx = t->dims[0], ny = t->dims[1];
-    grid8 g;
-    grid_consts(t, &g);
-    const __m256 zero = _mm256_setzero_ps();
-    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-    const ptrdiff_t stride = axis == 0 ? 1 : axis == 1 ? (ptrdiff_t)nx : (ptrdiff_t)nx * ny;
-    const size_t at0 = ((size_t)k * (size_t)ny + (size_t)j) * (size_t)nx + (size_t)i;
-    for (int n0 = 0; n0 < count; n0 += 8) {
-        int left = count - n0 < 8 ? count - n0 : 8;
-        size_t at = at0 + (size_t)((ptrdiff_t)n0 * stride);
-        __m256 valid = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(count - n0), lane));
-        __m256 arg = load_ps(t->g_arg + at, stride, left);
-        __m256i tag = load_epi32(t->g_tag + at, stride, left);
-        __m256 f[3];
-        for (int a = 0; a < 3; a++) f[a] = load_ps(t->g_aux[a] + at, stride, left);
-        __m256 kA = kappa8(t, arg);
-        __m256 near = _mm256_castsi256_ps(_mm256_cmpeq_epi32(tag, _mm256_set1_epi32(NEAR_)));
-        __m256 mid = _mm256_and_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(tag, _mm256_set1_epi32(MID_))), valid);
-        __m256 deep = _mm256_and_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(tag, _mm256_set1_epi32(-1))), valid);
-        __m256 back = zero;
-        if (_mm256_movemask_ps(mid)) back = sel(mid, _mm256_mul_ps(f[0], kappa8(t, f[1])), back);
-        if (_mm256_movemask_ps(deep)) back = sel(deep, strict_at8(t->D, &g, tag, f, deep), back);
-        store_ps(t->D + at, stride, sel(near, _mm256_mul_ps(f[0], kA), _mm256_add_ps(back, kA)), left);
-    }
-}
-
-A2 void tube_fast_run_avx2(const tube_fast *fr, float *out, const float *D, const float *R, float *u_io,
-                           int32_t *tag_out, int resum, int count) {
+A2 void tube_fast_run_avx2(const tube_fast *fr, float *out, const float *D, const float *R, float *u_io, int resum,
+                           int count) {
     const ptrdiff_t *ov = fr->off_v, *orr = fr->off_r;
     __m256 a[8], b[8];
     for (int c = 0; c < 8; c++) a[c] = _mm256_set1_ps(fr->w_v[c]), b[c] = _mm256_set1_ps(fr->w_r[c]);
@@ -393,6 +343,20 @@ A2 void tube_fast_run_avx2(const tube_fast *fr, float *out, const float *D, cons
     for (int i = 0; i + 8 <= count; i += 8) {
         /* the scalar loop's sums, left to right, unfused */
         const float *d = D + i, *r = R + i;
+        /* ρ (or the recorded coordinates) was not touched since the last
+         * sweep: the rows' lines come from memory. Prefetch them a few
+         * hundred nodes ahead (the four corner rows of the read; the
+         * hardware prefetcher does not keep up with 9 concurrent streams). */
+        if (!(i & 15)) {
+            if (resum) {
+                _mm_prefetch((const char *)(u_io + i + 256), _MM_HINT_T0);
+            } else {
+                _mm_prefetch((const char *)(r + orr[0] + 256), _MM_HINT_T0);
+                _mm_prefetch((const char *)(r + orr[2] + 256), _MM_HINT_T0);
+                _mm_prefetch((const char *)(r + orr[4] + 256), _MM_HINT_T0);
+                _mm_prefetch((const char *)(r + orr[6] + 256), _MM_HINT_T0);
+            }
+        }
         __m256 back = _mm256_mul_ps(a[0], _mm256_loadu_ps(d + ov[0]));
         for (int c = 1; c < 8; c++) back = _mm256_add_ps(back, _mm256_mul_ps(a[c], _mm256_loadu_ps(d + ov[c])));
         __m256 u;
@@ -405,10 +369,7 @@ A2 void tube_fast_run_avx2(const tube_fast *fr, float *out, const float *D, cons
             /* min(x, last) as the scalar code writes it: 0.5 (x + last − |x − last|) */
             u = _mm256_mul_ps(half, _mm256_sub_ps(_mm256_add_ps(x, last),
                                                   _mm256_and_ps(_mm256_sub_ps(x, last), abs_mask)));
-            if (u_io) {
-                _mm256_storeu_ps(u_io + i, u);
-                _mm256_storeu_si256((__m256i *)(void *)(tag_out + i), _mm256_set1_epi32(FAST_));
-            }
+            if (u_io) _mm256_storeu_ps(u_io + i, u);
         }
         __m256i j = _mm256_cvttps_epi32(u);
         __m256 f = _mm256_sub_ps(u, _mm256_cvtepi32_ps(j));
@@ -426,13 +387,9 @@ void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int cou
     (void)t, (void)i, (void)j, (void)k, (void)axis, (void)count;
 }
 
-void tube_resum_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count) {
-    (void)t, (void)i, (void)j, (void)k, (void)axis, (void)count;
-}
-
-void tube_fast_run_avx2(const tube_fast *f, float *out, const float *D, const float *R, float *u_io,
-                        int32_t *tag_out, int resum, int count) {
-    (void)f, (void)out, (void)D, (void)R, (void)u_io, (void)tag_out, (void)resum, (void)count;
+void tube_fast_run_avx2(const tube_fast *f, float *out, const float *D, const float *R, float *u_io, int resum,
+                        int count) {
+    (void)f, (void)out, (void)D, (void)R, (void)u_io, (void)resum, (void)count;
 }
 
 #endif

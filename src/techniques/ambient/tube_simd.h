@@ -36,11 +36,10 @@ typedef struct tube_lanes {
     const float *kappa;
     int n_sigma;
     float sigma_max;
-    /* the g-independent records (tube.h: tube_geometry), or NULL: written
-     * by tube_nodes_avx2, read by tube_resum_avx2 */
+    /* the κ arguments (tube.h: tube_geometry), or NULL: written by a march,
+     * read instead of sampling ρ by a re-sum (resum = 1) */
     float *g_arg;
-    int32_t *g_tag;
-    float *g_aux[3];
+    int resum;
 } tube_lanes;
 
 /* The directional sweep's fast path (tube.c's fast_run): constant corner
@@ -57,19 +56,17 @@ typedef struct tube_fast {
 int tube_simd_available(void);
 
 /* Fills D at the `count` nodes (i, j, k) + n·e_axis, n ∈ [0, count), and
- * their records when g_arg is set. */
+ * their κ arguments when g_arg is set (or, when resum, takes them from
+ * there). */
 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count);
-
-/* The same nodes' D from their records (a re-sum with t->kappa). */
-void tube_resum_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count);
 
 /* fast_run on 8 nodes at a time, bit-identical to the scalar loop: out[i]
  * for i < count from D and R at the constant offsets (out and D point into
  * the same grid; every D read lies in an earlier slice). count must be a
  * multiple of 8 (the caller runs the tail: loads past the run could leave
- * the grid). The κ-table coordinates are stored to u_io (with TUBE_FAST
- * tags, if tag_out) or, when resum, read from it instead of from R. */
-void tube_fast_run_avx2(const tube_fast *f, float *out, const float *D, const float *R, float *u_io,
-                        int32_t *tag_out, int resum, int count);
+ * the grid). The κ-table coordinates are stored to u_io (if not NULL)
+ * or, when resum, read from it instead of from R. */
+void tube_fast_run_avx2(const tube_fast *f, float *out, const float *D, const float *R, float *u_io, int resum,
+                        int count);
 
 #endif
