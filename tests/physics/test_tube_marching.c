@@ -189,7 +189,8 @@ static void test_sweep_with_real_table(void **state) {
     teardown(&f);
 }
 
-/* The 8-wide node update (tube_avx2.c) against the scalar one on a
+/* The 16- and 8-wide node updates (tube_avx512.c, tube_avx2.c) against
+ * the scalar one on a
  * heterogeneous medium, for directional lights along and between the axes
  * and point lights outside, inside, on a node and at a corner of the box,
  * with 1 and 2 threads: the caches must be bit-identical (same operations
@@ -218,12 +219,15 @@ static void test_simd_nodes_equal_scalar_nodes(void **state) {
         size_t bytes = n * sizeof(float);
         float *ref = malloc(bytes);
         for (size_t li = 0; li < sizeof lights / sizeof lights[0]; li++) {
-            f.in.scalar_only = 1;
+            f.in.kernel_cap = TUBE_KERNEL_SCALAR;
             f.in.threads = 1;
             assert_int_equal(tube_march(f.ctx, &f.in, &lights[li], &f.V), VOLUX_OK);
             memcpy(ref, f.V.v, bytes);
-            for (int threads = 1; threads <= 2; threads++) {
-                f.in.scalar_only = 0;
+            /* the widest kernel this CPU has, and AVX2 where that is wider */
+            for (int run = 0; run < 4; run++) {
+                int threads = 1 + (run & 1), cap = run < 2 ? TUBE_KERNEL_BEST : TUBE_KERNEL_AVX2;
+                if (cap == TUBE_KERNEL_AVX2 && !tube_avx512_available()) continue;
+                f.in.kernel_cap = cap;
                 f.in.threads = threads;
                 memset(f.V.v, 0xff, bytes); /* NaN: every node must be written */
                 assert_int_equal(tube_march(f.ctx, &f.in, &lights[li], &f.V), VOLUX_OK);
@@ -231,8 +235,8 @@ static void test_simd_nodes_equal_scalar_nodes(void **state) {
                 for (size_t i = 0; i < n; i++)
                     if (memcmp(&ref[i], &f.V.v[i], sizeof(float)) != 0 && diff++ == 0) first = i;
                 if (diff)
-                    fail_msg("variant %d light %zu threads %d: %zu nodes differ (first %zu: %.9g vs %.9g)", variant,
-                             li, threads, diff, first, ref[first], f.V.v[first]);
+                    fail_msg("variant %d light %zu threads %d kernel %d: %zu nodes differ (first %zu: %.9g vs %.9g)",
+                             variant, li, threads, cap, diff, first, ref[first], f.V.v[first]);
             }
         }
         free(ref);
@@ -266,25 +270,26 @@ static void test_resum_equals_march(void **state) {
     tube_geometry geo = {0};
     assert_int_equal(tube_geometry_alloc(f.ctx, n, &geo), VOLUX_OK);
     float *ref = malloc(bytes);
-    int simd = tube_simd_available() != 0;
+    /* kernels: scalar, and AVX2 / the best one where the CPU has them */
+    int caps[3] = {TUBE_KERNEL_SCALAR, TUBE_KERNEL_AVX2, TUBE_KERNEL_BEST}, n_caps = tube_simd_available() ? 3 : 1;
     for (size_t li = 0; li < sizeof lights / sizeof lights[0]; li++)
-        for (int rec_scalar = 0; rec_scalar <= simd; rec_scalar++)
-            for (int sum_scalar = 0; sum_scalar <= simd; sum_scalar++) {
+        for (int rc = 0; rc < n_caps; rc++)
+            for (int sc = 0; sc < n_caps; sc++) {
                 /* reference: a march with κ2, no geometry */
-                f.in.kappa = kappa2, f.in.geo = NULL, f.in.scalar_only = 1, f.in.threads = 1;
+                f.in.kappa = kappa2, f.in.geo = NULL, f.in.kernel_cap = TUBE_KERNEL_SCALAR, f.in.threads = 1;
                 assert_int_equal(tube_march(f.ctx, &f.in, &lights[li], &f.V), VOLUX_OK);
                 memcpy(ref, f.V.v, bytes);
                 /* record with κ, then re-sum with κ2 */
-                f.in.kappa = f.kappa, f.in.geo = &geo, f.in.scalar_only = !simd || rec_scalar, f.in.threads = 2;
+                f.in.kappa = f.kappa, f.in.geo = &geo, f.in.kernel_cap = caps[rc], f.in.threads = 2;
                 assert_int_equal(tube_march(f.ctx, &f.in, &lights[li], &f.V), VOLUX_OK);
                 memset(f.V.v, 0xff, bytes);
-                f.in.kappa = kappa2, f.in.scalar_only = !simd || sum_scalar, f.in.threads = 1 + (int)(li & 1);
+                f.in.kappa = kappa2, f.in.kernel_cap = caps[sc], f.in.threads = 1 + (int)(li & 1);
                 assert_int_equal(tube_resum(f.ctx, &f.in, &lights[li], &f.V), VOLUX_OK);
                 if (memcmp(ref, f.V.v, bytes) != 0) {
                     size_t i = 0;
                     while (memcmp(&ref[i], &f.V.v[i], sizeof(float)) == 0) i++;
-                    fail_msg("light %zu (record %s, re-sum %s): node %zu %.9g != %.9g", li,
-                             rec_scalar ? "scalar" : "simd", sum_scalar ? "scalar" : "simd", i, f.V.v[i], ref[i]);
+                    fail_msg("light %zu (record kernel %d, re-sum kernel %d): node %zu %.9g != %.9g", li, caps[rc],
+                             caps[sc], i, f.V.v[i], ref[i]);
                 }
             }
     f.in.geo = NULL;

@@ -75,7 +75,7 @@ static const volux_param_info ambient_params[] = {
     {"ao_radius", VOLUX_PARAM_NUMBER, 0, 0, 128, NULL, "occlusion radius in voxels (0 = the ambient radius)"},
     {"ao_shells", VOLUX_PARAM_INT, 3, 1, 8, NULL, "nested SAT boxes of the occlusion term"},
     {"phase_cache", VOLUX_PARAM_BOOL, 1, 0, 1, NULL,
-     "keep each radiance cache's g-independent tube geometry (20 bytes per cache node and light) so that a phase "
+     "keep each radiance cache's g-independent part (4 bytes per cache node and light) so that a phase "
      "edit only re-sums the new extinction factors"},
     {"table_file", VOLUX_PARAM_STRING, 0, 0, 0, "",
      "preintegration table to load (`volux ambient-table`); empty: built on first use and cached"},

@@ -168,10 +168,14 @@ static inline void node(const sweep *sw, int i, int j, int k) {
     V->v[at] = node_value(sw, i, j, k, sw->resum ? rec : NULL, sw->resum ? NULL : rec);
 }
 
-/* The nodes start + n·e_axis, n ∈ [0, count): 8 at a time where the CPU
- * allows (bit-identical to `node`, tube_simd.h), else one by one. */
+/* The nodes start + n·e_axis, n ∈ [0, count): 16 or 8 at a time where the
+ * CPU allows (bit-identical to `node`, tube_simd.h), else one by one. */
 static void nodes(const sweep *sw, const int start[3], int axis, int count) {
     if (count <= 0) return;
+    if (sw->simd == 2) {
+        tube_nodes_avx512(&sw->lanes, start[0], start[1], start[2], axis, count);
+        return;
+    }
     if (sw->simd) {
         tube_nodes_avx2(&sw->lanes, start[0], start[1], start[2], axis, count);
         return;
@@ -203,7 +207,10 @@ static void fast_run(const sweep *sw, size_t at, int count) {
     const float kscale = sw->fr.kscale, last = sw->fr.last;
     float back[256], u[256];
     int done = 0;
-    if (sw->simd && count >= 8) {
+    if (sw->simd == 2 && count >= 16) {
+        done = count & ~15;
+        tube_fast_run_avx512(&sw->fr, out, D, R, geo_u, sw->resum, done);
+    } else if (sw->simd && count >= 8) {
         done = count & ~7;
         tube_fast_run_avx2(&sw->fr, out, D, R, geo_u, sw->resum, done);
     }
@@ -387,7 +394,9 @@ static void shell_runs(sweep *sw, const float P[3], int k) {
 static void setup_lanes(sweep *sw) {
     const tube_input *in = sw->in;
     const scatter_grid *V = sw->V, *R = in->rho;
-    sw->simd = !in->scalar_only && tube_simd_available() && in->n_sigma >= 2;
+    /* 1: AVX2, 2: AVX-512F (all three are bit-identical) */
+    sw->simd = in->kernel_cap != TUBE_KERNEL_SCALAR && tube_simd_available() && in->n_sigma >= 2;
+    if (sw->simd && in->kernel_cap == TUBE_KERNEL_BEST && tube_avx512_available()) sw->simd = 2;
     for (int a = 0; a < 3; a++)
         if (R->dims[a] != V->dims[a] || V->dims[a] < 2 || R->inv_h[a] != V->inv_h[a]) sw->simd = 0;
     if (R->lo.x != V->lo.x || R->lo.y != V->lo.y || R->lo.z != V->lo.z) sw->simd = 0;

@@ -55,6 +55,8 @@ typedef struct tube_geometry {
     size_t n, bytes;
 } tube_geometry;
 
+enum { TUBE_KERNEL_BEST = 0, TUBE_KERNEL_SCALAR = 1, TUBE_KERNEL_AVX2 = 2 };
+
 typedef struct tube_input {
     const scatter_grid *rho; /* optical radius r·σ̃t                       */
     const float *kappa;      /* κ = −ln τ at the table's σ̃t nodes          */
@@ -62,7 +64,8 @@ typedef struct tube_input {
     float sigma_max;         /* table Σ̃t                                  */
     float radius;            /* r, world units                             */
     int threads;
-    int scalar_only;         /* 1: never the 8-wide node update (tests)    */
+    int kernel_cap;          /* TUBE_KERNEL_*: the widest node update to use
+                                (tests; 0 = the best this CPU has)         */
     tube_geometry *geo;      /* march: record here (allocated for V's nodes)
                                 if not NULL; re-sum: read from here        */
 } tube_input;

@@ -1,7 +1,8 @@
 /*
  * techniques/ambient/tube_simd.h — the tube-marching node update (tube.c's
- * `node`) for 8 nodes at a time, with AVX2 (tube_avx2.c, chosen at run
- * time by tube_simd_available; all intrinsics live in that file).
+ * `node`) for 8 nodes at a time with AVX2 (tube_avx2.c) or 16 with
+ * AVX-512F (tube_avx512.c), chosen at run time by tube_simd_available /
+ * tube_avx512_available; all intrinsics live in those two files.
  *
  * It evaluates, per node, exactly the scalar arithmetic of tube.c — the
  * same operations in the same order, no FMA contraction, IEEE sqrt and
@@ -52,13 +53,16 @@ typedef struct tube_fast {
     const float *kappa;
 } tube_fast;
 
-/* 1 when this CPU runs tube_nodes_avx2 (AVX2). */
+/* 1 when this CPU runs tube_nodes_avx2 (AVX2) / tube_nodes_avx512
+ * (AVX-512F). */
 int tube_simd_available(void);
+int tube_avx512_available(void);
 
 /* Fills D at the `count` nodes (i, j, k) + n·e_axis, n ∈ [0, count), and
  * their κ arguments when g_arg is set (or, when resum, takes them from
  * there). */
 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count);
+void tube_nodes_avx512(const tube_lanes *t, int i, int j, int k, int axis, int count);
 
 /* fast_run on 8 nodes at a time, bit-identical to the scalar loop: out[i]
  * for i < count from D and R at the constant offsets (out and D point into
@@ -68,5 +72,8 @@ void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int cou
  * or, when resum, read from it instead of from R. */
 void tube_fast_run_avx2(const tube_fast *f, float *out, const float *D, const float *R, float *u_io, int resum,
                         int count);
+/* The same on 16 nodes at a time (count a multiple of 16). */
+void tube_fast_run_avx512(const tube_fast *f, float *out, const float *D, const float *R, float *u_io, int resum,
+                          int count);
 
 #endif
