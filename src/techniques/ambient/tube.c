@@ -121,6 +121,8 @@ typedef struct sweep {
     float exit_inv[3], exit_bound[3];
     int exit_use[3];
     int valid_lo[3], valid_hi[3]; /* node indices whose fast-path reads stay in the grid */
+    unsigned char *fast_ok[3];    /* per axis and index: its box-exit term of y passes */
+    int fast_lo, fast_hi;         /* the b1 indices (within the valid range) that pass */
 } sweep;
 
 /* D at node (i, j, k). The κ argument of the sphere towards the light is
@@ -207,8 +209,8 @@ static void fast_run(const sweep *sw, size_t at, int count) {
     const float kscale = sw->fr.kscale, last = sw->fr.last;
     float back[256], u[256];
     int done = 0;
-    if (sw->simd == 2 && count >= 16) {
-        done = count & ~15;
+    if (sw->simd == 2) {
+        done = count; /* masked tail */
         tube_fast_run_avx512(&sw->fr, out, D, R, geo_u, sw->resum, done);
     } else if (sw->simd && count >= 8) {
         done = count & ~7;
@@ -241,23 +243,6 @@ static void fast_run(const sweep *sw, size_t at, int count) {
     }
 }
 
-static inline float fast_delta(const sweep *sw, volux_vec3 x) {
-    float xv[3] = {x.x, x.y, x.z}, delta = INFINITY;
-    for (int a = 0; a < 3; a++)
-        if (sw->exit_use[a]) {
-            float t = (sw->exit_bound[a] - xv[a]) * sw->exit_inv[a];
-            if (t < delta) delta = t;
-        }
-    return delta;
-}
-
-/* Whether node idx with idx[b1] = c takes the fast path (δ of y > s). */
-static inline int fast_ok(const sweep *sw, const int idx[3], int c) {
-    int at[3] = {idx[0], idx[1], idx[2]};
-    at[sw->b1] = c;
-    return fast_delta(sw, scatter_grid_node(sw->V, at[0], at[1], at[2])) > 2.0f * sw->s * 1.0001f;
-}
-
 static void slice_row(void *user, int64_t item, int thread) {
     (void)thread;
     const sweep *sw = user;
@@ -268,38 +253,16 @@ static void slice_row(void *user, int64_t item, int thread) {
     idx[sw->a] = sw->slice_step > 0 ? t : V->dims[sw->a] - 1 - t;
     idx[sw->b2] = r;
     int c0 = n, c1 = -1;
+    /* Nodes whose y = x − sω is more than a step from the chain start
+     * (the generic path would interpolate there too) and whose reads stay
+     * inside the grids: δ of y > s is a min over the axes of box-exit
+     * terms that each depend on one index (fast_ok, per axis), so the
+     * fast nodes of a row are the b1 interval [fast_lo, fast_hi] if the
+     * row's own a and b2 terms pass. */
     if (sw->fast && idx[sw->a] >= sw->valid_lo[sw->a] && idx[sw->a] <= sw->valid_hi[sw->a] &&
-        idx[sw->b2] >= sw->valid_lo[sw->b2] && idx[sw->b2] <= sw->valid_hi[sw->b2]) {
-        /* Nodes whose y = x − sω is more than a step from the chain start
-         * (the generic path would interpolate there too) and whose reads
-         * stay inside the grids. Along the row only the box-exit term of
-         * axis b1 varies, and it is monotone in the node index even in
-         * float (x = lo + c·h, then a subtraction and a product by a
-         * constant: each rounding is monotone), so the nodes form a prefix
-         * or a suffix of the valid range: bisection finds it with the same
-         * test a scan would apply to every node. */
-        int lo = sw->valid_lo[sw->b1], hi = sw->valid_hi[sw->b1];
-        int p_lo = lo <= hi && fast_ok(sw, idx, lo), p_hi = lo <= hi && fast_ok(sw, idx, hi);
-        if (p_lo && p_hi) {
-            c0 = lo, c1 = hi;
-        } else if (p_lo) { /* prefix: the last node that passes */
-            int a = lo, b = hi; /* p(a), !p(b) */
-            while (b - a > 1) {
-                int m = a + (b - a) / 2;
-                if (fast_ok(sw, idx, m)) a = m;
-                else b = m;
-            }
-            c0 = lo, c1 = a;
-        } else if (p_hi) { /* suffix: the first node that passes */
-            int a = lo, b = hi; /* !p(a), p(b) */
-            while (b - a > 1) {
-                int m = a + (b - a) / 2;
-                if (fast_ok(sw, idx, m)) b = m;
-                else a = m;
-            }
-            c0 = b, c1 = hi;
-        }
-    }
+        idx[sw->b2] >= sw->valid_lo[sw->b2] && idx[sw->b2] <= sw->valid_hi[sw->b2] && sw->fast_ok[sw->a][idx[sw->a]] &&
+        sw->fast_ok[sw->b2][idx[sw->b2]])
+        c0 = sw->fast_lo, c1 = sw->fast_hi;
     /* nodes before the fast run, the fast run, nodes after it */
     int f0 = c1 >= c0 ? c0 : n, f1 = c1 >= c0 ? c1 + 1 : n;
     idx[sw->b1] = 0;
@@ -443,6 +406,7 @@ static volux_status sweep_run(volux_context *ctx, const tube_input *in, const sc
     memset(&sw, 0, sizeof sw);
     sw.in = in, sw.l = l, sw.V = V;
     sw.geo = geo, sw.resum = resum;
+    size_t ok_bytes = 0;
     sw.lo = V->lo, sw.hi = grid_hi(V);
     sw.s = tube_step(in, V, l);
     sw.inv_r = in->radius > 0.0f ? 1.0f / in->radius : 0.0f;
@@ -475,6 +439,24 @@ static volux_status sweep_run(volux_context *ctx, const tube_input *in, const sc
                 sw.exit_inv[a] = w[a] != 0.0f ? -1.0f / w[a] : 0.0f;
                 sw.exit_bound[a] = w[a] < 0.0f ? hi[a] : lo[a];
             }
+            /* δ of y > s ⟺ every axis' term (exit_bound − x)·exit_inv > 2s
+             * (a min of terms, each of one index) */
+            ok_bytes = (size_t)V->dims[0] + (size_t)V->dims[1] + (size_t)V->dims[2];
+            unsigned char *ok = volux_malloc(ctx, ok_bytes);
+            if (!ok) return volux_error(ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for tube marching");
+            float need = 2.0f * sw.s * 1.0001f, vlo[3] = {V->lo.x, V->lo.y, V->lo.z};
+            for (int a = 0; a < 3; a++) {
+                sw.fast_ok[a] = ok;
+                for (int i = 0; i < V->dims[a]; i++)
+                    ok[i] = !sw.exit_use[a] || (sw.exit_bound[a] - (vlo[a] + (float)i * V->h[a])) * sw.exit_inv[a] > need;
+                ok += V->dims[a];
+            }
+            sw.fast_lo = V->dims[sw.b1], sw.fast_hi = -1;
+            for (int c = sw.valid_lo[sw.b1]; c <= sw.valid_hi[sw.b1]; c++)
+                if (sw.fast_ok[sw.b1][c]) {
+                    if (c < sw.fast_lo) sw.fast_lo = c;
+                    sw.fast_hi = c;
+                }
         }
         /* Every read lies ≥ s·|ω_a|/h_a slices back, so that many
          * consecutive slices are independent: one parallel region (one
@@ -484,6 +466,7 @@ static volux_status sweep_run(volux_context *ctx, const tube_input *in, const sc
         sw.slice_step = w[sw.a] >= 0.0f ? 1 : -1;
         sw.group = group;
         volux_parallel_phases(in->threads, (n + group - 1) / group, slice_group, slice_row, &sw);
+        if (sw.fast) volux_free(ctx, sw.fast_ok[0], ok_bytes);
         return VOLUX_OK;
     }
     float P[3] = {(l->pos.x - V->lo.x) * V->inv_h[0], (l->pos.y - V->lo.y) * V->inv_h[1],

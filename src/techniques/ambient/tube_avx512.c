@@ -298,8 +298,10 @@ A5 void tube_fast_run_avx512(const tube_fast *fr, float *out, const float *D, co
     __m512 a[8], b[8];
     for (int c = 0; c < 8; c++) a[c] = _mm512_set1_ps(fr->w_v[c]), b[c] = _mm512_set1_ps(fr->w_r[c]);
     const __m512 kscale = _mm512_set1_ps(fr->kscale), last = _mm512_set1_ps(fr->last), half = _mm512_set1_ps(0.5f);
-    for (int i = 0; i + 16 <= count; i += 16) {
+    for (int i = 0; i < count; i += 16) {
         const float *d = D + i, *r = R + i;
+        /* the run's tail: masked loads touch no element past the run */
+        m16 k = count - i >= 16 ? (m16)0xffff : (m16)((1u << (count - i)) - 1u);
         if (resum) {
             _mm_prefetch((const char *)(u_io + i + 256), _MM_HINT_T0);
         } else {
@@ -308,23 +310,23 @@ A5 void tube_fast_run_avx512(const tube_fast *fr, float *out, const float *D, co
             _mm_prefetch((const char *)(r + orr[4] + 256), _MM_HINT_T0);
             _mm_prefetch((const char *)(r + orr[6] + 256), _MM_HINT_T0);
         }
-        __m512 back = _mm512_mul_ps(a[0], _mm512_loadu_ps(d + ov[0]));
-        for (int c = 1; c < 8; c++) back = _mm512_add_ps(back, _mm512_mul_ps(a[c], _mm512_loadu_ps(d + ov[c])));
+        __m512 back = _mm512_mul_ps(a[0], _mm512_maskz_loadu_ps(k, d + ov[0]));
+        for (int c = 1; c < 8; c++) back = _mm512_add_ps(back, _mm512_mul_ps(a[c], _mm512_maskz_loadu_ps(k, d + ov[c])));
         __m512 u;
         if (resum) {
-            u = _mm512_loadu_ps(u_io + i);
+            u = _mm512_maskz_loadu_ps(k, u_io + i);
         } else {
-            __m512 x = _mm512_mul_ps(b[0], _mm512_loadu_ps(r + orr[0]));
-            for (int c = 1; c < 8; c++) x = _mm512_add_ps(x, _mm512_mul_ps(b[c], _mm512_loadu_ps(r + orr[c])));
+            __m512 x = _mm512_mul_ps(b[0], _mm512_maskz_loadu_ps(k, r + orr[0]));
+            for (int c = 1; c < 8; c++) x = _mm512_add_ps(x, _mm512_mul_ps(b[c], _mm512_maskz_loadu_ps(k, r + orr[c])));
             x = _mm512_mul_ps(x, kscale);
             u = _mm512_mul_ps(half, _mm512_sub_ps(_mm512_add_ps(x, last), _mm512_abs_ps(_mm512_sub_ps(x, last))));
-            if (u_io) _mm512_storeu_ps(u_io + i, u);
+            if (u_io) _mm512_mask_storeu_ps(u_io + i, k, u);
         }
         __m512i j = _mm512_cvttps_epi32(u);
         __m512 f = _mm512_sub_ps(u, _mm512_cvtepi32_ps(j));
-        __m512 k0 = _mm512_i32gather_ps(j, fr->kappa, 4);
-        __m512 k1 = _mm512_i32gather_ps(_mm512_add_epi32(j, _mm512_set1_epi32(1)), fr->kappa, 4);
-        _mm512_storeu_ps(out + i, _mm512_add_ps(_mm512_add_ps(back, k0), _mm512_mul_ps(_mm512_sub_ps(k1, k0), f)));
+        __m512 k0 = _mm512_mask_i32gather_ps(_mm512_setzero_ps(), k, j, fr->kappa, 4);
+        __m512 k1 = _mm512_mask_i32gather_ps(_mm512_setzero_ps(), k, _mm512_add_epi32(j, _mm512_set1_epi32(1)), fr->kappa, 4);
+        _mm512_mask_storeu_ps(out + i, k, _mm512_add_ps(_mm512_add_ps(back, k0), _mm512_mul_ps(_mm512_sub_ps(k1, k0), f)));
     }
 }
 

@@ -72,7 +72,8 @@ void tube_nodes_avx512(const tube_lanes *t, int i, int j, int k, int axis, int c
  * or, when resum, read from it instead of from R. */
 void tube_fast_run_avx2(const tube_fast *f, float *out, const float *D, const float *R, float *u_io, int resum,
                         int count);
-/* The same on 16 nodes at a time (count a multiple of 16). */
+/* The same on 16 nodes at a time, any count (the tail is masked: no
+ * element past the run is touched). */
 void tube_fast_run_avx512(const tube_fast *f, float *out, const float *D, const float *R, float *u_io, int resum,
                           int count);
 
