@@ -130,9 +130,12 @@ typedef struct sweep {
  * re-sum). */
 static inline float node_value(const sweep *sw, int i, int j, int k, const float *arg_in, float *arg_out) {
     const tube_input *in = sw->in;
+    float arg_in_abs;
     volux_vec3 x = scatter_grid_node(sw->V, i, j, k);
     float delta, arg, v;
+    int deep = 0;
     volux_vec3 w = chain_start(sw->l, sw->lo, sw->hi, x, &delta);
+    if (arg_in) arg_in_abs = fabsf(*arg_in), arg_in = &arg_in_abs;
     if (delta <= sw->s * 1.0001f) {
         /* Eq. 17 between the chain start (D = 0) and the first node a full
          * step on (D = κ of a sphere of radius s/2): D = (δ/s)·κ. Linear
@@ -156,17 +159,36 @@ static inline float node_value(const sweep *sw, int i, int j, int k, const float
             float f[3];
             int64_t cell = strict_cell(sw->V, y, f);
             back = strict_at(sw->V, cell, f);
+            deep = 1;
         }
         v = back + tube_kappa(in, arg);
     }
-    if (arg_out) *arg_out = arg;
+    /* deep nodes carry the sign bit (tube.h) */
+    if (arg_out) *arg_out = deep ? copysignf(arg, -1.0f) : arg;
     return v;
+}
+
+/* Where node (i, j, k)'s record is kept. Directional sweeps keep them in
+ * sweep order (slice, row, node along the row), so that a re-sum streams
+ * them: the rows of a slice normal to y or x are far apart in the cache's
+ * own layout, and a re-sum (which reads little else from memory) then
+ * waited on a cache miss at every row. Point sweeps walk rows of x or y
+ * in memory order already. */
+static inline size_t rec_index(const sweep *sw, int i, int j, int k, ptrdiff_t *stride_b1) {
+    const int *d = sw->V->dims;
+    if (sw->l->positional) {
+        if (stride_b1) *stride_b1 = 1;
+        return ((size_t)k * (size_t)d[1] + (size_t)j) * (size_t)d[0] + (size_t)i;
+    }
+    int idx[3] = {i, j, k}, t = sw->slice_step > 0 ? idx[sw->a] : d[sw->a] - 1 - idx[sw->a];
+    if (stride_b1) *stride_b1 = 1;
+    return ((size_t)t * (size_t)d[sw->b2] + (size_t)idx[sw->b2]) * (size_t)d[sw->b1] + (size_t)idx[sw->b1];
 }
 
 static inline void node(const sweep *sw, int i, int j, int k) {
     scatter_grid *V = sw->V;
     size_t at = ((size_t)k * (size_t)V->dims[1] + (size_t)j) * (size_t)V->dims[0] + (size_t)i;
-    float *rec = sw->geo ? sw->geo->arg + at : NULL;
+    float *rec = sw->geo ? sw->geo->arg + rec_index(sw, i, j, k, NULL) : NULL;
     V->v[at] = node_value(sw, i, j, k, sw->resum ? rec : NULL, sw->resum ? NULL : rec);
 }
 
@@ -174,12 +196,14 @@ static inline void node(const sweep *sw, int i, int j, int k) {
  * CPU allows (bit-identical to `node`, tube_simd.h), else one by one. */
 static void nodes(const sweep *sw, const int start[3], int axis, int count) {
     if (count <= 0) return;
-    if (sw->simd == 2) {
-        tube_nodes_avx512(&sw->lanes, start[0], start[1], start[2], axis, count);
-        return;
-    }
     if (sw->simd) {
-        tube_nodes_avx2(&sw->lanes, start[0], start[1], start[2], axis, count);
+        /* record stride along the run: 1 along a directional row (b1) or
+         * along x; a point sweep's columns along y: n_x */
+        ptrdiff_t rs = 1;
+        size_t r0 = rec_index(sw, start[0], start[1], start[2], &rs);
+        if (sw->l->positional && axis != 0) rs = axis == 1 ? sw->V->dims[0] : (ptrdiff_t)sw->V->dims[0] * sw->V->dims[1];
+        if (sw->simd == 2) tube_nodes_avx512(&sw->lanes, start[0], start[1], start[2], axis, count, r0, rs);
+        else tube_nodes_avx2(&sw->lanes, start[0], start[1], start[2], axis, count, r0, rs);
         return;
     }
     int idx[3] = {start[0], start[1], start[2]};
@@ -195,7 +219,9 @@ static void nodes(const sweep *sw, const int start[3], int axis, int count) {
 static void fast_run(const sweep *sw, size_t at, int count) {
     float *out = sw->V->v + at;
     const float *D = sw->V->v + at, *R = sw->in->rho->v + at;
-    float *geo_u = sw->geo ? sw->geo->arg + at : NULL;
+    int idx[3] = {(int)(at % (size_t)sw->V->dims[0]), (int)(at / (size_t)sw->V->dims[0] % (size_t)sw->V->dims[1]),
+                  (int)(at / ((size_t)sw->V->dims[0] * (size_t)sw->V->dims[1]))};
+    float *geo_u = sw->geo ? sw->geo->arg + rec_index(sw, idx[0], idx[1], idx[2], NULL) : NULL;
     /* locals, so the loop does not reload them through `sw` (which could alias out) */
     const ptrdiff_t v0 = sw->off_v[0], v1 = sw->off_v[1], v2 = sw->off_v[2], v3 = sw->off_v[3], v4 = sw->off_v[4],
                     v5 = sw->off_v[5], v6 = sw->off_v[6], v7 = sw->off_v[7];

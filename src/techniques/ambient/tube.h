@@ -49,7 +49,10 @@
  * arg = ρ·(s/2)/r of that sphere (the directional fast path: the κ-table
  * coordinate itself); a re-sum (tube_resum) recomputes D from it with a
  * new κ, in the same sweep order, bit-identical to a march with that κ.
- * 4 bytes per cache node. */
+ * The sign bit (arg ≥ 0 otherwise) marks nodes more than two steps from
+ * their chain start, whose D does not use δ: a re-sum of a block of such
+ * nodes skips the box exit. Directional sweeps store the records in sweep
+ * order (see tube.c: rec_index). 4 bytes per cache node. */
 typedef struct tube_geometry {
     float *arg;
     size_t n, bytes;

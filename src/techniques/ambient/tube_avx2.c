@@ -195,7 +195,8 @@ A2I __m256 load_ps(const float *p, ptrdiff_t stride, int n) {
     return _mm256_loadu_ps(tmp);
 }
 
-A2 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count) {
+A2 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count, size_t rec0,
+                          ptrdiff_t rec_stride) {
     const int nx = t->dims[0], ny = t->dims[1];
     grid8 g;
     grid_consts(t, &g);
@@ -252,18 +253,31 @@ A2 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int 
             } else {
                 for (int a = 0; a < 3; a++) w[a] = _mm256_set1_ps(t->dir[a]);
             }
-            /* box_exit along back = −ω */
-            __m256 texit = inf;
-            for (int a = 0; a < 3; a++) {
-                __m256 b = _mm256_mul_ps(w[a], _mm256_set1_ps(-1.0f));
-                __m256 pos = _mm256_cmp_ps(b, zero, _CMP_GT_OQ), neg = _mm256_cmp_ps(b, zero, _CMP_LT_OQ);
-                __m256 bound = sel(pos, _mm256_set1_ps(t->hi[a]), _mm256_set1_ps(t->lo[a]));
-                __m256 ta = _mm256_div_ps(_mm256_sub_ps(bound, x[a]), b);
-                ta = sel(_mm256_or_ps(pos, neg), ta, inf);
-                texit = sel(_mm256_cmp_ps(ta, texit, _CMP_LT_OQ), ta, texit);
+            /* A re-sum whose recorded nodes are all deep (sign bit of the
+             * record, see tube.h) skips the box exit: a deep node uses no
+             * δ. */
+            int skip_exit = 0;
+            if (t->resum) {
+                int n0 = c0 + 8 * bi, left = count - n0 < 8 ? count - n0 : 8;
+                __m256 rec = load_ps(t->g_arg + rec0 + (size_t)((ptrdiff_t)n0 * rec_stride), rec_stride, left);
+                skip_exit = _mm256_movemask_ps(rec) == 0xff;
+                c_arg[bi] = _mm256_and_ps(rec, _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff)));
             }
-            texit = sel(_mm256_cmp_ps(texit, zero, _CMP_GT_OQ), texit, zero);
-            __m256 delta = sel(_mm256_cmp_ps(texit, dl, _CMP_LT_OQ), texit, dl);
+            __m256 delta = inf;
+            if (!skip_exit) {
+                /* box_exit along back = −ω */
+                __m256 texit = inf;
+                for (int a = 0; a < 3; a++) {
+                    __m256 b = _mm256_mul_ps(w[a], _mm256_set1_ps(-1.0f));
+                    __m256 pos = _mm256_cmp_ps(b, zero, _CMP_GT_OQ), neg = _mm256_cmp_ps(b, zero, _CMP_LT_OQ);
+                    __m256 bound = sel(pos, _mm256_set1_ps(t->hi[a]), _mm256_set1_ps(t->lo[a]));
+                    __m256 ta = _mm256_div_ps(_mm256_sub_ps(bound, x[a]), b);
+                    ta = sel(_mm256_or_ps(pos, neg), ta, inf);
+                    texit = sel(_mm256_cmp_ps(ta, texit, _CMP_LT_OQ), ta, texit);
+                }
+                texit = sel(_mm256_cmp_ps(texit, zero, _CMP_GT_OQ), texit, zero);
+                delta = sel(_mm256_cmp_ps(texit, dl, _CMP_LT_OQ), texit, dl);
+            }
             /* a node at the light: δ = 0, ω = +z */
             delta = sel(tiny, zero, delta);
             w[0] = sel(tiny, zero, w[0]);
@@ -282,17 +296,19 @@ A2 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int 
         /* 2. ρ there, as the table argument (a re-sum: the recorded one) */
         for (int bi = 0; bi < nb; bi++) {
             int n0 = c0 + 8 * bi, left = count - n0 < 8 ? count - n0 : 8;
-            size_t at = at0 + (size_t)((ptrdiff_t)n0 * stride);
-            if (t->resum) {
-                c_arg[bi] = load_ps(t->g_arg + at, stride, left);
-                continue;
-            }
+            size_t at = rec0 + (size_t)((ptrdiff_t)n0 * rec_stride);
+            if (t->resum) continue; /* loaded in stage 1 */
             __m256 m[3] = {c_m[0][bi], c_m[1][bi], c_m[2][bi]};
             __m256 rhoA = sample_clamped(t->rho, &g, m);
             __m256 near = _mm256_cmp_ps(c_delta[bi], s_tol, _CMP_LE_OQ);
             c_arg[bi] = sel(near, _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(rhoA, p_half), vs), inv_r),
                             _mm256_mul_ps(_mm256_mul_ps(rhoA, vhalf), inv_r));
-            if (t->g_arg) store_ps(t->g_arg + at, stride, c_arg[bi], left);
+            if (t->g_arg) {
+                /* deep nodes (δ > 2s) carry the sign bit */
+                __m256 deep = _mm256_andnot_ps(near, _mm256_cmp_ps(_mm256_sub_ps(c_delta[bi], vs), vs, _CMP_NLE_UQ));
+                __m256 sign = _mm256_and_ps(deep, _mm256_castsi256_ps(_mm256_set1_epi32((int)0x80000000u)));
+                store_ps(t->g_arg + at, rec_stride, _mm256_or_ps(c_arg[bi], sign), left);
+            }
         }
         /* 3. κ of that sphere */
         for (int bi = 0; bi < nb; bi++) c_k[bi] = kappa8(t, c_arg[bi]);
@@ -383,8 +399,9 @@ A2 void tube_fast_run_avx2(const tube_fast *fr, float *out, const float *D, cons
 
 int tube_simd_available(void) { return 0; }
 
-void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count) {
-    (void)t, (void)i, (void)j, (void)k, (void)axis, (void)count;
+void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count, size_t rec0,
+                          ptrdiff_t rec_stride) {
+    (void)t, (void)i, (void)j, (void)k, (void)axis, (void)count, (void)rec0, (void)rec_stride;
 }
 
 void tube_fast_run_avx2(const tube_fast *f, float *out, const float *D, const float *R, float *u_io, int resum,

@@ -172,7 +172,8 @@ A5I __m512 load_ps(const float *p, ptrdiff_t stride, int n) {
     return _mm512_loadu_ps(tmp);
 }
 
-A5 void tube_nodes_avx512(const tube_lanes *t, int i, int j, int k, int axis, int count) {
+A5 void tube_nodes_avx512(const tube_lanes *t, int i, int j, int k, int axis, int count, size_t rec0,
+                            ptrdiff_t rec_stride) {
     const int nx = t->dims[0], ny = t->dims[1];
     grid16 g;
     grid_consts(t, &g);
@@ -217,17 +218,30 @@ A5 void tube_nodes_avx512(const tube_lanes *t, int i, int j, int k, int axis, in
             } else {
                 for (int a = 0; a < 3; a++) w[a] = _mm512_set1_ps(t->dir[a]);
             }
-            __m512 texit = inf;
-            for (int a = 0; a < 3; a++) {
-                __m512 b = _mm512_mul_ps(w[a], _mm512_set1_ps(-1.0f));
-                m16 pos = _mm512_cmp_ps_mask(b, zero, _CMP_GT_OQ), neg = _mm512_cmp_ps_mask(b, zero, _CMP_LT_OQ);
-                __m512 bound = sel(pos, _mm512_set1_ps(t->hi[a]), _mm512_set1_ps(t->lo[a]));
-                __m512 ta = _mm512_div_ps(_mm512_sub_ps(bound, x[a]), b);
-                ta = sel(pos | neg, ta, inf);
-                texit = sel(_mm512_cmp_ps_mask(ta, texit, _CMP_LT_OQ), ta, texit);
+            /* A re-sum whose recorded nodes are all deep (sign bit of the
+             * record, see tube.h) skips the box exit: a deep node uses no
+             * δ. */
+            int skip_exit = 0;
+            if (t->resum) {
+                int n0 = c0 + 16 * bi, left = count - n0 < 16 ? count - n0 : 16;
+                __m512 rec = load_ps(t->g_arg + rec0 + (size_t)((ptrdiff_t)n0 * rec_stride), rec_stride, left);
+                skip_exit = _mm512_cmplt_epi32_mask(_mm512_castps_si512(rec), _mm512_setzero_si512()) == 0xffff;
+                c_arg[bi] = _mm512_castsi512_ps(_mm512_and_si512(_mm512_castps_si512(rec), _mm512_set1_epi32(0x7fffffff)));
             }
-            texit = sel(_mm512_cmp_ps_mask(texit, zero, _CMP_GT_OQ), texit, zero);
-            __m512 delta = sel(_mm512_cmp_ps_mask(texit, dl, _CMP_LT_OQ), texit, dl);
+            __m512 delta = inf;
+            if (!skip_exit) {
+                __m512 texit = inf;
+                for (int a = 0; a < 3; a++) {
+                    __m512 b = _mm512_mul_ps(w[a], _mm512_set1_ps(-1.0f));
+                    m16 pos = _mm512_cmp_ps_mask(b, zero, _CMP_GT_OQ), neg = _mm512_cmp_ps_mask(b, zero, _CMP_LT_OQ);
+                    __m512 bound = sel(pos, _mm512_set1_ps(t->hi[a]), _mm512_set1_ps(t->lo[a]));
+                    __m512 ta = _mm512_div_ps(_mm512_sub_ps(bound, x[a]), b);
+                    ta = sel(pos | neg, ta, inf);
+                    texit = sel(_mm512_cmp_ps_mask(ta, texit, _CMP_LT_OQ), ta, texit);
+                }
+                texit = sel(_mm512_cmp_ps_mask(texit, zero, _CMP_GT_OQ), texit, zero);
+                delta = sel(_mm512_cmp_ps_mask(texit, dl, _CMP_LT_OQ), texit, dl);
+            }
             delta = sel(tiny, zero, delta);
             w[0] = sel(tiny, zero, w[0]);
             w[1] = sel(tiny, zero, w[1]);
@@ -243,17 +257,20 @@ A5 void tube_nodes_avx512(const tube_lanes *t, int i, int j, int k, int axis, in
         /* 2. ρ at the sphere's centre as the table argument (or recorded) */
         for (int bi = 0; bi < nb; bi++) {
             int n0 = c0 + 16 * bi, left = count - n0 < 16 ? count - n0 : 16;
-            size_t at = at0 + (size_t)((ptrdiff_t)n0 * stride);
-            if (t->resum) {
-                c_arg[bi] = load_ps(t->g_arg + at, stride, left);
-                continue;
-            }
+            size_t at = rec0 + (size_t)((ptrdiff_t)n0 * rec_stride);
+            if (t->resum) continue; /* loaded in stage 1 */
             __m512 m[3] = {c_m[0][bi], c_m[1][bi], c_m[2][bi]};
             __m512 rhoA = sample_clamped(t->rho, &g, m);
             m16 near = _mm512_cmp_ps_mask(c_delta[bi], s_tol, _CMP_LE_OQ);
             c_arg[bi] = sel(near, _mm512_mul_ps(_mm512_mul_ps(_mm512_mul_ps(rhoA, p_half), vs), inv_r),
                             _mm512_mul_ps(_mm512_mul_ps(rhoA, vhalf), inv_r));
-            if (t->g_arg) store_ps(t->g_arg + at, stride, c_arg[bi], left);
+            if (t->g_arg) {
+                /* deep nodes (δ > 2s) carry the sign bit */
+                m16 deep = _mm512_cmp_ps_mask(_mm512_sub_ps(c_delta[bi], vs), vs, _CMP_NLE_UQ) & (m16)~near;
+                __m512i rec = _mm512_mask_or_epi32(_mm512_castps_si512(c_arg[bi]), deep, _mm512_castps_si512(c_arg[bi]),
+                                                   _mm512_set1_epi32((int)0x80000000u));
+                store_ps(t->g_arg + at, rec_stride, _mm512_castsi512_ps(rec), left);
+            }
         }
         /* 3. κ */
         for (int bi = 0; bi < nb; bi++) c_k[bi] = kappa16(t, c_arg[bi]);
@@ -334,8 +351,9 @@ A5 void tube_fast_run_avx512(const tube_fast *fr, float *out, const float *D, co
 
 int tube_avx512_available(void) { return 0; }
 
-void tube_nodes_avx512(const tube_lanes *t, int i, int j, int k, int axis, int count) {
-    (void)t, (void)i, (void)j, (void)k, (void)axis, (void)count;
+void tube_nodes_avx512(const tube_lanes *t, int i, int j, int k, int axis, int count, size_t rec0,
+                            ptrdiff_t rec_stride) {
+    (void)t, (void)i, (void)j, (void)k, (void)axis, (void)count, (void)rec0, (void)rec_stride;
 }
 
 void tube_fast_run_avx512(const tube_fast *f, float *out, const float *D, const float *R, float *u_io, int resum,

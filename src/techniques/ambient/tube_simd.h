@@ -59,10 +59,12 @@ int tube_simd_available(void);
 int tube_avx512_available(void);
 
 /* Fills D at the `count` nodes (i, j, k) + n·e_axis, n ∈ [0, count), and
- * their κ arguments when g_arg is set (or, when resum, takes them from
- * there). */
-void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count);
-void tube_nodes_avx512(const tube_lanes *t, int i, int j, int k, int axis, int count);
+ * their κ arguments at g_arg[rec0 + n·rec_stride] when g_arg is set (or,
+ * when resum, takes them from there). */
+void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count, size_t rec0,
+                     ptrdiff_t rec_stride);
+void tube_nodes_avx512(const tube_lanes *t, int i, int j, int k, int axis, int count, size_t rec0,
+                       ptrdiff_t rec_stride);
 
 /* fast_run on 8 nodes at a time, bit-identical to the scalar loop: out[i]
  * for i < count from D and R at the constant offsets (out and D point into
