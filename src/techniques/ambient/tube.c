@@ -238,8 +238,8 @@ static void fast_run(const sweep *sw, size_t at, int count) {
     if (sw->simd == 2) {
         done = count; /* masked tail */
         tube_fast_run_avx512(&sw->fr, out, D, R, geo_u, sw->resum, done);
-    } else if (sw->simd && count >= 8) {
-        done = count & ~7;
+    } else if (sw->simd) {
+        done = count; /* masked tail */
         tube_fast_run_avx2(&sw->fr, out, D, R, geo_u, sw->resum, done);
     }
     for (int i0 = done; i0 < count; i0 += 256) {
@@ -289,6 +289,13 @@ static void slice_row(void *user, int64_t item, int thread) {
         idx[sw->b2] >= sw->valid_lo[sw->b2] && idx[sw->b2] <= sw->valid_hi[sw->b2] && sw->fast_ok[sw->a][idx[sw->a]] &&
         sw->fast_ok[sw->b2][idx[sw->b2]])
         c0 = sw->fast_lo, c1 = sw->fast_hi;
+    if (sw->simd && sw->b1 == 0) {
+        /* the whole row in one call of the vector code */
+        size_t rec0 = sw->geo ? rec_index(sw, 0, idx[1], idx[2], NULL) : 0;
+        if (sw->simd == 2) tube_row_avx512(&sw->lanes, &sw->fr, idx[1], idx[2], n, c0, c1, rec0, sw->resum);
+        else tube_row_avx2(&sw->lanes, &sw->fr, idx[1], idx[2], n, c0, c1, rec0, sw->resum);
+        return;
+    }
     /* nodes before the fast run, the fast run, nodes after it */
     int f0 = c1 >= c0 ? c0 : n, f1 = c1 >= c0 ? c1 + 1 : n;
     idx[sw->b1] = 0;
@@ -339,11 +346,21 @@ static void displaced_corners(const scatter_grid *g, volux_vec3 d, ptrdiff_t off
     }
 }
 
+/* Runs per parallel item of a point sweep: the vector kernels take a batch
+ * in one call (see tube_runs_avx2). */
+enum { RUNS_PER_ITEM = 8 };
+
 static void shell_run(void *user, int64_t item, int thread) {
     (void)thread;
     const sweep *sw = user;
-    const int *r = sw->runs[item];
-    nodes(sw, r, r[3], r[4]);
+    int64_t r0 = item * RUNS_PER_ITEM, r1 = r0 + RUNS_PER_ITEM < sw->n_runs ? r0 + RUNS_PER_ITEM : sw->n_runs;
+    if (sw->simd == 2) {
+        tube_runs_avx512(&sw->lanes, (const int(*)[5])sw->runs + r0, (int)(r1 - r0));
+    } else if (sw->simd) {
+        tube_runs_avx2(&sw->lanes, (const int(*)[5])sw->runs + r0, (int)(r1 - r0));
+    } else {
+        for (int64_t r = r0; r < r1; r++) nodes(sw, sw->runs[r], sw->runs[r][3], sw->runs[r][4]);
+    }
 }
 
 /* Appends the runs of shell k (nodes with k ≤ max_a |i_a − P_a| < k + 1)
@@ -421,7 +438,7 @@ static int64_t shell_group(void *user, int p) {
     int k = p * sw->group;
     sw->n_runs = 0;
     for (int j = k; j < k + sw->group && j <= sw->K; j++) shell_runs(sw, sw->P, j);
-    return sw->n_runs;
+    return (sw->n_runs + RUNS_PER_ITEM - 1) / RUNS_PER_ITEM;
 }
 
 /* A march (resum = 0: records into geo if given) or a re-sum (resum = 1:

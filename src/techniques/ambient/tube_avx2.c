@@ -195,8 +195,7 @@ A2I __m256 load_ps(const float *p, ptrdiff_t stride, int n) {
     return _mm256_loadu_ps(tmp);
 }
 
-A2 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count, size_t rec0,
-                          ptrdiff_t rec_stride) {
+A2I void nodes_body(const tube_lanes *t, int i, int j, int k, int axis, int count, size_t rec0, ptrdiff_t rec_stride) {
     const int nx = t->dims[0], ny = t->dims[1];
     grid8 g;
     grid_consts(t, &g);
@@ -349,16 +348,20 @@ A2 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int 
     }
 }
 
-A2 void tube_fast_run_avx2(const tube_fast *fr, float *out, const float *D, const float *R, float *u_io, int resum,
-                           int count) {
+A2I void fast_body(const tube_fast *fr, float *out, const float *D, const float *R, float *u_io, int resum, int count) {
     const ptrdiff_t *ov = fr->off_v, *orr = fr->off_r;
     __m256 a[8], b[8];
     for (int c = 0; c < 8; c++) a[c] = _mm256_set1_ps(fr->w_v[c]), b[c] = _mm256_set1_ps(fr->w_r[c]);
     const __m256 kscale = _mm256_set1_ps(fr->kscale), last = _mm256_set1_ps(fr->last), half = _mm256_set1_ps(0.5f);
     const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
-    for (int i = 0; i + 8 <= count; i += 8) {
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    for (int i = 0; i < count; i += 8) {
         /* the scalar loop's sums, left to right, unfused */
         const float *d = D + i, *r = R + i;
+        /* the run's tail: masked loads touch no element past the run */
+        const int full = count - i >= 8;
+        const __m256i k = _mm256_cmpgt_epi32(_mm256_set1_epi32(count - i), lane);
+#define LD_(p) (full ? _mm256_loadu_ps(p) : _mm256_maskload_ps((p), k))
         /* ρ (or the recorded coordinates) was not touched since the last
          * sweep: the rows' lines come from memory. Prefetch them a few
          * hundred nodes ahead (the four corner rows of the read; the
@@ -373,26 +376,70 @@ A2 void tube_fast_run_avx2(const tube_fast *fr, float *out, const float *D, cons
                 _mm_prefetch((const char *)(r + orr[6] + 256), _MM_HINT_T0);
             }
         }
-        __m256 back = _mm256_mul_ps(a[0], _mm256_loadu_ps(d + ov[0]));
-        for (int c = 1; c < 8; c++) back = _mm256_add_ps(back, _mm256_mul_ps(a[c], _mm256_loadu_ps(d + ov[c])));
+        __m256 back = _mm256_mul_ps(a[0], LD_(d + ov[0]));
+        for (int c = 1; c < 8; c++) back = _mm256_add_ps(back, _mm256_mul_ps(a[c], LD_(d + ov[c])));
         __m256 u;
         if (resum) {
-            u = _mm256_loadu_ps(u_io + i);
+            u = LD_(u_io + i);
         } else {
-            __m256 x = _mm256_mul_ps(b[0], _mm256_loadu_ps(r + orr[0]));
-            for (int c = 1; c < 8; c++) x = _mm256_add_ps(x, _mm256_mul_ps(b[c], _mm256_loadu_ps(r + orr[c])));
+            __m256 x = _mm256_mul_ps(b[0], LD_(r + orr[0]));
+            for (int c = 1; c < 8; c++) x = _mm256_add_ps(x, _mm256_mul_ps(b[c], LD_(r + orr[c])));
             x = _mm256_mul_ps(x, kscale);
             /* min(x, last) as the scalar code writes it: 0.5 (x + last − |x − last|) */
             u = _mm256_mul_ps(half, _mm256_sub_ps(_mm256_add_ps(x, last),
                                                   _mm256_and_ps(_mm256_sub_ps(x, last), abs_mask)));
-            if (u_io) _mm256_storeu_ps(u_io + i, u);
+            if (u_io) {
+                if (full) _mm256_storeu_ps(u_io + i, u);
+                else _mm256_maskstore_ps(u_io + i, k, u);
+            }
         }
         __m256i j = _mm256_cvttps_epi32(u);
         __m256 f = _mm256_sub_ps(u, _mm256_cvtepi32_ps(j));
-        __m256 k0 = _mm256_i32gather_ps(fr->kappa, j, 4);
-        __m256 k1 = _mm256_i32gather_ps(fr->kappa, _mm256_add_epi32(j, _mm256_set1_epi32(1)), 4);
-        _mm256_storeu_ps(out + i, _mm256_add_ps(_mm256_add_ps(back, k0), _mm256_mul_ps(_mm256_sub_ps(k1, k0), f)));
+        const __m256 kf = _mm256_castsi256_ps(k), z = _mm256_setzero_ps();
+        __m256 k0 = _mm256_mask_i32gather_ps(z, fr->kappa, j, kf, 4);
+        __m256 k1 = _mm256_mask_i32gather_ps(z, fr->kappa, _mm256_add_epi32(j, _mm256_set1_epi32(1)), kf, 4);
+        __m256 v = _mm256_add_ps(_mm256_add_ps(back, k0), _mm256_mul_ps(_mm256_sub_ps(k1, k0), f));
+        if (full) _mm256_storeu_ps(out + i, v);
+        else _mm256_maskstore_ps(out + i, k, v);
+#undef LD_
     }
+}
+
+
+A2 void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count, size_t rec0,
+                     ptrdiff_t rec_stride) {
+    nodes_body(t, i, j, k, axis, count, rec0, rec_stride);
+}
+
+/* Runs (i, j, k, axis, count) of a point sweep in one call: the records
+ * are in node order. One call per batch keeps the switches between this
+ * code and the scalar caller rare (measured with AVX-512: a tenth of a
+ * re-sum's time went to them with one call per run). */
+A2 void tube_runs_avx2(const tube_lanes *t, const int (*runs)[5], int n_runs) {
+    const size_t nx = (size_t)t->dims[0], nxy = nx * (size_t)t->dims[1];
+    for (int r = 0; r < n_runs; r++) {
+        const int *q = runs[r];
+        ptrdiff_t stride = q[3] == 0 ? 1 : q[3] == 1 ? (ptrdiff_t)nx : (ptrdiff_t)nxy;
+        nodes_body(t, q[0], q[1], q[2], q[3], q[4], (size_t)q[2] * nxy + (size_t)q[1] * nx + (size_t)q[0], stride);
+    }
+}
+
+A2 void tube_fast_run_avx2(const tube_fast *fr, float *out, const float *D, const float *R, float *u_io, int resum,
+                        int count) {
+    fast_body(fr, out, D, R, u_io, resum, count);
+}
+
+/* A directional row along x in one call: nodes [0, c0) and (c1, n) by the
+ * node update, [c0, c1] by the fast path (c1 < c0: none). */
+A2 void tube_row_avx2(const tube_lanes *t, const tube_fast *fr, int j, int k, int n, int c0, int c1, size_t rec0,
+                   int resum) {
+    const size_t at = ((size_t)k * (size_t)t->dims[1] + (size_t)j) * (size_t)t->dims[0];
+    int f0 = c1 >= c0 ? c0 : n, f1 = c1 >= c0 ? c1 + 1 : n;
+    if (f0 > 0) nodes_body(t, 0, j, k, 0, f0, rec0, 1);
+    if (f1 > f0)
+        fast_body(fr, t->D + at + f0, t->D + at + f0, t->rho + at + f0, t->g_arg ? t->g_arg + rec0 + f0 : NULL, resum,
+                  f1 - f0);
+    if (n > f1) nodes_body(t, f1, j, k, 0, n - f1, rec0 + (size_t)f1, 1);
 }
 
 #else /* no AVX2 on this target: tube.c uses its scalar node update */
@@ -407,6 +454,13 @@ void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int cou
 void tube_fast_run_avx2(const tube_fast *f, float *out, const float *D, const float *R, float *u_io, int resum,
                         int count) {
     (void)f, (void)out, (void)D, (void)R, (void)u_io, (void)resum, (void)count;
+}
+
+void tube_runs_avx2(const tube_lanes *t, const int (*runs)[5], int n_runs) { (void)t, (void)runs, (void)n_runs; }
+
+void tube_row_avx2(const tube_lanes *t, const tube_fast *fr, int j, int k, int n, int c0, int c1, size_t rec0,
+                   int resum) {
+    (void)t, (void)fr, (void)j, (void)k, (void)n, (void)c0, (void)c1, (void)rec0, (void)resum;
 }
 
 #endif

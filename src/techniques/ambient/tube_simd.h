@@ -53,6 +53,16 @@ typedef struct tube_fast {
     const float *kappa;
 } tube_fast;
 
+/* Batches: runs (i, j, k, axis, count) of a point sweep (records in node
+ * order), and a directional row along x ([0, c0) and (c1, n) by the node
+ * update, [c0, c1] by the fast path; records from rec0). */
+void tube_runs_avx2(const tube_lanes *t, const int (*runs)[5], int n_runs);
+void tube_runs_avx512(const tube_lanes *t, const int (*runs)[5], int n_runs);
+void tube_row_avx2(const tube_lanes *t, const tube_fast *fr, int j, int k, int n, int c0, int c1, size_t rec0,
+                   int resum);
+void tube_row_avx512(const tube_lanes *t, const tube_fast *fr, int j, int k, int n, int c0, int c1, size_t rec0,
+                     int resum);
+
 /* 1 when this CPU runs tube_nodes_avx2 (AVX2) / tube_nodes_avx512
  * (AVX-512F). */
 int tube_simd_available(void);
@@ -68,9 +78,9 @@ void tube_nodes_avx512(const tube_lanes *t, int i, int j, int k, int axis, int c
 
 /* fast_run on 8 nodes at a time, bit-identical to the scalar loop: out[i]
  * for i < count from D and R at the constant offsets (out and D point into
- * the same grid; every D read lies in an earlier slice). count must be a
- * multiple of 8 (the caller runs the tail: loads past the run could leave
- * the grid). The κ-table coordinates are stored to u_io (if not NULL)
+ * the same grid; every D read lies in an earlier slice). Any count: the
+ * tail is masked (no element past the run is touched). The κ-table
+ * coordinates are stored to u_io (if not NULL)
  * or, when resum, read from it instead of from R. */
 void tube_fast_run_avx2(const tube_fast *f, float *out, const float *D, const float *R, float *u_io, int resum,
                         int count);
