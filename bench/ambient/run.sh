@@ -3,7 +3,8 @@
 # render times of ea / ao / single / ambient on the scenes of this folder
 # (512×512, 2 threads, real volumes from ../shared/data by absolute path).
 #
-#   bench/ambient/run.sh [VOLUX] [OUT.jsonl]      (REPEAT=5 by default)
+#   bench/ambient/run.sh [VOLUX] [OUT.jsonl]      (REPEAT=5 by default;
+#                                                   TECHS, SCENES to narrow)
 #   bench/ambient/summarize.py OUT.jsonl          → the Markdown table
 #
 # The ambient technique loads its preintegration table from the cache
@@ -19,12 +20,13 @@ volux=${1:-$here/../../build/volux}
 out=${2:-$here/results.jsonl}
 repeat=${REPEAT:-5}
 scenes=${SCENES:-"bonsai engine aneurism"}
+techs=${TECHS:-"ea ao single ambient"}
 : > "$out"
 for scene in $scenes; do
-  for tech in ea ao single ambient; do
+  for tech in $techs; do
     echo "bench: $scene $tech" >&2
     "$volux" bench "$here/$scene.json" --technique "$tech" --repeat "$repeat" \
-      --edit tf --edit phase --edit light --edit camera --json >> "$out"
+      --edit tf --edit phase --edit light --edit light_last --edit camera --json >> "$out"
   done
 done
 echo "wrote $out" >&2

@@ -46,9 +46,11 @@ def main():
         g = rows[scene]
         tf, pf, ls = (g.get(("ambient", m)) for m in ("update_ms.tf", "update_ms.phase", "update_ms.light"))
         ra, rs = g.get(("ambient", "render_ms")), g.get(("single", "render_ms"))
+        ll = g.get(("ambient", "update_ms.light_last"))
         if tf and pf and ls and ra and rs:
-            print("- %s: ambient PF/TF = %.3f, LS/TF = %.3f (target <= 0.15); render ambient/single = %.2f "
-                  "(target <= 2)" % (scene, pf / tf, ls / tf, ra / rs))
+            print("- %s: ambient PF/TF = %.3f, LS/TF = %.3f%s (target <= 0.15); render ambient/single = %.2f "
+                  "(target <= 2)" % (scene, pf / tf, ls / tf,
+                                     ", last light LS/TF = %.3f" % (ll / tf) if ll else "", ra / rs))
     if errors:
         cols = ["ao", "single", "ambient", "ambient_o0"]
         print("\n| scene | " + " | ".join("rel_mse " + c for c in cols) + " |")

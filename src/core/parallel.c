@@ -1,6 +1,9 @@
 /* core/parallel.c — OpenMP behind one function (STYLE §8). */
 #include "parallel.h"
 
+#include <pthread.h>
+#include <stdatomic.h>
+
 #ifdef _OPENMP
 #include <omp.h>
 #endif
@@ -32,4 +35,90 @@ void volux_parallel_for(int threads, int64_t n, volux_parallel_fn fn, void *user
 #else
     for (int64_t i = 0; i < n; i++) fn(user, i, 0);
 #endif
+}
+
+/* Sense-reversing barrier for the threads of one region. Waiters spin for
+ * a short, bounded time (a phase's stragglers finish within microseconds
+ * when every thread has a core), then sleep on a condition variable, so an
+ * oversubscribed machine is not slowed by spinning or yielding threads
+ * (the reason for OMP_WAIT_POLICY=passive). */
+typedef struct spin_barrier {
+    atomic_int count, sense;
+    int n;
+    pthread_mutex_t lock;
+    pthread_cond_t cond;
+} spin_barrier;
+
+static void spin_pause(void) {
+#if defined(__x86_64__) || defined(__i386__)
+    __builtin_ia32_pause();
+#endif
+}
+
+static void barrier_wait(spin_barrier *b, int *local_sense) {
+    int s = !*local_sense;
+    *local_sense = s;
+    if (atomic_fetch_add(&b->count, 1) == b->n - 1) {
+        atomic_store(&b->count, 0);
+        pthread_mutex_lock(&b->lock);
+        atomic_store(&b->sense, s);
+        pthread_cond_broadcast(&b->cond);
+        pthread_mutex_unlock(&b->lock);
+        return;
+    }
+    for (int i = 0; i < 500; i++) { /* ≈ 5–20 µs, by CPU */
+        if (atomic_load(&b->sense) == s) return;
+        spin_pause();
+    }
+    pthread_mutex_lock(&b->lock);
+    while (atomic_load(&b->sense) != s) pthread_cond_wait(&b->cond, &b->lock);
+    pthread_mutex_unlock(&b->lock);
+}
+
+void volux_parallel_phases(int threads, int n_phases, volux_phase_fn begin, volux_parallel_fn fn, void *user) {
+    if (threads <= 0) threads = volux_parallel_max_threads();
+#ifdef _OPENMP
+    if (threads > 1 && n_phases > 0) {
+        spin_barrier bar;
+        atomic_init(&bar.count, 0);
+        atomic_init(&bar.sense, 0);
+        bar.n = 0;
+        pthread_mutex_init(&bar.lock, NULL);
+        pthread_cond_init(&bar.cond, NULL);
+        atomic_llong next;
+        atomic_init(&next, 0);
+        int64_t n_items = 0;
+        int chunk = 1;
+#pragma omp parallel num_threads(threads)
+        {
+            int tid = omp_get_thread_num(), sense = 0;
+#pragma omp single
+            bar.n = omp_get_num_threads(); /* implicit (one-off) barrier: everyone sees n */
+            for (int p = 0; p < n_phases; p++) {
+                if (tid == 0) {
+                    n_items = begin(user, p);
+                    /* runs of items as in volux_parallel_for */
+                    int64_t run = n_items / ((int64_t)bar.n * 32);
+                    chunk = run < 1 ? 1 : run > 8 ? 8 : (int)run;
+                    atomic_store(&next, 0);
+                }
+                barrier_wait(&bar, &sense);
+                for (;;) {
+                    int64_t i0 = atomic_fetch_add(&next, (long long)chunk);
+                    if (i0 >= n_items) break;
+                    int64_t i1 = i0 + chunk < n_items ? i0 + chunk : n_items;
+                    for (int64_t i = i0; i < i1; i++) fn(user, i, tid);
+                }
+                barrier_wait(&bar, &sense);
+            }
+        }
+        pthread_cond_destroy(&bar.cond);
+        pthread_mutex_destroy(&bar.lock);
+        return;
+    }
+#endif
+    for (int p = 0; p < n_phases; p++) {
+        int64_t n = begin(user, p);
+        for (int64_t i = 0; i < n; i++) fn(user, i, 0);
+    }
 }

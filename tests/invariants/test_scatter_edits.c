@@ -182,13 +182,31 @@ static void test_ambient_edits_do_least_work(void **state) {
     assert_true(st->stats.cache_builds[2] == before.cache_builds[2]);
     assert_true(st->stats.sat_builds == before.sat_builds && st->stats.rho_builds == before.rho_builds);
     before = st->stats;
-    /* phase: slice + every radiance cache, no SAT / ambient extinction */
+    /* phase: slice + every radiance cache re-summed from its kept geometry
+     * (no march), no SAT / ambient extinction */
     edit_tf_field(s, 2);
     assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
     assert_true(st->stats.slice_builds == before.slice_builds + 1);
-    for (int i = 0; i < 3; i++) assert_true(st->stats.cache_builds[i] == before.cache_builds[i] + 1);
+    for (int i = 0; i < 3; i++) {
+        assert_true(st->stats.cache_resums[i] == before.cache_resums[i] + 1);
+        assert_true(st->stats.cache_builds[i] == before.cache_builds[i]);
+    }
     assert_true(st->stats.sat_builds == before.sat_builds && st->stats.rho_builds == before.rho_builds);
     assert_true(st->stats.table_loads == before.table_loads);
+    before = st->stats;
+    /* without the kept geometry a phase edit marches every cache */
+    assert_int_equal(volux_scene_set_param(s, "ambient", "phase_cache", 0, NULL), VOLUX_OK);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    volux_transfer_desc td = *volux_scene_transfer(s);
+    td.anisotropy = 0.3f;
+    assert_int_equal(volux_scene_set_transfer(s, &td), VOLUX_OK);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    for (int i = 0; i < 3; i++) {
+        assert_true(st->stats.cache_builds[i] == before.cache_builds[i] + 1);
+        assert_true(st->stats.cache_resums[i] == before.cache_resums[i]);
+    }
+    assert_int_equal(volux_scene_set_param(s, "ambient", "phase_cache", 1, NULL), VOLUX_OK);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
     before = st->stats;
     /* TF extinction: SAT, ambient extinction, all radiance caches */
     edit_opacity(s, 0.5f);

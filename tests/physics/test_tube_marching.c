@@ -10,6 +10,7 @@
 
 #include "techniques/ambient/table_internal.h"
 #include "techniques/ambient/tube.h"
+#include "techniques/ambient/tube_simd.h"
 #include "test_util.h"
 
 #define NS 4097
@@ -36,7 +37,7 @@ static void setup(fixture *f, float rho0, float radius, float cache_scale, int a
     for (size_t i = 0; i < n; i++) f->rho.v[i] = rho0;
     /* Purely absorbing sphere: L̃o(0, ρ)/L̃o(0, 0) = e^{−2ρ}. */
     for (int i = 0; i < NS; i++) f->kappa[i] = 2.0f * SMAX * (float)i / (NS - 1);
-    tube_input in = {&f->rho, f->kappa, NS, SMAX, radius, 2};
+    tube_input in = {&f->rho, f->kappa, NS, SMAX, radius, 2, 0, NULL};
     f->in = in;
 }
 
@@ -188,11 +189,128 @@ static void test_sweep_with_real_table(void **state) {
     teardown(&f);
 }
 
+/* The 16- and 8-wide node updates (tube_avx512.c, tube_avx2.c) against
+ * the scalar one on a
+ * heterogeneous medium, for directional lights along and between the axes
+ * and point lights outside, inside, on a node and at a corner of the box,
+ * with 1 and 2 threads: the caches must be bit-identical (same operations
+ * in the same order; see tube_simd.h). */
+static void test_simd_nodes_equal_scalar_nodes(void **state) {
+    (void)state;
+    if (!tube_simd_available()) skip();
+    fixture f;
+    for (int variant = 0; variant < 2; variant++) {
+        /* variant 1: a step that is no multiple of the cache spacing, a
+         * coarser cache and a smaller κ table */
+        setup(&f, 0.0f, variant ? 2.3f : 3.0f, variant ? 0.37f : 0.5f, 1);
+        uint64_t rng = 12345u;
+        size_t n = (size_t)f.rho.dims[0] * f.rho.dims[1] * f.rho.dims[2];
+        for (size_t i = 0; i < n; i++) {
+            rng = rng * 6364136223846793005ull + 1442695040888963407ull;
+            /* ρ up to beyond the table's range, with exact zeros */
+            float u = (float)(rng >> 40) / (float)(1u << 24);
+            f.rho.v[i] = u < 0.2f ? 0.0f : (u - 0.2f) * 12.0f;
+        }
+        if (variant) f.in.n_sigma = 33;
+        scatter_light lights[] = {directional(-1, -2, -3), directional(0.3f, 1, -0.2f), directional(0, 0, 1),
+                                  directional(1, 0.5f, 0),  point(40, 30, 50),          point(3, -2, 5),
+                                  point(-16, -16, -16),     point(0, 0, 0),             point(16, -16, 16.5f),
+                                  point(-30, 2, 1)};
+        size_t bytes = n * sizeof(float);
+        float *ref = malloc(bytes);
+        for (size_t li = 0; li < sizeof lights / sizeof lights[0]; li++) {
+            f.in.kernel_cap = TUBE_KERNEL_SCALAR;
+            f.in.threads = 1;
+            assert_int_equal(tube_march(f.ctx, &f.in, &lights[li], &f.V), VOLUX_OK);
+            memcpy(ref, f.V.v, bytes);
+            /* the widest kernel this CPU has, and AVX2 where that is wider */
+            for (int run = 0; run < 4; run++) {
+                int threads = 1 + (run & 1), cap = run < 2 ? TUBE_KERNEL_BEST : TUBE_KERNEL_AVX2;
+                if (cap == TUBE_KERNEL_AVX2 && !tube_avx512_available()) continue;
+                f.in.kernel_cap = cap;
+                f.in.threads = threads;
+                memset(f.V.v, 0xff, bytes); /* NaN: every node must be written */
+                assert_int_equal(tube_march(f.ctx, &f.in, &lights[li], &f.V), VOLUX_OK);
+                size_t diff = 0, first = n;
+                for (size_t i = 0; i < n; i++)
+                    if (memcmp(&ref[i], &f.V.v[i], sizeof(float)) != 0 && diff++ == 0) first = i;
+                if (diff)
+                    fail_msg("variant %d light %zu threads %d kernel %d: %zu nodes differ (first %zu: %.9g vs %.9g)",
+                             variant, li, threads, cap, diff, first, ref[first], f.V.v[first]);
+            }
+        }
+        free(ref);
+        teardown(&f);
+    }
+}
+
+/* A phase edit re-sums the cache from its g-independent geometry
+ * (tube_geometry) with the new κ: the result must be bit-identical to a
+ * march with that κ, whichever path (scalar, 8-wide) recorded the geometry
+ * and whichever re-sums, on 1 or 2 threads. */
+static void test_resum_equals_march(void **state) {
+    (void)state;
+    fixture f;
+    setup(&f, 0.0f, 2.3f, 0.5f, 1);
+    uint64_t rng = 777u;
+    size_t n = (size_t)f.rho.dims[0] * f.rho.dims[1] * f.rho.dims[2], bytes = n * sizeof(float);
+    for (size_t i = 0; i < n; i++) {
+        rng = rng * 6364136223846793005ull + 1442695040888963407ull;
+        float u = (float)(rng >> 40) / (float)(1u << 24);
+        f.rho.v[i] = u < 0.2f ? 0.0f : (u - 0.2f) * 12.0f;
+    }
+    /* a second κ: a different, non-linear curve (as another g gives) */
+    static float kappa2[NS];
+    for (int i = 0; i < NS; i++) {
+        float r = SMAX * (float)i / (NS - 1);
+        kappa2[i] = 1.3f * r / (1.0f + 0.05f * r);
+    }
+    scatter_light lights[] = {directional(-1, -2, -3), directional(0, 0, 1), point(40, 30, 50), point(3, -2, 5),
+                              point(-16, -16, -16)};
+    tube_geometry geo = {0};
+    assert_int_equal(tube_geometry_alloc(f.ctx, n, &geo), VOLUX_OK);
+    float *ref = malloc(bytes);
+    /* kernels: scalar, and AVX2 / the best one where the CPU has them */
+    int caps[3] = {TUBE_KERNEL_SCALAR, TUBE_KERNEL_AVX2, TUBE_KERNEL_BEST}, n_caps = tube_simd_available() ? 3 : 1;
+    for (size_t li = 0; li < sizeof lights / sizeof lights[0]; li++)
+        for (int rc = 0; rc < n_caps; rc++)
+            for (int sc = 0; sc < n_caps; sc++) {
+                /* reference: a march with κ2, no geometry */
+                f.in.kappa = kappa2, f.in.geo = NULL, f.in.kernel_cap = TUBE_KERNEL_SCALAR, f.in.threads = 1;
+                assert_int_equal(tube_march(f.ctx, &f.in, &lights[li], &f.V), VOLUX_OK);
+                memcpy(ref, f.V.v, bytes);
+                /* record with κ, then re-sum with κ2 */
+                f.in.kappa = f.kappa, f.in.geo = &geo, f.in.kernel_cap = caps[rc], f.in.threads = 2;
+                assert_int_equal(tube_march(f.ctx, &f.in, &lights[li], &f.V), VOLUX_OK);
+                memset(f.V.v, 0xff, bytes);
+                f.in.kappa = kappa2, f.in.kernel_cap = caps[sc], f.in.threads = 1 + (int)(li & 1);
+                assert_int_equal(tube_resum(f.ctx, &f.in, &lights[li], &f.V), VOLUX_OK);
+                if (memcmp(ref, f.V.v, bytes) != 0) {
+                    size_t i = 0;
+                    while (memcmp(&ref[i], &f.V.v[i], sizeof(float)) == 0) i++;
+                    fail_msg("light %zu (record kernel %d, re-sum kernel %d): node %zu %.9g != %.9g", li, caps[rc],
+                             caps[sc], i, f.V.v[i], ref[i]);
+                }
+            }
+    f.in.geo = NULL;
+    f.in.kappa = f.kappa;
+    /* a re-sum needs recorded geometry of the grid's size */
+    tube_geometry none = {0};
+    f.in.geo = &none;
+    assert_int_equal(tube_resum(f.ctx, &f.in, &lights[0], &f.V), VOLUX_ERR_INVALID);
+    f.in.geo = NULL;
+    tube_geometry_free(f.ctx, &geo);
+    free(ref);
+    teardown(&f);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_axis_aligned_sweep_is_the_closed_form_product),
         cmocka_unit_test(test_oblique_and_point_lights_follow_beer_lambert),
         cmocka_unit_test(test_sweep_with_real_table),
+        cmocka_unit_test(test_simd_nodes_equal_scalar_nodes),
+        cmocka_unit_test(test_resum_equals_march),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -58,9 +58,14 @@ static int first_light(const volux_scene *s) {
     return -1;
 }
 
-/* Rotates light 0 about +Y by ±10° (direction and position). */
-static volux_status edit_light(volux_scene *s, int k) {
-    int slot = first_light(s);
+static int last_light(const volux_scene *s) {
+    for (int i = volux_scene_light_slots(s) - 1; i >= 0; i--)
+        if (volux_scene_light(s, i)) return i;
+    return -1;
+}
+
+/* Rotates a light about +Y by ±10° (direction and position). */
+static volux_status rotate_light(volux_scene *s, int k, int slot) {
     if (slot < 0) return VOLUX_ERR_INVALID;
     volux_light_desc d = *volux_scene_light(s, slot);
     float a = ((k & 1) ? -10.0f : 10.0f) * 3.14159265f / 180.0f, c = cosf(a), sn = sinf(a);
@@ -70,6 +75,11 @@ static volux_status edit_light(volux_scene *s, int k) {
     d.rotation_y_deg += (k & 1) ? -10.0f : 10.0f;
     return volux_scene_set_light(s, slot, &d);
 }
+
+static volux_status edit_light(volux_scene *s, int k) { return rotate_light(s, k, first_light(s)); }
+/* the last light: with one light the same as `light`; lets a scene time a
+ * second light type (e.g. a point light after a directional one) */
+static volux_status edit_light_last(volux_scene *s, int k) { return rotate_light(s, k, last_light(s)); }
 
 static volux_status edit_light_toggle(volux_scene *s, int k) {
     int slot = first_light(s);
@@ -111,6 +121,7 @@ static const bench_edit edits[] = {
     {"density", "scale density_scale", edit_density},
     {"phase", "change the HG anisotropy", edit_phase},
     {"light", "rotate the first light by 10 degrees", edit_light},
+    {"light_last", "rotate the last light by 10 degrees", edit_light_last},
     {"light_toggle", "switch the first light off/on", edit_light_toggle},
     {"camera", "orbit the camera by 5 degrees", edit_camera},
     {"time_step", "replace the volume (same data)", edit_volume},

@@ -8,6 +8,7 @@
 #include "techniques/scatter/base.h"
 #include "techniques/scatter/grid.h"
 #include "techniques/scatter/sat3d.h"
+#include "tube.h"
 #include "volux/ambient_table.h"
 
 extern const volux_technique_class volux_ambient_class;
@@ -15,6 +16,7 @@ extern const volux_technique_class volux_ambient_class;
 typedef struct ambient_stats {
     uint64_t sat_builds, rho_builds, rho_c_builds, occ_builds, table_loads, slice_builds;
     uint64_t cache_builds[VOLUX_MAX_LIGHTS];
+    uint64_t cache_resums[VOLUX_MAX_LIGHTS]; /* phase edits: re-sums from the kept geometry */
 } ambient_stats;
 
 typedef struct ambient_state {
@@ -36,6 +38,9 @@ typedef struct ambient_state {
     char loaded_file[1024];
     float *slice;                 /* [n_sigma][n_theta]                      */
     float *kappa;                 /* [n_sigma] −ln of the normalised θ = 0 column */
+    double **ln_col;              /* [n_g] ln of the table's g columns, each
+                                     [n_sigma][n_theta], computed on first use */
+    int ln_n;                     /* entries of ln_col                       */
     size_t slice_bytes, kappa_bytes;
     float u_theta, u_sigma;       /* (n−1)/π and (n−1)/Σ̃t                   */
     /* caches */
@@ -44,6 +49,9 @@ typedef struct ambient_state {
     scatter_grid rho_c;           /* ρ at the radiance caches' nodes (tube marching) */
     scatter_grid occ;             /* A(x), only when the AO term is on       */
     scatter_grid cache[VOLUX_MAX_LIGHTS]; /* radiance caches D_j = −ln V_j per slot */
+    int phase_cache;              /* keep the g-independent tube geometry    */
+    tube_geometry geo[VOLUX_MAX_LIGHTS]; /* per slot, when phase_cache       */
+    int geo_ok[VOLUX_MAX_LIGHTS]; /* geo[slot] matches ρ_c, radius, table, light */
     ambient_stats stats;
 } ambient_state;
 

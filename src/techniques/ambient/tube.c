@@ -5,6 +5,7 @@
 #include "core/context_internal.h"
 #include "core/parallel.h"
 #include "tube.h"
+#include "tube_simd.h"
 
 static volux_vec3 grid_hi(const scatter_grid *g) {
     return v3(g->lo.x + (float)(g->dims[0] - 1) * g->h[0], g->lo.y + (float)(g->dims[1] - 1) * g->h[1],
@@ -24,26 +25,31 @@ static inline float box_exit(volux_vec3 lo, volux_vec3 hi, volux_vec3 x, volux_v
     return t > 0.0f ? t : 0.0f;
 }
 
-/* Trilinear read that touches only floor(u) and, if u is fractional,
- * floor(u) + 1 per axis: exactly the nodes the sweep order guarantees. */
-static inline float sample_strict(const scatter_grid *g, volux_vec3 p) {
+/* A trilinear read of the cache that touches only floor(u) and, if u is
+ * fractional, floor(u) + 1 per axis: exactly the nodes the sweep order
+ * guarantees. strict_cell finds the cell (index of its lower corner) and
+ * the fractions; strict_at reads it. The split lets a phase edit keep the
+ * cell and fractions (they do not depend on g) and only re-read. */
+static inline int64_t strict_cell(const scatter_grid *g, volux_vec3 p, float f[3]) {
     float u[3] = {(p.x - g->lo.x) * g->inv_h[0], (p.y - g->lo.y) * g->inv_h[1], (p.z - g->lo.z) * g->inv_h[2]};
-    int i0[3], i1[3];
-    float f[3];
+    int i0[3];
     for (int a = 0; a < 3; a++) {
         float m = (float)(g->dims[a] - 1), x = u[a] < 0.0f ? 0.0f : (u[a] > m ? m : u[a]);
-        int i = (int)x;
-        f[a] = x - (float)i;
-        i0[a] = i;
-        i1[a] = f[a] > 0.0f && i + 1 < g->dims[a] ? i + 1 : i;
+        i0[a] = (int)x;
+        f[a] = x - (float)i0[a];
     }
-    size_t nx = (size_t)g->dims[0], ny = (size_t)g->dims[1];
-#define AT(X, Y, Z) g->v[((size_t)(Z)*ny + (size_t)(Y)) * nx + (size_t)(X)]
-    float c00 = AT(i0[0], i0[1], i0[2]) + (AT(i1[0], i0[1], i0[2]) - AT(i0[0], i0[1], i0[2])) * f[0];
-    float c10 = AT(i0[0], i1[1], i0[2]) + (AT(i1[0], i1[1], i0[2]) - AT(i0[0], i1[1], i0[2])) * f[0];
-    float c01 = AT(i0[0], i0[1], i1[2]) + (AT(i1[0], i0[1], i1[2]) - AT(i0[0], i0[1], i1[2])) * f[0];
-    float c11 = AT(i0[0], i1[1], i1[2]) + (AT(i1[0], i1[1], i1[2]) - AT(i0[0], i1[1], i1[2])) * f[0];
-#undef AT
+    return ((int64_t)i0[2] * g->dims[1] + i0[1]) * g->dims[0] + i0[0];
+}
+
+static inline float strict_at(const scatter_grid *g, int64_t base, const float f[3]) {
+    /* u ≤ n − 1, so a fraction > 0 means the upper node exists */
+    const float *b = g->v + base;
+    size_t ox = f[0] > 0.0f ? 1 : 0, oy = f[1] > 0.0f ? (size_t)g->dims[0] : 0,
+           oz = f[2] > 0.0f ? (size_t)g->dims[0] * (size_t)g->dims[1] : 0;
+    float c00 = b[0] + (b[ox] - b[0]) * f[0];
+    float c10 = b[oy] + (b[oy + ox] - b[oy]) * f[0];
+    float c01 = b[oz] + (b[oz + ox] - b[oz]) * f[0];
+    float c11 = b[oz + oy] + (b[oz + oy + ox] - b[oz + oy]) * f[0];
     float c0 = c00 + (c10 - c00) * f[1], c1 = c01 + (c11 - c01) * f[1];
     return c0 + (c1 - c0) * f[2];
 }
@@ -92,9 +98,21 @@ typedef struct sweep {
     /* directional: slices along axis a (a group of `group` consecutive
      * slices starting at `slice` in light order), rows along b2, runs along b1 */
     int a, b1, b2, slice, slice_step, group;
-    /* point: the current shell as runs of nodes (z, y, x0, x1) along x */
-    int (*runs)[4];
+    /* point: the current group of shells as runs of nodes (i, j, k, axis,
+     * count): (i, j, k) + n·e_axis for n < count */
+    int (*runs)[5];
     int64_t n_runs;
+    /* the 8-wide node update (tube_simd.h), when usable */
+    /* point: the light in grid index units, the last shell */
+    float P[3];
+    int K;
+    int simd;
+    tube_lanes lanes;
+    tube_fast fr;
+    /* the g-independent records (tube_geometry): written by a march when
+     * present, read back by a re-sum (resum = 1) */
+    tube_geometry *geo;
+    int resum;
     /* directional fast path (ρ grid aligned with V): constant corner offsets
      * and weights of the two reads, and the box-exit reciprocals */
     int fast;
@@ -103,26 +121,33 @@ typedef struct sweep {
     float exit_inv[3], exit_bound[3];
     int exit_use[3];
     int valid_lo[3], valid_hi[3]; /* node indices whose fast-path reads stay in the grid */
+    unsigned char *fast_ok[3];    /* per axis and index: its box-exit term of y passes */
+    int fast_lo, fast_hi;         /* the b1 indices (within the valid range) that pass */
 } sweep;
 
-static inline void node(const sweep *sw, int i, int j, int k) {
+/* D at node (i, j, k). The κ argument of the sphere towards the light is
+ * computed (and stored to *arg_out if given), or taken from *arg_in (a
+ * re-sum). */
+static inline float node_value(const sweep *sw, int i, int j, int k, const float *arg_in, float *arg_out) {
     const tube_input *in = sw->in;
-    scatter_grid *V = sw->V;
-    volux_vec3 x = scatter_grid_node(V, i, j, k);
-    float delta, v;
+    float arg_in_abs;
+    volux_vec3 x = scatter_grid_node(sw->V, i, j, k);
+    float delta, arg, v;
+    int deep = 0;
     volux_vec3 w = chain_start(sw->l, sw->lo, sw->hi, x, &delta);
+    if (arg_in) arg_in_abs = fabsf(*arg_in), arg_in = &arg_in_abs;
     if (delta <= sw->s * 1.0001f) {
         /* Eq. 17 between the chain start (D = 0) and the first node a full
          * step on (D = κ of a sphere of radius s/2): D = (δ/s)·κ. Linear
          * in δ, so a homogeneous medium gives D exactly linear along every
          * chain and the sweep's interpolation exact. */
-        float rho = scatter_grid_sample(in->rho, v3_madd(x, w, -0.5f * delta));
-        v = delta / sw->s * tube_kappa(in, rho * 0.5f * sw->s * sw->inv_r);
+        arg = arg_in ? *arg_in : scatter_grid_sample(in->rho, v3_madd(x, w, -0.5f * delta)) * 0.5f * sw->s * sw->inv_r;
+        v = delta / sw->s * tube_kappa(in, arg);
     } else {
         /* Eq. 16 (as D = −ln V): the front from s back, through the
          * sphere between. */
         float half = 0.5f * sw->s, dy = delta - sw->s, back;
-        float rho = scatter_grid_sample(in->rho, v3_madd(x, w, -half));
+        arg = arg_in ? *arg_in : scatter_grid_sample(in->rho, v3_madd(x, w, -half)) * half * sw->inv_r;
         volux_vec3 y = v3_madd(x, w, -sw->s);
         if (dy <= sw->s) {
             /* y is within the first step: evaluate it exactly rather than
@@ -131,18 +156,72 @@ static inline void node(const sweep *sw, int i, int j, int k) {
             float rho_y = scatter_grid_sample(in->rho, v3_madd(y, w, -0.5f * dy));
             back = dy / sw->s * tube_kappa(in, rho_y * half * sw->inv_r);
         } else {
-            back = sample_strict(V, y);
+            float f[3];
+            int64_t cell = strict_cell(sw->V, y, f);
+            back = strict_at(sw->V, cell, f);
+            deep = 1;
         }
-        v = back + tube_kappa(in, rho * half * sw->inv_r);
+        v = back + tube_kappa(in, arg);
     }
-    V->v[((size_t)k * (size_t)V->dims[1] + (size_t)j) * (size_t)V->dims[0] + (size_t)i] = v;
+    /* deep nodes carry the sign bit (tube.h) */
+    if (arg_out) *arg_out = deep ? copysignf(arg, -1.0f) : arg;
+    return v;
+}
+
+/* Where node (i, j, k)'s record is kept. Directional sweeps keep them in
+ * sweep order (slice, row, node along the row), so that a re-sum streams
+ * them: the rows of a slice normal to y or x are far apart in the cache's
+ * own layout, and a re-sum (which reads little else from memory) then
+ * waited on a cache miss at every row. Point sweeps walk rows of x or y
+ * in memory order already. */
+static inline size_t rec_index(const sweep *sw, int i, int j, int k, ptrdiff_t *stride_b1) {
+    const int *d = sw->V->dims;
+    if (sw->l->positional) {
+        if (stride_b1) *stride_b1 = 1;
+        return ((size_t)k * (size_t)d[1] + (size_t)j) * (size_t)d[0] + (size_t)i;
+    }
+    int idx[3] = {i, j, k}, t = sw->slice_step > 0 ? idx[sw->a] : d[sw->a] - 1 - idx[sw->a];
+    if (stride_b1) *stride_b1 = 1;
+    return ((size_t)t * (size_t)d[sw->b2] + (size_t)idx[sw->b2]) * (size_t)d[sw->b1] + (size_t)idx[sw->b1];
+}
+
+static inline void node(const sweep *sw, int i, int j, int k) {
+    scatter_grid *V = sw->V;
+    size_t at = ((size_t)k * (size_t)V->dims[1] + (size_t)j) * (size_t)V->dims[0] + (size_t)i;
+    float *rec = sw->geo ? sw->geo->arg + rec_index(sw, i, j, k, NULL) : NULL;
+    V->v[at] = node_value(sw, i, j, k, sw->resum ? rec : NULL, sw->resum ? NULL : rec);
+}
+
+/* The nodes start + n·e_axis, n ∈ [0, count): 16 or 8 at a time where the
+ * CPU allows (bit-identical to `node`, tube_simd.h), else one by one. */
+static void nodes(const sweep *sw, const int start[3], int axis, int count) {
+    if (count <= 0) return;
+    if (sw->simd) {
+        /* record stride along the run: 1 along a directional row (b1) or
+         * along x; a point sweep's columns along y: n_x */
+        ptrdiff_t rs = 1;
+        size_t r0 = rec_index(sw, start[0], start[1], start[2], &rs);
+        if (sw->l->positional && axis != 0) rs = axis == 1 ? sw->V->dims[0] : (ptrdiff_t)sw->V->dims[0] * sw->V->dims[1];
+        if (sw->simd == 2) tube_nodes_avx512(&sw->lanes, start[0], start[1], start[2], axis, count, r0, rs);
+        else tube_nodes_avx2(&sw->lanes, start[0], start[1], start[2], axis, count, r0, rs);
+        return;
+    }
+    int idx[3] = {start[0], start[1], start[2]};
+    for (int n = 0; n < count; n++, idx[axis]++) node(sw, idx[0], idx[1], idx[2]);
 }
 
 /* The fast path over a run of `count` nodes of one row that are contiguous
- * in memory (stride 1): loads at constant offsets, vectorisable. out and D
- * point into the same grid, but out is the slice being written and every D
- * read lies in an earlier slice, so the accessed elements are disjoint. */
-static void fast_run(float *out, const float *D, const float *restrict R, int count, const sweep *sw) {
+ * in memory (stride 1), from node index `at`: loads at constant offsets,
+ * vectorisable. The written slice and the read slices of D are disjoint
+ * (every read lies in an earlier slice). The κ-table coordinate u of each
+ * node is its g-independent record (tube_geometry): stored by a march, read by
+ * a re-sum. */
+static void fast_run(const sweep *sw, size_t at, int count) {
+    float *out = sw->V->v + at;
+    const float *D = sw->V->v + at, *R = sw->in->rho->v + at;
+    int idx[3] = {(int)(at % (size_t)sw->V->dims[0]), (int)(at / (size_t)sw->V->dims[0] % (size_t)sw->V->dims[1]),
+                  (int)(at / ((size_t)sw->V->dims[0] * (size_t)sw->V->dims[1]))};
+    float *geo_u = sw->geo ? sw->geo->arg + rec_index(sw, idx[0], idx[1], idx[2], NULL) : NULL;
     /* locals, so the loop does not reload them through `sw` (which could alias out) */
     const ptrdiff_t v0 = sw->off_v[0], v1 = sw->off_v[1], v2 = sw->off_v[2], v3 = sw->off_v[3], v4 = sw->off_v[4],
                     v5 = sw->off_v[5], v6 = sw->off_v[6], v7 = sw->off_v[7];
@@ -153,20 +232,33 @@ static void fast_run(float *out, const float *D, const float *restrict R, int co
     const float b0 = sw->w_r[0], b1 = sw->w_r[1], b2 = sw->w_r[2], b3 = sw->w_r[3], b4 = sw->w_r[4],
                 b5 = sw->w_r[5], b6 = sw->w_r[6], b7 = sw->w_r[7];
     const float *restrict kappa = sw->in->kappa;
-    const float kscale = 0.5f * sw->s * sw->inv_r * (float)(sw->in->n_sigma - 1) / sw->in->sigma_max;
-    const float last = (float)(sw->in->n_sigma - 1) - 1e-3f;
+    const float kscale = sw->fr.kscale, last = sw->fr.last;
     float back[256], u[256];
-    for (int i0 = 0; i0 < count; i0 += 256) {
+    int done = 0;
+    if (sw->simd == 2) {
+        done = count; /* masked tail */
+        tube_fast_run_avx512(&sw->fr, out, D, R, geo_u, sw->resum, done);
+    } else if (sw->simd) {
+        done = count; /* masked tail */
+        tube_fast_run_avx2(&sw->fr, out, D, R, geo_u, sw->resum, done);
+    }
+    for (int i0 = done; i0 < count; i0 += 256) {
         int m = count - i0 < 256 ? count - i0 : 256;
         const float *d = D + i0, *r = R + i0;
         /* vectorisable part: 16 loads at constant offsets */
-        for (int i = 0; i < m; i++) {
+        for (int i = 0; i < m; i++)
             back[i] = a0 * d[i + v0] + a1 * d[i + v1] + a2 * d[i + v2] + a3 * d[i + v3] + a4 * d[i + v4] +
                       a5 * d[i + v5] + a6 * d[i + v6] + a7 * d[i + v7];
-            float x = (b0 * r[i + r0] + b1 * r[i + r1] + b2 * r[i + r2] + b3 * r[i + r3] + b4 * r[i + r4] +
-                       b5 * r[i + r5] + b6 * r[i + r6] + b7 * r[i + r7]) *
-                      kscale;
-            u[i] = 0.5f * (x + last - fabsf(x - last)); /* min(x, last); ρ ≥ 0 */
+        if (sw->resum) {
+            memcpy(u, geo_u + i0, (size_t)m * sizeof *u);
+        } else {
+            for (int i = 0; i < m; i++) {
+                float x = (b0 * r[i + r0] + b1 * r[i + r1] + b2 * r[i + r2] + b3 * r[i + r3] + b4 * r[i + r4] +
+                           b5 * r[i + r5] + b6 * r[i + r6] + b7 * r[i + r7]) *
+                          kscale;
+                u[i] = 0.5f * (x + last - fabsf(x - last)); /* min(x, last); ρ ≥ 0 */
+            }
+            if (geo_u) memcpy(geo_u + i0, u, (size_t)m * sizeof *u);
         }
         /* the κ table look-up is a gather: scalar */
         for (int i = 0; i < m; i++) {
@@ -175,16 +267,6 @@ static void fast_run(float *out, const float *D, const float *restrict R, int co
             out[i0 + i] = back[i] + kappa[j] + (kappa[j + 1] - kappa[j]) * f;
         }
     }
-}
-
-static inline float fast_delta(const sweep *sw, volux_vec3 x) {
-    float xv[3] = {x.x, x.y, x.z}, delta = INFINITY;
-    for (int a = 0; a < 3; a++)
-        if (sw->exit_use[a]) {
-            float t = (sw->exit_bound[a] - xv[a]) * sw->exit_inv[a];
-            if (t < delta) delta = t;
-        }
-    return delta;
 }
 
 static void slice_row(void *user, int64_t item, int thread) {
@@ -197,41 +279,42 @@ static void slice_row(void *user, int64_t item, int thread) {
     idx[sw->a] = sw->slice_step > 0 ? t : V->dims[sw->a] - 1 - t;
     idx[sw->b2] = r;
     int c0 = n, c1 = -1;
+    /* Nodes whose y = x − sω is more than a step from the chain start
+     * (the generic path would interpolate there too) and whose reads stay
+     * inside the grids: δ of y > s is a min over the axes of box-exit
+     * terms that each depend on one index (fast_ok, per axis), so the
+     * fast nodes of a row are the b1 interval [fast_lo, fast_hi] if the
+     * row's own a and b2 terms pass. */
     if (sw->fast && idx[sw->a] >= sw->valid_lo[sw->a] && idx[sw->a] <= sw->valid_hi[sw->a] &&
-        idx[sw->b2] >= sw->valid_lo[sw->b2] && idx[sw->b2] <= sw->valid_hi[sw->b2]) {
-        /* Nodes whose y = x − sω is more than a step from the chain start
-         * (the generic path would interpolate there too) and whose reads
-         * stay inside the grids. δ is concave along the row (a min of
-         * linear functions), so they form one run [c0, c1]. */
-        float need = 2.0f * sw->s * 1.0001f;
-        for (int c = sw->valid_lo[sw->b1]; c <= sw->valid_hi[sw->b1]; c++) {
-            idx[sw->b1] = c;
-            if (fast_delta(sw, scatter_grid_node(V, idx[0], idx[1], idx[2])) > need) {
-                if (c < c0) c0 = c;
-                c1 = c;
+        idx[sw->b2] >= sw->valid_lo[sw->b2] && idx[sw->b2] <= sw->valid_hi[sw->b2] && sw->fast_ok[sw->a][idx[sw->a]] &&
+        sw->fast_ok[sw->b2][idx[sw->b2]])
+        c0 = sw->fast_lo, c1 = sw->fast_hi;
+    if (sw->simd && sw->b1 == 0) {
+        /* the whole row in one call of the vector code */
+        size_t rec0 = sw->geo ? rec_index(sw, 0, idx[1], idx[2], NULL) : 0;
+        if (sw->simd == 2) tube_row_avx512(&sw->lanes, &sw->fr, idx[1], idx[2], n, c0, c1, rec0, sw->resum);
+        else tube_row_avx2(&sw->lanes, &sw->fr, idx[1], idx[2], n, c0, c1, rec0, sw->resum);
+        return;
+    }
+    /* nodes before the fast run, the fast run, nodes after it */
+    int f0 = c1 >= c0 ? c0 : n, f1 = c1 >= c0 ? c1 + 1 : n;
+    idx[sw->b1] = 0;
+    nodes(sw, idx, sw->b1, f0);
+    if (f1 > f0) {
+        idx[sw->b1] = c0;
+        size_t at = ((size_t)idx[2] * (size_t)V->dims[1] + (size_t)idx[1]) * (size_t)V->dims[0] + (size_t)idx[0];
+        if (sw->b1 == 0) {
+            fast_run(sw, at, c1 - c0 + 1);
+        } else {
+            for (int cc = c0; cc <= c1; cc++) {
+                idx[sw->b1] = cc;
+                fast_run(sw, ((size_t)idx[2] * (size_t)V->dims[1] + (size_t)idx[1]) * (size_t)V->dims[0] + (size_t)idx[0],
+                         1);
             }
         }
     }
-    for (int c = 0; c < n; c++) {
-        if (c == c0 && c1 >= c0) {
-            idx[sw->b1] = c0;
-            size_t at = ((size_t)idx[2] * (size_t)V->dims[1] + (size_t)idx[1]) * (size_t)V->dims[0] + (size_t)idx[0];
-            if (sw->b1 == 0) {
-                fast_run(V->v + at, V->v + at, sw->in->rho->v + at, c1 - c0 + 1, sw);
-            } else {
-                for (int cc = c0; cc <= c1; cc++) {
-                    idx[sw->b1] = cc;
-                    size_t a2 = ((size_t)idx[2] * (size_t)V->dims[1] + (size_t)idx[1]) * (size_t)V->dims[0] +
-                                (size_t)idx[0];
-                    fast_run(V->v + a2, V->v + a2, sw->in->rho->v + a2, 1, sw);
-                }
-            }
-            c = c1;
-            continue;
-        }
-        idx[sw->b1] = c;
-        node(sw, idx[0], idx[1], idx[2]);
-    }
+    idx[sw->b1] = f1;
+    nodes(sw, idx, sw->b1, n - f1);
 }
 
 /* Corner offsets/weights of a trilinear read displaced by `d` (world) from
@@ -263,15 +346,28 @@ static void displaced_corners(const scatter_grid *g, volux_vec3 d, ptrdiff_t off
     }
 }
 
+/* Runs per parallel item of a point sweep: the vector kernels take a batch
+ * in one call (see tube_runs_avx2). */
+enum { RUNS_PER_ITEM = 8 };
+
 static void shell_run(void *user, int64_t item, int thread) {
     (void)thread;
     const sweep *sw = user;
-    const int *r = sw->runs[item];
-    for (int x = r[2]; x <= r[3]; x++) node(sw, x, r[1], r[0]);
+    int64_t r0 = item * RUNS_PER_ITEM, r1 = r0 + RUNS_PER_ITEM < sw->n_runs ? r0 + RUNS_PER_ITEM : sw->n_runs;
+    if (sw->simd == 2) {
+        tube_runs_avx512(&sw->lanes, (const int(*)[5])sw->runs + r0, (int)(r1 - r0));
+    } else if (sw->simd) {
+        tube_runs_avx2(&sw->lanes, (const int(*)[5])sw->runs + r0, (int)(r1 - r0));
+    } else {
+        for (int64_t r = r0; r < r1; r++) nodes(sw, sw->runs[r], sw->runs[r][3], sw->runs[r][4]);
+    }
 }
 
 /* Appends the runs of shell k (nodes with k ≤ max_a |i_a − P_a| < k + 1)
- * to sw->runs: the outer box minus the inner box, row by row. */
+ * to sw->runs: the outer box minus the inner box. Rows along x cover the
+ * faces normal to z and y; the faces normal to x (one node thick) are
+ * cut into columns along y, so no run is a single node and the 8-wide
+ * update stays busy. */
 static void shell_runs(sweep *sw, const float P[3], int k) {
     int olo[3], ohi[3], ilo[3], ihi[3];
     for (int a = 0; a < 3; a++) {
@@ -284,29 +380,80 @@ static void shell_runs(sweep *sw, const float P[3], int k) {
         ihi[a] = ih > m ? m : ih;
         if (olo[a] > ohi[a]) return;
     }
+    int (*r)[5] = sw->runs + sw->n_runs;
+#define RUN_(X, Y, Z, AXIS, N) (r[0][0] = (X), r[0][1] = (Y), r[0][2] = (Z), r[0][3] = (AXIS), r[0][4] = (N), r++)
     for (int z = olo[2]; z <= ohi[2]; z++) {
-        int zin = z >= ilo[2] && z <= ihi[2];
-        for (int y = olo[1]; y <= ohi[1]; y++) {
-            int yin = y >= ilo[1] && y <= ihi[1];
-            int (*r)[4] = sw->runs + sw->n_runs;
-            if (zin && yin && ilo[0] <= ihi[0]) {
-                if (olo[0] < ilo[0]) r[0][0] = z, r[0][1] = y, r[0][2] = olo[0], r[0][3] = ilo[0] - 1, r++;
-                if (ihi[0] < ohi[0]) r[0][0] = z, r[0][1] = y, r[0][2] = ihi[0] + 1, r[0][3] = ohi[0], r++;
-            } else {
-                r[0][0] = z, r[0][1] = y, r[0][2] = olo[0], r[0][3] = ohi[0], r++;
-            }
-            sw->n_runs = r - sw->runs;
+        int hollow = z >= ilo[2] && z <= ihi[2] && ilo[0] <= ihi[0] && ilo[1] <= ihi[1];
+        for (int y = olo[1]; y <= ohi[1]; y++)
+            if (!hollow || y < ilo[1] || y > ihi[1]) RUN_(olo[0], y, z, 0, ohi[0] - olo[0] + 1);
+        if (hollow) {
+            for (int x = olo[0]; x < ilo[0]; x++) RUN_(x, ilo[1], z, 1, ihi[1] - ilo[1] + 1);
+            for (int x = ihi[0] + 1; x <= ohi[0]; x++) RUN_(x, ilo[1], z, 1, ihi[1] - ilo[1] + 1);
         }
     }
+#undef RUN_
+    sw->n_runs = r - sw->runs;
 }
 
-volux_status tube_march(volux_context *ctx, const tube_input *in, const scatter_light *l, scatter_grid *V) {
+/* The 8-wide update needs ρ on V's nodes, every dimension ≥ 2 and
+ * 32-bit node indices. */
+static void setup_lanes(sweep *sw) {
+    const tube_input *in = sw->in;
+    const scatter_grid *V = sw->V, *R = in->rho;
+    /* 1: AVX2, 2: AVX-512F (all three are bit-identical) */
+    sw->simd = in->kernel_cap != TUBE_KERNEL_SCALAR && tube_simd_available() && in->n_sigma >= 2;
+    if (sw->simd && in->kernel_cap == TUBE_KERNEL_BEST && tube_avx512_available()) sw->simd = 2;
+    for (int a = 0; a < 3; a++)
+        if (R->dims[a] != V->dims[a] || V->dims[a] < 2 || R->inv_h[a] != V->inv_h[a]) sw->simd = 0;
+    if (R->lo.x != V->lo.x || R->lo.y != V->lo.y || R->lo.z != V->lo.z) sw->simd = 0;
+    if ((double)V->dims[0] * V->dims[1] * V->dims[2] >= 2147483647.0) sw->simd = 0;
+    if (!sw->simd) return;
+    tube_lanes *t = &sw->lanes;
+    t->rho = R->v, t->D = V->v;
+    float lo[3] = {sw->lo.x, sw->lo.y, sw->lo.z}, hi[3] = {sw->hi.x, sw->hi.y, sw->hi.z};
+    for (int a = 0; a < 3; a++) {
+        t->dims[a] = V->dims[a];
+        t->lo[a] = lo[a], t->hi[a] = hi[a], t->h[a] = V->h[a], t->inv_h[a] = V->inv_h[a];
+    }
+    t->positional = sw->l->positional;
+    t->pos[0] = sw->l->pos.x, t->pos[1] = sw->l->pos.y, t->pos[2] = sw->l->pos.z;
+    t->dir[0] = sw->l->dir.x, t->dir[1] = sw->l->dir.y, t->dir[2] = sw->l->dir.z;
+    t->s = sw->s, t->inv_r = sw->inv_r;
+    t->kappa = in->kappa, t->n_sigma = in->n_sigma, t->sigma_max = in->sigma_max;
+    t->g_arg = sw->geo ? sw->geo->arg : NULL;
+    t->resum = sw->resum;
+}
+
+/* Phase p of the directional sweep: `group` slices from p·group on. */
+static int64_t slice_group(void *user, int p) {
+    sweep *sw = user;
+    int n = sw->V->dims[sw->a], t = p * sw->group, m = n - t < sw->group ? n - t : sw->group;
+    sw->slice = t;
+    return (int64_t)m * sw->V->dims[sw->b2];
+}
+
+/* Phase p of the point sweep: the runs of `group` shells from p·group on. */
+static int64_t shell_group(void *user, int p) {
+    sweep *sw = user;
+    int k = p * sw->group;
+    sw->n_runs = 0;
+    for (int j = k; j < k + sw->group && j <= sw->K; j++) shell_runs(sw, sw->P, j);
+    return (sw->n_runs + RUNS_PER_ITEM - 1) / RUNS_PER_ITEM;
+}
+
+/* A march (resum = 0: records into geo if given) or a re-sum (resum = 1:
+ * from geo) of light l into V. */
+static volux_status sweep_run(volux_context *ctx, const tube_input *in, const scatter_light *l, scatter_grid *V,
+                              tube_geometry *geo, int resum) {
     sweep sw;
     memset(&sw, 0, sizeof sw);
     sw.in = in, sw.l = l, sw.V = V;
+    sw.geo = geo, sw.resum = resum;
+    size_t ok_bytes = 0;
     sw.lo = V->lo, sw.hi = grid_hi(V);
     sw.s = tube_step(in, V, l);
     sw.inv_r = in->radius > 0.0f ? 1.0f / in->radius : 0.0f;
+    setup_lanes(&sw);
     if (!l->positional) {
         float w[3] = {l->dir.x, l->dir.y, l->dir.z}, best = -1.0f;
         for (int a = 0; a < 3; a++)
@@ -320,6 +467,14 @@ volux_status tube_march(volux_context *ctx, const tube_input *in, const scatter_
             for (int a = 0; a < 3; a++) sw.valid_lo[a] = 0, sw.valid_hi[a] = V->dims[a] - 1;
             displaced_corners(V, v3_scale(l->dir, -sw.s), sw.off_v, sw.w_v, sw.valid_lo, sw.valid_hi);
             displaced_corners(R, v3_scale(l->dir, -0.5f * sw.s), sw.off_r, sw.w_r, sw.valid_lo, sw.valid_hi);
+            memcpy(sw.fr.off_v, sw.off_v, sizeof sw.off_v);
+            memcpy(sw.fr.off_r, sw.off_r, sizeof sw.off_r);
+            memcpy(sw.fr.w_v, sw.w_v, sizeof sw.w_v);
+            memcpy(sw.fr.w_r, sw.w_r, sizeof sw.w_r);
+            /* as fast_run computes them */
+            sw.fr.kscale = 0.5f * sw.s * sw.inv_r * (float)(in->n_sigma - 1) / in->sigma_max;
+            sw.fr.last = (float)(in->n_sigma - 1) - 1e-3f;
+            sw.fr.kappa = in->kappa;
             float lo[3] = {sw.lo.x, sw.lo.y, sw.lo.z}, hi[3] = {sw.hi.x, sw.hi.y, sw.hi.z};
             for (int a = 0; a < 3; a++) {
                 /* walking back along −ω towards the light */
@@ -327,6 +482,24 @@ volux_status tube_march(volux_context *ctx, const tube_input *in, const scatter_
                 sw.exit_inv[a] = w[a] != 0.0f ? -1.0f / w[a] : 0.0f;
                 sw.exit_bound[a] = w[a] < 0.0f ? hi[a] : lo[a];
             }
+            /* δ of y > s ⟺ every axis' term (exit_bound − x)·exit_inv > 2s
+             * (a min of terms, each of one index) */
+            ok_bytes = (size_t)V->dims[0] + (size_t)V->dims[1] + (size_t)V->dims[2];
+            unsigned char *ok = volux_malloc(ctx, ok_bytes);
+            if (!ok) return volux_error(ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for tube marching");
+            float need = 2.0f * sw.s * 1.0001f, vlo[3] = {V->lo.x, V->lo.y, V->lo.z};
+            for (int a = 0; a < 3; a++) {
+                sw.fast_ok[a] = ok;
+                for (int i = 0; i < V->dims[a]; i++)
+                    ok[i] = !sw.exit_use[a] || (sw.exit_bound[a] - (vlo[a] + (float)i * V->h[a])) * sw.exit_inv[a] > need;
+                ok += V->dims[a];
+            }
+            sw.fast_lo = V->dims[sw.b1], sw.fast_hi = -1;
+            for (int c = sw.valid_lo[sw.b1]; c <= sw.valid_hi[sw.b1]; c++)
+                if (sw.fast_ok[sw.b1][c]) {
+                    if (c < sw.fast_lo) sw.fast_lo = c;
+                    sw.fast_hi = c;
+                }
         }
         /* Every read lies ≥ s·|ω_a|/h_a slices back, so that many
          * consecutive slices are independent: one parallel region (one
@@ -334,11 +507,9 @@ volux_status tube_march(volux_context *ctx, const tube_input *in, const scatter_
         int n = V->dims[sw.a], group = (int)floorf(sw.s * fabsf(w[sw.a]) * V->inv_h[sw.a] * 0.9999f);
         if (group < 1) group = 1;
         sw.slice_step = w[sw.a] >= 0.0f ? 1 : -1;
-        for (int t = 0; t < n; t += group) {
-            sw.slice = t;
-            int m = n - t < group ? n - t : group;
-            volux_parallel_for(in->threads, (int64_t)m * V->dims[sw.b2], slice_row, &sw);
-        }
+        sw.group = group;
+        volux_parallel_phases(in->threads, (n + group - 1) / group, slice_group, slice_row, &sw);
+        if (sw.fast) volux_free(ctx, sw.fast_ok[0], ok_bytes);
         return VOLUX_OK;
     }
     float P[3] = {(l->pos.x - V->lo.x) * V->inv_h[0], (l->pos.y - V->lo.y) * V->inv_h[1],
@@ -356,17 +527,43 @@ volux_status tube_march(volux_context *ctx, const tube_input *in, const scatter_
     float hmax = fmaxf(V->h[0], fmaxf(V->h[1], V->h[2]));
     int group = (int)floorf(sw.s / (1.7320508f * hmax) * 0.9999f) - 1;
     if (group < 1) group = 1;
-    /* at most two runs per (z, y) row of a shell */
-    size_t bytes = sizeof *sw.runs * 2 * (size_t)V->dims[1] * (size_t)V->dims[2] * (size_t)group;
+    /* per shell at most one row per (z, y) and two columns per z */
+    size_t bytes = sizeof *sw.runs * ((size_t)V->dims[1] + 2) * (size_t)V->dims[2] * (size_t)group;
     sw.runs = volux_malloc(ctx, bytes);
     if (!sw.runs) return volux_error(ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for tube marching");
-    for (int k = 0; k <= K; k += group) {
-        sw.n_runs = 0;
-        for (int j = k; j < k + group && j <= K; j++) shell_runs(&sw, P, j);
-        if (sw.n_runs) volux_parallel_for(in->threads, sw.n_runs, shell_run, &sw);
-    }
+    memcpy(sw.P, P, sizeof P);
+    sw.K = K;
+    sw.group = group;
+    volux_parallel_phases(in->threads, K / group + 1, shell_group, shell_run, &sw);
     volux_free(ctx, sw.runs, bytes);
     return VOLUX_OK;
+}
+
+volux_status tube_march(volux_context *ctx, const tube_input *in, const scatter_light *l, scatter_grid *V) {
+    return sweep_run(ctx, in, l, V, in->geo, 0);
+}
+
+volux_status tube_resum(volux_context *ctx, const tube_input *in, const scatter_light *l, scatter_grid *V) {
+    if (!in->geo || in->geo->n != (size_t)V->dims[0] * (size_t)V->dims[1] * (size_t)V->dims[2])
+        return volux_error(ctx, VOLUX_ERR_INVALID, "ambient: re-sum of a radiance cache without its geometry");
+    return sweep_run(ctx, in, l, V, in->geo, 1);
+}
+
+volux_status tube_geometry_alloc(volux_context *ctx, size_t n, tube_geometry *g) {
+    if (g->arg && g->n == n) return VOLUX_OK;
+    tube_geometry_free(ctx, g);
+    size_t bytes;
+    if (!volux_mul_size(n, sizeof(float), &bytes) || bytes > volux_context_max_bytes(ctx))
+        return volux_error(ctx, VOLUX_ERR_LIMIT, "ambient: radiance cache geometry of %zu nodes exceeds the limits", n);
+    g->arg = volux_alloc_aligned(ctx, bytes);
+    if (!g->arg) return volux_error(ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the radiance cache geometry");
+    g->n = n, g->bytes = bytes;
+    return VOLUX_OK;
+}
+
+void tube_geometry_free(volux_context *ctx, tube_geometry *g) {
+    if (g->arg) volux_free_aligned(ctx, g->arg, g->bytes);
+    memset(g, 0, sizeof *g);
 }
 
 float tube_chain(const tube_input *in, const scatter_light *l, const scatter_grid *V, volux_vec3 x) {

@@ -33,8 +33,32 @@
 #ifndef VOLUX_AMBIENT_TUBE_H
 #define VOLUX_AMBIENT_TUBE_H
 
+#include <stdint.h>
+
 #include "techniques/scatter/grid.h"
 #include "techniques/scatter/lights.h"
+
+/* The g-independent part of a radiance cache that is worth keeping. The
+ * phase enters tube marching only through κ (the table's θ = 0 column at
+ * g); which nodes a node reads, with which weights, and the optical radius
+ * of each sphere do not depend on it. The expensive g-independent part is
+ * the trilinear read of ρ at the centre of the sphere towards the light
+ * (about 40 % of a march); the chain geometry is cheaper to recompute than
+ * to store and stream back (20 bytes per node measured slower than
+ * recomputing it). A march records, per node, the κ argument
+ * arg = ρ·(s/2)/r of that sphere (the directional fast path: the κ-table
+ * coordinate itself); a re-sum (tube_resum) recomputes D from it with a
+ * new κ, in the same sweep order, bit-identical to a march with that κ.
+ * The sign bit (arg ≥ 0 otherwise) marks nodes more than two steps from
+ * their chain start, whose D does not use δ: a re-sum of a block of such
+ * nodes skips the box exit. Directional sweeps store the records in sweep
+ * order (see tube.c: rec_index). 4 bytes per cache node. */
+typedef struct tube_geometry {
+    float *arg;
+    size_t n, bytes;
+} tube_geometry;
+
+enum { TUBE_KERNEL_BEST = 0, TUBE_KERNEL_SCALAR = 1, TUBE_KERNEL_AVX2 = 2 };
 
 typedef struct tube_input {
     const scatter_grid *rho; /* optical radius r·σ̃t                       */
@@ -43,6 +67,10 @@ typedef struct tube_input {
     float sigma_max;         /* table Σ̃t                                  */
     float radius;            /* r, world units                             */
     int threads;
+    int kernel_cap;          /* TUBE_KERNEL_*: the widest node update to use
+                                (tests; 0 = the best this CPU has)         */
+    tube_geometry *geo;      /* march: record here (allocated for V's nodes)
+                                if not NULL; re-sum: read from here        */
 } tube_input;
 
 /* κ(ρ') = −ln τ(ρ'), linear over the table's σ̃t nodes (clamped). */
@@ -65,6 +93,14 @@ float tube_step(const tube_input *in, const scatter_grid *V, const scatter_light
 /* Fills the cache (already allocated over the volume box) with D = −ln V
  * for light l. Allocates a little scratch through ctx (point lights). */
 volux_status tube_march(volux_context *ctx, const tube_input *in, const scatter_light *l, scatter_grid *V);
+
+/* Recomputes D from in->geo (recorded by a march of the same light on the
+ * same grid, ρ, radius and table size) with in->kappa. */
+volux_status tube_resum(volux_context *ctx, const tube_input *in, const scatter_light *l, scatter_grid *V);
+
+/* (Re)allocates g for n nodes (kept if it has that size) / frees it. */
+volux_status tube_geometry_alloc(volux_context *ctx, size_t n, tube_geometry *g);
+void tube_geometry_free(volux_context *ctx, tube_geometry *g);
 
 /* V (not D) at one point by walking the chain directly (no cache reads):
  * the closed-form product of table look-ups the sweep must reproduce, for

@@ -1,0 +1,92 @@
+/*
+ * techniques/ambient/tube_simd.h — the tube-marching node update (tube.c's
+ * `node`) for 8 nodes at a time with AVX2 (tube_avx2.c) or 16 with
+ * AVX-512F (tube_avx512.c), chosen at run time by tube_simd_available /
+ * tube_avx512_available; all intrinsics live in those two files.
+ *
+ * It evaluates, per node, exactly the scalar arithmetic of tube.c — the
+ * same operations in the same order, no FMA contraction, IEEE sqrt and
+ * division — so its results are bit-identical to the scalar path
+ * (tests/physics/test_tube_marching.c asserts it). What it saves is the
+ * per-node overhead: the light direction, the box exit, both trilinear
+ * reads (gathers) and the κ look-up run 8 lanes wide, and the three cases
+ * of a node (within one step of the chain start, within two, further)
+ * are blends instead of branches.
+ *
+ * Precondition: ρ and D share dims and box (the technique's layout), every
+ * dimension ≥ 2, fewer than 2^31 nodes, n_sigma ≥ 2. Reads of D touch only
+ * the strict trilinear corners the sweep order guarantees (as
+ * sample_strict), and only for lanes that need them (masked gathers).
+ */
+#ifndef VOLUX_AMBIENT_TUBE_SIMD_H
+#define VOLUX_AMBIENT_TUBE_SIMD_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+typedef struct tube_lanes {
+    const float *rho; /* ρ = r·σ̃t at the cache's nodes                  */
+    float *D;         /* the cache being filled                          */
+    int dims[3];
+    float lo[3], hi[3], h[3], inv_h[3];
+    int positional;
+    float pos[3];     /* point/spot: light position                      */
+    float dir[3];     /* directional: travel direction                   */
+    float s;          /* marching step                                   */
+    float inv_r;      /* 1/r (0 for r = 0)                               */
+    const float *kappa;
+    int n_sigma;
+    float sigma_max;
+    /* the κ arguments (tube.h: tube_geometry), or NULL: written by a march,
+     * read instead of sampling ρ by a re-sum (resum = 1) */
+    float *g_arg;
+    int resum;
+} tube_lanes;
+
+/* The directional sweep's fast path (tube.c's fast_run): constant corner
+ * offsets and weights of both reads for every node of a run. */
+typedef struct tube_fast {
+    ptrdiff_t off_v[8], off_r[8]; /* corner offsets of the D and ρ reads  */
+    float w_v[8], w_r[8];         /* their trilinear weights             */
+    float kscale;                 /* ρ → κ-table coordinate              */
+    float last;                   /* highest coordinate (n_sigma − 1 − 1e−3) */
+    const float *kappa;
+} tube_fast;
+
+/* Batches: runs (i, j, k, axis, count) of a point sweep (records in node
+ * order), and a directional row along x ([0, c0) and (c1, n) by the node
+ * update, [c0, c1] by the fast path; records from rec0). */
+void tube_runs_avx2(const tube_lanes *t, const int (*runs)[5], int n_runs);
+void tube_runs_avx512(const tube_lanes *t, const int (*runs)[5], int n_runs);
+void tube_row_avx2(const tube_lanes *t, const tube_fast *fr, int j, int k, int n, int c0, int c1, size_t rec0,
+                   int resum);
+void tube_row_avx512(const tube_lanes *t, const tube_fast *fr, int j, int k, int n, int c0, int c1, size_t rec0,
+                     int resum);
+
+/* 1 when this CPU runs tube_nodes_avx2 (AVX2) / tube_nodes_avx512
+ * (AVX-512F). */
+int tube_simd_available(void);
+int tube_avx512_available(void);
+
+/* Fills D at the `count` nodes (i, j, k) + n·e_axis, n ∈ [0, count), and
+ * their κ arguments at g_arg[rec0 + n·rec_stride] when g_arg is set (or,
+ * when resum, takes them from there). */
+void tube_nodes_avx2(const tube_lanes *t, int i, int j, int k, int axis, int count, size_t rec0,
+                     ptrdiff_t rec_stride);
+void tube_nodes_avx512(const tube_lanes *t, int i, int j, int k, int axis, int count, size_t rec0,
+                       ptrdiff_t rec_stride);
+
+/* fast_run on 8 nodes at a time, bit-identical to the scalar loop: out[i]
+ * for i < count from D and R at the constant offsets (out and D point into
+ * the same grid; every D read lies in an earlier slice). Any count: the
+ * tail is masked (no element past the run is touched). The κ-table
+ * coordinates are stored to u_io (if not NULL)
+ * or, when resum, read from it instead of from R. */
+void tube_fast_run_avx2(const tube_fast *f, float *out, const float *D, const float *R, float *u_io, int resum,
+                        int count);
+/* The same on 16 nodes at a time, any count (the tail is masked: no
+ * element past the run is touched). */
+void tube_fast_run_avx512(const tube_fast *f, float *out, const float *D, const float *R, float *u_io, int resum,
+                          int count);
+
+#endif
