@@ -75,7 +75,13 @@ static void barrier_wait(spin_barrier *b, int *local_sense) {
     pthread_mutex_unlock(&b->lock);
 }
 
-void volux_parallel_phases(int threads, int n_phases, volux_phase_fn begin, volux_parallel_fn fn, void *user) {
+/* Runs of items per take, as in volux_parallel_for. */
+static int phase_chunk(int64_t n_items, int threads) {
+    int64_t run = n_items / ((int64_t)threads * 32);
+    return run < 1 ? 1 : run > 8 ? 8 : (int)run;
+}
+
+void volux_parallel_phases(int threads, int n_phases, volux_phase_fn begin, volux_phase_item_fn fn, void *user) {
     if (threads <= 0) threads = volux_parallel_max_threads();
 #ifdef _OPENMP
     if (threads > 1 && n_phases > 0) {
@@ -85,29 +91,33 @@ void volux_parallel_phases(int threads, int n_phases, volux_phase_fn begin, volu
         bar.n = 0;
         pthread_mutex_init(&bar.lock, NULL);
         pthread_cond_init(&bar.cond, NULL);
-        atomic_llong next;
-        atomic_init(&next, 0);
-        int64_t n_items = 0;
-        int chunk = 1;
+        /* by phase parity: the next phase is set up during this one */
+        atomic_llong next[2];
+        int64_t n_items[2] = {begin(user, 0), 0};
+        int chunk[2] = {0, 0};
+        atomic_init(&next[0], 0);
+        atomic_init(&next[1], 0);
 #pragma omp parallel num_threads(threads)
         {
             int tid = omp_get_thread_num(), sense = 0;
 #pragma omp single
-            bar.n = omp_get_num_threads(); /* implicit (one-off) barrier: everyone sees n */
+            {
+                bar.n = omp_get_num_threads(); /* implicit (one-off) barrier: everyone sees n */
+                chunk[0] = phase_chunk(n_items[0], bar.n);
+            }
             for (int p = 0; p < n_phases; p++) {
-                if (tid == 0) {
-                    n_items = begin(user, p);
-                    /* runs of items as in volux_parallel_for */
-                    int64_t run = n_items / ((int64_t)bar.n * 32);
-                    chunk = run < 1 ? 1 : run > 8 ? 8 : (int)run;
-                    atomic_store(&next, 0);
-                }
-                barrier_wait(&bar, &sense);
+                int cur = p & 1;
                 for (;;) {
-                    int64_t i0 = atomic_fetch_add(&next, (long long)chunk);
-                    if (i0 >= n_items) break;
-                    int64_t i1 = i0 + chunk < n_items ? i0 + chunk : n_items;
-                    for (int64_t i = i0; i < i1; i++) fn(user, i, tid);
+                    int64_t i0 = atomic_fetch_add(&next[cur], (long long)chunk[cur]);
+                    if (i0 >= n_items[cur]) break;
+                    int64_t i1 = i0 + chunk[cur] < n_items[cur] ? i0 + chunk[cur] : n_items[cur];
+                    for (int64_t i = i0; i < i1; i++) fn(user, p, i, tid);
+                }
+                if (tid == 0 && p + 1 < n_phases) {
+                    /* phase p − 1 used these; everyone left it at the last barrier */
+                    n_items[!cur] = begin(user, p + 1);
+                    chunk[!cur] = phase_chunk(n_items[!cur], bar.n);
+                    atomic_store(&next[!cur], 0);
                 }
                 barrier_wait(&bar, &sense);
             }
@@ -119,6 +129,6 @@ void volux_parallel_phases(int threads, int n_phases, volux_phase_fn begin, volu
 #endif
     for (int p = 0; p < n_phases; p++) {
         int64_t n = begin(user, p);
-        for (int64_t i = 0; i < n; i++) fn(user, i, 0);
+        for (int64_t i = 0; i < n; i++) fn(user, p, i, 0);
     }
 }

@@ -95,17 +95,19 @@ typedef struct sweep {
     scatter_grid *V;
     volux_vec3 lo, hi;
     float s, inv_r;
-    /* directional: slices along axis a (a group of `group` consecutive
-     * slices starting at `slice` in light order), rows along b2, runs along b1 */
-    int a, b1, b2, slice, slice_step, group;
-    /* point: the current group of shells as runs of nodes (i, j, k, axis,
-     * count): (i, j, k) + n·e_axis for n < count */
-    int (*runs)[5];
-    int64_t n_runs;
+    /* directional: slices along axis a (phase p: the `group` consecutive
+     * slices from p·group on, in light order), rows along b2, runs along b1 */
+    int a, b1, b2, slice_step, group;
+    /* point: phase p's group of shells as runs of nodes (i, j, k, axis,
+     * count): (i, j, k) + n·e_axis for n < count, in runs[p & 1] (the next
+     * phase's runs are built while this one's finish) */
+    int (*runs[2])[5];
+    int64_t n_runs[2];
     /* the 8-wide node update (tube_simd.h), when usable */
-    /* point: the light in grid index units, the last shell */
+    /* point: the light in grid index units, the first shell that can hold
+     * a node (k0 > 0: the light is outside the grid) and the last */
     float P[3];
-    int K;
+    int k0, K;
     int simd;
     tube_lanes lanes;
     tube_fast fr;
@@ -269,13 +271,13 @@ static void fast_run(const sweep *sw, size_t at, int count) {
     }
 }
 
-static void slice_row(void *user, int64_t item, int thread) {
+static void slice_row(void *user, int phase, int64_t item, int thread) {
     (void)thread;
     const sweep *sw = user;
     scatter_grid *V = sw->V;
     int idx[3], n = V->dims[sw->b1], rows = V->dims[sw->b2];
     /* item → (slice of the group, row); slices run in light order */
-    int g = (int)(item / rows), r = (int)(item % rows), t = sw->slice + g;
+    int g = (int)(item / rows), r = (int)(item % rows), t = phase * sw->group + g;
     idx[sw->a] = sw->slice_step > 0 ? t : V->dims[sw->a] - 1 - t;
     idx[sw->b2] = r;
     int c0 = n, c1 = -1;
@@ -350,25 +352,27 @@ static void displaced_corners(const scatter_grid *g, volux_vec3 d, ptrdiff_t off
  * in one call (see tube_runs_avx2). */
 enum { RUNS_PER_ITEM = 8 };
 
-static void shell_run(void *user, int64_t item, int thread) {
+static void shell_run(void *user, int phase, int64_t item, int thread) {
     (void)thread;
     const sweep *sw = user;
-    int64_t r0 = item * RUNS_PER_ITEM, r1 = r0 + RUNS_PER_ITEM < sw->n_runs ? r0 + RUNS_PER_ITEM : sw->n_runs;
+    int (*runs)[5] = sw->runs[phase & 1];
+    int64_t n_runs = sw->n_runs[phase & 1];
+    int64_t r0 = item * RUNS_PER_ITEM, r1 = r0 + RUNS_PER_ITEM < n_runs ? r0 + RUNS_PER_ITEM : n_runs;
     if (sw->simd == 2) {
-        tube_runs_avx512(&sw->lanes, (const int(*)[5])sw->runs + r0, (int)(r1 - r0));
+        tube_runs_avx512(&sw->lanes, (const int(*)[5])runs + r0, (int)(r1 - r0));
     } else if (sw->simd) {
-        tube_runs_avx2(&sw->lanes, (const int(*)[5])sw->runs + r0, (int)(r1 - r0));
+        tube_runs_avx2(&sw->lanes, (const int(*)[5])runs + r0, (int)(r1 - r0));
     } else {
-        for (int64_t r = r0; r < r1; r++) nodes(sw, sw->runs[r], sw->runs[r][3], sw->runs[r][4]);
+        for (int64_t r = r0; r < r1; r++) nodes(sw, runs[r], runs[r][3], runs[r][4]);
     }
 }
 
 /* Appends the runs of shell k (nodes with k ≤ max_a |i_a − P_a| < k + 1)
- * to sw->runs: the outer box minus the inner box. Rows along x cover the
+ * to sw->runs[buf]: the outer box minus the inner box. Rows along x cover the
  * faces normal to z and y; the faces normal to x (one node thick) are
  * cut into columns along y, so no run is a single node and the 8-wide
  * update stays busy. */
-static void shell_runs(sweep *sw, const float P[3], int k) {
+static void shell_runs(sweep *sw, int buf, const float P[3], int k) {
     int olo[3], ohi[3], ilo[3], ihi[3];
     for (int a = 0; a < 3; a++) {
         int m = sw->V->dims[a] - 1;
@@ -380,7 +384,7 @@ static void shell_runs(sweep *sw, const float P[3], int k) {
         ihi[a] = ih > m ? m : ih;
         if (olo[a] > ohi[a]) return;
     }
-    int (*r)[5] = sw->runs + sw->n_runs;
+    int (*r)[5] = sw->runs[buf] + sw->n_runs[buf];
 #define RUN_(X, Y, Z, AXIS, N) (r[0][0] = (X), r[0][1] = (Y), r[0][2] = (Z), r[0][3] = (AXIS), r[0][4] = (N), r++)
     for (int z = olo[2]; z <= ohi[2]; z++) {
         int hollow = z >= ilo[2] && z <= ihi[2] && ilo[0] <= ihi[0] && ilo[1] <= ihi[1];
@@ -392,7 +396,7 @@ static void shell_runs(sweep *sw, const float P[3], int k) {
         }
     }
 #undef RUN_
-    sw->n_runs = r - sw->runs;
+    sw->n_runs[buf] = r - sw->runs[buf];
 }
 
 /* The 8-wide update needs ρ on V's nodes, every dimension ≥ 2 and
@@ -426,19 +430,20 @@ static void setup_lanes(sweep *sw) {
 
 /* Phase p of the directional sweep: `group` slices from p·group on. */
 static int64_t slice_group(void *user, int p) {
-    sweep *sw = user;
+    const sweep *sw = user;
     int n = sw->V->dims[sw->a], t = p * sw->group, m = n - t < sw->group ? n - t : sw->group;
-    sw->slice = t;
     return (int64_t)m * sw->V->dims[sw->b2];
 }
 
-/* Phase p of the point sweep: the runs of `group` shells from p·group on. */
+/* Phase p of the point sweep: the runs of `group` shells from k0 + p·group
+ * on, into runs[p & 1] (volux_parallel_phases builds them while phase
+ * p − 1's last items run). */
 static int64_t shell_group(void *user, int p) {
     sweep *sw = user;
-    int k = p * sw->group;
-    sw->n_runs = 0;
-    for (int j = k; j < k + sw->group && j <= sw->K; j++) shell_runs(sw, sw->P, j);
-    return (sw->n_runs + RUNS_PER_ITEM - 1) / RUNS_PER_ITEM;
+    int k = sw->k0 + p * sw->group, buf = p & 1;
+    sw->n_runs[buf] = 0;
+    for (int j = k; j < k + sw->group && j <= sw->K; j++) shell_runs(sw, buf, sw->P, j);
+    return (sw->n_runs[buf] + RUNS_PER_ITEM - 1) / RUNS_PER_ITEM;
 }
 
 /* A march (resum = 0: records into geo if given) or a re-sum (resum = 1:
@@ -514,12 +519,17 @@ static volux_status sweep_run(volux_context *ctx, const tube_input *in, const sc
     }
     float P[3] = {(l->pos.x - V->lo.x) * V->inv_h[0], (l->pos.y - V->lo.y) * V->inv_h[1],
                   (l->pos.z - V->lo.z) * V->inv_h[2]};
-    float dmax = 0.0f;
+    /* a node's shell is floor of its Chebyshev distance to P, which is at
+     * least the largest per-axis distance from P to the grid, dmin */
+    float dmax = 0.0f, dmin = 0.0f;
     for (int a = 0; a < 3; a++) {
-        float d = fmaxf(fabsf(P[a]), fabsf((float)(V->dims[a] - 1) - P[a]));
+        float m = (float)(V->dims[a] - 1);
+        float d = fmaxf(fabsf(P[a]), fabsf(m - P[a])), e = fmaxf(fmaxf(-P[a], P[a] - m), 0.0f);
         if (d > dmax) dmax = d;
+        if (e > dmin) dmin = e;
     }
-    int K = (int)floorf(dmax);
+    int K = (int)floorf(dmax), k0 = (int)floorf(dmin) - 1;
+    if (k0 < 0) k0 = 0;
     /* Reads lie ≥ s/(√3 h_max) − 1 shells back (see tube_step), so that
      * many consecutive shells are independent: one parallel region per
      * group. The runs of a group (rows of the shells' faces and rings)
@@ -527,15 +537,17 @@ static volux_status sweep_run(volux_context *ctx, const tube_input *in, const sc
     float hmax = fmaxf(V->h[0], fmaxf(V->h[1], V->h[2]));
     int group = (int)floorf(sw.s / (1.7320508f * hmax) * 0.9999f) - 1;
     if (group < 1) group = 1;
-    /* per shell at most one row per (z, y) and two columns per z */
-    size_t bytes = sizeof *sw.runs * ((size_t)V->dims[1] + 2) * (size_t)V->dims[2] * (size_t)group;
-    sw.runs = volux_malloc(ctx, bytes);
-    if (!sw.runs) return volux_error(ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for tube marching");
+    /* per shell at most one row per (z, y) and two columns per z; two
+     * buffers (shell_group) */
+    size_t bytes = sizeof *sw.runs[0] * ((size_t)V->dims[1] + 2) * (size_t)V->dims[2] * (size_t)group;
+    sw.runs[0] = volux_malloc(ctx, 2 * bytes);
+    if (!sw.runs[0]) return volux_error(ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for tube marching");
+    sw.runs[1] = sw.runs[0] + bytes / sizeof *sw.runs[0];
     memcpy(sw.P, P, sizeof P);
-    sw.K = K;
+    sw.k0 = k0, sw.K = K;
     sw.group = group;
-    volux_parallel_phases(in->threads, K / group + 1, shell_group, shell_run, &sw);
-    volux_free(ctx, sw.runs, bytes);
+    volux_parallel_phases(in->threads, (K - k0) / group + 1, shell_group, shell_run, &sw);
+    volux_free(ctx, sw.runs[0], 2 * bytes);
     return VOLUX_OK;
 }
 
