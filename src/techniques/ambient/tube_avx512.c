@@ -215,6 +215,25 @@ A5I __m512 load_ps(const float *p, ptrdiff_t stride, int n) {
     return _mm512_loadu_ps(tmp);
 }
 
+/* 1 when every node in `valid` is provably more than two steps (2s) from
+ * its chain start, without computing the box exit: along axis a the exit
+ * distance (bound_a − x_a)/b_a, b = −ω, |b_a| ≤ 1, is at least
+ * |bound_a − x_a|, so δ = min(dl, exit) ≥ min(dl, min_a |bound_a − x_a|).
+ * The margin (2.002 s) exceeds the rounding of the exact computation by
+ * far: those nodes take the deep branch either way, bit-identical. Saves
+ * the three divisions of the box exit for most blocks of a march. */
+A5I int beyond_two_steps(const tube_lanes *t, const __m512 x[3], const __m512 w[3], __m512 dl, m16 valid) {
+    const __m512 zero = _mm512_setzero_ps(), inf = _mm512_set1_ps(INFINITY);
+    __m512 lb = dl;
+    for (int a = 0; a < 3; a++) {
+        m16 to_hi = _mm512_cmp_ps_mask(w[a], zero, _CMP_LT_OQ), to_lo = _mm512_cmp_ps_mask(w[a], zero, _CMP_GT_OQ);
+        __m512 gap = sel(to_hi, _mm512_sub_ps(_mm512_set1_ps(t->hi[a]), x[a]),
+                         sel(to_lo, _mm512_sub_ps(x[a], _mm512_set1_ps(t->lo[a])), inf));
+        lb = _mm512_min_ps(lb, gap);
+    }
+    return (_mm512_cmp_ps_mask(lb, _mm512_set1_ps(2.002f * t->s), _CMP_GT_OQ) & valid) == valid;
+}
+
 A5I void nodes_body(const tube_lanes *t, int i, int j, int k, int axis, int count, size_t rec0, ptrdiff_t rec_stride) {
     const int nx = t->dims[0], ny = t->dims[1];
     grid16 g;
@@ -260,15 +279,19 @@ A5I void nodes_body(const tube_lanes *t, int i, int j, int k, int axis, int coun
             } else {
                 for (int a = 0; a < 3; a++) w[a] = _mm512_set1_ps(t->dir[a]);
             }
-            /* A re-sum whose recorded nodes are all deep (sign bit of the
-             * record, see tube.h) skips the box exit: a deep node uses no
-             * δ. */
-            int skip_exit = 0;
+            /* A block whose nodes are all deep (more than two steps from
+             * their chain start) skips the box exit: a deep node uses no
+             * δ. A re-sum knows them from the sign bit of the records (see
+             * tube.h), a march from a lower bound of δ. */
+            int n0 = c0 + 16 * bi, left = count - n0 < 16 ? count - n0 : 16;
+            m16 valid = (m16)((1u << left) - 1u);
+            int skip_exit;
             if (t->resum) {
-                int n0 = c0 + 16 * bi, left = count - n0 < 16 ? count - n0 : 16;
                 __m512 rec = load_ps(t->g_arg + rec0 + (size_t)((ptrdiff_t)n0 * rec_stride), rec_stride, left);
-                skip_exit = _mm512_cmplt_epi32_mask(_mm512_castps_si512(rec), _mm512_setzero_si512()) == 0xffff;
+                skip_exit = (_mm512_cmplt_epi32_mask(_mm512_castps_si512(rec), _mm512_setzero_si512()) & valid) == valid;
                 c_arg[bi] = _mm512_castsi512_ps(_mm512_and_si512(_mm512_castps_si512(rec), _mm512_set1_epi32(0x7fffffff)));
+            } else {
+                skip_exit = beyond_two_steps(t, x, w, dl, valid);
             }
             __m512 delta = inf;
             if (!skip_exit) {
@@ -329,7 +352,7 @@ A5I void nodes_body(const tube_lanes *t, int i, int j, int k, int axis, int coun
                 y[a] = _mm512_add_ps(x, _mm512_mul_ps(w[a], neg_s));
             }
             m16 near = _mm512_cmp_ps_mask(delta, s_tol, _CMP_LE_OQ);
-            __m512 v_near = _mm512_mul_ps(_mm512_div_ps(delta, vs), kA);
+            __m512 v_near = (near & valid) ? _mm512_mul_ps(_mm512_div_ps(delta, vs), kA) : zero;
             __m512 dy = _mm512_sub_ps(delta, vs);
             m16 mid = (m16)(~near & _mm512_cmp_ps_mask(dy, vs, _CMP_LE_OQ));
             m16 deep = (m16)(~(near | mid) & valid);
