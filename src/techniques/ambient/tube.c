@@ -115,6 +115,7 @@ typedef struct sweep {
      * present, read back by a re-sum (resum = 1) */
     tube_geometry *geo;
     int resum;
+    int vac_bad; /* a march broke the vacuum-chain invariant (tube.h) */
     /* directional fast path (ρ grid aligned with V): constant corner offsets
      * and weights of the two reads, and the box-exit reciprocals */
     int fast;
@@ -239,7 +240,7 @@ static void fast_run(const sweep *sw, size_t at, int count) {
     int done = 0;
     if (sw->simd == 2) {
         done = count; /* masked tail */
-        tube_fast_run_avx512(&sw->fr, out, D, R, geo_u, sw->resum, done);
+        tube_fast_run_avx512(&sw->fr, out, D, R, geo_u, sw->lanes.vac ? sw->lanes.vac + at : NULL, sw->resum, done);
     } else if (sw->simd) {
         done = count; /* masked tail */
         tube_fast_run_avx2(&sw->fr, out, D, R, geo_u, sw->resum, done);
@@ -426,6 +427,19 @@ static void setup_lanes(sweep *sw) {
     t->kappa = in->kappa, t->n_sigma = in->n_sigma, t->sigma_max = in->sigma_max;
     t->g_arg = sw->geo ? sw->geo->arg : NULL;
     t->resum = sw->resum;
+    /* vacuum chains: AVX-512 only (tube_geometry); a re-sum needs κ(0) =
+     * +0, as the march's invariant assumes */
+    uint32_t k0;
+    memcpy(&k0, in->kappa, sizeof k0);
+    int use_vac = sw->simd == 2 && sw->geo && (!sw->resum || (sw->geo->vac_ok && k0 == 0));
+    t->vac = use_vac ? sw->geo->vac : NULL;
+    t->vac_bad = &sw->vac_bad;
+    sw->fr.vac_bad = &sw->vac_bad;
+}
+
+/* After a march that recorded geometry: are its vacuum chains usable? */
+static void vac_finish(sweep *sw) {
+    if (sw->geo && !sw->resum) sw->geo->vac_ok = sw->lanes.vac != NULL && !__atomic_load_n(&sw->vac_bad, __ATOMIC_RELAXED);
 }
 
 /* Phase p of the directional sweep: `group` slices from p·group on. */
@@ -515,6 +529,7 @@ static volux_status sweep_run(volux_context *ctx, const tube_input *in, const sc
         sw.group = group;
         volux_parallel_phases(in->threads, (n + group - 1) / group, slice_group, slice_row, &sw);
         if (sw.fast) volux_free(ctx, sw.fast_ok[0], ok_bytes);
+        vac_finish(&sw);
         return VOLUX_OK;
     }
     float P[3] = {(l->pos.x - V->lo.x) * V->inv_h[0], (l->pos.y - V->lo.y) * V->inv_h[1],
@@ -548,6 +563,7 @@ static volux_status sweep_run(volux_context *ctx, const tube_input *in, const sc
     sw.group = group;
     volux_parallel_phases(in->threads, (K - k0) / group + 1, shell_group, shell_run, &sw);
     volux_free(ctx, sw.runs[0], 2 * bytes);
+    vac_finish(&sw);
     return VOLUX_OK;
 }
 
@@ -555,26 +571,37 @@ volux_status tube_march(volux_context *ctx, const tube_input *in, const scatter_
     return sweep_run(ctx, in, l, V, in->geo, 0);
 }
 
+
 volux_status tube_resum(volux_context *ctx, const tube_input *in, const scatter_light *l, scatter_grid *V) {
     if (!in->geo || in->geo->n != (size_t)V->dims[0] * (size_t)V->dims[1] * (size_t)V->dims[2])
         return volux_error(ctx, VOLUX_ERR_INVALID, "ambient: re-sum of a radiance cache without its geometry");
     return sweep_run(ctx, in, l, V, in->geo, 1);
 }
 
+/* vac is read 16 bytes at a time (the AVX-512 re-sum): padding past the
+ * last node */
+enum { VAC_PAD = 16 };
+
 volux_status tube_geometry_alloc(volux_context *ctx, size_t n, tube_geometry *g) {
     if (g->arg && g->n == n) return VOLUX_OK;
     tube_geometry_free(ctx, g);
     size_t bytes;
-    if (!volux_mul_size(n, sizeof(float), &bytes) || bytes > volux_context_max_bytes(ctx))
+    if (!volux_mul_size(n, sizeof(float) + 1, &bytes) || (bytes += VAC_PAD) > volux_context_max_bytes(ctx))
         return volux_error(ctx, VOLUX_ERR_LIMIT, "ambient: radiance cache geometry of %zu nodes exceeds the limits", n);
-    g->arg = volux_alloc_aligned(ctx, bytes);
-    if (!g->arg) return volux_error(ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the radiance cache geometry");
-    g->n = n, g->bytes = bytes;
+    g->arg = volux_alloc_aligned(ctx, n * sizeof(float));
+    g->vac = g->arg ? volux_alloc_aligned(ctx, n + VAC_PAD) : NULL;
+    if (!g->vac) {
+        if (g->arg) volux_free_aligned(ctx, g->arg, n * sizeof(float));
+        g->arg = NULL;
+        return volux_error(ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the radiance cache geometry");
+    }
+    g->n = n, g->bytes = bytes, g->vac_ok = 0;
     return VOLUX_OK;
 }
 
 void tube_geometry_free(volux_context *ctx, tube_geometry *g) {
-    if (g->arg) volux_free_aligned(ctx, g->arg, g->bytes);
+    if (g->arg) volux_free_aligned(ctx, g->arg, g->n * sizeof(float));
+    if (g->vac) volux_free_aligned(ctx, g->vac, g->n + VAC_PAD);
     memset(g, 0, sizeof *g);
 }
 

@@ -125,15 +125,26 @@ A5I void window_row(const float *v, const window16 *w, ptrdiff_t off, __m512 *a0
     *a1 = _mm512_permutex2var_ps(lo, w->i1, hi);
 }
 
-/* The trilinear read from a window whose y and z corner rows are oy and
- * oz nodes from its first row (0: the lanes' upper corner is the lower). */
-A5I __m512 window_trilerp(const float *v, const window16 *w, ptrdiff_t oy, ptrdiff_t oz, const __m512 f[3]) {
-    __m512 a[8];
+/* The 8 corners (trilerp's order) from a window whose y and z corner rows
+ * are oy and oz nodes from its first row (0: the lanes' upper corner is
+ * the lower). */
+A5I void window_corners(const float *v, const window16 *w, ptrdiff_t oy, ptrdiff_t oz, __m512 a[8]) {
     window_row(v, w, 0, &a[0], &a[1]);
     window_row(v, w, oy, &a[2], &a[3]);
     window_row(v, w, oz, &a[4], &a[5]);
     window_row(v, w, oy + oz, &a[6], &a[7]);
+}
+
+A5I __m512 trilerp8(const __m512 a[8], const __m512 f[3]) {
     return trilerp(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], f);
+}
+
+/* Lanes whose 8 corners are all +0 (bit pattern 0): the read of a vacuum
+ * chain (tube.h: tube_geometry). */
+A5I m16 corners_zero(const __m512 a[8]) {
+    __m512i o = _mm512_castps_si512(a[0]);
+    for (int c = 1; c < 8; c++) o = _mm512_or_si512(o, _mm512_castps_si512(a[c]));
+    return _mm512_cmpeq_epi32_mask(o, _mm512_setzero_si512());
 }
 
 
@@ -147,7 +158,11 @@ A5I __m512 sample_clamped(const float *v, const grid16 *g, const __m512 p[3]) {
     }
     const __m512i one = _mm512_set1_epi32(1);
     window16 w;
-    if (row_window(g, c, one, 0xffff, &w)) return window_trilerp(v, &w, g->nx, g->nxy, f);
+    if (row_window(g, c, one, 0xffff, &w)) {
+        __m512 a[8];
+        window_corners(v, &w, g->nx, g->nxy, a);
+        return trilerp8(a, f);
+    }
     __m512i b = cell_index(g, c);
     __m512i by = _mm512_add_epi32(b, g->sy), bz = _mm512_add_epi32(b, g->sz), byz = _mm512_add_epi32(by, g->sz);
 #define G_(idx) _mm512_i32gather_ps((idx), v, 4)
@@ -167,23 +182,28 @@ A5I void strict_cell16(const grid16 *g, const __m512 p[3], __m512i c[3], __m512 
 
 /* strict read for the lanes in `mask` (others: any value, no load of
  * theirs); see tube_avx2.c. A window needs the upper y (z) corner to be
- * read by all wanted lanes or by none. */
-A5I __m512 strict_at16(const float *v, const grid16 *g, const __m512i c[3], const __m512 f[3], m16 mask) {
+ * read by all wanted lanes or by none. *zc (if not NULL): the lanes whose
+ * corners are all +0. */
+A5I __m512 strict_at16(const float *v, const grid16 *g, const __m512i c[3], const __m512 f[3], m16 mask, m16 *zc) {
     const __m512 zero = _mm512_setzero_ps();
     m16 up[3];
     for (int a = 0; a < 3; a++) up[a] = _mm512_cmp_ps_mask(f[a], zero, _CMP_GT_OQ) & mask;
     const __m512i zi = _mm512_setzero_si512();
     __m512i ox = _mm512_mask_mov_epi32(zi, up[0], _mm512_set1_epi32(1));
     window16 w;
-    if ((up[1] == 0 || up[1] == mask) && (up[2] == 0 || up[2] == mask) && row_window(g, c, ox, mask, &w))
-        return window_trilerp(v, &w, up[1] ? g->nx : 0, up[2] ? g->nxy : 0, f);
-    __m512i b = cell_index(g, c);
-    __m512i oy = _mm512_mask_mov_epi32(zi, up[1], g->sy), oz = _mm512_mask_mov_epi32(zi, up[2], g->sz);
-    __m512i by = _mm512_add_epi32(b, oy), bz = _mm512_add_epi32(b, oz), byz = _mm512_add_epi32(by, oz);
-#define G_(idx) _mm512_mask_i32gather_ps(zero, mask, (idx), v, 4)
-    return trilerp(G_(b), G_(_mm512_add_epi32(b, ox)), G_(by), G_(_mm512_add_epi32(by, ox)), G_(bz),
-                   G_(_mm512_add_epi32(bz, ox)), G_(byz), G_(_mm512_add_epi32(byz, ox)), f);
-#undef G_
+    __m512 a[8];
+    if ((up[1] == 0 || up[1] == mask) && (up[2] == 0 || up[2] == mask) && row_window(g, c, ox, mask, &w)) {
+        window_corners(v, &w, up[1] ? g->nx : 0, up[2] ? g->nxy : 0, a);
+    } else {
+        __m512i b = cell_index(g, c);
+        __m512i oy = _mm512_mask_mov_epi32(zi, up[1], g->sy), oz = _mm512_mask_mov_epi32(zi, up[2], g->sz);
+        __m512i by = _mm512_add_epi32(b, oy), bz = _mm512_add_epi32(b, oz), byz = _mm512_add_epi32(by, oz);
+        __m512i idx[8] = {b,  _mm512_add_epi32(b, ox),  by,  _mm512_add_epi32(by, ox),
+                          bz, _mm512_add_epi32(bz, ox), byz, _mm512_add_epi32(byz, ox)};
+        for (int q = 0; q < 8; q++) a[q] = _mm512_mask_i32gather_ps(zero, mask, idx[q], v, 4);
+    }
+    if (zc) *zc = corners_zero(a);
+    return trilerp8(a, f);
 }
 
 A5I __m512 kappa16(const tube_lanes *t, __m512 rho) {
@@ -234,6 +254,29 @@ A5I int beyond_two_steps(const tube_lanes *t, const __m512 x[3], const __m512 w[
     return (_mm512_cmp_ps_mask(lb, _mm512_set1_ps(2.002f * t->s), _CMP_GT_OQ) & valid) == valid;
 }
 
+/* A march: the vacuum-chain bytes (tube.h: tube_geometry) of a block of
+ * nodes (vac[l·stride] for lane l), D = res. `ok`: the lanes whose D is +0
+ * for every κ with κ(0) = +0 if every node they read is; a +0 elsewhere
+ * breaks the invariant (*bad). */
+A5I void vac_record(unsigned char *vac, ptrdiff_t stride, int *bad, __m512 res, m16 ok, m16 valid) {
+    m16 z = _mm512_cmpeq_epi32_mask(_mm512_castps_si512(res), _mm512_setzero_si512()) & valid;
+    if (z & ~ok) __atomic_store_n(bad, 1, __ATOMIC_RELAXED);
+    if (stride == 1) {
+        _mm512_mask_cvtepi32_storeu_epi8(vac, valid, _mm512_maskz_mov_epi32(z, _mm512_set1_epi32(1)));
+        return;
+    }
+    for (int l = 0; l < 16 && ((valid >> l) & 1); l++) vac[(ptrdiff_t)l * stride] = (z >> l) & 1;
+}
+
+/* A re-sum: 1 when every node of the block in `valid` (consecutive in
+ * memory) is a vacuum chain; their D (+0) is then stored to out. */
+A5I int vac_skip(const unsigned char *vac, float *out, m16 valid) {
+    __m512i v = _mm512_cvtepu8_epi32(_mm_loadu_si128((const __m128i *)(const void *)vac));
+    if ((_mm512_cmpeq_epi32_mask(v, _mm512_set1_epi32(1)) & valid) != valid) return 0;
+    _mm512_mask_storeu_ps(out, valid, _mm512_setzero_ps());
+    return 1;
+}
+
 A5I void nodes_body(const tube_lanes *t, int i, int j, int k, int axis, int count, size_t rec0, ptrdiff_t rec_stride) {
     const int nx = t->dims[0], ny = t->dims[1];
     grid16 g;
@@ -252,13 +295,21 @@ A5I void nodes_body(const tube_lanes *t, int i, int j, int k, int axis, int coun
     /* stages over chunks, as in tube_avx2.c */
     enum { CHUNK = 64, BLOCKS = CHUNK / 16 };
     __m512 c_w[3][BLOCKS], c_m[3][BLOCKS], c_delta[BLOCKS], c_arg[BLOCKS], c_k[BLOCKS];
+    const int record_vac = t->vac && !t->resum, skip_vac = t->vac && t->resum && stride == 1;
     for (int c0 = 0; c0 < count; c0 += CHUNK) {
         int nb = (count - c0 + 15) / 16;
         if (nb > BLOCKS) nb = BLOCKS;
+        /* a re-sum's blocks of vacuum chains: D = +0, nothing else */
+        int skip[BLOCKS] = {0};
+        for (int bi = 0; bi < nb && skip_vac; bi++) {
+            int n0 = c0 + 16 * bi, left = count - n0 < 16 ? count - n0 : 16;
+            skip[bi] = vac_skip(t->vac + at0 + n0, out + n0, (m16)((1u << left) - 1u));
+        }
         for (int bi = 0; bi < nb; bi++)
             _mm_prefetch((const char *)(t->rho + at0 + (ptrdiff_t)(c0 + 16 * bi) * stride), _MM_HINT_T0);
         /* 1. chain geometry */
         for (int bi = 0; bi < nb; bi++) {
+            if (skip[bi]) continue;
             __m512i ln = _mm512_add_epi32(_mm512_set1_epi32(c0 + 16 * bi), lane);
             __m512 x[3], w[3], dl = inf;
             m16 tiny = 0;
@@ -321,6 +372,7 @@ A5I void nodes_body(const tube_lanes *t, int i, int j, int k, int axis, int coun
         }
         /* 2. ρ at the sphere's centre as the table argument (or recorded) */
         for (int bi = 0; bi < nb; bi++) {
+            if (skip[bi]) continue;
             int n0 = c0 + 16 * bi, left = count - n0 < 16 ? count - n0 : 16;
             size_t at = rec0 + (size_t)((ptrdiff_t)n0 * rec_stride);
             if (t->resum) continue; /* loaded in stage 1 */
@@ -338,9 +390,11 @@ A5I void nodes_body(const tube_lanes *t, int i, int j, int k, int axis, int coun
             }
         }
         /* 3. κ */
-        for (int bi = 0; bi < nb; bi++) c_k[bi] = kappa16(t, c_arg[bi]);
+        for (int bi = 0; bi < nb; bi++)
+            if (!skip[bi]) c_k[bi] = kappa16(t, c_arg[bi]);
         /* 4. the front s back, the sum */
         for (int bi = 0; bi < nb; bi++) {
+            if (skip[bi]) continue;
             int n0 = c0 + 16 * bi, left = count - n0 < 16 ? count - n0 : 16;
             __m512i ln = _mm512_add_epi32(_mm512_set1_epi32(n0), lane);
             m16 valid = (m16)((1u << left) - 1u);
@@ -357,25 +411,38 @@ A5I void nodes_body(const tube_lanes *t, int i, int j, int k, int axis, int coun
             m16 mid = (m16)(~near & _mm512_cmp_ps_mask(dy, vs, _CMP_LE_OQ));
             m16 deep = (m16)(~(near | mid) & valid);
             __m512 back = zero;
+            /* a march's vacuum-chain invariant (vac_record): the lanes
+             * that are +0 for every κ whose reads are */
+            m16 argz = _mm512_cmp_ps_mask(c_arg[bi], zero, _CMP_EQ_OQ), ok = 0;
+            if (record_vac) ok = near & (argz | _mm512_cmp_ps_mask(delta, zero, _CMP_EQ_OQ));
             if (mid & valid) {
                 __m512 cB = _mm512_mul_ps(m_half, dy), mB[3];
                 for (int a = 0; a < 3; a++) mB[a] = _mm512_add_ps(y[a], _mm512_mul_ps(w[a], cB));
                 __m512 rhoB = sample_clamped(t->rho, &g, mB);
-                __m512 kB = kappa16(t, _mm512_mul_ps(_mm512_mul_ps(rhoB, vhalf), inv_r));
+                __m512 argB = _mm512_mul_ps(_mm512_mul_ps(rhoB, vhalf), inv_r);
+                __m512 kB = kappa16(t, argB);
+                if (record_vac)
+                    ok |= mid & argz &
+                          (_mm512_cmp_ps_mask(argB, zero, _CMP_EQ_OQ) | _mm512_cmp_ps_mask(dy, zero, _CMP_EQ_OQ));
                 back = sel(mid, _mm512_mul_ps(_mm512_div_ps(dy, vs), kB), back);
             }
             if (deep) {
                 __m512 f[3];
                 __m512i cell[3];
                 strict_cell16(&g, y, cell, f);
-                back = sel(deep, strict_at16(t->D, &g, cell, f, deep), back);
+                m16 zc = 0;
+                back = sel(deep, strict_at16(t->D, &g, cell, f, deep, record_vac && (deep & argz) ? &zc : NULL), back);
+                ok |= deep & argz & zc;
             }
-            store_ps(out + (ptrdiff_t)n0 * stride, stride, sel(near, v_near, _mm512_add_ps(back, kA)), left);
+            __m512 res = sel(near, v_near, _mm512_add_ps(back, kA));
+            store_ps(out + (ptrdiff_t)n0 * stride, stride, res, left);
+            if (record_vac) vac_record(t->vac + at0 + (ptrdiff_t)n0 * stride, stride, t->vac_bad, res, ok, valid);
         }
     }
 }
 
-A5I void fast_body(const tube_fast *fr, float *out, const float *D, const float *R, float *u_io, int resum, int count) {
+A5I void fast_body(const tube_fast *fr, float *out, const float *D, const float *R, float *u_io, unsigned char *vac,
+                   int resum, int count) {
     const ptrdiff_t *ov = fr->off_v, *orr = fr->off_r;
     __m512 a[8], b[8];
     for (int c = 0; c < 8; c++) a[c] = _mm512_set1_ps(fr->w_v[c]), b[c] = _mm512_set1_ps(fr->w_r[c]);
@@ -384,6 +451,7 @@ A5I void fast_body(const tube_fast *fr, float *out, const float *D, const float 
         const float *d = D + i, *r = R + i;
         /* the run's tail: masked loads touch no element past the run */
         m16 k = count - i >= 16 ? (m16)0xffff : (m16)((1u << (count - i)) - 1u);
+        if (vac && resum && vac_skip(vac + i, out + i, k)) continue;
         if (resum) {
             _mm_prefetch((const char *)(u_io + i + 256), _MM_HINT_T0);
         } else {
@@ -392,8 +460,10 @@ A5I void fast_body(const tube_fast *fr, float *out, const float *D, const float 
             _mm_prefetch((const char *)(r + orr[4] + 256), _MM_HINT_T0);
             _mm_prefetch((const char *)(r + orr[6] + 256), _MM_HINT_T0);
         }
-        __m512 back = _mm512_mul_ps(a[0], _mm512_maskz_loadu_ps(k, d + ov[0]));
-        for (int c = 1; c < 8; c++) back = _mm512_add_ps(back, _mm512_mul_ps(a[c], _mm512_maskz_loadu_ps(k, d + ov[c])));
+        __m512 dv[8];
+        for (int c = 0; c < 8; c++) dv[c] = _mm512_maskz_loadu_ps(k, d + ov[c]);
+        __m512 back = _mm512_mul_ps(a[0], dv[0]);
+        for (int c = 1; c < 8; c++) back = _mm512_add_ps(back, _mm512_mul_ps(a[c], dv[c]));
         __m512 u;
         if (resum) {
             u = _mm512_maskz_loadu_ps(k, u_io + i);
@@ -408,7 +478,13 @@ A5I void fast_body(const tube_fast *fr, float *out, const float *D, const float 
         __m512 f = _mm512_sub_ps(u, _mm512_cvtepi32_ps(j));
         __m512 k0 = _mm512_mask_i32gather_ps(_mm512_setzero_ps(), k, j, fr->kappa, 4);
         __m512 k1 = _mm512_mask_i32gather_ps(_mm512_setzero_ps(), k, _mm512_add_epi32(j, _mm512_set1_epi32(1)), fr->kappa, 4);
-        _mm512_mask_storeu_ps(out + i, k, _mm512_add_ps(_mm512_add_ps(back, k0), _mm512_mul_ps(_mm512_sub_ps(k1, k0), f)));
+        __m512 res = _mm512_add_ps(_mm512_add_ps(back, k0), _mm512_mul_ps(_mm512_sub_ps(k1, k0), f));
+        _mm512_mask_storeu_ps(out + i, k, res);
+        if (vac && !resum) {
+            /* +0 for every κ with κ(0) = +0: u = 0 and every node read +0 */
+            m16 uz = _mm512_cmp_ps_mask(u, _mm512_setzero_ps(), _CMP_EQ_OQ);
+            vac_record(vac + i, 1, fr->vac_bad, res, uz ? uz & corners_zero(dv) : 0, k);
+        }
     }
 }
 
@@ -431,9 +507,9 @@ A5 void tube_runs_avx512(const tube_lanes *t, const int (*runs)[5], int n_runs) 
     }
 }
 
-A5 void tube_fast_run_avx512(const tube_fast *fr, float *out, const float *D, const float *R, float *u_io, int resum,
-                        int count) {
-    fast_body(fr, out, D, R, u_io, resum, count);
+A5 void tube_fast_run_avx512(const tube_fast *fr, float *out, const float *D, const float *R, float *u_io,
+                          unsigned char *vac, int resum, int count) {
+    fast_body(fr, out, D, R, u_io, vac, resum, count);
 }
 
 /* A directional row along x in one call: nodes [0, c0) and (c1, n) by the
@@ -444,8 +520,8 @@ A5 void tube_row_avx512(const tube_lanes *t, const tube_fast *fr, int j, int k, 
     int f0 = c1 >= c0 ? c0 : n, f1 = c1 >= c0 ? c1 + 1 : n;
     if (f0 > 0) nodes_body(t, 0, j, k, 0, f0, rec0, 1);
     if (f1 > f0)
-        fast_body(fr, t->D + at + f0, t->D + at + f0, t->rho + at + f0, t->g_arg ? t->g_arg + rec0 + f0 : NULL, resum,
-                  f1 - f0);
+        fast_body(fr, t->D + at + f0, t->D + at + f0, t->rho + at + f0, t->g_arg ? t->g_arg + rec0 + f0 : NULL,
+                  t->vac ? t->vac + at + f0 : NULL, resum, f1 - f0);
     if (n > f1) nodes_body(t, f1, j, k, 0, n - f1, rec0 + (size_t)f1, 1);
 }
 
@@ -458,9 +534,9 @@ void tube_nodes_avx512(const tube_lanes *t, int i, int j, int k, int axis, int c
     (void)t, (void)i, (void)j, (void)k, (void)axis, (void)count, (void)rec0, (void)rec_stride;
 }
 
-void tube_fast_run_avx512(const tube_fast *f, float *out, const float *D, const float *R, float *u_io, int resum,
-                          int count) {
-    (void)f, (void)out, (void)D, (void)R, (void)u_io, (void)resum, (void)count;
+void tube_fast_run_avx512(const tube_fast *f, float *out, const float *D, const float *R, float *u_io,
+                          unsigned char *vac, int resum, int count) {
+    (void)f, (void)out, (void)D, (void)R, (void)u_io, (void)vac, (void)resum, (void)count;
 }
 
 void tube_runs_avx512(const tube_lanes *t, const int (*runs)[5], int n_runs) { (void)t, (void)runs, (void)n_runs; }

@@ -41,6 +41,11 @@ typedef struct tube_lanes {
      * read instead of sampling ρ by a re-sum (resum = 1) */
     float *g_arg;
     int resum;
+    /* vacuum chains (tube.h: tube_geometry), by node index, or NULL: a
+     * march writes them and sets *vac_bad when a node breaks their
+     * invariant; a re-sum writes +0 for blocks of them */
+    unsigned char *vac;
+    int *vac_bad;
 } tube_lanes;
 
 /* The directional sweep's fast path (tube.c's fast_run): constant corner
@@ -51,6 +56,7 @@ typedef struct tube_fast {
     float kscale;                 /* ρ → κ-table coordinate              */
     float last;                   /* highest coordinate (n_sigma − 1 − 1e−3) */
     const float *kappa;
+    int *vac_bad;                 /* as tube_lanes.vac_bad               */
 } tube_fast;
 
 /* Batches: runs (i, j, k, axis, count) of a point sweep (records in node
@@ -85,8 +91,9 @@ void tube_nodes_avx512(const tube_lanes *t, int i, int j, int k, int axis, int c
 void tube_fast_run_avx2(const tube_fast *f, float *out, const float *D, const float *R, float *u_io, int resum,
                         int count);
 /* The same on 16 nodes at a time, any count (the tail is masked: no
- * element past the run is touched). */
-void tube_fast_run_avx512(const tube_fast *f, float *out, const float *D, const float *R, float *u_io, int resum,
-                          int count);
+ * element past the run is touched), and the vacuum chains of out's nodes
+ * at vac (if not NULL): written by a march, skipped by a re-sum. */
+void tube_fast_run_avx512(const tube_fast *f, float *out, const float *D, const float *R, float *u_io,
+                          unsigned char *vac, int resum, int count);
 
 #endif
