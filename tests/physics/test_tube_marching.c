@@ -244,6 +244,29 @@ static void test_simd_nodes_equal_scalar_nodes(void **state) {
     }
 }
 
+/* Records light l's geometry by a march with κ = k_rec (kernel rc, 2
+ * threads) and re-sums it with k_new (kernel sc): the cache must be
+ * bit-identical to a scalar march with k_new. */
+static void check_resum(fixture *f, const scatter_light *l, const float *k_rec, const float *k_new, int rc, int sc,
+                        int threads, tube_geometry *geo) {
+    size_t n = (size_t)f->V.dims[0] * f->V.dims[1] * f->V.dims[2], bytes = n * sizeof(float);
+    float *ref = malloc(bytes);
+    f->in.kappa = k_new, f->in.geo = NULL, f->in.kernel_cap = TUBE_KERNEL_SCALAR, f->in.threads = 1;
+    assert_int_equal(tube_march(f->ctx, &f->in, l, &f->V), VOLUX_OK);
+    memcpy(ref, f->V.v, bytes);
+    f->in.kappa = k_rec, f->in.geo = geo, f->in.kernel_cap = rc, f->in.threads = 2;
+    assert_int_equal(tube_march(f->ctx, &f->in, l, &f->V), VOLUX_OK);
+    memset(f->V.v, 0xff, bytes);
+    f->in.kappa = k_new, f->in.kernel_cap = sc, f->in.threads = threads;
+    assert_int_equal(tube_resum(f->ctx, &f->in, l, &f->V), VOLUX_OK);
+    if (memcmp(ref, f->V.v, bytes) != 0) {
+        size_t i = 0;
+        while (memcmp(&ref[i], &f->V.v[i], sizeof(float)) == 0) i++;
+        fail_msg("record kernel %d, re-sum kernel %d: node %zu %.9g != %.9g", rc, sc, i, f->V.v[i], ref[i]);
+    }
+    free(ref);
+}
+
 /* A phase edit re-sums the cache from its g-independent geometry
  * (tube_geometry) with the new κ: the result must be bit-identical to a
  * march with that κ, whichever path (scalar, 8-wide) recorded the geometry
@@ -253,7 +276,7 @@ static void test_resum_equals_march(void **state) {
     fixture f;
     setup(&f, 0.0f, 2.3f, 0.5f, 1);
     uint64_t rng = 777u;
-    size_t n = (size_t)f.rho.dims[0] * f.rho.dims[1] * f.rho.dims[2], bytes = n * sizeof(float);
+    size_t n = (size_t)f.rho.dims[0] * f.rho.dims[1] * f.rho.dims[2];
     for (size_t i = 0; i < n; i++) {
         rng = rng * 6364136223846793005ull + 1442695040888963407ull;
         float u = (float)(rng >> 40) / (float)(1u << 24);
@@ -269,28 +292,12 @@ static void test_resum_equals_march(void **state) {
                               point(-16, -16, -16)};
     tube_geometry geo = {0};
     assert_int_equal(tube_geometry_alloc(f.ctx, n, &geo), VOLUX_OK);
-    float *ref = malloc(bytes);
     /* kernels: scalar, and AVX2 / the best one where the CPU has them */
     int caps[3] = {TUBE_KERNEL_SCALAR, TUBE_KERNEL_AVX2, TUBE_KERNEL_BEST}, n_caps = tube_simd_available() ? 3 : 1;
     for (size_t li = 0; li < sizeof lights / sizeof lights[0]; li++)
         for (int rc = 0; rc < n_caps; rc++)
             for (int sc = 0; sc < n_caps; sc++) {
-                /* reference: a march with κ2, no geometry */
-                f.in.kappa = kappa2, f.in.geo = NULL, f.in.kernel_cap = TUBE_KERNEL_SCALAR, f.in.threads = 1;
-                assert_int_equal(tube_march(f.ctx, &f.in, &lights[li], &f.V), VOLUX_OK);
-                memcpy(ref, f.V.v, bytes);
-                /* record with κ, then re-sum with κ2 */
-                f.in.kappa = f.kappa, f.in.geo = &geo, f.in.kernel_cap = caps[rc], f.in.threads = 2;
-                assert_int_equal(tube_march(f.ctx, &f.in, &lights[li], &f.V), VOLUX_OK);
-                memset(f.V.v, 0xff, bytes);
-                f.in.kappa = kappa2, f.in.kernel_cap = caps[sc], f.in.threads = 1 + (int)(li & 1);
-                assert_int_equal(tube_resum(f.ctx, &f.in, &lights[li], &f.V), VOLUX_OK);
-                if (memcmp(ref, f.V.v, bytes) != 0) {
-                    size_t i = 0;
-                    while (memcmp(&ref[i], &f.V.v[i], sizeof(float)) == 0) i++;
-                    fail_msg("light %zu (record kernel %d, re-sum kernel %d): node %zu %.9g != %.9g", li, caps[rc],
-                             caps[sc], i, f.V.v[i], ref[i]);
-                }
+                check_resum(&f, &lights[li], f.kappa, kappa2, caps[rc], caps[sc], 1 + (int)(li & 1), &geo);
             }
     f.in.geo = NULL;
     f.in.kappa = f.kappa;
@@ -300,7 +307,51 @@ static void test_resum_equals_march(void **state) {
     assert_int_equal(tube_resum(f.ctx, &f.in, &lights[0], &f.V), VOLUX_ERR_INVALID);
     f.in.geo = NULL;
     tube_geometry_free(f.ctx, &geo);
-    free(ref);
+    teardown(&f);
+}
+
+/* Vacuum chains (tube.h: tube_geometry): a medium whose lower half in x is
+ * empty, lit through it and from the other side. The AVX-512 march must
+ * find them (vac_ok, some vacuum nodes) and the re-sum that stores +0 for
+ * them must still equal a march. A κ that is 0 above ρ = 0 (τ clamped to
+ * 1) breaks their invariant: the march must notice, and the re-sum then
+ * computes every node. */
+static void test_resum_vacuum_chains(void **state) {
+    (void)state;
+    fixture f;
+    setup(&f, 0.0f, 2.3f, 0.5f, 1);
+    uint64_t rng = 4242u;
+    size_t n = (size_t)f.rho.dims[0] * f.rho.dims[1] * f.rho.dims[2];
+    for (size_t i = 0; i < n; i++) {
+        rng = rng * 6364136223846793005ull + 1442695040888963407ull;
+        float u = (float)(rng >> 40) / (float)(1u << 24);
+        int x = (int)(i % (size_t)f.rho.dims[0]);
+        f.rho.v[i] = 2 * x < f.rho.dims[0] || u < 0.2f ? 0.0f : u * 3.0f;
+    }
+    static float kappa2[NS], clamped[NS];
+    for (int i = 0; i < NS; i++) {
+        float r = SMAX * (float)i / (NS - 1);
+        kappa2[i] = 1.3f * r / (1.0f + 0.05f * r);
+        clamped[i] = r < 1.0f ? 0.0f : r - 1.0f;
+    }
+    scatter_light lights[] = {directional(1, 0.2f, 0.3f), directional(-1, 0.1f, 0), point(-40, 3, 5), point(2, 1, -1),
+                              point(40, -30, 20)};
+    tube_geometry geo = {0};
+    assert_int_equal(tube_geometry_alloc(f.ctx, n, &geo), VOLUX_OK);
+    int best = tube_avx512_available() ? TUBE_KERNEL_BEST : TUBE_KERNEL_SCALAR;
+    for (size_t li = 0; li < sizeof lights / sizeof lights[0]; li++) {
+        check_resum(&f, &lights[li], f.kappa, kappa2, best, best, 2, &geo);
+        if (tube_avx512_available()) {
+            size_t vac = 0;
+            for (size_t i = 0; i < n; i++) vac += geo.vac[i];
+            /* light 0 reaches most of the box through the empty half */
+            assert_true(geo.vac_ok && vac > (li == 0 ? n / 2 : 0));
+        }
+        check_resum(&f, &lights[li], clamped, kappa2, best, best, 1, &geo);
+        assert_false(geo.vac_ok);
+    }
+    f.in.geo = NULL;
+    tube_geometry_free(f.ctx, &geo);
     teardown(&f);
 }
 
@@ -311,6 +362,7 @@ int main(void) {
         cmocka_unit_test(test_sweep_with_real_table),
         cmocka_unit_test(test_simd_nodes_equal_scalar_nodes),
         cmocka_unit_test(test_resum_equals_march),
+        cmocka_unit_test(test_resum_vacuum_chains),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
