@@ -389,8 +389,13 @@ static void shell_runs(sweep *sw, int buf, const float P[3], int k) {
 #define RUN_(X, Y, Z, AXIS, N) (r[0][0] = (X), r[0][1] = (Y), r[0][2] = (Z), r[0][3] = (AXIS), r[0][4] = (N), r++)
     for (int z = olo[2]; z <= ohi[2]; z++) {
         int hollow = z >= ilo[2] && z <= ihi[2] && ilo[0] <= ihi[0] && ilo[1] <= ihi[1];
-        for (int y = olo[1]; y <= ohi[1]; y++)
-            if (!hollow || y < ilo[1] || y > ihi[1]) RUN_(olo[0], y, z, 0, ohi[0] - olo[0] + 1);
+        /* rows: all of them, or (hollow) those below and above the inner
+         * box — not a test per row: a shell of a light outside the grid
+         * spans the grid, and testing every row of every shell was 5 % of
+         * a sweep */
+        int y_skip = hollow ? ilo[1] : ohi[1] + 1, y_resume = hollow ? ihi[1] + 1 : ohi[1] + 1;
+        for (int y = olo[1]; y < y_skip; y++) RUN_(olo[0], y, z, 0, ohi[0] - olo[0] + 1);
+        for (int y = y_resume; y <= ohi[1]; y++) RUN_(olo[0], y, z, 0, ohi[0] - olo[0] + 1);
         if (hollow) {
             for (int x = olo[0]; x < ilo[0]; x++) RUN_(x, ilo[1], z, 1, ihi[1] - ilo[1] + 1);
             for (int x = ihi[0] + 1; x <= ohi[0]; x++) RUN_(x, ilo[1], z, 1, ihi[1] - ilo[1] + 1);
