@@ -108,7 +108,11 @@ A5I int row_window(const grid16 *g, const __m512i c[3], __m512i ox, m16 mask, wi
         return 0;
     w->i0 = _mm512_sub_epi32(c[0], x0);
     w->i1 = _mm512_add_epi32(w->i0, ox);
-    int n = _mm512_mask_reduce_max_epi32(mask, w->i1) + 1;
+    /* the window's end: the last lane's upper corner when the lanes run
+     * along x in order (a run of nodes), else the largest */
+    __m512i end = _mm512_permutexvar_epi32(_mm512_set1_epi32(31 - __builtin_clz(mask)), w->i1);
+    if (_mm512_mask_cmpgt_epi32_mask(mask, w->i1, end)) end = _mm512_set1_epi32(_mm512_mask_reduce_max_epi32(mask, w->i1));
+    int n = lane0(end) + 1;
     if (n > 32) return 0;
     w->lo = n >= 16 ? (m16)0xffff : (m16)((1u << n) - 1u);
     w->hi = n > 16 ? (m16)((1u << (n - 16)) - 1u) : 0;
@@ -294,7 +298,7 @@ A5I void nodes_body(const tube_lanes *t, int i, int j, int k, int axis, int coun
     const __m512 hv[3] = {_mm512_set1_ps(t->h[0]), _mm512_set1_ps(t->h[1]), _mm512_set1_ps(t->h[2])};
     /* stages over chunks, as in tube_avx2.c */
     enum { CHUNK = 64, BLOCKS = CHUNK / 16 };
-    __m512 c_w[3][BLOCKS], c_m[3][BLOCKS], c_delta[BLOCKS], c_arg[BLOCKS], c_k[BLOCKS];
+    __m512 c_w[3][BLOCKS], c_m[3][BLOCKS], c_y[3][BLOCKS], c_delta[BLOCKS], c_arg[BLOCKS], c_k[BLOCKS];
     const int record_vac = t->vac && !t->resum, skip_vac = t->vac && t->resum && stride == 1;
     for (int c0 = 0; c0 < count; c0 += CHUNK) {
         int nb = (count - c0 + 15) / 16;
@@ -367,6 +371,7 @@ A5I void nodes_body(const tube_lanes *t, int i, int j, int k, int axis, int coun
             for (int a = 0; a < 3; a++) {
                 c_w[a][bi] = w[a];
                 c_m[a][bi] = _mm512_add_ps(x[a], _mm512_mul_ps(w[a], cA));
+                c_y[a][bi] = _mm512_add_ps(x[a], _mm512_mul_ps(w[a], neg_s)); /* the node s back */
             }
             c_delta[bi] = delta;
         }
@@ -396,15 +401,9 @@ A5I void nodes_body(const tube_lanes *t, int i, int j, int k, int axis, int coun
         for (int bi = 0; bi < nb; bi++) {
             if (skip[bi]) continue;
             int n0 = c0 + 16 * bi, left = count - n0 < 16 ? count - n0 : 16;
-            __m512i ln = _mm512_add_epi32(_mm512_set1_epi32(n0), lane);
             m16 valid = (m16)((1u << left) - 1u);
-            __m512 w[3] = {c_w[0][bi], c_w[1][bi], c_w[2][bi]}, delta = c_delta[bi], kA = c_k[bi], y[3];
-            for (int a = 0; a < 3; a++) {
-                __m512i idx = _mm512_set1_epi32(start[a]);
-                if (a == axis) idx = _mm512_add_epi32(idx, ln);
-                __m512 x = _mm512_add_ps(g.lo[a], _mm512_mul_ps(_mm512_cvtepi32_ps(idx), hv[a]));
-                y[a] = _mm512_add_ps(x, _mm512_mul_ps(w[a], neg_s));
-            }
+            __m512 w[3] = {c_w[0][bi], c_w[1][bi], c_w[2][bi]}, delta = c_delta[bi], kA = c_k[bi];
+            __m512 y[3] = {c_y[0][bi], c_y[1][bi], c_y[2][bi]};
             m16 near = _mm512_cmp_ps_mask(delta, s_tol, _CMP_LE_OQ);
             __m512 v_near = (near & valid) ? _mm512_mul_ps(_mm512_div_ps(delta, vs), kA) : zero;
             __m512 dy = _mm512_sub_ps(delta, vs);
