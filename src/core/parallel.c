@@ -81,7 +81,11 @@ static int phase_chunk(int64_t n_items, int threads) {
     return run < 1 ? 1 : run > 8 ? 8 : (int)run;
 }
 
-void volux_parallel_phases(int threads, int n_phases, volux_phase_fn begin, volux_phase_item_fn fn, void *user) {
+/* Both phase loops. Per-phase state by parity: with `overlap`, phase p + 1
+ * is set up during phase p (one barrier per phase), else between two
+ * barriers once phase p has finished. */
+static void run_phases(int threads, int n_phases, volux_phase_fn begin, volux_phase_item_fn fn, void *user,
+                       int overlap) {
     if (threads <= 0) threads = volux_parallel_max_threads();
 #ifdef _OPENMP
     if (threads > 1 && n_phases > 0) {
@@ -91,9 +95,8 @@ void volux_parallel_phases(int threads, int n_phases, volux_phase_fn begin, volu
         bar.n = 0;
         pthread_mutex_init(&bar.lock, NULL);
         pthread_cond_init(&bar.cond, NULL);
-        /* by phase parity: the next phase is set up during this one */
         atomic_llong next[2];
-        int64_t n_items[2] = {begin(user, 0), 0};
+        int64_t n_items[2] = {overlap ? begin(user, 0) : 0, 0};
         int chunk[2] = {0, 0};
         atomic_init(&next[0], 0);
         atomic_init(&next[1], 0);
@@ -107,13 +110,21 @@ void volux_parallel_phases(int threads, int n_phases, volux_phase_fn begin, volu
             }
             for (int p = 0; p < n_phases; p++) {
                 int cur = p & 1;
+                if (!overlap) {
+                    if (tid == 0) {
+                        n_items[cur] = begin(user, p);
+                        chunk[cur] = phase_chunk(n_items[cur], bar.n);
+                        atomic_store(&next[cur], 0);
+                    }
+                    barrier_wait(&bar, &sense);
+                }
                 for (;;) {
                     int64_t i0 = atomic_fetch_add(&next[cur], (long long)chunk[cur]);
                     if (i0 >= n_items[cur]) break;
                     int64_t i1 = i0 + chunk[cur] < n_items[cur] ? i0 + chunk[cur] : n_items[cur];
                     for (int64_t i = i0; i < i1; i++) fn(user, p, i, tid);
                 }
-                if (tid == 0 && p + 1 < n_phases) {
+                if (overlap && tid == 0 && p + 1 < n_phases) {
                     /* phase p − 1 used these; everyone left it at the last barrier */
                     n_items[!cur] = begin(user, p + 1);
                     chunk[!cur] = phase_chunk(n_items[!cur], bar.n);
@@ -126,9 +137,39 @@ void volux_parallel_phases(int threads, int n_phases, volux_phase_fn begin, volu
         pthread_mutex_destroy(&bar.lock);
         return;
     }
+#else
+    (void)overlap;
 #endif
     for (int p = 0; p < n_phases; p++) {
         int64_t n = begin(user, p);
         for (int64_t i = 0; i < n; i++) fn(user, p, i, 0);
     }
+}
+
+void volux_parallel_phases_overlapped(int threads, int n_phases, volux_phase_fn begin, volux_phase_item_fn fn,
+                                      void *user) {
+    run_phases(threads, n_phases, begin, fn, user, 1);
+}
+
+/* volux_parallel_phases through run_phases: its callbacks without the phase */
+typedef struct plain_phases {
+    volux_phase_fn begin;
+    volux_parallel_fn fn;
+    void *user;
+} plain_phases;
+
+static int64_t plain_begin(void *user, int phase) {
+    const plain_phases *pp = user;
+    return pp->begin(pp->user, phase);
+}
+
+static void plain_item(void *user, int phase, int64_t index, int thread) {
+    (void)phase;
+    const plain_phases *pp = user;
+    pp->fn(pp->user, index, thread);
+}
+
+void volux_parallel_phases(int threads, int n_phases, volux_phase_fn begin, volux_parallel_fn fn, void *user) {
+    plain_phases pp = {begin, fn, user};
+    run_phases(threads, n_phases, plain_begin, plain_item, &pp, 0);
 }

@@ -189,6 +189,20 @@ static void test_sweep_with_real_table(void **state) {
     teardown(&f);
 }
 
+/* A heterogeneous ρ: up to beyond the table's range, with exact zeros
+ * (and, with empty_half, none in the lower half along x); returns the node
+ * count. */
+static size_t random_rho(fixture *f, uint64_t seed, int empty_half) {
+    size_t n = (size_t)f->rho.dims[0] * f->rho.dims[1] * f->rho.dims[2];
+    for (size_t i = 0; i < n; i++) {
+        seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+        float u = (float)(seed >> 40) / (float)(1u << 24);
+        int empty = empty_half && 2 * (int)(i % (size_t)f->rho.dims[0]) < f->rho.dims[0];
+        f->rho.v[i] = empty || u < 0.2f ? 0.0f : (u - 0.2f) * 12.0f;
+    }
+    return n;
+}
+
 /* The 16- and 8-wide node updates (tube_avx512.c, tube_avx2.c) against
  * the scalar one on a
  * heterogeneous medium, for directional lights along and between the axes
@@ -203,14 +217,7 @@ static void test_simd_nodes_equal_scalar_nodes(void **state) {
         /* variant 1: a step that is no multiple of the cache spacing, a
          * coarser cache and a smaller κ table */
         setup(&f, 0.0f, variant ? 2.3f : 3.0f, variant ? 0.37f : 0.5f, 1);
-        uint64_t rng = 12345u;
-        size_t n = (size_t)f.rho.dims[0] * f.rho.dims[1] * f.rho.dims[2];
-        for (size_t i = 0; i < n; i++) {
-            rng = rng * 6364136223846793005ull + 1442695040888963407ull;
-            /* ρ up to beyond the table's range, with exact zeros */
-            float u = (float)(rng >> 40) / (float)(1u << 24);
-            f.rho.v[i] = u < 0.2f ? 0.0f : (u - 0.2f) * 12.0f;
-        }
+        size_t n = random_rho(&f, 12345u, 0);
         if (variant) f.in.n_sigma = 33;
         scatter_light lights[] = {directional(-1, -2, -3), directional(0.3f, 1, -0.2f), directional(0, 0, 1),
                                   directional(1, 0.5f, 0),  point(40, 30, 50),          point(3, -2, 5),
@@ -275,13 +282,7 @@ static void test_resum_equals_march(void **state) {
     (void)state;
     fixture f;
     setup(&f, 0.0f, 2.3f, 0.5f, 1);
-    uint64_t rng = 777u;
-    size_t n = (size_t)f.rho.dims[0] * f.rho.dims[1] * f.rho.dims[2];
-    for (size_t i = 0; i < n; i++) {
-        rng = rng * 6364136223846793005ull + 1442695040888963407ull;
-        float u = (float)(rng >> 40) / (float)(1u << 24);
-        f.rho.v[i] = u < 0.2f ? 0.0f : (u - 0.2f) * 12.0f;
-    }
+    size_t n = random_rho(&f, 777u, 0);
     /* a second κ: a different, non-linear curve (as another g gives) */
     static float kappa2[NS];
     for (int i = 0; i < NS; i++) {
@@ -320,14 +321,7 @@ static void test_resum_vacuum_chains(void **state) {
     (void)state;
     fixture f;
     setup(&f, 0.0f, 2.3f, 0.5f, 1);
-    uint64_t rng = 4242u;
-    size_t n = (size_t)f.rho.dims[0] * f.rho.dims[1] * f.rho.dims[2];
-    for (size_t i = 0; i < n; i++) {
-        rng = rng * 6364136223846793005ull + 1442695040888963407ull;
-        float u = (float)(rng >> 40) / (float)(1u << 24);
-        int x = (int)(i % (size_t)f.rho.dims[0]);
-        f.rho.v[i] = 2 * x < f.rho.dims[0] || u < 0.2f ? 0.0f : u * 3.0f;
-    }
+    size_t n = random_rho(&f, 4242u, 1);
     static float kappa2[NS], clamped[NS];
     for (int i = 0; i < NS; i++) {
         float r = SMAX * (float)i / (NS - 1);

@@ -455,7 +455,7 @@ static int64_t slice_group(void *user, int p) {
 }
 
 /* Phase p of the point sweep: the runs of `group` shells from k0 + p·group
- * on, into runs[p & 1] (volux_parallel_phases builds them while phase
+ * on, into runs[p & 1] (volux_parallel_phases_overlapped builds them while phase
  * p − 1's last items run). */
 static int64_t shell_group(void *user, int p) {
     sweep *sw = user;
@@ -532,7 +532,7 @@ static volux_status sweep_run(volux_context *ctx, const tube_input *in, const sc
         if (group < 1) group = 1;
         sw.slice_step = w[sw.a] >= 0.0f ? 1 : -1;
         sw.group = group;
-        volux_parallel_phases(in->threads, (n + group - 1) / group, slice_group, slice_row, &sw);
+        volux_parallel_phases_overlapped(in->threads, (n + group - 1) / group, slice_group, slice_row, &sw);
         if (sw.fast) volux_free(ctx, sw.fast_ok[0], ok_bytes);
         vac_finish(&sw);
         return VOLUX_OK;
@@ -566,7 +566,7 @@ static volux_status sweep_run(volux_context *ctx, const tube_input *in, const sc
     memcpy(sw.P, P, sizeof P);
     sw.k0 = k0, sw.K = K;
     sw.group = group;
-    volux_parallel_phases(in->threads, (K - k0) / group + 1, shell_group, shell_run, &sw);
+    volux_parallel_phases_overlapped(in->threads, (K - k0) / group + 1, shell_group, shell_run, &sw);
     volux_free(ctx, sw.runs[0], 2 * bytes);
     vac_finish(&sw);
     return VOLUX_OK;
