@@ -223,11 +223,9 @@ static void lightvol_destroy(void *state) {
 
 static volux_status lightvol_create(volux_context *ctx, volux_scene *scene, void **out) {
     lightvol_state *st = volux_calloc(ctx, 1, sizeof *st);
-    if (!st) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for technique state");
+    if (!st) return volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for technique state");
     st->ctx = ctx;
-    volux_change_set all;
-    memset(&all, 0xff, sizeof all);
-    all.what = VOLUX_CHANGE_ALL;
+    volux_change_set all = volux_change_all();
     volux_status s = lightvol_update(st, scene, &all);
     if (s) {
         lightvol_destroy(st);
