@@ -12,22 +12,26 @@
 
 #define N 16
 
-static float *random_medium(uint64_t seed, float scale) {
-    float *d = malloc((size_t)N * N * N * sizeof(float));
+/* n³ voxels: a blob of radius √20·n/16 voxels at the centre plus noise,
+ * so there are shadows. */
+static float *random_medium_n(uint64_t seed, float scale, int n) {
+    float *d = malloc((size_t)n * n * n * sizeof(float));
     assert_non_null(d);
     uint64_t r = seed;
-    for (int k = 0; k < N; k++)
-        for (int j = 0; j < N; j++)
-            for (int i = 0; i < N; i++) {
+    float c = 0.5f * (float)(n - 1), r2 = 20.0f * (float)(n * n) / (float)(N * N);
+    for (int k = 0; k < n; k++)
+        for (int j = 0; j < n; j++)
+            for (int i = 0; i < n; i++) {
                 r = r * 6364136223846793005ull + 1442695040888963407ull;
                 float x = (float)((r >> 40) & 0xffff) / 65535.0f;
-                /* a blob plus noise, so there are shadows */
-                float dx = (float)i - 7.5f, dy = (float)j - 7.5f, dz = (float)k - 7.5f;
-                float blob = dx * dx + dy * dy + dz * dz < 20.0f ? 1.0f : 0.0f;
-                d[(k * N + j) * N + i] = scale * (0.15f * x + blob);
+                float dx = (float)i - c, dy = (float)j - c, dz = (float)k - c;
+                float blob = dx * dx + dy * dy + dz * dz < r2 ? 1.0f : 0.0f;
+                d[((size_t)k * n + j) * n + i] = scale * (0.15f * x + blob);
             }
     return d;
 }
+
+static float *random_medium(uint64_t seed, float scale) { return random_medium_n(seed, scale, N); }
 
 typedef struct fixture {
     volux_context *ctx;
@@ -37,10 +41,10 @@ typedef struct fixture {
 
 static const float COLOR[3] = {0.9f, 0.7f, 0.5f};
 
-static void fx_setup(fixture *f, int threads) {
+static void fx_setup_n(fixture *f, int threads, int n) {
     f->ctx = tu_context(threads);
-    f->data = random_medium(7, 0.8f);
-    f->s = lvf_scene(f->ctx, N, N, N, f->data, 0.8f, COLOR);
+    f->data = random_medium_n(7, 0.8f, n);
+    f->s = lvf_scene(f->ctx, n, n, n, f->data, 0.8f, COLOR);
     volux_light_desc l[4] = {lvf_directional(-0.4f, -0.8f, -0.45f, 2.0f), lvf_directional(0.6f, -0.3f, -0.7f, 1.0f),
                              lvf_point(-25, 14, 18, 3000.0f), lvf_spot(20, 20, -20, -1, -1, 1, 4000.0f, 30, 20)};
     l[1].color = (volux_vec3){0.4f, 0.6f, 1.0f};
@@ -49,6 +53,8 @@ static void fx_setup(fixture *f, int threads) {
     assert_int_equal(volux_scene_set_param(f->s, "lightvol", "forward_scattering", 0.5, NULL), VOLUX_OK);
     assert_int_equal(volux_scene_set_param(f->s, "lightvol", "scatter_cone", 15.0, NULL), VOLUX_OK);
 }
+
+static void fx_setup(fixture *f, int threads) { fx_setup_n(f, threads, N); }
 
 static void fx_teardown(fixture *f) {
     volux_scene_destroy(f->s);
@@ -415,7 +421,9 @@ static void test_sequential_equals_coherent(void **state) {
     fx_teardown(&f);
 }
 
-/* Bit-identical volumes and images for 1 and 2 threads. */
+/* Bit-identical volumes and images for 1 and 2 threads. 96³ voxels: the
+ * sweeps run slices of fewer than 16384 voxel·lights on one thread, so a
+ * smaller volume would not exercise the parallel sweep at all. */
 static void test_thread_count_independence(void **state) {
     (void)state;
     float *vol[2] = {NULL, NULL};
@@ -424,7 +432,7 @@ static void test_thread_count_independence(void **state) {
     size_t n = 0;
     for (int th = 0; th < 2; th++) {
         fixture f;
-        fx_setup(&f, th + 1);
+        fx_setup_n(&f, th + 1, 96);
         assert_int_equal(volux_scene_set_param(f.s, "lightvol", "local_shading", 0.5, NULL), VOLUX_OK);
         volux_technique *t = lvf_create(f.ctx, f.s);
         edit_move_point(f.s);

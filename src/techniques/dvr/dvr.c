@@ -7,6 +7,7 @@
 #include "core/vecmath.h"
 #include "dvr.h"
 #include "sample/primary.h"
+#include "sample/segment.h"
 
 /* ------------------------------------------------------------------ caches */
 
@@ -388,96 +389,44 @@ static inline __attribute__((always_inline)) float sample_at(const volux_volume 
                                        storage);
 }
 
-/* Integrates one ray. Segments: seg 0 = [t0, t0 + j·h], seg k ≥ 1 =
- * [t0 + (j+k−1)·h, t0 + (j+k)·h], clipped to t1 — fixed positions, so
- * skipping empty intervals never changes which segments are integrated. */
+/* Integrates one ray over the segments of sample/segment.h (fixed
+ * positions: skipping empty intervals never changes which segments are
+ * integrated). */
 static inline __attribute__((always_inline)) volux_vec3
 march(const dvr_state *st, const volux_ray *ray, float jitter, float *T_out, uint64_t *samples, int shaded, int preint,
       volux_storage storage) {
     const volux_volume *v = st->volume;
     const volux_transfer_lut *lut = st->lut;
-    const float h = st->step, t0 = ray->t0, t1 = ray->t1;
     float T = 1.0f, C[3] = {0, 0, 0};
     uint64_t count = 0;
+    volux_segments seg;
     volux_march_iter it;
-    volux_interval iv = {t0, t1, 1.0f};
-    if (st->skip_empty) volux_march_init(&it, &st->grid, ray, t0, t1);
-    int have_prev = 0, next_k = 0;
-    float u_prev = 0.0f;
-    double I_prev = 0.0, Ic_prev[3] = {0, 0, 0};
-    for (;;) {
-        if (st->skip_empty) {
-            if (!volux_march_next(&it, &iv)) break;
-            if (iv.sigma_max <= 0.0f) continue;
-        }
-        /* First segment that ends after iv.t0. */
-        int k = (int)floorf((iv.t0 - t0) / h - jitter);
-        if (k < next_k) k = next_k;
-        if (k > next_k) have_prev = 0;
-        for (;; k++) {
-            float a = k == 0 ? t0 : t0 + ((float)k - 1.0f + jitter) * h;
-            if (a >= iv.t1 || a >= t1) break;
-            float b = t0 + ((float)k + jitter) * h;
-            if (b > t1) b = t1;
-            next_k = k + 1;
-            float len = b - a;
-            if (len <= 0.0f) continue;
-            if (preint && !have_prev) {
-                u_prev = volux_lut_coord(lut, sample_at(v, ray, a, storage));
-                I_prev = volux_lut_int_at(lut, u_prev, Ic_prev);
-                count++;
-            }
-            float s = sample_at(v, ray, b, storage);
+    volux_segments_init(&seg, &it, st->skip_empty ? &st->grid : NULL, ray, st->step, jitter);
+    volux_preint pi = {0.0f, 0.0, {0.0, 0.0, 0.0}};
+    float a, b;
+    int gap;
+    while (volux_segments_next(&seg, &a, &b, &gap)) {
+        if (preint && gap) {
+            volux_preint_front(lut, sample_at(v, ray, a, storage), &pi);
             count++;
-            float tau, c[3];
-            if (preint) {
-                /* Pre-integrated segment, s linear from s_prev to s. The
-                 * integral tables are linear between nodes, so within one
-                 * table interval σt and σt·c are that interval's means:
-                 * τ = len·σ̄, c = (σc)‾/σ̄ — no division by a tiny Δs.
-                 * Across intervals τ = len·ΔI/Δs and c = ΔI_c/ΔI (Engel et
-                 * al. 2001). Δs is measured in table units u, the same
-                 * numbers that chose the intervals. */
-                float u = volux_lut_coord(lut, s);
-                double Ic[3], I = volux_lut_int_at(lut, u, Ic);
-                int i = volux_lut_interval(lut, u);
-                if (i == volux_lut_interval(lut, u_prev)) {
-                    const double *P = lut->int_sigma + i, *Pc = lut->int_sigma_c + 3 * i;
-                    double D = P[1] - P[0];
-                    tau = (float)((double)len * (double)lut->inv_ds * D);
-                    for (int a2 = 0; a2 < 3; a2++) c[a2] = D > 0.0 ? (float)((Pc[3 + a2] - Pc[a2]) / D) : 0.0f;
-                } else {
-                    double dI = I - I_prev;
-                    tau = (float)((double)len * (double)lut->inv_ds * dI / (double)(u - u_prev));
-                    for (int a2 = 0; a2 < 3; a2++) c[a2] = dI != 0.0 ? (float)((Ic[a2] - Ic_prev[a2]) / dI) : 0.0f;
-                }
-                u_prev = u;
-                I_prev = I;
-                memcpy(Ic_prev, Ic, sizeof Ic);
-                have_prev = 1;
-            } else {
-                float rgba[4];
-                volux_lut_rgba(lut, s, rgba);
-                tau = rgba[3] * len;
-                c[0] = rgba[0], c[1] = rgba[1], c[2] = rgba[2];
-            }
-            if (tau <= 0.0f) continue;
-            if (shaded) {
-                volux_vec3 p = v3_madd(ray->o, ray->d, b);
-                volux_vec3 q = v3_madd(ray->q0, ray->dq, b);
-                shade(st, p, q, ray->d, c);
-            }
-            float alpha = 1.0f - expf(-tau);
-            float w = T * alpha;
-            C[0] += w * c[0];
-            C[1] += w * c[1];
-            C[2] += w * c[2];
-            T -= w;
-            if (T < st->t_min) goto done;
         }
-        if (!st->skip_empty) break;
+        float s = sample_at(v, ray, b, storage), c[3];
+        float tau = preint ? volux_preint_segment(lut, &pi, s, b - a, c) : volux_point_segment(lut, s, b - a, c);
+        count++;
+        if (tau <= 0.0f) continue;
+        if (shaded) {
+            volux_vec3 p = v3_madd(ray->o, ray->d, b);
+            volux_vec3 q = v3_madd(ray->q0, ray->dq, b);
+            shade(st, p, q, ray->d, c);
+        }
+        float alpha = 1.0f - expf(-tau);
+        float w = T * alpha;
+        C[0] += w * c[0];
+        C[1] += w * c[1];
+        C[2] += w * c[2];
+        T -= w;
+        if (T < st->t_min) break;
     }
-done:
     *samples += count;
     *T_out = T;
     return v3(C[0], C[1], C[2]);

@@ -22,6 +22,7 @@
 #include "lightvol.h"
 #include "sweep.h"
 #include "sample/primary.h"
+#include "sample/segment.h"
 
 static const volux_param_info lightvol_params[] = {
     {"scale", VOLUX_PARAM_NUMBER, 1, 0.0625, 1, NULL,
@@ -222,11 +223,9 @@ static void lightvol_destroy(void *state) {
 
 static volux_status lightvol_create(volux_context *ctx, volux_scene *scene, void **out) {
     lightvol_state *st = volux_calloc(ctx, 1, sizeof *st);
-    if (!st) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for technique state");
+    if (!st) return volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for technique state");
     st->ctx = ctx;
-    volux_change_set all;
-    memset(&all, 0xff, sizeof all);
-    all.what = VOLUX_CHANGE_ALL;
+    volux_change_set all = volux_change_all();
     volux_status s = lightvol_update(st, scene, &all);
     if (s) {
         lightvol_destroy(st);
@@ -320,87 +319,41 @@ static inline float sample_at(const volux_volume *v, const volux_ray *r, float t
     return volux_volume_sample_index(v, r->q0.x + r->dq.x * t, r->q0.y + r->dq.y * t, r->q0.z + r->dq.z * t);
 }
 
-/* One ray, with the segment scheme of the `ea` kernel: segment 0 =
- * [t0, t0 + j·h], segment k ≥ 1 = [t0 + (j+k−1)·h, t0 + (j+k)·h] clipped
- * to t1, so empty-space skipping never changes which segments are used. */
+/* One ray over the segments of sample/segment.h, pre-integrated or point
+ * sampled as in `ea`; each segment scatters the illumination volume's light
+ * at its end. */
 static inline __attribute__((always_inline)) volux_vec3 march(const lightvol_state *st, const volux_ray *ray,
                                                               float jitter, float *T_out, uint64_t *samples,
                                                               int preint, int local) {
     const volux_volume *v = st->volume;
     const volux_transfer_lut *lut = st->lut;
-    const float h = st->step, t0 = ray->t0, t1 = ray->t1;
     float T = 1.0f, C[3] = {0, 0, 0};
     uint64_t count = 0;
+    volux_segments seg;
     volux_march_iter it;
-    volux_interval iv = {t0, t1, 1.0f};
-    const int skip = st->p.skip_empty;
-    if (skip) volux_march_init(&it, &st->grid, ray, t0, t1);
-    int have_prev = 0, next_k = 0;
-    float s_prev = 0.0f;
-    double I_prev = 0.0, Ic_prev[3] = {0, 0, 0};
-    for (;;) {
-        if (skip) {
-            if (!volux_march_next(&it, &iv)) break;
-            if (iv.sigma_max <= 0.0f) continue;
-        }
-        int k = (int)floorf((iv.t0 - t0) / h - jitter);
-        if (k < next_k) k = next_k;
-        if (k > next_k) have_prev = 0;
-        for (;; k++) {
-            float a = k == 0 ? t0 : t0 + ((float)k - 1.0f + jitter) * h;
-            if (a >= iv.t1 || a >= t1) break;
-            float b = t0 + ((float)k + jitter) * h;
-            if (b > t1) b = t1;
-            next_k = k + 1;
-            float len = b - a;
-            if (len <= 0.0f) continue;
-            if (preint && !have_prev) {
-                s_prev = sample_at(v, ray, a);
-                I_prev = volux_lut_int_sigma(lut, s_prev, Ic_prev);
-                count++;
-            }
-            float s = sample_at(v, ray, b);
+    volux_segments_init(&seg, &it, st->p.skip_empty ? &st->grid : NULL, ray, st->step, jitter);
+    volux_preint pi = {0.0f, 0.0, {0.0, 0.0, 0.0}};
+    float a, b;
+    int gap;
+    while (volux_segments_next(&seg, &a, &b, &gap)) {
+        if (preint && gap) {
+            volux_preint_front(lut, sample_at(v, ray, a), &pi);
             count++;
-            float tau, c[3];
-            if (preint) {
-                double Ic[3], I = volux_lut_int_sigma(lut, s, Ic);
-                double dI = I - I_prev, ds = (double)s - (double)s_prev;
-                if (fabs(ds) * lut->inv_ds > 1e-3) {
-                    tau = (float)(len * dI / ds);
-                    if (dI != 0.0)
-                        for (int q = 0; q < 3; q++) c[q] = (float)((Ic[q] - Ic_prev[q]) / dI);
-                    else
-                        c[0] = c[1] = c[2] = 0.0f;
-                } else {
-                    float rgba[4];
-                    volux_lut_rgba(lut, 0.5f * (s + s_prev), rgba);
-                    tau = rgba[3] * len;
-                    c[0] = rgba[0], c[1] = rgba[1], c[2] = rgba[2];
-                }
-                s_prev = s;
-                I_prev = I;
-                memcpy(Ic_prev, Ic, sizeof Ic);
-                have_prev = 1;
-            } else {
-                float rgba[4];
-                volux_lut_rgba(lut, s, rgba);
-                tau = rgba[3] * len;
-                c[0] = rgba[0], c[1] = rgba[1], c[2] = rgba[2];
-            }
-            if (tau <= 0.0f) continue;
-            float S[3];
-            scatter(st, v3_madd(ray->o, ray->d, b), v3_madd(ray->q0, ray->dq, b), ray->d, c, S, local);
-            float alpha = 1.0f - expf(-tau);
-            float wgt = T * alpha;
-            C[0] += wgt * S[0];
-            C[1] += wgt * S[1];
-            C[2] += wgt * S[2];
-            T -= wgt;
-            if (T < st->p.t_min) goto done;
         }
-        if (!skip) break;
+        float s = sample_at(v, ray, b), c[3];
+        float tau = preint ? volux_preint_segment(lut, &pi, s, b - a, c) : volux_point_segment(lut, s, b - a, c);
+        count++;
+        if (tau <= 0.0f) continue;
+        float S[3];
+        scatter(st, v3_madd(ray->o, ray->d, b), v3_madd(ray->q0, ray->dq, b), ray->d, c, S, local);
+        float alpha = 1.0f - expf(-tau);
+        float wgt = T * alpha;
+        C[0] += wgt * S[0];
+        C[1] += wgt * S[1];
+        C[2] += wgt * S[2];
+        T -= wgt;
+        if (T < st->p.t_min) break;
     }
-done:
     *samples += count;
     *T_out = T;
     return v3(C[0], C[1], C[2]);

@@ -32,7 +32,8 @@
  * compiler can use sqrt instructions and if-convert lv_exp_neg and the Eq. 5
  * factors, so the row loops vectorise (same operations, same rounding).
  *
- * Slices are parallel within themselves (volux_parallel_for over rows);
+ * Slices are parallel within themselves (chunks of rows, one phase of
+ * volux_parallel_phases per slice: one parallel region per sweep);
  * every voxel depends only on the complete previous slice, so the result is
  * the same for any thread count.
  */
@@ -1381,13 +1382,6 @@ static void step_item(void *user, int64_t item, int thread) {
     }
 }
 
-static void classify_item(void *user, int64_t item, int thread) {
-    (void)thread;
-    const lv_sweep *J = user;
-    int v0 = (int)item * J->rows_per_item, v1 = v0 + J->rows_per_item < J->mv ? v0 + J->rows_per_item : J->mv;
-    classify_rows(J, J->mn, J->kn, v0, v1);
-}
-
 /* A medium slice buffer: σt, κr, κg, κb planes (or the scalar in plane 0
  * when post-classified), then per row a (min, max) pair — of the scalar, or
  * 0 and the largest σt — so rows with an empty footprint skip the
@@ -1473,6 +1467,58 @@ static void build_stencil(lv_entry *e) {
 }
 
 /* One propagation pass: group g, the given lights. */
+/* Each light's slice buffers: what step k wrote is what step k + 1 reads. */
+static void swap_slice_buffers(lv_entry *E, int n) {
+    for (int i = 0; i < n; i++)
+        for (int c = 0; c < 3; c++) {
+            float *t = E[i].rd[c];
+            E[i].rd[c] = E[i].wr[c];
+            E[i].wr[c] = t;
+        }
+}
+
+/* Serial part of sweep phase p (volux_parallel_phases; returns the phase's
+ * item count for step_item). Phase 0 classifies the first slice's medium;
+ * phase p ≥ 1 propagates slice step p − 1 and classifies the next slice
+ * together — the propagation reads only the previous and current slices'
+ * media. The media rotate through three buffers. */
+static int64_t sweep_phase(void *user, int phase) {
+    lv_sweep *J = user;
+    if (phase == 0) {
+        J->mn = J->med[0];
+        J->kn = J->s > 0 ? 0 : J->ma - 1;
+        J->sweep_items = 0;
+        J->class_items = J->chunks;
+        return J->chunks;
+    }
+    int step = phase - 1;
+    if (step > 0) swap_slice_buffers(J->e, J->ne);
+    J->step = step;
+    J->k = J->s > 0 ? step : J->ma - 1 - step;
+    J->kp = J->k - J->s;
+    J->mc = J->med[step % 3];
+    J->mp = J->med[(step + 2) % 3];
+    J->mn = J->med[(step + 1) % 3];
+    J->kn = step + 1 < J->ma ? J->k + J->s : -1;
+    for (int i = 0; i < J->ne; i++) {
+        lv_entry *e = &J->e[i];
+        if (e->s->kind == LV_DIRECTIONAL) {
+            e->mode = step == 0 ? E_INIT : E_PROP;
+        } else {
+            /* slices ahead of the light along the sweep only (§7.3: a
+             * light inside the volume needs the opposite groups too) */
+            float dist = (float)J->s * ((float)J->k - e->lidx[J->a]);
+            if (dist <= 0.0f) e->mode = E_SKIP;
+            else if (dist <= 1.0f) e->mode = E_INIT_ATT;
+            else if (step == 0) e->mode = E_INIT; /* projection onto the first slice (§6, Fig. 5) */
+            else e->mode = E_PROP, e->f = 1.0f / dist;
+        }
+    }
+    J->sweep_items = J->chunks;
+    J->class_items = J->kn >= 0 ? J->chunks : 0;
+    return J->sweep_items + J->class_items;
+}
+
 static void sweep(lightvol_state *st, int g, const lv_item *items, const int *idx, int n, int overwrite, lv_entry *E) {
     lv_sweep J;
     memset(&J, 0, sizeof J);
@@ -1573,7 +1619,6 @@ static void sweep(lightvol_state *st, int g, const lv_item *items, const int *id
     /* Work split: chunks of rows worth ~4k voxel·lights each; small slices
      * run on one thread (fork/join would cost more than the work). */
     const size_t sb = med_stride(st);
-    float *med[3] = {st->med, st->med + sb, st->med + 2 * sb};
     int threads = st->threads > 0 ? st->threads : 1;
     size_t work = (size_t)J.mu * (size_t)J.mv * (size_t)(n + 1);
     if (work < 16384) threads = 1;
@@ -1584,45 +1629,14 @@ static void sweep(lightvol_state *st, int g, const lv_item *items, const int *id
         J.rows_per_item = J.mv / (4 * threads);
         if (J.rows_per_item < 1) J.rows_per_item = 1;
     }
-    int chunks = (J.mv + J.rows_per_item - 1) / J.rows_per_item;
-    /* the first slice's medium */
-    J.mn = med[0];
-    J.kn = J.s > 0 ? 0 : J.ma - 1;
-    volux_parallel_for(threads, chunks, classify_item, &J);
-    for (int step = 0; step < J.ma; step++) {
-        J.step = step;
-        J.k = J.s > 0 ? step : J.ma - 1 - step;
-        J.kp = J.k - J.s;
-        J.mc = med[step % 3];
-        J.mp = med[(step + 2) % 3];
-        J.mn = med[(step + 1) % 3];
-        J.kn = step + 1 < J.ma ? J.k + J.s : -1;
-        for (int i = 0; i < n; i++) {
-            lv_entry *e = &E[i];
-            if (e->s->kind == LV_DIRECTIONAL) {
-                e->mode = step == 0 ? E_INIT : E_PROP;
-            } else {
-                /* slices ahead of the light along the sweep only (§7.3: a
-                 * light inside the volume needs the opposite groups too) */
-                float dist = (float)J.s * ((float)J.k - e->lidx[J.a]);
-                if (dist <= 0.0f) e->mode = E_SKIP;
-                else if (dist <= 1.0f) e->mode = E_INIT_ATT;
-                else if (step == 0) e->mode = E_INIT; /* projection onto the first slice (§6, Fig. 5) */
-                else e->mode = E_PROP, e->f = 1.0f / dist;
-            }
-        }
-        /* sweep of slice k and classification of slice k + s together: the
-         * sweep reads only the previous and current slices' media */
-        J.sweep_items = chunks;
-        J.class_items = J.kn >= 0 ? chunks : 0;
-        volux_parallel_for(threads, J.sweep_items + J.class_items, step_item, &J);
-        for (int i = 0; i < n; i++)
-            for (int c = 0; c < 3; c++) {
-                float *t = E[i].rd[c];
-                E[i].rd[c] = E[i].wr[c];
-                E[i].wr[c] = t;
-            }
-    }
+    J.chunks = (J.mv + J.rows_per_item - 1) / J.rows_per_item;
+    J.med[0] = st->med;
+    J.med[1] = st->med + sb;
+    J.med[2] = st->med + 2 * sb;
+    /* one parallel region for the whole sweep: a fork/join per slice left the
+     * second thread waiting to be woken (or spinning) at every slice */
+    volux_parallel_phases(threads, J.ma + 1, sweep_phase, step_item, &J);
+    swap_slice_buffers(E, n);
 }
 
 /* Runs the planned passes for items; full = the volume is rebuilt from zero. */

@@ -75,6 +75,8 @@ typedef struct lv_sweep {
     float *mc;          /* medium of the current slice                     */
     float *mn;          /* medium of the next slice (classified meanwhile) */
     int kn;             /* next slice, or −1                               */
+    float *med[3];      /* the three rotating medium slice buffers          */
+    int chunks;         /* work items (row chunks) per slice               */
     int rows_per_item, sweep_items, class_items;
     int defer;          /* x sweeps: slices staged before a flush (0: none) */
     size_t area;
