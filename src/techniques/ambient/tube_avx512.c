@@ -70,6 +70,20 @@ static const int lanes16[16] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14
 
 A5I __m512i lane_ids(void) { return _mm512_loadu_si512((const void *)lanes16); }
 
+/* consecutive cell indices (lane 0's + lane): each corner is one plain
+ * load (tube_avx2.c), the common case of directional sweeps */
+A5I int consecutive(__m512i base) {
+    __m512i b0 = _mm512_broadcastd_epi32(_mm512_castsi512_si128(base));
+    return _mm512_cmpeq_epi32_mask(base, _mm512_add_epi32(b0, lane_ids())) == 0xffff;
+}
+
+/* The 8 corners (trilerp's order) of consecutive cells from r, y and z
+ * corner rows oy and oz nodes on. */
+A5I void row_corners(const float *r, ptrdiff_t oy, ptrdiff_t oz, __m512 a[8]) {
+    const ptrdiff_t o[4] = {0, oy, oz, oy + oz};
+    for (int q = 0; q < 4; q++) a[2 * q] = _mm512_loadu_ps(r + o[q]), a[2 * q + 1] = _mm512_loadu_ps(r + o[q] + 1);
+}
+
 A5I __m512 trilerp(__m512 a000, __m512 a100, __m512 a010, __m512 a110, __m512 a001, __m512 a101, __m512 a011,
                    __m512 a111, const __m512 f[3]) {
     __m512 c00 = lerp(a000, a100, f[0]), c10 = lerp(a010, a110, f[0]);
@@ -85,7 +99,7 @@ A5I __m512 trilerp(__m512 a000, __m512 a100, __m512 a010, __m512 a110, __m512 a0
  * values the gathers return, for 2 loads + 2 permutes per row instead of
  * 2 gathers (the gathers were about half of a point sweep; the lanes of a
  * run along x share a row in ≈ 80 % of the blocks on aneurism, against
- * 13–43 % with consecutive indices). Every loaded node lies on a row some
+ * 13–43 % with consecutive indices, which stay the first choice). Every loaded node lies on a row some
  * lane reads, between two nodes lanes read: the Chebyshev distance to the
  * light is convex along the row, so it is in a finished shell too (the
  * strict-read guarantee of tube_simd.h holds). */
@@ -146,9 +160,13 @@ A5I __m512 trilerp8(const __m512 a[8], const __m512 f[3]) {
 /* Lanes whose 8 corners are all +0 (bit pattern 0): the read of a vacuum
  * chain (tube.h: tube_geometry). */
 A5I m16 corners_zero(const __m512 a[8]) {
-    __m512i o = _mm512_castps_si512(a[0]);
-    for (int c = 1; c < 8; c++) o = _mm512_or_si512(o, _mm512_castps_si512(a[c]));
-    return _mm512_cmpeq_epi32_mask(o, _mm512_setzero_si512());
+#define I_(q) _mm512_castps_si512(a[q])
+    /* 0xfe: a | b | c */
+    __m512i o = _mm512_ternarylogic_epi32(I_(0), I_(1), I_(2), 0xfe);
+    o = _mm512_ternarylogic_epi32(o, I_(3), I_(4), 0xfe);
+    o = _mm512_ternarylogic_epi32(o, I_(5), I_(6), 0xfe);
+    return _mm512_testn_epi32_mask(_mm512_or_si512(o, I_(7)), _mm512_or_si512(o, I_(7)));
+#undef I_
 }
 
 
@@ -161,13 +179,17 @@ A5I __m512 sample_clamped(const float *v, const grid16 *g, const __m512 p[3]) {
         f[a] = _mm512_sub_ps(u[a], _mm512_cvtepi32_ps(c[a]));
     }
     const __m512i one = _mm512_set1_epi32(1);
+    __m512i b = cell_index(g, c);
     window16 w;
+    __m512 a[8];
+    if (consecutive(b)) {
+        row_corners(v + lane0(b), g->nx, g->nxy, a);
+        return trilerp8(a, f);
+    }
     if (row_window(g, c, one, 0xffff, &w)) {
-        __m512 a[8];
         window_corners(v, &w, g->nx, g->nxy, a);
         return trilerp8(a, f);
     }
-    __m512i b = cell_index(g, c);
     __m512i by = _mm512_add_epi32(b, g->sy), bz = _mm512_add_epi32(b, g->sz), byz = _mm512_add_epi32(by, g->sz);
 #define G_(idx) _mm512_i32gather_ps((idx), v, 4)
     return trilerp(G_(b), G_(_mm512_add_epi32(b, one)), G_(by), G_(_mm512_add_epi32(by, one)), G_(bz),
@@ -196,10 +218,17 @@ A5I __m512 strict_at16(const float *v, const grid16 *g, const __m512i c[3], cons
     __m512i ox = _mm512_mask_mov_epi32(zi, up[0], _mm512_set1_epi32(1));
     window16 w;
     __m512 a[8];
-    if ((up[1] == 0 || up[1] == mask) && (up[2] == 0 || up[2] == mask) && row_window(g, c, ox, mask, &w)) {
+    __m512i b = cell_index(g, c);
+    int rows = (up[1] == 0 || up[1] == mask) && (up[2] == 0 || up[2] == mask);
+    /* consecutive cells, every lane wanted, lane 15's upper x corner read:
+     * every loaded element is a corner some lane reads (a lane whose x
+     * fraction is 0 gets lane + 1's lower corner as its upper one, with
+     * weight 0: the same result) */
+    if (rows && mask == 0xffff && (up[0] & 0x8000) && consecutive(b)) {
+        row_corners(v + lane0(b), up[1] ? g->nx : 0, up[2] ? g->nxy : 0, a);
+    } else if (rows && row_window(g, c, ox, mask, &w)) {
         window_corners(v, &w, up[1] ? g->nx : 0, up[2] ? g->nxy : 0, a);
     } else {
-        __m512i b = cell_index(g, c);
         __m512i oy = _mm512_mask_mov_epi32(zi, up[1], g->sy), oz = _mm512_mask_mov_epi32(zi, up[2], g->sz);
         __m512i by = _mm512_add_epi32(b, oy), bz = _mm512_add_epi32(b, oz), byz = _mm512_add_epi32(by, oz);
         __m512i idx[8] = {b,  _mm512_add_epi32(b, ox),  by,  _mm512_add_epi32(by, ox),
@@ -210,6 +239,21 @@ A5I __m512 strict_at16(const float *v, const grid16 *g, const __m512i c[3], cons
     return trilerp8(a, f);
 }
 
+/* κ[j] and κ[j + 1] for the lanes in k (k includes lane 0; others: any
+ * value). One broadcast pair when every lane has lane 0's j — a block of
+ * vacuum (ρ = 0, j = 0) or of one medium — else two gathers: the same
+ * values. */
+A5I void kappa_pair(const float *kappa, __m512i j, m16 k, __m512 *k0, __m512 *k1) {
+    int j0 = lane0(j);
+    if ((_mm512_cmpeq_epi32_mask(j, _mm512_set1_epi32(j0)) & k) == k) {
+        *k0 = _mm512_set1_ps(kappa[j0]);
+        *k1 = _mm512_set1_ps(kappa[j0 + 1]);
+        return;
+    }
+    *k0 = _mm512_mask_i32gather_ps(_mm512_setzero_ps(), k, j, kappa, 4);
+    *k1 = _mm512_mask_i32gather_ps(_mm512_setzero_ps(), k, _mm512_add_epi32(j, _mm512_set1_epi32(1)), kappa, 4);
+}
+
 A5I __m512 kappa16(const tube_lanes *t, __m512 rho) {
     const __m512 zero = _mm512_setzero_ps(), last = _mm512_set1_ps((float)(t->n_sigma - 1));
     __m512 u = _mm512_div_ps(_mm512_mul_ps(rho, last), _mm512_set1_ps(t->sigma_max));
@@ -217,8 +261,8 @@ A5I __m512 kappa16(const tube_lanes *t, __m512 rho) {
     __m512 uc = _mm512_min_ps(_mm512_max_ps(u, zero), last);
     __m512i i = _mm512_min_epi32(_mm512_cvttps_epi32(uc), _mm512_set1_epi32(t->n_sigma - 2));
     __m512 f = _mm512_sub_ps(uc, _mm512_cvtepi32_ps(i));
-    __m512 k0 = _mm512_i32gather_ps(i, t->kappa, 4);
-    __m512 k1 = _mm512_i32gather_ps(_mm512_add_epi32(i, _mm512_set1_epi32(1)), t->kappa, 4);
+    __m512 k0, k1;
+    kappa_pair(t->kappa, i, 0xffff, &k0, &k1);
     return sel(above, _mm512_set1_ps(t->kappa[t->n_sigma - 1]), lerp(k0, k1, f));
 }
 
@@ -346,7 +390,9 @@ A5I void nodes_body(const tube_lanes *t, int i, int j, int k, int axis, int coun
                 skip_exit = (_mm512_cmplt_epi32_mask(_mm512_castps_si512(rec), _mm512_setzero_si512()) & valid) == valid;
                 c_arg[bi] = _mm512_castsi512_ps(_mm512_and_si512(_mm512_castps_si512(rec), _mm512_set1_epi32(0x7fffffff)));
             } else {
-                skip_exit = beyond_two_steps(t, x, w, dl, valid);
+                /* directional nodes here are near their chain start (the
+                 * others take the fast path): not worth the test */
+                skip_exit = t->positional && beyond_two_steps(t, x, w, dl, valid);
             }
             __m512 delta = inf;
             if (!skip_exit) {
@@ -475,8 +521,8 @@ A5I void fast_body(const tube_fast *fr, float *out, const float *D, const float 
         }
         __m512i j = _mm512_cvttps_epi32(u);
         __m512 f = _mm512_sub_ps(u, _mm512_cvtepi32_ps(j));
-        __m512 k0 = _mm512_mask_i32gather_ps(_mm512_setzero_ps(), k, j, fr->kappa, 4);
-        __m512 k1 = _mm512_mask_i32gather_ps(_mm512_setzero_ps(), k, _mm512_add_epi32(j, _mm512_set1_epi32(1)), fr->kappa, 4);
+        __m512 k0, k1;
+        kappa_pair(fr->kappa, j, k, &k0, &k1);
         __m512 res = _mm512_add_ps(_mm512_add_ps(back, k0), _mm512_mul_ps(_mm512_sub_ps(k1, k0), f));
         _mm512_mask_storeu_ps(out + i, k, res);
         if (vac && !resum) {
