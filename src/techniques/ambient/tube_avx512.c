@@ -235,7 +235,13 @@ A5I __m512 strict_at16(const float *v, const grid16 *g, const __m512i c[3], cons
                           bz, _mm512_add_epi32(bz, ox), byz, _mm512_add_epi32(byz, ox)};
         for (int q = 0; q < 8; q++) a[q] = _mm512_mask_i32gather_ps(zero, mask, idx[q], v, 4);
     }
-    if (zc) *zc = corners_zero(a);
+    if (zc) {
+        /* the true corners only: an upper x corner with fraction 0 may be
+         * the next lane's node (consecutive rows) and is not read */
+        __m512 t[8];
+        for (int q = 0; q < 8; q++) t[q] = (q & 1) ? _mm512_maskz_mov_ps(up[0], a[q]) : a[q];
+        *zc = corners_zero(t);
+    }
     return trilerp8(a, f);
 }
 
