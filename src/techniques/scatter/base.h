@@ -29,6 +29,7 @@
 #include "lights.h"
 #include "sample/march.h"
 #include "sample/primary.h"
+#include "sample/segment.h"
 #include "volux/technique.h"
 
 /* Parameters every scattering technique has. */
@@ -107,79 +108,61 @@ scatter_render_tile(const scatter_base *b, const void *tech, const volux_scene *
             }
             scatter_sample smp;
             smp.to_eye = v3_scale(d, -1.0f);
-            const float t0 = ray.t0, t1 = ray.t1;
             float T = 1.0f, C[3] = {0, 0, 0};
             int head = 0, tail = 0; /* records [tail, head) */
             float T_base = 1.0f;
+            volux_segments seg;
             volux_march_iter it;
-            volux_interval iv = {t0, t1, 1.0f};
-            if (b->skip_empty) volux_march_init(&it, &b->grid, &ray, t0, t1);
-            int next_k = 0;
-            for (;;) {
-                if (b->skip_empty) {
-                    if (!volux_march_next(&it, &iv)) break;
-                    if (iv.sigma_max <= 0.0f) continue;
+            volux_segments_init(&seg, &it, b->skip_empty ? &b->grid : NULL, &ray, h, jitter);
+            float a, e;
+            int gap;
+            while (volux_segments_next(&seg, &a, &e, &gap)) {
+                float len = e - a;
+                smp.q = v3_madd(ray.q0, ray.dq, e);
+                smp.s = volux_volume_sample_index(v, smp.q.x, smp.q.y, smp.q.z);
+                count++;
+                float rgba[4];
+                volux_lut_rgba(lut, smp.s, rgba);
+                float tau = rgba[3] * len;
+                if (tau <= 0.0f) continue;
+                float alpha = 1.0f - scatter_exp_neg(-tau);
+                /* T(x_o), x_o = x + lag·ω: the transmittance at t = e − lag,
+                 * linear within the recorded segment that contains it. */
+                float T_o = T;
+                if (lag > 0.0f) {
+                    float tq = e - lag;
+                    while (tail != head && rec[tail % SCATTER_LAG_RECORDS][1] <= tq) {
+                        T_base = rec[tail % SCATTER_LAG_RECORDS][3];
+                        tail++;
+                    }
+                    T_o = T_base;
+                    if (tail != head) {
+                        const float *r0 = rec[tail % SCATTER_LAG_RECORDS];
+                        if (tq > r0[0]) T_o = r0[2] + (r0[3] - r0[2]) * (tq - r0[0]) / (r0[1] - r0[0]);
+                    }
                 }
-                /* Fixed segment positions (as in dvr): seg 0 = [t0, t0 + j·h],
-                 * seg k ≥ 1 = [t0 + (k−1+j)·h, t0 + (k+j)·h]. */
-                int k = (int)floorf((iv.t0 - t0) / h - jitter);
-                if (k < next_k) k = next_k;
-                for (;; k++) {
-                    float a = k == 0 ? t0 : t0 + ((float)k - 1.0f + jitter) * h;
-                    if (a >= iv.t1 || a >= t1) break;
-                    float e = t0 + ((float)k + jitter) * h;
-                    if (e > t1) e = t1;
-                    next_k = k + 1;
-                    float len = e - a;
-                    if (len <= 0.0f) continue;
-                    smp.q = v3_madd(ray.q0, ray.dq, e);
-                    smp.s = volux_volume_sample_index(v, smp.q.x, smp.q.y, smp.q.z);
-                    count++;
-                    float rgba[4];
-                    volux_lut_rgba(lut, smp.s, rgba);
-                    float tau = rgba[3] * len;
-                    if (tau <= 0.0f) continue;
-                    float alpha = 1.0f - scatter_exp_neg(-tau);
-                    /* T(x_o), x_o = x + lag·ω: the transmittance at t = e − lag,
-                     * linear within the recorded segment that contains it. */
-                    float T_o = T;
-                    if (lag > 0.0f) {
-                        float tq = e - lag;
-                        while (tail != head && rec[tail % SCATTER_LAG_RECORDS][1] <= tq) {
-                            T_base = rec[tail % SCATTER_LAG_RECORDS][3];
-                            tail++;
-                        }
-                        T_o = T_base;
-                        if (tail != head) {
-                            const float *r0 = rec[tail % SCATTER_LAG_RECORDS];
-                            if (tq > r0[0]) T_o = r0[2] + (r0[3] - r0[2]) * (tq - r0[0]) / (r0[1] - r0[0]);
-                        }
-                    }
-                    float ac = albedo * alpha;
-                    if (ac > 0.0f && (rgba[0] > 0.0f || rgba[1] > 0.0f || rgba[2] > 0.0f)) {
-                        smp.p = v3_madd(ray.o, ray.d, e);
-                        volux_vec3 Ls = v3(0, 0, 0), Lx = v3(0, 0, 0);
-                        inscatter(tech, &smp, &Ls, &Lx);
-                        float w = T_o * ac, wx = T_o * alpha;
-                        C[0] += w * rgba[0] * Ls.x + wx * Lx.x;
-                        C[1] += w * rgba[1] * Ls.y + wx * Lx.y;
-                        C[2] += w * rgba[2] * Ls.z + wx * Lx.z;
-                    }
-                    if (emission > 0.0f) {
-                        float w = T * alpha * emission;
-                        for (int ch = 0; ch < 3; ch++) C[ch] += w * (1.0f - albedo * rgba[ch]) * rgba[ch];
-                    }
-                    if (lag > 0.0f) {
-                        if (head - tail == SCATTER_LAG_RECORDS) T_base = rec[tail++ % SCATTER_LAG_RECORDS][3];
-                        float *r = rec[head++ % SCATTER_LAG_RECORDS];
-                        r[0] = a, r[1] = e, r[2] = T, r[3] = T * (1.0f - alpha);
-                    }
-                    T *= 1.0f - alpha;
-                    if ((lag > 0.0f ? T_o : T) < b->t_min) goto done;
+                float ac = albedo * alpha;
+                if (ac > 0.0f && (rgba[0] > 0.0f || rgba[1] > 0.0f || rgba[2] > 0.0f)) {
+                    smp.p = v3_madd(ray.o, ray.d, e);
+                    volux_vec3 Ls = v3(0, 0, 0), Lx = v3(0, 0, 0);
+                    inscatter(tech, &smp, &Ls, &Lx);
+                    float w = T_o * ac, wx = T_o * alpha;
+                    C[0] += w * rgba[0] * Ls.x + wx * Lx.x;
+                    C[1] += w * rgba[1] * Ls.y + wx * Lx.y;
+                    C[2] += w * rgba[2] * Ls.z + wx * Lx.z;
                 }
-                if (!b->skip_empty) break;
+                if (emission > 0.0f) {
+                    float w = T * alpha * emission;
+                    for (int ch = 0; ch < 3; ch++) C[ch] += w * (1.0f - albedo * rgba[ch]) * rgba[ch];
+                }
+                if (lag > 0.0f) {
+                    if (head - tail == SCATTER_LAG_RECORDS) T_base = rec[tail++ % SCATTER_LAG_RECORDS][3];
+                    float *r = rec[head++ % SCATTER_LAG_RECORDS];
+                    r[0] = a, r[1] = e, r[2] = T, r[3] = T * (1.0f - alpha);
+                }
+                T *= 1.0f - alpha;
+                if ((lag > 0.0f ? T_o : T) < b->t_min) break;
             }
-        done:
             out[0] = C[0] + T * bg.x;
             out[1] = C[1] + T * bg.y;
             out[2] = C[2] + T * bg.z;
