@@ -6,17 +6,21 @@
 
 PACKAGES := build-essential cmake pkg-config clang libpng-dev zlib1g-dev libcjson-dev \
             libopenexr-dev libcmocka-dev
+# Only the tests need these: `locales` has the de_DE sources a test compiles
+# into a temporary decimal-comma locale (header numbers must not follow it).
+TEST_PACKAGES := locales
 JOBS     ?= $(shell nproc 2>/dev/null || echo 2)
 BUILD    ?= build
 VOLUX    := $(BUILD)/volux
 
-.PHONY: all deps build demo test test-release test-asan asan fuzz bench clean
+.PHONY: all deps test-deps build demo test test-release test-asan asan fuzz bench clean
 
 all: build
 
-# Installs what is missing (needs root on a fresh machine; a no-op otherwise).
-deps:
-	@missing=""; for p in $(PACKAGES); do \
+# Installs the packages of $(1) that are missing (needs root on a fresh
+# machine; a no-op otherwise).
+define install_missing
+	@missing=""; for p in $(1); do \
 	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "ok installed" || missing="$$missing $$p"; \
 	done; \
 	if [ -n "$$missing" ]; then \
@@ -24,6 +28,13 @@ deps:
 	  if [ "$$(id -u)" = 0 ]; then SUDO=""; else SUDO=sudo; fi; \
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $$missing; \
 	fi
+endef
+
+deps:
+	$(call install_missing,$(PACKAGES))
+
+test-deps: deps
+	$(call install_missing,$(TEST_PACKAGES))
 
 build: deps
 	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release -DVOLUX_WERROR=ON >/dev/null
@@ -36,14 +47,14 @@ demo: build
 
 test: test-release test-asan
 
-test-release: build
+test-release: build test-deps
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
 asan: deps
 	cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DVOLUX_WERROR=ON -DVOLUX_SANITIZE=ON >/dev/null
 	cmake --build build-asan -j $(JOBS)
 
-test-asan: asan
+test-asan: asan test-deps
 	cd build-asan && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 	  ctest --output-on-failure -j $(JOBS) -LE slow
 

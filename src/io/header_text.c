@@ -2,6 +2,7 @@
 #include "header_text.h"
 
 #include <errno.h>
+#include <locale.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -92,8 +93,18 @@ int volux_text_to_double(volux_text t, double *out) {
     char buf[64], *end;
     if (!to_cstr(t, buf, sizeof buf)) return 0;
     if (is_space(buf[0])) return 0;
+    /* Header numbers always use '.', but strtod reads the decimal point of
+     * the thread's LC_NUMERIC: an application embedding the library may
+     * have set a decimal-comma locale (Qt applications do at start-up).
+     * Parse in the C locale; with LC_ALL_MASK, glibc's newlocale returns
+     * its static C locale object (no allocation). */
+    locale_t c_locale = newlocale(LC_ALL_MASK, "C", (locale_t)0);
+    if (c_locale == (locale_t)0) return 0;
+    locale_t previous = uselocale(c_locale);
     errno = 0;
     double v = strtod(buf, &end);
+    uselocale(previous);
+    freelocale(c_locale);
     /* ERANGE on underflow is fine (the value is ~0); overflow gives inf,
      * which callers reject as non-finite. */
     if (*end || end == buf) return 0;

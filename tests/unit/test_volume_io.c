@@ -3,6 +3,7 @@
  * by the test: each scalar type, both byte orders, raw and compressed,
  * attached and detached; exact values, spacing and origin.
  */
+#include <locale.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -237,6 +238,47 @@ static void test_nrrd_parse_from_memory(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* A decimal-comma LC_NUMERIC (Qt applications set the user's locale at
+ * start-up) must not change how header numbers parse. The locale is
+ * compiled into a temporary directory with localedef (glibc reads LOCPATH
+ * at each setlocale); skipped where the de_DE sources are not installed. */
+static void test_header_numbers_ignore_a_decimal_comma_locale(void **state) {
+    (void)state;
+    char dir[] = "/tmp/volux_locale_XXXXXX", cmd[256];
+    if (!mkdtemp(dir)) skip();
+    snprintf(cmd, sizeof cmd, "localedef -i de_DE -f UTF-8 %s/de_DE.UTF-8 >/dev/null 2>&1", dir);
+    int built = system(cmd) == 0;
+    setenv("LOCPATH", dir, 1);
+    int comma = built && setlocale(LC_NUMERIC, "de_DE.UTF-8") && localeconv()->decimal_point[0] == ',';
+    if (!comma) {
+        setlocale(LC_NUMERIC, "C");
+        unsetenv("LOCPATH");
+        snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
+        if (system(cmd) != 0) fprintf(stderr, "could not remove %s\n", dir);
+        fprintf(stderr, "  (no de_DE locale could be built: skipped)\n");
+        skip();
+    }
+    volux_context *ctx = tu_context(1);
+    const char nrrd[] = "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n"
+                        "spacings: 0.5 1.25 2.5e-1\n\n";
+    const char mhd[] = "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\n"
+                       "ElementSpacing = 0.5 1.25 2.5e-1\nElementDataFile = LOCAL\n";
+    volux_volume_header h[2];
+    volux_status st[2] = {volux_nrrd_parse_header(ctx, nrrd, sizeof nrrd - 1, "mem.nrrd", &h[0]),
+                          volux_metaimage_parse_header(ctx, mhd, sizeof mhd - 1, "mem.mhd", &h[1])};
+    setlocale(LC_NUMERIC, "C");
+    unsetenv("LOCPATH");
+    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
+    if (system(cmd) != 0) fprintf(stderr, "could not remove %s\n", dir);
+    for (int i = 0; i < 2; i++) {
+        assert_int_equal(st[i], VOLUX_OK);
+        assert_near(h[i].spacing[0], 0.5, 0);
+        assert_near(h[i].spacing[1], 1.25, 0);
+        assert_near(h[i].spacing[2], 0.25, 0);
+    }
+    volux_context_destroy(ctx);
+}
+
 static void test_load_memory_attached(void **state) {
     (void)state;
     volux_context *ctx = tu_context(1);
@@ -460,6 +502,7 @@ int main(void) {
         cmocka_unit_test(test_nrrd_detached_in_subfolder_and_outside_when_allowed),
         cmocka_unit_test(test_nrrd_parse_from_memory),
         cmocka_unit_test(test_load_memory_attached),
+        cmocka_unit_test(test_header_numbers_ignore_a_decimal_comma_locale),
         cmocka_unit_test(test_metaimage_every_type_endian_layout),
         cmocka_unit_test(test_metaimage_element_size_and_header_size_minus_one),
         cmocka_unit_test(test_nifti_every_type_endian_layout),
