@@ -1,40 +1,70 @@
 /* Majorant grid and DDA: intervals tile the ray, majorants bound σt; the
  * ray caster segments (sample/segment.h) with and without skipping. */
 #include <math.h>
+#include <string.h>
 
 #include "core/vecmath.h"
 #include "sample/march.h"
 #include "sample/segment.h"
 #include "test_util.h"
 
-static void test_intervals_cover_the_ray_and_bound_sigma(void **state) {
-    (void)state;
-    volux_context *ctx = tu_context(1);
-    int dims[3] = {40, 33, 27};
+/* A 40×33×27 procedural cloud, a TF that is zero below `empty_below`
+ * (so some macrocells are empty) and peaks at `peak`, and its majorant grid. */
+typedef struct cloud {
+    volux_context *ctx;
     volux_volume *v;
-    assert_int_equal(volux_volume_procedural(ctx, "cloud", dims, 9, &v), VOLUX_OK);
+    volux_transfer_lut lut;
+    volux_majorant_grid grid;
+} cloud;
+
+static void cloud_setup(cloud *f, float empty_below, float peak) {
+    f->ctx = tu_context(1);
+    int dims[3] = {40, 33, 27};
+    assert_int_equal(volux_volume_procedural(f->ctx, "cloud", dims, 9, &f->v), VOLUX_OK);
     volux_transfer_desc d;
     volux_transfer_desc_defaults(&d);
-    volux_tf_scalar_point op[4] = {{0, 0}, {60, 0}, {120, 0.8f}, {255, 0.1f}};
+    volux_tf_scalar_point op[4] = {{0, 0}, {empty_below, 0}, {peak, 0.8f}, {255, 0.1f}};
     d.opacity = op, d.n_opacity = 4;
-    volux_transfer_lut lut;
-    assert_int_equal(volux_transfer_bake(ctx, &d, 0, 255, 0, 1, &lut), VOLUX_OK);
-    volux_majorant_grid grid = {0};
-    assert_int_equal(volux_majorant_grid_build(ctx, v, &lut, &grid), VOLUX_OK);
+    assert_int_equal(volux_transfer_bake(f->ctx, &d, 0, 255, 0, 1, &f->lut), VOLUX_OK);
+    memset(&f->grid, 0, sizeof f->grid);
+    assert_int_equal(volux_majorant_grid_build(f->ctx, f->v, &f->lut, &f->grid), VOLUX_OK);
+}
+
+static void cloud_teardown(cloud *f) {
+    volux_majorant_grid_free(f->ctx, &f->grid);
+    volux_transfer_lut_free(f->ctx, &f->lut);
+    volux_volume_release(f->v);
+    volux_context_destroy(f->ctx);
+}
+
+/* A ray from a random point around the volume in a random direction,
+ * clipped to it (0: it misses); *extra (if not NULL) gets one more uniform
+ * number in [0, 1). */
+static int random_ray(const volux_volume *v, uint64_t *x, volux_ray *ray, float *extra) {
+    float u[7];
+    for (int i = 0; i < 7; i++) {
+        *x = *x * 6364136223846793005ull + 1442695040888963407ull;
+        u[i] = (float)((*x >> 11) * (1.0 / 9007199254740992.0));
+    }
+    if (extra) *extra = u[6];
+    volux_vec3 o = v3(60 * (u[0] - 0.5f), 60 * (u[1] - 0.5f), 60 * (u[2] - 0.5f));
+    volux_vec3 dir = v3_normalize(v3(u[3] - 0.5f, u[4] - 0.5f, u[5] - 0.5f));
+    return volux_ray_clip(v, o, dir, ray);
+}
+
+static void test_intervals_cover_the_ray_and_bound_sigma(void **state) {
+    (void)state;
+    cloud f;
+    cloud_setup(&f, 60.0f, 120.0f);
+    const volux_volume *v = f.v;
+    const volux_transfer_lut *lut = &f.lut;
     uint64_t x = 99;
     int empty = 0;
     for (int r = 0; r < 300; r++) {
-        float u[6];
-        for (int i = 0; i < 6; i++) {
-            x = x * 6364136223846793005ull + 1442695040888963407ull;
-            u[i] = (float)((x >> 11) * (1.0 / 9007199254740992.0));
-        }
-        volux_vec3 o = v3(60 * (u[0] - 0.5f), 60 * (u[1] - 0.5f), 60 * (u[2] - 0.5f));
-        volux_vec3 dir = v3_normalize(v3(u[3] - 0.5f, u[4] - 0.5f, u[5] - 0.5f));
         volux_ray ray;
-        if (!volux_ray_clip(v, o, dir, &ray)) continue;
+        if (!random_ray(v, &x, &ray, NULL)) continue;
         volux_march_iter it;
-        volux_march_init(&it, &grid, &ray, ray.t0, ray.t1);
+        volux_march_init(&it, &f.grid, &ray, ray.t0, ray.t1);
         volux_interval iv;
         float t = ray.t0;
         while (volux_march_next(&it, &iv)) {
@@ -44,7 +74,7 @@ static void test_intervals_cover_the_ray_and_bound_sigma(void **state) {
                 float tt = iv.t0 + (iv.t1 - iv.t0) * (float)k / 8.0f;
                 volux_vec3 q = v3_madd(ray.q0, ray.dq, tt);
                 float s = volux_volume_sample_index(v, q.x, q.y, q.z);
-                assert_true(volux_lut_sigma(&lut, s) <= iv.sigma_max * 1.0001f + 1e-6f);
+                assert_true(volux_lut_sigma(lut, s) <= iv.sigma_max * 1.0001f + 1e-6f);
             }
             empty += iv.sigma_max == 0.0f;
             t = iv.t1;
@@ -52,10 +82,7 @@ static void test_intervals_cover_the_ray_and_bound_sigma(void **state) {
         assert_near(t, ray.t1, 1e-3); /* and complete */
     }
     assert_true(empty > 0); /* the TF leaves some cells empty: skipping has work to do */
-    volux_majorant_grid_free(ctx, &grid);
-    volux_transfer_lut_free(ctx, &lut);
-    volux_volume_release(v);
-    volux_context_destroy(ctx);
+    cloud_teardown(&f);
 }
 
 /* Segments without a grid tile [t0, t1] at t0 + (k + jitter)·h; with a
@@ -64,33 +91,19 @@ static void test_intervals_cover_the_ray_and_bound_sigma(void **state) {
  * was not the previous segment's end. */
 static void test_segments_skip_only_empty_ones(void **state) {
     (void)state;
-    volux_context *ctx = tu_context(1);
-    int dims[3] = {40, 33, 27};
-    volux_volume *v;
-    assert_int_equal(volux_volume_procedural(ctx, "cloud", dims, 9, &v), VOLUX_OK);
-    volux_transfer_desc d;
-    volux_transfer_desc_defaults(&d);
-    volux_tf_scalar_point op[4] = {{0, 0}, {90, 0}, {140, 0.8f}, {255, 0.1f}};
-    d.opacity = op, d.n_opacity = 4;
-    volux_transfer_lut lut;
-    assert_int_equal(volux_transfer_bake(ctx, &d, 0, 255, 0, 1, &lut), VOLUX_OK);
-    volux_majorant_grid grid = {0};
-    assert_int_equal(volux_majorant_grid_build(ctx, v, &lut, &grid), VOLUX_OK);
+    cloud f;
+    cloud_setup(&f, 90.0f, 140.0f);
+    const volux_volume *v = f.v;
+    const volux_transfer_lut *lut = &f.lut;
     enum { MAXSEG = 512 };
     float a0[MAXSEG], b0[MAXSEG];
     uint64_t x = 7;
     int skipped = 0, gaps = 0;
     for (int r = 0; r < 200; r++) {
-        float u[7];
-        for (int i = 0; i < 7; i++) {
-            x = x * 6364136223846793005ull + 1442695040888963407ull;
-            u[i] = (float)((x >> 11) * (1.0 / 9007199254740992.0));
-        }
-        volux_vec3 o = v3(60 * (u[0] - 0.5f), 60 * (u[1] - 0.5f), 60 * (u[2] - 0.5f));
-        volux_vec3 dir = v3_normalize(v3(u[3] - 0.5f, u[4] - 0.5f, u[5] - 0.5f));
         volux_ray ray;
-        if (!volux_ray_clip(v, o, dir, &ray)) continue;
-        const float h = 0.7f, jitter = u[6];
+        float jitter;
+        if (!random_ray(v, &x, &ray, &jitter)) continue;
+        const float h = 0.7f;
         volux_segments seg;
         volux_march_iter it;
         float a, b;
@@ -107,14 +120,14 @@ static void test_segments_skip_only_empty_ones(void **state) {
         }
         assert_float_equal(t, ray.t1, 1e-4f); /* complete */
         /* with skipping: an ordered subset; what is left out is empty */
-        volux_segments_init(&seg, &it, &grid, &ray, h, jitter);
+        volux_segments_init(&seg, &it, &f.grid, &ray, h, jitter);
         int i = 0;
         float prev_b = -1.0f;
         while (volux_segments_next(&seg, &a, &b, &gap)) {
             for (; i < n && a0[i] != a; i++) { /* left out: σt = 0 along it */
                 for (int q = 0; q <= 8; q++) {
                     volux_vec3 p = v3_madd(ray.q0, ray.dq, a0[i] + (b0[i] - a0[i]) * (float)q / 8.0f);
-                    assert_true(volux_lut_sigma(&lut, volux_volume_sample_index(v, p.x, p.y, p.z)) == 0.0f);
+                    assert_true(volux_lut_sigma(lut, volux_volume_sample_index(v, p.x, p.y, p.z)) == 0.0f);
                 }
                 skipped++;
             }
@@ -127,10 +140,7 @@ static void test_segments_skip_only_empty_ones(void **state) {
         }
     }
     assert_true(skipped > 0 && gaps > 0); /* the test exercised skipping */
-    volux_majorant_grid_free(ctx, &grid);
-    volux_transfer_lut_free(ctx, &lut);
-    volux_volume_release(v);
-    volux_context_destroy(ctx);
+    cloud_teardown(&f);
 }
 
 int main(void) {
