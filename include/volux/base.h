@@ -2,8 +2,9 @@
  * volux/base.h — status codes, small value types and the context.
  *
  * The context is the root object: it owns the allocator, the thread count,
- * the memory cap for loaders, the progress/cancel callback and the error
- * message of the last failed call. Every other object is created from one.
+ * the memory cap for loaders, the progress/cancel callback and the first
+ * error message since the caller last cleared it. Every other object is
+ * created from one.
  *
  * DOES NOT: print, exit or abort on bad input. The library reports errors
  * through return codes and volux_context_error(); printing and exit codes
@@ -94,8 +95,11 @@ typedef struct volux_context_desc {
 VOLUX_API volux_status volux_context_create(const volux_context_desc *desc, volux_context **out);
 VOLUX_API void volux_context_destroy(volux_context *ctx);
 
-/* Message of the last failed call on this context ("" if none). Valid
- * until the next failing call on the context. */
+/* The FIRST error recorded on this context since the caller last cleared
+ * it ("" / VOLUX_OK if none): a failure that follows from an earlier one
+ * never hides it (SQLite, VolPack). The library never clears it; call
+ * volux_context_clear_error() before an operation whose own message you
+ * want. The string is valid until the next volux call on the context. */
 VOLUX_API const char *volux_context_error(const volux_context *ctx);
 VOLUX_API volux_status volux_context_error_status(const volux_context *ctx);
 VOLUX_API void volux_context_clear_error(volux_context *ctx);

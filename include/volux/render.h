@@ -3,7 +3,7 @@
  *
  * volux_render() splits the image into 16×16 tiles, renders them on the
  * context's threads (OpenMP) and accumulates one sample index at a time
- * ("waves") into a float framebuffer, so progressive techniques converge and
+ * ("waves") into a double-precision framebuffer, so progressive techniques converge and
  * every image is bit-identical for any thread count. It stops at a sample
  * count, a time budget or a target relative standard error, whichever comes
  * first, and reports progress through the context's callback.
@@ -57,9 +57,13 @@ typedef struct volux_render_report {
 } volux_render_report;
 
 /* Adds samples to fb until a limit is met (limits NULL = the scene's
- * render settings). The technique must be up to date (volux_technique_update).
- * fb must have the scene's image size. report may be NULL. */
-VOLUX_API volux_status volux_render(volux_technique *t, volux_scene *scene, volux_framebuffer *fb,
+ * render settings). Brings the technique up to date with the scene first
+ * (volux_technique_update; its failure is returned), and drops fb's samples
+ * when they were rendered from another technique or an earlier state, so
+ * after an edit accumulation restarts by itself. fb must have the scene's
+ * image size (else VOLUX_ERR_INVALID). CANCELLED if the progress callback
+ * asked to stop (fb keeps the complete waves). report may be NULL. */
+VOLUX_API volux_status volux_render(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
                                     const volux_render_limits *limits, volux_render_report *report);
 
 #ifdef __cplusplus

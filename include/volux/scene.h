@@ -44,13 +44,13 @@ extern "C" {
 typedef enum volux_change {
     VOLUX_CHANGE_VOLUME = 1u << 0,     /* volume / time step              */
     VOLUX_CHANGE_EXTINCTION = 1u << 1, /* opacity/extinction curve, unit  */
-    VOLUX_CHANGE_COLOR = 1u << 2,      /* colour curve or albedo only     */
+    VOLUX_CHANGE_COLOR = 1u << 2,      /* colour curve, albedo, material  */
     VOLUX_CHANGE_DENSITY = 1u << 3,    /* global density scale only       */
     VOLUX_CHANGE_PHASE = 1u << 4,      /* HG anisotropy                   */
     VOLUX_CHANGE_LIGHTS = 1u << 5,     /* some light: see lights bitset   */
     VOLUX_CHANGE_CAMERA = 1u << 6,
     VOLUX_CHANGE_PARAMS = 1u << 7,     /* technique parameters            */
-    VOLUX_CHANGE_RENDER = 1u << 8,     /* step, size, max_depth, background, material */
+    VOLUX_CHANGE_RENDER = 1u << 8,     /* step, size, seed, max_depth, background */
     VOLUX_CHANGE_ALL = 0x1ffu
 } volux_change;
 
@@ -104,13 +104,16 @@ VOLUX_API volux_context *volux_scene_context(const volux_scene *s);
 VOLUX_API volux_status volux_scene_set_volume(volux_scene *s, volux_volume *v);
 VOLUX_API volux_volume *volux_scene_volume(const volux_scene *s); /* borrowed */
 /* Copies d (and its points). Compares with the current TF and bumps only
- * EXTINCTION / COLOR / DENSITY / PHASE / RENDER (material) as needed. */
+ * what changed: EXTINCTION (opacity/extinction curve, unit distance),
+ * DENSITY, COLOR (colour curve, albedo, Blinn–Phong material), PHASE. */
 VOLUX_API volux_status volux_scene_set_transfer(volux_scene *s, const volux_transfer_desc *d);
 /* The current description; its arrays are owned by the scene. */
 VOLUX_API const volux_transfer_desc *volux_scene_transfer(const volux_scene *s);
-/* The baked LUT over the volume's value range (rebaked lazily when the TF
- * or volume changed; NULL without a volume). */
-VOLUX_API const volux_transfer_lut *volux_scene_transfer_lut(volux_scene *s);
+/* The baked LUT over the volume's value range, NULL without a volume. The
+ * setters that change it (volume, transfer function) bake it before they
+ * return, reporting failures (NOMEM) through their status; this getter
+ * never changes the scene. */
+VOLUX_API const volux_transfer_lut *volux_scene_transfer_lut(const volux_scene *s);
 VOLUX_API volux_status volux_scene_set_camera(volux_scene *s, const volux_camera_desc *d);
 VOLUX_API const volux_camera_desc *volux_scene_camera_desc(const volux_scene *s);
 /* Resolves the camera for the render settings' image size. */

@@ -165,6 +165,9 @@ void volux_free_aligned(volux_context *ctx, void *p, size_t n) {
 }
 
 volux_status volux_error(volux_context *ctx, volux_status status, const char *fmt, ...) {
+    /* The first error wins (VolPack, SQLite): a later failure caused by the
+     * first one must not hide it. The caller clears. */
+    if (ctx->error_status != VOLUX_OK) return status;
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(ctx->error, sizeof ctx->error, fmt, ap);

@@ -43,9 +43,11 @@ void *volux_alloc_or_error(volux_context *ctx, size_t n, const char *what);
 void *volux_alloc_aligned(volux_context *ctx, size_t n);
 void volux_free_aligned(volux_context *ctx, void *p, size_t n);
 
-/* Records an error (replacing an earlier one) and returns `status`. */
+/* Records an error unless one is already recorded (the first error since
+ * the caller last cleared wins; the library never clears) and returns
+ * `status`. */
 volux_status volux_error(volux_context *ctx, volux_status status, const char *fmt, ...) VOLUX_PRINTF(3, 4);
-/* Prepends "prefix" to the current message (keeps the status). */
+/* Prepends "prefix" to the recorded message (keeps the status). */
 void volux_error_prefix(volux_context *ctx, const char *fmt, ...) VOLUX_PRINTF(2, 3);
 
 /* Reports progress; returns nonzero if the caller asked to cancel. */

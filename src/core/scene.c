@@ -30,9 +30,7 @@ struct volux_scene {
     volux_transfer_desc tf;
     volux_tf_color_point *color;
     volux_tf_scalar_point *opacity;
-    volux_transfer_lut lut;
-    uint32_t lut_built_for[3]; /* volume, extinction, density+color versions (0 = none) */
-    uint64_t lut_volume_id;
+    volux_transfer_lut lut; /* baked by the setters of the volume and the TF */
     volux_camera_desc camera;
     light_slot lights[VOLUX_MAX_LIGHTS];
     int light_slots;
@@ -101,8 +99,33 @@ void volux_scene_destroy(volux_scene *s) {
 
 volux_context *volux_scene_context(const volux_scene *s) { return s->ctx; }
 
+static float smallest_spacing(const volux_volume *v) {
+    double sp[3];
+    volux_volume_spacing(v, sp);
+    return (float)fmin(sp[0], fmin(sp[1], sp[2]));
+}
+
+/* Bakes the LUT of (v, tf) into *out: the tables every technique reads,
+ * over the volume's value range. Setters bake before they commit, so the
+ * scene never holds a stale LUT and readers never mutate the scene. */
+static volux_status bake(volux_scene *s, const volux_volume *v, const volux_transfer_desc *tf,
+                         volux_transfer_lut *out) {
+    double lo, hi;
+    volux_volume_range(v, &lo, &hi);
+    return volux_transfer_bake(s->ctx, tf, lo, hi, 0, smallest_spacing(v), out);
+}
+
+static void replace_lut(volux_scene *s, volux_transfer_lut *lut) {
+    volux_transfer_lut_free(s->ctx, &s->lut);
+    s->lut = *lut;
+}
+
 volux_status volux_scene_set_volume(volux_scene *s, volux_volume *v) {
     if (!v) return volux_error(s->ctx, VOLUX_ERR_INVALID, "scene: volume is NULL");
+    volux_transfer_lut lut;
+    volux_status st = bake(s, v, &s->tf, &lut);
+    if (st) return st;
+    replace_lut(s, &lut);
     volux_volume_retain(v);
     volux_volume_release(s->volume);
     s->volume = v;
@@ -136,14 +159,26 @@ volux_status volux_scene_set_transfer(volux_scene *s, const volux_transfer_desc 
     /* Classify the edit before replacing anything (gage-style diff). */
     const volux_transfer_desc *o = &s->tf;
     int first = s->opacity == NULL;
-    if (first || !same_scalar_points(o->opacity, o->n_opacity, d->opacity, d->n_opacity) ||
-        o->extinction != d->extinction || o->opacity_unit_distance != d->opacity_unit_distance)
-        bump(s, A_EXTINCTION);
-    if (first || o->density_scale != d->density_scale) bump(s, A_DENSITY);
-    if (first || !same_color_points(o->color, o->n_color, d->color, d->n_color) || o->albedo != d->albedo ||
-        memcmp(&o->material, &d->material, sizeof o->material) != 0)
-        bump(s, A_COLOR);
-    if (first || o->anisotropy != d->anisotropy) bump(s, A_PHASE);
+    int extinction = first || !same_scalar_points(o->opacity, o->n_opacity, d->opacity, d->n_opacity) ||
+                     o->extinction != d->extinction || o->opacity_unit_distance != d->opacity_unit_distance;
+    int density = first || o->density_scale != d->density_scale;
+    int colors = first || !same_color_points(o->color, o->n_color, d->color, d->n_color);
+    int appearance = colors || o->albedo != d->albedo || memcmp(&o->material, &d->material, sizeof o->material) != 0;
+    int phase = first || o->anisotropy != d->anisotropy;
+    /* The LUT holds σt and the colour curve (not albedo, material or g). */
+    if (s->volume && (extinction || density || colors)) {
+        volux_transfer_lut lut;
+        if ((st = bake(s, s->volume, d, &lut))) {
+            volux_free(s->ctx, opacity, sizeof *opacity * (size_t)d->n_opacity);
+            volux_free(s->ctx, color, sizeof *color * (size_t)d->n_color);
+            return st;
+        }
+        replace_lut(s, &lut);
+    }
+    if (extinction) bump(s, A_EXTINCTION);
+    if (density) bump(s, A_DENSITY);
+    if (appearance) bump(s, A_COLOR);
+    if (phase) bump(s, A_PHASE);
 
     free_tf_arrays(s);
     s->tf = *d;
@@ -156,27 +191,7 @@ volux_status volux_scene_set_transfer(volux_scene *s, const volux_transfer_desc 
 
 const volux_transfer_desc *volux_scene_transfer(const volux_scene *s) { return &s->tf; }
 
-static float smallest_spacing(const volux_volume *v) {
-    double sp[3];
-    volux_volume_spacing(v, sp);
-    return (float)fmin(sp[0], fmin(sp[1], sp[2]));
-}
-
-const volux_transfer_lut *volux_scene_transfer_lut(volux_scene *s) {
-    if (!s->volume) return NULL;
-    uint32_t want[3] = {s->aspect[A_EXTINCTION], s->aspect[A_DENSITY], s->aspect[A_COLOR]};
-    if (s->lut.n > 0 && s->lut_volume_id == s->volume->id && memcmp(want, s->lut_built_for, sizeof want) == 0)
-        return &s->lut;
-    double lo, hi;
-    volux_volume_range(s->volume, &lo, &hi);
-    volux_transfer_lut lut;
-    if (volux_transfer_bake(s->ctx, &s->tf, lo, hi, 0, smallest_spacing(s->volume), &lut) != VOLUX_OK) return NULL;
-    volux_transfer_lut_free(s->ctx, &s->lut);
-    s->lut = lut;
-    s->lut_volume_id = s->volume->id;
-    memcpy(s->lut_built_for, want, sizeof want);
-    return &s->lut;
-}
+const volux_transfer_lut *volux_scene_transfer_lut(const volux_scene *s) { return s->volume ? &s->lut : NULL; }
 
 volux_status volux_scene_set_camera(volux_scene *s, const volux_camera_desc *d) {
     volux_camera probe;

@@ -13,7 +13,7 @@
 
 #include "core/context_internal.h"
 #include "core/parallel.h"
-#include "technique_internal.h"
+#include "technique_class.h"
 #include "volux/render.h"
 
 struct volux_framebuffer {
@@ -22,6 +22,7 @@ struct volux_framebuffer {
     uint32_t spp;
     double *sum;    /* 3 per pixel: Σ radiance               */
     double *sum_sq; /* 1 per pixel: Σ luminance²             */
+    uint64_t generation; /* technique generation the samples came from (0: none) */
 };
 
 volux_status volux_framebuffer_create(volux_context *ctx, int width, int height, volux_framebuffer **out) {
@@ -57,6 +58,7 @@ void volux_framebuffer_reset(volux_framebuffer *fb) {
     memset(fb->sum, 0, 3 * n * sizeof(double));
     memset(fb->sum_sq, 0, n * sizeof(double));
     fb->spp = 0;
+    fb->generation = 0;
 }
 
 uint32_t volux_framebuffer_spp(const volux_framebuffer *fb) { return fb->spp; }
@@ -147,18 +149,26 @@ static double clock_ms(clockid_t id) {
 static double now_ms(void) { return clock_ms(CLOCK_MONOTONIC); }
 
 
-volux_status volux_render(volux_technique *t, volux_scene *scene, volux_framebuffer *fb,
+volux_status volux_render(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
                           const volux_render_limits *limits, volux_render_report *report) {
     volux_context *ctx = fb->ctx;
     const volux_render_settings *rs = volux_scene_render(scene);
     if (fb->width != rs->width || fb->height != rs->height)
         return volux_error(ctx, VOLUX_ERR_INVALID, "framebuffer is %dx%d but the scene renders %dx%d", fb->width,
                            fb->height, rs->width, rs->height);
+    /* A technique never renders a scene it is not up to date with, and a
+     * framebuffer never mixes samples of two states. */
+    volux_status st = volux_technique_update(t, scene, NULL);
+    if (st) return st;
+    if (fb->generation != volux_technique_generation(t)) {
+        if (fb->spp) volux_framebuffer_reset(fb);
+        fb->generation = volux_technique_generation(t);
+    }
     volux_render_limits lim = {(uint32_t)rs->spp, rs->time_ms, rs->target_error};
     if (limits) lim = *limits;
     if (lim.spp == 0) lim.spp = 1;
     const volux_technique_class *cls = volux_technique_class_of(t);
-    if (!cls->progressive && lim.spp > 1 && lim.target_error > 0.0) lim.target_error = 0.0;
+    if (!cls->info.progressive && lim.spp > 1 && lim.target_error > 0.0) lim.target_error = 0.0;
 
     int tiles_x = (fb->width + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE;
     int tiles_y = (fb->height + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE;
@@ -172,7 +182,6 @@ volux_status volux_render(volux_technique *t, volux_scene *scene, volux_framebuf
     double start = now_ms(), cpu_start = clock_ms(CLOCK_PROCESS_CPUTIME_ID);
     uint32_t start_spp = fb->spp;
     uint64_t samples = 0, vertices = 0;
-    volux_status st = VOLUX_OK;
     while (fb->spp < lim.spp) {
         job.sample_index = fb->spp;
         done = 0;

@@ -1,67 +1,114 @@
-/* render/technique.c — technique instances: create, stamp-based update,
- * parameter validation. */
+/* render/technique.c — technique instances: generic create/destroy driven
+ * by the class's state size, stamp-based update, parameter lookup. Names
+ * are resolved one layer up (techniques/registry.c). */
 #include <math.h>
 #include <string.h>
 
 #include "core/context_internal.h"
-#include "technique_internal.h"
-#include "volux/technique.h"
+#include "raycaster.h"
+#include "technique_class.h"
 
 struct volux_technique {
     volux_context *ctx;
     const volux_technique_class *cls;
-    void *state;
+    void *state; /* cls->state_size bytes, starting with a volux_raycaster */
     volux_scene_stamp stamp;
+    uint64_t generation; /* unique per (instance, applied update) */
 };
 
-const void *volux_technique_state(const volux_technique *t) { return t->state; }
+/* Generations are unique across instances, so a framebuffer can tell its
+ * samples' origin apart from any other instance's. */
+static uint64_t next_generation = 1;
+static uint64_t new_generation(void) { return __atomic_fetch_add(&next_generation, 1, __ATOMIC_RELAXED); }
 
-static const volux_param_info *find_param(const volux_technique_class *cls, const char *name) {
-    for (const volux_param_info *p = cls->params; p && p->name; p++)
+const void *volux_technique_state(const volux_technique *t) { return t->state; }
+const volux_technique_class *volux_technique_class_of(const volux_technique *t) { return t->cls; }
+const volux_technique_info *volux_technique_info_of(const volux_technique *t) { return &t->cls->info; }
+uint64_t volux_technique_generation(const volux_technique *t) { return t->generation; }
+
+static const volux_param_info *find_param(const volux_technique_info *info, const char *name) {
+    for (const volux_param_info *p = info->params; p && p->name; p++)
         if (!strcmp(p->name, name)) return p;
     return NULL;
 }
 
-volux_status volux_technique_validate_params(volux_context *ctx, const volux_scene *scene) {
+volux_status volux_technique_check_param(volux_context *ctx, const volux_technique_info *info, const char *name,
+                                         double number, const char *string) {
+    const char *tech = info->name;
+    const volux_param_info *p = find_param(info, name);
+    if (!p) return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.%s.%s: unknown parameter", tech, name);
+    if ((p->kind == VOLUX_PARAM_STRING) != (string != NULL))
+        return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.%s.%s: expected a %s", tech, name,
+                           p->kind == VOLUX_PARAM_STRING ? "string" : "number");
+    if (p->kind == VOLUX_PARAM_STRING) return VOLUX_OK;
+    if ((p->kind == VOLUX_PARAM_INT || p->kind == VOLUX_PARAM_BOOL) && number != floor(number))
+        return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.%s.%s: expected an integer, got %g", tech, name, number);
+    if (number < p->min || number > p->max)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.%s.%s: %g is outside [%g, %g]", tech, name, number,
+                           p->min, p->max);
+    return VOLUX_OK;
+}
+
+/* The parameters the scene stores for this class. */
+static volux_status check_class_params(volux_context *ctx, const volux_technique_class *cls, const volux_scene *scene) {
     const char *tech, *name, *string;
     double number;
     for (int i = 0; volux_scene_param_at(scene, i, &tech, &name, &number, &string); i++) {
-        const volux_technique_class *cls = volux_technique_find(tech);
-        if (!cls) return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.%s: unknown technique", tech);
-        const volux_param_info *p = find_param(cls, name);
-        if (!p) return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.%s.%s: unknown parameter", tech, name);
-        if ((p->kind == VOLUX_PARAM_STRING) != (string != NULL))
-            return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.%s.%s: expected a %s", tech, name,
-                               p->kind == VOLUX_PARAM_STRING ? "string" : "number");
-        if (p->kind == VOLUX_PARAM_STRING) continue;
-        if ((p->kind == VOLUX_PARAM_INT || p->kind == VOLUX_PARAM_BOOL) && number != floor(number))
-            return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.%s.%s: expected an integer, got %g", tech, name,
-                               number);
-        if (number < p->min || number > p->max)
-            return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.%s.%s: %g is outside [%g, %g]", tech, name, number,
-                               p->min, p->max);
+        if (strcmp(tech, cls->info.name) != 0) continue;
+        volux_status st = volux_technique_check_param(ctx, &cls->info, name, number, string);
+        if (st) return st;
     }
     return VOLUX_OK;
 }
 
 double volux_technique_param(const volux_scene *scene, const volux_technique_class *cls, const char *name) {
-    const volux_param_info *p = find_param(cls, name);
-    return volux_scene_param(scene, cls->name, name, p ? p->def : 0.0);
+    const volux_param_info *p = find_param(&cls->info, name);
+    return volux_scene_param(scene, cls->info.name, name, p ? p->def : 0.0);
 }
 
-volux_status volux_technique_create(volux_context *ctx, const char *name, volux_scene *scene, volux_technique **out) {
-    const volux_technique_class *cls = volux_technique_find(name);
-    if (!cls) return volux_error(ctx, VOLUX_ERR_INVALID, "render.technique: unknown technique '%s'", name);
-    if (!volux_scene_volume(scene)) return volux_error(ctx, VOLUX_ERR_INVALID, "scene has no volume");
-    volux_status st = volux_technique_validate_params(ctx, scene);
+const char *volux_technique_param_string(const volux_scene *scene, const volux_technique_class *cls,
+                                         const char *name) {
+    const volux_param_info *p = find_param(&cls->info, name);
+    return volux_scene_param_string(scene, cls->info.name, name, p && p->def_string ? p->def_string : "");
+}
+
+/* Base first, then the technique's caches (which may read the base). */
+static volux_status apply(volux_technique *t, const volux_scene *scene, const volux_change_set *c) {
+    volux_status st = volux_raycaster_update(t->state, scene, c);
+    return st ? st : t->cls->update(t->state, scene, c);
+}
+
+static void destroy_state(volux_context *ctx, const volux_technique_class *cls, void *state) {
+    if (cls->release) cls->release(state);
+    volux_raycaster_release(state);
+    volux_free(ctx, state, cls->state_size);
+}
+
+volux_status volux_technique_create_class(volux_context *ctx, const volux_technique_class *cls,
+                                          const volux_scene *scene, volux_technique **out) {
+    const char *name = cls->info.name;
+    if (!volux_scene_volume(scene)) return volux_error(ctx, VOLUX_ERR_INVALID, "%s: the scene has no volume", name);
+    volux_status st = check_class_params(ctx, cls, scene);
     if (st) return st;
     volux_technique *t = volux_calloc(ctx, 1, sizeof *t);
-    if (!t) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for technique '%s'", name);
+    void *state = volux_calloc(ctx, 1, cls->state_size);
+    if (!t || !state) {
+        volux_free(ctx, t, sizeof *t);
+        volux_free(ctx, state, cls->state_size);
+        return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for technique '%s'", name);
+    }
+    volux_raycaster *rc = state;
+    rc->ctx = ctx;
+    rc->cls = cls;
+    if (cls->init) cls->init(state);
     t->ctx = ctx;
     t->cls = cls;
+    t->state = state;
     t->stamp = volux_scene_stamp_now(scene);
-    st = cls->create(ctx, scene, &t->state);
-    if (st) {
+    t->generation = new_generation();
+    volux_change_set all = volux_change_all();
+    if ((st = apply(t, scene, &all))) {
+        destroy_state(ctx, cls, state);
         volux_free(ctx, t, sizeof *t);
         return st;
     }
@@ -69,30 +116,38 @@ volux_status volux_technique_create(volux_context *ctx, const char *name, volux_
     return VOLUX_OK;
 }
 
-volux_status volux_technique_update(volux_technique *t, volux_scene *scene, volux_change_set *changed) {
+static int any_change(const volux_change_set *c) {
+    int any = c->what != 0;
+    for (int i = 0; i < VOLUX_MAX_LIGHTS / 64; i++) any |= c->lights[i] != 0;
+    return any;
+}
+
+int volux_technique_is_current(const volux_technique *t, const volux_scene *scene) {
+    volux_change_set c = volux_scene_changes_since(scene, &t->stamp);
+    return !any_change(&c);
+}
+
+volux_status volux_technique_update(volux_technique *t, const volux_scene *scene, volux_change_set *changed) {
     volux_change_set c = volux_scene_changes_since(scene, &t->stamp);
     if (changed) *changed = c;
-    int any = c.what != 0;
-    for (int i = 0; i < VOLUX_MAX_LIGHTS / 64; i++) any |= c.lights[i] != 0;
-    if (!any) return VOLUX_OK;
-    if (c.what & VOLUX_CHANGE_PARAMS) {
-        volux_status st = volux_technique_validate_params(t->ctx, scene);
-        if (st) return st;
-    }
-    volux_status st = t->cls->update(t->state, scene, &c);
-    if (st) return st;
+    if (!any_change(&c)) return VOLUX_OK;
+    volux_status st;
+    if ((c.what & VOLUX_CHANGE_PARAMS) && (st = check_class_params(t->ctx, t->cls, scene))) return st;
+    /* The stamp moves only on success: a failed update is retried in full
+     * by the next call (its caches may be half-built). */
+    if ((st = apply(t, scene, &c))) return st;
     t->stamp = volux_scene_stamp_now(scene);
+    t->generation = new_generation();
     return VOLUX_OK;
 }
 
-const volux_technique_class *volux_technique_class_of(const volux_technique *t) { return t->cls; }
-
 size_t volux_technique_memory_bytes(const volux_technique *t) {
-    return t->cls->memory_bytes ? t->cls->memory_bytes(t->state) : 0;
+    return sizeof *t + t->cls->state_size + volux_raycaster_memory_bytes(t->state) +
+           (t->cls->memory_bytes ? t->cls->memory_bytes(t->state) : 0);
 }
 
 void volux_technique_destroy(volux_technique *t) {
     if (!t) return;
-    t->cls->destroy(t->state);
+    destroy_state(t->ctx, t->cls, t->state);
     volux_free(t->ctx, t, sizeof *t);
 }

@@ -1,7 +1,10 @@
-/* techniques/registry.c — the one table of technique classes (STYLE §11.8). */
+/* techniques/registry.c — the one table of technique classes (STYLE §11.8),
+ * and the public entry points that resolve a technique by name. Adding a
+ * technique: its folder under src/techniques/ plus one line here. */
 #include <string.h>
 
-#include "volux/technique.h"
+#include "core/context_internal.h"
+#include "render/technique_class.h"
 
 extern const volux_technique_class volux_ea_class;
 extern const volux_technique_class volux_shaded_class;
@@ -12,23 +15,43 @@ extern const volux_technique_class volux_ambient_class;
 extern const volux_technique_class volux_lightvol_class;
 
 static const volux_technique_class *const classes[] = {
-    &volux_ea_class,
-    &volux_shaded_class,
-    &volux_pathtrace_class,
-    &volux_single_class,
-    &volux_ao_class,
-    &volux_ambient_class,
-    &volux_lightvol_class,
+    &volux_ea_class,     &volux_shaded_class,  &volux_pathtrace_class, &volux_single_class,
+    &volux_ao_class,     &volux_ambient_class, &volux_lightvol_class,
 };
+
+static const volux_technique_class *class_find(const char *name) {
+    for (int i = 0; i < volux_technique_count(); i++)
+        if (!strcmp(classes[i]->info.name, name)) return classes[i];
+    return NULL;
+}
 
 int volux_technique_count(void) { return (int)(sizeof classes / sizeof classes[0]); }
 
-const volux_technique_class *volux_technique_class_at(int index) {
-    return index >= 0 && index < volux_technique_count() ? classes[index] : NULL;
+const volux_technique_info *volux_technique_info_at(int index) {
+    return index >= 0 && index < volux_technique_count() ? &classes[index]->info : NULL;
 }
 
-const volux_technique_class *volux_technique_find(const char *name) {
-    for (int i = 0; i < volux_technique_count(); i++)
-        if (!strcmp(classes[i]->name, name)) return classes[i];
-    return NULL;
+const volux_technique_info *volux_technique_info_find(const char *name) {
+    const volux_technique_class *cls = class_find(name);
+    return cls ? &cls->info : NULL;
+}
+
+volux_status volux_technique_validate_params(volux_context *ctx, const volux_scene *scene) {
+    const char *tech, *name, *string;
+    double number;
+    for (int i = 0; volux_scene_param_at(scene, i, &tech, &name, &number, &string); i++) {
+        const volux_technique_class *cls = class_find(tech);
+        if (!cls) return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.%s: unknown technique", tech);
+        volux_status st = volux_technique_check_param(ctx, &cls->info, name, number, string);
+        if (st) return st;
+    }
+    return VOLUX_OK;
+}
+
+volux_status volux_technique_create(volux_context *ctx, const char *name, const volux_scene *scene,
+                                    volux_technique **out) {
+    const volux_technique_class *cls = class_find(name);
+    if (!cls) return volux_error(ctx, VOLUX_ERR_INVALID, "render.technique: unknown technique '%s'", name);
+    volux_status st = volux_technique_validate_params(ctx, scene);
+    return st ? st : volux_technique_create_class(ctx, cls, scene, out);
 }

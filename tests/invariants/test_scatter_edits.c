@@ -10,7 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "render/technique_internal.h"
+#include "render/technique_class.h"
 #include "techniques/ambient/ambient.h"
 #include "techniques/ao/ao.h"
 #include "techniques/single/single.h"
@@ -272,13 +272,16 @@ static void test_bad_parameters_name_the_parameter(void **state) {
     volux_scene *s = load(ctx);
     volux_technique *t;
     assert_int_equal(volux_scene_set_param(s, "ambient", "radius", 0.1, NULL), VOLUX_OK);
+    volux_context_clear_error(ctx); /* the first error wins: start afresh */
     assert_int_equal(volux_technique_create(ctx, "ambient", s, &t), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "techniques.ambient.radius"));
     assert_int_equal(volux_scene_set_param(s, "ambient", "radius", 3, NULL), VOLUX_OK);
     assert_int_equal(volux_scene_set_param(s, "ambient", "table_file", 0, tu_temp_path("nope.vxat")), VOLUX_OK);
+    volux_context_clear_error(ctx); /* the first error wins: start afresh */
     assert_int_equal(volux_technique_create(ctx, "ambient", s, &t), VOLUX_ERR_IO);
     assert_non_null(strstr(volux_context_error(ctx), "nope.vxat"));
     assert_int_equal(volux_scene_set_param(s, "single", "cache_scale", 2, NULL), VOLUX_OK);
+    volux_context_clear_error(ctx); /* the first error wins: start afresh */
     assert_int_equal(volux_technique_create(ctx, "single", s, &t), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "techniques.single.cache_scale"));
     volux_scene_destroy(s);

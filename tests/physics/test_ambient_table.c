@@ -198,11 +198,13 @@ static void test_file_roundtrip_and_corruption(void **state) {
     volux_ambient_table_free(ctx, &u);
     /* A flipped data byte fails the checksum. */
     flip_byte(path, 128 + 40);
+    volux_context_clear_error(ctx); /* the first error wins: start afresh */
     assert_int_equal(volux_ambient_table_load(ctx, path, &u), VOLUX_ERR_FORMAT);
     assert_non_null(strstr(volux_context_error(ctx), "checksum"));
     /* Bad magic, truncation, missing file. */
     assert_int_equal(volux_ambient_table_save(ctx, &t, path), VOLUX_OK);
     flip_byte(path, 0);
+    volux_context_clear_error(ctx); /* the first error wins: start afresh */
     assert_int_equal(volux_ambient_table_load(ctx, path, &u), VOLUX_ERR_FORMAT);
     assert_non_null(strstr(volux_context_error(ctx), "magic"));
     const char *tiny = tu_write_file("short.vxat", "VXAMBTAB\1\0\0\0", 12);
@@ -243,14 +245,17 @@ static void test_bad_descriptions_name_the_field(void **state) {
     volux_ambient_table_desc d = small_desc();
     volux_ambient_table t;
     d.n_theta = 1;
+    volux_context_clear_error(ctx); /* the first error wins: start afresh */
     assert_int_equal(volux_ambient_table_build(ctx, &d, &t), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "n_theta"));
     d = small_desc();
     d.albedo = 1.5;
+    volux_context_clear_error(ctx); /* the first error wins: start afresh */
     assert_int_equal(volux_ambient_table_build(ctx, &d, &t), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "albedo"));
     d = small_desc();
     d.g_max = 1.0;
+    volux_context_clear_error(ctx); /* the first error wins: start afresh */
     assert_int_equal(volux_ambient_table_build(ctx, &d, &t), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "g range"));
     volux_context_destroy(ctx);

@@ -48,16 +48,16 @@ static void teardown(fixture *f) {
     volux_context_destroy(f->ctx);
 }
 
-static scatter_light directional(float x, float y, float z) {
-    scatter_light l;
+static volux_prepared_light directional(float x, float y, float z) {
+    volux_prepared_light l;
     memset(&l, 0, sizeof l);
-    l.dir = v3_normalize(v3(x, y, z));
+    l.travel = v3_normalize(v3(x, y, z));
     l.power = v3(1, 1, 1);
     return l;
 }
 
-static scatter_light point(float x, float y, float z) {
-    scatter_light l;
+static volux_prepared_light point(float x, float y, float z) {
+    volux_prepared_light l;
     memset(&l, 0, sizeof l);
     l.positional = 1;
     l.pos = v3(x, y, z);
@@ -66,16 +66,16 @@ static scatter_light point(float x, float y, float z) {
 }
 
 /* Max relative error of the sweep against `expect` over all nodes. */
-typedef float (*expect_fn)(const fixture *f, const scatter_light *l, volux_vec3 x);
+typedef float (*expect_fn)(const fixture *f, const volux_prepared_light *l, volux_vec3 x);
 
-static float chain_expect(const fixture *f, const scatter_light *l, volux_vec3 x) {
+static float chain_expect(const fixture *f, const volux_prepared_light *l, volux_vec3 x) {
     return tube_chain(&f->in, l, &f->V, x);
 }
 
 /* Beer–Lambert: e^{−σ̃t δ}, δ the path length inside the box. */
-static float beer_expect(const fixture *f, const scatter_light *l, volux_vec3 x) {
+static float beer_expect(const fixture *f, const volux_prepared_light *l, volux_vec3 x) {
     float sigma = f->rho.v[0] / f->in.radius;
-    volux_vec3 w = l->positional ? v3_normalize(v3_sub(x, l->pos)) : l->dir;
+    volux_vec3 w = l->positional ? v3_normalize(v3_sub(x, l->pos)) : l->travel;
     float t = INFINITY;
     float xv[3] = {x.x, x.y, x.z}, wv[3] = {w.x, w.y, w.z};
     for (int a = 0; a < 3; a++) {
@@ -94,7 +94,7 @@ static int cmp_double(const void *a, const void *b) {
 /* Absolute errors of V = e^{−D} (a fraction of the unshadowed irradiance)
  * of the sweep against `expect` over all nodes: max, and optionally mean
  * and 90th percentile. */
-static double max_error_stats(fixture *f, const scatter_light *l, expect_fn expect, double *mean, double *p90) {
+static double max_error_stats(fixture *f, const volux_prepared_light *l, expect_fn expect, double *mean, double *p90) {
     assert_int_equal(tube_march(f->ctx, &f->in, l, &f->V), VOLUX_OK);
     size_t n = (size_t)f->V.dims[0] * f->V.dims[1] * f->V.dims[2], m = 0;
     double *e = malloc(n * sizeof *e), sum = 0.0;
@@ -114,7 +114,7 @@ static double max_error_stats(fixture *f, const scatter_light *l, expect_fn expe
     return worst;
 }
 
-static double max_error(fixture *f, const scatter_light *l, expect_fn expect) {
+static double max_error(fixture *f, const volux_prepared_light *l, expect_fn expect) {
     return max_error_stats(f, l, expect, NULL, NULL);
 }
 
@@ -123,7 +123,7 @@ static void test_axis_aligned_sweep_is_the_closed_form_product(void **state) {
     fixture f;
     for (int aligned = 0; aligned < 2; aligned++) {
         setup(&f, 0.2f, 2.0f, 0.5f, aligned); /* s = 2r = 4 = two cache cells: chains hit nodes */
-        scatter_light l = directional(0, 0, -1);
+        volux_prepared_light l = directional(0, 0, -1);
         assert_true(max_error(&f, &l, chain_expect) < 1e-5);
         assert_true(max_error(&f, &l, beer_expect) < 1e-4);
         l = directional(1, 0, 0);
@@ -145,7 +145,7 @@ static void test_oblique_and_point_lights_follow_beer_lambert(void **state) {
     fixture f;
     for (int aligned = 0; aligned < 2; aligned++) {
     setup(&f, 0.3f, 3.0f, 0.5f, aligned);
-    scatter_light lights[] = {directional(-1, -2, -3), directional(0.3f, 1, -0.2f), point(40, 30, 50),
+    volux_prepared_light lights[] = {directional(-1, -2, -3), directional(0.3f, 1, -0.2f), point(40, 30, 50),
                               point(3, -2, 5), point(-16, -16, -16)};
     for (size_t i = 0; i < sizeof lights / sizeof lights[0]; i++) {
         double mean, p90;
@@ -178,7 +178,7 @@ static void test_sweep_with_real_table(void **state) {
     }
     f.in.kappa = kappa;
     f.in.n_sigma = 33;
-    scatter_light l = directional(0, -1, 0);
+    volux_prepared_light l = directional(0, -1, 0);
     assert_true(max_error(&f, &l, chain_expect) < 1e-5);
     l = point(20, 25, 30);
     double mean, p90;
@@ -219,7 +219,7 @@ static void test_simd_nodes_equal_scalar_nodes(void **state) {
         setup(&f, 0.0f, variant ? 2.3f : 3.0f, variant ? 0.37f : 0.5f, 1);
         size_t n = random_rho(&f, 12345u, 0);
         if (variant) f.in.n_sigma = 33;
-        scatter_light lights[] = {directional(-1, -2, -3), directional(0.3f, 1, -0.2f), directional(0, 0, 1),
+        volux_prepared_light lights[] = {directional(-1, -2, -3), directional(0.3f, 1, -0.2f), directional(0, 0, 1),
                                   directional(1, 0.5f, 0),  point(40, 30, 50),          point(3, -2, 5),
                                   point(-16, -16, -16),     point(0, 0, 0),             point(16, -16, 16.5f),
                                   point(-30, 2, 1)};
@@ -254,7 +254,7 @@ static void test_simd_nodes_equal_scalar_nodes(void **state) {
 /* Records light l's geometry by a march with κ = k_rec (kernel rc, 2
  * threads) and re-sums it with k_new (kernel sc): the cache must be
  * bit-identical to a scalar march with k_new. */
-static void check_resum(fixture *f, const scatter_light *l, const float *k_rec, const float *k_new, int rc, int sc,
+static void check_resum(fixture *f, const volux_prepared_light *l, const float *k_rec, const float *k_new, int rc, int sc,
                         int threads, tube_geometry *geo) {
     size_t n = (size_t)f->V.dims[0] * f->V.dims[1] * f->V.dims[2], bytes = n * sizeof(float);
     float *ref = malloc(bytes);
@@ -289,7 +289,7 @@ static void test_resum_equals_march(void **state) {
         float r = SMAX * (float)i / (NS - 1);
         kappa2[i] = 1.3f * r / (1.0f + 0.05f * r);
     }
-    scatter_light lights[] = {directional(-1, -2, -3), directional(0, 0, 1), point(40, 30, 50), point(3, -2, 5),
+    volux_prepared_light lights[] = {directional(-1, -2, -3), directional(0, 0, 1), point(40, 30, 50), point(3, -2, 5),
                               point(-16, -16, -16)};
     tube_geometry geo = {0};
     assert_int_equal(tube_geometry_alloc(f.ctx, n, &geo), VOLUX_OK);
@@ -328,7 +328,7 @@ static void test_resum_vacuum_chains(void **state) {
         kappa2[i] = 1.3f * r / (1.0f + 0.05f * r);
         clamped[i] = r < 1.0f ? 0.0f : r - 1.0f;
     }
-    scatter_light lights[] = {directional(1, 0.2f, 0.3f), directional(-1, 0.1f, 0), point(-40, 3, 5), point(2, 1, -1),
+    volux_prepared_light lights[] = {directional(1, 0.2f, 0.3f), directional(-1, 0.1f, 0), point(-40, 3, 5), point(2, 1, -1),
                               point(40, -30, 20)};
     tube_geometry geo = {0};
     assert_int_equal(tube_geometry_alloc(f.ctx, n, &geo), VOLUX_OK);

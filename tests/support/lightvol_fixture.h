@@ -12,7 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "render/technique_internal.h"
+#include "render/technique_class.h"
 
 #include "techniques/lightvol/lightvol.h"
 #include "test_util.h"

@@ -1,12 +1,11 @@
 /* tests/support/pt_util.c — see pt_util.h. */
 #include "pt_util.h"
+#include "render/technique_class.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
-/* Internal accessor implemented in src/techniques/technique.c. */
-const void *volux_technique_state(const volux_technique *t);
 
 void pt_accumulate(volux_technique *t, volux_scene *scene, int spp, pt_stats *out) {
     const volux_render_settings *rs = volux_scene_render(scene);

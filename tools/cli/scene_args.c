@@ -72,7 +72,7 @@ int cli_load_scene(const char *cmd, volux_context *ctx, const cli_scene_args *a,
     volux_status st = volux_scene_load(ctx, a->scene_path, a->overrides, a->n_overrides, &scene);
     if (st) return cli_fail(cmd, ctx, st);
     const char *tech = volux_scene_render(scene)->technique;
-    if (!volux_technique_find(tech)) {
+    if (!volux_technique_info_find(tech)) {
         fprintf(stderr, "volux %s: %s: render.technique: unknown technique '%s' (see `volux techniques`)\n", cmd,
                 a->scene_path, tech);
         volux_scene_destroy(scene);

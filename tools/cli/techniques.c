@@ -17,7 +17,7 @@ static const char *kind_name(volux_param_kind k) {
 int cli_techniques(int argc, char **argv) {
     int brief = argc > 1 && !strcmp(argv[1], "--brief");
     for (int i = 0; i < volux_technique_count(); i++) {
-        const volux_technique_class *c = volux_technique_class_at(i);
+        const volux_technique_info *c = volux_technique_info_at(i);
         printf("%-12s %s%s\n", c->name, c->summary, c->progressive ? " [progressive]" : "");
         if (brief) continue;
         for (const volux_param_info *p = c->params; p && p->name; p++) {

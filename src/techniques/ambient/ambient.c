@@ -94,14 +94,14 @@ static void free_ln_cols(ambient_state *st) {
     if (!st->ln_col) return;
     size_t col = (size_t)st->table.desc.n_sigma * (size_t)st->table.desc.n_theta * sizeof(double);
     for (int i = 0; i < st->ln_n; i++)
-        if (st->ln_col[i]) volux_free(st->b.ctx, st->ln_col[i], col);
-    volux_free(st->b.ctx, st->ln_col, (size_t)st->ln_n * sizeof *st->ln_col);
+        if (st->ln_col[i]) volux_free(st->b.rc.ctx, st->ln_col[i], col);
+    volux_free(st->b.rc.ctx, st->ln_col, (size_t)st->ln_n * sizeof *st->ln_col);
     st->ln_col = NULL;
     st->ln_n = 0;
 }
 
 static volux_status load_table(ambient_state *st) {
-    volux_context *ctx = st->b.ctx;
+    volux_context *ctx = st->b.rc.ctx;
     volux_ambient_table t;
     volux_status s;
     if (st->table_file[0]) s = volux_ambient_table_load(ctx, st->table_file, &t);
@@ -171,15 +171,15 @@ static volux_status build_slice(ambient_state *st) {
     size_t ns = (size_t)d->n_sigma, nt = (size_t)d->n_theta;
     size_t sb = ns * nt * sizeof(float), tb = ns * sizeof(float);
     if (sb != st->slice_bytes) {
-        volux_free(st->b.ctx, st->slice, st->slice_bytes);
-        volux_free(st->b.ctx, st->kappa, st->kappa_bytes);
-        st->slice = volux_malloc(st->b.ctx, sb);
-        st->kappa = volux_malloc(st->b.ctx, tb);
+        volux_free(st->b.rc.ctx, st->slice, st->slice_bytes);
+        volux_free(st->b.rc.ctx, st->kappa, st->kappa_bytes);
+        st->slice = volux_malloc(st->b.rc.ctx, sb);
+        st->kappa = volux_malloc(st->b.rc.ctx, tb);
         st->slice_bytes = st->slice ? sb : 0;
         st->kappa_bytes = st->kappa ? tb : 0;
-        if (!st->slice || !st->kappa) return volux_error(st->b.ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the table slice");
+        if (!st->slice || !st->kappa) return volux_error(st->b.rc.ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the table slice");
     }
-    double u = ((double)st->b.g - d->g_min) / (d->g_max - d->g_min) * (d->n_g - 1);
+    double u = ((double)st->b.rc.g - d->g_min) / (d->g_max - d->g_min) * (d->n_g - 1);
     if (u < 0.0) u = 0.0;
     if (u > d->n_g - 1) u = d->n_g - 1;
     int i0 = (int)u;
@@ -188,23 +188,23 @@ static volux_status build_slice(ambient_state *st) {
      * costs one exp per entry (both threads) instead of two logs and an
      * exp on one (≈ 4 ms for the paper's table, most of an edit's budget). */
     if (!st->ln_col) {
-        st->ln_col = volux_calloc(st->b.ctx, (size_t)d->n_g, sizeof *st->ln_col);
-        if (!st->ln_col) return volux_error(st->b.ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the table slice");
+        st->ln_col = volux_calloc(st->b.rc.ctx, (size_t)d->n_g, sizeof *st->ln_col);
+        if (!st->ln_col) return volux_error(st->b.rc.ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the table slice");
         st->ln_n = d->n_g;
     }
     slice_job job = {st, {NULL, NULL}, u - i0, i0};
     for (int c = 0; c < 2; c++) {
         double **col = &st->ln_col[i0 + c];
         if (!*col) {
-            *col = volux_malloc(st->b.ctx, ns * nt * sizeof(double));
-            if (!*col) return volux_error(st->b.ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the table slice");
+            *col = volux_malloc(st->b.rc.ctx, ns * nt * sizeof(double));
+            if (!*col) return volux_error(st->b.rc.ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the table slice");
             job.ln[0] = *col;
             job.ig = i0 + c;
-            volux_parallel_for(st->b.threads, (int64_t)ns, ln_row, &job);
+            volux_parallel_for(st->b.rc.threads, (int64_t)ns, ln_row, &job);
         }
     }
     job.ln[0] = st->ln_col[i0], job.ln[1] = st->ln_col[i0 + 1], job.ig = i0;
-    volux_parallel_for(st->b.threads, (int64_t)ns, slice_row, &job);
+    volux_parallel_for(st->b.rc.threads, (int64_t)ns, slice_row, &job);
     float vac = st->slice[0];
     for (size_t is = 0; is < ns; is++) {
         float t = vac > 0.0f ? st->slice[is * nt] / vac : 0.0f;
@@ -221,7 +221,7 @@ static volux_status build_slice(ambient_state *st) {
 static volux_status build_extinction(ambient_state *st, int need_occ) {
     scatter_base *b = &st->b;
     double sp[3];
-    volux_volume_spacing(b->volume, sp);
+    volux_volume_spacing(b->rc.volume, sp);
     double r = st->radius, dv = sp[0] * sp[1] * sp[2];
     double target = 4.0 / 3.0 * 3.14159265358979323846 * r * r * r / dv; /* sphere volume in voxels */
     int lo[3], hi[3];
@@ -239,23 +239,23 @@ static volux_status build_extinction(ambient_state *st, int need_occ) {
         uint64_t m = scatter_occlusion_max_box(st->ao_radius, sp);
         if (m > max_box) max_box = m;
     }
-    volux_status s = scatter_sat_build(b->ctx, b->threads, b->volume, b->lut, max_box, &st->sat);
+    volux_status s = scatter_sat_build(b->rc.ctx, b->rc.threads, b->rc.volume, b->rc.lut, max_box, &st->sat);
     if (s) return s;
     st->stats.sat_builds++;
-    if ((s = scatter_grid_alloc(b->ctx, b->volume, 1.0f, &st->rho, "ambient: ambient extinction volume"))) return s;
+    if ((s = scatter_grid_alloc(b->rc.ctx, b->rc.volume, 1.0f, &st->rho, "ambient: ambient extinction volume"))) return s;
     int half[2][3];
     memcpy(half[0], lo, sizeof lo);
     memcpy(half[1], hi, sizeof hi);
     double w[2] = {r * (1.0 - f) / n_lo, r * f / n_hi};
-    if ((s = scatter_sat_filter(b->ctx, b->threads, &st->sat, 2, (const int(*)[3])half, w, 0, st->rho.v))) return s;
+    if ((s = scatter_sat_filter(b->rc.ctx, b->rc.threads, &st->sat, 2, (const int(*)[3])half, w, 0, st->rho.v))) return s;
     st->stats.rho_builds++;
     if (need_occ) {
-        if ((s = scatter_grid_alloc(b->ctx, b->volume, 1.0f, &st->occ, "ambient: occlusion volume"))) return s;
-        if ((s = scatter_occlusion_build(b->ctx, b->threads, &st->sat, st->ao_radius, st->ao_shells, sp, &st->occ)))
+        if ((s = scatter_grid_alloc(b->rc.ctx, b->rc.volume, 1.0f, &st->occ, "ambient: occlusion volume"))) return s;
+        if ((s = scatter_occlusion_build(b->rc.ctx, b->rc.threads, &st->sat, st->ao_radius, st->ao_shells, sp, &st->occ)))
             return s;
         st->stats.occ_builds++;
     } else {
-        scatter_grid_free(b->ctx, &st->occ);
+        scatter_grid_free(b->rc.ctx, &st->occ);
     }
     return VOLUX_OK;
 }
@@ -263,10 +263,10 @@ static volux_status build_extinction(ambient_state *st, int need_occ) {
 /* ρ resampled at the radiance caches' nodes: tube marching reads it with
  * node-aligned, constant offsets from a grid 8× smaller than ρ. */
 static volux_status build_rho_c(ambient_state *st) {
-    volux_status s = scatter_grid_alloc(st->b.ctx, st->b.volume, st->cache_scale, &st->rho_c,
+    volux_status s = scatter_grid_alloc(st->b.rc.ctx, st->b.rc.volume, st->cache_scale, &st->rho_c,
                                         "ambient: ambient extinction at cache resolution");
     if (s) return s;
-    scatter_grid_resample(st->b.threads, &st->rho, &st->rho_c);
+    scatter_grid_resample(st->b.rc.threads, &st->rho, &st->rho_c);
     st->stats.rho_c_builds++;
     return VOLUX_OK;
 }
@@ -274,44 +274,45 @@ static volux_status build_rho_c(ambient_state *st) {
 /* Light l's radiance cache: a re-sum from its kept geometry when only κ
  * changed (a phase edit) and the geometry is valid, else a march (which
  * records the geometry when phase_cache is on). */
-static volux_status build_cache(ambient_state *st, const scatter_light *l, int kappa_only) {
+static volux_status build_cache(ambient_state *st, const volux_prepared_light *l, int kappa_only) {
     int slot = l->slot;
     scatter_grid *V = &st->cache[slot];
-    volux_status s = scatter_grid_alloc(st->b.ctx, st->b.volume, st->cache_scale, V, "ambient: radiance cache");
+    volux_status s = scatter_grid_alloc(st->b.rc.ctx, st->b.rc.volume, st->cache_scale, V, "ambient: radiance cache");
     if (s) return s;
     tube_input in = {&st->rho_c, st->kappa, st->table.desc.n_sigma, (float)st->table.desc.sigma_max, st->radius,
-                     st->b.threads, 0, NULL};
+                     st->b.rc.threads, 0, NULL};
     if (kappa_only && st->phase_cache && st->geo_ok[slot]) {
         in.geo = &st->geo[slot];
-        if ((s = tube_resum(st->b.ctx, &in, l, V))) return s;
+        if ((s = tube_resum(st->b.rc.ctx, &in, l, V))) return s;
         st->stats.cache_resums[slot]++;
         return VOLUX_OK;
     }
     st->geo_ok[slot] = 0;
     if (st->phase_cache) {
         size_t n = (size_t)V->dims[0] * (size_t)V->dims[1] * (size_t)V->dims[2];
-        if ((s = tube_geometry_alloc(st->b.ctx, n, &st->geo[slot]))) return s;
+        if ((s = tube_geometry_alloc(st->b.rc.ctx, n, &st->geo[slot]))) return s;
         in.geo = &st->geo[slot];
     }
-    if ((s = tube_march(st->b.ctx, &in, l, V))) return s;
+    if ((s = tube_march(st->b.rc.ctx, &in, l, V))) return s;
     st->geo_ok[slot] = st->phase_cache;
     st->stats.cache_builds[slot]++;
     return VOLUX_OK;
 }
 
-static volux_status ambient_update(void *state, volux_scene *scene, const volux_change_set *c) {
+static volux_status ambient_update(void *state, const volux_scene *scene, const volux_change_set *c) {
     ambient_state *st = state;
     scatter_base *b = &st->b;
-    volux_status s = scatter_base_update(b, scene, c);
-    if (s) return s;
+    const volux_light_list *ls = &b->rc.lights;
+    volux_status s;
+    scatter_base_update(b, scene, c);
     int need_ext = (c->what & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY)) != 0;
     int need_slice = (c->what & VOLUX_CHANGE_PHASE) != 0, all_caches = 0, scale_changed = 0, table_loaded = 0;
     if (c->what & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME)) {
-        const volux_technique_class *cls = b->cls;
-        float radius = (float)volux_technique_param(scene, cls, "radius") * b->min_spacing;
+        const volux_technique_class *cls = b->rc.cls;
+        float radius = (float)volux_technique_param(scene, cls, "radius") * b->rc.min_spacing;
         float scale = (float)volux_technique_param(scene, cls, "cache_scale");
         float ao = (float)volux_technique_param(scene, cls, "ao");
-        float ao_r = (float)volux_technique_param(scene, cls, "ao_radius") * b->min_spacing;
+        float ao_r = (float)volux_technique_param(scene, cls, "ao_radius") * b->rc.min_spacing;
         int shells = (int)volux_technique_param(scene, cls, "ao_shells");
         if (ao_r <= 0.0f) ao_r = radius;
         if (radius != st->radius || ao != st->ao || ao_r != st->ao_radius || shells != st->ao_shells) need_ext = 1;
@@ -321,11 +322,11 @@ static volux_status ambient_update(void *state, volux_scene *scene, const volux_
         st->phase_cache = (int)volux_technique_param(scene, cls, "phase_cache");
         st->offset = (float)volux_technique_param(scene, cls, "offset");
         double lo, hi;
-        volux_volume_range(b->volume, &lo, &hi);
+        volux_volume_range(b->rc.volume, &lo, &hi);
         st->grad_ref = (float)(volux_technique_param(scene, cls, "gradient_threshold") * (hi > lo ? hi - lo : 1.0) /
-                               b->min_spacing);
+                               b->rc.min_spacing);
         snprintf(st->table_file, sizeof st->table_file, "%s",
-                 volux_scene_param_string(scene, cls->name, "table_file", ""));
+                 volux_technique_param_string(scene, cls, "table_file"));
         volux_ambient_table_desc_defaults(&st->want);
         st->want.n_theta = (int)volux_technique_param(scene, cls, "table_theta");
         st->want.n_sigma = (int)volux_technique_param(scene, cls, "table_sigma");
@@ -334,11 +335,10 @@ static volux_status ambient_update(void *state, volux_scene *scene, const volux_
         st->want.paths = (uint64_t)volux_technique_param(scene, cls, "table_paths");
     }
     if (c->what & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_COLOR)) {
-        double a = volux_technique_param(scene, b->cls, "table_albedo");
+        double a = volux_technique_param(scene, b->rc.cls, "table_albedo");
         /* The TF keeps albedo as a float (0.9f = 0.899999976): round to 6
          * decimals so the cache key matches a table built for 0.9. */
-        st->want.albedo = a > 0.0 ? a : floor((double)b->albedo * 1e6 + 0.5) / 1e6;
-        st->material = volux_scene_transfer(scene)->material;
+        st->want.albedo = a > 0.0 ? a : floor((double)b->rc.albedo * 1e6 + 0.5) / 1e6;
         if (!table_matches(st)) {
             if ((s = load_table(st))) return s;
             need_slice = table_loaded = 1;
@@ -346,7 +346,7 @@ static volux_status ambient_update(void *state, volux_scene *scene, const volux_
     }
     /* The occlusion volume exists iff the AO term is on (weight or an
      * environment light); an environment light appearing turns it on. */
-    int want_occ = st->ao > 0.0f || b->ambient.x > 0.0f || b->ambient.y > 0.0f || b->ambient.z > 0.0f;
+    int want_occ = st->ao > 0.0f || ls->env_mean.x > 0.0f || ls->env_mean.y > 0.0f || ls->env_mean.z > 0.0f;
     if (want_occ != (st->occ.v != NULL)) need_ext = 1;
     if (need_slice) {
         if ((s = build_slice(st))) return s;
@@ -362,14 +362,14 @@ static volux_status ambient_update(void *state, volux_scene *scene, const volux_
      * and the table's σ̃t axis, not on g: only a phase edit can re-sum. */
     int kappa_only = !need_ext && !scale_changed && !table_loaded;
     int live[VOLUX_MAX_LIGHTS] = {0};
-    for (int i = 0; i < b->n_lights; i++) live[b->lights[i].slot] = 1;
+    for (int i = 0; i < ls->n_direct; i++) live[ls->direct[i].slot] = 1;
     for (int slot = 0; slot < VOLUX_MAX_LIGHTS; slot++) {
-        if (st->cache[slot].v && !live[slot]) scatter_grid_free(b->ctx, &st->cache[slot]);
+        if (st->cache[slot].v && !live[slot]) scatter_grid_free(b->rc.ctx, &st->cache[slot]);
         if (!kappa_only || !live[slot]) st->geo_ok[slot] = 0;
-        if (st->geo[slot].arg && (!live[slot] || !st->phase_cache)) tube_geometry_free(b->ctx, &st->geo[slot]);
+        if (st->geo[slot].arg && (!live[slot] || !st->phase_cache)) tube_geometry_free(b->rc.ctx, &st->geo[slot]);
     }
-    for (int i = 0; i < b->n_lights; i++) {
-        const scatter_light *l = &b->lights[i];
+    for (int i = 0; i < ls->n_direct; i++) {
+        const volux_prepared_light *l = &ls->direct[i];
         int light_changed = volux_change_light(c, l->slot) || !st->cache[l->slot].v;
         if (all_caches || light_changed)
             if ((s = build_cache(st, l, kappa_only && !light_changed))) return s;
@@ -377,10 +377,11 @@ static volux_status ambient_update(void *state, volux_scene *scene, const volux_
     return VOLUX_OK;
 }
 
-static void ambient_destroy(void *state) {
+static void ambient_init(void *state) { ((ambient_state *)state)->radius = -1.0f; }
+
+static void ambient_release(void *state) {
     ambient_state *st = state;
-    if (!st) return;
-    volux_context *ctx = st->b.ctx;
+    volux_context *ctx = st->b.rc.ctx;
     for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) scatter_grid_free(ctx, &st->cache[i]);
     for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) tube_geometry_free(ctx, &st->geo[i]);
     scatter_grid_free(ctx, &st->rho);
@@ -391,30 +392,11 @@ static void ambient_destroy(void *state) {
     if (st->have_table) volux_ambient_table_free(ctx, &st->table);
     volux_free(ctx, st->slice, st->slice_bytes);
     volux_free(ctx, st->kappa, st->kappa_bytes);
-    scatter_base_free(&st->b);
-    volux_free(ctx, st, sizeof *st);
-}
-
-static volux_status ambient_create(volux_context *ctx, volux_scene *scene, void **out) {
-    ambient_state *st = volux_calloc(ctx, 1, sizeof *st);
-    if (!st) return volux_error(ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for technique state");
-    st->b.ctx = ctx;
-    st->b.cls = &volux_ambient_class;
-    st->radius = -1.0f;
-    volux_change_set all = volux_change_all();
-    volux_status s = ambient_update(st, scene, &all);
-    if (s) {
-        ambient_destroy(st);
-        return s;
-    }
-    *out = st;
-    return VOLUX_OK;
 }
 
 static size_t ambient_memory_bytes(const void *state) {
     const ambient_state *st = state;
-    size_t n = sizeof *st + scatter_base_memory(&st->b) + st->sat.bytes + st->rho.bytes + st->rho_c.bytes + st->occ.bytes +
-               st->slice_bytes + st->kappa_bytes;
+    size_t n = st->sat.bytes + st->rho.bytes + st->rho_c.bytes + st->occ.bytes + st->slice_bytes + st->kappa_bytes;
     if (st->have_table) {
         size_t values = (size_t)st->table.desc.n_theta * (size_t)st->table.desc.n_sigma * (size_t)st->table.desc.n_g;
         n += values * sizeof(float) * (st->table.rel_error ? 2 : 1); /* data (+ error block) */
@@ -445,15 +427,15 @@ static inline float slice_lookup(const ambient_state *st, float ut, float us) {
 static inline __attribute__((always_inline)) void inscatter(const void *tech, const scatter_sample *smp,
                                                             volux_vec3 *Ls, volux_vec3 *extra) {
     const ambient_state *st = tech;
-    const scatter_base *b = &st->b;
+    const volux_raycaster *rc = &st->b.rc;
     /* Algorithm 1, line 9: ambient extinction at x' (as the table index). */
     float us = scatter_grid_sample_index(&st->rho, smp->q.x, smp->q.y, smp->q.z) * st->u_sigma;
     volux_vec3 L = v3(0, 0, 0), spec = v3(0, 0, 0), n = v3(0, 0, 0);
     float fade = 0.0f;
     if (st->specular) {
-        volux_vec3 gq = volux_volume_gradient_index(b->volume, smp->q);
+        volux_vec3 gq = volux_volume_gradient_index(rc->volume, smp->q);
         double sp[3];
-        volux_volume_spacing(b->volume, sp);
+        volux_volume_spacing(rc->volume, sp);
         volux_vec3 gw = v3(gq.x / (float)sp[0], gq.y / (float)sp[1], gq.z / (float)sp[2]);
         float gl = v3_length(gw);
         if (gl > 0.0f) {
@@ -462,10 +444,10 @@ static inline __attribute__((always_inline)) void inscatter(const void *tech, co
             if (v3_dot(n, smp->to_eye) < 0.0f) n = v3_scale(n, -1.0f);
         }
     }
-    for (int i = 0; i < b->n_lights; i++) {
-        const scatter_light *l = &b->lights[i];
+    for (int i = 0; i < rc->lights.n_direct; i++) {
+        const volux_prepared_light *l = &rc->lights.direct[i];
         volux_vec3 travel;
-        volux_vec3 E = scatter_light_irradiance(l, smp->p, &travel);
+        volux_vec3 E = volux_light_irradiance(l, smp->p, &travel);
         /* Lines 12–17: the light enters S_r(x') at x_j = x' − r ω_j. */
         volux_vec3 xj = v3_madd(smp->p, travel, -st->radius);
         if (l->positional) {
@@ -486,25 +468,35 @@ static inline __attribute__((always_inline)) void inscatter(const void *tech, co
             volux_vec3 hv = v3_normalize(v3_sub(smp->to_eye, travel));
             float nh = v3_dot(n, hv);
             if (nh > 0.0f)
-                spec = v3_add(spec, v3_scale(E, V * fade * st->material.specular *
-                                                    powf(nh, st->material.specular_power)));
+                spec = v3_add(spec, v3_scale(E, V * fade * rc->material.specular *
+                                                    powf(nh, rc->material.specular_power)));
         }
     }
     if (st->occ.v) {
         float A = scatter_grid_sample_index(&st->occ, smp->q.x, smp->q.y, smp->q.z);
-        L = v3_add(L, v3_scale(v3_add(b->ambient, v3(st->ao, st->ao, st->ao)), A));
+        L = v3_add(L, v3_scale(v3_add(rc->lights.env_mean, v3(st->ao, st->ao, st->ao)), A));
     }
     *Ls = L;
     *extra = spec;
 }
 
+static inline __attribute__((always_inline)) volux_vec3 integrate(const void *tech, const volux_ray *ray,
+                                                                   float jitter, float *T, uint64_t *samples,
+                                                                   int variant) {
+    (void)variant;
+    const ambient_state *st = tech;
+    return scatter_march(&st->b, tech, ray, jitter, T, samples, st->offset * st->radius, inscatter);
+}
+
 static void ambient_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
                                 volux_tile_stats *stats) {
     const ambient_state *st = state;
-    scatter_render_tile(&st->b, st, scene, tile, rgb, stats, st->offset * st->radius, inscatter);
+    volux_raycaster_tile(&st->b.rc, st, scene, tile, rgb, stats, integrate, 0);
 }
 
 const volux_technique_class volux_ambient_class = {
-    "ambient", "ambient volume scattering: preintegrated multiple scattering in a sphere (Ament et al. 2013)",
-    ambient_params, 0, ambient_create, ambient_update, ambient_render_tile, ambient_memory_bytes, ambient_destroy,
+    {"ambient", "ambient volume scattering: preintegrated multiple scattering in a sphere (Ament et al. 2013)",
+     ambient_params, 0},
+    sizeof(ambient_state), 0,
+    ambient_init, ambient_update, ambient_render_tile, ambient_memory_bytes, ambient_release,
 };

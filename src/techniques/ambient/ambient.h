@@ -31,7 +31,6 @@ typedef struct ambient_state {
     int ao_shells;
     volux_ambient_table_desc want; /* table the parameters ask for          */
     char table_file[1024];
-    volux_material material;
     /* the table and its slice at the current g */
     volux_ambient_table table;
     int have_table;

@@ -55,7 +55,7 @@ static inline float strict_at(const scatter_grid *g, int64_t base, const float f
 }
 
 /* Travel direction at x and the distance δ back to the chain start. */
-static inline volux_vec3 chain_start(const scatter_light *l, volux_vec3 lo, volux_vec3 hi, volux_vec3 x,
+static inline volux_vec3 chain_start(const volux_prepared_light *l, volux_vec3 lo, volux_vec3 hi, volux_vec3 x,
                                      float *delta) {
     volux_vec3 w;
     float dl = INFINITY;
@@ -68,20 +68,20 @@ static inline volux_vec3 chain_start(const scatter_light *l, volux_vec3 lo, volu
         }
         w = v3_scale(d, 1.0f / dl);
     } else {
-        w = l->dir;
+        w = l->travel;
     }
     float t = box_exit(lo, hi, x, v3_scale(w, -1.0f));
     *delta = t < dl ? t : dl;
     return w;
 }
 
-float tube_step(const tube_input *in, const scatter_grid *V, const scatter_light *l) {
+float tube_step(const tube_input *in, const scatter_grid *V, const volux_prepared_light *l) {
     float hmax = fmaxf(V->h[0], fmaxf(V->h[1], V->h[2]));
     float s = 2.0f * in->radius, smin;
     if (l->positional) {
         smin = 2.0f * 1.7320508f * hmax * 1.0001f;
     } else {
-        float w[3] = {fabsf(l->dir.x), fabsf(l->dir.y), fabsf(l->dir.z)}, best = 0.0f;
+        float w[3] = {fabsf(l->travel.x), fabsf(l->travel.y), fabsf(l->travel.z)}, best = 0.0f;
         for (int a = 0; a < 3; a++)
             if (w[a] * V->inv_h[a] > best) best = w[a] * V->inv_h[a];
         smin = 1.0001f / best;
@@ -91,7 +91,7 @@ float tube_step(const tube_input *in, const scatter_grid *V, const scatter_light
 
 typedef struct sweep {
     const tube_input *in;
-    const scatter_light *l;
+    const volux_prepared_light *l;
     scatter_grid *V;
     volux_vec3 lo, hi;
     float s, inv_r;
@@ -427,7 +427,7 @@ static void setup_lanes(sweep *sw) {
     }
     t->positional = sw->l->positional;
     t->pos[0] = sw->l->pos.x, t->pos[1] = sw->l->pos.y, t->pos[2] = sw->l->pos.z;
-    t->dir[0] = sw->l->dir.x, t->dir[1] = sw->l->dir.y, t->dir[2] = sw->l->dir.z;
+    t->dir[0] = sw->l->travel.x, t->dir[1] = sw->l->travel.y, t->dir[2] = sw->l->travel.z;
     t->s = sw->s, t->inv_r = sw->inv_r;
     t->kappa = in->kappa, t->n_sigma = in->n_sigma, t->sigma_max = in->sigma_max;
     t->g_arg = sw->geo ? sw->geo->arg : NULL;
@@ -467,7 +467,7 @@ static int64_t shell_group(void *user, int p) {
 
 /* A march (resum = 0: records into geo if given) or a re-sum (resum = 1:
  * from geo) of light l into V. */
-static volux_status sweep_run(volux_context *ctx, const tube_input *in, const scatter_light *l, scatter_grid *V,
+static volux_status sweep_run(volux_context *ctx, const tube_input *in, const volux_prepared_light *l, scatter_grid *V,
                               tube_geometry *geo, int resum) {
     sweep sw;
     memset(&sw, 0, sizeof sw);
@@ -479,7 +479,7 @@ static volux_status sweep_run(volux_context *ctx, const tube_input *in, const sc
     sw.inv_r = in->radius > 0.0f ? 1.0f / in->radius : 0.0f;
     setup_lanes(&sw);
     if (!l->positional) {
-        float w[3] = {l->dir.x, l->dir.y, l->dir.z}, best = -1.0f;
+        float w[3] = {l->travel.x, l->travel.y, l->travel.z}, best = -1.0f;
         for (int a = 0; a < 3; a++)
             if (fabsf(w[a]) * V->inv_h[a] > best) best = fabsf(w[a]) * V->inv_h[a], sw.a = a;
         sw.b1 = sw.a == 0 ? 1 : 0;
@@ -489,8 +489,8 @@ static volux_status sweep_run(volux_context *ctx, const tube_input *in, const sc
                   R->lo.x == V->lo.x && R->lo.y == V->lo.y && R->lo.z == V->lo.z;
         if (sw.fast) {
             for (int a = 0; a < 3; a++) sw.valid_lo[a] = 0, sw.valid_hi[a] = V->dims[a] - 1;
-            displaced_corners(V, v3_scale(l->dir, -sw.s), sw.off_v, sw.w_v, sw.valid_lo, sw.valid_hi);
-            displaced_corners(R, v3_scale(l->dir, -0.5f * sw.s), sw.off_r, sw.w_r, sw.valid_lo, sw.valid_hi);
+            displaced_corners(V, v3_scale(l->travel, -sw.s), sw.off_v, sw.w_v, sw.valid_lo, sw.valid_hi);
+            displaced_corners(R, v3_scale(l->travel, -0.5f * sw.s), sw.off_r, sw.w_r, sw.valid_lo, sw.valid_hi);
             memcpy(sw.fr.off_v, sw.off_v, sizeof sw.off_v);
             memcpy(sw.fr.off_r, sw.off_r, sizeof sw.off_r);
             memcpy(sw.fr.w_v, sw.w_v, sizeof sw.w_v);
@@ -572,12 +572,12 @@ static volux_status sweep_run(volux_context *ctx, const tube_input *in, const sc
     return VOLUX_OK;
 }
 
-volux_status tube_march(volux_context *ctx, const tube_input *in, const scatter_light *l, scatter_grid *V) {
+volux_status tube_march(volux_context *ctx, const tube_input *in, const volux_prepared_light *l, scatter_grid *V) {
     return sweep_run(ctx, in, l, V, in->geo, 0);
 }
 
 
-volux_status tube_resum(volux_context *ctx, const tube_input *in, const scatter_light *l, scatter_grid *V) {
+volux_status tube_resum(volux_context *ctx, const tube_input *in, const volux_prepared_light *l, scatter_grid *V) {
     if (!in->geo || in->geo->n != (size_t)V->dims[0] * (size_t)V->dims[1] * (size_t)V->dims[2])
         return volux_error(ctx, VOLUX_ERR_INVALID, "ambient: re-sum of a radiance cache without its geometry");
     return sweep_run(ctx, in, l, V, in->geo, 1);
@@ -610,7 +610,7 @@ void tube_geometry_free(volux_context *ctx, tube_geometry *g) {
     memset(g, 0, sizeof *g);
 }
 
-float tube_chain(const tube_input *in, const scatter_light *l, const scatter_grid *V, volux_vec3 x) {
+float tube_chain(const tube_input *in, const volux_prepared_light *l, const scatter_grid *V, volux_vec3 x) {
     volux_vec3 lo = V->lo, hi = grid_hi(V);
     float s = tube_step(in, V, l), inv_r = in->radius > 0.0f ? 1.0f / in->radius : 0.0f, delta;
     volux_vec3 w = chain_start(l, lo, hi, x, &delta);

@@ -36,7 +36,7 @@
 #include <stdint.h>
 
 #include "techniques/scatter/grid.h"
-#include "techniques/scatter/lights.h"
+#include "render/lights.h"
 
 /* The g-independent part of a radiance cache that is worth keeping. The
  * phase enters tube marching only through κ (the table's θ = 0 column at
@@ -104,15 +104,15 @@ static inline float tube_kappa(const tube_input *in, float rho) {
 static inline float tube_kappa_of_tau(float tau) { return tau > 1e-30f ? 0.0f - logf(tau) : 69.0f; }
 
 /* The marching step s (world) for light l on cache grid V. */
-float tube_step(const tube_input *in, const scatter_grid *V, const scatter_light *l);
+float tube_step(const tube_input *in, const scatter_grid *V, const volux_prepared_light *l);
 
 /* Fills the cache (already allocated over the volume box) with D = −ln V
  * for light l. Allocates a little scratch through ctx (point lights). */
-volux_status tube_march(volux_context *ctx, const tube_input *in, const scatter_light *l, scatter_grid *V);
+volux_status tube_march(volux_context *ctx, const tube_input *in, const volux_prepared_light *l, scatter_grid *V);
 
 /* Recomputes D from in->geo (recorded by a march of the same light on the
  * same grid, ρ, radius and table size) with in->kappa. */
-volux_status tube_resum(volux_context *ctx, const tube_input *in, const scatter_light *l, scatter_grid *V);
+volux_status tube_resum(volux_context *ctx, const tube_input *in, const volux_prepared_light *l, scatter_grid *V);
 
 /* (Re)allocates g for n nodes (kept if it has that size) / frees it. */
 volux_status tube_geometry_alloc(volux_context *ctx, size_t n, tube_geometry *g);
@@ -121,6 +121,6 @@ void tube_geometry_free(volux_context *ctx, tube_geometry *g);
 /* V (not D) at one point by walking the chain directly (no cache reads):
  * the closed-form product of table look-ups the sweep must reproduce, for
  * tests. */
-float tube_chain(const tube_input *in, const scatter_light *l, const scatter_grid *V, volux_vec3 x);
+float tube_chain(const tube_input *in, const volux_prepared_light *l, const scatter_grid *V, volux_vec3 x);
 
 #endif

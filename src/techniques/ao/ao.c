@@ -30,85 +30,74 @@ static const volux_param_info ao_params[] = {
      "radiance of a white ambient light seen through the occlusion (added to environment lights)"},
     {NULL, 0, 0, 0, 0, NULL, NULL}};
 
-static void volume_spacing(const volux_volume *v, double sp[3]) { volux_volume_spacing(v, sp); }
-
-static volux_status ao_update(void *state, volux_scene *scene, const volux_change_set *c) {
+static volux_status ao_update(void *state, const volux_scene *scene, const volux_change_set *c) {
     ao_state *st = state;
-    volux_status s = scatter_base_update(&st->b, scene, c);
-    if (s) return s;
+    volux_raycaster *rc = &st->b.rc;
+    volux_status s;
+    scatter_base_update(&st->b, scene, c);
     int rebuild = (c->what & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY)) != 0;
     if (c->what & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME)) {
-        float radius = (float)volux_technique_param(scene, st->b.cls, "radius") * st->b.min_spacing;
-        int shells = (int)volux_technique_param(scene, st->b.cls, "shells");
+        float radius = (float)volux_technique_param(scene, rc->cls, "radius") * rc->min_spacing;
+        int shells = (int)volux_technique_param(scene, rc->cls, "shells");
         if (radius != st->radius || shells != st->shells) rebuild = 1;
         st->radius = radius, st->shells = shells;
-        st->ambient = (float)volux_technique_param(scene, st->b.cls, "ambient");
+        st->ambient = (float)volux_technique_param(scene, rc->cls, "ambient");
     }
     if (!rebuild) return VOLUX_OK;
     double sp[3];
-    volume_spacing(st->b.volume, sp);
-    if ((s = scatter_sat_build(st->b.ctx, st->b.threads, st->b.volume, st->b.lut,
-                               scatter_occlusion_max_box(st->radius, sp), &st->sat)))
+    volux_volume_spacing(rc->volume, sp);
+    if ((s = scatter_sat_build(rc->ctx, rc->threads, rc->volume, rc->lut, scatter_occlusion_max_box(st->radius, sp),
+                               &st->sat)))
         return s;
     st->sat_builds++;
-    if ((s = scatter_grid_alloc(st->b.ctx, st->b.volume, 1.0f, &st->occ, "ao: occlusion volume"))) return s;
-    if ((s = scatter_occlusion_build(st->b.ctx, st->b.threads, &st->sat, st->radius, st->shells, sp, &st->occ)))
-        return s;
+    if ((s = scatter_grid_alloc(rc->ctx, rc->volume, 1.0f, &st->occ, "ao: occlusion volume"))) return s;
+    if ((s = scatter_occlusion_build(rc->ctx, rc->threads, &st->sat, st->radius, st->shells, sp, &st->occ))) return s;
     st->occ_builds++;
     return VOLUX_OK;
 }
 
-static void ao_destroy(void *state) {
+static void ao_release(void *state) {
     ao_state *st = state;
-    if (!st) return;
-    scatter_sat_free(st->b.ctx, &st->sat);
-    scatter_grid_free(st->b.ctx, &st->occ);
-    scatter_base_free(&st->b);
-    volux_free(st->b.ctx, st, sizeof *st);
-}
-
-static volux_status ao_create(volux_context *ctx, volux_scene *scene, void **out) {
-    ao_state *st = volux_calloc(ctx, 1, sizeof *st);
-    if (!st) return volux_error(ctx, VOLUX_ERR_NOMEM, "ao: out of memory for technique state");
-    st->b.ctx = ctx;
-    st->b.cls = &volux_ao_class;
-    volux_change_set all = volux_change_all();
-    volux_status s = ao_update(st, scene, &all);
-    if (s) {
-        ao_destroy(st);
-        return s;
-    }
-    *out = st;
-    return VOLUX_OK;
+    scatter_sat_free(st->b.rc.ctx, &st->sat);
+    scatter_grid_free(st->b.rc.ctx, &st->occ);
 }
 
 static size_t ao_memory_bytes(const void *state) {
     const ao_state *st = state;
-    return sizeof *st + scatter_base_memory(&st->b) + st->sat.bytes + st->occ.bytes;
+    return st->sat.bytes + st->occ.bytes;
 }
 
 static inline __attribute__((always_inline)) void inscatter(const void *tech, const scatter_sample *smp,
                                                             volux_vec3 *Ls, volux_vec3 *extra) {
     (void)extra;
     const ao_state *st = tech;
-    const scatter_base *b = &st->b;
+    const volux_light_list *ls = &st->b.rc.lights;
     float A = scatter_grid_sample_index(&st->occ, smp->q.x, smp->q.y, smp->q.z);
-    volux_vec3 L = v3_add(b->ambient, v3(st->ambient, st->ambient, st->ambient));
-    for (int i = 0; i < b->n_lights; i++) {
+    volux_vec3 L = v3_add(ls->env_mean, v3(st->ambient, st->ambient, st->ambient));
+    for (int i = 0; i < ls->n_direct; i++) {
         volux_vec3 travel;
-        volux_vec3 E = scatter_light_irradiance(&b->lights[i], smp->p, &travel);
-        L = v3_add(L, v3_scale(E, volux_hg_eval(b->g, v3_dot(travel, smp->to_eye))));
+        volux_vec3 E = volux_light_irradiance(&ls->direct[i], smp->p, &travel);
+        L = v3_add(L, v3_scale(E, volux_hg_eval(st->b.rc.g, v3_dot(travel, smp->to_eye))));
     }
     *Ls = v3_scale(L, A);
+}
+
+static inline __attribute__((always_inline)) volux_vec3 integrate(const void *tech, const volux_ray *ray,
+                                                                   float jitter, float *T, uint64_t *samples,
+                                                                   int variant) {
+    (void)variant;
+    return scatter_march(tech, tech, ray, jitter, T, samples, 0.0f, inscatter);
 }
 
 static void ao_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
                            volux_tile_stats *stats) {
     const ao_state *st = state;
-    scatter_render_tile(&st->b, st, scene, tile, rgb, stats, 0.0f, inscatter);
+    volux_raycaster_tile(&st->b.rc, st, scene, tile, rgb, stats, integrate, 0);
 }
 
 const volux_technique_class volux_ao_class = {
-    "ao", "SAT ambient occlusion (Schlegel et al. 2011) lighting single scattering (Ament 2013 baseline)",
-    ao_params, 0, ao_create, ao_update, ao_render_tile, ao_memory_bytes, ao_destroy,
+    {"ao", "SAT ambient occlusion (Schlegel et al. 2011) lighting single scattering (Ament 2013 baseline)",
+     ao_params, 0},
+    sizeof(ao_state), 0,
+    NULL, ao_update, ao_render_tile, ao_memory_bytes, ao_release,
 };

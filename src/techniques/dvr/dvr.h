@@ -3,13 +3,12 @@
  * `ea` (emission–absorption) and `shaded` (plus gradient Blinn–Phong)
  * techniques.
  *
- * Caches and what invalidates them:
- *   majorant grid (empty-space skipping) ← volume, extinction, density
+ * Caches beyond the ray-caster base (render/raycaster.h) and what
+ * invalidates them:
  *   skip cell ranges (SIMD skipping)     ← volume
  *   skip distances (SIMD skipping)       ← volume, extinction, density
  *   gradient cache (shaded only)         ← volume (bricked, see dvr.c)
- *   prepared lights (shaded only)        ← lights
- *   resolved camera                      ← camera, image size
+ *   ambient term (shaded only)           ← lights
  *   float pre-integration table (SIMD)   ← extinction, density, colour
  * Colour/albedo/material edits re-read the scene's LUT only.
  *
@@ -22,11 +21,9 @@
 #ifndef VOLUX_DVR_H
 #define VOLUX_DVR_H
 
+#include "render/raycaster.h"
 #include "sample/gradient.h"
-#include "sample/march.h"
-#include "volux/technique.h"
 
-#define DVR_MAX_LIGHTS 64
 #define DVR_SIMD_MAX_LIGHTS 4 /* directional lights the SIMD shading takes */
 #define DVR_SKIP_CELL 4       /* SIMD skip cells: 4³ voxels (macrocells are 8³) */
 
@@ -35,27 +32,10 @@ typedef enum dvr_kernel { DVR_KERNEL_AUTO, DVR_KERNEL_SCALAR, DVR_KERNEL_SIMD } 
 extern const volux_technique_class volux_ea_class;
 extern const volux_technique_class volux_shaded_class;
 
-typedef struct dvr_light {
-    int kind;           /* 0 directional, 1 point/spot/sphere (positional) */
-    volux_vec3 dir_to;  /* directional: unit vector towards the light      */
-    volux_vec3 pos;
-    volux_vec3 power;   /* directional: irradiance·color; positional: I·color
-                           (sphere: radiance·π·r²·color)                  */
-    int spot;
-    volux_light_desc desc; /* for spot falloff */
-    volux_vec3 spot_dir;
-} dvr_light;
-
 typedef struct dvr_state {
-    volux_context *ctx;
-    const volux_technique_class *cls;
-    int shaded;
-    volux_volume *volume;          /* retained */
-    const volux_transfer_lut *lut; /* the scene's */
-    volux_majorant_grid grid;
-    volux_camera camera;
-    float step;                    /* world units */
-    uint64_t seed;
+    volux_raycaster rc;            /* base: volume, LUT, grid, camera, step,
+                                      seed, material, lights              */
+    int shaded;                    /* the `shaded` class                  */
     /* parameters */
     int preintegrate, skip_empty;
     dvr_kernel kernel;             /* `kernel` parameter                   */
@@ -64,10 +44,7 @@ typedef struct dvr_state {
     /* shading */
     volux_gradient_cache grad;     /* shared helper (sample/gradient.h)  */
     float grad_ref;                /* |∇s| at which shading is fully on    */
-    volux_material material;
-    volux_vec3 ambient;
-    dvr_light lights[DVR_MAX_LIGHTS];
-    int n_lights;
+    volux_vec3 ambient;            /* environment mean, or white 1 (VTK)   */
     /* Float pre-integration table for the SIMD kernel: per table node i,
      * 8 floats {P_σ, P_σr, P_σg, P_σb, D_σ, D_σr, D_σg, D_σb} where P is the
      * running integral rounded to float and D[i] = P[i+1] − P[i] computed in
@@ -91,12 +68,12 @@ int volux_dvr_simd_available(void);
 void volux_dvr_render_tile_avx2(const dvr_state *st, const volux_scene *scene, const volux_tile *tile, float *rgb,
                                 volux_tile_stats *stats);
 
-volux_status volux_dvr_create(volux_context *ctx, volux_scene *scene, const volux_technique_class *cls, int shaded,
-                              void **out);
-volux_status volux_dvr_update(void *state, volux_scene *scene, const volux_change_set *c);
+/* The class hooks both `ea` and `shaded` use (ea.c holds the classes). */
+void volux_dvr_init(void *state);
+volux_status volux_dvr_update(void *state, const volux_scene *scene, const volux_change_set *c);
 void volux_dvr_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
                            volux_tile_stats *stats);
 size_t volux_dvr_memory_bytes(const void *state);
-void volux_dvr_destroy(void *state);
+void volux_dvr_release(void *state);
 
 #endif

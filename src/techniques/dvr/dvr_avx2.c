@@ -329,11 +329,11 @@ A2I __m256 dot3(const __m256 a[3], const __m256 b[3]) {
  * constant along a ray, so computed once per packet, not per sample. */
 A2I void half_vectors(const dvr_state *st, const __m256 view[3], __m256 hn[DVR_SIMD_MAX_LIGHTS][3]) {
     const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
-    for (int i = 0; i < st->n_lights && i < DVR_SIMD_MAX_LIGHTS; i++) {
-        const dvr_light *l = &st->lights[i];
-        __m256 hv[3] = {_mm256_sub_ps(_mm256_set1_ps(l->dir_to.x), view[0]),
-                        _mm256_sub_ps(_mm256_set1_ps(l->dir_to.y), view[1]),
-                        _mm256_sub_ps(_mm256_set1_ps(l->dir_to.z), view[2])};
+    for (int i = 0; i < st->rc.lights.n_direct && i < DVR_SIMD_MAX_LIGHTS; i++) {
+        const volux_prepared_light *l = &st->rc.lights.direct[i];
+        __m256 hv[3] = {_mm256_sub_ps(_mm256_set1_ps(-l->travel.x), view[0]),
+                        _mm256_sub_ps(_mm256_set1_ps(-l->travel.y), view[1]),
+                        _mm256_sub_ps(_mm256_set1_ps(-l->travel.z), view[2])};
         __m256 hl = _mm256_sqrt_ps(dot3(hv, hv));
         __m256 hinv = _mm256_div_ps(one, hl), hpos = _mm256_cmp_ps(hl, zero, _CMP_GT_OQ);
         for (int a = 0; a < 3; a++) hn[i][a] = _mm256_blendv_ps(hv[a], _mm256_mul_ps(hv[a], hinv), hpos);
@@ -347,7 +347,7 @@ A2I void half_vectors(const dvr_state *st, const __m256 view[3], __m256 hn[DVR_S
 A2I void shade8(const dvr_state *st, const __m256 g[3], const __m256 view[3],
                 const __m256 hn[DVR_SIMD_MAX_LIGHTS][3], __m256 c[3]) {
     const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f), sign = _mm256_set1_ps(-0.0f);
-    const volux_material *mat = &st->material;
+    const volux_material *mat = &st->rc.material;
     __m256 g2 = dot3(g, g);
     __m256 y = _mm256_rsqrt_ps(g2);
     __m256 inv = _mm256_mul_ps(y, _mm256_fnmadd_ps(_mm256_mul_ps(_mm256_mul_ps(g2, _mm256_set1_ps(0.5f)), y), y,
@@ -364,9 +364,9 @@ A2I void shade8(const dvr_state *st, const __m256 g[3], const __m256 view[3],
     const float amb[3] = {st->ambient.x, st->ambient.y, st->ambient.z};
     __m256 diff[3], spec[3] = {zero, zero, zero};
     for (int a = 0; a < 3; a++) diff[a] = _mm256_set1_ps(amb[a] * mat->ambient);
-    for (int i = 0; i < st->n_lights && i < DVR_SIMD_MAX_LIGHTS; i++) {
-        const dvr_light *l = &st->lights[i];
-        const __m256 L[3] = {_mm256_set1_ps(l->dir_to.x), _mm256_set1_ps(l->dir_to.y), _mm256_set1_ps(l->dir_to.z)};
+    for (int i = 0; i < st->rc.lights.n_direct && i < DVR_SIMD_MAX_LIGHTS; i++) {
+        const volux_prepared_light *l = &st->rc.lights.direct[i];
+        const __m256 L[3] = {_mm256_set1_ps(-l->travel.x), _mm256_set1_ps(-l->travel.y), _mm256_set1_ps(-l->travel.z)};
         const float E[3] = {l->power.x, l->power.y, l->power.z};
         __m256 ndl = dot3(n, L);
         __m256 lit = _mm256_cmp_ps(ndl, zero, _CMP_GT_OQ);
@@ -436,11 +436,11 @@ A2I __m256 sample_at_t(const vol_consts *vc, const packet_state *ps, __m256 t, v
 
 A2I void march_packets(const dvr_state *st, const packet_rays pr[NP], const int lanes[NP], __m256 C[NP][3],
                        __m256 T_out[NP], uint64_t *samples, int shaded, int preint, volux_storage storage) {
-    const volux_transfer_lut *lut = st->lut;
+    const volux_transfer_lut *lut = st->rc.lut;
     vol_consts vc;
-    vol_consts_init(&vc, st->volume);
+    vol_consts_init(&vc, st->rc.volume);
     const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
-    const __m256 h = _mm256_set1_ps(st->step), inv_h = _mm256_set1_ps(1.0f / st->step);
+    const __m256 h = _mm256_set1_ps(st->rc.step), inv_h = _mm256_set1_ps(1.0f / st->rc.step);
     const __m256 t_min = _mm256_set1_ps(st->t_min);
     const __m256 len_scale = _mm256_set1_ps(lut->inv_ds);
     const __m256 sign = _mm256_set1_ps(-0.0f);
@@ -632,18 +632,18 @@ A2I void march_packets(const dvr_state *st, const packet_rays pr[NP], const int 
  * background written here. Returns the active-lane bits. */
 static A2 int setup_packet(const dvr_state *st, const volux_scene *scene, const volux_tile *tile, int x0, int y0,
                            float *rgb, packet_rays *pr, float bg[3][8]) {
-    const volux_camera *cam = &st->camera;
+    const volux_camera *cam = &st->rc.camera;
     memset(pr, 0, sizeof *pr);
     int lanes = 0;
     for (int l = 0; l < 8; l++) {
         int x = x0 + (l & (PW - 1)), y = y0 + l / PW;
         if (x >= tile->w || y >= tile->h) continue;
-        volux_primary prim = volux_primary_ray(cam, st->seed, tile->x0 + x, tile->y0 + y, tile->sample_index);
+        volux_primary prim = volux_primary_ray(cam, st->rc.seed, tile->x0 + x, tile->y0 + y, tile->sample_index);
         const volux_vec3 d = prim.d;
         const float jitter = prim.jitter;
         volux_vec3 e = volux_scene_escape_radiance(scene, d);
         volux_ray ray;
-        if (!volux_ray_clip(st->volume, prim.o, d, &ray)) {
+        if (!volux_ray_clip(st->rc.volume, prim.o, d, &ray)) {
             float *out = &rgb[3 * (y * tile->w + x)];
             out[0] = e.x, out[1] = e.y, out[2] = e.z;
             continue;
@@ -718,7 +718,7 @@ A2 void volux_dvr_render_tile_avx2(const dvr_state *st, const volux_scene *scene
         {{ea_u8, ea_u16, ea_f32}, {ea_u8_pre, ea_u16_pre, ea_f32_pre}},
         {{sh_u8, sh_u16, sh_f32}, {sh_u8_pre, sh_u16_pre, sh_f32_pre}},
     };
-    int storage = st->volume->storage == VOLUX_STORE_U8 ? 0 : st->volume->storage == VOLUX_STORE_U16 ? 1 : 2;
+    int storage = st->rc.volume->storage == VOLUX_STORE_U8 ? 0 : st->rc.volume->storage == VOLUX_STORE_U16 ? 1 : 2;
     /* Flush denormals to zero while this worker renders: transmittance
      * products underflow on long opaque rays, and denormal arithmetic costs
      * ~100 cycles per operation. Restored before returning, so the caller's

@@ -15,13 +15,11 @@
 
 static const volux_param_info ea_params[] = {DVR_COMMON_PARAMS, {NULL, 0, 0, 0, 0, NULL, NULL}};
 
-static volux_status ea_create(volux_context *ctx, volux_scene *scene, void **state) {
-    return volux_dvr_create(ctx, scene, &volux_ea_class, 0, state);
-}
-
+/* Lights and the phase function never reach an emission–absorption image. */
 const volux_technique_class volux_ea_class = {
-    "ea", "emission-absorption ray casting (no lighting)", ea_params, 0,
-    ea_create, volux_dvr_update, volux_dvr_render_tile, volux_dvr_memory_bytes, volux_dvr_destroy,
+    {"ea", "emission-absorption ray casting (no lighting)", ea_params, 0},
+    sizeof(dvr_state), VOLUX_CHANGE_LIGHTS | VOLUX_CHANGE_PHASE,
+    volux_dvr_init, volux_dvr_update, volux_dvr_render_tile, volux_dvr_memory_bytes, volux_dvr_release,
 };
 
 static const volux_param_info shaded_params[] = {
@@ -31,11 +29,9 @@ static const volux_param_info shaded_params[] = {
      "applied; below it the sample fades to unshaded emission so homogeneous regions do not flicker"},
     {NULL, 0, 0, 0, 0, NULL, NULL}};
 
-static volux_status shaded_create(volux_context *ctx, volux_scene *scene, void **state) {
-    return volux_dvr_create(ctx, scene, &volux_shaded_class, 1, state);
-}
-
+/* Blinn–Phong has no phase function. */
 const volux_technique_class volux_shaded_class = {
-    "shaded", "emission-absorption plus gradient Blinn-Phong from all non-ambient lights", shaded_params, 0,
-    shaded_create, volux_dvr_update, volux_dvr_render_tile, volux_dvr_memory_bytes, volux_dvr_destroy,
+    {"shaded", "emission-absorption plus gradient Blinn-Phong from all non-ambient lights", shaded_params, 0},
+    sizeof(dvr_state), VOLUX_CHANGE_PHASE,
+    volux_dvr_init, volux_dvr_update, volux_dvr_render_tile, volux_dvr_memory_bytes, volux_dvr_release,
 };

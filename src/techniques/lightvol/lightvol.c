@@ -17,12 +17,9 @@
 #include <string.h>
 
 #include "core/context_internal.h"
-#include "core/rng.h"
 #include "core/vecmath.h"
 #include "lightvol.h"
 #include "sweep.h"
-#include "sample/primary.h"
-#include "sample/segment.h"
 
 static const volux_param_info lightvol_params[] = {
     {"scale", VOLUX_PARAM_NUMBER, 1, 0.0625, 1, NULL,
@@ -72,7 +69,7 @@ static const volux_param_info lightvol_params[] = {
 
 static volux_status read_params(lightvol_state *st, const volux_scene *scene, lv_params *p) {
     const volux_technique_class *cls = &volux_lightvol_class;
-    volux_context *ctx = st->ctx;
+    volux_context *ctx = st->rc.ctx;
     memset(p, 0, sizeof *p);
     float scale = (float)volux_technique_param(scene, cls, "scale");
     static const char *axes[3] = {"scale_x", "scale_y", "scale_z"};
@@ -83,13 +80,13 @@ static volux_status read_params(lightvol_state *st, const volux_scene *scene, lv
                                "techniques.lightvol.%s: must be 0 (use scale) or in [0.0625, 1], got %g", axes[a], s);
         p->scale[a] = s != 0.0 ? (float)s : scale;
     }
-    const char *prop = volux_scene_param_string(scene, "lightvol", "propagation", "coherent");
+    const char *prop = volux_technique_param_string(scene, cls, "propagation");
     if (!strcmp(prop, "coherent")) p->coherent = 1;
     else if (!strcmp(prop, "sequential")) p->coherent = 0;
     else
         return volux_error(ctx, VOLUX_ERR_INVALID,
                            "techniques.lightvol.propagation: expected \"coherent\" or \"sequential\", got \"%s\"", prop);
-    const char *rule = volux_scene_param_string(scene, "lightvol", "cost_rule", "work");
+    const char *rule = volux_technique_param_string(scene, cls, "cost_rule");
     if (!strcmp(rule, "work")) p->cost_rule = LV_RULE_WORK;
     else if (!strcmp(rule, "passes")) p->cost_rule = LV_RULE_PASSES;
     else if (!strcmp(rule, "lights")) p->cost_rule = LV_RULE_LIGHTS;
@@ -100,7 +97,7 @@ static volux_status read_params(lightvol_state *st, const volux_scene *scene, lv
                            "techniques.lightvol.cost_rule: expected \"work\", \"passes\", \"lights\", \"selective\" or \"full\", "
                            "got \"%s\"",
                            rule);
-    const char *kernel = volux_scene_param_string(scene, "lightvol", "kernel", "auto");
+    const char *kernel = volux_technique_param_string(scene, cls, "kernel");
     if (!strcmp(kernel, "auto")) p->kernel = LV_KERNEL_AUTO;
     else if (!strcmp(kernel, "scalar")) p->kernel = LV_KERNEL_SCALAR;
     else if (!strcmp(kernel, "simd")) p->kernel = LV_KERNEL_SIMD;
@@ -131,41 +128,28 @@ static volux_status read_params(lightvol_state *st, const volux_scene *scene, lv
 
 /* ---------------------------------------------------------------- update */
 
-static volux_status lightvol_update(void *state, volux_scene *scene, const volux_change_set *c) {
+static volux_status lightvol_update(void *state, const volux_scene *scene, const volux_change_set *c) {
     lightvol_state *st = state;
-    volux_context *ctx = st->ctx;
+    volux_raycaster *rc = &st->rc;
+    volux_context *ctx = rc->ctx;
     volux_status s;
     int realloc_vol = 0, medium = 0, full = 0;
     const char *reason = NULL;
     const uint32_t w = c->what;
+    st->ctx = ctx;
+    st->volume = rc->volume;
+    st->lut = rc->lut;
+    st->albedo = rc->albedo;
+    st->threads = rc->threads;
     if (w & VOLUX_CHANGE_VOLUME) {
-        volux_volume *v = volux_scene_volume(scene);
-        volux_volume_retain(v);
-        volux_volume_release(st->volume);
-        st->volume = v;
         realloc_vol = 1;
         reason = "volume changed";
         volux_gradient_cache_free(ctx, &st->grad);
     }
-    if (w & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY | VOLUX_CHANGE_COLOR)) {
-        st->lut = volux_scene_transfer_lut(scene);
-        if (!st->lut) return volux_context_error_status(ctx) ? volux_context_error_status(ctx) : VOLUX_ERR_INVALID;
-        const volux_transfer_desc *tf = volux_scene_transfer(scene);
-        st->albedo = tf->albedo;
-        st->material = tf->material;
-        medium = 1;
-    }
+    if (w & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY | VOLUX_CHANGE_COLOR)) medium = 1;
     if (w & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY)) {
-        if ((s = volux_majorant_grid_build(ctx, st->volume, st->lut, &st->grid))) return s;
         full = 1;
         if (!reason) reason = "transfer function changed";
-    }
-    if (w & (VOLUX_CHANGE_PHASE | VOLUX_CHANGE_VOLUME)) st->g = volux_scene_transfer(scene)->anisotropy;
-    if (w & (VOLUX_CHANGE_CAMERA | VOLUX_CHANGE_RENDER | VOLUX_CHANGE_VOLUME))
-        if ((s = volux_scene_camera(scene, &st->camera))) return s;
-    if (w & (VOLUX_CHANGE_RENDER | VOLUX_CHANGE_VOLUME)) {
-        st->step = volux_scene_step_world(scene);
-        st->seed = volux_scene_render(scene)->seed;
     }
     if (w & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME)) {
         lv_params np;
@@ -182,16 +166,13 @@ static volux_status lightvol_update(void *state, volux_scene *scene, const volux
         st->p = np;
         st->use_simd = np.kernel != LV_KERNEL_SCALAR && volux_lightvol_simd_available();
         st->use_avx512 = st->use_simd && np.kernel != LV_KERNEL_AVX2 && volux_lightvol_avx512_available();
-        double lo, hi, sp[3];
-        volux_volume_range(st->volume, &lo, &hi);
-        volux_volume_spacing(st->volume, sp);
+        double lo, hi;
+        volux_volume_range(rc->volume, &lo, &hi);
         double range = hi > lo ? hi - lo : 1.0;
-        st->grad_ref = (float)(np.gradient_threshold * range / fmin(sp[0], fmin(sp[1], sp[2])));
+        st->grad_ref = (float)(np.gradient_threshold * range / (double)rc->min_spacing);
     }
     if (st->p.local_shading > 0.0f && !st->grad.grad)
-        if ((s = volux_gradient_cache_build(ctx, st->volume, &st->grad, "lightvol"))) return s;
-    const volux_render_settings *rs = volux_scene_render(scene);
-    st->threads = rs->threads > 0 ? rs->threads : volux_context_threads(ctx);
+        if ((s = volux_gradient_cache_build(ctx, rc->volume, &st->grad, "lightvol"))) return s;
     if (realloc_vol) {
         if ((s = volux_lightvol_alloc(st))) return s;
         medium = 1;
@@ -211,34 +192,16 @@ static volux_status lightvol_update(void *state, volux_scene *scene, const volux
     return VOLUX_OK;
 }
 
-static void lightvol_destroy(void *state) {
+static void lightvol_release(void *state) {
     lightvol_state *st = state;
-    if (!st) return;
+    st->ctx = st->rc.ctx; /* an update may have failed before setting it */
     volux_lightvol_free_buffers(st);
-    volux_majorant_grid_free(st->ctx, &st->grid);
-    volux_gradient_cache_free(st->ctx, &st->grad);
-    volux_volume_release(st->volume);
-    volux_free(st->ctx, st, sizeof *st);
-}
-
-static volux_status lightvol_create(volux_context *ctx, volux_scene *scene, void **out) {
-    lightvol_state *st = volux_calloc(ctx, 1, sizeof *st);
-    if (!st) return volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for technique state");
-    st->ctx = ctx;
-    volux_change_set all = volux_change_all();
-    volux_status s = lightvol_update(st, scene, &all);
-    if (s) {
-        lightvol_destroy(st);
-        return s;
-    }
-    *out = st;
-    return VOLUX_OK;
+    volux_gradient_cache_free(st->rc.ctx, &st->grad);
 }
 
 static size_t lightvol_memory_bytes(const void *state) {
     const lightvol_state *st = state;
-    return sizeof *st + st->vol_bytes + st->medium_bytes + volux_lightvol_scratch_bytes(st) + st->grid.bytes +
-           st->grad.bytes;
+    return st->vol_bytes + st->medium_bytes + volux_lightvol_scratch_bytes(st) + st->grad.bytes;
 }
 
 /* ---------------------------------------------------------------- kernel */
@@ -292,19 +255,19 @@ static inline void scatter(const lightvol_state *st, volux_vec3 p, volux_vec3 q,
         if (dl > 0.0f) {
             wbar = v3_scale(D, 1.0f / dl);
             float r = fminf(dl / lum, 1.0f);
-            phase = hg(st->g * r, -v3_dot(wbar, dir));
+            phase = hg(st->rc.g * r, -v3_dot(wbar, dir));
         }
     }
-    float a = st->albedo;
+    float a = st->rc.albedo;
     S[0] = a * c[0] * E.x * phase;
     S[1] = a * c[1] * E.y * phase;
     S[2] = a * c[2] * E.z * phase;
     if (!local || (wbar.x == 0.0f && wbar.y == 0.0f && wbar.z == 0.0f)) return;
     volux_vec3 n;
-    float m = volux_shading_normal(volux_gradient_cache_sample(&st->grad, st->volume, q), st->grad_ref, dir, &n);
+    float m = volux_shading_normal(volux_gradient_cache_sample(&st->grad, st->rc.volume, q), st->grad_ref, dir, &n);
     if (m <= 0.0f) return;
     (void)p;
-    const volux_material *mat = &st->material;
+    const volux_material *mat = &st->rc.material;
     volux_vec3 diff = v3(0, 0, 0), spec = v3(0, 0, 0);
     volux_blinn_phong(mat, n, v3_scale(wbar, -1.0f), dir, E, &diff, &spec);
     /* Lambert-normalised surface radiance: (albedo·c·(ka·E + kd·E·cos) + ks·E·lobe)/π */
@@ -315,95 +278,50 @@ static inline void scatter(const lightvol_state *st, volux_vec3 p, volux_vec3 q,
     for (int k = 0; k < 3; k++) S[k] += (surf[k] - S[k]) * wl;
 }
 
-static inline float sample_at(const volux_volume *v, const volux_ray *r, float t) {
-    return volux_volume_sample_index(v, r->q0.x + r->dq.x * t, r->q0.y + r->dq.y * t, r->q0.z + r->dq.z * t);
+/* The ray caster (render/raycaster.h) specialised by `variant`: bit 0
+ * local shading, bit 1 pre-integration; each segment scatters the
+ * illumination volume's light at its end. */
+enum { LV_LOCAL = 1, LV_PREINT = 2 };
+
+static inline __attribute__((always_inline)) float sample_at(const void *tech, const volux_ray *r, float t,
+                                                              int variant) {
+    (void)variant;
+    const lightvol_state *st = tech;
+    return volux_volume_sample_index(st->rc.volume, r->q0.x + r->dq.x * t, r->q0.y + r->dq.y * t,
+                                     r->q0.z + r->dq.z * t);
 }
 
-/* One ray over the segments of sample/segment.h, pre-integrated or point
- * sampled as in `ea`; each segment scatters the illumination volume's light
- * at its end. */
-static inline __attribute__((always_inline)) volux_vec3 march(const lightvol_state *st, const volux_ray *ray,
-                                                              float jitter, float *T_out, uint64_t *samples,
-                                                              int preint, int local) {
-    const volux_volume *v = st->volume;
-    const volux_transfer_lut *lut = st->lut;
-    float T = 1.0f, C[3] = {0, 0, 0};
-    uint64_t count = 0;
-    volux_segments seg;
-    volux_march_iter it;
-    volux_segments_init(&seg, &it, st->p.skip_empty ? &st->grid : NULL, ray, st->step, jitter);
-    volux_preint pi = {0.0f, 0.0, {0.0, 0.0, 0.0}};
-    float a, b;
-    int gap;
-    while (volux_segments_next(&seg, &a, &b, &gap)) {
-        if (preint && gap) {
-            volux_preint_front(lut, sample_at(v, ray, a), &pi);
-            count++;
-        }
-        float s = sample_at(v, ray, b), c[3];
-        float tau = preint ? volux_preint_segment(lut, &pi, s, b - a, c) : volux_point_segment(lut, s, b - a, c);
-        count++;
-        if (tau <= 0.0f) continue;
-        float S[3];
-        scatter(st, v3_madd(ray->o, ray->d, b), v3_madd(ray->q0, ray->dq, b), ray->d, c, S, local);
-        float alpha = 1.0f - expf(-tau);
-        float wgt = T * alpha;
-        C[0] += wgt * S[0];
-        C[1] += wgt * S[1];
-        C[2] += wgt * S[2];
-        T -= wgt;
-        if (T < st->p.t_min) break;
-    }
-    *samples += count;
-    *T_out = T;
-    return v3(C[0], C[1], C[2]);
+static inline __attribute__((always_inline)) void shade_at(const void *tech, const volux_ray *ray, float t,
+                                                            float c[3], int variant) {
+    float S[3];
+    scatter(tech, v3_madd(ray->o, ray->d, t), v3_madd(ray->q0, ray->dq, t), ray->d, c, S, variant & LV_LOCAL);
+    c[0] = S[0], c[1] = S[1], c[2] = S[2];
 }
 
-static inline __attribute__((always_inline)) void render_impl(const lightvol_state *st, const volux_scene *scene,
-                                                              const volux_tile *tile, float *rgb,
-                                                              volux_tile_stats *stats, int preint, int local) {
-    const volux_camera *cam = &st->camera;
-    uint64_t samples = 0;
-    for (int y = 0; y < tile->h; y++)
-        for (int x = 0; x < tile->w; x++) {
-            volux_primary pr = volux_primary_ray(cam, st->seed, tile->x0 + x, tile->y0 + y, tile->sample_index);
-            volux_ray ray;
-            volux_vec3 bg = volux_scene_escape_radiance(scene, pr.d);
-            float *out = &rgb[3 * (y * tile->w + x)];
-            if (!volux_ray_clip(st->volume, pr.o, pr.d, &ray)) {
-                out[0] = bg.x, out[1] = bg.y, out[2] = bg.z;
-                continue;
-            }
-            float T;
-            volux_vec3 c = march(st, &ray, pr.jitter, &T, &samples, preint, local);
-            out[0] = c.x + T * bg.x;
-            out[1] = c.y + T * bg.y;
-            out[2] = c.z + T * bg.z;
-        }
-    stats->samples += samples;
+static inline __attribute__((always_inline)) volux_vec3 integrate(const void *tech, const volux_ray *ray,
+                                                                   float jitter, float *T, uint64_t *samples,
+                                                                   int variant) {
+    const lightvol_state *st = tech;
+    const volux_ea_march_desc m = {st->rc.lut, st->p.skip_empty ? &st->rc.grid : NULL, st->rc.step, st->p.t_min};
+    return volux_ea_march(&m, tech, ray, jitter, T, samples, (variant & LV_PREINT) != 0, sample_at, shade_at,
+                          variant);
 }
 
 static void lightvol_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
                                  volux_tile_stats *stats) {
     const lightvol_state *st = state;
     int local = st->p.local_shading > 0.0f && st->grad.grad;
-    if (st->p.preintegrate) {
-        if (local) render_impl(st, scene, tile, rgb, stats, 1, 1);
-        else render_impl(st, scene, tile, rgb, stats, 1, 0);
-    } else {
-        if (local) render_impl(st, scene, tile, rgb, stats, 0, 1);
-        else render_impl(st, scene, tile, rgb, stats, 0, 0);
-    }
+    if (st->p.preintegrate && local) volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate, LV_PREINT | LV_LOCAL);
+    else if (st->p.preintegrate) volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate, LV_PREINT);
+    else if (local) volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate, LV_LOCAL);
+    else volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate, 0);
 }
 
+/* The phase function and all lights reach the image; nothing is ignored. */
 const volux_technique_class volux_lightvol_class = {
-    "lightvol",
-    "multi-light illumination volume: coherent propagation + selective light updates (Sunden & Ropinski 2015)",
-    lightvol_params,
-    0,
-    lightvol_create,
-    lightvol_update,
-    lightvol_render_tile,
-    lightvol_memory_bytes,
-    lightvol_destroy,
+    {"lightvol",
+     "multi-light illumination volume: coherent propagation + selective light updates (Sunden & Ropinski 2015)",
+     lightvol_params, 0},
+    sizeof(lightvol_state), 0,
+    NULL, lightvol_update, lightvol_render_tile, lightvol_memory_bytes, lightvol_release,
 };

@@ -24,9 +24,8 @@
 
 #include <string.h>
 
+#include "render/raycaster.h"
 #include "sample/gradient.h"
-#include "sample/march.h"
-#include "volux/technique.h"
 
 extern const volux_technique_class volux_lightvol_class;
 
@@ -239,19 +238,16 @@ typedef struct lv_stats {
 } lv_stats;
 
 typedef struct lightvol_state {
+    volux_raycaster rc;            /* base: volume, LUT, grid, camera, step,
+                                      seed, g, albedo, material, threads  */
+    /* Aliases of base fields for the propagation files (set by update). */
     volux_context *ctx;
-    volux_volume *volume;          /* retained */
-    const volux_transfer_lut *lut; /* the scene's */
-    volux_majorant_grid grid;
+    volux_volume *volume;          /* = rc.volume (not retained here)      */
+    const volux_transfer_lut *lut; /* = rc.lut                             */
+    float albedo;                  /* = rc.albedo                          */
+    int threads;                   /* = rc.threads                         */
     volux_gradient_cache grad;
-    volux_camera camera;
-    float step;                    /* world units */
-    uint64_t seed;
-    float g;                       /* HG anisotropy */
-    float albedo;
-    volux_material material;
     lv_params p;
-    int threads;
     int use_simd;                  /* resolved kernel: AVX2 row kernels      */
     int use_avx512;                /* ... and AVX-512 directional steps       */
     float grad_ref;

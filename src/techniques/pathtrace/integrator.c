@@ -94,9 +94,9 @@ static inline void iter_init(pt_iter *i, const pt_state *st, const volux_ray *r,
         i->done = !(tb > ta);
         i->t0 = ta;
         i->t1 = tb;
-        i->sigma = st->grid.global_max;
+        i->sigma = st->rc.grid.global_max;
     } else {
-        volux_march_init(&i->it, &st->grid, r, ta, tb);
+        volux_march_init(&i->it, &st->rc.grid, r, ta, tb);
     }
 }
 
@@ -113,7 +113,7 @@ static inline int iter_next(pt_iter *i, volux_interval *iv) {
 static inline float sigma_at(pt_path *p, const volux_ray *r, float t, float *rgb) {
     const pt_state *st = p->st;
     p->samples++;
-    return pt_medium_eval(st->volume, st->lut, st->pre, v3_madd(r->q0, r->dq, t), rgb);
+    return pt_medium_eval(st->rc.volume, st->rc.lut, st->pre, v3_madd(r->q0, r->dq, t), rgb);
 }
 
 /* Delta tracking over [ta, tb] of the clipped ray r: returns 1 and the
@@ -143,7 +143,7 @@ static int delta_track(pt_path *p, const volux_ray *r, float ta, float tb, float
 static float transmittance(pt_path *p, volux_vec3 o, volux_vec3 d, float dist) {
     const pt_state *st = p->st;
     volux_ray r;
-    if (!volux_ray_clip(st->volume, o, d, &r)) return 1.0f;
+    if (!volux_ray_clip(st->rc.volume, o, d, &r)) return 1.0f;
     float tb = r.t1 < dist ? r.t1 : dist;
     if (!(tb > r.t0)) return 1.0f;
     float T = 1.0f;
@@ -180,7 +180,7 @@ static inline float sphere_hit(volux_vec3 o, volux_vec3 d, volux_vec3 c, float r
 
 /* 1 − cos θmax of the cone a sphere subtends from x (0 if x is inside).
  * Computed as sin²/(1 + cos) to keep precision for small, far spheres. */
-static inline float sphere_cone(volux_vec3 x, const pt_light *l, volux_vec3 *axis, float *dist_c) {
+static inline float sphere_cone(volux_vec3 x, const volux_prepared_light *l, volux_vec3 *axis, float *dist_c) {
     volux_vec3 to = v3_sub(l->pos, x);
     float d2 = v3_dot(to, to), r2 = l->radius * l->radius;
     if (d2 <= r2) return 0.0f;
@@ -197,8 +197,8 @@ static inline float sphere_pdf(float one_minus_cos_max) {
 
 /* 1 if a sphere light other than `skip` blocks the segment (x, x + dist·w). */
 static int sphere_blocks(const pt_state *st, volux_vec3 x, volux_vec3 w, float dist, int skip) {
-    for (int i = 0; i < st->n_lights; i++) {
-        const pt_light *l = &st->lights[i];
+    for (int i = 0; i < st->rc.lights.n_all; i++) {
+        const volux_prepared_light *l = &st->rc.lights.all[i];
         if (i == skip || l->type != VOLUX_LIGHT_SPHERE) continue;
         float t = sphere_hit(x, w, l->pos, l->radius);
         if (t > 0.0f && t < dist) return 1;
@@ -211,16 +211,16 @@ static int sphere_blocks(const pt_state *st, volux_vec3 x, volux_vec3 w, float d
 static volux_vec3 direct_light(pt_path *p, volux_vec3 x, volux_vec3 d) {
     const pt_state *st = p->st;
     volux_vec3 sum = v3(0, 0, 0);
-    for (int i = 0; i < st->n_lights; i++) {
-        const pt_light *l = &st->lights[i];
+    for (int i = 0; i < st->rc.lights.n_all; i++) {
+        const volux_prepared_light *l = &st->rc.lights.all[i];
         volux_vec3 w, le;
         float dist, weight; /* phase × geometry / pdf × MIS */
         switch (l->type) {
         case VOLUX_LIGHT_DIRECTIONAL:
-            w = l->dir_to;
+            w = v3_scale(l->travel, -1.0f);
             dist = INFINITY;
-            le = l->le;
-            weight = volux_hg_eval(st->g, v3_dot(w, d));
+            le = l->power;
+            weight = volux_hg_eval(st->rc.g, v3_dot(w, d));
             break;
         case VOLUX_LIGHT_POINT:
         case VOLUX_LIGHT_SPOT: {
@@ -229,13 +229,13 @@ static volux_vec3 direct_light(pt_path *p, volux_vec3 x, volux_vec3 d) {
             if (!(d2 > 0.0f)) continue;
             dist = sqrtf(d2);
             w = v3_scale(to, 1.0f / dist);
-            le = l->le;
+            le = l->power;
             float f = 1.0f / d2; /* E = I/r² */
             if (l->type == VOLUX_LIGHT_SPOT) {
                 f *= volux_spot_falloff(l->desc, -v3_dot(w, l->axis)); /* cos(axis, light→x) */
                 if (!(f > 0.0f)) continue;
             }
-            weight = volux_hg_eval(st->g, v3_dot(w, d)) * f;
+            weight = volux_hg_eval(st->rc.g, v3_dot(w, d)) * f;
             break;
         }
         case VOLUX_LIGHT_SPHERE: {
@@ -249,24 +249,24 @@ static volux_vec3 direct_light(pt_path *p, volux_vec3 x, volux_vec3 d) {
             float b = -v3_dot(v3_scale(axis, dc), w);
             float cc = dc * dc - l->radius * l->radius;
             dist = -b - sqrtf(fmaxf(b * b - cc, 0.0f));
-            float pdf_l = sphere_pdf(omc), f = volux_hg_eval(st->g, v3_dot(w, d));
-            le = l->le;
+            float pdf_l = sphere_pdf(omc), f = volux_hg_eval(st->rc.g, v3_dot(w, d));
+            le = l->radiance;
             weight = f * volux_mis_power(pdf_l, f) / pdf_l;
             break;
         }
         case VOLUX_LIGHT_ENVIRONMENT: {
-            float pdf_l = volux_envmap_sample(l->env, l->desc, rnd(p), rnd(p), &w);
+            float pdf_l = volux_envmap_sample(&st->env[l->slot], l->desc, rnd(p), rnd(p), &w);
             if (!(pdf_l > 0.0f)) continue;
             dist = INFINITY;
             le = volux_environment_radiance(l->desc, w);
-            float f = volux_hg_eval(st->g, v3_dot(w, d));
+            float f = volux_hg_eval(st->rc.g, v3_dot(w, d));
             weight = f * volux_mis_power(pdf_l, f) / pdf_l;
             break;
         }
         default: continue;
         }
         if (!(weight > 0.0f) || !(v3_max_comp(le) > 0.0f)) continue;
-        if (st->n_sphere > 0 && sphere_blocks(st, x, w, dist, i)) continue;
+        if (st->rc.lights.n_sphere > 0 && sphere_blocks(st, x, w, dist, i)) continue;
         float T = transmittance(p, x, w, dist);
         if (T != 0.0f) sum = v3_madd(sum, le, weight * T);
     }
@@ -283,8 +283,8 @@ static volux_vec3 emitters_hit(const pt_state *st, volux_vec3 o, volux_vec3 d, f
     volux_vec3 sum = v3(0, 0, 0);
     int nearest = -1;
     float t_near = t_end;
-    for (int i = 0; i < st->n_lights && st->n_sphere > 0; i++) {
-        const pt_light *l = &st->lights[i];
+    for (int i = 0; i < st->rc.lights.n_all && st->rc.lights.n_sphere > 0; i++) {
+        const volux_prepared_light *l = &st->rc.lights.all[i];
         if (l->type != VOLUX_LIGHT_SPHERE) continue;
         float t = sphere_hit(o, d, l->pos, l->radius);
         if (t > 0.0f && t < t_near) {
@@ -294,15 +294,15 @@ static volux_vec3 emitters_hit(const pt_state *st, volux_vec3 o, volux_vec3 d, f
     }
     *blocked = nearest >= 0;
     if (nearest >= 0) {
-        const pt_light *l = &st->lights[nearest];
+        const volux_prepared_light *l = &st->rc.lights.all[nearest];
         float pdf_l = sphere_pdf(sphere_cone(o, l, NULL, NULL));
-        return v3_scale(l->le, volux_mis_power(pdf_phase, pdf_l));
+        return v3_scale(l->radiance, volux_mis_power(pdf_phase, pdf_l));
     }
     if (!escaped) return sum;
-    for (int i = 0; i < st->n_lights; i++) {
-        const pt_light *l = &st->lights[i];
+    for (int i = 0; i < st->rc.lights.n_all; i++) {
+        const volux_prepared_light *l = &st->rc.lights.all[i];
         if (l->type != VOLUX_LIGHT_ENVIRONMENT) continue;
-        float pdf_l = volux_envmap_pdf(l->env, l->desc, d);
+        float pdf_l = volux_envmap_pdf(&st->env[l->slot], l->desc, d);
         sum = v3_madd(sum, volux_environment_radiance(l->desc, d), volux_mis_power(pdf_phase, pdf_l));
     }
     return sum;
@@ -319,7 +319,7 @@ static volux_vec3 trace(pt_path *p, const volux_scene *scene, volux_vec3 o, volu
         /* Free flight to the next real collision (or out of the volume). */
         volux_ray r;
         float t_hit = INFINITY;
-        int collided = volux_ray_clip(st->volume, o, d, &r) && delta_track(p, &r, r.t0, r.t1, &t_hit);
+        int collided = volux_ray_clip(st->rc.volume, o, d, &r) && delta_track(p, &r, r.t0, r.t1, &t_hit);
         if (depth == 0) {
             if (!collided) {
                 /* Unscattered camera ray: T·L_escape, T estimated by the
@@ -332,13 +332,13 @@ static volux_vec3 trace(pt_path *p, const volux_scene *scene, volux_vec3 o, volu
             L = v3_add(L, v3_mul(beta, emitters_hit(st, o, d, t_hit, pdf_phase, !collided, &blocked)));
             if (blocked) break;
         }
-        if (!collided || depth >= st->max_depth) break;
+        if (!collided || depth >= st->rc.max_depth) break;
 
         /* Real collision: scatter with probability max ρ, carry ρ/max ρ. */
         volux_vec3 x = v3_madd(o, d, t_hit);
         float c[3];
         sigma_at(p, &r, t_hit, c);
-        volux_vec3 rho = v3(st->albedo * c[0], st->albedo * c[1], st->albedo * c[2]);
+        volux_vec3 rho = v3(st->rc.albedo * c[0], st->rc.albedo * c[1], st->rc.albedo * c[2]);
         float P = v3_max_comp(rho);
         if (!(P > 0.0f) || (P < 1.0f && rnd(p) >= P)) break;
         beta = v3_mul(beta, v3_scale(rho, 1.0f / P));
@@ -346,7 +346,7 @@ static volux_vec3 trace(pt_path *p, const volux_scene *scene, volux_vec3 o, volu
         p->vertices++;
 
         /* Next-event estimation (light-sampling strategy). */
-        if (st->n_lights > 0) L = v3_add(L, v3_mul(beta, direct_light(p, x, d)));
+        if (st->rc.lights.n_all > 0) L = v3_add(L, v3_mul(beta, direct_light(p, x, d)));
 
         /* Russian roulette on the throughput. */
         if (depth >= st->rr_depth) {
@@ -358,10 +358,10 @@ static volux_vec3 trace(pt_path *p, const volux_scene *scene, volux_vec3 o, volu
         }
         /* After the last scattering event the continuation ray only
          * serves MIS for sphere/environment lights. */
-        if (depth >= st->max_depth && st->n_area == 0) break;
+        if (depth >= st->rc.max_depth && st->n_area == 0) break;
 
         /* Phase sampling: f/pdf = 1 for HG sampled exactly. */
-        d = volux_hg_sample(st->g, d, rnd(p), rnd(p), &pdf_phase);
+        d = volux_hg_sample(st->rc.g, d, rnd(p), rnd(p), &pdf_phase);
         o = x;
     }
     return L;
@@ -370,13 +370,13 @@ static volux_vec3 trace(pt_path *p, const volux_scene *scene, volux_vec3 o, volu
 void volux_pathtrace_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
                                  volux_tile_stats *stats) {
     const pt_state *st = state;
-    const volux_camera *cam = &st->camera;
+    const volux_camera *cam = &st->rc.camera;
     pt_path p = {st, {0, 0}, 0, 0};
     for (int y = 0; y < tile->h; y++)
         for (int x = 0; x < tile->w; x++) {
             int px = tile->x0 + x, py = tile->y0 + y;
             uint64_t pixel = (uint64_t)py * (uint64_t)cam->width + (uint64_t)px;
-            p.rng = volux_rng_make(st->seed, pixel, tile->sample_index, 0);
+            p.rng = volux_rng_make(st->rc.seed, pixel, tile->sample_index, 0);
             /* Box filter: uniform over the pixel square, for every sample. */
             float jx = rnd(&p), jy = rnd(&p);
             volux_vec3 o, d;

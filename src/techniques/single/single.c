@@ -37,8 +37,8 @@ static const volux_param_info single_params[] = {
 /* Transmittance from p towards light l through the volume: midpoint rule on
  * fixed segments [i·h, (i+1)·h] of the ray from p, skipping empty
  * macrocells; stops below 1e-5. */
-static float shadow_transmittance(const single_state *st, volux_vec3 p, const scatter_light *l) {
-    const scatter_base *b = &st->b;
+static float shadow_transmittance(const single_state *st, volux_vec3 p, const volux_prepared_light *l) {
+    const volux_raycaster *rc = &st->b.rc;
     volux_vec3 dir;
     float t_max = INFINITY;
     if (l->positional) {
@@ -47,14 +47,14 @@ static float shadow_transmittance(const single_state *st, volux_vec3 p, const sc
         if (t_max <= 0.0f) return 1.0f;
         dir = v3_scale(to, 1.0f / t_max);
     } else {
-        dir = v3_scale(l->dir, -1.0f);
+        dir = v3_scale(l->travel, -1.0f);
     }
     volux_ray ray;
-    if (!volux_ray_clip(b->volume, p, dir, &ray)) return 1.0f;
+    if (!volux_ray_clip(rc->volume, p, dir, &ray)) return 1.0f;
     float t1 = ray.t1 < t_max ? ray.t1 : t_max, h = st->shadow_step;
     if (ray.t0 >= t1) return 1.0f;
     volux_march_iter it;
-    volux_march_init(&it, &b->grid, &ray, ray.t0, t1);
+    volux_march_init(&it, &rc->grid, &ray, ray.t0, t1);
     volux_interval iv;
     float tau = 0.0f;
     while (volux_march_next(&it, &iv)) {
@@ -66,7 +66,7 @@ static float shadow_transmittance(const single_state *st, volux_vec3 p, const sc
             if (e > iv.t1) e = iv.t1;
             if (e <= a) continue;
             volux_vec3 q = v3_madd(ray.q0, ray.dq, 0.5f * (a + e));
-            tau += volux_lut_sigma(b->lut, volux_volume_sample_index(b->volume, q.x, q.y, q.z)) * (e - a);
+            tau += volux_lut_sigma(rc->lut, volux_volume_sample_index(rc->volume, q.x, q.y, q.z)) * (e - a);
         }
         if (tau > 11.5f) return 0.0f;
     }
@@ -75,7 +75,7 @@ static float shadow_transmittance(const single_state *st, volux_vec3 p, const sc
 
 typedef struct cache_job {
     const single_state *st;
-    const scatter_light *l;
+    const volux_prepared_light *l;
     scatter_grid *g;
 } cache_job;
 
@@ -89,72 +89,56 @@ static void cache_slice(void *user, int64_t k, int thread) {
                 shadow_transmittance(j->st, scatter_grid_node(g, x, y, (int)k), j->l);
 }
 
-static volux_status build_cache(single_state *st, const scatter_light *l) {
+static volux_status build_cache(single_state *st, const volux_prepared_light *l) {
     scatter_grid *g = &st->cache[l->slot];
-    volux_status s = scatter_grid_alloc(st->b.ctx, st->b.volume, st->cache_scale, g, "single: transmittance cache");
+    volux_status s = scatter_grid_alloc(st->b.rc.ctx, st->b.rc.volume, st->cache_scale, g, "single: transmittance cache");
     if (s) return s;
     cache_job job = {st, l, g};
-    volux_parallel_for(st->b.threads, g->dims[2], cache_slice, &job);
+    volux_parallel_for(st->b.rc.threads, g->dims[2], cache_slice, &job);
     st->cache_builds[l->slot]++;
     return VOLUX_OK;
 }
 
-volux_status volux_single_update(void *state, volux_scene *scene, const volux_change_set *c) {
+static volux_status single_update(void *state, const volux_scene *scene, const volux_change_set *c) {
     single_state *st = state;
-    volux_status s = scatter_base_update(&st->b, scene, c);
-    if (s) return s;
+    volux_raycaster *rc = &st->b.rc;
+    scatter_base_update(&st->b, scene, c);
     int all = (c->what & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY)) != 0;
     if (c->what & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME)) {
-        const volux_technique_class *cls = st->b.cls;
-        int use = (int)volux_technique_param(scene, cls, "transmittance_cache");
-        float scale = (float)volux_technique_param(scene, cls, "cache_scale");
-        float step = (float)volux_technique_param(scene, cls, "shadow_step") * st->b.min_spacing;
+        int use = (int)volux_technique_param(scene, rc->cls, "transmittance_cache");
+        float scale = (float)volux_technique_param(scene, rc->cls, "cache_scale");
+        float step = (float)volux_technique_param(scene, rc->cls, "shadow_step") * rc->min_spacing;
         if (use != st->use_cache || scale != st->cache_scale || step != st->shadow_step) all = 1;
         st->use_cache = use, st->cache_scale = scale, st->shadow_step = step;
     }
     /* Drop caches of slots that no longer hold an enabled light. */
+    const volux_light_list *ls = &rc->lights;
     int live[VOLUX_MAX_LIGHTS] = {0};
-    for (int i = 0; i < st->b.n_lights; i++) live[st->b.lights[i].slot] = 1;
+    for (int i = 0; i < ls->n_direct; i++) live[ls->direct[i].slot] = 1;
     for (int slot = 0; slot < VOLUX_MAX_LIGHTS; slot++)
-        if (st->cache[slot].v && (!live[slot] || !st->use_cache)) scatter_grid_free(st->b.ctx, &st->cache[slot]);
+        if (st->cache[slot].v && (!live[slot] || !st->use_cache)) scatter_grid_free(rc->ctx, &st->cache[slot]);
     if (!st->use_cache) return VOLUX_OK;
-    for (int i = 0; i < st->b.n_lights; i++) {
-        const scatter_light *l = &st->b.lights[i];
+    for (int i = 0; i < ls->n_direct; i++) {
+        const volux_prepared_light *l = &ls->direct[i];
+        volux_status s;
         if (all || volux_change_light(c, l->slot) || !st->cache[l->slot].v)
             if ((s = build_cache(st, l))) return s;
     }
     return VOLUX_OK;
 }
 
-static volux_status single_create(volux_context *ctx, volux_scene *scene, void **out) {
-    single_state *st = volux_calloc(ctx, 1, sizeof *st);
-    if (!st) return volux_error(ctx, VOLUX_ERR_NOMEM, "single: out of memory for technique state");
-    st->b.ctx = ctx;
-    st->b.cls = &volux_single_class;
-    st->use_cache = -1;
-    volux_change_set all = volux_change_all();
-    volux_status s = volux_single_update(st, scene, &all);
-    if (s) {
-        volux_single_destroy(st);
-        return s;
-    }
-    *out = st;
-    return VOLUX_OK;
-}
+static void single_init(void *state) { ((single_state *)state)->use_cache = -1; }
 
-size_t volux_single_memory_bytes(const void *state) {
+static size_t single_memory_bytes(const void *state) {
     const single_state *st = state;
-    size_t n = sizeof *st + scatter_base_memory(&st->b);
+    size_t n = 0;
     for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) n += st->cache[i].bytes;
     return n;
 }
 
-void volux_single_destroy(void *state) {
+static void single_release(void *state) {
     single_state *st = state;
-    if (!st) return;
-    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) scatter_grid_free(st->b.ctx, &st->cache[i]);
-    scatter_base_free(&st->b);
-    volux_free(st->b.ctx, st, sizeof *st);
+    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) scatter_grid_free(st->b.rc.ctx, &st->cache[i]);
 }
 
 /* ------------------------------------------------------------------ render */
@@ -163,28 +147,36 @@ static inline __attribute__((always_inline)) void inscatter(const void *tech, co
                                                             volux_vec3 *Ls, volux_vec3 *extra) {
     (void)extra;
     const single_state *st = tech;
-    const scatter_base *b = &st->b;
+    const volux_light_list *ls = &st->b.rc.lights;
     volux_vec3 L = v3(0, 0, 0);
-    for (int i = 0; i < b->n_lights; i++) {
-        const scatter_light *l = &b->lights[i];
+    for (int i = 0; i < ls->n_direct; i++) {
+        const volux_prepared_light *l = &ls->direct[i];
         volux_vec3 travel;
-        volux_vec3 E = scatter_light_irradiance(l, smp->p, &travel);
+        volux_vec3 E = volux_light_irradiance(l, smp->p, &travel);
         if (E.x <= 0.0f && E.y <= 0.0f && E.z <= 0.0f) continue;
         float T = st->use_cache ? scatter_grid_sample(&st->cache[l->slot], smp->p)
                                 : shadow_transmittance(st, smp->p, l);
-        L = v3_add(L, v3_scale(E, T * volux_hg_eval(b->g, v3_dot(travel, smp->to_eye))));
+        L = v3_add(L, v3_scale(E, T * volux_hg_eval(st->b.rc.g, v3_dot(travel, smp->to_eye))));
     }
     *Ls = L;
+}
+
+static inline __attribute__((always_inline)) volux_vec3 integrate(const void *tech, const volux_ray *ray,
+                                                                   float jitter, float *T, uint64_t *samples,
+                                                                   int variant) {
+    (void)variant;
+    return scatter_march(tech, tech, ray, jitter, T, samples, 0.0f, inscatter);
 }
 
 static void single_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
                                volux_tile_stats *stats) {
     const single_state *st = state;
-    scatter_render_tile(&st->b, st, scene, tile, rgb, stats, 0.0f, inscatter);
+    volux_raycaster_tile(&st->b.rc, st, scene, tile, rgb, stats, integrate, 0);
 }
 
 const volux_technique_class volux_single_class = {
-    "single", "single scattering with shadow rays and an optional transmittance cache (Ament 2013 baseline)",
-    single_params, 0, single_create, volux_single_update, single_render_tile, volux_single_memory_bytes,
-    volux_single_destroy,
+    {"single", "single scattering with shadow rays and an optional transmittance cache (Ament 2013 baseline)",
+     single_params, 0},
+    sizeof(single_state), 0,
+    single_init, single_update, single_render_tile, single_memory_bytes, single_release,
 };

@@ -19,8 +19,4 @@ typedef struct single_state {
     uint64_t cache_builds[VOLUX_MAX_LIGHTS];
 } single_state;
 
-volux_status volux_single_update(void *state, volux_scene *scene, const volux_change_set *c);
-size_t volux_single_memory_bytes(const void *state);
-void volux_single_destroy(void *state);
-
 #endif

@@ -1,0 +1,72 @@
+/*
+ * render/lights.h — the scene's lights prepared once per light edit, in the
+ * one form every technique reads (DESIGN §2 units).
+ *
+ *   directional: irradiance·colour along a constant travel direction
+ *   point, spot: intensity·colour / d², spot cone falloff about the axis
+ *   sphere:      radiance·colour on a sphere; `power` is the intensity of
+ *                the point light of the same flux (radiance·π·r²·colour),
+ *                for techniques that treat a small sphere as a point
+ *   environment: radiance from every direction (constant or a map); its
+ *                solid-angle mean is summed into `env_mean`
+ *
+ * Each prepared light remembers its scene slot, so a technique can rebuild
+ * the cache of exactly the light that changed.
+ */
+#ifndef VOLUX_RENDER_LIGHTS_H
+#define VOLUX_RENDER_LIGHTS_H
+
+#include "core/vecmath.h"
+#include "volux/scene.h"
+
+typedef struct volux_prepared_light {
+    int slot;
+    volux_light_type type;
+    int positional;      /* point, spot, sphere: 1/d² falloff               */
+    int spot;
+    volux_vec3 travel;   /* directional: unit travel direction              */
+    volux_vec3 pos;      /* point, spot: position; sphere: centre           */
+    volux_vec3 axis;     /* spot (and point): unit cone axis, travel sense  */
+    volux_vec3 power;    /* directional: irradiance·colour (W/m²); point,
+                            spot: intensity·colour (W/sr); sphere: the
+                            equivalent point intensity radiance·π·r²·colour */
+    volux_vec3 radiance; /* sphere: radiance·colour                         */
+    float radius;        /* sphere                                          */
+    const volux_light_desc *desc; /* the scene's (spot falloff, environment
+                                     map); valid until the next scene edit  */
+} volux_prepared_light;
+
+typedef struct volux_light_list {
+    volux_prepared_light all[VOLUX_MAX_LIGHTS];    /* enabled lights, slot order     */
+    int n_all;
+    volux_prepared_light direct[VOLUX_MAX_LIGHTS]; /* the same without environments  */
+    int n_direct;
+    int n_env, n_sphere;
+    volux_vec3 env_mean; /* Σ of the enabled environments' mean radiance (0 if none) */
+} volux_light_list;
+
+/* Fills `out` from the scene's enabled lights. */
+void volux_light_list_prepare(const volux_scene *s, volux_light_list *out);
+
+/* Solid-angle mean radiance of an environment light (rows of a map are
+ * weighted by the sine of their polar angle). */
+volux_vec3 volux_environment_mean(const volux_light_desc *d);
+
+/* Unshadowed irradiance at p from a direct light and the direction the
+ * light travels there (unit). */
+static inline volux_vec3 volux_light_irradiance(const volux_prepared_light *l, volux_vec3 p, volux_vec3 *travel) {
+    if (!l->positional) {
+        *travel = l->travel;
+        return l->power;
+    }
+    volux_vec3 d = v3_sub(p, l->pos);
+    float d2 = v3_dot(d, d);
+    if (d2 < 1e-12f) d2 = 1e-12f;
+    float inv = 1.0f / sqrtf(d2);
+    *travel = v3_scale(d, inv);
+    float f = 1.0f / d2;
+    if (l->spot) f *= volux_spot_falloff(l->desc, v3_dot(*travel, l->axis));
+    return v3_scale(l->power, f);
+}
+
+#endif

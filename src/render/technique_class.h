@@ -1,0 +1,80 @@
+/*
+ * render/technique_class.h — what a technique implements, and the generic
+ * instance machinery every technique reuses (pbrt's Integrator interface).
+ *
+ * A technique is a class: a state size, an update that maps a change set to
+ * the least cache work, a tile renderer, and a release for its caches. The
+ * generic code in render/technique.c allocates the state block, builds the
+ * shared ray-caster base (render/raycaster.h, the first member of every
+ * state) before each update, and frees both; a technique only writes what
+ * differs. The one table of classes is src/techniques/registry.c.
+ *
+ * Internal: techniques, the frame loop and white-box tests include it.
+ */
+#ifndef VOLUX_TECHNIQUE_CLASS_H
+#define VOLUX_TECHNIQUE_CLASS_H
+
+#include "volux/technique.h"
+
+/* A rectangle of pixels for one sample index. */
+typedef struct volux_tile {
+    int x0, y0, w, h;        /* pixel rectangle                             */
+    uint32_t sample_index;   /* which sample of the pixel (0, 1, ...)       */
+} volux_tile;
+
+/* Per-tile statistics a technique may report (for benchmarks). */
+typedef struct volux_tile_stats {
+    uint64_t samples;   /* volume samples taken (ray-march steps)            */
+    uint64_t vertices;  /* path vertices (stochastic techniques)             */
+} volux_tile_stats;
+
+typedef struct volux_technique_class {
+    volux_technique_info info;      /* name, summary, params, progressive  */
+    /* Bytes of the state block; it starts with a volux_raycaster. */
+    size_t state_size;
+    /* Change bits that can never change this technique's image (e.g. `ea`
+     * ignores lights and the phase function). The technique × edit test
+     * matrix asserts that these edits leave the image unchanged and that
+     * every other edit kind changes it. */
+    uint32_t image_ignores;
+    /* Optional: values the state needs before its first update that are
+     * not zero (e.g. "no cache yet" markers). May not fail. */
+    void (*init)(void *state);
+    /* Brings the technique's caches up to date for `changes`; the base
+     * (volume, LUT, majorant grid, camera, step, seed, lights, ...) is
+     * already up to date. create applies volux_change_all(). */
+    volux_status (*update)(void *state, const volux_scene *scene, const volux_change_set *changes);
+    /* Radiance of every pixel of `tile` into rgb[(y·w + x)·3]. May add
+     * counts to `stats` (never NULL). Called concurrently for different
+     * tiles; must not write to the state, and must be a pure function of
+     * (state, scene, tile) so images do not depend on the thread count. */
+    void (*render_tile)(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
+                        volux_tile_stats *stats);
+    /* Bytes of the technique's own caches (the state block and the base
+     * are counted by the caller). May be NULL. */
+    size_t (*memory_bytes)(const void *state);
+    /* Frees the technique's own caches (not the base, not the block); must
+     * accept a state whose update failed half-way. May be NULL. */
+    void (*release)(void *state);
+} volux_technique_class;
+
+/* Creates an instance of `cls` for the scene (registry.c resolves names). */
+volux_status volux_technique_create_class(volux_context *ctx, const volux_technique_class *cls,
+                                          const volux_scene *scene, volux_technique **out);
+const volux_technique_class *volux_technique_class_of(const volux_technique *t);
+/* The class's state, read-only (for the frame loop and white-box tests). */
+const void *volux_technique_state(const volux_technique *t);
+/* Increases whenever an update applied a change (the frame loop compares
+ * it with what a framebuffer's samples were rendered from). */
+uint64_t volux_technique_generation(const volux_technique *t);
+
+/* Checks one stored parameter against its technique's table
+ * (VOLUX_ERR_INVALID naming "techniques.<tech>.<name>"). */
+volux_status volux_technique_check_param(volux_context *ctx, const volux_technique_info *info, const char *name,
+                                         double number, const char *string);
+/* Value of a parameter from the scene, or the class default. */
+double volux_technique_param(const volux_scene *scene, const volux_technique_class *cls, const char *name);
+const char *volux_technique_param_string(const volux_scene *scene, const volux_technique_class *cls,
+                                         const char *name);
+
+#endif
