@@ -29,12 +29,6 @@ static const char *SCENE =
     "   \"radius\": 3, \"specular\": true},"
     "   \"ao\": {\"radius\": 4}, \"single\": {\"cache_scale\": 0.5}}}";
 
-static void set_cache_dir(void) {
-    static char dir[600];
-    snprintf(dir, sizeof dir, "%s", tu_temp_path("xdg"));
-    setenv("XDG_CACHE_HOME", dir, 1);
-}
-
 static volux_scene *load(volux_context *ctx) {
     volux_scene *s;
     if (volux_scene_load_string(ctx, SCENE, ".", "test", NULL, 0, &s) != VOLUX_OK)
@@ -97,7 +91,6 @@ static void edit_tf_field(volux_scene *s, int which) {
 }
 
 static void run_edits(const char *name) {
-    set_cache_dir();
     volux_context *ctx = tu_context(2);
     volux_scene *s = load(ctx);
     volux_technique *t;
@@ -155,7 +148,6 @@ static void test_ambient_incremental_equals_fresh(void **state) {
 /* Least work, read from the techniques' own counters. */
 static void test_ambient_edits_do_least_work(void **state) {
     (void)state;
-    set_cache_dir();
     volux_context *ctx = tu_context(2);
     volux_scene *s = load(ctx);
     volux_technique *t;
@@ -245,7 +237,6 @@ static void test_single_and_ao_edits_do_least_work(void **state) {
 
 static void test_images_do_not_depend_on_thread_count(void **state) {
     (void)state;
-    set_cache_dir();
     const char *names[] = {"single", "ao", "ambient"};
     for (int k = 0; k < 3; k++) {
         float *img[2];
