@@ -2,9 +2,9 @@
  * volux/base.h — status codes, small value types and the context.
  *
  * The context is the root object: it owns the allocator, the thread count,
- * the memory cap for loaders, the progress/cancel callback and the first
- * error message since the caller last cleared it. Every other object is
- * created from one.
+ * the memory cap for loaders, the progress/cancel callback, the cache folder
+ * and the first error message since the caller last cleared it. Every other
+ * object is created from one.
  *
  * DOES NOT: print, exit or abort on bad input. The library reports errors
  * through return codes and volux_context_error(); printing and exit codes
@@ -87,6 +87,8 @@ typedef struct volux_context_desc {
     void *alloc_user;
     volux_progress_fn progress; /* NULL = silent                            */
     void *progress_user;
+    const char *cache_dir;     /* NULL = default, "" = no disk cache; see
+                                  volux_context_set_cache_dir (copied)      */
 } volux_context_desc;
 
 #define VOLUX_DEFAULT_MAX_BYTES (8ull << 30) /* 8 GiB */
@@ -109,8 +111,23 @@ VOLUX_API void volux_context_set_threads(volux_context *ctx, int threads);
 VOLUX_API int volux_context_threads(const volux_context *ctx);
 VOLUX_API void volux_context_set_progress(volux_context *ctx, volux_progress_fn fn, void *user);
 VOLUX_API uint64_t volux_context_max_bytes(const volux_context *ctx);
-/* Bytes currently allocated through the context (for memory reports). */
+/* Bytes currently allocated through the context (for memory reports); the
+ * context's own storage (itself, its cache folder name) is not counted. */
 VOLUX_API uint64_t volux_context_bytes_in_use(const volux_context *ctx);
+
+/* The folder where techniques keep data that is expensive to build and
+ * independent of any scene (today: the ambient preintegration table,
+ * docs/techniques/ambient.md). NULL selects the default, read from the
+ * environment when this is called (for volux_context_create: once, at
+ * creation): $XDG_CACHE_HOME/volux if XDG_CACHE_HOME is set and non-empty,
+ * else $HOME/.cache/volux, else none. "" turns the disk cache off: such data
+ * is then built in memory by every technique instance that needs it. The
+ * folder is created when first written; one that cannot be written only
+ * means the data is not kept. The string is copied through the context's
+ * allocator; VOLUX_ERR_NOMEM leaves the previous folder in place. */
+VOLUX_API volux_status volux_context_set_cache_dir(volux_context *ctx, const char *dir);
+/* The cache folder in use; "" if none. Valid until the next set. */
+VOLUX_API const char *volux_context_cache_dir(const volux_context *ctx);
 
 #ifdef __cplusplus
 }

@@ -3,7 +3,7 @@
 #define VOLUX_VOLUX_H
 
 #include "base.h"
-#include "ambient_table.h"
+#include "ambient.h"
 #include "camera.h"
 #include "image.h"
 #include "io.h"

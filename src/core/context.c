@@ -1,4 +1,4 @@
-/* core/context.c — context, allocator, error messages, progress. */
+/* core/context.c — context, allocator, error messages, progress, cache folder. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -38,6 +38,33 @@ int volux_status_is_input_error(volux_status s) {
            s == VOLUX_ERR_UNSUPPORTED || s == VOLUX_ERR_LIMIT;
 }
 
+/* Copies `dir` (NULL: the default folder, from the environment) into
+ * *out through the context's allocator, unaccounted. 0 on out of memory. */
+static int copy_cache_dir(volux_context *ctx, const char *dir, char **out) {
+    char def[4200] = "";
+    if (!dir) {
+        /* XDG Base Directory spec: user-specific non-essential data goes to
+         * $XDG_CACHE_HOME, which defaults to $HOME/.cache. A name that does
+         * not fit is no usable folder: no disk cache then. */
+        const char *xdg = getenv("XDG_CACHE_HOME"), *home = getenv("HOME");
+        int n = 0;
+        if (xdg && *xdg) n = snprintf(def, sizeof def, "%s/volux", xdg);
+        else if (home && *home) n = snprintf(def, sizeof def, "%s/.cache/volux", home);
+        if (n < 0 || (size_t)n >= sizeof def) def[0] = 0;
+        dir = def;
+    }
+    size_t n = strlen(dir) + 1;
+    char *copy = ctx->alloc(ctx->alloc_user, NULL, 0, n);
+    if (!copy) return 0;
+    memcpy(copy, dir, n);
+    *out = copy;
+    return 1;
+}
+
+static void free_cache_dir(volux_context *ctx, char *dir) {
+    if (dir) ctx->alloc(ctx->alloc_user, dir, strlen(dir) + 1, 0);
+}
+
 volux_status volux_context_create(const volux_context_desc *desc, volux_context **out) {
     volux_alloc_fn alloc = desc && desc->alloc ? desc->alloc : default_alloc;
     void *user = desc ? desc->alloc_user : NULL;
@@ -50,14 +77,29 @@ volux_status volux_context_create(const volux_context_desc *desc, volux_context 
     ctx->max_bytes = desc && desc->max_bytes ? desc->max_bytes : VOLUX_DEFAULT_MAX_BYTES;
     ctx->progress = desc ? desc->progress : NULL;
     ctx->progress_user = desc ? desc->progress_user : NULL;
+    if (!copy_cache_dir(ctx, desc ? desc->cache_dir : NULL, &ctx->cache_dir)) {
+        alloc(user, ctx, sizeof *ctx, 0);
+        return VOLUX_ERR_NOMEM;
+    }
     *out = ctx;
     return VOLUX_OK;
 }
 
 void volux_context_destroy(volux_context *ctx) {
     if (!ctx) return;
+    free_cache_dir(ctx, ctx->cache_dir);
     ctx->alloc(ctx->alloc_user, ctx, sizeof *ctx, 0);
 }
+
+volux_status volux_context_set_cache_dir(volux_context *ctx, const char *dir) {
+    char *copy;
+    if (!copy_cache_dir(ctx, dir, &copy))
+        return volux_error(ctx, VOLUX_ERR_NOMEM, "cache folder: out of memory for its name");
+    free_cache_dir(ctx, ctx->cache_dir);
+    ctx->cache_dir = copy;
+    return VOLUX_OK;
+}
+const char *volux_context_cache_dir(const volux_context *ctx) { return ctx->cache_dir; }
 
 const char *volux_context_error(const volux_context *ctx) { return ctx->error; }
 volux_status volux_context_error_status(const volux_context *ctx) { return ctx->error_status; }

@@ -25,6 +25,9 @@ struct volux_context {
     volux_status error_status;
     char error[VOLUX_ERROR_MAX];
     uint64_t bytes_in_use; /* updated atomically */
+    char *cache_dir;       /* never NULL; "" = no disk cache. Allocated with
+                              `alloc` but not counted in bytes_in_use, like
+                              the context itself */
 };
 
 /* Allocations (NULL on failure, no message set: callers report). */

@@ -247,7 +247,7 @@ static void test_kernel_parameter_is_validated(void **state) {
     volux_scene *s = make_scene(ctx, &storages[0], file, 0, 1, 1, 0.002);
     volux_technique *t = NULL;
     assert_int_equal(volux_scene_set_param(s, "ea", "kernel", 0, "fast"), VOLUX_OK);
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_technique_create(ctx, "ea", s, &t), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "techniques.ea.kernel"));
     /* the scalar kernel is always there */

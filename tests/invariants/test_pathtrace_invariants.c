@@ -216,7 +216,7 @@ static void test_incremental_update_equals_fresh_create(void **state) {
     volux_image_free(ctx, &before);
     /* a bad string parameter is an error naming it */
     assert_int_equal(volux_scene_set_param(s, "pathtrace", "classification", 0, "sideways"), VOLUX_OK);
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "techniques.pathtrace.classification"));
     volux_technique_destroy(t);

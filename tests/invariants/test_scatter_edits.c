@@ -29,12 +29,6 @@ static const char *SCENE =
     "   \"radius\": 3, \"specular\": true},"
     "   \"ao\": {\"radius\": 4}, \"single\": {\"cache_scale\": 0.5}}}";
 
-static void set_cache_dir(void) {
-    static char dir[600];
-    snprintf(dir, sizeof dir, "%s", tu_temp_path("xdg"));
-    setenv("XDG_CACHE_HOME", dir, 1);
-}
-
 static volux_scene *load(volux_context *ctx) {
     volux_scene *s;
     if (volux_scene_load_string(ctx, SCENE, ".", "test", NULL, 0, &s) != VOLUX_OK)
@@ -97,7 +91,6 @@ static void edit_tf_field(volux_scene *s, int which) {
 }
 
 static void run_edits(const char *name) {
-    set_cache_dir();
     volux_context *ctx = tu_context(2);
     volux_scene *s = load(ctx);
     volux_technique *t;
@@ -155,7 +148,6 @@ static void test_ambient_incremental_equals_fresh(void **state) {
 /* Least work, read from the techniques' own counters. */
 static void test_ambient_edits_do_least_work(void **state) {
     (void)state;
-    set_cache_dir();
     volux_context *ctx = tu_context(2);
     volux_scene *s = load(ctx);
     volux_technique *t;
@@ -245,7 +237,6 @@ static void test_single_and_ao_edits_do_least_work(void **state) {
 
 static void test_images_do_not_depend_on_thread_count(void **state) {
     (void)state;
-    set_cache_dir();
     const char *names[] = {"single", "ao", "ambient"};
     for (int k = 0; k < 3; k++) {
         float *img[2];
@@ -272,16 +263,16 @@ static void test_bad_parameters_name_the_parameter(void **state) {
     volux_scene *s = load(ctx);
     volux_technique *t;
     assert_int_equal(volux_scene_set_param(s, "ambient", "radius", 0.1, NULL), VOLUX_OK);
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_technique_create(ctx, "ambient", s, &t), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "techniques.ambient.radius"));
     assert_int_equal(volux_scene_set_param(s, "ambient", "radius", 3, NULL), VOLUX_OK);
     assert_int_equal(volux_scene_set_param(s, "ambient", "table_file", 0, tu_temp_path("nope.vxat")), VOLUX_OK);
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_technique_create(ctx, "ambient", s, &t), VOLUX_ERR_IO);
     assert_non_null(strstr(volux_context_error(ctx), "nope.vxat"));
     assert_int_equal(volux_scene_set_param(s, "single", "cache_scale", 2, NULL), VOLUX_OK);
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_technique_create(ctx, "single", s, &t), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "techniques.single.cache_scale"));
     volux_scene_destroy(s);

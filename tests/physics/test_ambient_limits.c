@@ -37,9 +37,6 @@ static volux_image render(volux_context *ctx, volux_scene *s, const char *name) 
 
 static void test_small_radius_tends_to_single_scattering(void **state) {
     (void)state;
-    char dir[600];
-    snprintf(dir, sizeof dir, "%s", tu_temp_path("xdg"));
-    setenv("XDG_CACHE_HOME", dir, 1);
     volux_context *ctx = tu_context(2);
     volux_scene *s;
     assert_int_equal(volux_scene_load_string(ctx, SCENE, ".", "test", NULL, 0, &s), VOLUX_OK);
@@ -66,9 +63,6 @@ static void test_small_radius_tends_to_single_scattering(void **state) {
  * AO term on) must reproduce `ea` without pre-integration. */
 static void test_emission_only_is_emission_absorption(void **state) {
     (void)state;
-    char dir[600];
-    snprintf(dir, sizeof dir, "%s", tu_temp_path("xdg"));
-    setenv("XDG_CACHE_HOME", dir, 1);
     volux_context *ctx = tu_context(2);
     volux_scene *s;
     assert_int_equal(volux_scene_load_string(ctx, SCENE, ".", "test", NULL, 0, &s), VOLUX_OK);

@@ -1,14 +1,17 @@
 /*
  * tests/physics/test_ambient_table.c — the preintegration table of ambient
  * scattering (Ament et al. 2013, §4.1): limits, invariants, agreement with
- * the paper's literal estimator, determinism and the file format.
+ * the paper's literal estimator, determinism, the file format, the cache
+ * folder and the public write/inspect entry points.
  */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
-#include "techniques/ambient/table_internal.h"
+#include "techniques/ambient/table.h"
 #include "techniques/scatter/hg.h"
 #include "test_util.h"
 
@@ -198,13 +201,13 @@ static void test_file_roundtrip_and_corruption(void **state) {
     volux_ambient_table_free(ctx, &u);
     /* A flipped data byte fails the checksum. */
     flip_byte(path, 128 + 40);
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_ambient_table_load(ctx, path, &u), VOLUX_ERR_FORMAT);
     assert_non_null(strstr(volux_context_error(ctx), "checksum"));
     /* Bad magic, truncation, missing file. */
     assert_int_equal(volux_ambient_table_save(ctx, &t, path), VOLUX_OK);
     flip_byte(path, 0);
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_ambient_table_load(ctx, path, &u), VOLUX_ERR_FORMAT);
     assert_non_null(strstr(volux_context_error(ctx), "magic"));
     const char *tiny = tu_write_file("short.vxat", "VXAMBTAB\1\0\0\0", 12);
@@ -214,28 +217,258 @@ static void test_file_roundtrip_and_corruption(void **state) {
     volux_context_destroy(ctx);
 }
 
+static uint64_t fnv1a64(const unsigned char *p, size_t n) {
+    uint64_t h = 0xcbf29ce484222325ull; /* FNV-1a 64 offset basis and prime */
+    for (size_t i = 0; i < n; i++) h = (h ^ p[i]) * 0x100000001b3ull;
+    return h;
+}
+static uint32_t le32(const unsigned char *p) {
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+static uint64_t le64(const unsigned char *p) { return le32(p) | (uint64_t)le32(p + 4) << 32; }
+static double lef64(const unsigned char *p) {
+    uint64_t u = le64(p);
+    double v;
+    memcpy(&v, &u, sizeof v);
+    return v;
+}
+
+/* Version 1 byte for byte, as documented in io/ambient_table_file.h: files
+ * written before the format moved to io must keep loading, and the other
+ * way round. */
+static void test_file_layout_is_version_1(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(1);
+    volux_ambient_table_desc d = small_desc();
+    d.n_theta = 5, d.n_sigma = 3, d.n_g = 2, d.paths = 7, d.seed = 0x1234567890ull, d.albedo = 0.625;
+    d.g_min = -0.5, d.g_max = 0.25;
+    volux_ambient_table t = build(ctx, &d);
+    const char *path = tu_temp_path("layout.vxat");
+    assert_int_equal(volux_ambient_table_save(ctx, &t, path), VOLUX_OK);
+    size_t n = 5 * 3 * 2, size = 128 + 2 * 4 * n + 8;
+    assert_int_equal(file_size(path), (long)size);
+    unsigned char b[128 + 2 * 4 * 30 + 8];
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    assert_int_equal(fread(b, 1, size, f), size);
+    fclose(f);
+    assert_memory_equal(b, "VXAMBTAB", 8);
+    assert_int_equal(le32(b + 8), 1);
+    assert_int_equal(le32(b + 12), 128);
+    assert_int_equal(le32(b + 16), 5);
+    assert_int_equal(le32(b + 20), 3);
+    assert_int_equal(le32(b + 24), 2);
+    assert_int_equal(le32(b + 28), 1); /* error block present */
+    assert_true(lef64(b + 32) == 0.0 && lef64(b + 40) == M_PI && lef64(b + 48) == 0.0);
+    assert_true(lef64(b + 56) == d.sigma_max && lef64(b + 64) == -0.5 && lef64(b + 72) == 0.25);
+    assert_true(lef64(b + 80) == 0.625);
+    assert_true(le64(b + 88) == 7 && le64(b + 96) == 0x1234567890ull);
+    assert_int_equal(le32(b + 104), 3);
+    for (int i = 108; i < 120; i++) assert_int_equal(b[i], 0);
+    assert_true(lef64(b + 120) == t.build_ms);
+    for (size_t i = 0; i < n; i++) {
+        uint32_t v, e;
+        memcpy(&v, &t.data[i], 4);
+        memcpy(&e, &t.rel_error[i], 4);
+        assert_int_equal(le32(b + 128 + 4 * i), v);
+        assert_int_equal(le32(b + 128 + 4 * (n + i)), e);
+    }
+    assert_true(le64(b + size - 8) == fnv1a64(b, size - 8));
+    volux_ambient_table_free(ctx, &t);
+    volux_context_destroy(ctx);
+}
+
+static int file_exists(const char *path) {
+    struct stat sb;
+    return stat(path, &sb) == 0;
+}
+
+static volux_ambient_table get(volux_context *ctx, const volux_ambient_table_desc *d, int want_built) {
+    volux_ambient_table t;
+    int built = -1;
+    if (volux_ambient_table_get(ctx, d, &t, &built) != VOLUX_OK) fail_msg("get: %s", volux_context_error(ctx));
+    assert_int_equal(built, want_built);
+    return t;
+}
+
+static void assert_same_table(const volux_ambient_table *a, const volux_ambient_table *b) {
+    size_t n = (size_t)a->desc.n_theta * a->desc.n_sigma * a->desc.n_g * sizeof(float);
+    assert_memory_equal(a->data, b->data, n);
+    assert_memory_equal(a->rel_error, b->rel_error, n);
+}
+
+/* tu_context's cache folder: one build, then loads. */
 static void test_cache_builds_once(void **state) {
     (void)state;
-    char dir[600];
-    snprintf(dir, sizeof dir, "%s", tu_temp_path("xdg-cache"));
-    setenv("XDG_CACHE_HOME", dir, 1);
     volux_context *ctx = tu_context(2);
     volux_ambient_table_desc d = small_desc();
     d.paths = 20;
-    volux_ambient_table a, b;
-    int built = -1;
-    assert_int_equal(volux_ambient_table_get(ctx, &d, &a, &built), VOLUX_OK);
-    assert_int_equal(built, 1);
-    assert_int_equal(volux_ambient_table_get(ctx, &d, &b, &built), VOLUX_OK);
-    assert_int_equal(built, 0);
-    assert_memory_equal(a.data, b.data, (size_t)d.n_theta * d.n_sigma * d.n_g * sizeof(float));
+    volux_ambient_table a = get(ctx, &d, 1), b = get(ctx, &d, 0);
+    assert_same_table(&a, &b);
     volux_ambient_table_free(ctx, &a);
     volux_ambient_table_free(ctx, &b);
     /* Another albedo is another table. */
     d.albedo = 0.5;
-    assert_int_equal(volux_ambient_table_get(ctx, &d, &a, &built), VOLUX_OK);
-    assert_int_equal(built, 1);
+    a = get(ctx, &d, 1);
     volux_ambient_table_free(ctx, &a);
+    volux_context_destroy(ctx);
+}
+
+/* A table built with cache folder D lands in D (created with its parents),
+ * and a second context given D (through its description this time) loads
+ * it without building. */
+static void test_cache_folder_option_is_honoured(void **state) {
+    (void)state;
+    char dir[600], path[4400], other[4400];
+    snprintf(dir, sizeof dir, "%s/a/b", tu_temp_path("cache-option"));
+    volux_ambient_table_desc d = small_desc();
+    d.paths = 21;
+    volux_context *c1 = tu_context(2);
+    assert_true(volux_ambient_table_cache_path(c1, &d, other, sizeof other)); /* tu_context's folder */
+    assert_int_equal(volux_context_set_cache_dir(c1, dir), VOLUX_OK);
+    assert_string_equal(volux_context_cache_dir(c1), dir);
+    assert_true(volux_ambient_table_cache_path(c1, &d, path, sizeof path));
+    assert_true(strncmp(path, dir, strlen(dir)) == 0 && path[strlen(dir)] == '/');
+    assert_false(file_exists(path));
+    volux_ambient_table a = get(c1, &d, 1);
+    assert_true(file_exists(path));
+    assert_false(file_exists(other));
+
+    volux_context_desc cd = {0};
+    cd.threads = 1;
+    cd.cache_dir = dir;
+    volux_context *c2;
+    assert_int_equal(volux_context_create(&cd, &c2), VOLUX_OK);
+    assert_string_equal(volux_context_cache_dir(c2), dir);
+    volux_ambient_table b = get(c2, &d, 0);
+    assert_same_table(&a, &b);
+    volux_ambient_table_free(c2, &b);
+    volux_ambient_table_free(c1, &a);
+    volux_context_destroy(c1);
+    volux_context_destroy(c2);
+}
+
+/* "" turns the disk cache off: every get builds, nothing is written. */
+static void test_empty_cache_dir_disables_disk_cache(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(2);
+    volux_ambient_table_desc d = small_desc();
+    d.paths = 22;
+    char path[4400];
+    assert_true(volux_ambient_table_cache_path(ctx, &d, path, sizeof path));
+    assert_int_equal(volux_context_set_cache_dir(ctx, ""), VOLUX_OK);
+    assert_string_equal(volux_context_cache_dir(ctx), "");
+    char none[64] = "unchanged";
+    assert_false(volux_ambient_table_cache_path(ctx, &d, none, sizeof none));
+    volux_ambient_table a = get(ctx, &d, 1), b = get(ctx, &d, 1);
+    assert_same_table(&a, &b);
+    assert_false(file_exists(path));
+    assert_int_equal(volux_context_error_status(ctx), VOLUX_OK);
+    volux_ambient_table_free(ctx, &a);
+    volux_ambient_table_free(ctx, &b);
+    volux_context_destroy(ctx);
+}
+
+/* A corrupt, truncated or stale cache entry is rebuilt (and rewritten),
+ * and none of that touches the caller's error. */
+static void test_bad_cache_entry_is_rebuilt_quietly(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(2);
+    volux_ambient_table_desc d = small_desc();
+    d.paths = 23;
+    char path[4400];
+    assert_true(volux_ambient_table_cache_path(ctx, &d, path, sizeof path));
+    volux_ambient_table ref = get(ctx, &d, 1), t;
+    /* an error of the caller's own, which the cache must leave alone */
+    assert_int_equal(volux_ambient_table_load(ctx, tu_temp_path("no-such.vxat"), &t), VOLUX_ERR_IO);
+    char msg[1024];
+    snprintf(msg, sizeof msg, "%s", volux_context_error(ctx));
+    for (int kind = 0; kind < 3; kind++) {
+        if (kind == 0) {
+            flip_byte(path, 128 + 4 * 17); /* a data byte: checksum mismatch */
+        } else if (kind == 1) {
+            assert_int_equal(truncate(path, 200), 0);
+        } else { /* stale: a valid table of another description under d's name */
+            volux_ambient_table_desc e = d;
+            e.seed = 99;
+            volux_ambient_table other = build(ctx, &e);
+            assert_int_equal(volux_ambient_table_save(ctx, &other, path), VOLUX_OK);
+            volux_ambient_table_free(ctx, &other);
+        }
+        assert_int_equal(volux_ambient_table_cache_load(ctx, &d, &t), 0);
+        t = get(ctx, &d, 1);
+        assert_same_table(&t, &ref);
+        volux_ambient_table_free(ctx, &t);
+        assert_int_equal(volux_context_error_status(ctx), VOLUX_ERR_IO);
+        assert_string_equal(volux_context_error(ctx), msg);
+        t = get(ctx, &d, 0); /* the rebuilt entry was written back */
+        volux_ambient_table_free(ctx, &t);
+    }
+    volux_ambient_table_free(ctx, &ref);
+    volux_context_destroy(ctx);
+}
+
+/* A cache folder that cannot be created is not an error: the table lives
+ * in memory and is built again next time. */
+static void test_unwritable_cache_folder_is_not_an_error(void **state) {
+    (void)state;
+    char dir[600];
+    const char *plain = tu_write_file("plain-file", "x", 1);
+    snprintf(dir, sizeof dir, "%s/volux", plain); /* below a regular file: even root cannot */
+    volux_context *ctx = tu_context(1);
+    assert_int_equal(volux_context_set_cache_dir(ctx, dir), VOLUX_OK);
+    volux_ambient_table_desc d = small_desc();
+    d.paths = 24;
+    volux_ambient_table a = get(ctx, &d, 1), b = get(ctx, &d, 1);
+    assert_same_table(&a, &b);
+    assert_int_equal(volux_context_error_status(ctx), VOLUX_OK);
+    assert_string_equal(volux_context_error(ctx), "");
+    volux_ambient_table_free(ctx, &a);
+    volux_ambient_table_free(ctx, &b);
+    volux_context_destroy(ctx);
+}
+
+/* The public entry points: write builds and stores the table the estimator
+ * gives, inspect summarises a file; both as the CLI prints them. */
+static void test_public_write_and_inspect(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(2);
+    volux_ambient_table_desc d = small_desc();
+    d.paths = 30;
+    const char *path = tu_temp_path("public.vxat");
+    volux_ambient_table_summary w, r;
+    assert_int_equal(volux_ambient_table_write(ctx, &d, path, &w), VOLUX_OK);
+    assert_memory_equal(&w.desc, &d, sizeof d);
+    assert_true(w.build_ms > 0.0);
+    assert_true(w.has_noise && w.noise.entries > 0 && w.noise.median > 0.0);
+    assert_true(w.noise.median <= w.noise.p90 && w.noise.p90 <= w.noise.p99 && w.noise.p99 <= w.noise.max);
+    /* the file holds exactly the estimator's table */
+    volux_ambient_table t, ref = build(ctx, &d);
+    assert_int_equal(volux_ambient_table_load(ctx, path, &t), VOLUX_OK);
+    assert_same_table(&t, &ref);
+    volux_ambient_table_noise nz;
+    assert_true(volux_ambient_table_noise_summary(ctx, &ref, VOLUX_AMBIENT_TABLE_NOISE_FLOOR, &nz));
+    assert_memory_equal(&nz, &w.noise, sizeof nz);
+    volux_ambient_table_free(ctx, &t);
+    volux_ambient_table_free(ctx, &ref);
+    assert_int_equal(volux_ambient_table_inspect(ctx, path, &r), VOLUX_OK);
+    assert_memory_equal(&r.desc, &d, sizeof d);
+    assert_true(r.build_ms == w.build_ms && r.has_noise == 1);
+    assert_memory_equal(&r.noise, &w.noise, sizeof nz);
+    /* bad input: named, and nothing written */
+    d.albedo = -1;
+    const char *bad = tu_temp_path("bad.vxat");
+    assert_int_equal(volux_ambient_table_write(ctx, &d, bad, NULL), VOLUX_ERR_INVALID);
+    assert_non_null(strstr(volux_context_error(ctx), "albedo"));
+    assert_false(file_exists(bad));
+    volux_context_clear_error(ctx);
+    assert_int_equal(volux_ambient_table_inspect(ctx, bad, &r), VOLUX_ERR_IO);
+    assert_non_null(strstr(volux_context_error(ctx), bad));
+    d = small_desc();
+    d.paths = 1;
+    volux_context_clear_error(ctx);
+    assert_int_equal(volux_ambient_table_write(ctx, &d, tu_temp_path("no/such/dir/x.vxat"), NULL), VOLUX_ERR_WRITE);
+    assert_non_null(strstr(volux_context_error(ctx), "no/such/dir/x.vxat"));
     volux_context_destroy(ctx);
 }
 
@@ -245,17 +478,17 @@ static void test_bad_descriptions_name_the_field(void **state) {
     volux_ambient_table_desc d = small_desc();
     volux_ambient_table t;
     d.n_theta = 1;
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_ambient_table_build(ctx, &d, &t), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "n_theta"));
     d = small_desc();
     d.albedo = 1.5;
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_ambient_table_build(ctx, &d, &t), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "albedo"));
     d = small_desc();
     d.g_max = 1.0;
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_ambient_table_build(ctx, &d, &t), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "g range"));
     volux_context_destroy(ctx);
@@ -288,7 +521,13 @@ int main(void) {
         cmocka_unit_test(test_fast_estimator_matches_paper_estimator),
         cmocka_unit_test(test_build_is_thread_count_independent),
         cmocka_unit_test(test_file_roundtrip_and_corruption),
+        cmocka_unit_test(test_file_layout_is_version_1),
         cmocka_unit_test(test_cache_builds_once),
+        cmocka_unit_test(test_cache_folder_option_is_honoured),
+        cmocka_unit_test(test_empty_cache_dir_disables_disk_cache),
+        cmocka_unit_test(test_bad_cache_entry_is_rebuilt_quietly),
+        cmocka_unit_test(test_unwritable_cache_folder_is_not_an_error),
+        cmocka_unit_test(test_public_write_and_inspect),
         cmocka_unit_test(test_bad_descriptions_name_the_field),
         cmocka_unit_test(test_cli_builds_a_table),
     };

@@ -8,7 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "techniques/ambient/table_internal.h"
+#include "techniques/ambient/table.h"
 #include "techniques/ambient/tube.h"
 #include "techniques/ambient/tube_simd.h"
 #include "test_util.h"

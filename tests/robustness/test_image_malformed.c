@@ -305,7 +305,7 @@ static void test_unwritable_output_leaves_no_file(void **state) {
     fx_pattern(ctx, 64, 64, &img);
     struct stat sb;
 
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_image_save(ctx, "/nonexistent-volux-dir/out.png", &img, 0.0f), VOLUX_ERR_WRITE);
     assert_non_null(strstr(volux_context_error(ctx), "/nonexistent-volux-dir/out.png"));
     assert_int_equal(stat("/nonexistent-volux-dir", &sb), -1);
@@ -357,16 +357,16 @@ static void test_unknown_extensions_list_the_supported_ones(void **state) {
     volux_context *ctx = tu_context(1);
     volux_image img;
     fx_pattern(ctx, 2, 2, &img);
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_image_save(ctx, tu_temp_path("x.jpg"), &img, 0.0f), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), ".png .pfm .exr"));
     assert_int_equal(volux_image_save(ctx, tu_temp_path("x.hdr"), &img, 0.0f), VOLUX_ERR_INVALID);
     assert_int_equal(volux_image_save(ctx, tu_temp_path("noext"), &img, 0.0f), VOLUX_ERR_INVALID);
     volux_image out;
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_image_load(ctx, tu_temp_path("x.tiff"), &out), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), ".png .pfm .exr .hdr"));
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_image_load(ctx, tu_temp_path("missing.pfm"), &out), VOLUX_ERR_IO);
     assert_non_null(strstr(volux_context_error(ctx), "missing.pfm"));
     volux_image_free(ctx, &img);

@@ -258,7 +258,7 @@ static void test_huge_arrays_deep_nesting_and_many_keys(void **state) {
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         volux_scene *s = NULL;
-        volux_context_clear_error(ctx); /* the first error wins: start afresh */
+        volux_context_clear_error(ctx);
         volux_status st = volux_scene_load_string(ctx, cases[i].json, NULL, "big.json", NULL, 0, &s);
         if (st != cases[i].status || !strstr(volux_context_error(ctx), cases[i].part))
             fail_msg("case %zu: got %s \"%s\", expected \"%s\"", i, volux_status_name(st), volux_context_error(ctx),
@@ -270,7 +270,7 @@ static void test_huge_arrays_deep_nesting_and_many_keys(void **state) {
     char *ok = repeat("{\"comment\": ", "[", 63, "", "");
     char *closed = repeat(ok, "]", 63, "", "}");
     volux_scene *s = NULL;
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_scene_load_string(ctx, closed, NULL, "deep.json", NULL, 0, &s), VOLUX_ERR_INVALID);
     assert_contains(volux_context_error(ctx), "volume: missing");
     free(ok);
@@ -288,7 +288,7 @@ static void test_nul_bytes_are_rejected_with_their_position(void **state) {
     assert_contains(volux_context_error(ctx), "nul.json: NUL byte at line 2, column 15");
     /* The same through a file. */
     const char *path = tu_write_file("nul.json", text, sizeof text - 1);
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_scene_load(ctx, path, NULL, 0, &s), VOLUX_ERR_FORMAT);
     assert_contains(volux_context_error(ctx), "nul.json: NUL byte at line 2");
     assert_int_equal(volux_context_bytes_in_use(ctx), 0);

@@ -12,6 +12,7 @@
 volux_context *tu_context(int threads) {
     volux_context_desc d = {0};
     d.threads = threads;
+    d.cache_dir = tu_temp_path("cache");
     volux_context *ctx = NULL;
     assert_int_equal(volux_context_create(&d, &ctx), VOLUX_OK);
     return ctx;

@@ -15,7 +15,9 @@
 
 #include "volux/volux.h"
 
-/* A context with `threads` threads; fails the test on error. */
+/* A context with `threads` threads whose cache folder is "cache" in the
+ * per-process temp folder (tests never touch the user's cache); fails the
+ * test on error. */
 volux_context *tu_context(int threads);
 
 /* Writes `size` bytes to a fresh file in a per-process temp folder and

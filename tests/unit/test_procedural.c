@@ -118,7 +118,7 @@ static void test_bad_names_and_dims(void **state) {
     volux_context *ctx = tu_context(1);
     int dims[3] = {8, 8, 8};
     volux_volume *v = NULL;
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_volume_procedural(ctx, "teapot", dims, 1, &v), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "teapot"));
     assert_non_null(strstr(volux_context_error(ctx), "marschner_lobb"));

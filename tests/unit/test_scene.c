@@ -70,7 +70,7 @@ static void test_lights_report_their_slot(void **state) {
     assert_null(volux_scene_light(s, 5));
     assert_int_equal(volux_scene_remove_light(s, 5), VOLUX_ERR_INVALID);
     l.intensity = -1;
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_scene_set_light(s, 1, &l), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "lights[1].intensity"));
     volux_scene_destroy(s);

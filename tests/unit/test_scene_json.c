@@ -33,7 +33,7 @@ static void load_fails(volux_context *ctx, const char *json, const char *const *
                        const char *part) {
     uint64_t before = volux_context_bytes_in_use(ctx);
     volux_scene *s = NULL;
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     volux_status st = volux_scene_load_string(ctx, json, tu_temp_path(""), "t.json", ov, n_ov, &s);
     if (st == VOLUX_OK) {
         volux_scene_destroy(s);
@@ -528,7 +528,7 @@ static void test_preset_parse_from_memory(void **state) {
     snprintf(buf, sizeof buf, "%sGARBAGE", one);
     assert_int_equal(volux_tf_preset_parse(ctx, buf, strlen(one), "prefix", NULL, 0, 0, &p), VOLUX_OK);
     volux_tf_preset_free(ctx, &p);
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_tf_preset_parse(ctx, buf, strlen(buf), "prefix", NULL, 0, 0, &p), VOLUX_ERR_FORMAT);
     assert_contains(volux_context_error(ctx), "unexpected text after the JSON value");
     assert_int_equal(volux_context_bytes_in_use(ctx), 0);
@@ -695,7 +695,7 @@ static void test_no_files_flag_refuses_every_file_reference(void **state) {
     };
     for (size_t i = 0; i < sizeof scenes / sizeof scenes[0]; i++) {
         volux_scene *s = NULL;
-        volux_context_clear_error(ctx); /* the first error wins: start afresh */
+        volux_context_clear_error(ctx);
         assert_int_equal(volux_scene_parse(ctx, scenes[i][0], strlen(scenes[i][0]), "/nonexistent", "nf.json", NULL, 0,
                                            VOLUX_SCENE_NO_FILES, &s),
                          VOLUX_ERR_UNSUPPORTED);

@@ -29,18 +29,18 @@ static void test_validation_names_the_field(void **state) {
     volux_tf_scalar_point p[3] = {{0, 0.1f}, {5, 0.2f}, {4, 0.3f}};
     d.opacity = p;
     d.n_opacity = 3;
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_transfer_desc_validate(ctx, &d), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "opacity[2]"));
     p[2].s = 6;
     p[1].v = 1.5f;
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_transfer_desc_validate(ctx, &d), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "opacity[1]"));
     d.extinction = 1; /* 1.5 is a fine extinction */
     assert_int_equal(volux_transfer_desc_validate(ctx, &d), VOLUX_OK);
     d.anisotropy = 1.0f;
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_transfer_desc_validate(ctx, &d), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "anisotropy"));
     volux_context_destroy(ctx);

@@ -101,7 +101,7 @@ static void test_limits_are_checked_before_allocating(void **state) {
     assert_int_equal(volux_context_create(&cd, &ctx), VOLUX_OK);
     volux_volume_desc d = {{1024, 1024, 1024}, {1, 1, 1}, {0, 0, 0}, 0, VOLUX_UINT8, NULL};
     volux_volume *v = NULL;
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_volume_create(ctx, &d, &v), VOLUX_ERR_LIMIT);
     assert_non_null(strstr(volux_context_error(ctx), "memory cap"));
     assert_true(volux_context_bytes_in_use(ctx) < 4096);
@@ -109,7 +109,7 @@ static void test_limits_are_checked_before_allocating(void **state) {
     assert_int_equal(volux_volume_create(ctx, &d, &v), VOLUX_ERR_LIMIT);
     d.dims[0] = 4;
     d.spacing[1] = -1;
-    volux_context_clear_error(ctx); /* the first error wins: start afresh */
+    volux_context_clear_error(ctx);
     assert_int_equal(volux_volume_create(ctx, &d, &v), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "spacing[1]"));
     assert_null(v);

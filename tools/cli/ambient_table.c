@@ -25,21 +25,18 @@ static void usage(FILE *f) {
             "per (sigma, g) column; every walk scores every theta entry.\n");
 }
 
-static void report(const char *path, volux_context *ctx, const volux_ambient_table *t, int json, int threads) {
+static void report(const char *path, const volux_ambient_table_summary *t, int json, int threads) {
     const volux_ambient_table_desc *d = &t->desc;
-    volux_ambient_table_noise nz;
-    /* Entries below 1e-6 are deep in the g < 0 forward tail; their relative
-     * error says nothing about image quality. */
-    int have = volux_ambient_table_noise_summary(ctx, t, 1e-6, &nz);
+    const volux_ambient_table_noise *nz = &t->noise;
     if (json) {
         printf("{\"file\":\"%s\",\"n_theta\":%d,\"n_sigma\":%d,\"n_g\":%d,\"sigma_max\":%g,\"g_min\":%g,"
                "\"g_max\":%g,\"albedo\":%g,\"paths\":%llu,\"seed\":%llu,\"build_ms\":%.1f,\"threads\":%d",
                path, d->n_theta, d->n_sigma, d->n_g, d->sigma_max, d->g_min, d->g_max, d->albedo,
                (unsigned long long)d->paths, (unsigned long long)d->seed, t->build_ms, threads);
-        if (have)
+        if (t->has_noise)
             printf(",\"rel_error\":{\"median\":%.4g,\"p90\":%.4g,\"p99\":%.4g,\"max\":%.4g,\"mean\":%.4g,"
                    "\"entries\":%llu}",
-                   nz.median, nz.p90, nz.p99, nz.max, nz.mean, (unsigned long long)nz.entries);
+                   nz->median, nz->p90, nz->p99, nz->max, nz->mean, (unsigned long long)nz->entries);
         printf("}\n");
         return;
     }
@@ -47,9 +44,9 @@ static void report(const char *path, volux_context *ctx, const volux_ambient_tab
            d->n_theta, d->n_sigma, d->n_g, d->sigma_max, d->g_min, d->g_max, d->albedo);
     printf("  %llu walks per column, seed %llu, built in %.1f s\n", (unsigned long long)d->paths,
            (unsigned long long)d->seed, t->build_ms * 1e-3);
-    if (have)
+    if (t->has_noise) /* entries above VOLUX_AMBIENT_TABLE_NOISE_FLOOR */
         printf("  relative standard error per entry: median %.3g, p90 %.3g, p99 %.3g, max %.3g (%llu entries > 1e-6)\n",
-               nz.median, nz.p90, nz.p99, nz.max, (unsigned long long)nz.entries);
+               nz->median, nz->p90, nz->p99, nz->max, (unsigned long long)nz->entries);
 }
 
 int cli_ambient_table(int argc, char **argv) {
@@ -110,26 +107,11 @@ int cli_ambient_table(int argc, char **argv) {
     }
     volux_context *ctx = cli_context((int)threads);
     if (!ctx) return CLI_FAIL;
-    volux_ambient_table t;
-    memset(&t, 0, sizeof t);
-    volux_status st;
-    if (info) {
-        if ((st = volux_ambient_table_load(ctx, info, &t))) {
-            int rc = cli_fail("ambient-table", ctx, st);
-            volux_context_destroy(ctx);
-            return rc;
-        }
-        report(info, ctx, &t, json, volux_context_threads(ctx));
-    } else {
-        if ((st = volux_ambient_table_build(ctx, &d, &t)) || (st = volux_ambient_table_save(ctx, &t, out))) {
-            int rc = cli_fail("ambient-table", ctx, st);
-            if (t.data) volux_ambient_table_free(ctx, &t);
-            volux_context_destroy(ctx);
-            return rc;
-        }
-        report(out, ctx, &t, json, volux_context_threads(ctx));
-    }
-    volux_ambient_table_free(ctx, &t);
+    volux_ambient_table_summary summary;
+    volux_status st = info ? volux_ambient_table_inspect(ctx, info, &summary)
+                           : volux_ambient_table_write(ctx, &d, out, &summary);
+    int rc = st ? cli_fail("ambient-table", ctx, st) : CLI_OK;
+    if (!st) report(info ? info : out, &summary, json, volux_context_threads(ctx));
     volux_context_destroy(ctx);
-    return CLI_OK;
+    return rc;
 }

@@ -51,7 +51,7 @@
 #include "ambient.h"
 #include "core/context_internal.h"
 #include "core/parallel.h"
-#include "table_internal.h"
+#include "table.h"
 #include "sample/phase.h"
 #include "techniques/scatter/occlusion.h"
 #include "tube.h"

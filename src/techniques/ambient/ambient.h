@@ -9,7 +9,7 @@
 #include "techniques/scatter/grid.h"
 #include "techniques/scatter/sat3d.h"
 #include "tube.h"
-#include "volux/ambient_table.h"
+#include "table.h"
 
 extern const volux_technique_class volux_ambient_class;
 

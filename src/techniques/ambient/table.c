@@ -1,7 +1,9 @@
 /*
  * techniques/ambient/table.c — Monte-Carlo preintegration of ambient
- * scattering in a homogeneous unit sphere (Ament et al. 2013, §4.1), the
- * table file and its cache.
+ * scattering in a homogeneous unit sphere (Ament et al. 2013, §4.1), its
+ * lookup, the cached get and the public write/inspect entry points. The
+ * table type, its file format and its cache entry are in
+ * io/ambient_table_file.c.
  *
  * THE ESTIMATOR. The paper traces n walks per table entry from x_o(θ)
  * towards the centre and needed 2–20 h single-threaded. We get the same
@@ -35,64 +37,25 @@
  * the counter-based stream (seed, c, j), and a column is summed by one
  * thread in walk order, so the table is bit-identical for any thread count.
  */
-#include <errno.h>
+#include "table.h"
+
 #include <math.h>
-#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 #include <time.h>
-#include <unistd.h>
 
 #include "core/context_internal.h"
 #include "core/parallel.h"
 #include "core/rng.h"
-#include "table_internal.h"
 #include "techniques/scatter/fastmath.h"
 #include "techniques/scatter/hg.h"
 
-#define TABLE_MAGIC "VXAMBTAB"
-#define TABLE_HEADER_BYTES 128
-#define TABLE_FLAG_ERRORS 1u
-#define ESTIMATOR_ID 3u /* 3: escape scoring, with MIS against boundary-lobe sampling for |g| ≥ MIS_MIN_G */
+/* VOLUX_AMBIENT_TABLE_ESTIMATOR (io/ambient_table_file.h) names this
+ * estimator in files and cache names: bump it whenever the results change. */
 #define MIS_MIN_G 0.6
 #define BATCHES 16        /* batch means for the per-entry standard error */
 #define RR_WEIGHT 0.125   /* Russian roulette below this weight (4.)      */
 #define MAX_VERTICES 4096 /* safety bound; never reached with albedo < 1  */
-
-void volux_ambient_table_desc_defaults(volux_ambient_table_desc *d) {
-    memset(d, 0, sizeof *d);
-    d->n_theta = 256;
-    d->n_sigma = 256;
-    d->n_g = 19;
-    d->sigma_max = 20.0;
-    d->g_min = -0.9;
-    d->g_max = 0.9;
-    d->albedo = 0.9;
-    d->paths = 16384;
-    d->seed = 1;
-}
-
-volux_status volux_ambient_table_desc_validate(volux_context *ctx, const volux_ambient_table_desc *d) {
-    const char *P = "ambient table";
-    int dims[3] = {d->n_theta, d->n_sigma, d->n_g};
-    const char *names[3] = {"n_theta", "n_sigma", "n_g"};
-    for (int a = 0; a < 3; a++)
-        if (dims[a] < 2 || dims[a] > VOLUX_AMBIENT_TABLE_MAX_DIM)
-            return volux_error(ctx, VOLUX_ERR_INVALID, "%s: %s: must be in [2, %d], got %d", P, names[a],
-                               VOLUX_AMBIENT_TABLE_MAX_DIM, dims[a]);
-    if (!(d->sigma_max > 0.0) || !(d->sigma_max <= 1e4))
-        return volux_error(ctx, VOLUX_ERR_INVALID, "%s: sigma_max: must be in (0, 1e4], got %g", P, d->sigma_max);
-    if (!(d->g_min > -1.0) || !(d->g_max < 1.0) || !(d->g_min < d->g_max))
-        return volux_error(ctx, VOLUX_ERR_INVALID, "%s: g range: need -1 < g_min < g_max < 1, got [%g, %g]", P,
-                           d->g_min, d->g_max);
-    if (!(d->albedo >= 0.0) || !(d->albedo <= 1.0))
-        return volux_error(ctx, VOLUX_ERR_INVALID, "%s: albedo: must be in [0, 1], got %g", P, d->albedo);
-    if (d->paths < 1 || d->paths > (1ull << 40))
-        return volux_error(ctx, VOLUX_ERR_INVALID, "%s: paths: must be in [1, 2^40], got %llu", P,
-                           (unsigned long long)d->paths);
-    return VOLUX_OK;
-}
 
 static double table_theta(const volux_ambient_table_desc *d, int it) {
     return 3.14159265358979323846 * (double)it / (double)(d->n_theta - 1);
@@ -306,39 +269,15 @@ static double now_ms(void) {
     return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
 }
 
-static size_t table_values(const volux_ambient_table_desc *d) {
-    return (size_t)d->n_theta * (size_t)d->n_sigma * (size_t)d->n_g;
-}
-
-void volux_ambient_table_free(volux_context *ctx, volux_ambient_table *t) {
-    if (!t) return;
-    size_t n = table_values(&t->desc) * sizeof(float);
-    if (t->data) volux_free(ctx, t->data, n);
-    if (t->rel_error) volux_free(ctx, t->rel_error, n);
-    t->data = t->rel_error = NULL;
-}
-
-static volux_status table_alloc(volux_context *ctx, const volux_ambient_table_desc *d, int with_errors,
-                                volux_ambient_table *t) {
-    memset(t, 0, sizeof *t);
-    t->desc = *d;
-    size_t n = table_values(d) * sizeof(float);
-    t->data = volux_malloc(ctx, n);
-    if (with_errors) t->rel_error = volux_malloc(ctx, n);
-    if (!t->data || (with_errors && !t->rel_error)) {
-        volux_ambient_table_free(ctx, t);
-        return volux_error(ctx, VOLUX_ERR_NOMEM, "ambient table: out of memory (%zu bytes)", n);
-    }
-    return VOLUX_OK;
-}
-
 volux_status volux_ambient_table_build(volux_context *ctx, const volux_ambient_table_desc *d,
                                        volux_ambient_table *out) {
     volux_status st = volux_ambient_table_desc_validate(ctx, d);
     if (st) return st;
     double t0 = now_ms();
     volux_ambient_table t;
-    if ((st = table_alloc(ctx, d, 1, &t))) return st;
+    if (!volux_ambient_table_alloc(ctx, d, 1, &t))
+        return volux_error(ctx, VOLUX_ERR_NOMEM, "ambient table: out of memory (%zu values)",
+                           volux_ambient_table_values(d));
     int threads = volux_context_threads(ctx);
     const int nt = d->n_theta;
     size_t scratch_bytes = sizeof(double) * (size_t)BATCHES * (size_t)nt + sizeof(float) * (size_t)nt;
@@ -408,7 +347,7 @@ int volux_ambient_table_noise_summary(volux_context *ctx, const volux_ambient_ta
                                       volux_ambient_table_noise *out) {
     memset(out, 0, sizeof *out);
     if (!t->rel_error) return 0;
-    size_t n = table_values(&t->desc), m = 0;
+    size_t n = volux_ambient_table_values(&t->desc), m = 0;
     float *v = volux_malloc(ctx, n * sizeof(float));
     if (!v) return 0;
     double sum = 0.0;
@@ -430,263 +369,48 @@ int volux_ambient_table_noise_summary(volux_context *ctx, const volux_ambient_ta
     return m > 0;
 }
 
-/* ------------------------------------------------------------------ file */
-
-static uint64_t fnv1a(uint64_t h, const unsigned char *p, size_t n) {
-    for (size_t i = 0; i < n; i++) {
-        h ^= p[i];
-        h *= 0x100000001b3ull;
-    }
-    return h;
-}
-#define FNV_OFFSET 0xcbf29ce484222325ull
-
-static void put_u32(unsigned char *p, uint32_t v) {
-    for (int i = 0; i < 4; i++) p[i] = (unsigned char)(v >> (8 * i));
-}
-static void put_u64(unsigned char *p, uint64_t v) {
-    for (int i = 0; i < 8; i++) p[i] = (unsigned char)(v >> (8 * i));
-}
-static void put_f64(unsigned char *p, double v) {
-    uint64_t u;
-    memcpy(&u, &v, sizeof u);
-    put_u64(p, u);
-}
-static uint32_t get_u32(const unsigned char *p) {
-    uint32_t v = 0;
-    for (int i = 0; i < 4; i++) v |= (uint32_t)p[i] << (8 * i);
-    return v;
-}
-static uint64_t get_u64(const unsigned char *p) {
-    uint64_t v = 0;
-    for (int i = 0; i < 8; i++) v |= (uint64_t)p[i] << (8 * i);
-    return v;
-}
-static double get_f64(const unsigned char *p) {
-    uint64_t u = get_u64(p);
-    double v;
-    memcpy(&v, &u, sizeof v);
-    return v;
-}
-
-static void encode_header(const volux_ambient_table *t, unsigned char h[TABLE_HEADER_BYTES]) {
-    const volux_ambient_table_desc *d = &t->desc;
-    memset(h, 0, TABLE_HEADER_BYTES);
-    memcpy(h, TABLE_MAGIC, 8);
-    put_u32(h + 8, VOLUX_AMBIENT_TABLE_VERSION);
-    put_u32(h + 12, TABLE_HEADER_BYTES);
-    put_u32(h + 16, (uint32_t)d->n_theta);
-    put_u32(h + 20, (uint32_t)d->n_sigma);
-    put_u32(h + 24, (uint32_t)d->n_g);
-    put_u32(h + 28, t->rel_error ? TABLE_FLAG_ERRORS : 0u);
-    put_f64(h + 32, 0.0);
-    put_f64(h + 40, 3.14159265358979323846);
-    put_f64(h + 48, 0.0);
-    put_f64(h + 56, d->sigma_max);
-    put_f64(h + 64, d->g_min);
-    put_f64(h + 72, d->g_max);
-    put_f64(h + 80, d->albedo);
-    put_u64(h + 88, d->paths);
-    put_u64(h + 96, d->seed);
-    put_u32(h + 104, ESTIMATOR_ID);
-    put_f64(h + 120, t->build_ms);
-}
-
-/* Writes n floats little-endian, updating the checksum. */
-static int write_floats(FILE *f, const float *v, size_t n, uint64_t *h) {
-    unsigned char buf[4096];
-    size_t k = 0;
-    for (size_t i = 0; i < n; i++) {
-        uint32_t u;
-        memcpy(&u, &v[i], 4);
-        put_u32(buf + k, u);
-        k += 4;
-        if (k == sizeof buf || i + 1 == n) {
-            *h = fnv1a(*h, buf, k);
-            if (fwrite(buf, 1, k, f) != k) return 0;
-            k = 0;
-        }
-    }
-    return 1;
-}
-
-volux_status volux_ambient_table_save(volux_context *ctx, const volux_ambient_table *t, const char *path) {
-    char tmp[4200];
-    if (snprintf(tmp, sizeof tmp, "%s.tmp%ld", path, (long)getpid()) >= (int)sizeof tmp)
-        return volux_error(ctx, VOLUX_ERR_WRITE, "%s: path too long", path);
-    FILE *f = fopen(tmp, "wb");
-    if (!f) return volux_error(ctx, VOLUX_ERR_WRITE, "%s: cannot write: %s", path, strerror(errno));
-    unsigned char h[TABLE_HEADER_BYTES];
-    encode_header(t, h);
-    uint64_t sum = fnv1a(FNV_OFFSET, h, sizeof h);
-    size_t n = table_values(&t->desc);
-    int ok = fwrite(h, 1, sizeof h, f) == sizeof h && write_floats(f, t->data, n, &sum) &&
-             (!t->rel_error || write_floats(f, t->rel_error, n, &sum));
-    unsigned char tail[8];
-    put_u64(tail, sum);
-    ok = ok && fwrite(tail, 1, 8, f) == 8;
-    ok = (fclose(f) == 0) && ok;
-    if (!ok || rename(tmp, path) != 0) {
-        int e = errno;
-        remove(tmp);
-        return volux_error(ctx, VOLUX_ERR_WRITE, "%s: cannot write: %s", path, strerror(e));
-    }
-    return VOLUX_OK;
-}
-
-volux_status volux_ambient_table_load(volux_context *ctx, const char *path, volux_ambient_table *out) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return volux_error(ctx, VOLUX_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-    unsigned char h[TABLE_HEADER_BYTES];
-    volux_status st = VOLUX_OK;
-    volux_ambient_table t;
-    memset(&t, 0, sizeof t);
-    if (fread(h, 1, sizeof h, f) != sizeof h || memcmp(h, TABLE_MAGIC, 8) != 0) {
-        st = volux_error(ctx, VOLUX_ERR_FORMAT, "%s: not an ambient table (bad magic)", path);
-        goto done;
-    }
-    if (get_u32(h + 8) != VOLUX_AMBIENT_TABLE_VERSION || get_u32(h + 12) != TABLE_HEADER_BYTES) {
-        st = volux_error(ctx, VOLUX_ERR_FORMAT, "%s: unsupported ambient table version %u", path, get_u32(h + 8));
-        goto done;
-    }
-    volux_ambient_table_desc d;
-    memset(&d, 0, sizeof d);
-    uint32_t dims[3] = {get_u32(h + 16), get_u32(h + 20), get_u32(h + 24)};
-    for (int a = 0; a < 3; a++)
-        if (dims[a] < 2 || dims[a] > VOLUX_AMBIENT_TABLE_MAX_DIM) {
-            st = volux_error(ctx, VOLUX_ERR_FORMAT, "%s: table size %u is outside [2, %d]", path, dims[a],
-                             VOLUX_AMBIENT_TABLE_MAX_DIM);
-            goto done;
-        }
-    d.n_theta = (int)dims[0], d.n_sigma = (int)dims[1], d.n_g = (int)dims[2];
-    uint32_t flags = get_u32(h + 28);
-    double th0 = get_f64(h + 32), th1 = get_f64(h + 40), s0 = get_f64(h + 48);
-    d.sigma_max = get_f64(h + 56);
-    d.g_min = get_f64(h + 64);
-    d.g_max = get_f64(h + 72);
-    d.albedo = get_f64(h + 80);
-    d.paths = get_u64(h + 88);
-    d.seed = get_u64(h + 96);
-    if ((flags & ~TABLE_FLAG_ERRORS) || th0 != 0.0 || fabs(th1 - 3.14159265358979323846) > 1e-12 || s0 != 0.0 ||
-        get_u32(h + 104) != ESTIMATOR_ID) {
-        st = volux_error(ctx, VOLUX_ERR_FORMAT, "%s: unsupported ambient table layout", path);
-        goto done;
-    }
-    if (volux_ambient_table_desc_validate(ctx, &d)) {
-        char why[512];
-        snprintf(why, sizeof why, "%s", volux_context_error(ctx));
-        st = volux_error(ctx, VOLUX_ERR_FORMAT, "%s: invalid header: %s", path, why);
-        goto done;
-    }
-    if ((st = table_alloc(ctx, &d, (flags & TABLE_FLAG_ERRORS) != 0, &t))) goto done;
-    t.build_ms = get_f64(h + 120);
-    uint64_t sum = fnv1a(FNV_OFFSET, h, sizeof h);
-    size_t n = table_values(&d);
-    float *arrays[2] = {t.data, t.rel_error};
-    for (int k = 0; k < 2 && arrays[k]; k++) {
-        unsigned char buf[4096];
-        size_t i = 0;
-        while (i < n) {
-            size_t m = n - i < sizeof buf / 4 ? n - i : sizeof buf / 4;
-            if (fread(buf, 4, m, f) != m) {
-                st = volux_error(ctx, VOLUX_ERR_FORMAT, "%s: truncated ambient table", path);
-                goto done;
-            }
-            sum = fnv1a(sum, buf, 4 * m);
-            for (size_t j = 0; j < m; j++) {
-                uint32_t u = get_u32(buf + 4 * j);
-                memcpy(&arrays[k][i + j], &u, 4);
-            }
-            i += m;
-        }
-    }
-    unsigned char tail[8];
-    if (fread(tail, 1, 8, f) != 8) {
-        st = volux_error(ctx, VOLUX_ERR_FORMAT, "%s: truncated ambient table (no checksum)", path);
-        goto done;
-    }
-    if (get_u64(tail) != sum) {
-        st = volux_error(ctx, VOLUX_ERR_FORMAT, "%s: ambient table checksum mismatch (corrupt file)", path);
-        goto done;
-    }
-    if (fgetc(f) != EOF) {
-        st = volux_error(ctx, VOLUX_ERR_FORMAT, "%s: trailing bytes after the ambient table", path);
-        goto done;
-    }
-    for (size_t i = 0; i < n; i++)
-        if (!(t.data[i] >= 0.0f) || !isfinite(t.data[i])) {
-            st = volux_error(ctx, VOLUX_ERR_FORMAT, "%s: ambient table value %zu is not a finite radiance", path, i);
-            goto done;
-        }
-done:
-    fclose(f);
-    if (st) {
-        volux_ambient_table_free(ctx, &t);
-        return st;
-    }
-    *out = t;
-    return VOLUX_OK;
-}
-
 /* ------------------------------------------------------------------ cache */
-
-int volux_ambient_table_cache_path(const volux_ambient_table_desc *d, char *buf, size_t size) {
-    const char *xdg = getenv("XDG_CACHE_HOME"), *home = getenv("HOME");
-    char dir[4096];
-    if (xdg && *xdg) snprintf(dir, sizeof dir, "%s/volux", xdg);
-    else if (home && *home) snprintf(dir, sizeof dir, "%s/.cache/volux", home);
-    else return 0;
-    int n = snprintf(buf, size, "%s/ambient-v%d-e%u-t%d-s%d-g%d-S%.9g-G%.9g_%.9g-a%.9g-p%llu-r%llu.vxat", dir,
-                     VOLUX_AMBIENT_TABLE_VERSION, ESTIMATOR_ID, d->n_theta, d->n_sigma, d->n_g, d->sigma_max,
-                     d->g_min, d->g_max, d->albedo, (unsigned long long)d->paths, (unsigned long long)d->seed);
-    return n > 0 && (size_t)n < size;
-}
-
-/* mkdir -p of the folder part of `path`. */
-static int make_parent_dirs(const char *path) {
-    char tmp[4096];
-    if (snprintf(tmp, sizeof tmp, "%s", path) >= (int)sizeof tmp) return 0;
-    char *slash = strrchr(tmp, '/');
-    if (!slash) return 1;
-    *slash = 0;
-    for (char *p = tmp + 1; *p; p++) {
-        if (*p != '/') continue;
-        *p = 0;
-        if (mkdir(tmp, 0755) != 0 && errno != EEXIST) return 0;
-        *p = '/';
-    }
-    return mkdir(tmp, 0755) == 0 || errno == EEXIST;
-}
-
-static int same_desc(const volux_ambient_table_desc *a, const volux_ambient_table_desc *b) {
-    return a->n_theta == b->n_theta && a->n_sigma == b->n_sigma && a->n_g == b->n_g &&
-           a->sigma_max == b->sigma_max && a->g_min == b->g_min && a->g_max == b->g_max && a->albedo == b->albedo &&
-           a->paths == b->paths && a->seed == b->seed;
-}
 
 volux_status volux_ambient_table_get(volux_context *ctx, const volux_ambient_table_desc *d, volux_ambient_table *out,
                                      int *built) {
     volux_status st = volux_ambient_table_desc_validate(ctx, d);
     if (st) return st;
-    char path[4400];
-    int have_path = volux_ambient_table_cache_path(d, path, sizeof path);
-    if (have_path && access(path, R_OK) == 0) {
-        volux_ambient_table t;
-        if (volux_ambient_table_load(ctx, path, &t) == VOLUX_OK) {
-            if (same_desc(&t.desc, d)) {
-                if (built) *built = 0;
-                *out = t;
-                return VOLUX_OK;
-            }
-            volux_ambient_table_free(ctx, &t);
-        }
-        volux_context_clear_error(ctx); /* a stale or corrupt cache entry is rebuilt */
+    if (volux_ambient_table_cache_load(ctx, d, out)) {
+        if (built) *built = 0;
+        return VOLUX_OK;
     }
     volux_ambient_table t;
     if ((st = volux_ambient_table_build(ctx, d, &t))) return st;
-    if (have_path && make_parent_dirs(path)) volux_ambient_table_save(ctx, &t, path);
-    volux_context_clear_error(ctx); /* an unwritable cache is not an error */
+    volux_ambient_table_cache_store(ctx, &t); /* failing only means the table lives in memory */
     if (built) *built = 1;
     *out = t;
+    return VOLUX_OK;
+}
+
+/* ------------------------------------------------------------ public API */
+
+static void summarise(volux_context *ctx, const volux_ambient_table *t, volux_ambient_table_summary *out) {
+    memset(out, 0, sizeof *out);
+    out->desc = t->desc;
+    out->build_ms = t->build_ms;
+    out->has_noise = volux_ambient_table_noise_summary(ctx, t, VOLUX_AMBIENT_TABLE_NOISE_FLOOR, &out->noise);
+}
+
+volux_status volux_ambient_table_write(volux_context *ctx, const volux_ambient_table_desc *d, const char *path,
+                                       volux_ambient_table_summary *out) {
+    volux_ambient_table t;
+    volux_status st = volux_ambient_table_build(ctx, d, &t);
+    if (st) return st;
+    if (!(st = volux_ambient_table_save(ctx, &t, path)) && out) summarise(ctx, &t, out);
+    volux_ambient_table_free(ctx, &t);
+    return st;
+}
+
+volux_status volux_ambient_table_inspect(volux_context *ctx, const char *path, volux_ambient_table_summary *out) {
+    volux_ambient_table t;
+    volux_status st = volux_ambient_table_load(ctx, path, &t);
+    if (st) return st;
+    summarise(ctx, &t, out);
+    volux_ambient_table_free(ctx, &t);
     return VOLUX_OK;
 }

@@ -1,0 +1,366 @@
+/*
+ * io/ambient_table_file.c — the ambient preintegration table's description,
+ * storage, file format (ambient_table_file.h) and cache entry.
+ *
+ * The reader and the writer report into a caller's buffer, not the context:
+ * the public load/save turn that into the context's message, while the
+ * cache uses them quietly, because a cache entry that is missing, stale,
+ * corrupt or unwritable is only a reason to build the table in memory and
+ * must never touch the caller's error.
+ */
+#include "ambient_table_file.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "cache_folder.h"
+#include "core/context_internal.h"
+
+#define TABLE_MAGIC "VXAMBTAB"
+#define TABLE_HEADER_BYTES 128
+#define TABLE_FLAG_ERRORS 1u
+#define PI 3.14159265358979323846
+
+typedef struct why_buf {
+    char text[VOLUX_ERROR_MAX];
+} why_buf;
+
+static volux_status fail(why_buf *why, volux_status st, const char *fmt, ...) VOLUX_PRINTF(3, 4);
+static volux_status fail(why_buf *why, volux_status st, const char *fmt, ...) {
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(why->text, sizeof why->text, fmt, ap);
+    va_end(ap);
+    return st;
+}
+
+/* ------------------------------------------------------------ description */
+
+void volux_ambient_table_desc_defaults(volux_ambient_table_desc *d) {
+    memset(d, 0, sizeof *d);
+    d->n_theta = 256;
+    d->n_sigma = 256;
+    d->n_g = 19;
+    d->sigma_max = 20.0;
+    d->g_min = -0.9;
+    d->g_max = 0.9;
+    d->albedo = 0.9;
+    d->paths = 16384;
+    d->seed = 1;
+}
+
+static volux_status check_desc(const volux_ambient_table_desc *d, why_buf *why) {
+    const char *P = "ambient table";
+    int dims[3] = {d->n_theta, d->n_sigma, d->n_g};
+    const char *names[3] = {"n_theta", "n_sigma", "n_g"};
+    for (int a = 0; a < 3; a++)
+        if (dims[a] < 2 || dims[a] > VOLUX_AMBIENT_TABLE_MAX_DIM)
+            return fail(why, VOLUX_ERR_INVALID, "%s: %s: must be in [2, %d], got %d", P, names[a],
+                        VOLUX_AMBIENT_TABLE_MAX_DIM, dims[a]);
+    if (!(d->sigma_max > 0.0) || !(d->sigma_max <= 1e4))
+        return fail(why, VOLUX_ERR_INVALID, "%s: sigma_max: must be in (0, 1e4], got %g", P, d->sigma_max);
+    if (!(d->g_min > -1.0) || !(d->g_max < 1.0) || !(d->g_min < d->g_max))
+        return fail(why, VOLUX_ERR_INVALID, "%s: g range: need -1 < g_min < g_max < 1, got [%g, %g]", P, d->g_min,
+                    d->g_max);
+    if (!(d->albedo >= 0.0) || !(d->albedo <= 1.0))
+        return fail(why, VOLUX_ERR_INVALID, "%s: albedo: must be in [0, 1], got %g", P, d->albedo);
+    if (d->paths < 1 || d->paths > (1ull << 40))
+        return fail(why, VOLUX_ERR_INVALID, "%s: paths: must be in [1, 2^40], got %llu", P,
+                    (unsigned long long)d->paths);
+    return VOLUX_OK;
+}
+
+volux_status volux_ambient_table_desc_validate(volux_context *ctx, const volux_ambient_table_desc *d) {
+    why_buf why;
+    volux_status st = check_desc(d, &why);
+    return st ? volux_error(ctx, st, "%s", why.text) : VOLUX_OK;
+}
+
+static int same_desc(const volux_ambient_table_desc *a, const volux_ambient_table_desc *b) {
+    return a->n_theta == b->n_theta && a->n_sigma == b->n_sigma && a->n_g == b->n_g &&
+           a->sigma_max == b->sigma_max && a->g_min == b->g_min && a->g_max == b->g_max && a->albedo == b->albedo &&
+           a->paths == b->paths && a->seed == b->seed;
+}
+
+/* ------------------------------------------------------------------ storage */
+
+void volux_ambient_table_free(volux_context *ctx, volux_ambient_table *t) {
+    if (!t) return;
+    size_t n = volux_ambient_table_values(&t->desc) * sizeof(float);
+    if (t->data) volux_free(ctx, t->data, n);
+    if (t->rel_error) volux_free(ctx, t->rel_error, n);
+    t->data = t->rel_error = NULL;
+}
+
+int volux_ambient_table_alloc(volux_context *ctx, const volux_ambient_table_desc *d, int with_errors,
+                              volux_ambient_table *t) {
+    memset(t, 0, sizeof *t);
+    t->desc = *d;
+    size_t n = volux_ambient_table_values(d) * sizeof(float);
+    t->data = volux_malloc(ctx, n);
+    if (with_errors) t->rel_error = volux_malloc(ctx, n);
+    if (!t->data || (with_errors && !t->rel_error)) {
+        volux_ambient_table_free(ctx, t);
+        return 0;
+    }
+    return 1;
+}
+
+/* ------------------------------------------------------------------ bytes */
+
+static uint64_t fnv1a(uint64_t h, const unsigned char *p, size_t n) {
+    for (size_t i = 0; i < n; i++) {
+        h ^= p[i];
+        h *= 0x100000001b3ull;
+    }
+    return h;
+}
+#define FNV_OFFSET 0xcbf29ce484222325ull
+
+static void put_u32(unsigned char *p, uint32_t v) {
+    for (int i = 0; i < 4; i++) p[i] = (unsigned char)(v >> (8 * i));
+}
+static void put_u64(unsigned char *p, uint64_t v) {
+    for (int i = 0; i < 8; i++) p[i] = (unsigned char)(v >> (8 * i));
+}
+static void put_f64(unsigned char *p, double v) {
+    uint64_t u;
+    memcpy(&u, &v, sizeof u);
+    put_u64(p, u);
+}
+static uint32_t get_u32(const unsigned char *p) {
+    uint32_t v = 0;
+    for (int i = 0; i < 4; i++) v |= (uint32_t)p[i] << (8 * i);
+    return v;
+}
+static uint64_t get_u64(const unsigned char *p) {
+    uint64_t v = 0;
+    for (int i = 0; i < 8; i++) v |= (uint64_t)p[i] << (8 * i);
+    return v;
+}
+static double get_f64(const unsigned char *p) {
+    uint64_t u = get_u64(p);
+    double v;
+    memcpy(&v, &u, sizeof v);
+    return v;
+}
+
+/* ------------------------------------------------------------------ write */
+
+static void encode_header(const volux_ambient_table *t, unsigned char h[TABLE_HEADER_BYTES]) {
+    const volux_ambient_table_desc *d = &t->desc;
+    memset(h, 0, TABLE_HEADER_BYTES);
+    memcpy(h, TABLE_MAGIC, 8);
+    put_u32(h + 8, VOLUX_AMBIENT_TABLE_VERSION);
+    put_u32(h + 12, TABLE_HEADER_BYTES);
+    put_u32(h + 16, (uint32_t)d->n_theta);
+    put_u32(h + 20, (uint32_t)d->n_sigma);
+    put_u32(h + 24, (uint32_t)d->n_g);
+    put_u32(h + 28, t->rel_error ? TABLE_FLAG_ERRORS : 0u);
+    put_f64(h + 32, 0.0);
+    put_f64(h + 40, PI);
+    put_f64(h + 48, 0.0);
+    put_f64(h + 56, d->sigma_max);
+    put_f64(h + 64, d->g_min);
+    put_f64(h + 72, d->g_max);
+    put_f64(h + 80, d->albedo);
+    put_u64(h + 88, d->paths);
+    put_u64(h + 96, d->seed);
+    put_u32(h + 104, VOLUX_AMBIENT_TABLE_ESTIMATOR);
+    put_f64(h + 120, t->build_ms);
+}
+
+/* Writes n floats little-endian, updating the checksum. */
+static int write_floats(FILE *f, const float *v, size_t n, uint64_t *h) {
+    unsigned char buf[4096];
+    size_t k = 0;
+    for (size_t i = 0; i < n; i++) {
+        uint32_t u;
+        memcpy(&u, &v[i], 4);
+        put_u32(buf + k, u);
+        k += 4;
+        if (k == sizeof buf || i + 1 == n) {
+            *h = fnv1a(*h, buf, k);
+            if (fwrite(buf, 1, k, f) != k) return 0;
+            k = 0;
+        }
+    }
+    return 1;
+}
+
+static volux_status write_table(const volux_ambient_table *t, const char *path, why_buf *why) {
+    char tmp[4200];
+    if (snprintf(tmp, sizeof tmp, "%s.tmp%ld", path, (long)getpid()) >= (int)sizeof tmp)
+        return fail(why, VOLUX_ERR_WRITE, "%s: path too long", path);
+    FILE *f = fopen(tmp, "wb");
+    if (!f) return fail(why, VOLUX_ERR_WRITE, "%s: cannot write: %s", path, strerror(errno));
+    unsigned char h[TABLE_HEADER_BYTES];
+    encode_header(t, h);
+    uint64_t sum = fnv1a(FNV_OFFSET, h, sizeof h);
+    size_t n = volux_ambient_table_values(&t->desc);
+    int ok = fwrite(h, 1, sizeof h, f) == sizeof h && write_floats(f, t->data, n, &sum) &&
+             (!t->rel_error || write_floats(f, t->rel_error, n, &sum));
+    unsigned char tail[8];
+    put_u64(tail, sum);
+    ok = ok && fwrite(tail, 1, 8, f) == 8;
+    ok = (fclose(f) == 0) && ok;
+    if (!ok || rename(tmp, path) != 0) {
+        int e = errno;
+        remove(tmp);
+        return fail(why, VOLUX_ERR_WRITE, "%s: cannot write: %s", path, strerror(e));
+    }
+    return VOLUX_OK;
+}
+
+volux_status volux_ambient_table_save(volux_context *ctx, const volux_ambient_table *t, const char *path) {
+    why_buf why;
+    volux_status st = write_table(t, path, &why);
+    return st ? volux_error(ctx, st, "%s", why.text) : VOLUX_OK;
+}
+
+/* ------------------------------------------------------------------ read */
+
+/* Reads the n floats of `dst` little-endian, updating the checksum. */
+static int read_floats(FILE *f, float *dst, size_t n, uint64_t *sum) {
+    unsigned char buf[4096];
+    size_t i = 0;
+    while (i < n) {
+        size_t m = n - i < sizeof buf / 4 ? n - i : sizeof buf / 4;
+        if (fread(buf, 4, m, f) != m) return 0;
+        *sum = fnv1a(*sum, buf, 4 * m);
+        for (size_t j = 0; j < m; j++) {
+            uint32_t u = get_u32(buf + 4 * j);
+            memcpy(&dst[i + j], &u, 4);
+        }
+        i += m;
+    }
+    return 1;
+}
+
+/* The header's description, checked. */
+static volux_status decode_header(const unsigned char h[TABLE_HEADER_BYTES], const char *path,
+                                  volux_ambient_table_desc *d, uint32_t *flags, why_buf *why) {
+    if (memcmp(h, TABLE_MAGIC, 8) != 0)
+        return fail(why, VOLUX_ERR_FORMAT, "%s: not an ambient table (bad magic)", path);
+    if (get_u32(h + 8) != VOLUX_AMBIENT_TABLE_VERSION || get_u32(h + 12) != TABLE_HEADER_BYTES)
+        return fail(why, VOLUX_ERR_FORMAT, "%s: unsupported ambient table version %u", path, get_u32(h + 8));
+    memset(d, 0, sizeof *d);
+    uint32_t dims[3] = {get_u32(h + 16), get_u32(h + 20), get_u32(h + 24)};
+    for (int a = 0; a < 3; a++)
+        if (dims[a] < 2 || dims[a] > VOLUX_AMBIENT_TABLE_MAX_DIM)
+            return fail(why, VOLUX_ERR_FORMAT, "%s: table size %u is outside [2, %d]", path, dims[a],
+                        VOLUX_AMBIENT_TABLE_MAX_DIM);
+    d->n_theta = (int)dims[0], d->n_sigma = (int)dims[1], d->n_g = (int)dims[2];
+    *flags = get_u32(h + 28);
+    double th0 = get_f64(h + 32), th1 = get_f64(h + 40), s0 = get_f64(h + 48);
+    d->sigma_max = get_f64(h + 56);
+    d->g_min = get_f64(h + 64);
+    d->g_max = get_f64(h + 72);
+    d->albedo = get_f64(h + 80);
+    d->paths = get_u64(h + 88);
+    d->seed = get_u64(h + 96);
+    if ((*flags & ~TABLE_FLAG_ERRORS) || th0 != 0.0 || fabs(th1 - PI) > 1e-12 || s0 != 0.0 ||
+        get_u32(h + 104) != VOLUX_AMBIENT_TABLE_ESTIMATOR)
+        return fail(why, VOLUX_ERR_FORMAT, "%s: unsupported ambient table layout", path);
+    why_buf bad;
+    if (check_desc(d, &bad)) return fail(why, VOLUX_ERR_FORMAT, "%s: invalid header: %s", path, bad.text);
+    return VOLUX_OK;
+}
+
+static volux_status read_table(volux_context *ctx, const char *path, volux_ambient_table *out, why_buf *why) {
+    FILE *f = fopen(path, "rb");
+    if (!f) return fail(why, VOLUX_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    unsigned char h[TABLE_HEADER_BYTES];
+    volux_status st = VOLUX_OK;
+    volux_ambient_table t;
+    memset(&t, 0, sizeof t);
+    volux_ambient_table_desc d;
+    uint32_t flags = 0;
+    if (fread(h, 1, sizeof h, f) != sizeof h) {
+        /* too short for a header: report it as the magic check would */
+        st = fail(why, VOLUX_ERR_FORMAT, "%s: not an ambient table (bad magic)", path);
+        goto done;
+    }
+    if ((st = decode_header(h, path, &d, &flags, why))) goto done;
+    if (!volux_ambient_table_alloc(ctx, &d, (flags & TABLE_FLAG_ERRORS) != 0, &t)) {
+        st = fail(why, VOLUX_ERR_NOMEM, "%s: out of memory for the ambient table (%zu values)", path,
+                  volux_ambient_table_values(&d));
+        goto done;
+    }
+    t.build_ms = get_f64(h + 120);
+    uint64_t sum = fnv1a(FNV_OFFSET, h, sizeof h);
+    size_t n = volux_ambient_table_values(&d);
+    if (!read_floats(f, t.data, n, &sum) || (t.rel_error && !read_floats(f, t.rel_error, n, &sum))) {
+        st = fail(why, VOLUX_ERR_FORMAT, "%s: truncated ambient table", path);
+        goto done;
+    }
+    unsigned char tail[8];
+    if (fread(tail, 1, 8, f) != 8) {
+        st = fail(why, VOLUX_ERR_FORMAT, "%s: truncated ambient table (no checksum)", path);
+        goto done;
+    }
+    if (get_u64(tail) != sum) {
+        st = fail(why, VOLUX_ERR_FORMAT, "%s: ambient table checksum mismatch (corrupt file)", path);
+        goto done;
+    }
+    if (fgetc(f) != EOF) {
+        st = fail(why, VOLUX_ERR_FORMAT, "%s: trailing bytes after the ambient table", path);
+        goto done;
+    }
+    for (size_t i = 0; i < n; i++)
+        if (!(t.data[i] >= 0.0f) || !isfinite(t.data[i])) {
+            st = fail(why, VOLUX_ERR_FORMAT, "%s: ambient table value %zu is not a finite radiance", path, i);
+            goto done;
+        }
+done:
+    fclose(f);
+    if (st) {
+        volux_ambient_table_free(ctx, &t);
+        return st;
+    }
+    *out = t;
+    return VOLUX_OK;
+}
+
+volux_status volux_ambient_table_load(volux_context *ctx, const char *path, volux_ambient_table *out) {
+    why_buf why;
+    volux_status st = read_table(ctx, path, out, &why);
+    return st ? volux_error(ctx, st, "%s", why.text) : VOLUX_OK;
+}
+
+/* ------------------------------------------------------------------ cache */
+
+int volux_ambient_table_cache_path(const volux_context *ctx, const volux_ambient_table_desc *d, char *buf,
+                                   size_t size) {
+    char name[512];
+    int n = snprintf(name, sizeof name, "ambient-v%d-e%u-t%d-s%d-g%d-S%.9g-G%.9g_%.9g-a%.9g-p%llu-r%llu.vxat",
+                     VOLUX_AMBIENT_TABLE_VERSION, VOLUX_AMBIENT_TABLE_ESTIMATOR, d->n_theta, d->n_sigma, d->n_g,
+                     d->sigma_max, d->g_min, d->g_max, d->albedo, (unsigned long long)d->paths,
+                     (unsigned long long)d->seed);
+    return n > 0 && (size_t)n < sizeof name && volux_cache_file_path(ctx, name, buf, size);
+}
+
+int volux_ambient_table_cache_load(volux_context *ctx, const volux_ambient_table_desc *d, volux_ambient_table *out) {
+    char path[4400];
+    if (!volux_ambient_table_cache_path(ctx, d, path, sizeof path)) return 0;
+    why_buf ignored; /* missing, corrupt or unreadable: the caller builds it */
+    volux_ambient_table t;
+    if (read_table(ctx, path, &t, &ignored) != VOLUX_OK) return 0;
+    if (!same_desc(&t.desc, d)) { /* a stale entry: rebuilt and overwritten */
+        volux_ambient_table_free(ctx, &t);
+        return 0;
+    }
+    *out = t;
+    return 1;
+}
+
+int volux_ambient_table_cache_store(volux_context *ctx, const volux_ambient_table *t) {
+    char path[4400];
+    why_buf ignored; /* an unwritable cache folder is not an error */
+    return volux_ambient_table_cache_path(ctx, &t->desc, path, sizeof path) && volux_cache_folder_create(ctx) &&
+           write_table(t, path, &ignored) == VOLUX_OK;
+}
