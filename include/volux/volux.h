@@ -5,6 +5,7 @@
 #include "base.h"
 #include "ambient.h"
 #include "camera.h"
+#include "edit.h"
 #include "image.h"
 #include "io.h"
 #include "light.h"

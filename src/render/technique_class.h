@@ -37,6 +37,11 @@ typedef struct volux_technique_class {
      * matrix asserts that these edits leave the image unchanged and that
      * every other edit kind changes it. */
     uint32_t image_ignores;
+    /* Largest |incremental − fresh| difference of a rendered image after
+     * any edit, relative to the image's maximum: 0 = bit-identical (the
+     * technique recomputes invalidated caches exactly); > 0 where an update
+     * is incremental arithmetic (lightvol subtracts and adds light). */
+    float update_tolerance;
     /* Optional: values the state needs before its first update that are
      * not zero (e.g. "no cache yet" markers). May not fail. */
     void (*init)(void *state);

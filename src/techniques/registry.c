@@ -4,7 +4,7 @@
 #include <string.h>
 
 #include "core/context_internal.h"
-#include "render/technique_class.h"
+#include "registry.h"
 
 extern const volux_technique_class volux_ea_class;
 extern const volux_technique_class volux_shaded_class;
@@ -19,7 +19,7 @@ static const volux_technique_class *const classes[] = {
     &volux_ao_class,     &volux_ambient_class, &volux_lightvol_class,
 };
 
-static const volux_technique_class *class_find(const char *name) {
+const volux_technique_class *volux_technique_class_find(const char *name) {
     for (int i = 0; i < volux_technique_count(); i++)
         if (!strcmp(classes[i]->info.name, name)) return classes[i];
     return NULL;
@@ -32,7 +32,7 @@ const volux_technique_info *volux_technique_info_at(int index) {
 }
 
 const volux_technique_info *volux_technique_info_find(const char *name) {
-    const volux_technique_class *cls = class_find(name);
+    const volux_technique_class *cls = volux_technique_class_find(name);
     return cls ? &cls->info : NULL;
 }
 
@@ -40,7 +40,7 @@ volux_status volux_technique_validate_params(volux_context *ctx, const volux_sce
     const char *tech, *name, *string;
     double number;
     for (int i = 0; volux_scene_param_at(scene, i, &tech, &name, &number, &string); i++) {
-        const volux_technique_class *cls = class_find(tech);
+        const volux_technique_class *cls = volux_technique_class_find(tech);
         if (!cls) return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.%s: unknown technique", tech);
         volux_status st = volux_technique_check_param(ctx, &cls->info, name, number, string);
         if (st) return st;
@@ -50,7 +50,7 @@ volux_status volux_technique_validate_params(volux_context *ctx, const volux_sce
 
 volux_status volux_technique_create(volux_context *ctx, const char *name, const volux_scene *scene,
                                     volux_technique **out) {
-    const volux_technique_class *cls = class_find(name);
+    const volux_technique_class *cls = volux_technique_class_find(name);
     if (!cls) return volux_error(ctx, VOLUX_ERR_INVALID, "render.technique: unknown technique '%s'", name);
     volux_status st = volux_technique_validate_params(ctx, scene);
     return st ? st : volux_technique_create_class(ctx, cls, scene, out);

@@ -105,6 +105,7 @@ volux_context *tu_context_counting(uint64_t max_bytes, tu_alloc_stats *stats) {
     d.max_bytes = max_bytes;
     d.alloc = counting_alloc;
     d.alloc_user = stats;
+    d.cache_dir = tu_temp_path("cache");
     volux_context *ctx = NULL;
     assert_int_equal(volux_context_create(&d, &ctx), VOLUX_OK);
     return ctx;

@@ -116,8 +116,39 @@ static void test_cache_dir_uses_the_context_allocator(void **state) {
     assert_int_equal(c.frees, 1); /* the context itself, released */
 }
 
+/* A failure that follows from an earlier one must not hide it: the first
+ * error is kept until the caller clears it; the library never clears. */
+static void test_the_first_error_wins_until_cleared(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(1);
+    volux_scene *s = NULL;
+    assert_int_equal(volux_scene_create(ctx, &s), VOLUX_OK);
+    volux_light_desc l;
+    volux_light_desc_defaults(&l, VOLUX_LIGHT_POINT);
+    l.intensity = -1;
+    assert_int_equal(volux_scene_set_light(s, 3, &l), VOLUX_ERR_INVALID);
+    assert_non_null(strstr(volux_context_error(ctx), "lights[3].intensity"));
+    /* a second, different failure: status returned, first message kept */
+    volux_technique *t = NULL;
+    assert_int_equal(volux_technique_create(ctx, "no-such-technique", s, &t), VOLUX_ERR_INVALID);
+    assert_non_null(strstr(volux_context_error(ctx), "lights[3].intensity"));
+    assert_int_equal(volux_context_error_status(ctx), VOLUX_ERR_INVALID);
+    /* successful calls leave it alone too */
+    volux_light_desc_defaults(&l, VOLUX_LIGHT_POINT);
+    assert_int_equal(volux_scene_set_light(s, 3, &l), VOLUX_OK);
+    assert_non_null(strstr(volux_context_error(ctx), "lights[3].intensity"));
+    volux_context_clear_error(ctx);
+    assert_string_equal(volux_context_error(ctx), "");
+    assert_int_equal(volux_context_error_status(ctx), VOLUX_OK);
+    assert_int_equal(volux_technique_create(ctx, "no-such-technique", s, &t), VOLUX_ERR_INVALID);
+    assert_non_null(strstr(volux_context_error(ctx), "no-such-technique"));
+    volux_scene_destroy(s);
+    volux_context_destroy(ctx);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_the_first_error_wins_until_cleared),
         cmocka_unit_test(test_default_cache_dir_follows_xdg_then_home),
         cmocka_unit_test(test_explicit_cache_dir_is_copied),
         cmocka_unit_test(test_cache_dir_is_not_counted_as_object_memory),

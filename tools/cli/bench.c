@@ -12,7 +12,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "bench_edits.h"
 #include "scene_args.h"
 
 #define MAX_EDITS 16
@@ -50,7 +49,11 @@ static void usage(FILE *f) {
     fprintf(f, "usage: volux bench SCENE.json [--technique T] [--repeat N] [--edit KIND]... [--json]\n"
                "                   [--reference IMG] [scene options as for render]\n"
                "edits (default: tf camera; 'all' for every one):\n");
-    for (int i = 0; bench_edit_at(i); i++) fprintf(f, "  %-13s %s\n", bench_edit_at(i)->name, bench_edit_at(i)->doc);
+    for (int i = 0; volux_edit_at(i); i++) {
+        const volux_edit *e = volux_edit_at(i);
+        if (e->technique) fprintf(f, "  %-15s %s (%s only)\n", e->name, e->doc, e->technique);
+        else fprintf(f, "  %-15s %s\n", e->name, e->doc);
+    }
 }
 
 /* Progressive convergence against a reference image: spp 1, 2, 4, ... */
@@ -82,7 +85,7 @@ static volux_status convergence(volux_context *ctx, volux_technique *t, volux_sc
 
 int cli_bench(int argc, char **argv) {
     cli_scene_args args = {0};
-    const bench_edit *edits[MAX_EDITS];
+    const volux_edit *edits[MAX_EDITS];
     int n_edits = 0, json = 0, repeat = 5;
     const char *reference = NULL;
     for (int i = 1; i < argc; i++) {
@@ -109,10 +112,10 @@ int cli_bench(int argc, char **argv) {
                 return CLI_USAGE;
             }
             if (!strcmp(argv[i], "all")) {
-                for (int k = 0; bench_edit_at(k) && n_edits < MAX_EDITS; k++) edits[n_edits++] = bench_edit_at(k);
+                for (int k = 0; volux_edit_at(k) && n_edits < MAX_EDITS; k++) edits[n_edits++] = volux_edit_at(k);
                 continue;
             }
-            const bench_edit *e = bench_edit_find(argv[i]);
+            const volux_edit *e = volux_edit_find(argv[i]);
             if (!e) {
                 fprintf(stderr, "volux bench: --edit %s: unknown edit\n", argv[i]);
                 usage(stderr);
@@ -135,8 +138,8 @@ int cli_bench(int argc, char **argv) {
         return CLI_USAGE;
     }
     if (!n_edits) {
-        edits[n_edits++] = bench_edit_find("tf");
-        edits[n_edits++] = bench_edit_find("camera");
+        edits[n_edits++] = volux_edit_find("tf");
+        edits[n_edits++] = volux_edit_find("camera");
     }
     volux_context *ctx = cli_context(0);
     if (!ctx) return CLI_FAIL;
@@ -210,12 +213,10 @@ int cli_bench(int argc, char **argv) {
     for (int e = 0; e < n_edits; e++) {
         int ok = 1;
         for (int k = 0; k < repeat && ok; k++) {
-            st = edits[e]->apply(scene, k);
+            st = volux_edit_apply(edits[e], scene, k);
             if (st) {
-                fprintf(stderr, "volux bench: edit %s does not apply to this scene (%s)\n", edits[e]->name,
-                        st == VOLUX_ERR_INVALID       ? "no light?"
-                        : st == VOLUX_ERR_UNSUPPORTED ? "not supported by this technique"
-                                                      : volux_context_error(ctx));
+                fprintf(stderr, "volux bench: skipped: %s\n", volux_context_error(ctx));
+                volux_context_clear_error(ctx);
                 st = VOLUX_OK;
                 ok = 0;
                 break;

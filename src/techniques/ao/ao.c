@@ -98,6 +98,6 @@ static void ao_render_tile(const void *state, const volux_scene *scene, const vo
 const volux_technique_class volux_ao_class = {
     {"ao", "SAT ambient occlusion (Schlegel et al. 2011) lighting single scattering (Ament 2013 baseline)",
      ao_params, 0},
-    sizeof(ao_state), 0,
+    sizeof(ao_state), 0, 0,
     NULL, ao_update, ao_render_tile, ao_memory_bytes, ao_release,
 };

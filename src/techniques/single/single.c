@@ -177,6 +177,6 @@ static void single_render_tile(const void *state, const volux_scene *scene, cons
 const volux_technique_class volux_single_class = {
     {"single", "single scattering with shadow rays and an optional transmittance cache (Ament 2013 baseline)",
      single_params, 0},
-    sizeof(single_state), 0,
+    sizeof(single_state), 0, 0,
     single_init, single_update, single_render_tile, single_memory_bytes, single_release,
 };

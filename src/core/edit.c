@@ -1,0 +1,221 @@
+/* core/edit.c — see volux/edit.h. */
+#include <math.h>
+#include <string.h>
+
+#include "context_internal.h"
+#include "volume_internal.h"
+#include "volux/edit.h"
+
+/* ------------------------------------------------------------------ transfer function */
+
+enum { TF_OPACITY, TF_COLOR, TF_DENSITY, TF_PHASE };
+
+static volux_status edit_transfer(volux_scene *s, int k, int what) {
+    const volux_transfer_desc *cur = volux_scene_transfer(s);
+    volux_transfer_desc d = *cur;
+    volux_tf_scalar_point op[VOLUX_TF_MAX_POINTS];
+    volux_tf_color_point col[VOLUX_TF_MAX_POINTS];
+    memcpy(op, cur->opacity, sizeof *op * (size_t)cur->n_opacity);
+    if (cur->n_color) memcpy(col, cur->color, sizeof *col * (size_t)cur->n_color);
+    d.opacity = op;
+    d.color = cur->n_color ? col : NULL;
+    float f = (k & 1) ? 0.8f : 1.25f; /* the pair multiplies back to 1 */
+    switch (what) {
+    case TF_OPACITY:
+        for (int i = 0; i < d.n_opacity; i++) {
+            float v = op[i].v * f;
+            op[i].v = d.extinction ? v : fminf(v, 1.0f);
+        }
+        break;
+    case TF_COLOR: /* swap red and blue of every colour point (white TF: scale the albedo) */
+        for (int i = 0; i < d.n_color; i++) {
+            float r = col[i].r;
+            col[i].r = col[i].b;
+            col[i].b = r;
+        }
+        if (!d.n_color) d.albedo = (k & 1) ? d.albedo * 0.9f : d.albedo / 0.9f > 1 ? 1 : d.albedo / 0.9f;
+        break;
+    case TF_DENSITY: d.density_scale *= f; break;
+    case TF_PHASE:
+        /* keep g inside (−1, 1): step down from the top of the range */
+        if (d.anisotropy > 0.75f && !(k & 1)) k = 1;
+        d.anisotropy = (k & 1) ? d.anisotropy - 0.2f : d.anisotropy + 0.2f;
+        break;
+    }
+    return volux_scene_set_transfer(s, &d);
+}
+
+static volux_status edit_tf(volux_scene *s, int k) { return edit_transfer(s, k, TF_OPACITY); }
+static volux_status edit_tf_color(volux_scene *s, int k) { return edit_transfer(s, k, TF_COLOR); }
+static volux_status edit_density(volux_scene *s, int k) { return edit_transfer(s, k, TF_DENSITY); }
+static volux_status edit_phase(volux_scene *s, int k) { return edit_transfer(s, k, TF_PHASE); }
+
+/* ------------------------------------------------------------------ lights */
+
+static int first_light(const volux_scene *s) {
+    for (int i = 0; i < volux_scene_light_slots(s); i++)
+        if (volux_scene_light(s, i)) return i;
+    return -1;
+}
+
+static int last_light(const volux_scene *s) {
+    for (int i = volux_scene_light_slots(s) - 1; i >= 0; i--)
+        if (volux_scene_light(s, i)) return i;
+    return -1;
+}
+
+/* Rotates a light about +Y by ±10° (direction, position and an
+ * environment's rotation). */
+static volux_status rotate_light(volux_scene *s, int k, int slot) {
+    if (slot < 0) return VOLUX_ERR_UNSUPPORTED;
+    volux_light_desc d = *volux_scene_light(s, slot);
+    float a = ((k & 1) ? -10.0f : 10.0f) * 3.14159265f / 180.0f, c = cosf(a), sn = sinf(a);
+    volux_vec3 v = d.direction, p = d.position;
+    d.direction = (volux_vec3){c * v.x + sn * v.z, v.y, -sn * v.x + c * v.z};
+    d.position = (volux_vec3){c * p.x + sn * p.z, p.y, -sn * p.x + c * p.z};
+    d.rotation_y_deg += (k & 1) ? -10.0f : 10.0f;
+    return volux_scene_set_light(s, slot, &d);
+}
+
+static volux_status edit_light(volux_scene *s, int k) { return rotate_light(s, k, first_light(s)); }
+/* the last light: with one light the same as `light`; lets a scene time a
+ * second light type (e.g. a point light after a directional one) */
+static volux_status edit_light_last(volux_scene *s, int k) { return rotate_light(s, k, last_light(s)); }
+
+static volux_status edit_light_toggle(volux_scene *s, int k) {
+    (void)k;
+    int slot = first_light(s);
+    if (slot < 0) return VOLUX_ERR_UNSUPPORTED;
+    return volux_scene_set_light_enabled(s, slot, !volux_scene_light(s, slot)->enabled);
+}
+
+/* Adds a white point light above the volume in the first free slot after
+ * the last light (even k), removes it again (odd k). */
+static volux_status edit_light_add(volux_scene *s, int k) {
+    int slot = last_light(s);
+    if (k & 1) return slot >= 0 ? volux_scene_remove_light(s, slot) : VOLUX_ERR_UNSUPPORTED;
+    if (slot + 1 >= VOLUX_MAX_LIGHTS) return VOLUX_ERR_UNSUPPORTED;
+    volux_vec3 c;
+    float r;
+    volux_scene_bounds_sphere(s, &c, &r);
+    volux_light_desc d;
+    volux_light_desc_defaults(&d, VOLUX_LIGHT_POINT);
+    d.position = (volux_vec3){c.x + 0.8f * r, c.y + 1.5f * r, c.z + 0.5f * r};
+    d.intensity = 2.0f * r * r; /* irradiance ≈ 1 at the volume */
+    return volux_scene_set_light(s, slot + 1, &d);
+}
+
+/* ------------------------------------------------------------------ camera, render, volume */
+
+static volux_status edit_camera(volux_scene *s, int k) {
+    volux_camera_desc d = *volux_scene_camera_desc(s);
+    if (d.use_orbit) d.azimuth_deg += (k & 1) ? -5.0f : 5.0f;
+    else d.eye.x += (k & 1) ? -0.01f : 0.01f;
+    return volux_scene_set_camera(s, &d);
+}
+
+static volux_status edit_background(volux_scene *s, int k) {
+    volux_vec3 b = volux_scene_background(s);
+    float add = (k & 1) ? -0.1f : 0.1f;
+    volux_scene_set_background(s, (volux_vec3){b.x + add, b.y, b.z + 0.5f * add});
+    return VOLUX_OK;
+}
+
+static volux_status edit_step(volux_scene *s, int k) {
+    volux_render_settings r = *volux_scene_render(s);
+    r.step *= (k & 1) ? 0.8f : 1.25f;
+    return volux_scene_set_render(s, &r);
+}
+
+/* The volume mirrored along x, as a new volume (a new time step: same
+ * size, type and box, different data). */
+static volux_status mirrored(const volux_volume *v, volux_volume **out) {
+    volux_volume *m;
+    volux_status st = volux_volume_create_storage(v->ctx, v->dims, v->spacing, v->type, &m);
+    if (st) return st;
+    size_t elem = v->storage == VOLUX_STORE_U8 ? 1 : v->storage == VOLUX_STORE_U16 ? 2 : 4;
+    const unsigned char *src = v->data;
+    unsigned char *dst = m->data;
+    size_t nx = (size_t)v->dims[0], rows = (size_t)v->dims[1] * (size_t)v->dims[2];
+    for (size_t r = 0; r < rows; r++)
+        for (size_t i = 0; i < nx; i++) memcpy(dst + (r * nx + i) * elem, src + (r * nx + nx - 1 - i) * elem, elem);
+    double origin[3] = {v->origin.x, v->origin.y, v->origin.z};
+    if ((st = volux_volume_finalize(m, origin))) {
+        volux_volume_release(m);
+        return st;
+    }
+    *out = m;
+    return VOLUX_OK;
+}
+
+static volux_status edit_time_step(volux_scene *s, int k) {
+    (void)k;
+    const volux_volume *v = volux_scene_volume(s);
+    if (!v) return VOLUX_ERR_UNSUPPORTED;
+    volux_volume *next;
+    volux_status st = mirrored(v, &next);
+    if (st) return st;
+    st = volux_scene_set_volume(s, next); /* retains */
+    volux_volume_release(next);
+    return st;
+}
+
+/* lightvol: an entire light update (every light re-propagated) in the
+ * given propagation mode, forced through the technique's `rebuild_token`
+ * parameter. Sets the mode for the edits that follow. */
+static volux_status edit_full(volux_scene *s, const char *mode) {
+    volux_status st = volux_scene_set_param(s, "lightvol", "propagation", 0, mode);
+    if (st) return st;
+    double token = volux_scene_param(s, "lightvol", "rebuild_token", 0.0);
+    return volux_scene_set_param(s, "lightvol", "rebuild_token", token + 1.0, NULL);
+}
+static volux_status edit_full_coherent(volux_scene *s, int k) {
+    (void)k;
+    return edit_full(s, "coherent");
+}
+static volux_status edit_full_sequential(volux_scene *s, int k) {
+    (void)k;
+    return edit_full(s, "sequential");
+}
+
+/* ------------------------------------------------------------------ the list */
+
+static const volux_edit edits[] = {
+    {"tf", "scale the opacity/extinction curve", VOLUX_CHANGE_EXTINCTION, NULL, 1, edit_tf},
+    {"tf_color", "swap red and blue of the colour curve", VOLUX_CHANGE_COLOR, NULL, 1, edit_tf_color},
+    {"density", "scale density_scale", VOLUX_CHANGE_DENSITY, NULL, 1, edit_density},
+    {"phase", "change the HG anisotropy by 0.2", VOLUX_CHANGE_PHASE, NULL, 1, edit_phase},
+    {"light", "rotate the first light by 10 degrees about +Y", VOLUX_CHANGE_LIGHTS, NULL, 1, edit_light},
+    {"light_last", "rotate the last light by 10 degrees about +Y", VOLUX_CHANGE_LIGHTS, NULL, 1, edit_light_last},
+    {"light_toggle", "switch the first light off/on", VOLUX_CHANGE_LIGHTS, NULL, 1, edit_light_toggle},
+    {"light_add", "add a point light after the last one / remove it", VOLUX_CHANGE_LIGHTS, NULL, 1, edit_light_add},
+    {"camera", "orbit the camera by 5 degrees", VOLUX_CHANGE_CAMERA, NULL, 1, edit_camera},
+    {"background", "change the background colour", VOLUX_CHANGE_RENDER, NULL, 1, edit_background},
+    {"step", "scale the ray-march step (render.step)", VOLUX_CHANGE_RENDER, NULL, 0, edit_step},
+    {"time_step", "replace the volume by a new one (mirrored along x)", VOLUX_CHANGE_VOLUME, NULL, 1, edit_time_step},
+    {"full_sequential", "entire light update, one light per propagation pass", VOLUX_CHANGE_PARAMS, "lightvol",
+     0, edit_full_sequential},
+    {"full_coherent", "entire light update, lights grouped by propagation direction", VOLUX_CHANGE_PARAMS,
+     "lightvol", 0, edit_full_coherent},
+};
+
+int volux_edit_count(void) { return (int)(sizeof edits / sizeof edits[0]); }
+
+const volux_edit *volux_edit_at(int index) { return index >= 0 && index < volux_edit_count() ? &edits[index] : NULL; }
+
+const volux_edit *volux_edit_find(const char *name) {
+    for (int i = 0; i < volux_edit_count(); i++)
+        if (!strcmp(edits[i].name, name)) return &edits[i];
+    return NULL;
+}
+
+volux_status volux_edit_apply(const volux_edit *e, volux_scene *s, int k) {
+    volux_context *ctx = volux_scene_context(s);
+    if (e->technique && strcmp(volux_scene_render(s)->technique, e->technique) != 0)
+        return volux_error(ctx, VOLUX_ERR_UNSUPPORTED, "edit %s: only for technique %s", e->name, e->technique);
+    volux_status st = e->apply(s, k);
+    if (st == VOLUX_ERR_UNSUPPORTED)
+        return volux_error(ctx, st, "edit %s: the scene has nothing it can edit (no light?)", e->name);
+    if (st) volux_error_prefix(ctx, "edit %s: ", e->name);
+    return st;
+}
