@@ -186,7 +186,7 @@ void *volux_alloc_aligned(volux_context *ctx, size_t n) {
     memcpy(p - sizeof(size_t), &offset, sizeof offset);
 #ifdef MADV_HUGEPAGE
     if (n >= (2u << 20)) {
-        /* Huge pages help random access in large volumes (perf/LIMITS.md);
+        /* Huge pages help random access in large volumes (fewer TLB misses);
          * advisory only, failures are harmless. Advise before the memset
          * below touches the pages, so they are faulted in as huge pages. */
         uintptr_t a = (start + (2u << 20) - 1) & ~(uintptr_t)((2u << 20) - 1);

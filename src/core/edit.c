@@ -163,20 +163,14 @@ static volux_status edit_time_step(volux_scene *s, int k) {
 /* lightvol: an entire light update (every light re-propagated) in the
  * given propagation mode, forced through the technique's `rebuild_token`
  * parameter. Sets the mode for the edits that follow. */
-static volux_status edit_full(volux_scene *s, const char *mode) {
-    volux_status st = volux_scene_set_param(s, "lightvol", "propagation", 0, mode);
+static volux_status edit_full(volux_scene *s, int coherent) {
+    volux_status st = volux_scene_set_param(s, "lightvol", "propagation", 0, coherent ? "coherent" : "sequential");
     if (st) return st;
     double token = volux_scene_param(s, "lightvol", "rebuild_token", 0.0);
     return volux_scene_set_param(s, "lightvol", "rebuild_token", token + 1.0, NULL);
 }
-static volux_status edit_full_coherent(volux_scene *s, int k) {
-    (void)k;
-    return edit_full(s, "coherent");
-}
-static volux_status edit_full_sequential(volux_scene *s, int k) {
-    (void)k;
-    return edit_full(s, "sequential");
-}
+static volux_status edit_full_coherent(volux_scene *s, int k) { return (void)k, edit_full(s, 1); }
+static volux_status edit_full_sequential(volux_scene *s, int k) { return (void)k, edit_full(s, 0); }
 
 /* ------------------------------------------------------------------ the list */
 

@@ -44,7 +44,7 @@ struct volux_volume {
 /* Bricked layout: 8³-cell bricks stored as 9³ nodes (one-node apron on the
  * high side), so all 8 corners of a trilinear lookup lie in one brick at
  * fixed offsets. Oblique rays touch far fewer cache lines than in the
- * linear layout (perf/LIMITS.md: ~2× for scalar code). */
+ * linear layout (~2× for scalar code, measured on oblique views). */
 #define VOLUX_BRICK_CELLS 8
 #define VOLUX_BRICK_NODES 9
 #define VOLUX_BRICK_VOXELS (VOLUX_BRICK_NODES * VOLUX_BRICK_NODES * VOLUX_BRICK_NODES)

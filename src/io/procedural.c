@@ -6,9 +6,10 @@
  * [−1,1]³ in its own normalized coordinates whatever the dims (a size-1
  * axis maps to 0). Values are rounded to the nearest integer and clamped
  * to 0..255 (uint8), except "constant" (float32 1.0). The coordinate and
- * rounding conventions are the ones of shared/peers/gen_volume.c, so that
- * "marschner_lobb" and "phantom" at N³ equal the peers' ml/phantom N³
- * uint8 volumes value for value.
+ * rounding conventions are those of the volume generator the peer
+ * renderers (VTK, VolPack, Teem comparisons) use, so that "marschner_lobb"
+ * and "phantom" at N³ equal their ml/phantom N³ uint8 volumes value for
+ * value.
  */
 #include <math.h>
 #include <string.h>

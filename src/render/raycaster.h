@@ -59,6 +59,29 @@ typedef struct volux_raycaster {
     volux_light_list lights;
 } volux_raycaster;
 
+/* Parameters most ray casters share (same names, ranges and meaning). */
+#define VOLUX_PARAM_PREINTEGRATE                                                                                 \
+    {"preintegrate", VOLUX_PARAM_BOOL, 1, 0, 1, NULL,                                                            \
+     "integrate the TF exactly between samples (Engel et al. 2001), so narrow peaks are not missed"}
+#define VOLUX_PARAM_EARLY_TERMINATION                                                                            \
+    {"early_termination", VOLUX_PARAM_NUMBER, 0.002, 0, 1, NULL,                                                 \
+     "stop a ray when its transmittance (ambient: taken at the offset point) falls below this (0 = never)"}
+#define VOLUX_PARAM_SKIP_EMPTY                                                                                   \
+    {"skip_empty", VOLUX_PARAM_BOOL, 1, 0, 1, NULL,                                                              \
+     "skip macrocells whose TF extinction is zero (does not change the image)"}
+/* WHAT: what is fully on at the threshold ("shading is", ...). */
+#define VOLUX_PARAM_GRADIENT_THRESHOLD(WHAT)                                                                     \
+    {"gradient_threshold", VOLUX_PARAM_NUMBER, 0.02, 0, 10, NULL,                                                \
+     "gradient magnitude (fraction of the value range per smallest voxel spacing) at which " WHAT " fully on"}
+
+/* |∇s| (file units per world unit) for a gradient_threshold parameter. */
+static inline float volux_raycaster_gradient_ref(const volux_raycaster *rc, double threshold) {
+    double lo, hi, sp[3];
+    volux_volume_range(rc->volume, &lo, &hi);
+    volux_volume_spacing(rc->volume, sp);
+    return (float)(threshold * (hi > lo ? hi - lo : 1.0) / fmin(sp[0], fmin(sp[1], sp[2])));
+}
+
 /* Brings the base up to date for change set c (see the table above). */
 volux_status volux_raycaster_update(volux_raycaster *rc, const volux_scene *scene, const volux_change_set *c);
 void volux_raycaster_release(volux_raycaster *rc);

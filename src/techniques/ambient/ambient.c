@@ -64,8 +64,7 @@ static const volux_param_info ambient_params[] = {
      "radiance cache resolution relative to the volume (paper: 0.5)"},
     {"specular", VOLUX_PARAM_BOOL, 0, 0, 1, NULL,
      "add gradient-based Blinn-Phong highlights (TF material specular, specular_power)"},
-    {"gradient_threshold", VOLUX_PARAM_NUMBER, 0.02, 0, 10, NULL,
-     "gradient magnitude (fraction of the value range per voxel) at which highlights are fully on"},
+    VOLUX_PARAM_GRADIENT_THRESHOLD("highlights are"),
     {"offset", VOLUX_PARAM_NUMBER, 1, 0, 1, NULL,
      "camera transmittance from x_o = x + offset·r·ω (Eq. 20: 1); 0 takes T(x) as single scattering does "
      "(see docs/techniques/ambient.md, section 8)"},
@@ -321,10 +320,8 @@ static volux_status ambient_update(void *state, const volux_scene *scene, const 
         st->specular = (int)volux_technique_param(scene, cls, "specular");
         st->phase_cache = (int)volux_technique_param(scene, cls, "phase_cache");
         st->offset = (float)volux_technique_param(scene, cls, "offset");
-        double lo, hi;
-        volux_volume_range(b->rc.volume, &lo, &hi);
-        st->grad_ref = (float)(volux_technique_param(scene, cls, "gradient_threshold") * (hi > lo ? hi - lo : 1.0) /
-                               b->rc.min_spacing);
+        st->grad_ref =
+            volux_raycaster_gradient_ref(&b->rc, volux_technique_param(scene, cls, "gradient_threshold"));
         snprintf(st->table_file, sizeof st->table_file, "%s",
                  volux_technique_param_string(scene, cls, "table_file"));
         volux_ambient_table_desc_defaults(&st->want);
@@ -480,19 +477,7 @@ static inline __attribute__((always_inline)) void inscatter(const void *tech, co
     *extra = spec;
 }
 
-static inline __attribute__((always_inline)) volux_vec3 integrate(const void *tech, const volux_ray *ray,
-                                                                   float jitter, float *T, uint64_t *samples,
-                                                                   int variant) {
-    (void)variant;
-    const ambient_state *st = tech;
-    return scatter_march(&st->b, tech, ray, jitter, T, samples, st->offset * st->radius, inscatter);
-}
-
-static void ambient_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
-                                volux_tile_stats *stats) {
-    const ambient_state *st = state;
-    volux_raycaster_tile(&st->b.rc, st, scene, tile, rgb, stats, integrate, 0);
-}
+SCATTER_RENDER_TILE(ambient_render_tile, ambient_state, st->offset * st->radius, inscatter)
 
 const volux_technique_class volux_ambient_class = {
     {"ambient", "ambient volume scattering: preintegrated multiple scattering in a sphere (Ament et al. 2013)",

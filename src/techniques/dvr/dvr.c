@@ -21,13 +21,8 @@ static volux_status read_params(dvr_state *st, const volux_scene *scene) {
         return volux_error(st->rc.ctx, VOLUX_ERR_INVALID,
                            "techniques.%s.kernel: expected \"auto\", \"scalar\" or \"simd\", got \"%s\"",
                            cls->info.name, kernel);
-    if (st->shaded) {
-        double lo, hi;
-        volux_volume_range(st->rc.volume, &lo, &hi);
-        double range = hi > lo ? hi - lo : 1.0;
-        st->grad_ref =
-            (float)(volux_technique_param(scene, cls, "gradient_threshold") * range / (double)st->rc.min_spacing);
-    }
+    if (st->shaded)
+        st->grad_ref = volux_raycaster_gradient_ref(&st->rc, volux_technique_param(scene, cls, "gradient_threshold"));
     return VOLUX_OK;
 }
 

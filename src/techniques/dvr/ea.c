@@ -3,12 +3,7 @@
 #include "dvr.h"
 
 #define DVR_COMMON_PARAMS                                                                                        \
-    {"preintegrate", VOLUX_PARAM_BOOL, 1, 0, 1, NULL,                                                            \
-     "integrate the TF exactly between samples (Engel et al. 2001), so narrow peaks are not missed"},            \
-        {"early_termination", VOLUX_PARAM_NUMBER, 0.002, 0, 1, NULL,                                             \
-         "stop a ray when its transmittance falls below this (0 = never)"},                                      \
-        {"skip_empty", VOLUX_PARAM_BOOL, 1, 0, 1, NULL,                                                          \
-         "skip macrocells whose TF extinction is zero (does not change the image)"},                             \
+    VOLUX_PARAM_PREINTEGRATE, VOLUX_PARAM_EARLY_TERMINATION, VOLUX_PARAM_SKIP_EMPTY,                             \
         {"kernel", VOLUX_PARAM_STRING, 0, 0, 0, "auto",                                                          \
          "\"auto\" (SIMD when the CPU has AVX2+FMA; shaded: with at most 4 lights, all directional), "         \
          "\"scalar\" (portable reference) or \"simd\" (error if unavailable); same image up to float rounding"}
@@ -24,9 +19,9 @@ const volux_technique_class volux_ea_class = {
 
 static const volux_param_info shaded_params[] = {
     DVR_COMMON_PARAMS,
-    {"gradient_threshold", VOLUX_PARAM_NUMBER, 0.02, 0, 10, NULL,
-     "gradient magnitude (fraction of the value range per smallest voxel spacing) at which shading is fully "
-     "applied; below it the sample fades to unshaded emission so homogeneous regions do not flicker"},
+    /* below it the sample fades to unshaded emission, so homogeneous
+     * regions do not flicker */
+    VOLUX_PARAM_GRADIENT_THRESHOLD("shading is"),
     {NULL, 0, 0, 0, 0, NULL, NULL}};
 
 /* Blinn–Phong has no phase function. */

@@ -50,13 +50,10 @@ static const volux_param_info lightvol_params[] = {
      "entire update after this many selective updates, bounding accumulated float drift (0 = never)"},
     {"local_shading", VOLUX_PARAM_NUMBER, 0, 0, 1, NULL,
      "weight of gradient-based Blinn-Phong shading (TF material) lit by the propagated light; needs directional"},
-    {"gradient_threshold", VOLUX_PARAM_NUMBER, 0.02, 0, 10, NULL,
-     "gradient magnitude (fraction of the value range per smallest spacing) at which local shading is fully on"},
-    {"preintegrate", VOLUX_PARAM_BOOL, 1, 0, 1, NULL,
-     "integrate the TF exactly between samples (Engel et al. 2001), so narrow peaks are not missed"},
-    {"early_termination", VOLUX_PARAM_NUMBER, 0.002, 0, 1, NULL,
-     "stop a ray when its transmittance falls below this (0 = never)"},
-    {"skip_empty", VOLUX_PARAM_BOOL, 1, 0, 1, NULL, "skip macrocells whose TF extinction is zero"},
+    VOLUX_PARAM_GRADIENT_THRESHOLD("local shading is"),
+    VOLUX_PARAM_PREINTEGRATE,
+    VOLUX_PARAM_EARLY_TERMINATION,
+    VOLUX_PARAM_SKIP_EMPTY,
     {"kernel", VOLUX_PARAM_STRING, 0, 0, 0, "auto",
      "propagation row kernels: auto (AVX2+FMA where the CPU has them, AVX-512 steps where it has those too), "
      "scalar (portable reference), simd (as auto; error if unavailable) or avx2 (AVX2 only); same volume up to "
@@ -166,10 +163,7 @@ static volux_status lightvol_update(void *state, const volux_scene *scene, const
         st->p = np;
         st->use_simd = np.kernel != LV_KERNEL_SCALAR && volux_lightvol_simd_available();
         st->use_avx512 = st->use_simd && np.kernel != LV_KERNEL_AVX2 && volux_lightvol_avx512_available();
-        double lo, hi;
-        volux_volume_range(rc->volume, &lo, &hi);
-        double range = hi > lo ? hi - lo : 1.0;
-        st->grad_ref = (float)(np.gradient_threshold * range / (double)rc->min_spacing);
+        st->grad_ref = volux_raycaster_gradient_ref(rc, np.gradient_threshold);
     }
     if (st->p.local_shading > 0.0f && !st->grad.grad)
         if ((s = volux_gradient_cache_build(ctx, rc->volume, &st->grad, "lightvol"))) return s;

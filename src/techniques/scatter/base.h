@@ -26,10 +26,7 @@
 
 /* Parameters every scattering technique has. */
 #define SCATTER_COMMON_PARAMS                                                                                    \
-    {"early_termination", VOLUX_PARAM_NUMBER, 0.002, 0, 1, NULL,                                                 \
-     "stop a ray when its (offset) transmittance falls below this (0 = never)"},                                 \
-        {"skip_empty", VOLUX_PARAM_BOOL, 1, 0, 1, NULL,                                                          \
-         "skip macrocells whose TF extinction is zero (does not change the image)"},                             \
+    VOLUX_PARAM_EARLY_TERMINATION, VOLUX_PARAM_SKIP_EMPTY,                                                       \
         {"emission", VOLUX_PARAM_NUMBER, 0, 0, 1e6, NULL,                                                        \
          "emitted radiance L_e = emission·c(s) of the absorbing part σa (Eq. 19); 0 = no emission"}
 
@@ -134,5 +131,23 @@ scatter_march(const scatter_base *b, const void *tech, const volux_ray *ray, flo
     *T_out = T;
     return v3(C[0], C[1], C[2]);
 }
+
+/* Defines `static void NAME(state, scene, tile, rgb, stats)`, the tile
+ * renderer of a scattering technique whose state type STATE starts with a
+ * scatter_base `b`: the shared pixel loop around scatter_march with the
+ * technique's in-scattering hook INSCATTER and camera-transmittance lag LAG
+ * (an expression of `st`, the state), both inlined into the loop. */
+#define SCATTER_RENDER_TILE(NAME, STATE, LAG, INSCATTER)                                                        \
+    static inline __attribute__((always_inline)) volux_vec3 NAME##_ray(                                         \
+        const void *tech, const volux_ray *ray, float jitter, float *T, uint64_t *samples, int variant) {       \
+        (void)variant;                                                                                           \
+        const STATE *st = tech;                                                                                  \
+        return scatter_march(&st->b, tech, ray, jitter, T, samples, (LAG), INSCATTER);                          \
+    }                                                                                                            \
+    static void NAME(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,           \
+                     volux_tile_stats *stats) {                                                                  \
+        const STATE *st = state;                                                                                 \
+        volux_raycaster_tile(&st->b.rc, st, scene, tile, rgb, stats, NAME##_ray, 0);                            \
+    }
 
 #endif

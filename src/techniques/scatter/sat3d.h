@@ -5,7 +5,7 @@
  * volume of `ao` (Schlegel et al. 2011).
  *
  * PRECISION. A float SAT of a 256³–512³ volume loses the small box sums in
- * the large prefix sums (perf/LIMITS.md). Ours is exact integer
+ * the large prefix sums (float has 24 bits). Ours is exact integer
  * arithmetic: σt is quantised to q = round(σt·scale) with
  * scale = (2^B − 1)/(σt_max · N_box) for the largest box of N_box voxels
  * that will be queried, and the prefix sums are kept modulo 2^B. A box sum

@@ -161,18 +161,7 @@ static inline __attribute__((always_inline)) void inscatter(const void *tech, co
     *Ls = L;
 }
 
-static inline __attribute__((always_inline)) volux_vec3 integrate(const void *tech, const volux_ray *ray,
-                                                                   float jitter, float *T, uint64_t *samples,
-                                                                   int variant) {
-    (void)variant;
-    return scatter_march(tech, tech, ray, jitter, T, samples, 0.0f, inscatter);
-}
-
-static void single_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
-                               volux_tile_stats *stats) {
-    const single_state *st = state;
-    volux_raycaster_tile(&st->b.rc, st, scene, tile, rgb, stats, integrate, 0);
-}
+SCATTER_RENDER_TILE(single_render_tile, single_state, 0.0f, inscatter)
 
 const volux_technique_class volux_single_class = {
     {"single", "single scattering with shadow rays and an optional transmittance cache (Ament 2013 baseline)",
