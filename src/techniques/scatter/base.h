@@ -25,7 +25,7 @@
 #define VOLUX_SCATTER_BASE_H
 
 #include "core/rng.h"
-#include "fastmath.h"
+#include "core/simd.h"
 #include "lights.h"
 #include "sample/march.h"
 #include "sample/primary.h"
@@ -125,7 +125,7 @@ scatter_render_tile(const scatter_base *b, const void *tech, const volux_scene *
                 volux_lut_rgba(lut, smp.s, rgba);
                 float tau = rgba[3] * len;
                 if (tau <= 0.0f) continue;
-                float alpha = 1.0f - scatter_exp_neg(-tau);
+                float alpha = 1.0f - volux_exp_nonpos_t6(-tau);
                 /* T(x_o), x_o = x + lag·ω: the transmittance at t = e − lag,
                  * linear within the recorded segment that contains it. */
                 float T_o = T;
