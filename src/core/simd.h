@@ -32,36 +32,21 @@
  * at run time by these, so the default build runs on any x86-64 (and
  * elsewhere every check is 0: the portable kernels run). */
 
+#if VOLUX_X86_GNUC
+#define VOLUX_CPU_HAS(feature) (__builtin_cpu_init(), __builtin_cpu_supports(feature) != 0)
+#else
+#define VOLUX_CPU_HAS(feature) 0
+#endif
+
 /* AVX2 alone: the ambient tube kernels, which must not contract a·b + c
  * (bit-identical to their scalar path). */
-static inline int volux_cpu_has_avx2(void) {
-#if VOLUX_X86_GNUC
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") != 0;
-#else
-    return 0;
-#endif
-}
+static inline int volux_cpu_has_avx2(void) { return VOLUX_CPU_HAS("avx2"); }
 
 /* AVX2 and FMA: the `ea`/`shaded` packets and lightvol's row kernels. */
-static inline int volux_cpu_has_avx2_fma(void) {
-#if VOLUX_X86_GNUC
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-#else
-    return 0;
-#endif
-}
+static inline int volux_cpu_has_avx2_fma(void) { return VOLUX_CPU_HAS("avx2") && VOLUX_CPU_HAS("fma"); }
 
 /* AVX-512F (callers combine it with the AVX2 checks they need). */
-static inline int volux_cpu_has_avx512f(void) {
-#if VOLUX_X86_GNUC
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx512f") != 0;
-#else
-    return 0;
-#endif
-}
+static inline int volux_cpu_has_avx512f(void) { return VOLUX_CPU_HAS("avx512f"); }
 
 /* ------------------------------------------------------------ exponentials */
 

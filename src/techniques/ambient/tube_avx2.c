@@ -23,49 +23,27 @@
 typedef __m256 vf;
 typedef __m256i vi;
 typedef __m256 vm;
+#define TUBE_MM(op) _mm256_##op
+#define TUBE_CMP(a, b, p) _mm256_cmp_ps(a, b, p)
 
-TI vf f_set(float x) { return _mm256_set1_ps(x); }
-TI vf f_zero(void) { return _mm256_setzero_ps(); }
-TI vf f_add(vf a, vf b) { return _mm256_add_ps(a, b); }
-TI vf f_sub(vf a, vf b) { return _mm256_sub_ps(a, b); }
-TI vf f_mul(vf a, vf b) { return _mm256_mul_ps(a, b); }
-TI vf f_div(vf a, vf b) { return _mm256_div_ps(a, b); }
-TI vf f_sqrt(vf a) { return _mm256_sqrt_ps(a); }
-TI vf f_min(vf a, vf b) { return _mm256_min_ps(a, b); }
-TI vf f_max(vf a, vf b) { return _mm256_max_ps(a, b); }
+#include "tube_simd_impl.h"
+
 TI vf f_abs(vf a) { return _mm256_and_ps(a, _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff))); }
-TI vf f_from_i(vi a) { return _mm256_cvtepi32_ps(a); }
-TI vi f_trunc(vf a) { return _mm256_cvttps_epi32(a); }
-TI vm f_lt(vf a, vf b) { return _mm256_cmp_ps(a, b, _CMP_LT_OQ); }
-TI vm f_le(vf a, vf b) { return _mm256_cmp_ps(a, b, _CMP_LE_OQ); }
-TI vm f_gt(vf a, vf b) { return _mm256_cmp_ps(a, b, _CMP_GT_OQ); }
-TI vm f_ge(vf a, vf b) { return _mm256_cmp_ps(a, b, _CMP_GE_OQ); }
-TI vm f_eq(vf a, vf b) { return _mm256_cmp_ps(a, b, _CMP_EQ_OQ); }
-TI vm f_nle(vf a, vf b) { return _mm256_cmp_ps(a, b, _CMP_NLE_UQ); } /* !(a ≤ b), true for NaN */
 TI vm f_sign(vf a) { return _mm256_castsi256_ps(_mm256_srai_epi32(_mm256_castps_si256(a), 31)); }
 TI vf f_set_sign(vf a, vm m) { return _mm256_or_ps(a, _mm256_and_ps(m, _mm256_set1_ps(-0.0f))); }
 TI vf sel(vm m, vf a, vf b) { return _mm256_blendv_ps(b, a, m); }
-
-TI vi i_set(int x) { return _mm256_set1_epi32(x); }
-TI vi i_add(vi a, vi b) { return _mm256_add_epi32(a, b); }
-TI vi i_mullo(vi a, vi b) { return _mm256_mullo_epi32(a, b); }
-TI vi i_min(vi a, vi b) { return _mm256_min_epi32(a, b); }
 TI vi lane_ids(void) { return _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7); }
 TI int i_lane0(vi a) { return _mm_cvtsi128_si32(_mm256_castsi256_si128(a)); }
 TI int i_all(vi m) { return _mm256_movemask_epi8(m) == -1; }
 TI vi i_bcast0(vi a) { return _mm256_broadcastd_epi32(_mm256_castsi256_si128(a)); }
-
 TI vm m_first(int n) { return _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(n), lane_ids())); }
 TI vm m_and(vm a, vm b) { return _mm256_and_ps(a, b); }
 TI vm m_or(vm a, vm b) { return _mm256_or_ps(a, b); }
-TI vm m_andnot(vm a, vm b) { return _mm256_andnot_ps(a, b); } /* b without a */
+TI vm m_andnot(vm a, vm b) { return _mm256_andnot_ps(a, b); }
 TI int m_any(vm m) { return _mm256_movemask_ps(m) != 0; }
-TI int m_covers(vm m, vm valid) { return (_mm256_movemask_ps(_mm256_andnot_ps(m, valid))) == 0; }
+TI int m_covers(vm m, vm valid) { return _mm256_movemask_ps(_mm256_andnot_ps(m, valid)) == 0; }
 
-/* Contiguous loads and stores of lanes [0, n) (full vectors plainly:
- * AVX2's masked moves are slower) and of the lanes in k (full: all). */
-TI vf f_load(const float *p) { return _mm256_loadu_ps(p); }
-TI void f_store(float *p, vf v) { _mm256_storeu_ps(p, v); }
+/* Full vectors load and store plainly (AVX2's masked moves are slower). */
 TI vf f_load_first(const float *p, int n) {
     if (n == 8) return _mm256_loadu_ps(p);
     float tmp[8] = {0, 0, 0, 0, 0, 0, 0, 0};
@@ -89,6 +67,11 @@ TI void f_store_masked(float *p, vf v, vm k, int full) {
     else _mm256_maskstore_ps(p, _mm256_castps_si256(k), v);
 }
 
+TI void kappa_pair(const float *kappa, vi j, vm k, vf *k0, vf *k1) {
+    *k0 = _mm256_mask_i32gather_ps(_mm256_setzero_ps(), kappa, j, k, 4);
+    *k1 = _mm256_mask_i32gather_ps(_mm256_setzero_ps(), kappa, i_add(j, i_set(1)), k, 4);
+}
+
 /* Row reads. When the 8 lanes' cells have consecutive indices (lane 0's +
  * lane: along a run in x the read points advance by about one cell per
  * node, so this is the common case of the shells' rows and of the
@@ -97,14 +80,6 @@ TI void f_store_masked(float *p, vf v, vm k, int full) {
  * corner instead of a gather, and each loaded element is one that some
  * lane reads anyway. */
 TI int consecutive(vi base) { return i_all(_mm256_cmpeq_epi32(base, i_add(i_bcast0(base), lane_ids()))); }
-
-/* κ[j], κ[j + 1] for the lanes in k (others 0). */
-TI void kappa_pair(const float *kappa, vi j, vm k, vf *k0, vf *k1) {
-    *k0 = _mm256_mask_i32gather_ps(_mm256_setzero_ps(), kappa, j, k, 4);
-    *k1 = _mm256_mask_i32gather_ps(_mm256_setzero_ps(), kappa, i_add(j, i_set(1)), k, 4);
-}
-
-#include "tube_simd_impl.h"
 
 /* the clamped read: row loads for consecutive cells, else gathers */
 TI vf sample_clamped(const float *v, const lane_grid *g, const vf p[3]) {

@@ -27,50 +27,28 @@
 typedef __m512 vf;
 typedef __m512i vi;
 typedef __mmask16 vm;
+#define TUBE_MM(op) _mm512_##op
+#define TUBE_CMP(a, b, p) _mm512_cmp_ps_mask(a, b, p)
 
-TI vf f_set(float x) { return _mm512_set1_ps(x); }
-TI vf f_zero(void) { return _mm512_setzero_ps(); }
-TI vf f_add(vf a, vf b) { return _mm512_add_ps(a, b); }
-TI vf f_sub(vf a, vf b) { return _mm512_sub_ps(a, b); }
-TI vf f_mul(vf a, vf b) { return _mm512_mul_ps(a, b); }
-TI vf f_div(vf a, vf b) { return _mm512_div_ps(a, b); }
-TI vf f_sqrt(vf a) { return _mm512_sqrt_ps(a); }
-TI vf f_min(vf a, vf b) { return _mm512_min_ps(a, b); }
-TI vf f_max(vf a, vf b) { return _mm512_max_ps(a, b); }
+#include "tube_simd_impl.h"
+
 TI vf f_abs(vf a) { return _mm512_abs_ps(a); }
-TI vf f_from_i(vi a) { return _mm512_cvtepi32_ps(a); }
-TI vi f_trunc(vf a) { return _mm512_cvttps_epi32(a); }
-TI vm f_lt(vf a, vf b) { return _mm512_cmp_ps_mask(a, b, _CMP_LT_OQ); }
-TI vm f_le(vf a, vf b) { return _mm512_cmp_ps_mask(a, b, _CMP_LE_OQ); }
-TI vm f_gt(vf a, vf b) { return _mm512_cmp_ps_mask(a, b, _CMP_GT_OQ); }
-TI vm f_ge(vf a, vf b) { return _mm512_cmp_ps_mask(a, b, _CMP_GE_OQ); }
-TI vm f_eq(vf a, vf b) { return _mm512_cmp_ps_mask(a, b, _CMP_EQ_OQ); }
-TI vm f_nle(vf a, vf b) { return _mm512_cmp_ps_mask(a, b, _CMP_NLE_UQ); } /* !(a ≤ b), true for NaN */
 TI vm f_sign(vf a) { return _mm512_cmplt_epi32_mask(_mm512_castps_si512(a), _mm512_setzero_si512()); }
 TI vf f_set_sign(vf a, vm m) {
     vi x = _mm512_castps_si512(a);
     return _mm512_castsi512_ps(_mm512_mask_or_epi32(x, m, x, _mm512_set1_epi32((int)0x80000000u)));
 }
 TI vf sel(vm m, vf a, vf b) { return _mm512_mask_blend_ps(m, b, a); }
-
-TI vi i_set(int x) { return _mm512_set1_epi32(x); }
-TI vi i_add(vi a, vi b) { return _mm512_add_epi32(a, b); }
-TI vi i_mullo(vi a, vi b) { return _mm512_mullo_epi32(a, b); }
-TI vi i_min(vi a, vi b) { return _mm512_min_epi32(a, b); }
 static const int lanes16[16] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
 TI vi lane_ids(void) { return _mm512_loadu_si512((const void *)lanes16); }
 TI int i_lane0(vi a) { return _mm_cvtsi128_si32(_mm512_castsi512_si128(a)); }
-
 TI vm m_first(int n) { return n >= 16 ? (vm)0xffff : (vm)((1u << n) - 1u); }
 TI vm m_and(vm a, vm b) { return a & b; }
 TI vm m_or(vm a, vm b) { return a | b; }
-TI vm m_andnot(vm a, vm b) { return (vm)(~a & b); } /* b without a */
+TI vm m_andnot(vm a, vm b) { return (vm)(~a & b); }
 TI int m_any(vm m) { return m != 0; }
 TI int m_covers(vm m, vm valid) { return (m & valid) == valid; }
 
-/* Contiguous loads and stores: lanes [0, n), the lanes in k. */
-TI vf f_load(const float *p) { return _mm512_loadu_ps(p); }
-TI void f_store(float *p, vf v) { _mm512_storeu_ps(p, v); }
 TI vf f_load_first(const float *p, int n) { return _mm512_maskz_loadu_ps(m_first(n), p); }
 TI void f_store_first(float *p, vf v, int n) { _mm512_mask_storeu_ps(p, m_first(n), v); }
 TI vf f_load_masked(const float *p, vm k, int full) {
@@ -108,7 +86,7 @@ typedef struct window16 {
 
 /* The lanes in `mask` read x corners c[0] and c[0] + ox: 1 if they share
  * one row and fit in a window (filled in), else 0. */
-TI int row_window(int nx, int nxy, const vi c[3], vi ox, vm mask, window16 *w) {
+TI int row_window(const lane_grid *g, const vi c[3], vi ox, vm mask, window16 *w) {
     const vi first = _mm512_set1_epi32(__builtin_ctz(mask));
     vi x0 = _mm512_permutexvar_epi32(first, c[0]), y0 = _mm512_permutexvar_epi32(first, c[1]),
        z0 = _mm512_permutexvar_epi32(first, c[2]);
@@ -125,7 +103,7 @@ TI int row_window(int nx, int nxy, const vi c[3], vi ox, vm mask, window16 *w) {
     if (n > 32) return 0;
     w->lo = n >= 16 ? (vm)0xffff : (vm)((1u << n) - 1u);
     w->hi = n > 16 ? (vm)((1u << (n - 16)) - 1u) : 0;
-    w->at = (ptrdiff_t)i_lane0(z0) * nxy + (ptrdiff_t)i_lane0(y0) * nx + i_lane0(x0);
+    w->at = (ptrdiff_t)i_lane0(z0) * g->nxy + (ptrdiff_t)i_lane0(y0) * g->nx + i_lane0(x0);
     return 1;
 }
 
@@ -148,8 +126,7 @@ TI void window_corners(const float *v, const window16 *w, ptrdiff_t oy, ptrdiff_
     window_row(v, w, oy + oz, &a[6], &a[7]);
 }
 
-/* κ[j] and κ[j + 1] for the lanes in k (k includes lane 0; others: any
- * value). One broadcast pair when every lane has lane 0's j — a block of
+/* κ pairs: one broadcast pair when every lane has lane 0's j — a block of
  * vacuum (ρ = 0, j = 0) or of one medium — else two gathers: the same
  * values. */
 TI void kappa_pair(const float *kappa, vi j, vm k, vf *k0, vf *k1) {
@@ -163,8 +140,7 @@ TI void kappa_pair(const float *kappa, vi j, vm k, vf *k0, vf *k1) {
     *k1 = _mm512_mask_i32gather_ps(_mm512_setzero_ps(), k, _mm512_add_epi32(j, _mm512_set1_epi32(1)), kappa, 4);
 }
 
-/* Lanes whose 8 corners are all +0 (bit pattern 0): the read of a vacuum
- * chain (tube.h: tube_geometry). */
+/* vacuum chains (tube.h: tube_geometry) */
 TI vm corners_zero(const vf a[8]) {
 #define I_(q) _mm512_castps_si512(a[q])
     /* 0xfe: a | b | c */
@@ -175,10 +151,6 @@ TI vm corners_zero(const vf a[8]) {
 #undef I_
 }
 
-/* A march: the vacuum-chain bytes (tube.h: tube_geometry) of a block of
- * nodes (vac[l·stride] for lane l), D = res. `ok`: the lanes whose D is +0
- * for every κ with κ(0) = +0 if every node they read is; a +0 elsewhere
- * breaks the invariant (*bad). */
 TI void vac_record(unsigned char *vac, ptrdiff_t stride, int *bad, vf res, vm ok, vm valid) {
     vm z = _mm512_cmpeq_epi32_mask(_mm512_castps_si512(res), _mm512_setzero_si512()) & valid;
     if (z & ~ok) __atomic_store_n(bad, 1, __ATOMIC_RELAXED);
@@ -189,16 +161,12 @@ TI void vac_record(unsigned char *vac, ptrdiff_t stride, int *bad, vf res, vm ok
     for (int l = 0; l < 16 && ((valid >> l) & 1); l++) vac[(ptrdiff_t)l * stride] = (z >> l) & 1;
 }
 
-/* A re-sum: 1 when every node of the block in `valid` (consecutive in
- * memory) is a vacuum chain; their D (+0) is then stored to out. */
 TI int vac_skip(const unsigned char *vac, float *out, vm valid) {
     vi v = _mm512_cvtepu8_epi32(_mm_loadu_si128((const __m128i *)(const void *)vac));
     if ((_mm512_cmpeq_epi32_mask(v, _mm512_set1_epi32(1)) & valid) != valid) return 0;
     _mm512_mask_storeu_ps(out, valid, _mm512_setzero_ps());
     return 1;
 }
-
-#include "tube_simd_impl.h"
 
 /* the clamped read: row loads for consecutive cells, else a row window,
  * else gathers */
@@ -212,7 +180,7 @@ TI vf sample_clamped(const float *v, const lane_grid *g, const vf p[3]) {
         row_corners(v + i_lane0(b), g->nx, g->nxy, a);
         return trilerp(a, f);
     }
-    if (row_window(g->nx, g->nxy, c, one, 0xffff, &w)) {
+    if (row_window(g, c, one, 0xffff, &w)) {
         window_corners(v, &w, g->nx, g->nxy, a);
         return trilerp(a, f);
     }
@@ -239,7 +207,7 @@ TI vf strict_at(const float *v, const lane_grid *g, const vi c[3], const vf f[3]
      * weight 0: the same result) */
     if (rows && mask == 0xffff && (up[0] & 0x8000) && consecutive(b)) {
         row_corners(v + i_lane0(b), up[1] ? g->nx : 0, up[2] ? g->nxy : 0, a);
-    } else if (rows && row_window(g->nx, g->nxy, c, ox, mask, &w)) {
+    } else if (rows && row_window(g, c, ox, mask, &w)) {
         window_corners(v, &w, up[1] ? g->nx : 0, up[2] ? g->nxy : 0, a);
     } else {
         vi oy = _mm512_mask_mov_epi32(zi, up[1], g->sy), oz = _mm512_mask_mov_epi32(zi, up[2], g->sz);

@@ -5,19 +5,15 @@
  * and tube_avx512.c each include it once, after defining
  *
  *   TUBE_W              lanes (8, 16)
- *   TUBE_TARGET, TI     the target attribute of entry points / inlined helpers
  *   TUBE_VACUUM_CHAINS  1: record and skip vacuum chains (tube.h)
+ *   TUBE_TARGET, TI     the target attribute of entry points / of the
+ *                       inlined helpers
  *   vf, vi, vm          float lanes, int32 lanes, a lane mask
- *   the lane operations used below (f_*: floats, i_*: ints, m_*: masks,
- *   sel(m, a, b): a where m, else b), each one instruction or a short
- *   fixed sequence with the same result in every lane as the scalar
- *   operation it names,
- *   kappa_pair (κ[j], κ[j + 1] for the lanes in a mask), and with vacuum
- *   chains vac_skip, vac_record and corners_zero,
+ *   TUBE_MM(op)         the width's intrinsic _mm256_op / _mm512_op
+ *   TUBE_CMP(a, b, p)   the float compare with predicate p, as a vm
  *
- * and after it the two reads whose best form depends on the width
- * (sample_clamped, strict_at: declared below), and return `kernels` from
- * their tube_kernels_* function.
+ * and after it the operations whose form differs by width (declared
+ * below), ending with `kernels` returned by their tube_kernels_* function.
  *
  * BIT-IDENTICAL to tube.c's scalar `node` and fast_run: every lane performs
  * the scalar operations in the same order (no FMA contraction: the targets
@@ -32,6 +28,67 @@
 
 #ifndef TUBE_W
 #error "tube_simd_impl.h: define the lane vocabulary first (see tube_avx2.c)"
+#endif
+
+/* ------------------------------------------- lanes: the same in both widths
+ * Each is one instruction with, per lane, the result of the scalar
+ * operation it names. */
+TI vf f_set(float x) { return TUBE_MM(set1_ps)(x); }
+TI vf f_zero(void) { return TUBE_MM(setzero_ps)(); }
+TI vf f_add(vf a, vf b) { return TUBE_MM(add_ps)(a, b); }
+TI vf f_sub(vf a, vf b) { return TUBE_MM(sub_ps)(a, b); }
+TI vf f_mul(vf a, vf b) { return TUBE_MM(mul_ps)(a, b); }
+TI vf f_div(vf a, vf b) { return TUBE_MM(div_ps)(a, b); }
+TI vf f_sqrt(vf a) { return TUBE_MM(sqrt_ps)(a); }
+TI vf f_min(vf a, vf b) { return TUBE_MM(min_ps)(a, b); }
+TI vf f_max(vf a, vf b) { return TUBE_MM(max_ps)(a, b); }
+TI vf f_from_i(vi a) { return TUBE_MM(cvtepi32_ps)(a); }
+TI vi f_trunc(vf a) { return TUBE_MM(cvttps_epi32)(a); }
+TI vf f_load(const float *p) { return TUBE_MM(loadu_ps)(p); }
+TI void f_store(float *p, vf v) { TUBE_MM(storeu_ps)(p, v); }
+TI vm f_lt(vf a, vf b) { return TUBE_CMP(a, b, _CMP_LT_OQ); }
+TI vm f_le(vf a, vf b) { return TUBE_CMP(a, b, _CMP_LE_OQ); }
+TI vm f_gt(vf a, vf b) { return TUBE_CMP(a, b, _CMP_GT_OQ); }
+TI vm f_ge(vf a, vf b) { return TUBE_CMP(a, b, _CMP_GE_OQ); }
+TI vm f_eq(vf a, vf b) { return TUBE_CMP(a, b, _CMP_EQ_OQ); }
+TI vm f_nle(vf a, vf b) { return TUBE_CMP(a, b, _CMP_NLE_UQ); } /* !(a ≤ b), true for NaN */
+TI vi i_set(int x) { return TUBE_MM(set1_epi32)(x); }
+TI vi i_add(vi a, vi b) { return TUBE_MM(add_epi32)(a, b); }
+TI vi i_mullo(vi a, vi b) { return TUBE_MM(mullo_epi32)(a, b); }
+TI vi i_min(vi a, vi b) { return TUBE_MM(min_epi32)(a, b); }
+
+/* ------------------------------- lanes: per width, defined after this file */
+TI vf f_abs(vf a);            /* the sign bit cleared                       */
+TI vm f_sign(vf a);           /* the lanes whose sign bit is set           */
+TI vf f_set_sign(vf a, vm m); /* a with the sign bit set in the lanes of m */
+TI vf sel(vm m, vf a, vf b);  /* a where m, else b                         */
+TI vi lane_ids(void);         /* 0, 1, …, TUBE_W − 1                       */
+TI vm m_first(int n);         /* lanes [0, n); n may exceed TUBE_W         */
+TI vm m_and(vm a, vm b);
+TI vm m_or(vm a, vm b);
+TI vm m_andnot(vm a, vm b);   /* the lanes of b that are not in a         */
+TI int m_any(vm m);
+TI int m_covers(vm m, vm valid); /* every lane of valid is in m           */
+/* Lanes [0, n) from / to p[0 … n − 1] (others 0; nothing past them is
+ * touched), and the lanes in k (full: all of them; the same result). */
+TI vf f_load_first(const float *p, int n);
+TI void f_store_first(float *p, vf v, int n);
+TI vf f_load_masked(const float *p, vm k, int full);
+TI void f_store_masked(float *p, vf v, vm k, int full);
+/* κ[j], κ[j + 1] for the lanes in k (others: any value). */
+TI void kappa_pair(const float *kappa, vi j, vm k, vf *k0, vf *k1);
+#if TUBE_VACUUM_CHAINS
+/* A re-sum: 1 when every node of the block in `valid` (consecutive in
+ * memory) is a vacuum chain; their D (+0) is then stored to out. */
+TI int vac_skip(const unsigned char *vac, float *out, vm valid);
+/* A march: the vacuum-chain bytes (tube.h: tube_geometry) of a block of
+ * nodes (vac[l·stride] for lane l), D = res. `ok`: the lanes whose D is +0
+ * for every κ with κ(0) = +0 if every node they read is; a +0 elsewhere
+ * breaks the invariant (*bad). */
+TI void vac_record(unsigned char *vac, ptrdiff_t stride, int *bad, vf res, vm ok, vm valid);
+/* The lanes whose 8 corners are all +0 (bit pattern 0): the read of a
+ * vacuum chain. */
+TI vm corners_zero(const vf a[8]);
 #endif
 
 /* Grid constants broadcast once per call. */
@@ -99,10 +156,9 @@ TI void clamped_cell(const lane_grid *g, const vf p[3], vi c[3], vf f[3]) {
     }
 }
 
-/* The width's reads, defined by the including file after this header
- * (they use the helpers above; each of their ways to fetch the corners
- * ends in its own trilerp, so the corners stay in registers):
- * scatter_grid_sample at p (clamped_cell); */
+/* The reads, per width (each of their ways to fetch the corners ends in
+ * its own trilerp, so the corners stay in registers): scatter_grid_sample
+ * at p (clamped_cell); */
 TI vf sample_clamped(const float *v, const lane_grid *g, const vf p[3]);
 /* tube.c's strict_at for the lanes in `mask` (others: any value, no load
  * of theirs) at cells c with fractions f (strict_cell): the upper corner
