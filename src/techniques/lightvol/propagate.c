@@ -29,7 +29,7 @@
  *
  * Built with -fno-math-errno -fno-trapping-math (CMakeLists.txt): the
  * sweeps never look at errno or FP exception flags, and without them the
- * compiler can use sqrt instructions and if-convert lv_exp_neg and the Eq. 5
+ * compiler can use sqrt instructions and if-convert volux_exp_neg_cw7 and the Eq. 5
  * factors, so the row loops vectorise (same operations, same rounding).
  *
  * Slices are parallel within themselves (chunks of rows, one phase of
@@ -795,13 +795,13 @@ static void dir_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
         {
             float *restrict Tr = T;
             const float *restrict t0 = tau[0];
-            for (int u = 0; u < mu; u++) Tr[u] = lv_exp_neg(t0[u]);
+            for (int u = 0; u < mu; u++) Tr[u] = volux_exp_neg_cw7(t0[u]);
         }
         if (J->forward)
             for (int c = 0; c < 3; c++) {
                 const float *restrict tk = tau[1 + c];
                 float *restrict tc = Tc[c];
-                for (int u = 0; u < mu; u++) tc[u] = lv_exp_neg(tk[u]);
+                for (int u = 0; u < mu; u++) tc[u] = volux_exp_neg_cw7(tk[u]);
             }
         *last = e;
     }
@@ -982,7 +982,7 @@ static void pos_voxels(const lv_sweep *J, const lv_entry *e, int v, int ua, int 
                     float wp = wprev * r * t1 / (float)n, wc = (1.0f - t * axial) * r * t1 / (float)n;
                     med_accumulate(J, px, py, wp, wc, np, tau);
                 }
-                for (int c = 0; c < 3; c++) val[c] = p[c] * lv_exp_neg(tau[forward ? 1 + c : 0]);
+                for (int c = 0; c < 3; c++) val[c] = p[c] * volux_exp_neg_cw7(tau[forward ? 1 + c : 0]);
             } else {
                 for (int c = 0; c < 3; c++) val[c] = p[c];
             }
@@ -1002,12 +1002,12 @@ static void pos_voxels(const lv_sweep *J, const lv_entry *e, int v, int ua, int 
             int inside = x >= 0.0f && y >= 0.0f && x <= (float)(mu - 1) && y <= (float)(mv - 1);
             if (inside) fetch(J, e, x, y, cc);
             else fetch_slow(J, e, x, y, cc);
-            float T = lv_exp_neg(tau[0]);
+            float T = volux_exp_neg_cw7(tau[0]);
             if (!forward) {
                 for (int c = 0; c < 3; c++) val[c] = T * cc[c];
             } else {
                 float Tc[3];
-                for (int c = 0; c < 3; c++) Tc[c] = lv_exp_neg(tau[1 + c]);
+                for (int c = 0; c < 3; c++) Tc[c] = volux_exp_neg_cw7(tau[1 + c]);
                 if (!cone) {
                     for (int c = 0; c < 3; c++) val[c] = Tc[c] * cc[c];
                 } else {
@@ -1194,11 +1194,11 @@ static void pos_row(const lv_sweep *J, const lv_entry *e, int v, float *out[3], 
         float *restrict o0 = out[0], *restrict o1 = out[1], *restrict o2 = out[2];
         const float *restrict t0 = TAU;
         for (int u = u0; u < u1; u++) {
-            float T = lv_exp_neg(t0[u]);
+            float T = volux_exp_neg_cw7(t0[u]);
             float v0 = T * CEN[u], v1 = T * CEN[m + (size_t)u], v2 = T * CEN[2 * m + (size_t)u];
             if (forward && !empty) {
-                float T0 = lv_exp_neg(TAU[m + (size_t)u]), T1 = lv_exp_neg(TAU[2 * m + (size_t)u]),
-                      T2 = lv_exp_neg(TAU[3 * m + (size_t)u]);
+                float T0 = volux_exp_neg_cw7(TAU[m + (size_t)u]), T1 = volux_exp_neg_cw7(TAU[2 * m + (size_t)u]),
+                      T2 = volux_exp_neg_cw7(TAU[3 * m + (size_t)u]);
                 if (cone) {
                     v0 += (T0 - T) * CON[u];
                     v1 += (T1 - T) * CON[m + (size_t)u];
