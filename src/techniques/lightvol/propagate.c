@@ -510,20 +510,6 @@ static inline __attribute__((always_inline)) void fetch(const lv_sweep *J, const
     ray_value(e->s, slice_world(J, x, y, J->kp), out);
 }
 
-/* Bilinear fetch of a medium plane; outside the slice (the box) the medium
- * is empty (DESIGN §2). */
-static inline __attribute__((always_inline)) float med_fetch(const lv_sweep *J, const float *plane, float x, float y) {
-    int mu = J->mu, mv = J->mv;
-    if (!(x >= 0.0f && y >= 0.0f && x <= (float)(mu - 1) && y <= (float)(mv - 1))) return 0.0f;
-    int i = (int)x, j = (int)y;
-    if (i > mu - 2) i = mu - 2;
-    if (j > mv - 2) j = mv - 2;
-    float ax = x - (float)i, ay = y - (float)j;
-    const float *p = plane + (size_t)j * (size_t)mu + (size_t)i;
-    float t0 = p[0] + (p[1] - p[0]) * ax, t1 = p[mu] + (p[mu + 1] - p[mu]) * ax;
-    return t0 + (t1 - t0) * ay;
-}
-
 /* σt and κ_c = σt − f·σs_c (first np of them) of scalar value s. */
 static inline __attribute__((always_inline)) void classify_s(const lv_sweep *J, float s, float m[4]) {
     if (!J->forward) {
