@@ -297,7 +297,8 @@ typedef struct lightvol_state {
     lv_stats stats;
 } lightvol_state;
 
-/* propagate.c */
+/* propagation (buffers.c, medium.c, sources.c, update.c; the files and
+ * their internal interface: sweep.h) */
 volux_status volux_lightvol_alloc(lightvol_state *st);
 volux_status volux_lightvol_build_medium(lightvol_state *st);
 /* Brings the volume up to date with the scene's lights. `force_full`
