@@ -201,12 +201,6 @@ typedef struct lv_stats {
 typedef struct lightvol_state {
     volux_raycaster rc;            /* base: volume, LUT, grid, camera, step,
                                       seed, g, albedo, material, threads  */
-    /* Aliases of base fields for the propagation files (set by update). */
-    volux_context *ctx;
-    volux_volume *volume;          /* = rc.volume (not retained here)      */
-    const volux_transfer_lut *lut; /* = rc.lut                             */
-    float albedo;                  /* = rc.albedo                          */
-    int threads;                   /* = rc.threads                         */
     volux_gradient_cache grad;
     lv_params p;
     int use_simd;                  /* resolved kernel: AVX2 row kernels      */
@@ -254,7 +248,8 @@ typedef struct lightvol_state {
     lv_stats stats;
 } lightvol_state;
 
-/* propagate.c */
+/* propagation (buffers.c, medium.c, sources.c, update.c; the files and
+ * their internal interface: sweep.h) */
 volux_status volux_lightvol_alloc(lightvol_state *st);
 volux_status volux_lightvol_build_medium(lightvol_state *st);
 /* Brings the volume up to date with the scene's lights. `force_full`

@@ -3,8 +3,8 @@
  * of the propagation sweeps. All intrinsics of `lightvol` live in this
  * file; it is compiled with target attributes and chosen at run time
  * (volux_lightvol_simd_available, techniques.lightvol.kernel), so the
- * default build runs on any x86-64 and the portable loops of propagate.c
- * stay the reference the tests compare against
+ * default build runs on any x86-64 and the portable loops (rows_dir.c,
+ * rows_pos.c) stay the reference the tests compare against
  * (tests/invariants/test_lightvol_simd.c).
  *
  * Each kernel evaluates the same formulas as the portable loops it
