@@ -29,22 +29,36 @@
  * PIXEL FILTER. pathtrace averages uniform positions over each pixel (box
  * filter). The deterministic techniques are rendered at SUPERSAMPLE× the
  * resolution with one ray per sub-pixel and averaged SUPERSAMPLE² to one:
- * the same box filter, stratified. (At 1 spp, a deterministic technique's
- * pixel-centre value differs from the pixel mean by up to 2.8 % rel_rmse
- * on these scenes — an error of the comparison, not of the technique.)
+ * the same box filter, stratified. (Rendered at 1 or 4 spp instead — the
+ * pixel centre, or the centre and three random positions — ea differed
+ * from pathtrace on the absorption scene at 32² by 1.2 % and 2.8 %
+ * rel_rmse against 0.8 % here: an error of the comparison, not of ea.)
  *
- * THE CASES (measured = this file's output, Release; seeds are fixed, so
- * the numbers are reproducible to the last digit for any thread count):
+ * THE CASES (Release, x86-64 with AVX2; seeds are fixed and images do not
+ * depend on the thread count, so the numbers reproduce exactly):
  *
- * | case | scene, why the model is exact (or nearly) here | ref spp | rel_rmse: measured / bound | rel_mean: measured / bound | ref noise |
- * |---|---|---|---|---|---|
- * (filled in below, next to each entry)
+ *   case                           scene, ref spp       rel_rmse       rel_mean        noise
+ *                                                       meas.  bound   meas.   bound
+ *   ea_absorption                  ABSORB 16², 4×512    0.0080 0.02    +0.0007 0.004   0.0080
+ *   pathtrace_beer_lambert (quad.) ABSORB 16², 4×512    0.0079 0.02    −0.0004 0.004   0.0080
+ *   ea_furnace                     FURNACE 32², 4×512   0.0069 0.015   +0.0001 0.004   0.0067
+ *   shaded_ambient_furnace         FURNACE 32², 4×512   0.0069 0.015   +0.0001 0.004   0.0067
+ *   pathtrace_furnace (quad.)      FURNACE 32², 4×512   0.0069 0.015   +0.0001 0.004   0.0067
+ *   single                         SINGLE 16², 4×4096   0.0172 0.035   +0.0004 0.01    0.0167
+ *   lightvol_two_lights_isotropic  SINGLE 16², 4×2048   0.060  0.08    −0.008  0.02    0.023
+ *   lightvol_one_light_hg          SINGLE 16², 4×2048   0.075  0.10    −0.004  0.02    0.025
+ *   ambient_thin_limit             THIN 16², 4×8192     0.043  0.06    −0.020  0.03    0.018
+ *   ao_thin_sky                    THIN_ENV 16², 4×8192 0.048  0.075   +0.017  0.03    0.037
  *
- * MUTATIONS TRIED (each made one technique's physics wrong by scaling a
- * term in its source by 1.1 or flipping a sign, rebuilt, ran this file,
- * checked that the case fails, reverted): listed next to each case.
+ * Why each model is exact (or nearly) in its case, and the mutations of
+ * its source it was seen to catch, are next to each entry of CASES. A
+ * mutation scaled one physical term by 1.1 or flipped a sign, the library
+ * and this test were rebuilt and run, the case failed, the change was
+ * reverted. (ea/shaded mutations were made in the AVX2 kernel that runs
+ * by default; tests/invariants/test_ea_fastpath.c holds the scalar kernel
+ * to it.)
  *
- * SPEED. The cases with label "fast" run in the default ctest entry
+ * SPEED. The cases marked fast run in the default ctest entry
  * (`test_vs_pathtrace`, also under ASan); the others in
  * `test_vs_pathtrace_slow` (ctest label `slow`, skipped by `make
  * test-asan`). The executable takes --fast (default), --slow or --all.
@@ -178,73 +192,95 @@ typedef struct ref_case {
     "techniques.ambient.table_theta=64", "techniques.ambient.table_sigma=64", "techniques.ambient.table_g=5",      \
         "techniques.ambient.table_paths=256"
 
+/* Each entry: measured rel_rmse / rel_mean (reference noise), the bound
+ * (set with a margin over the measurement, and at least twice the
+ * reference's noise), and the mutations of the technique's source this case
+ * was seen to catch. Shared references are rendered once. */
 static const ref_case CASES[] = {
-    /* ea, absorption only: both are T·L_bg; ea's pre-integrated segments
-     * against pathtrace's delta tracking on the same post-classified
-     * field. Measured 0.0084 / +0.0010, noise 0.0073.
-     * Mutations: segment optical depth ×1.1 (scalar and AVX2 kernels). */
+    /* ea, absorption only: both are T·L_bg — ea's pre-integrated segments
+     * against pathtrace's delta tracking on the same post-classified field.
+     * Measured 0.0080 / +0.0007 (noise 0.0080). Bounds 0.02 / 0.004.
+     * Caught: segment optical depth ×1.1 (0.022 / −0.013). */
     {"ea_absorption", "ea", ABSORB, {NULL}, REF_PATHTRACE, {NULL}, 512, 1, 0.02, 0.004, 1},
-    /* pathtrace, absorption only, against quadrature(): Beer–Lambert on a
-     * heterogeneous field. Measured 0.0083 / −0.0007, noise 0.0073.
-     * Mutations: σt ×1.1 in the tracker's collision test. */
+    /* pathtrace, absorption only, against quadrature(): Beer–Lambert
+     * through a heterogeneous field. Measured 0.0079 / −0.0004 (noise
+     * 0.0080). Bounds 0.02 / 0.004.
+     * Caught: collision probability σt/σ̄ ×1.1 (0.024). */
     {"pathtrace_beer_lambert", "pathtrace", ABSORB, {NULL}, REF_QUADRATURE, {NULL}, 512, 1, 0.02, 0.004, 1},
-    /* ea, split furnace: red = (1 − T)·1 + T·1 = 1 — ea's emission σt·c
-     * with c = 1 is exactly the in-scattered radiance of a white furnace;
-     * green/blue = T. Both terms of ea checked in one image. Measured
-     * 0.0102 / +0.0003, noise 0.0094.
-     * Mutations: emission ×1.1; optical depth ×1.1. */
+    /* ea, split furnace: red = (1 − T)·1 + T·1 = 1 — ea's emission σt·c with
+     * c = 1 is exactly the in-scattered radiance of a white furnace (albedo
+     * 1, L_env = 1); green/blue = T. Both of ea's terms in one image.
+     * Measured 0.0069 / +0.0001 (noise 0.0067). Bounds 0.015 / 0.004.
+     * Caught: optical depth ×1.1 (0.017 / −0.008); emission ×1.1 (0.037). */
     {"ea_furnace", "ea", FURNACE, {NULL}, REF_PATHTRACE, {NULL}, 512, 1, 0.015, 0.004, 0},
-    /* shaded: no lights but the environment, gradient_threshold 0 (every
-     * sample fully shaded), material ambient k_a = 1: c' = c·k_a·A with A
-     * the environment's mean radiance, which in the furnace is exactly the
-     * in-scattered radiance. The environment is 2 here (A enters; ea would
-     * give (1 − T) + 2T ≠ 2), the reference is pathtrace at radiance 1 × 2
-     * (transport is linear in the emitted radiance). Diffuse and specular
-     * terms have no physical counterpart and are not checked. Measured
-     * 0.0102 / +0.0003.
-     * Mutations: ambient term ×1.1. */
+    /* shaded: Blinn–Phong has no physical counterpart except its ambient
+     * term: no lights but the environment, gradient_threshold 0 (every
+     * sample fully shaded), material ambient k_a = 1, so c' = c·k_a·A with A
+     * the environment's mean radiance — in the furnace exactly the
+     * in-scattered radiance. The environment is 2 (so A matters: ea would
+     * give (1 − T) + 2T ≠ 2); the reference is pathtrace at radiance 1,
+     * times 2 (transport is linear in the emitted radiance). Diffuse and
+     * specular terms are not checked (nothing to check them against).
+     * Measured 0.0069 / +0.0001. Bounds 0.015 / 0.004.
+     * Caught: ambient term ×1.1 (0.037); optical depth ×1.1. */
     {"shaded_ambient_furnace", "shaded", FURNACE,
      {"lights.0.radiance=2", "transfer_function.ambient=1", "techniques.shaded.gradient_threshold=0", NULL},
      REF_PATHTRACE, {NULL}, 512, 2, 0.015, 0.004, 0},
-    /* pathtrace, split furnace, against quadrature(): red = 1 exactly at
-     * every pixel (energy conservation over all scattering orders,
-     * anisotropic g = 0.3), green/blue = T. Measured 0.0102 / −0.0002.
-     * Mutations: scattering weight ×1.1 (ρ/P); σt ×1.1. */
+    /* pathtrace, split furnace, against quadrature(): red = 1 at every
+     * pixel (energy conservation over all orders, g = 0.3), green/blue = T.
+     * Measured 0.0069 / +0.0001 (noise 0.0067). Bounds 0.015 / 0.004.
+     * Caught: collision probability ×1.1 (0.021); scattering weight ρ/P
+     * ×1.1 (fails here and, through the references, every other case). */
     {"pathtrace_furnace", "pathtrace", FURNACE, {NULL}, REF_QUADRATURE, {NULL}, 512, 1, 0.015, 0.004, 0},
-    /* single: shadow rays per sample (the exact transmittance; the default
-     * half-resolution cache is +3.1 % on this scene) vs single scattering.
-     * Measured 0.0234 / −0.0001, noise 0.0228. */
+    /* single with a shadow ray per sample (the exact transmittance; the
+     * default half-resolution cache is +3.1 % here) vs single scattering.
+     * Measured 0.0172 / +0.0004 (noise 0.0167). Bounds 0.035 / 0.01.
+     * Caught: shadow optical depth ×1.1 (0.081); phase cosine sign (7.9). */
     {"single", "single", SINGLE, {"techniques.single.transmittance_cache=false", NULL}, REF_PATHTRACE, {NULL}, 4096,
      1, 0.035, 0.01, 0},
     /* lightvol, forward_scattering 0 (exact single-scattering attenuation),
-     * two lights, g = 0: the isotropic phase makes the per-voxel sum of
-     * lights exact; what remains is the propagation's numerical diffusion
-     * and self-shadowing at voxel resolution (docs/techniques/lightvol.md).
-     * With g = 0.4 and two lights the mixture lobe is an approximation
-     * (+3.4 % mean). Measured 0.060 / −0.008, noise 0.023. */
+     * both lights, g = 0: with an isotropic phase the per-voxel sum of the
+     * lights is exact; what remains is the propagation's numerical
+     * diffusion and self-shadowing at voxel resolution (lightvol.md,
+     * Accuracy). With g = 0.4 and two lights the mixture lobe is an
+     * approximation (+3.4 % mean) and is not used here.
+     * Measured 0.060 / −0.008 (noise 0.023). Bounds 0.08 / 0.02.
+     * Caught: propagation optical depth ×1.1 (0.109 / −0.055); in-scattered
+     * radiance ×1.1 (0.107). */
     {"lightvol_two_lights_isotropic", "lightvol", SINGLE, {"transfer_function.anisotropy=0", NULL}, REF_PATHTRACE,
      {"transfer_function.anisotropy=0", NULL}, 2048, 1, 0.08, 0.02, 0},
     /* lightvol, one directional light, g = 0.4: the stored direction is
-     * the light's, the HG lobe exact. Measured 0.075 / −0.004. */
+     * the light's and the HG lobe exact.
+     * Measured 0.075 / −0.004 (noise 0.025). Bounds 0.10 / 0.02.
+     * Caught: phase cosine sign (6.8); propagation optical depth ×1.1
+     * (0.116 / −0.053); in-scattered radiance ×1.1 (0.112). */
     {"lightvol_one_light_hg", "lightvol", SINGLE, {"lights.1.intensity=0", NULL}, REF_PATHTRACE,
      {"lights.1.intensity=0", NULL}, 2048, 1, 0.10, 0.02, 0},
-    /* ambient in the thin limit: r = 0.5 voxel (ρ ≤ 0.025), full-resolution
-     * radiance caches, and a table without multiple scattering
-     * (table_albedo 0.001): L̃o → p_g(cos θ)·e^{−O(ρ)} and the tube-marched
-     * V → the shadow transmittance, i.e. single scattering. The table's
-     * multiple-scattering content is not exact against anything (with the
-     * TF's albedo: +9 % here; see ambient.md §8) and is checked by
-     * test_ambient_table instead. Measured 0.055 / −0.021 (offset 0:
-     * 0.061 / −0.026). */
+    /* ambient in its thin limit: r = 0.5 voxel (ρ = r·σ̃t ≤ 0.025), full-
+     * resolution radiance caches, and a table without multiple scattering
+     * (table_albedo 0.001): L̃o → p_g(cos θ)·e^{−O(ρ)} and the tube-marched V
+     * → the shadow transmittance, i.e. single scattering (offset 1, the
+     * paper's x_o, is exact for an absorbing sphere; offset 0 measured
+     * 0.061 / −0.026 at 2048 spp). The table's multiple-scattering content
+     * is exact against nothing — with the TF's albedo ambient is +9 % here,
+     * ambient.md §8 has real volumes — and is checked by
+     * tests/physics/test_ambient_table.c instead.
+     * Measured 0.043 / −0.020 (noise 0.018). Bounds 0.06 / 0.03.
+     * Caught: table value ×1.1 (0.138 / +0.078); radiance-cache optical
+     * depth ×1.1 (0.080 / −0.043); light entry point x_j = x' + rω_j
+     * instead of x' − rω_j (0.075 / −0.038). */
     {"ambient_thin_limit", "ambient", THIN,
      {"techniques.ambient.radius=0.5", "techniques.ambient.cache_scale=1", "techniques.ambient.table_albedo=0.001",
       TINY_TABLE, NULL},
-     REF_PATHTRACE, {NULL}, 2048, 1, 0.08, 0.04, 0},
-    /* ao, environment only, very thin medium: A(x) ≈ the mean
-     * transmittance to the sky (radius 16 voxels = 8 world units, the
-     * blobs' scale), unshadowed otherwise. Measured 0.066 / +0.014, noise
-     * 0.069 (bias below the noise). */
-    {"ao_thin_sky", "ao", THIN_ENV, {"techniques.ao.radius=16", NULL}, REF_PATHTRACE, {NULL}, 8192, 1, 0.08, 0.03, 0},
+     REF_PATHTRACE, {NULL}, 8192, 1, 0.06, 0.03, 0},
+    /* ao, sky only, very thin medium: A(x) ≈ the mean transmittance to the
+     * sky (radius 16 voxels = 8 world units, the blobs' scale), everything
+     * else single scattering. ao has no directional shadows, so it is not
+     * tested with a directional light (+15 % in THIN).
+     * Measured 0.048 / +0.017 (noise 0.037). Bounds 0.075 / 0.03.
+     * Caught: radiance ×1.1 (0.224); occlusion ignored, A = 1 (0.178). */
+    {"ao_thin_sky", "ao", THIN_ENV, {"techniques.ao.radius=16", NULL}, REF_PATHTRACE, {NULL}, 8192, 1, 0.075, 0.03,
+     0},
 };
 #define N_CASES ((int)(sizeof CASES / sizeof CASES[0]))
 
@@ -392,7 +428,8 @@ static const estimate *pathtrace_estimate(volux_context *ctx, scene_id id, const
  * T = exp(−∫σt), σt = SIGMA_06(trilinear value), midpoint rule in steps
  * of 1/20 voxel along Q×Q stratified rays per pixel (the box filter).
  * ABSORB: every channel T. FURNACE: red 1 (white furnace), green/blue T.
- * Quadrature and pixel-filter error are below 1e-3 relative. */
+ * Converged: Q = 8 and steps of 1/40 change the two cases' metrics by
+ * less than 1e-4. */
 static volux_image quadrature(volux_context *ctx, scene_id id) {
     enum { Q = 4 };
     const double h = 0.05;
