@@ -238,7 +238,7 @@ typedef struct lightvol_state {
     size_t med_bytes;
     float *rows;                   /* per thread row scratch                */
     size_t rows_bytes;
-    float *stage;                  /* x sweeps: staged slices (see propagate.c) */
+    float *stage;                  /* x sweeps: staged slices (see sweep.c) */
     size_t stage_bytes;
     int rows_threads;
     size_t row_stride;
