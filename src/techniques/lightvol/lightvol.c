@@ -223,7 +223,7 @@ static inline float hg(float g, float cos_theta) {
 
 /* Radiance scattered towards the camera per unit optical depth at data
  * index q (world p), colour c (TF colour, σt-weighted over the segment). */
-static inline void scatter(const lightvol_state *st, volux_vec3 p, volux_vec3 q, volux_vec3 dir, const float c[3],
+static inline __attribute__((always_inline)) void scatter(const lightvol_state *st, volux_vec3 p, volux_vec3 q, volux_vec3 dir, const float c[3],
                            float S[3], int local) {
     float I[6];
     volux_vec3 qi = v3(q.x * st->data_to_ill[0], q.y * st->data_to_ill[1], q.z * st->data_to_ill[2]);
@@ -299,7 +299,8 @@ static void lightvol_render_tile(const void *state, const volux_scene *scene, co
                                  volux_tile_stats *stats) {
     const lightvol_state *st = state;
     int local = st->p.local_shading > 0.0f && st->grad.grad;
-    if (st->p.preintegrate && local) volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate, LV_PREINT | LV_LOCAL);
+    if (st->p.preintegrate && local)
+        volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate, LV_PREINT | LV_LOCAL);
     else if (st->p.preintegrate) volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate, LV_PREINT);
     else if (local) volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate, LV_LOCAL);
     else volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate, 0);
