@@ -89,8 +89,8 @@ static int solve(int k, double a[SH_DIPOLE_GAUSSIANS][SH_DIPOLE_GAUSSIANS], doub
     return 1;
 }
 
-void sh_dipole_fit(const sh_dipole_material *m, double mm_per_unit, double radius, double s_min, double s_max,
-                   sh_gauss_fit *out) {
+void sh_dipole_fit(const sh_dipole_material *m, double mm_per_unit, double radius, double soften, double s_min,
+                   double s_max, sh_gauss_fit *out) {
     enum { K = SH_DIPOLE_GAUSSIANS, M = 256 };
     memset(out, 0, sizeof *out);
     for (int k = 0; k < K; k++) out->s[k] = s_min * pow(s_max / s_min, (double)k / (K - 1));
@@ -106,7 +106,7 @@ void sh_dipole_fit(const sh_dipole_material *m, double mm_per_unit, double radiu
             double a[K][K] = {{0}}, b[K] = {0};
             for (int i = 0; i < M; i++) {
                 double r = radius * (i + 0.5) / M, wt = r * r;
-                double f = sh_dipole_rd(m, c, r * mm_per_unit), g[K];
+                double f = sh_dipole_rd(m, c, sqrt(r * r + soften * soften) * mm_per_unit), g[K];
                 for (int j = 0; j < n; j++) g[j] = exp(-r * r / (2.0 * out->s[idx[j]] * out->s[idx[j]]));
                 for (int j = 0; j < n; j++) {
                     b[j] += wt * f * g[j];
@@ -127,7 +127,8 @@ void sh_dipole_fit(const sh_dipole_material *m, double mm_per_unit, double radiu
         for (int k = 0; k < K; k++) out->w[c][k] = w[k] > 0.0 ? w[k] : 0.0;
         double num = 0.0, den = 0.0;
         for (int i = 0; i < M; i++) {
-            double r = radius * (i + 0.5) / M, wt = r * r, f = sh_dipole_rd(m, c, r * mm_per_unit), g = 0.0;
+            double r = radius * (i + 0.5) / M, wt = r * r, g = 0.0;
+            double f = sh_dipole_rd(m, c, sqrt(r * r + soften * soften) * mm_per_unit);
             for (int k = 0; k < K; k++) g += out->w[c][k] * exp(-r * r / (2.0 * out->s[k] * out->s[k]));
             num += wt * (f - g) * (f - g);
             den += wt * f * f;

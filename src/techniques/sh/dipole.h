@@ -35,14 +35,16 @@ double sh_dipole_rd_total(const sh_dipole_material *m, int c);
 /* R_d(r) ≈ Σ_k w[c][k] exp(−r²/(2 s_k²)) over r ∈ [0, radius] (world
  * units; mm = world · mm_per_unit), least squares weighted by r² (the
  * shell volume of a 3-D neighbourhood), weights ≥ 0. s_k are fixed,
- * geometric between s_min and s_max. */
+ * geometric between s_min and s_max. The profile is taken at
+ * √(r² + soften²): a core narrower than the grid that samples the kernel
+ * (`soften` ≈ half its spacing) cannot be resolved, only its mass. */
 #define SH_DIPOLE_GAUSSIANS 4
 typedef struct sh_gauss_fit {
     double s[SH_DIPOLE_GAUSSIANS];       /* standard deviations, world units */
     double w[3][SH_DIPOLE_GAUSSIANS];    /* weights per channel             */
     double rel_error[3];                 /* weighted relative L2 error      */
 } sh_gauss_fit;
-void sh_dipole_fit(const sh_dipole_material *m, double mm_per_unit, double radius, double s_min, double s_max,
-                   sh_gauss_fit *out);
+void sh_dipole_fit(const sh_dipole_material *m, double mm_per_unit, double radius, double soften, double s_min,
+                   double s_max, sh_gauss_fit *out);
 
 #endif

@@ -374,7 +374,7 @@ static volux_status scatter(sh_state *st, const sh_projection_params *p, const s
     double radius = p->neighbourhood * extent, smin = 0.5 * fmin(gsp[0], fmin(gsp[1], gsp[2]));
     if (radius < 2.0 * smin) radius = 2.0 * smin;
     sh_gauss_fit fit;
-    sh_dipole_fit(mat, p->scatter_scale, radius, smin, fmax(radius / 2.0, smin * 1.01), &fit);
+    sh_dipole_fit(mat, p->scatter_scale, radius, smin, 0.5 * smin, fmax(radius / 2.0, smin * 1.01), &fit);
     const int C = nc + 1;
     size_t nodes = g->nodes, buf = nodes * (size_t)C * sizeof(float), den_bytes = nodes * 3 * sizeof(float);
     float *A = volux_alloc_aligned(ctx, buf), *B = volux_alloc_aligned(ctx, buf), *den = volux_alloc_aligned(ctx, den_bytes);
