@@ -168,11 +168,60 @@ static void test_luma_chroma(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* Progressive projection: a TF edit first costs under a tenth of the full
+ * projection's rays (the coarse level), refine then yields exactly the
+ * non-progressive image, and framebuffers restart when it does. */
+static void test_progressive(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(2);
+    volux_scene *s = load(ctx, "\"progressive\": 1"), *full = load(ctx, "");
+    volux_technique *t, *f;
+    assert_int_equal(volux_technique_create(ctx, "sh", s, &t), VOLUX_OK);
+    assert_int_equal(volux_technique_create(ctx, "sh", full, &f), VOLUX_OK);
+    const sh_state *st = state_of(t), *sf = state_of(f);
+    assert_true(st->coarse);
+    assert_int_equal(st->grid.ratio, 2 * sf->grid.ratio);
+    int refined, more;
+    assert_int_equal(volux_technique_refine(t, s, &refined, &more), VOLUX_OK);
+    assert_true(refined && !more);
+    assert_false(st->coarse);
+    assert_int_equal(volux_technique_refine(t, s, &refined, &more), VOLUX_OK);
+    assert_true(!refined && !more);
+    /* a TF edit: the coarse level first */
+    volux_framebuffer *fb;
+    assert_int_equal(volux_framebuffer_create(ctx, 24, 22, &fb), VOLUX_OK);
+    assert_int_equal(volux_edit_apply(volux_edit_find("tf"), s, 0), VOLUX_OK);
+    assert_int_equal(volux_edit_apply(volux_edit_find("tf"), full, 0), VOLUX_OK);
+    uint64_t r0 = st->rays_cast, rf0 = sf->rays_cast;
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    assert_int_equal(volux_technique_update(f, full, NULL), VOLUX_OK);
+    uint64_t coarse = st->rays_cast - r0, all = sf->rays_cast - rf0;
+    print_message("progressive: coarse %llu rays, full %llu\n", (unsigned long long)coarse, (unsigned long long)all);
+    assert_true(coarse > 0 && coarse * 10 <= all);
+    assert_int_equal(volux_render(t, s, fb, NULL, NULL), VOLUX_OK);
+    assert_int_equal(volux_framebuffer_spp(fb), 1);
+    assert_int_equal(volux_technique_refine(t, s, &refined, &more), VOLUX_OK);
+    assert_true(refined);
+    assert_int_equal(volux_render(t, s, fb, NULL, NULL), VOLUX_OK);
+    assert_int_equal(volux_framebuffer_spp(fb), 1); /* restarted, not 2 */
+    volux_image a, b = tu_render_with(ctx, full, f);
+    assert_int_equal(volux_framebuffer_resolve(fb, &a), VOLUX_OK);
+    assert_true(tu_max_abs_diff(&a, &b) == 0.0);
+    volux_image_free(ctx, &a);
+    volux_image_free(ctx, &b);
+    volux_framebuffer_destroy(fb);
+    volux_technique_destroy(t);
+    volux_technique_destroy(f);
+    volux_scene_destroy(s);
+    volux_scene_destroy(full);
+    volux_context_destroy(ctx);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_light_edits_are_image_only), cmocka_unit_test(test_camera_and_phase_cost_nothing),
         cmocka_unit_test(test_tf_edits),                   cmocka_unit_test(test_probe_rotation_is_exact),
-        cmocka_unit_test(test_luma_chroma),
+        cmocka_unit_test(test_luma_chroma),                cmocka_unit_test(test_progressive),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

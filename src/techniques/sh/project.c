@@ -226,14 +226,15 @@ static int node_active(const proj_job *j, int i, int k, int kk) {
     return 0;
 }
 
-static void project_node(const proj_job *j, int i, int k, int kk, float *out, float *weight) {
+/* Returns the number of rays cast (0 for a skipped node). */
+static int project_node(const proj_job *j, int i, int k, int kk, float *out, float *weight) {
     const int nc = j->nc, ch = j->ch, r = j->grid.ratio;
     const int *d = j->v->dims;
     memset(out, 0, sizeof(float) * (size_t)(ch * nc));
     *weight = 0.0f;
     if (!node_active(j, i, k, kk)) {
         for (int c = 0; c < ch; c++) out[c * nc] = SQRT_4PI; /* unoccluded: f = 1 */
-        return;
+        return 0;
     }
     volux_vec3 q = v3(fminf((float)(i * r), (float)(d[0] - 1)), fminf((float)(k * r), (float)(d[1] - 1)),
                       fminf((float)(kk * r), (float)(d[2] - 1)));
@@ -282,6 +283,7 @@ static void project_node(const proj_job *j, int i, int k, int kk, float *out, fl
             }
     }
     *weight = o;
+    return N;
 }
 
 static void project_row(void *user, int64_t item, int thread) {
@@ -291,10 +293,12 @@ static void project_row(void *user, int64_t item, int thread) {
     const sh_grid *g = &j->grid;
     int k = (int)(item % g->dims[1]), kk = (int)(item / g->dims[1]);
     const size_t stride = (size_t)j->ch * j->nc;
+    uint64_t rays = 0;
     for (int i = 0; i < g->dims[0]; i++) {
         size_t at = ((size_t)kk * g->dims[1] + k) * g->dims[0] + i;
-        project_node(j, i, k, kk, j->out + at * stride, j->weight + at);
+        rays += (uint64_t)project_node(j, i, k, kk, j->out + at * stride, j->weight + at);
     }
+    __atomic_add_fetch(&j->st->rays_cast, rays, __ATOMIC_RELAXED);
     int done = __atomic_add_fetch(&j->done, 1, __ATOMIC_RELAXED);
     volux_context *ctx = j->st->rc.ctx;
     if (ctx->progress && !__atomic_exchange_n(&j->busy, 1, __ATOMIC_ACQUIRE)) {

@@ -100,7 +100,11 @@ static uint64_t color_hash(const volux_transfer_desc *tf) {
 }
 
 typedef struct bake_job {
-    sh_state *st;
+    const sh_state *st;
+    const sh_grid *grid;
+    const sh_layout *L;
+    const float *coef;
+    float *shade;
     float E[3];
 } bake_job;
 
@@ -108,14 +112,14 @@ typedef struct bake_job {
  * normalised); Y/Cb/Cr channels are mixed back to RGB linearly. */
 static void bake_slice(void *user, int64_t z, int thread) {
     (void)thread;
-    bake_job *b = user;
-    sh_state *st = b->st;
-    const sh_layout *L = &st->layout;
+    const bake_job *b = user;
+    const sh_state *st = b->st;
+    const sh_layout *L = b->L;
     static const float ycc[3][3] = {{1.0f, 0.0f, 1.5748f}, {1.0f, -0.18732f, -0.46812f}, {1.0f, 1.8556f, 0.0f}};
-    size_t per = (size_t)st->grid.dims[0] * st->grid.dims[1];
+    size_t per = (size_t)b->grid->dims[0] * b->grid->dims[1];
     for (size_t n = (size_t)z * per; n < (size_t)(z + 1) * per; n++) {
-        const float *cf = st->coef + n * (size_t)L->stride;
-        float *S = st->shade + 4 * n;
+        const float *cf = b->coef + n * (size_t)L->stride;
+        float *S = b->shade + 4 * n;
         for (int c = 0; c < 3; c++) {
             float v = 0.0f;
             if (L->channels == 1) v = sh_dot(L->bands[0], cf, st->li[c]);
@@ -129,6 +133,14 @@ static void bake_slice(void *user, int64_t z, int thread) {
     }
 }
 
+/* Bakes the shade volume of (grid, layout, coef) into shade (4 per node). */
+static void bake_into(sh_state *st, const sh_grid *g, const sh_layout *L, const float *coef, float *shade) {
+    bake_job b = {st, g, L, coef, shade, {0, 0, 0}};
+    for (int c = 0; c < 3; c++) b.E[c] = 3.5449077f * st->li[c][0]; /* ∫ L_i = √(4π)·L_00 */
+    volux_parallel_for(st->rc.threads, g->dims[2], bake_slice, &b);
+    st->bakes++;
+}
+
 static volux_status bake(sh_state *st) {
     size_t bytes = st->grid.nodes * 4 * sizeof(float);
     if (bytes != st->shade_bytes) {
@@ -138,10 +150,7 @@ static volux_status bake(sh_state *st) {
             return volux_error(st->rc.ctx, VOLUX_ERR_NOMEM, "sh: out of memory for the shade volume");
         st->shade_bytes = bytes;
     }
-    bake_job b = {st, {0, 0, 0}};
-    for (int c = 0; c < 3; c++) b.E[c] = 3.5449077f * st->li[c][0];
-    volux_parallel_for(st->rc.threads, st->grid.dims[2], bake_slice, &b);
-    st->bakes++;
+    bake_into(st, &st->grid, &st->layout, st->coef, st->shade);
     return VOLUX_OK;
 }
 
@@ -252,6 +261,36 @@ static volux_status sh_update(void *state, const volux_scene *scene, const volux
         if ((s = volux_gradient_cache_build(rc->ctx, rc->volume, &st->grad, "sh"))) return s;
         st->have_grad = 1;
     }
+    return VOLUX_OK;
+}
+
+/* Progressive mode: the full projection replaces the coarse one. */
+static volux_status sh_refine(void *state, const volux_scene *scene, int *changed, int *more) {
+    (void)scene;
+    sh_state *st = state;
+    *more = 0;
+    if (!st->coarse) return VOLUX_OK;
+    sh_grid g;
+    sh_layout lay;
+    float *coef = NULL;
+    size_t bytes = 0;
+    volux_status s = sh_project(st, &st->applied, st->applied.downsample, st->applied.rays, &g, &lay, &coef, &bytes);
+    if (s) return s; /* the coarse level stays, and renders */
+    size_t shade_bytes = g.nodes * 4 * sizeof(float);
+    float *shade = volux_alloc_aligned(st->rc.ctx, shade_bytes);
+    if (!shade) {
+        volux_free_aligned(st->rc.ctx, coef, bytes);
+        return volux_error(st->rc.ctx, VOLUX_ERR_NOMEM, "sh: out of memory for the shade volume");
+    }
+    bake_into(st, &g, &lay, coef, shade);
+    volux_free_aligned(st->rc.ctx, st->coef, st->coef_bytes);
+    if (st->shade) volux_free_aligned(st->rc.ctx, st->shade, st->shade_bytes);
+    st->grid = g, st->layout = lay;
+    st->coef = coef, st->coef_bytes = bytes;
+    st->shade = shade, st->shade_bytes = shade_bytes;
+    st->coarse = 0;
+    st->projections++;
+    *changed = 1;
     return VOLUX_OK;
 }
 
@@ -429,5 +468,5 @@ static void sh_render_tile(const void *state, const volux_scene *scene, const vo
 const volux_technique_class volux_sh_class = {
     {"sh", "light-material interaction with spherical harmonics (Lindemann & Ropinski 2010)", sh_params, 0},
     sizeof(sh_state), 0, 0,
-    NULL, sh_update, sh_render_tile, sh_memory_bytes, sh_release,
+    NULL, sh_update, sh_render_tile, sh_memory_bytes, sh_release, sh_refine,
 };

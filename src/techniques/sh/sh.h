@@ -94,6 +94,7 @@ typedef struct sh_state {
     size_t table_bytes;
     /* statistics (tests, bench) */
     uint64_t projections, bakes, light_projections;
+    uint64_t rays_cast;       /* projection rays, all projections so far */
     double projection_ms;
 } sh_state;
 
