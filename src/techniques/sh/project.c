@@ -35,6 +35,10 @@
 #include "sh.h"
 
 #define SH_MIP_LEVELS 7 /* level 0 is the volume itself */
+
+/* fminf/fmaxf are library calls without -ffinite-math-only */
+static inline float minf(float a, float b) { return a < b ? a : b; }
+static inline float maxf(float a, float b) { return a > b ? a : b; }
 #define SQRT_4PI 3.5449077018110318f
 
 typedef struct mip_level {
@@ -56,8 +60,11 @@ typedef struct proj_job {
     int rays, bands, nc, ch;
     float h, hc, tau_max, t_stop, growth, phi_offset;
     float sp[3];          /* spacing per axis (world) */
-    float *cell_sigma;    /* per coefficient cell: max σt */
+    float *cell_sigma;    /* per coefficient cell: > 0 if any σt > 0 */
+    int32_t *nonzero;     /* [lut.n + 1] prefix count of LUT entries with σt > 0 */
     int cells[3];
+    float box_lo[3], box_hi[3]; /* fine-index box of the non-empty cells: rays end there */
+    volux_storage storage;
     float *out;           /* ch·nc per node */
     float *weight;        /* opacity per node (scattering) */
     int done, busy, cancelled;
@@ -76,14 +83,16 @@ static inline void classify(const proj_job *j, float s, float out[4]) {
 
 typedef struct mip_job {
     proj_job *j;
-    int l; /* level being built (≥ 1) */
+    int l;          /* level being built (≥ 1) */
+    float *scratch; /* level 1: one classified fine plane per thread */
+    size_t plane;   /* floats per scratch plane */
 } mip_job;
 
 /* Node (i, j, k) of level l averages 3³ nodes of level l − 1 around
  * (2i, 2j, 2k) with tent weights (1/4, 1/2, 1/4): a low-pass before the
- * 2× decimation. */
+ * 2× decimation. Separable: the three planes are first combined along z
+ * (for level 1 from the classified volume, into the thread's scratch). */
 static void mip_slice(void *user, int64_t k, int thread) {
-    (void)thread;
     mip_job *mj = user;
     proj_job *j = mj->j;
     const int l = mj->l, comps = j->comps;
@@ -91,24 +100,36 @@ static void mip_slice(void *user, int64_t k, int thread) {
     const mip_level *src = &j->level[l - 1];
     const int *sd = l == 1 ? j->v->dims : src->dims;
     static const float w[3] = {0.25f, 0.5f, 0.25f};
+    float *plane = mj->scratch + (size_t)thread * mj->plane;
+    memset(plane, 0, sizeof(float) * (size_t)sd[0] * sd[1] * comps);
+    for (int dz = -1; dz <= 1; dz++) {
+        int z = 2 * (int)k + dz;
+        z = z < 0 ? 0 : z >= sd[2] ? sd[2] - 1 : z;
+        for (int y = 0; y < sd[1]; y++)
+            for (int x = 0; x < sd[0]; x++) {
+                float val[4];
+                if (l == 1)
+                    classify(j, volux_volume_raw_at(j->v, volux_volume_index(j->v, x, y, z)) + j->v->value_offset, val);
+                else {
+                    const float *p = src->data + comps * (((size_t)z * sd[1] + y) * sd[0] + x);
+                    for (int c = 0; c < comps; c++) val[c] = p[c];
+                }
+                float *o = plane + comps * ((size_t)y * sd[0] + x);
+                for (int c = 0; c < comps; c++) o[c] += w[dz + 1] * val[c];
+            }
+    }
     for (int jj = 0; jj < dst->dims[1]; jj++)
         for (int i = 0; i < dst->dims[0]; i++) {
             float acc[4] = {0, 0, 0, 0};
-            for (int dz = -1; dz <= 1; dz++)
-                for (int dy = -1; dy <= 1; dy++)
-                    for (int dx = -1; dx <= 1; dx++) {
-                        int x = 2 * i + dx, y = 2 * jj + dy, z = 2 * (int)k + dz;
-                        x = x < 0 ? 0 : x >= sd[0] ? sd[0] - 1 : x;
-                        y = y < 0 ? 0 : y >= sd[1] ? sd[1] - 1 : y;
-                        z = z < 0 ? 0 : z >= sd[2] ? sd[2] - 1 : z;
-                        float wt = w[dx + 1] * w[dy + 1] * w[dz + 1], val[4];
-                        if (l == 1) classify(j, volux_volume_value_at(j->v, x, y, z), val);
-                        else {
-                            const float *p = src->data + comps * (((size_t)z * sd[1] + y) * sd[0] + x);
-                            for (int c = 0; c < comps; c++) val[c] = p[c];
-                        }
-                        for (int c = 0; c < comps; c++) acc[c] += wt * val[c];
-                    }
+            for (int dy = -1; dy <= 1; dy++)
+                for (int dx = -1; dx <= 1; dx++) {
+                    int x = 2 * i + dx, y = 2 * jj + dy;
+                    x = x < 0 ? 0 : x >= sd[0] ? sd[0] - 1 : x;
+                    y = y < 0 ? 0 : y >= sd[1] ? sd[1] - 1 : y;
+                    const float *p = plane + comps * ((size_t)y * sd[0] + x);
+                    float wt = w[dx + 1] * w[dy + 1];
+                    for (int c = 0; c < comps; c++) acc[c] += wt * p[c];
+                }
             float *o = dst->data + comps * (((size_t)k * dst->dims[1] + jj) * dst->dims[0] + i);
             for (int c = 0; c < comps; c++) o[c] = acc[c];
         }
@@ -118,6 +139,10 @@ static volux_status build_pyramid(proj_job *j) {
     volux_context *ctx = j->st->rc.ctx;
     j->n_levels = 1;
     const int *d = j->v->dims;
+    const int threads = j->st->rc.threads > 0 ? j->st->rc.threads : 1;
+    size_t plane = (size_t)d[0] * d[1] * (size_t)j->comps, sbytes = plane * (size_t)threads * sizeof(float);
+    float *scratch = volux_malloc(ctx, sbytes);
+    if (!scratch) return volux_error(ctx, VOLUX_ERR_NOMEM, "sh: out of memory for the extinction pyramid");
     for (int l = 1; l < SH_MIP_LEVELS; l++) {
         const int *prev = l == 1 ? d : j->level[l - 1].dims;
         mip_level *m = &j->level[l];
@@ -128,12 +153,15 @@ static volux_status build_pyramid(proj_job *j) {
         }
         if (m->dims[0] < 2 && m->dims[1] < 2 && m->dims[2] < 2) break;
         m->bytes = n * sizeof(float);
-        if (!(m->data = volux_alloc_aligned(ctx, m->bytes)))
+        if (!(m->data = volux_alloc_aligned(ctx, m->bytes))) {
+            volux_free(ctx, scratch, sbytes);
             return volux_error(ctx, VOLUX_ERR_NOMEM, "sh: out of memory for the extinction pyramid");
-        mip_job mj = {j, l};
-        volux_parallel_for(j->st->rc.threads, m->dims[2], mip_slice, &mj);
+        }
+        mip_job mj = {j, l, scratch, plane};
+        volux_parallel_for(threads, m->dims[2], mip_slice, &mj);
         j->n_levels = l + 1;
     }
+    volux_free(ctx, scratch, sbytes);
     return VOLUX_OK;
 }
 
@@ -151,8 +179,8 @@ static inline void sample_level(const proj_job *j, int l, float qx, float qy, fl
     i = i > m->dims[0] - 2 ? (m->dims[0] > 1 ? m->dims[0] - 2 : 0) : i < 0 ? 0 : i;
     k = k > m->dims[1] - 2 ? (m->dims[1] > 1 ? m->dims[1] - 2 : 0) : k < 0 ? 0 : k;
     kk = kk > m->dims[2] - 2 ? (m->dims[2] > 1 ? m->dims[2] - 2 : 0) : kk < 0 ? 0 : kk;
-    float fx = fminf(fmaxf(x - i, 0.0f), 1.0f), fy = fminf(fmaxf(y - k, 0.0f), 1.0f),
-          fz = fminf(fmaxf(z - kk, 0.0f), 1.0f);
+    float fx = minf(maxf(x - i, 0.0f), 1.0f), fy = minf(maxf(y - k, 0.0f), 1.0f),
+          fz = minf(maxf(z - kk, 0.0f), 1.0f);
     const size_t sx = m->dims[0] > 1 ? (size_t)j->comps : 0, sy = m->dims[1] > 1 ? (size_t)j->comps * m->dims[0] : 0,
                  sz = m->dims[2] > 1 ? (size_t)j->comps * m->dims[0] * m->dims[1] : 0;
     const float *p = m->data + (size_t)j->comps * (((size_t)kk * m->dims[1] + k) * m->dims[0] + i);
@@ -166,26 +194,25 @@ static inline void sample_level(const proj_job *j, int l, float qx, float qy, fl
 /* ------------------------------------------------------------------ rays */
 
 /* Marches from fine index q0 along world direction w; returns T and (with
- * bleeding) the composited colour C. */
-static inline float march(const proj_job *j, volux_vec3 q0, volux_vec3 w, float C[3]) {
+ * bleeding) the composited colour C. Past the box of non-empty cells
+ * nothing attenuates, so the ray ends there. */
+static inline __attribute__((always_inline)) float march(const proj_job *j, volux_vec3 q0, volux_vec3 w, float C[3]) {
     const volux_volume *v = j->v;
     volux_vec3 dq = v3(w.x / j->sp[0], w.y / j->sp[1], w.z / j->sp[2]);
-    /* exit distance from the index box [0, n−1]³ */
     float t_exit = INFINITY;
     const float qa[3] = {q0.x, q0.y, q0.z}, da[3] = {dq.x, dq.y, dq.z};
     for (int a = 0; a < 3; a++) {
-        float hi = (float)(v->dims[a] - 1);
-        if (da[a] > 1e-12f) t_exit = fminf(t_exit, (hi - qa[a]) / da[a]);
-        else if (da[a] < -1e-12f) t_exit = fminf(t_exit, -qa[a] / da[a]);
+        if (da[a] > 1e-12f) t_exit = minf(t_exit, (j->box_hi[a] - qa[a]) / da[a]);
+        else if (da[a] < -1e-12f) t_exit = minf(t_exit, (j->box_lo[a] - qa[a]) / da[a]);
     }
     float t = 0.0f, s = j->h, tau = 0.0f, T = 1.0f, next = 2.0f * j->h;
     int l = 0;
     C[0] = C[1] = C[2] = 0.0f;
     while (t < t_exit) {
-        float len = fminf(s, t_exit - t), m = t + 0.5f * len, val[4] = {0, 0, 0, 0};
+        float len = minf(s, t_exit - t), m = t + 0.5f * len, val[4] = {0, 0, 0, 0};
         float qx = q0.x + dq.x * m, qy = q0.y + dq.y * m, qz = q0.z + dq.z * m;
         if (l == 0) {
-            float sv = volux_volume_sample_index(v, qx, qy, qz);
+            float sv = volux_volume_sample_bricked(v, qx, qy, qz, j->storage);
             if (j->comps == 1) val[0] = volux_lut_sigma(j->lut, sv);
             else classify(j, sv, val);
         } else
@@ -209,9 +236,9 @@ static inline float march(const proj_job *j, volux_vec3 q0, volux_vec3 w, float 
 /* σt at fine index q (clamped into the volume). */
 static inline float sigma_at(const proj_job *j, float x, float y, float z) {
     const int *d = j->v->dims;
-    x = fminf(fmaxf(x, 0.0f), (float)(d[0] - 1));
-    y = fminf(fmaxf(y, 0.0f), (float)(d[1] - 1));
-    z = fminf(fmaxf(z, 0.0f), (float)(d[2] - 1));
+    x = minf(maxf(x, 0.0f), (float)(d[0] - 1));
+    y = minf(maxf(y, 0.0f), (float)(d[1] - 1));
+    z = minf(maxf(z, 0.0f), (float)(d[2] - 1));
     return volux_lut_sigma(j->lut, volux_volume_sample_index(j->v, x, y, z));
 }
 
@@ -236,8 +263,8 @@ static int project_node(const proj_job *j, int i, int k, int kk, float *out, flo
         for (int c = 0; c < ch; c++) out[c * nc] = SQRT_4PI; /* unoccluded: f = 1 */
         return 0;
     }
-    volux_vec3 q = v3(fminf((float)(i * r), (float)(d[0] - 1)), fminf((float)(k * r), (float)(d[1] - 1)),
-                      fminf((float)(kk * r), (float)(d[2] - 1)));
+    volux_vec3 q = v3(minf((float)(i * r), (float)(d[0] - 1)), minf((float)(k * r), (float)(d[1] - 1)),
+                      minf((float)(kk * r), (float)(d[2] - 1)));
     /* Opacity of one coefficient voxel and its gradient (§4: τ and |∇τ|). */
     float o = 1.0f - expf(-sigma_at(j, q.x, q.y, q.z) * j->hc);
     float g[3];
@@ -255,7 +282,7 @@ static int project_node(const proj_job *j, int i, int k, int kk, float *out, flo
     float surface = 0.0f;
     if (gl > 0.0f) {
         n = v3_scale(grad, -1.0f / gl); /* towards lower opacity: out of the material */
-        surface = fminf(gl * j->hc, 1.0f);
+        surface = minf(gl * j->hc, 1.0f);
     }
     /* Below-surface angle α: 0 on an opaque surface, π/2 (full sphere) when
      * transparent or without a gradient. */
@@ -269,7 +296,7 @@ static int project_node(const proj_job *j, int i, int k, int kk, float *out, flo
         float u = 1.0f - (1.0f + sa) * ((float)s + 0.5f) / (float)N;
         float ph = (float)s * 0.6180339887f + j->phi_offset;
         ph = 2.0f * VOLUX_PI * (ph - floorf(ph));
-        float sr = sqrtf(fmaxf(0.0f, 1.0f - u * u));
+        float sr = sqrtf(maxf(0.0f, 1.0f - u * u));
         volux_vec3 w = v3_add(v3_scale(n, u), v3_add(v3_scale(t, sr * cosf(ph)), v3_scale(b, sr * sinf(ph))));
         float C[3], T = march(j, q, w, C);
         sh_eval(j->bands, w, y);
@@ -320,11 +347,22 @@ static void cell_slice(void *user, int64_t z, int thread) {
             for (int kk = (int)z * r; kk <= (int)(z + 1) * r && kk < d[2]; kk++)
                 for (int k = y * r; k <= (y + 1) * r && k < d[1]; k++)
                     for (int i = x * r; i <= (x + 1) * r && i < d[0]; i++) {
-                        float s = volux_volume_value_at(j->v, i, k, kk);
-                        lo = fminf(lo, s), hi = fmaxf(hi, s);
+                        float s = volux_volume_raw_at(j->v, volux_volume_index(j->v, i, k, kk));
+                        lo = minf(lo, s), hi = maxf(hi, s);
                     }
-            j->cell_sigma[((size_t)z * j->cells[1] + y) * j->cells[0] + x] =
-                lo <= hi ? volux_transfer_lut_max_sigma(j->lut, lo, hi) : 0.0f;
+            /* σt > 0 anywhere on the LUT nodes bracketing [lo, hi] (the
+             * majorant grid's test), from the prefix count of non-zero
+             * entries: O(1) per cell */
+            float v = 0.0f;
+            if (lo <= hi) {
+                const volux_transfer_lut *lut = j->lut;
+                float off = j->v->value_offset;
+                int i0 = (int)floorf((lo + off - lut->s_min) * lut->inv_ds), i1 = (int)ceilf((hi + off - lut->s_min) * lut->inv_ds);
+                i0 = i0 < 0 ? 0 : i0 > lut->n - 1 ? lut->n - 1 : i0;
+                i1 = i1 < i0 ? i0 : i1 > lut->n - 1 ? lut->n - 1 : i1;
+                v = (float)(j->nonzero[i1 + 1] - j->nonzero[i0]);
+            }
+            j->cell_sigma[((size_t)z * j->cells[1] + y) * j->cells[0] + x] = v;
         }
 }
 
@@ -374,7 +412,7 @@ static volux_status scatter(sh_state *st, const sh_projection_params *p, const s
     const sh_dipole_material *mat = sh_dipole_at(p->scatter_preset);
     volux_vec3 lo, hi;
     volux_volume_bounds(st->rc.volume, &lo, &hi);
-    float extent = fmaxf(hi.x - lo.x, fmaxf(hi.y - lo.y, hi.z - lo.z));
+    float extent = maxf(hi.x - lo.x, maxf(hi.y - lo.y, hi.z - lo.z));
     double radius = p->neighbourhood * extent, smin = 0.5 * fmin(gsp[0], fmin(gsp[1], gsp[2]));
     if (radius < 2.0 * smin) radius = 2.0 * smin;
     sh_gauss_fit fit;
@@ -482,6 +520,7 @@ volux_status sh_project(sh_state *st, const sh_projection_params *p, int ratio, 
     j.lut = st->rc.lut;
     j.albedo = st->rc.albedo;
     j.comps = p->bleeding ? 4 : 1;
+    j.storage = v->storage;
     j.rays = rays;
     j.bands = p->bands;
     j.nc = p->bands * p->bands;
@@ -513,6 +552,7 @@ volux_status sh_project(sh_state *st, const sh_projection_params *p, int ratio, 
     size_t cell_bytes = (size_t)j.cells[0] * j.cells[1] * j.cells[2] * sizeof(float);
     size_t final_bytes = g.nodes * (size_t)L.stride * sizeof(float);
     float *scat = NULL, *final = NULL;
+    size_t nz_bytes = 0;
     size_t scat_bytes = p->scattering ? g.nodes * 3 * (size_t)j.nc * sizeof(float) : 0;
     volux_status s = VOLUX_OK;
     j.out = volux_alloc_aligned(ctx, proj_bytes);
@@ -523,7 +563,29 @@ volux_status sh_project(sh_state *st, const sh_projection_params *p, int ratio, 
         goto done;
     }
     if ((s = build_pyramid(&j))) goto done;
+    nz_bytes = ((size_t)j.lut->n + 1) * sizeof(int32_t);
+    if (!(j.nonzero = volux_malloc(ctx, nz_bytes))) {
+        s = volux_error(ctx, VOLUX_ERR_NOMEM, "sh: out of memory for the coefficient grid's occupancy");
+        goto done;
+    }
+    j.nonzero[0] = 0;
+    for (int i = 0; i < j.lut->n; i++) j.nonzero[i + 1] = j.nonzero[i] + (j.lut->sigma_t[i] > 0.0f);
     volux_parallel_for(st->rc.threads, j.cells[2], cell_slice, &j);
+    int lo[3] = {j.cells[0], j.cells[1], j.cells[2]}, hi[3] = {-1, -1, -1};
+    for (int z = 0; z < j.cells[2]; z++)
+        for (int y = 0; y < j.cells[1]; y++)
+            for (int x = 0; x < j.cells[0]; x++)
+                if (j.cell_sigma[((size_t)z * j.cells[1] + y) * j.cells[0] + x] > 0.0f) {
+                    const int c[3] = {x, y, z};
+                    for (int a = 0; a < 3; a++) {
+                        if (c[a] < lo[a]) lo[a] = c[a];
+                        if (c[a] > hi[a]) hi[a] = c[a];
+                    }
+                }
+    for (int a = 0; a < 3; a++) {
+        j.box_lo[a] = hi[a] < 0 ? 0.0f : (float)(lo[a] * ratio);
+        j.box_hi[a] = hi[a] < 0 ? 0.0f : minf((float)((hi[a] + 1) * ratio), (float)(v->dims[a] - 1));
+    }
     volux_parallel_for(st->rc.threads, j.items, project_row, &j);
     if (j.cancelled) {
         s = volux_error(ctx, VOLUX_ERR_CANCELLED, "sh: projection cancelled");
@@ -574,6 +636,7 @@ done:
     if (j.out) volux_free_aligned(ctx, j.out, proj_bytes);
     if (j.weight) volux_free_aligned(ctx, j.weight, w_bytes);
     if (j.cell_sigma) volux_free_aligned(ctx, j.cell_sigma, cell_bytes);
+    volux_free(ctx, j.nonzero, nz_bytes);
     if (scat) volux_free_aligned(ctx, scat, scat_bytes);
     if (final) volux_free_aligned(ctx, final, final_bytes);
     return s;
