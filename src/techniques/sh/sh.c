@@ -327,10 +327,24 @@ typedef struct sh_ray {
     float wo_w[4];
 } sh_ray;
 
-static void phase_factor(const sh_state *st, float g, volux_vec3 d, float out[3]) {
-    double k[SH_MAX_BANDS];
-    for (int l = 0; l < SH_MAX_BANDS; l++) k[l] = sh_hg_zonal(l, g);
-    for (int c = 0; c < 3; c++) out[c] = st->rc.albedo * sh_zonal_apply(4, k, st->li[c], d);
+/* albedo·∫ p_g(ω·d) L_i(ω) dω per colour = albedo·Σ_l g^l Σ_m L_lm Y_lm(d)
+ * (Funk–Hecke with the HG kernel), for the band sums b[c][l] of this ray. */
+static inline void phase_factor(float albedo, float g, const float b[3][SH_MAX_BANDS], float out[3]) {
+    const float g2 = g * g, gl[SH_MAX_BANDS] = {1.0f, g, g2, g2 * g};
+    for (int c = 0; c < 3; c++)
+        out[c] = albedo * (b[c][0] + gl[1] * b[c][1] + gl[2] * b[c][2] + gl[3] * b[c][3]);
+}
+
+/* Σ_m L_lm Y_lm(d) per colour and band. */
+static inline void band_sums(const sh_state *st, volux_vec3 d, float b[3][SH_MAX_BANDS]) {
+    float y[SH_MAX_COEFFS];
+    sh_eval(4, d, y);
+    for (int c = 0; c < 3; c++)
+        for (int l = 0; l < SH_MAX_BANDS; l++) {
+            float s = 0.0f;
+            for (int j = l * l; j < (l + 1) * (l + 1); j++) s += st->li[c][j] * y[j];
+            b[c][l] = s;
+        }
 }
 
 /* Bilinear cells of an octahedral table for direction d. */
@@ -349,7 +363,9 @@ static void octa_cells(volux_vec3 d, int cell[4], float wgt[4]) {
     }
 }
 
-static inline void shade_lookup(const sh_state *st, volux_vec3 q, float S[3]) {
+/* Trilinear S at fine index q: eight weights, then one pass over the
+ * four floats of each corner (vectorises). */
+static inline void shade_lookup(const sh_state *st, volux_vec3 q, float S[4]) {
     const sh_grid *g = &st->grid;
     const float inv = 1.0f / (float)g->ratio;
     float x = q.x * inv, y = q.y * inv, z = q.z * inv;
@@ -357,16 +373,21 @@ static inline void shade_lookup(const sh_state *st, volux_vec3 q, float S[3]) {
     i = i > g->dims[0] - 2 ? (g->dims[0] > 1 ? g->dims[0] - 2 : 0) : i;
     j = j > g->dims[1] - 2 ? (g->dims[1] > 1 ? g->dims[1] - 2 : 0) : j;
     k = k > g->dims[2] - 2 ? (g->dims[2] > 1 ? g->dims[2] - 2 : 0) : k;
-    float fx = fminf(fmaxf(x - (float)i, 0.0f), 1.0f), fy = fminf(fmaxf(y - (float)j, 0.0f), 1.0f),
-          fz = fminf(fmaxf(z - (float)k, 0.0f), 1.0f);
+    float fx = x - (float)i, fy = y - (float)j, fz = z - (float)k;
+    fx = fx < 0.0f ? 0.0f : fx > 1.0f ? 1.0f : fx;
+    fy = fy < 0.0f ? 0.0f : fy > 1.0f ? 1.0f : fy;
+    fz = fz < 0.0f ? 0.0f : fz > 1.0f ? 1.0f : fz;
     const size_t sx = g->dims[0] > 1 ? 4 : 0, sy = g->dims[1] > 1 ? 4 * (size_t)g->dims[0] : 0,
                  sz = g->dims[2] > 1 ? 4 * (size_t)g->dims[0] * g->dims[1] : 0;
     const float *p = st->shade + 4 * (((size_t)k * g->dims[1] + j) * g->dims[0] + i);
-    for (int c = 0; c < 3; c++) {
-        float n[8] = {p[c], p[sx + c], p[sy + c], p[sx + sy + c], p[sz + c], p[sx + sz + c], p[sy + sz + c],
-                      p[sx + sy + sz + c]};
-        S[c] = volux_lerp3(n, fx, fy, fz);
-    }
+    const float gx = 1.0f - fx, gy = 1.0f - fy, gz = 1.0f - fz;
+    const float w[8] = {gx * gy * gz, fx * gy * gz, gx * fy * gz, fx * fy * gz,
+                        gx * gy * fz, fx * gy * fz, gx * fy * fz, fx * fy * fz};
+    const size_t o[8] = {0, sx, sy, sx + sy, sz, sx + sz, sy + sz, sx + sy + sz};
+    float acc[4] = {0, 0, 0, 0};
+    for (int n = 0; n < 8; n++)
+        for (int c = 0; c < 4; c++) acc[c] += w[n] * p[o[n] + c];
+    for (int c = 0; c < 4; c++) S[c] = acc[c];
 }
 
 enum { SH_MATERIALS = 1, SH_PREINT = 2 };
@@ -384,7 +405,7 @@ static inline __attribute__((always_inline)) void shade_at(const void *tech, con
     const sh_ray *ry = tech;
     const sh_state *st = ry->st;
     volux_vec3 q = v3_madd(ray->q0, ray->dq, t);
-    float S[3];
+    float S[4];
     shade_lookup(st, q, S);
     const float *a = ry->a_def;
     if (variant & SH_MATERIALS) {
@@ -429,10 +450,12 @@ static inline __attribute__((always_inline)) volux_vec3 integrate(const void *te
     const sh_state *st = tech;
     sh_ray ry;
     ry.st = st;
-    phase_factor(st, st->rc.g, ray->d, ry.a_def);
+    float b[3][SH_MAX_BANDS];
+    band_sums(st, ray->d, b);
+    phase_factor(st->rc.albedo, st->rc.g, b, ry.a_def);
     if (variant & SH_MATERIALS) {
         for (int i = 0; i < st->n_materials; i++)
-            if (!st->mat[i].brdf) phase_factor(st, st->mat[i].g, ray->d, ry.a_mat[i]);
+            if (!st->mat[i].brdf) phase_factor(st->rc.albedo, st->mat[i].g, b, ry.a_mat[i]);
         octa_cells(v3_scale(ray->d, -1.0f), ry.wo_cell, ry.wo_w);
     }
     const volux_ea_march_desc m = {st->rc.lut, st->skip_empty ? &st->rc.grid : NULL, st->rc.step, st->t_min};
