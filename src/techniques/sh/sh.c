@@ -53,7 +53,7 @@ static const volux_param_info sh_params[] = {
     {"neighbourhood", VOLUX_PARAM_NUMBER, 0.1, 0.01, 0.5, NULL,
      "radius of the scattering neighbourhood N(x) as a fraction of the largest extent (the paper: 10 %)"},
     {"progressive", VOLUX_PARAM_BOOL, 0, 0, 1, NULL,
-     "project coarse first (2x coarser grid, 1/4 of the rays) and refine in later steps (volux_technique_refine)"},
+     "project coarse first (2x coarser grid, 1/8 of the rays) and refine in later steps (volux_technique_refine)"},
     VOLUX_PARAM_GRADIENT_THRESHOLD("BRDF shading is"),
     VOLUX_PARAM_PREINTEGRATE,
     VOLUX_PARAM_EARLY_TERMINATION,
@@ -214,9 +214,9 @@ static volux_status sh_update(void *state, const volux_scene *scene, const volux
         if (st->coef) volux_free_aligned(rc->ctx, st->coef, st->coef_bytes);
         st->coef = NULL;
         st->coef_bytes = 0;
-        /* progressive: the coarse level first (2× coarser grid, ¼ of the rays) */
+        /* progressive: the coarse level first (2× coarser grid, ⅛ of the rays) */
         int ratio = p.progressive ? 2 * p.downsample : p.downsample;
-        int rays = p.progressive ? (p.rays + 3) / 4 : p.rays;
+        int rays = p.progressive ? (p.rays + 7) / 8 : p.rays;
         if ((s = sh_project(st, &p, ratio, rays, &st->grid, &st->layout, &st->coef, &st->coef_bytes))) return s;
         st->applied = p;
         st->applied_color = ch;
