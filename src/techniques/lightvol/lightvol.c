@@ -133,11 +133,6 @@ static volux_status lightvol_update(void *state, const volux_scene *scene, const
     int realloc_vol = 0, medium = 0, full = 0;
     const char *reason = NULL;
     const uint32_t w = c->what;
-    st->ctx = ctx;
-    st->volume = rc->volume;
-    st->lut = rc->lut;
-    st->albedo = rc->albedo;
-    st->threads = rc->threads;
     if (w & VOLUX_CHANGE_VOLUME) {
         realloc_vol = 1;
         reason = "volume changed";
@@ -188,7 +183,6 @@ static volux_status lightvol_update(void *state, const volux_scene *scene, const
 
 static void lightvol_release(void *state) {
     lightvol_state *st = state;
-    st->ctx = st->rc.ctx; /* an update may have failed before setting it */
     volux_lightvol_free_buffers(st);
     volux_gradient_cache_free(st->rc.ctx, &st->grad);
 }
