@@ -49,8 +49,9 @@ volux_status volux_merl_parse(volux_context *ctx, const uint8_t *data, size_t si
     const uint8_t *p = data + 12;
     for (int c = 0; c < 3; c++)
         for (size_t i = 0; i < n; i++, p += 8) {
-            double v = read_f64(p);
-            rgb[c * n + i] = isfinite(v) && v > 0.0 ? (float)(v * scale[c]) : 0.0f;
+            /* missing (negative), not finite, or beyond any float: 0 */
+            double v = read_f64(p) * scale[c];
+            rgb[c * n + i] = isfinite(v) && v > 0.0 && v <= 1e30 ? (float)v : 0.0f;
         }
     memcpy(out->dims, dims, sizeof dims);
     out->rgb = rgb;

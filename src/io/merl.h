@@ -8,7 +8,9 @@
  * of the counts: the red, green and blue planes, φ_d fastest, then θ_d,
  * then θ_h, in Rusinkiewicz's half/difference angles. Values are scaled
  * by 1/1500, 1.15/1500, 1.66/1500 per channel (the database's
- * convention); negative values mark missing measurements and read as 0.
+ * convention); negative values mark missing measurements and read as 0,
+ * as do values that are not finite or exceed 1e30 after scaling (a float
+ * cannot hold them; found by fuzz/fuzz_merl.c).
  * Bins: θ_h non-linearly (index = √(θ_h/(π/2))·n_h), θ_d and φ_d ∈ [0, π)
  * linearly (reciprocity folds φ_d into half a turn).
  *
