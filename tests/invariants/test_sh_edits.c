@@ -113,6 +113,26 @@ static void test_tf_edits(void **state) {
     check_edit("\"bleeding\": 1", "material", 0, 0, 1);
 }
 
+/* The render seed is not an input of the projection (a RENDER edit does
+ * not re-project): after a seed change incremental == fresh. */
+static void test_seed_edit(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(2);
+    volux_scene *s = load(ctx, "");
+    volux_technique *t;
+    assert_int_equal(volux_technique_create(ctx, "sh", s, &t), VOLUX_OK);
+    volux_render_settings rs = *volux_scene_render(s);
+    rs.seed = 12345;
+    assert_int_equal(volux_scene_set_render(s, &rs), VOLUX_OK);
+    volux_image a = tu_render_with(ctx, s, t), b = tu_render(ctx, s, "sh");
+    assert_true(tu_max_abs_diff(&a, &b) == 0.0);
+    volux_image_free(ctx, &a);
+    volux_image_free(ctx, &b);
+    volux_technique_destroy(t);
+    volux_scene_destroy(s);
+    volux_context_destroy(ctx);
+}
+
 /* Rotating the probe by the SH rotation equals projecting the rotated map. */
 static void test_probe_rotation_is_exact(void **state) {
     (void)state;
@@ -222,6 +242,7 @@ int main(void) {
         cmocka_unit_test(test_light_edits_are_image_only), cmocka_unit_test(test_camera_and_phase_cost_nothing),
         cmocka_unit_test(test_tf_edits),                   cmocka_unit_test(test_probe_rotation_is_exact),
         cmocka_unit_test(test_luma_chroma),                cmocka_unit_test(test_progressive),
+        cmocka_unit_test(test_seed_edit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -34,10 +34,16 @@ static void project_map(const volux_light_desc *d, double acc[3][SH_MAX_COEFFS])
         double row_acc[3][SH_MAX_COEFFS];
         memset(row_acc, 0, sizeof row_acc);
         const float *px = m->rgb + 3 * (size_t)row * (size_t)W;
+        /* φ advances by dφ per texel: cos/sin by the angle-addition
+         * recurrence instead of two library calls per texel */
+        double phi0 = (0.5 / W - 0.5) * 2.0 * 3.14159265358979323846, cp = cos(phi0), sp = sin(phi0);
+        const double cd = cos(dphi), sd = sin(dphi);
         for (int x = 0; x < W; x++) {
             /* DESIGN §2 at rotation 0: φ = (u − 0.5)·2π, d = (sin θ sin φ, cos θ, −sin θ cos φ) */
-            double phi = ((x + 0.5) / W - 0.5) * 2.0 * 3.14159265358979323846;
-            volux_vec3 dir = v3((float)(st * sin(phi)), (float)ct, (float)(-st * cos(phi)));
+            volux_vec3 dir = v3((float)(st * sp), (float)ct, (float)(-st * cp));
+            double c2 = cp * cd - sp * sd;
+            sp = sp * cd + cp * sd;
+            cp = c2;
             sh_eval(4, dir, y);
             for (int c = 0; c < 3; c++) {
                 double v = px[3 * x + c] > 0.0f ? px[3 * x + c] : 0.0;

@@ -530,7 +530,9 @@ volux_status sh_project(sh_state *st, const sh_projection_params *p, int ratio, 
     j.tau_max = -logf(1.0f - p->ray_opacity);
     j.t_stop = 1.0f - p->ray_opacity;
     j.growth = p->step_growth;
-    volux_rng rng = volux_rng_make(st->rc.seed, 0x5348, 1, 0);
+    /* one fixed offset of the lattice (not the render seed: a seed edit
+     * must not change the cached projection) */
+    volux_rng rng = volux_rng_make(0x5348, 0, 1, 0);
     j.phi_offset = volux_rng_float(&rng);
     double sp[3];
     volux_volume_spacing(v, sp);
