@@ -14,7 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "../mpi/distribute.h"
+#include "tools/mpi/distribute.h"
 #include "scene_args.h"
 
 #define MAX_EDITS 16

@@ -16,7 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "../mpi/distribute.h"
+#include "tools/mpi/distribute.h"
 #include "scene_args.h"
 
 #define MAX_REPEAT 1000

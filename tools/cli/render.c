@@ -3,7 +3,7 @@
 #include <string.h>
 #include <strings.h>
 
-#include "../mpi/distribute.h"
+#include "tools/mpi/distribute.h"
 #include "scene_args.h"
 
 static void usage(FILE *f) {

@@ -7,7 +7,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
-#include "../cli/cli.h"
+#include "tools/cli/cli.h"
 #include "distribute.h"
 
 static int started, rank, size = 1, saved_stderr = -1;

@@ -3,7 +3,7 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "../cli/cli.h"
+#include "tools/cli/cli.h"
 #include "distribute.h"
 
 int dist_begin(const char *cmd, dist_mode requested) {
