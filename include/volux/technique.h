@@ -77,6 +77,37 @@ VOLUX_API volux_status volux_technique_update(volux_technique *t, const volux_sc
                                               volux_change_set *changed);
 /* 1 if the instance is up to date with the scene (nothing to update). */
 VOLUX_API int volux_technique_is_current(const volux_technique *t, const volux_scene *scene);
+
+/* PROGRESSIVE UPDATES. A technique may answer an edit with a cheap,
+ * approximate state at once and converge to what a fresh instance builds
+ * over the following frames (manylights: Weber et al. 2013 §4 — VL
+ * contributions re-weighted at once, then a fixed number of virtual lights
+ * and their shadow maps replaced per frame). A frame is one volux_render
+ * call: it first brings the instance up to date; if the state it would
+ * render was already rendered by an earlier call, it does one step of the
+ * pending work first. So the first frame after an edit shows the immediate
+ * update, each later frame one more step, and accumulation restarts with
+ * every step.
+ *
+ * Work units left until the instance equals a fresh one (0: converged;
+ * always 0 for techniques without progressive updates). Strictly decreases
+ * with every step. */
+VOLUX_API uint64_t volux_technique_pending(const volux_technique *t);
+/* Brings the instance up to date with the scene (as volux_technique_update)
+ * and then does one step of the pending work, if any — what a frame does,
+ * without rendering (benchmarks and tests drive convergence with it). On
+ * failure nothing of the step is applied; calling again retries it. */
+VOLUX_API volux_status volux_technique_refine(volux_technique *t, const volux_scene *scene);
+
+/* Technique-specific statistics of the current state, for benchmarks
+ * (e.g. manylights: "vl_count", "avsm_build_ms"). name and unit are static
+ * strings. Writes at most `max` and returns how many the technique has. */
+typedef struct volux_technique_stat {
+    const char *name;
+    double value;
+    const char *unit;
+} volux_technique_stat;
+VOLUX_API int volux_technique_stats(const volux_technique *t, volux_technique_stat *out, int max);
 VOLUX_API const volux_technique_info *volux_technique_info_of(const volux_technique *t);
 /* Bytes held by the instance's state and caches. */
 VOLUX_API size_t volux_technique_memory_bytes(const volux_technique *t);

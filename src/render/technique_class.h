@@ -61,6 +61,16 @@ typedef struct volux_technique_class {
     /* Frees the technique's own caches (not the base, not the block); must
      * accept a state whose update failed half-way. May be NULL. */
     void (*release)(void *state);
+    /* Progressive updates (volux/technique.h): work units left until the
+     * state equals a fresh one, and one frame's step of that work (the
+     * base and the technique are up to date with the scene when it is
+     * called). A step must strictly decrease `pending`; on failure it
+     * leaves the state as it was. Both NULL for techniques whose update
+     * is complete at once. */
+    uint64_t (*pending)(const void *state);
+    volux_status (*refine)(void *state, const volux_scene *scene);
+    /* Optional statistics for benchmarks (volux_technique_stats). */
+    int (*stats)(const void *state, volux_technique_stat *out, int max);
 } volux_technique_class;
 
 /* Creates an instance of `cls` for the scene (registry.c resolves names). */
@@ -69,9 +79,15 @@ volux_status volux_technique_create_class(volux_context *ctx, const volux_techni
 const volux_technique_class *volux_technique_class_of(const volux_technique *t);
 /* The class's state, read-only (for the frame loop and white-box tests). */
 const void *volux_technique_state(const volux_technique *t);
-/* Increases whenever an update applied a change (the frame loop compares
- * it with what a framebuffer's samples were rendered from). */
+/* Increases whenever an update or a refinement step applied a change (the
+ * frame loop compares it with what a framebuffer's samples were rendered
+ * from). */
 uint64_t volux_technique_generation(const volux_technique *t);
+/* What a frame does before it renders: the update, then — if nothing
+ * changed and the current state was already rendered — one refinement
+ * step. volux_technique_shown() marks the current state as rendered. */
+volux_status volux_technique_frame(volux_technique *t, const volux_scene *scene);
+void volux_technique_shown(volux_technique *t);
 
 /* Checks one stored parameter against its technique's table
  * (VOLUX_ERR_INVALID naming "techniques.<tech>.<name>"). */

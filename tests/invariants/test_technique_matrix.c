@@ -25,6 +25,12 @@
  *   8. rendering after an edit without calling update, into the framebuffer
  *      of the earlier frame, gives the fresh image: volux_render brings the
  *      technique up to date and drops the stale samples.
+ *
+ * Progressive updates (volux/technique.h: an immediate approximate state,
+ * then one step per frame): "incremental" means the updated instance
+ * driven to the end of its pending work; every step must decrease it, and
+ * an allocation failure in a step must leave a state the next step
+ * continues from. A fresh instance has nothing pending.
  */
 #include <math.h>
 #include <stdio.h>
@@ -52,7 +58,9 @@ static const char *scene_json =
     " \"render\": {\"width\": 20, \"height\": 18, \"spp\": 2, \"step\": 1, \"max_depth\": 4, \"threads\": 1},"
     " \"techniques\": {\"ambient\": {\"radius\": 2, \"table_theta\": 16, \"table_sigma\": 16, \"table_g\": 3,"
     "                                \"table_paths\": 64, \"table_albedo\": 0.8},"
-    "                  \"lightvol\": {\"forward_scattering\": 0.5}}}";
+    "                  \"lightvol\": {\"forward_scattering\": 0.5},"
+    "                  \"manylights\": {\"vl_count\": 24, \"avsm_resolution\": 3, \"avsm_nodes\": 4,"
+    "                                   \"samples\": 2, \"update_budget\": 7}}}";
 
 static volux_scene *load(volux_context *ctx, const char *technique) {
     char override[96];
@@ -75,9 +83,28 @@ static double image_max(const volux_image *img) {
     return m;
 }
 
-/* Fresh technique for the scene as it is now. */
+/* Drives a progressive update to its end: each step must decrease the
+ * pending work. */
+static void converge(volux_technique *t, volux_scene *s, const char *what) {
+    uint64_t left = volux_technique_pending(t);
+    while (left > 0) {
+        if (volux_technique_refine(t, s)) fail_msg("%s: refine: %s", what, volux_context_error(volux_scene_context(s)));
+        uint64_t now = volux_technique_pending(t);
+        if (now >= left)
+            fail_msg("%s: a refinement step left %llu units of work pending (before: %llu)", what,
+                     (unsigned long long)now, (unsigned long long)left);
+        left = now;
+    }
+}
+
+/* Fresh technique for the scene as it is now (nothing may be pending). */
 static volux_image fresh(volux_context *ctx, volux_scene *s, const char *technique) {
-    return tu_render(ctx, s, technique);
+    volux_technique *t = NULL;
+    if (volux_technique_create(ctx, technique, s, &t)) fail_msg("%s: %s", technique, volux_context_error(ctx));
+    if (volux_technique_pending(t)) fail_msg("%s: a fresh instance has pending work", technique);
+    volux_image img = tu_render_with(ctx, s, t);
+    volux_technique_destroy(t);
+    return img;
 }
 
 static void check_update(const volux_technique_class *cls, const volux_edit *e) {
@@ -93,6 +120,7 @@ static void check_update(const volux_technique_class *cls, const volux_edit *e) 
     if ((applied.what & e->touches) != e->touches)
         fail_msg("%s × %s: the scene reported changes 0x%x, the edit declares 0x%x", name, e->name, applied.what,
                  e->touches);
+    converge(t, s, name);
     volux_image after = tu_render_with(ctx, s, t);
     volux_image ref = fresh(ctx, s, name);
     double diff = tu_max_abs_diff(&after, &ref), tol = cls->update_tolerance * image_max(&ref);
@@ -131,7 +159,10 @@ static void check_update_oom(const volux_technique_class *cls, const volux_edit 
                 fail_msg("%s × %s: failing allocation %ld of the update gave %s: %s", name, e->name, k,
                          volux_status_name(st), volux_context_error(ctx));
             volux_context_clear_error(ctx);
-            volux_image after = tu_render_with(ctx, s, t); /* retries the update */
+            volux_image retried = tu_render_with(ctx, s, t); /* retries the update */
+            volux_image_free(ctx, &retried);
+            converge(t, s, name);
+            volux_image after = tu_render_with(ctx, s, t);
             volux_image ref = fresh(ctx, s, name);
             double diff = tu_max_abs_diff(&after, &ref), tol = cls->update_tolerance * image_max(&ref);
             if (!(diff <= tol))
@@ -147,6 +178,56 @@ static void check_update_oom(const volux_technique_class *cls, const volux_edit 
                      (unsigned long long)volux_context_bytes_in_use(ctx));
         volux_context_destroy(ctx);
         assert_int_equal(stats.live, 0);
+        if (st == VOLUX_OK) break;
+        assert_true(k < 100000);
+    }
+}
+
+/* Progressive classes: an allocation failure at every point of the first
+ * refinement step after the edit is NOMEM without a leak, leaves the
+ * pending work as it was, and the steps that follow still end at the
+ * fresh image. */
+static void check_refine_oom(const volux_technique_class *cls, const volux_edit *e) {
+    const char *name = cls->info.name;
+    if (!cls->refine) return;
+    for (long k = 1;; k++) {
+        tu_alloc_stats stats = {0};
+        volux_context *ctx = tu_context_counting(0, &stats);
+        volux_scene *s = load(ctx, name);
+        volux_technique *t = NULL;
+        if (volux_technique_create(ctx, name, s, &t)) fail_msg("%s: %s", name, volux_context_error(ctx));
+        if (volux_edit_apply(e, s, 0)) fail_msg("%s × %s: %s", name, e->name, volux_context_error(ctx));
+        if (volux_technique_update(t, s, NULL)) fail_msg("%s × %s: %s", name, e->name, volux_context_error(ctx));
+        uint64_t before = volux_technique_pending(t);
+        volux_status st = VOLUX_OK;
+        if (before > 0) {
+            stats.fail_at = stats.count + k;
+            st = volux_technique_refine(t, s);
+            stats.fail_at = 0;
+            if (st != VOLUX_OK) {
+                if (st != VOLUX_ERR_NOMEM)
+                    fail_msg("%s × %s: failing allocation %ld of a refinement step gave %s", name, e->name, k,
+                             volux_status_name(st));
+                if (volux_technique_pending(t) != before)
+                    fail_msg("%s × %s: a failed refinement step changed the pending work", name, e->name);
+                volux_context_clear_error(ctx);
+            }
+            converge(t, s, name);
+            volux_image after = tu_render_with(ctx, s, t);
+            volux_image ref = fresh(ctx, s, name);
+            double diff = tu_max_abs_diff(&after, &ref), tol = cls->update_tolerance * image_max(&ref);
+            if (!(diff <= tol))
+                fail_msg("%s × %s: after failing allocation %ld of a step the converged image differs from fresh "
+                         "by %g",
+                         name, e->name, k, diff);
+            volux_image_free(ctx, &after);
+            volux_image_free(ctx, &ref);
+        }
+        volux_technique_destroy(t);
+        volux_scene_destroy(s);
+        if (volux_context_bytes_in_use(ctx) != 0)
+            fail_msg("%s × %s: failing allocation %ld of a step leaked", name, e->name, k);
+        volux_context_destroy(ctx);
         if (st == VOLUX_OK) break;
         assert_true(k < 100000);
     }
@@ -173,6 +254,7 @@ static void check_params(const volux_technique_class *cls) {
         if (volux_scene_set_param(s, name, p->name, v, NULL)) fail_msg("%s.%s: %s", name, p->name, volux_context_error(ctx));
         volux_status st = volux_technique_update(t, s, NULL);
         if (st == VOLUX_OK) {
+            converge(t, s, name);
             volux_image after = tu_render_with(ctx, s, t);
             volux_image ref = fresh(ctx, s, name);
             double diff = tu_max_abs_diff(&after, &ref), tol = cls->update_tolerance * image_max(&ref);
@@ -294,6 +376,13 @@ static void check_stale_render(const volux_technique_class *cls) {
     assert_false(volux_technique_is_current(t, s));
     assert_int_equal(volux_render(t, s, fb, NULL, NULL), VOLUX_OK);
     assert_true(volux_technique_is_current(t, s));
+    /* a progressive update advances one step per frame */
+    for (uint64_t left = volux_technique_pending(t); left > 0;) {
+        assert_int_equal(volux_render(t, s, fb, NULL, NULL), VOLUX_OK);
+        uint64_t now = volux_technique_pending(t);
+        if (now >= left) fail_msg("%s: a frame did not advance the pending update", name);
+        left = now;
+    }
     assert_int_equal(volux_framebuffer_spp(fb), (uint32_t)volux_scene_render(s)->spp);
     volux_image got, ref = fresh(ctx, s, name);
     assert_int_equal(volux_framebuffer_resolve(fb, &got), VOLUX_OK);
@@ -316,6 +405,7 @@ static void run_technique(void **state) {
         if (!applies(e, cls->info.name)) continue;
         check_update(cls, e);
         check_update_oom(cls, e);
+        check_refine_oom(cls, e);
     }
     check_params(cls);
     check_threads(cls);

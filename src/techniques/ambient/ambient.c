@@ -484,4 +484,5 @@ const volux_technique_class volux_ambient_class = {
      ambient_params, 0},
     sizeof(ambient_state), 0, 0,
     ambient_init, ambient_update, ambient_render_tile, ambient_memory_bytes, ambient_release,
+    NULL, NULL, NULL, /* not progressive, no statistics */
 };

@@ -318,4 +318,5 @@ const volux_technique_class volux_lightvol_class = {
      lightvol_params, 0},
     sizeof(lightvol_state), 0, 1e-4f,
     NULL, lightvol_update, lightvol_render_tile, lightvol_memory_bytes, lightvol_release,
+    NULL, NULL, NULL, /* not progressive, no statistics */
 };
