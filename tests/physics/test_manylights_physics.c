@@ -28,7 +28,7 @@
 
 #include "pt_util.h"
 #include "render/technique_class.h"
-#include "techniques/manylights/manylights.h"
+#include "techniques/manylights/avsm.h"
 
 #define PI 3.14159265358979323846
 

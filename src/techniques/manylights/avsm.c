@@ -67,10 +67,6 @@ void ml_decode_fill(float *decode, float xi) {
     for (int c = 0; c < ML_TAU_CODES; c++) decode[c] = expf(-xi * ml_tau_decode((uint16_t)c));
 }
 
-/* Axis and sign of a cube face: 0 +X, 1 −X, 2 +Y, 3 −Y, 4 +Z, 5 −Z; the
- * texel coordinates run along axes (a+1)%3 and (a+2)%3. */
-static inline float comp(volux_vec3 v, int a) { return a == 0 ? v.x : (a == 1 ? v.y : v.z); }
-
 typedef struct node {
     float d, tau, T;
 } node;
@@ -154,69 +150,6 @@ void ml_avsm_build_face(const ml_state *st, volux_vec3 p, int face, uint32_t *ou
                 }
             }
         }
-}
-
-/* Transmittance at depth dd (depth-code units) along one texel's nodes. */
-static inline float eval_nodes(const float *decode, const uint32_t *nodes, int m, float dd) {
-    float d_prev = 0.0f, T_prev = 1.0f;
-    for (int k = 0; k < m; k++) {
-        uint32_t w = nodes[k];
-        float dk = (float)(w >> 16), Tk = decode[w & 0xffffu];
-        if (dd <= dk) {
-            float span = dk - d_prev;
-            return span > 0.0f ? T_prev + (Tk - T_prev) * ((dd - d_prev) / span) : Tk;
-        }
-        d_prev = dk;
-        T_prev = Tk;
-    }
-    return T_prev;
-}
-
-/* Face and face coordinates in [0, R] of direction v. */
-static inline int face_of(volux_vec3 v, int R, float *fu, float *fv) {
-    float ax = fabsf(v.x), ay = fabsf(v.y), az = fabsf(v.z);
-    int a = ax >= ay ? (ax >= az ? 0 : 2) : (ay >= az ? 1 : 2);
-    float major = a == 0 ? ax : (a == 1 ? ay : az);
-    int face = 2 * a + (comp(v, a) < 0.0f);
-    float inv = 0.5f * (float)R / major;
-    *fu = (comp(v, (a + 1) % 3) + major) * inv;
-    *fv = (comp(v, (a + 2) % 3) + major) * inv;
-    return face;
-}
-
-float ml_avsm_point(const ml_state *st, const uint32_t *avsm, volux_vec3 v, float dist) {
-    const ml_layout *lay = &st->layout;
-    int R = lay->res, m = lay->nodes;
-    float fu, fv;
-    int face = face_of(v, R, &fu, &fv);
-    int i = (int)fu, j = (int)fv;
-    if (i > R - 1) i = R - 1;
-    if (j > R - 1) j = R - 1;
-    const uint32_t *nodes = avsm + (((size_t)face * (size_t)R + (size_t)j) * (size_t)R + (size_t)i) * (size_t)m;
-    return eval_nodes(st->decode, nodes, m, dist * lay->inv_d_unit);
-}
-
-float ml_avsm_trilinear(const ml_state *st, const uint32_t *avsm, volux_vec3 v, float dist) {
-    const ml_layout *lay = &st->layout;
-    int R = lay->res, m = lay->nodes;
-    float fu, fv;
-    int face = face_of(v, R, &fu, &fv);
-    fu -= 0.5f;
-    fv -= 0.5f;
-    float x0f = floorf(fu), y0f = floorf(fv), fx = fu - x0f, fy = fv - y0f;
-    int x0 = (int)x0f, y0 = (int)y0f, x1 = x0 + 1, y1 = y0 + 1;
-    x0 = x0 < 0 ? 0 : x0;
-    y0 = y0 < 0 ? 0 : y0;
-    x1 = x1 > R - 1 ? R - 1 : x1;
-    y1 = y1 > R - 1 ? R - 1 : y1;
-    const uint32_t *f = avsm + (size_t)face * (size_t)R * (size_t)R * (size_t)m;
-    float dd = dist * lay->inv_d_unit;
-    float t00 = eval_nodes(st->decode, f + ((size_t)y0 * (size_t)R + (size_t)x0) * (size_t)m, m, dd);
-    float t10 = eval_nodes(st->decode, f + ((size_t)y0 * (size_t)R + (size_t)x1) * (size_t)m, m, dd);
-    float t01 = eval_nodes(st->decode, f + ((size_t)y1 * (size_t)R + (size_t)x0) * (size_t)m, m, dd);
-    float t11 = eval_nodes(st->decode, f + ((size_t)y1 * (size_t)R + (size_t)x1) * (size_t)m, m, dd);
-    float t0 = t00 + (t10 - t00) * fx, t1 = t01 + (t11 - t01) * fx;
-    return t0 + (t1 - t0) * fy;
 }
 
 float ml_raymarch_T(const ml_state *st, volux_vec3 p, volux_vec3 v, float dist) {

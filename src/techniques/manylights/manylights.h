@@ -183,9 +183,7 @@ uint16_t ml_tau_code(float tau);
 float ml_tau_decode(uint16_t code);
 /* Builds the AVSM of a VL at p, face f (res² texels × nodes words). */
 void ml_avsm_build_face(const ml_state *st, volux_vec3 p, int face, uint32_t *out);
-/* Transmittance from a VL's AVSM towards v (= x − VL position, |v| = dist). */
-float ml_avsm_point(const ml_state *st, const uint32_t *avsm, volux_vec3 v, float dist);
-float ml_avsm_trilinear(const ml_state *st, const uint32_t *avsm, volux_vec3 v, float dist);
+/* Look-ups: avsm.h. */
 /* Ray-marched reference: exp(−ξ·τ1) from p to p + v. */
 float ml_raymarch_T(const ml_state *st, volux_vec3 p, volux_vec3 v, float dist);
 

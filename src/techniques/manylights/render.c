@@ -32,7 +32,7 @@
 #include <math.h>
 
 #include "core/rng.h"
-#include "manylights.h"
+#include "avsm.h"
 #include "sample/phase.h"
 
 /* ------------------------------------------------------------------ single scattering */
