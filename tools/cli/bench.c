@@ -6,6 +6,13 @@
  * cache), render_ms (median), samples_per_s / vertices_per_s, memory_bytes,
  * update_ms.<edit> (median time of volux_technique_update after the edit),
  * and with --reference a convergence series (rel_mse and mse vs spp/time).
+ *
+ * Generic extras: the technique's own statistics (volux_technique_stats)
+ * after creation, as <stat>, and after each edit's update, as <stat>.<edit>
+ * (e.g. manylights: vl_count, avsm_build_ms); for edits answered by a
+ * progressive update (volux_technique_pending > 0), the steps to the end
+ * are timed too: refine_frames.<edit> (frames until converged),
+ * refine_ms.<edit> (median step) and converge_ms.<edit> (all steps).
  */
 #include <math.h>
 #include <stdio.h>
@@ -53,6 +60,17 @@ static void usage(FILE *f) {
         const volux_edit *e = volux_edit_at(i);
         if (e->technique) fprintf(f, "  %-15s %s (%s only)\n", e->name, e->doc, e->technique);
         else fprintf(f, "  %-15s %s\n", e->name, e->doc);
+    }
+}
+
+/* The technique's statistics as metrics, named <stat><suffix>. */
+static void emit_stats(const bench_out *o, const volux_technique *t, const char *suffix) {
+    volux_technique_stat stats[32];
+    int n = volux_technique_stats(t, stats, 32);
+    for (int i = 0; i < n && i < 32; i++) {
+        char metric[96];
+        snprintf(metric, sizeof metric, "%s%s", stats[i].name, suffix);
+        emit(o, metric, stats[i].value, stats[i].unit, NULL);
     }
 }
 
@@ -169,6 +187,7 @@ int cli_bench(int argc, char **argv) {
         times[k] = cli_now_ms() - t0;
     }
     emit(&o, "prepare_ms", median(times, repeat), "ms", NULL);
+    emit_stats(&o, tech, "");
     if ((st = volux_framebuffer_create(ctx, rs->width, rs->height, &fb))) goto fail;
 
     /* render_ms: one warm-up frame, then the median of `repeat` frames. */
@@ -209,9 +228,18 @@ int cli_bench(int argc, char **argv) {
     /* Convergence before the edits: they leave the scene changed. */
     if (reference && (st = convergence(ctx, tech, scene, fb, &ref, &o))) goto fail;
 
-    /* update_ms.<edit>: only the technique's reaction to the edit. */
+    /* update_ms.<edit>: only the technique's reaction to the edit; a
+     * progressive update is then driven to its end, step by step, so every
+     * repeat starts from a converged state. */
+    double *steps = NULL, *frames = NULL, *total = NULL;
+    size_t n_steps = 0, cap_steps = 0;
+    if (!(frames = calloc((size_t)repeat, sizeof *frames)) || !(total = calloc((size_t)repeat, sizeof *total))) {
+        rc = CLI_FAIL;
+        goto edits_done;
+    }
     for (int e = 0; e < n_edits; e++) {
-        int ok = 1;
+        int ok = 1, progressive = 0;
+        n_steps = 0;
         for (int k = 0; k < repeat && ok; k++) {
             st = volux_edit_apply(edits[e], scene, k);
             if (st) {
@@ -222,14 +250,54 @@ int cli_bench(int argc, char **argv) {
                 break;
             }
             double t0 = cli_now_ms();
-            if ((st = volux_technique_update(tech, scene, NULL))) goto fail;
+            if ((st = volux_technique_update(tech, scene, NULL))) goto edits_fail;
             times[k] = cli_now_ms() - t0;
+            if (k == repeat - 1) {
+                char suffix[48];
+                snprintf(suffix, sizeof suffix, ".%s", edits[e]->name);
+                emit_stats(&o, tech, suffix);
+            }
+            frames[k] = total[k] = 0.0;
+            while (volux_technique_pending(tech) > 0) {
+                progressive = 1;
+                double s0 = cli_now_ms();
+                if ((st = volux_technique_refine(tech, scene))) goto edits_fail;
+                double ms = cli_now_ms() - s0;
+                if (n_steps == cap_steps) {
+                    size_t cap = cap_steps ? 2 * cap_steps : 256;
+                    double *p = realloc(steps, cap * sizeof *p);
+                    if (!p) {
+                        rc = CLI_FAIL;
+                        goto edits_done;
+                    }
+                    steps = p;
+                    cap_steps = cap;
+                }
+                steps[n_steps++] = ms;
+                frames[k] += 1.0;
+                total[k] += ms;
+            }
         }
         if (!ok) continue;
         char metric[64];
         snprintf(metric, sizeof metric, "update_ms.%s", edits[e]->name);
         emit(&o, metric, median(times, repeat), "ms", NULL);
+        if (progressive) {
+            snprintf(metric, sizeof metric, "refine_frames.%s", edits[e]->name);
+            emit(&o, metric, median(frames, repeat), "frames", NULL);
+            snprintf(metric, sizeof metric, "refine_ms.%s", edits[e]->name);
+            emit(&o, metric, median(steps, (int)n_steps), "ms", NULL);
+            snprintf(metric, sizeof metric, "converge_ms.%s", edits[e]->name);
+            emit(&o, metric, median(total, repeat), "ms", NULL);
+        }
     }
+    goto edits_done;
+edits_fail:
+    rc = cli_fail("bench", ctx, st);
+edits_done:
+    free(steps);
+    free(frames);
+    free(total);
     goto done;
 fail:
     rc = cli_fail("bench", ctx, st);
