@@ -3,9 +3,11 @@
  *
  *   1. τ1 codes (IEEE half bits) round-trip within half precision and keep
  *      order;
- *   2. the VSL `ball` kernel equals the mean of 1/|x − y|² over the ball,
- *      integrated numerically from ray–sphere chord lengths, inside and
- *      outside, and tends to 1/d²; the `cone` kernel tends to 1/d² too;
+ *   2. the mean of 1/|x − y|² over a VSL's ball (closed form) equals its
+ *      numerical integral from ray–sphere chord lengths, inside and
+ *      outside, and tends to 1/d²; the `ball` kernel's one-point estimate
+ *      (cone direction, chord distance) has that mean and stays inside the
+ *      ball; the `cone` kernel (Eq. 5) tends to 1/d² too;
  *   3. AVSMs in a homogeneous box reproduce exp(−σd) (the compressed
  *      polyline within a bound that shrinks with the node count) and a
  *      slab's step exactly away from the step; the ray-marched reference is
@@ -83,6 +85,22 @@ static void test_vsl_kernels(void **state) {
         if (fabs(got - num) > 2e-3 * num) fail_msg("ball kernel at d = %g: %g, numeric %g", ds[i], got, num);
     }
     assert_near(ml_ball_geometry(1e-9f, r), 3.0 / (r * r), 1e-6);
+    /* the ball kernel's one-sample estimate (direction in the cone, distance
+     * along the chord) has that mean: midpoint rule over (u, w) */
+    for (size_t i = 0; i < sizeof ds / sizeof ds[0]; i++) {
+        const int n = 2000;
+        double sum = 0.0;
+        for (int a = 0; a < n; a++) {
+            float ct, sdist;
+            float wgt = ml_vsl_ball(ds[i], r, ((float)a + 0.5f) / (float)n, 0.5f, &ct, &sdist);
+            sum += wgt;
+            /* y = x + s·ω lies in the ball: |y − c|² ≤ r² */
+            float yc2 = ds[i] * ds[i] - 2.0f * ds[i] * sdist * ct + sdist * sdist;
+            if (yc2 > r * r * 1.0001f + 1e-5f) fail_msg("ball sample outside the ball (d %g)", ds[i]);
+        }
+        double mean = sum / n, want = ml_ball_geometry(ds[i], r);
+        if (fabs(mean - want) > 2e-3 * want) fail_msg("ball estimate at d = %g: mean %g, expected %g", ds[i], mean, want);
+    }
     assert_near(ml_ball_geometry(1000.0f, r) * 1e6, 1.0, 1e-5);
     /* Eq. 5 with the cone pdf: 2(1 − cos θmax)/r² → 1/d² */
     float d = 200.0f, sin2 = r * r / (d * d), omc = sin2 / (1.0f + sqrtf(1.0f - sin2));

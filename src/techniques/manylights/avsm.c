@@ -67,43 +67,78 @@ void ml_decode_fill(float *decode, float xi) {
     for (int c = 0; c < ML_TAU_CODES; c++) decode[c] = expf(-xi * ml_tau_decode((uint16_t)c));
 }
 
+/* e^{−x} for x ≥ 0 to ~2·10⁻⁷ relative: 2^{−x·log2 e} split into an
+ * exponent and a degree-6 polynomial of 2^f on f ∈ [0, 1). Only the
+ * compression's area metric uses it (which node to drop), so it need not
+ * be expf — but it is deterministic, like everything else. */
+static inline float fast_exp_neg(float x) {
+    float y = -x * 1.44269504f;
+    if (y < -126.0f) return 0.0f;
+    float fl = (float)(int)y; /* y ≤ 0: truncation rounds up */
+    if (fl > y) fl -= 1.0f;
+    float f = y - fl;
+    float p = 1.0f + f * (0.69314718f + f * (0.24022652f + f * (0.05550411f + f * (0.00961813f +
+                                                                            f * (0.00133336f + f * 0.00015404f)))));
+    int e = (int)fl + 127;
+    uint32_t bits = (uint32_t)e << 23;
+    float scale;
+    memcpy(&scale, &bits, sizeof scale);
+    return p * scale;
+}
+
 typedef struct node {
-    float d, tau, T;
+    float d, tau, T, area; /* area: of the triangle with both neighbours */
 } node;
 
-/* Streams the point (d, tau) into the list (Salvi's insertion + removal). */
-static void add_point(node *nd, int *count, int m, float d, float tau) {
-    int n = *count;
-    /* A flat run (same τ as the last two nodes, or the start) only moves
-     * its end: the middle node would have zero area anyway. */
-    if (n > 0 && nd[n - 1].tau == tau && (n == 1 ? tau == 0.0f : nd[n - 2].tau == tau)) {
-        nd[n - 1].d = d;
+/* The node list of one texel ray: nd[0] is the start (0, τ 0, T 1), never
+ * removed; nodes 1 … n are the curve, the newest (n) never removed. */
+typedef struct node_list {
+    node nd[ML_MAX_NODES + 2];
+    int n, m;
+} node_list;
+
+/* Twice the area of the triangle (nd[i−1], nd[i], nd[i+1]) in (depth, T1). */
+static inline void update_area(node *nd, int i) {
+    const node *a = &nd[i - 1], *b = &nd[i], *c = &nd[i + 1];
+    nd[i].area = fabsf((b->d - a->d) * (c->T - a->T) - (c->d - a->d) * (b->T - a->T));
+}
+
+/* Streams the point (d, tau) into the list (Salvi's insertion + removal);
+ * areas are kept per node and only the neighbours of a change recomputed. */
+static inline void add_point(node_list *l, float d, float tau) {
+    node *nd = l->nd;
+    int n = l->n;
+    /* A flat run (same τ as the last two nodes) only moves its end: the
+     * middle node would have zero area anyway. */
+    if (nd[n].tau == tau && (n == 0 || nd[n - 1].tau == tau)) {
+        if (n == 0) goto append; /* the start itself never moves */
+        nd[n].d = d;
+        if (n > 1) update_area(nd, n - 1);
         return;
     }
+append:
+    n++;
     nd[n].d = d;
     nd[n].tau = tau;
-    nd[n].T = expf(-tau);
-    n++;
-    if (n > m) {
-        int best = 0;
-        float best_area = INFINITY;
-        for (int i = 0; i < n - 1; i++) {
-            float ad = i > 0 ? nd[i - 1].d : 0.0f, aT = i > 0 ? nd[i - 1].T : 1.0f;
-            const node *b = &nd[i], *c = &nd[i + 1];
-            float area = fabsf((b->d - ad) * (c->T - aT) - (c->d - ad) * (b->T - aT));
-            if (area < best_area) {
-                best_area = area;
-                best = i;
-            }
-        }
-        memmove(&nd[best], &nd[best + 1], sizeof *nd * (size_t)(n - 1 - best));
+    nd[n].T = fast_exp_neg(tau);
+    nd[n].area = INFINITY;
+    if (n > 1) update_area(nd, n - 1);
+    if (n > l->m) {
+        int best = 1;
+        float best_area = nd[1].area;
+        for (int i = 2; i < n; i++)
+            if (nd[i].area < best_area) best_area = nd[i].area, best = i;
+        for (int i = best; i < n; i++) nd[i] = nd[i + 1];
         n--;
+        if (best > 1) update_area(nd, best - 1);
+        if (best < n) update_area(nd, best);
     }
-    *count = n;
+    l->n = n;
 }
 
 void ml_avsm_build_face(const ml_state *st, volux_vec3 p, int face, uint32_t *out) {
     const ml_layout *lay = &st->layout;
+    const volux_volume *vol = st->rc.volume;
     int R = lay->res, m = lay->nodes, a = face >> 1, b = (a + 1) % 3, c = (a + 2) % 3;
     float sign = (face & 1) ? -1.0f : 1.0f, h = st->h;
     for (int j = 0; j < R; j++)
@@ -113,17 +148,19 @@ void ml_avsm_build_face(const ml_state *st, volux_vec3 p, int face, uint32_t *ou
             dir3[b] = 2.0f * ((float)i + 0.5f) / (float)R - 1.0f;
             dir3[c] = 2.0f * ((float)j + 0.5f) / (float)R - 1.0f;
             volux_vec3 dir = v3_normalize(v3(dir3[0], dir3[1], dir3[2]));
-            node nd[ML_MAX_NODES + 1];
-            int count = 0;
+            node_list l;
+            l.n = 0;
+            l.m = m;
+            l.nd[0] = (node){0.0f, 0.0f, 1.0f, INFINITY};
             volux_ray ray;
-            if (volux_ray_clip(st->rc.volume, p, dir, &ray)) {
+            if (volux_ray_clip(vol, p, dir, &ray)) {
                 volux_march_iter it;
                 volux_interval iv;
                 volux_march_init(&it, &st->grid1, &ray, ray.t0, ray.t1);
                 float tau = 0.0f;
-                while (volux_march_next(&it, &iv) && tau <= ML_TAU_STOP) {
+                while (tau <= ML_TAU_STOP && volux_march_next(&it, &iv)) {
                     if (!(iv.sigma_max > 0.0f)) continue;
-                    add_point(nd, &count, m, iv.t0, tau); /* end of the empty stretch before */
+                    add_point(&l, iv.t0, tau); /* end of the empty stretch before */
                     for (int k = (int)floorf(iv.t0 / h);; k++) {
                         float s0 = (float)k * h, s1 = s0 + h;
                         if (s0 >= iv.t1) break;
@@ -131,19 +168,22 @@ void ml_avsm_build_face(const ml_state *st, volux_vec3 p, int face, uint32_t *ou
                         if (s1 > iv.t1) s1 = iv.t1;
                         if (!(s1 > s0)) continue;
                         volux_vec3 q = v3_madd(ray.q0, ray.dq, 0.5f * (s0 + s1));
-                        float s = volux_volume_sample_index(st->rc.volume, q.x, q.y, q.z);
+                        float s = vol->bricks ? volux_volume_sample_bricked(vol, q.x, q.y, q.z, vol->storage)
+                                              : volux_volume_sample_index(vol, q.x, q.y, q.z);
                         tau += volux_lut_sigma(&st->lut1, s) * (s1 - s0);
-                        add_point(nd, &count, m, s1, tau);
+                        add_point(&l, s1, tau);
+                        if (tau > ML_TAU_STOP) break;
                     }
                 }
             }
             uint32_t *o = out + ((size_t)j * (size_t)R + (size_t)i) * (size_t)m;
             uint32_t last_tau = 0;
             for (int k = 0; k < m; k++) {
-                if (k < count) {
-                    float dc = nd[k].d * lay->inv_d_unit + 0.5f;
+                if (k < l.n) {
+                    const node *nk = &l.nd[k + 1];
+                    float dc = nk->d * lay->inv_d_unit + 0.5f;
                     uint32_t dcode = dc >= 65535.0f ? 65535u : (uint32_t)dc;
-                    last_tau = ml_tau_code(nd[k].tau);
+                    last_tau = ml_tau_code(nk->tau);
                     o[k] = dcode << 16 | last_tau;
                 } else {
                     o[k] = 0xffffu << 16 | last_tau; /* padding: the curve stays at its last value */

@@ -57,6 +57,23 @@ static inline float ml_avsm_point(const ml_state *st, const uint32_t *avsm, volu
     return ml_eval_nodes(st->decode, nodes, m, dist * lay->inv_d_unit);
 }
 
+/* Transmittance between the points at depths d0 ≤ d1 of the texel ray v
+ * falls in: T(d1)/T(d0) (both on the same ray from the VL). */
+static inline float ml_avsm_between(const ml_state *st, const uint32_t *avsm, volux_vec3 v, float d0, float d1) {
+    const ml_layout *lay = &st->layout;
+    int R = lay->res, m = lay->nodes;
+    float fu, fv;
+    int face = ml_face_of(v, R, &fu, &fv);
+    int i = (int)fu, j = (int)fv;
+    if (i > R - 1) i = R - 1;
+    if (j > R - 1) j = R - 1;
+    const uint32_t *nodes = avsm + (((size_t)face * (size_t)R + (size_t)j) * (size_t)R + (size_t)i) * (size_t)m;
+    float t1 = ml_eval_nodes(st->decode, nodes, m, d1 * lay->inv_d_unit);
+    if (!(d0 > 0.0f)) return t1;
+    float t0 = ml_eval_nodes(st->decode, nodes, m, d0 * lay->inv_d_unit);
+    return t0 > 0.0f ? fminf(t1 / t0, 1.0f) : 0.0f;
+}
+
 /* The same blended bilinearly over the four nearest texels of the face
  * (clamped at its edge): W13's trilinear look-up. */
 static inline float ml_avsm_trilinear(const ml_state *st, const uint32_t *avsm, volux_vec3 v, float dist) {

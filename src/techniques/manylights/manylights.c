@@ -54,9 +54,12 @@ static const volux_param_info ml_params[] = {
      "radius of a virtual spherical light in units of the smallest voxel spacing (Eq. 5; bounds the geometry term "
      "by 2/r^2)"},
     {"vsl_kernel", VOLUX_PARAM_STRING, 0, 0, 0, "cone",
-     "geometry term of a VSL: \"cone\" (Eq. 5: 1/(pi r^2 p(Omega)) = 2(1 - cos theta_max)/r^2, the hemisphere "
-     "inside the sphere) or \"ball\" (the mean of 1/d^2 over the sphere's volume: same far field, keeps the "
-     "energy Eq. 5 loses within a few radii)"},
+     "a VSL's light: \"cone\" (Eq. 5: 1/(pi r^2 p(Omega)) = 2(1 - cos theta_max)/r^2 with the transmittance to the "
+     "centre, the hemisphere inside the sphere) or \"ball\" (the VL's power spread over the ball: one point of it "
+     "per VL and view sample, transmittance from that point; keeps the energy Eq. 5 loses within a few radii)"},
+    {"clamp_distance", VOLUX_PARAM_NUMBER, 0, 0, 10000, NULL,
+     "clamping: a VL adds at most what an isotropic point light adds at this distance (voxels), i.e. "
+     "f_j*f_t*G <= 1/(16 pi^2 d^2); bounds the splotches of peaked phase functions that VSLs do not (0 = off)"},
     {"samples", VOLUX_PARAM_INT, 4, 1, 1024, NULL,
      "S: positions per view ray (per pixel sample) where real and virtual lights are gathered (Eq. 5)"},
     {"view_sampling", VOLUX_PARAM_STRING, 0, 0, 0, "opacity",
@@ -149,6 +152,7 @@ static volux_status read_params(ml_state *st, const volux_scene *scene) {
     st->shadow_vox = shadow;
     st->vl_count = (int)volux_technique_param(scene, cls, "vl_count");
     st->radius_vox = (float)volux_technique_param(scene, cls, "vsl_radius");
+    st->clamp_vox = (float)volux_technique_param(scene, cls, "clamp_distance");
     st->single_on = volux_technique_param(scene, cls, "single_scattering") != 0.0;
     st->multi_on = volux_technique_param(scene, cls, "multiple_scattering") != 0.0;
     st->budget = (int)volux_technique_param(scene, cls, "update_budget");
@@ -449,6 +453,7 @@ static void rvl_fill(const ml_state *st, ml_rvl *r, const ml_vl *v, const ml_set
     float phi = 2.0f * VOLUX_PI * volux_rng_float(&rng);
     r->cone_c = cosf(phi);
     r->cone_s = sinf(phi);
+    r->cone_w = volux_rng_float(&rng);
     r->avsm = set->pool + (size_t)v->slot * st->layout.stride;
 }
 
@@ -508,6 +513,8 @@ static volux_status ml_update(void *state, const volux_scene *scene, const volux
     st->avsm_built = st->traced = 0;
     if ((w & VOLUX_CHANGE_PARAMS) && (s = read_params(st, scene))) return s;
     if (w & VOLUX_CHANGE_VOLUME) {
+        /* AVSM rays read the bricked copy (same values, fewer cache lines) */
+        if ((s = volux_volume_build_bricks(rc->volume))) return s;
         volux_vec3 lo, hi;
         volux_volume_bounds(rc->volume, &lo, &hi);
         st->center = v3_scale(v3_add(lo, hi), 0.5f);
@@ -542,6 +549,10 @@ static volux_status ml_update(void *state, const volux_scene *scene, const volux
         st->traced_depth = rc->max_depth;
     }
     st->radius = st->radius_vox * rc->min_spacing;
+    {
+        float dc = st->clamp_vox * rc->min_spacing;
+        st->clamp_fg = dc > 0.0f ? VOLUX_INV_4PI * VOLUX_INV_4PI / (dc * dc) : INFINITY;
+    }
     st->h = st->shadow_vox * rc->min_spacing;
     ml_layout_init(&st->layout, st->avsm_res, st->avsm_nodes, 2.0f * st->bound_r);
     if ((w & VOLUX_CHANGE_LIGHTS) && (s = update_env_samplers(st, scene, c))) return s;

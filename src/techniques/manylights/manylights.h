@@ -117,6 +117,7 @@ typedef struct ml_rvl {
     float wx, wy, wz;
     float ir, ig, ib;
     float cone_u, cone_c, cone_s; /* the VL's cone-sample pattern */
+    float cone_w;                 /* and its distance along the chord (ball) */
     const uint32_t *avsm;
 } ml_rvl;
 
@@ -128,6 +129,8 @@ typedef struct ml_state {
     float radius_vox, rr_survival, dmin, dmax, shadow_vox, t_min;
     /* derived */
     float radius, h;         /* VSL radius, shadow-march step (world)         */
+    float clamp_fg;          /* bound of f_j·f_t·G per VL (INFINITY: none)     */
+    float clamp_vox;         /* its parameter: the distance in voxels          */
     float xi;                /* density scale in effect                        */
     int place_by_xi;         /* Eq. 8 off: VLs placed for the current ξ         */
     volux_vec3 center;       /* bounding sphere of the volume                  */
@@ -190,6 +193,31 @@ float ml_raymarch_T(const ml_state *st, volux_vec3 p, volux_vec3 v, float dist);
 /* render.c */
 /* Mean of 1/|x − y|² over a ball of radius r whose centre is d from x. */
 float ml_ball_geometry(float d, float r);
+
+/* One point y of a VSL's ball (radius r, centre d from x) for the `ball`
+ * kernel: a direction uniform in the cone the ball subtends from x (the
+ * whole sphere from inside), its cosine *ct to the axis x → centre from u,
+ * and a distance *s uniform over the chord from w. Returns the weight
+ * Ω·(s1 − s0)/V, whose mean over (u, w) is ml_ball_geometry(d, r): the
+ * estimate of (1/V)∫_ball g(y)/|x − y|² dy is weight·g(y). */
+static inline float ml_vsl_ball(float d, float r, float u, float w, float *ct, float *s) {
+    float r2 = r * r, s0, s1, omega;
+    if (d > r) {
+        float sin2 = r2 / (d * d), omc = sin2 / (1.0f + sqrtf(1.0f - sin2));
+        omega = 2.0f * VOLUX_PI * omc;
+        *ct = 1.0f - u * omc;
+        float sq = sqrtf(fmaxf(0.0f, r2 - d * d * (1.0f - *ct * *ct)));
+        s0 = d * *ct - sq;
+        s1 = d * *ct + sq;
+    } else {
+        omega = 4.0f * VOLUX_PI;
+        *ct = 1.0f - 2.0f * u;
+        s0 = 0.0f;
+        s1 = d * *ct + sqrtf(fmaxf(0.0f, r2 - d * d * (1.0f - *ct * *ct)));
+    }
+    *s = s0 + w * (s1 - s0);
+    return omega * (s1 - s0) / (4.0f / 3.0f * VOLUX_PI * r2 * r);
+}
 void ml_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
                     volux_tile_stats *stats);
 

@@ -117,40 +117,68 @@ float ml_ball_geometry(float d, float r) {
 }
 
 typedef struct gather_offset {
-    float u, c, s; /* cone-pattern rotation of this view sample */
+    float u, c, s, w; /* pattern rotation of this view sample */
 } gather_offset;
 
 static inline __attribute__((always_inline)) volux_vec3 gather_vls(const ml_state *st, volux_vec3 x, volux_vec3 d,
                                                                    gather_offset off, int tmode, int iso, int ball) {
-    float r2 = st->radius * st->radius, two_inv_r2 = 2.0f / r2, g = st->rc.g;
+    float r = st->radius, r2 = r * r, two_inv_r2 = 2.0f / r2, g = st->rc.g;
     float hg_a = VOLUX_INV_4PI * (1.0f - g * g), hg_b = 1.0f + g * g, hg_c = 2.0f * g;
     float acc_r = 0.0f, acc_g = 0.0f, acc_b = 0.0f;
     const float iso_f = VOLUX_INV_4PI * VOLUX_INV_4PI;
+    const float clamp = st->clamp_fg;
     for (int j = 0; j < st->n_rvl; j++) {
         const ml_rvl *v = &st->rvl[j];
         volux_vec3 vj = v3(x.x - v->px, x.y - v->py, x.z - v->pz); /* VL → x */
         float d2 = v3_dot(vj, vj);
         if (!(d2 > 0.0f)) continue;
         float dist = sqrtf(d2);
-        float omc = d2 > r2 ? (r2 / d2) / (1.0f + sqrtf(1.0f - r2 / d2)) : 1.0f;
-        float G = ball ? ml_ball_geometry(dist, st->radius) : omc * two_inv_r2;
+        float u = v->cone_u + off.u;
+        u = u >= 1.0f ? u - 1.0f : u;
+        float ct, G, s = 0.0f;
+        if (ball) {
+            float wv = v->cone_w + off.w;
+            wv = wv >= 1.0f ? wv - 1.0f : wv;
+            G = ml_vsl_ball(dist, r, u, wv, &ct, &s);
+        } else {
+            float omc = d2 > r2 ? (r2 / d2) / (1.0f + sqrtf(1.0f - r2 / d2)) : 1.0f;
+            ct = 1.0f - u * omc;
+            G = omc * two_inv_r2;
+        }
+        /* ω_s: cosine ct to the axis x → VL, the pattern's azimuth */
+        volux_vec3 ws = v3(0, 0, 0);
+        if (!iso || (ball && tmode == ML_T_RAYMARCH)) {
+            volux_vec3 a = v3_scale(vj, -1.0f / dist), t, b;
+            v3_basis(a, &t, &b);
+            float stt = sqrtf(fmaxf(0.0f, 1.0f - ct * ct));
+            float cp = v->cone_c * off.c - v->cone_s * off.s, sp = v->cone_s * off.c + v->cone_c * off.s;
+            ws = v3_add(v3_scale(a, ct), v3_add(v3_scale(t, stt * cp), v3_scale(b, stt * sp)));
+        }
         float T;
-        if (tmode == ML_T_AVSM) T = ml_avsm_point(st, v->avsm, vj, dist);
-        else if (tmode == ML_T_AVSM_LINEAR) T = ml_avsm_trilinear(st, v->avsm, vj, dist);
-        else T = ml_raymarch_T(st, v3(v->px, v->py, v->pz), vj, dist);
+        if (!ball) {
+            /* Eq. 5: towards the VL's centre */
+            if (tmode == ML_T_AVSM) T = ml_avsm_point(st, v->avsm, vj, dist);
+            else if (tmode == ML_T_AVSM_LINEAR) T = ml_avsm_trilinear(st, v->avsm, vj, dist);
+            else T = ml_raymarch_T(st, v3(v->px, v->py, v->pz), vj, dist);
+        } else if (tmode == ML_T_RAYMARCH) {
+            T = ml_raymarch_T(st, v3_madd(x, ws, s), v3_scale(ws, -s), s); /* from y = x + s·ω_s */
+        } else {
+            /* from y: on the VL's texel ray, between the depths of x and of
+             * y's projection onto it */
+            float dy = fmaxf(dist - s * ct, 0.0f), lo = fminf(dist, dy), hi = fmaxf(dist, dy);
+            if (tmode == ML_T_AVSM) {
+                T = ml_avsm_between(st, v->avsm, vj, lo, hi);
+            } else {
+                float th = ml_avsm_trilinear(st, v->avsm, vj, hi);
+                float tl = lo > 0.0f ? ml_avsm_trilinear(st, v->avsm, vj, lo) : 1.0f;
+                T = tl > 0.0f ? fminf(th / tl, 1.0f) : 0.0f;
+            }
+        }
         if (!(T > 0.0f)) continue;
         float f;
         if (iso) {
             f = iso_f;
         } else {
-            /* ω_s uniform in the cone around the direction x → VL */
-            volux_vec3 a = v3_scale(vj, -1.0f / dist), t, b;
-            v3_basis(a, &t, &b);
-            float u = v->cone_u + off.u;
-            u = u >= 1.0f ? u - 1.0f : u;
-            float ou = u * omc, ct = 1.0f - ou, stt = sqrtf(fmaxf(0.0f, ou * (2.0f - ou)));
-            float cp = v->cone_c * off.c - v->cone_s * off.s, sp = v->cone_s * off.c + v->cone_c * off.s;
-            volux_vec3 ws = v3_add(v3_scale(a, ct), v3_add(v3_scale(t, stt * cp), v3_scale(b, stt * sp)));
             /* light travels VL → x (−ω_s) and then towards the camera (−d) */
             float cos_t = v3_dot(ws, d), cos_j = -(v->wx * ws.x + v->wy * ws.y + v->wz * ws.z);
             float dt = hg_b - hg_c * cos_t, dj = hg_b - hg_c * cos_j;
@@ -158,7 +186,9 @@ static inline __attribute__((always_inline)) volux_vec3 gather_vls(const ml_stat
             dj = dj < 1e-12f ? 1e-12f : dj;
             f = hg_a * hg_a / (dt * sqrtf(dt) * dj * sqrtf(dj));
         }
-        float w = f * G * T;
+        float fg = f * G;
+        fg = fg < clamp ? fg : clamp;
+        float w = fg * T;
         acc_r += v->ir * w;
         acc_g += v->ig * w;
         acc_b += v->ib * w;
@@ -259,10 +289,10 @@ static volux_vec3 integrate(const ml_state *st, const volux_ray *ray, float jitt
             volux_lut_rgba(st->rc.lut, volux_volume_sample_index(st->rc.volume, q.x, q.y, q.z), rgba);
             volux_vec3 rho = v3_scale(v3(rgba[0], rgba[1], rgba[2]), st->rc.albedo * weight);
             volux_vec3 Ls = v3(0, 0, 0);
-            float u = volux_rng_float(rng), phi = 2.0f * VOLUX_PI * volux_rng_float(rng);
+            float u = volux_rng_float(rng), phi = 2.0f * VOLUX_PI * volux_rng_float(rng), uw = volux_rng_float(rng);
             if (st->single_on) Ls = single_scatter(st, x, ray->d, rng);
             if (st->multi_on && st->n_rvl > 0) {
-                gather_offset off = {u, cosf(phi), sinf(phi)};
+                gather_offset off = {u, cosf(phi), sinf(phi), uw};
                 Ls = v3_add(Ls, gather(st, x, ray->d, off));
             }
             C = v3_add(C, v3_mul(rho, Ls));
