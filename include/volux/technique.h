@@ -75,29 +75,23 @@ VOLUX_API volux_status volux_technique_create(volux_context *ctx, const char *na
  * until an update succeeds (volux_render retries it). */
 VOLUX_API volux_status volux_technique_update(volux_technique *t, const volux_scene *scene,
                                               volux_change_set *changed);
+/* Does the next step of work a progressive technique deferred after an
+ * update (`sh` with techniques.sh.progressive: the coarse projection a TF
+ * edit shows first is replaced by the full one). Brings the instance up
+ * to date first. *refined (may be NULL) is 1 when this call changed the
+ * instance (a framebuffer then restarts at the next render), *more (may
+ * be NULL) while steps remain. A technique that defers nothing returns
+ * VOLUX_OK with both 0. */
+VOLUX_API volux_status volux_technique_refine(volux_technique *t, const volux_scene *scene, int *refined,
+                                              int *more);
 /* 1 if the instance is up to date with the scene (nothing to update). */
 VOLUX_API int volux_technique_is_current(const volux_technique *t, const volux_scene *scene);
 
-/* PROGRESSIVE UPDATES. A technique may answer an edit with a cheap,
- * approximate state at once and converge to what a fresh instance builds
- * over the following frames (manylights: Weber et al. 2013 §4 — VL
- * contributions re-weighted at once, then a fixed number of virtual lights
- * and their shadow maps replaced per frame). A frame is one volux_render
- * call: it first brings the instance up to date; if the state it would
- * render was already rendered by an earlier call, it does one step of the
- * pending work first. So the first frame after an edit shows the immediate
- * update, each later frame one more step, and accumulation restarts with
- * every step.
- *
- * Work units left until the instance equals a fresh one (0: converged;
- * always 0 for techniques without progressive updates). Strictly decreases
- * with every step. */
+/* Deferred work left in a progressive update, in the technique's own units
+ * (manylights: virtual lights still to be replaced after an extinction
+ * edit, W13 §4.2); 0 when nothing is deferred or the technique does not
+ * measure it. Each refine step that changes the instance decreases it. */
 VOLUX_API uint64_t volux_technique_pending(const volux_technique *t);
-/* Brings the instance up to date with the scene (as volux_technique_update)
- * and then does one step of the pending work, if any — what a frame does,
- * without rendering (benchmarks and tests drive convergence with it). On
- * failure nothing of the step is applied; calling again retries it. */
-VOLUX_API volux_status volux_technique_refine(volux_technique *t, const volux_scene *scene);
 
 /* Technique-specific statistics of the current state, for benchmarks
  * (e.g. manylights: "vl_count", "avsm_build_ms"). name and unit are static

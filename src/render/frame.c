@@ -157,10 +157,8 @@ volux_status volux_render(volux_technique *t, const volux_scene *scene, volux_fr
         return volux_error(ctx, VOLUX_ERR_INVALID, "framebuffer is %dx%d but the scene renders %dx%d", fb->width,
                            fb->height, rs->width, rs->height);
     /* A technique never renders a scene it is not up to date with, and a
-     * framebuffer never mixes samples of two states. One call is one frame:
-     * a progressive update advances by one step once its current state has
-     * been shown (volux/technique.h). */
-    volux_status st = volux_technique_frame(t, scene);
+     * framebuffer never mixes samples of two states. */
+    volux_status st = volux_technique_update(t, scene, NULL);
     if (st) return st;
     if (fb->generation != volux_technique_generation(t)) {
         if (fb->spp) volux_framebuffer_reset(fb);
@@ -206,7 +204,6 @@ volux_status volux_render(volux_technique *t, const volux_scene *scene, volux_fr
     }
     volux_progress(ctx, "render", 1.0);
     volux_free(ctx, stats, (size_t)tiles * sizeof *stats);
-    if (fb->spp > 0) volux_technique_shown(t);
     if (report) {
         report->spp = fb->spp;
         report->ms = now_ms() - start;

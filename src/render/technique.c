@@ -14,7 +14,6 @@ struct volux_technique {
     void *state; /* cls->state_size bytes, starting with a volux_raycaster */
     volux_scene_stamp stamp;
     uint64_t generation; /* unique per (instance, applied update or step) */
-    uint64_t shown;      /* generation last rendered by a frame (0: none)  */
 };
 
 /* Generations are unique across instances, so a framebuffer can tell its
@@ -142,31 +141,22 @@ volux_status volux_technique_update(volux_technique *t, const volux_scene *scene
     return VOLUX_OK;
 }
 
-uint64_t volux_technique_pending(const volux_technique *t) {
-    return t->cls->pending ? t->cls->pending(t->state) : 0;
-}
-
-/* One refinement step on an up-to-date instance. */
-static volux_status refine_step(volux_technique *t, const volux_scene *scene) {
-    if (!volux_technique_pending(t)) return VOLUX_OK;
-    volux_status st = t->cls->refine(t->state, scene);
-    if (!st) t->generation = new_generation();
+volux_status volux_technique_refine(volux_technique *t, const volux_scene *scene, int *refined, int *more) {
+    if (more) *more = 0;
+    if (refined) *refined = 0;
+    volux_status st = volux_technique_update(t, scene, NULL);
+    if (st || !t->cls->refine) return st;
+    int changed = 0, m = 0;
+    st = t->cls->refine(t->state, scene, &changed, &m);
+    if (changed) t->generation = new_generation(); /* framebuffers restart */
+    if (more) *more = m;
+    if (refined) *refined = changed;
     return st;
 }
 
-volux_status volux_technique_refine(volux_technique *t, const volux_scene *scene) {
-    volux_status st = volux_technique_update(t, scene, NULL);
-    return st ? st : refine_step(t, scene);
+uint64_t volux_technique_pending(const volux_technique *t) {
+    return t->cls->pending ? t->cls->pending(t->state) : 0;
 }
-
-volux_status volux_technique_frame(volux_technique *t, const volux_scene *scene) {
-    uint64_t before = t->generation;
-    volux_status st = volux_technique_update(t, scene, NULL);
-    if (st || t->generation != before || t->shown != t->generation) return st;
-    return refine_step(t, scene);
-}
-
-void volux_technique_shown(volux_technique *t) { t->shown = t->generation; }
 
 int volux_technique_stats(const volux_technique *t, volux_technique_stat *out, int max) {
     return t->cls->stats ? t->cls->stats(t->state, out, max) : 0;

@@ -61,14 +61,17 @@ typedef struct volux_technique_class {
     /* Frees the technique's own caches (not the base, not the block); must
      * accept a state whose update failed half-way. May be NULL. */
     void (*release)(void *state);
-    /* Progressive updates (volux/technique.h): work units left until the
-     * state equals a fresh one, and one frame's step of that work (the
-     * base and the technique are up to date with the scene when it is
-     * called). A step must strictly decrease `pending`; on failure it
-     * leaves the state as it was. Both NULL for techniques whose update
-     * is complete at once. */
+    /* Optional (progressive techniques): the next step of cache work an
+     * update deferred, e.g. the full projection after a coarse one, or
+     * `manylights`' next virtual lights and shadow maps of a replacement.
+     * Sets *changed when the image may change and *more while steps
+     * remain; after a failure the state must still render (the next call
+     * retries). NULL: nothing is ever deferred. */
+    volux_status (*refine)(void *state, const volux_scene *scene, int *changed, int *more);
+    /* Optional: the deferred work left, in the technique's own units (0 =
+     * none); every refine step that changes the state must decrease it
+     * (the test matrix checks). NULL: not measured. */
     uint64_t (*pending)(const void *state);
-    volux_status (*refine)(void *state, const volux_scene *scene);
     /* Optional statistics for benchmarks (volux_technique_stats). */
     int (*stats)(const void *state, volux_technique_stat *out, int max);
 } volux_technique_class;
@@ -83,11 +86,6 @@ const void *volux_technique_state(const volux_technique *t);
  * frame loop compares it with what a framebuffer's samples were rendered
  * from). */
 uint64_t volux_technique_generation(const volux_technique *t);
-/* What a frame does before it renders: the update, then — if nothing
- * changed and the current state was already rendered — one refinement
- * step. volux_technique_shown() marks the current state as rendered. */
-volux_status volux_technique_frame(volux_technique *t, const volux_scene *scene);
-void volux_technique_shown(volux_technique *t);
 
 /* Checks one stored parameter against its technique's table
  * (VOLUX_ERR_INVALID naming "techniques.<tech>.<name>"). */

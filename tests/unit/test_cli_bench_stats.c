@@ -51,15 +51,16 @@ static void test_bench_reports_technique_statistics(void **state) {
     assert_true(metric(out, "avsm_build_ms") >= 0.0);
     assert_true(metric(out, "avsm_built") >= 20);
     assert_true(metric(out, "update_ms.tf") >= 0.0);
-    assert_true(metric(out, "refine_frames.tf") >= 4); /* 20+ VLs, 5 per frame */
-    assert_true(metric(out, "converge_ms.tf") >= 0.0);
+    assert_true(metric(out, "refine_steps.tf") >= 4); /* 20+ VLs, 5 per frame */
+    assert_true(metric(out, "refine_ms.tf") >= 0.0);
+    assert_true(metric(out, "refine_step_ms.tf") >= 0.0);
     assert_true(metric(out, "avsm_built.tf") == 0.0);  /* rule 2: none at once */
     assert_true(metric(out, "avsm_built.camera") == 0.0);
-    assert_true(metric(out, "refine_frames.camera") < 0.0);
+    assert_true(metric(out, "refine_steps.camera") < 0.0);
     out = bench("ea");
     assert_true(metric(out, "update_ms.tf") >= 0.0);
     assert_true(metric(out, "vl_count") < 0.0);
-    assert_true(metric(out, "refine_frames.tf") < 0.0);
+    assert_true(metric(out, "refine_steps.tf") < 0.0);
 }
 
 int main(void) {

@@ -4,15 +4,16 @@
  *
  * Metrics (DESIGN §4): prepare_ms (technique creation = building every
  * cache), render_ms (median), samples_per_s / vertices_per_s, memory_bytes,
- * update_ms.<edit> (median time of volux_technique_update after the edit),
- * and with --reference a convergence series (rel_mse and mse vs spp/time).
+ * update_ms.<edit> (median time of volux_technique_update after the edit;
+ * for a progressive technique its first state), refine_ms.<edit> (the
+ * work it deferred, when there was any), refine_steps.<edit> (how many
+ * refinement steps, i.e. frames, that took) and refine_step_ms.<edit> (the
+ * median step), and with --reference a convergence series (rel_mse and
+ * mse vs spp/time).
  *
  * Generic extras: the technique's own statistics (volux_technique_stats)
  * after creation, as <stat>, and after each edit's update, as <stat>.<edit>
- * (e.g. manylights: vl_count, avsm_build_ms); for edits answered by a
- * progressive update (volux_technique_pending > 0), the steps to the end
- * are timed too: refine_frames.<edit> (frames until converged),
- * refine_ms.<edit> (median step) and converge_ms.<edit> (all steps).
+ * (e.g. manylights: vl_count, avsm_build_ms, avsm_built).
  */
 #include <math.h>
 #include <stdio.h>
@@ -187,6 +188,9 @@ int cli_bench(int argc, char **argv) {
         times[k] = cli_now_ms() - t0;
     }
     emit(&o, "prepare_ms", median(times, repeat), "ms", NULL);
+    /* A progressive technique renders its refined state below. */
+    for (int more = 1; more;)
+        if ((st = volux_technique_refine(tech, scene, NULL, &more))) goto fail;
     emit_stats(&o, tech, "");
     if ((st = volux_framebuffer_create(ctx, rs->width, rs->height, &fb))) goto fail;
 
@@ -228,17 +232,20 @@ int cli_bench(int argc, char **argv) {
     /* Convergence before the edits: they leave the scene changed. */
     if (reference && (st = convergence(ctx, tech, scene, fb, &ref, &o))) goto fail;
 
-    /* update_ms.<edit>: only the technique's reaction to the edit; a
-     * progressive update is then driven to its end, step by step, so every
-     * repeat starts from a converged state. */
-    double *steps = NULL, *frames = NULL, *total = NULL;
+    /* update_ms.<edit>: only the technique's reaction to the edit (for a
+     * progressive technique its first state); refine_ms.<edit>: the
+     * deferred rest, when there is any, driven to its end so that every
+     * repeat starts from a finished state; refine_steps.<edit> and
+     * refine_step_ms.<edit>: how many steps (frames) that took and the
+     * median step. */
+    double *refine = NULL, *steps = NULL, *frames = NULL;
     size_t n_steps = 0, cap_steps = 0;
-    if (!(frames = calloc((size_t)repeat, sizeof *frames)) || !(total = calloc((size_t)repeat, sizeof *total))) {
+    if (!(refine = calloc((size_t)repeat, sizeof *refine)) || !(frames = calloc((size_t)repeat, sizeof *frames))) {
         rc = CLI_FAIL;
         goto edits_done;
     }
     for (int e = 0; e < n_edits; e++) {
-        int ok = 1, progressive = 0;
+        int ok = 1, deferred = 0;
         n_steps = 0;
         for (int k = 0; k < repeat && ok; k++) {
             st = volux_edit_apply(edits[e], scene, k);
@@ -257,47 +264,49 @@ int cli_bench(int argc, char **argv) {
                 snprintf(suffix, sizeof suffix, ".%s", edits[e]->name);
                 emit_stats(&o, tech, suffix);
             }
-            frames[k] = total[k] = 0.0;
-            while (volux_technique_pending(tech) > 0) {
-                progressive = 1;
+            refine[k] = frames[k] = 0.0;
+            for (int more = 1; more;) {
+                int refined = 0;
                 double s0 = cli_now_ms();
-                if ((st = volux_technique_refine(tech, scene))) goto edits_fail;
+                if ((st = volux_technique_refine(tech, scene, &refined, &more))) goto edits_fail;
                 double ms = cli_now_ms() - s0;
+                refine[k] += ms;
+                if (!refined) continue;
+                deferred = 1;
+                frames[k] += 1.0;
                 if (n_steps == cap_steps) {
                     size_t cap = cap_steps ? 2 * cap_steps : 256;
-                    double *p = realloc(steps, cap * sizeof *p);
-                    if (!p) {
+                    double *q = realloc(steps, cap * sizeof *q);
+                    if (!q) {
                         rc = CLI_FAIL;
                         goto edits_done;
                     }
-                    steps = p;
+                    steps = q;
                     cap_steps = cap;
                 }
                 steps[n_steps++] = ms;
-                frames[k] += 1.0;
-                total[k] += ms;
             }
         }
         if (!ok) continue;
         char metric[64];
         snprintf(metric, sizeof metric, "update_ms.%s", edits[e]->name);
         emit(&o, metric, median(times, repeat), "ms", NULL);
-        if (progressive) {
-            snprintf(metric, sizeof metric, "refine_frames.%s", edits[e]->name);
-            emit(&o, metric, median(frames, repeat), "frames", NULL);
+        if (deferred) {
             snprintf(metric, sizeof metric, "refine_ms.%s", edits[e]->name);
+            emit(&o, metric, median(refine, repeat), "ms", NULL);
+            snprintf(metric, sizeof metric, "refine_steps.%s", edits[e]->name);
+            emit(&o, metric, median(frames, repeat), "steps", NULL);
+            snprintf(metric, sizeof metric, "refine_step_ms.%s", edits[e]->name);
             emit(&o, metric, median(steps, (int)n_steps), "ms", NULL);
-            snprintf(metric, sizeof metric, "converge_ms.%s", edits[e]->name);
-            emit(&o, metric, median(total, repeat), "ms", NULL);
         }
     }
     goto edits_done;
 edits_fail:
     rc = cli_fail("bench", ctx, st);
 edits_done:
+    free(refine);
     free(steps);
     free(frames);
-    free(total);
     goto done;
 fail:
     rc = cli_fail("bench", ctx, st);

@@ -69,6 +69,9 @@ int cli_render(int argc, char **argv) {
     const volux_render_settings *rs = volux_scene_render(scene);
     double t0 = cli_now_ms();
     volux_status st = volux_technique_create(ctx, rs->technique, scene, &tech);
+    /* A progressive technique's deferred work is finished: an image file
+     * is the final result, not the first frame of an interactive session. */
+    for (int more = 1; !st && more;) st = volux_technique_refine(tech, scene, NULL, &more);
     double prepare_ms = cli_now_ms() - t0;
     if (!st) st = volux_framebuffer_create(ctx, rs->width, rs->height, &fb);
     volux_render_report rep = {0};

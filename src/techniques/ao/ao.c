@@ -89,5 +89,5 @@ const volux_technique_class volux_ao_class = {
      ao_params, 0},
     sizeof(ao_state), 0, 0,
     NULL, ao_update, ao_render_tile, ao_memory_bytes, ao_release,
-    NULL, NULL, NULL, /* not progressive, no statistics */
+    NULL, NULL, NULL, /* no refine, pending work or statistics */
 };

@@ -29,11 +29,12 @@
  *   volume, seed, max_depth,          everything
  *   placement parameters
  *
- * Progressive state (volux/technique.h): while a light's set is being
+ * Deferred work (volux/technique.h): while a light's set is being
  * replaced, pending() counts its VLs not yet replaced (+1 for the final
- * swap) and each refine() step moves whole new subpaths in — at least
- * `update_budget` VLs per frame over all lights, in slot order — and the
- * same number of the oldest VLs out. After the last step every set is the
+ * swap) and each refine() step — one per frame, called by the front end
+ * between frames — moves whole new subpaths in (at least `update_budget`
+ * VLs over all lights, in slot order) and the same number of the oldest
+ * VLs out. After the last step every set is the
  * prefix of its stream a fresh instance traces, with AVSMs built for the
  * current scene: the image is bit-identical to a fresh create.
  */
@@ -581,9 +582,14 @@ static uint64_t ml_pending(const void *state) {
  * move from `next` into the image with new AVSMs (rule 1), the same number
  * of the oldest leave it; the others keep their AVSMs (rule 2). Allocates
  * nothing (update reserved the pool and the render list). */
-static volux_status ml_refine(void *state, const volux_scene *scene) {
+static volux_status ml_refine(void *state, const volux_scene *scene, int *changed, int *more) {
     (void)scene;
     ml_state *st = state;
+    *changed = ml_pending(state) > 0;
+    if (!*changed) {
+        *more = 0;
+        return VOLUX_OK;
+    }
     st->avsm_ms = st->trace_ms = 0.0;
     st->avsm_built = st->traced = 0;
     int budget = st->budget;
@@ -615,6 +621,7 @@ static volux_status ml_refine(void *state, const volux_scene *scene) {
             }
         }
     }
+    *more = ml_pending(state) > 0;
     return prepare_render(st, 0);
 }
 
@@ -680,5 +687,5 @@ const volux_technique_class volux_manylights_class = {
      ml_params, 1},
     sizeof(ml_state), 0, 0,
     ml_init, ml_update, ml_render_tile, ml_memory_bytes, ml_release,
-    ml_pending, ml_refine, ml_stats,
+    ml_refine, ml_pending, ml_stats,
 };

@@ -80,5 +80,5 @@ const volux_technique_class volux_pathtrace_class = {
      pt_params, 1},
     sizeof(pt_state), 0, 0,
     NULL, pt_update, volux_pathtrace_render_tile, pt_memory_bytes, pt_release,
-    NULL, NULL, NULL, /* not progressive, no statistics */
+    NULL, NULL, NULL, /* no refine, pending work or statistics */
 };

@@ -168,5 +168,5 @@ const volux_technique_class volux_single_class = {
      single_params, 0},
     sizeof(single_state), 0, 0,
     single_init, single_update, single_render_tile, single_memory_bytes, single_release,
-    NULL, NULL, NULL, /* not progressive, no statistics */
+    NULL, NULL, NULL, /* no refine, pending work or statistics */
 };
