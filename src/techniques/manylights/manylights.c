@@ -51,9 +51,9 @@ static const volux_param_info ml_params[] = {
     {"vl_count", VOLUX_PARAM_INT, 1000, 1, 1000000, NULL,
      "virtual lights in total, split evenly between the enabled lights; each traces whole light subpaths until it "
      "holds its share (W13 §3.1)"},
-    {"vsl_radius", VOLUX_PARAM_NUMBER, 4, 0.01, 10000, NULL,
+    {"vsl_radius", VOLUX_PARAM_NUMBER, 0, 0, 10000, NULL,
      "radius of a virtual spherical light in units of the smallest voxel spacing (Eq. 5; bounds the geometry term "
-     "by 2/r^2)"},
+     "by 2/r^2); 0: automatic, half the mean distance between VLs spread over the non-empty macrocells"},
     {"vsl_kernel", VOLUX_PARAM_STRING, 0, 0, 0, "cone",
      "a VSL's light: \"cone\" (Eq. 5: 1/(pi r^2 p(Omega)) = 2(1 - cos theta_max)/r^2 with the transmittance to the "
      "centre, the hemisphere inside the sphere) or \"ball\" (the VL's power spread over the ball: one point of it "
@@ -490,6 +490,21 @@ static void ml_init(void *state) {
     st->traced_depth = -1;
 }
 
+/* Half the mean spacing of vl_count points spread over the volume the
+ * transfer function leaves non-empty (the macrocells with σ1 > 0), so
+ * neighbouring VSLs about touch (after the density-adaptive radius of
+ * Hašan et al. 2009, here one radius for all). */
+static float auto_radius(const ml_state *st) {
+    const volux_volume *v = st->rc.volume;
+    size_t n = (size_t)st->grid1.cells[0] * (size_t)st->grid1.cells[1] * (size_t)st->grid1.cells[2], occupied = 0;
+    for (size_t c = 0; c < n; c++) occupied += st->grid1.sigma_max[c] > 0.0f;
+    double cell = (double)VOLUX_CELL_SIZE;
+    double vol = (double)occupied * cell * cell * cell * v->spacing[0] * v->spacing[1] * v->spacing[2];
+    int count = st->vl_count > 0 ? st->vl_count : 1;
+    float r = (float)(0.5 * cbrt(vol / count));
+    return r > 0.0f ? r : st->rc.min_spacing;
+}
+
 static volux_status update_env_samplers(ml_state *st, const volux_scene *scene, const volux_change_set *c) {
     for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) {
         if (!volux_change_light(c, i)) continue;
@@ -549,7 +564,7 @@ static volux_status ml_update(void *state, const volux_scene *scene, const volux
         st->traced_seed = rc->seed;
         st->traced_depth = rc->max_depth;
     }
-    st->radius = st->radius_vox * rc->min_spacing;
+    st->radius = st->radius_vox > 0.0f ? st->radius_vox * rc->min_spacing : auto_radius(st);
     {
         float dc = st->clamp_vox * rc->min_spacing;
         st->clamp_fg = dc > 0.0f ? VOLUX_INV_4PI * VOLUX_INV_4PI / (dc * dc) : INFINITY;
@@ -636,6 +651,7 @@ static int ml_stats(const void *state, volux_technique_stat *out, int max) {
     }
     volux_technique_stat all[] = {
         {"vl_count", (double)st->n_rvl, "VLs"},
+        {"vsl_radius", st->radius / st->rc.min_spacing, "voxels"},
         {"vl_paths", paths, "paths"},
         {"avsm_build_ms", st->avsm_ms, "ms"},
         {"avsm_built", (double)st->avsm_built, "AVSMs"},
