@@ -73,6 +73,9 @@ VOLUX_API volux_status volux_sequence_create(volux_context *ctx, const volux_seq
  * NULL is ignored. */
 VOLUX_API void volux_sequence_destroy(volux_sequence *q);
 VOLUX_API int volux_sequence_steps(const volux_sequence *q);
+/* Unique per sequence created in this process (never reused), so a cache
+ * keyed by (sequence, step) can tell sequences apart. */
+VOLUX_API uint64_t volux_sequence_id(const volux_sequence *q);
 VOLUX_API const char *volux_sequence_name(const volux_sequence *q);
 /* The volume of step `step`, retained (caller releases): from the cache, or
  * loaded and checked against the shape of the first step loaded.

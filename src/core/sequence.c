@@ -17,8 +17,11 @@ typedef struct entry {
     uint64_t used;     /* LRU clock value of the last acquire                */
 } entry;
 
+static uint64_t next_sequence_id = 1;
+
 struct volux_sequence {
     volux_context *ctx;
+    uint64_t id;
     int steps;
     volux_step_load_fn load;
     void *user;
@@ -47,6 +50,7 @@ volux_status volux_sequence_create(volux_context *ctx, const volux_sequence_desc
         return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for a volume sequence");
     }
     q->ctx = ctx;
+    q->id = __atomic_fetch_add(&next_sequence_id, 1, __ATOMIC_RELAXED);
     q->steps = d->steps;
     q->load = d->load;
     q->user = d->user;
@@ -76,6 +80,7 @@ void volux_sequence_destroy(volux_sequence *q) {
 }
 
 int volux_sequence_steps(const volux_sequence *q) { return q->steps; }
+uint64_t volux_sequence_id(const volux_sequence *q) { return q->id; }
 const char *volux_sequence_name(const volux_sequence *q) { return q->name; }
 uint64_t volux_sequence_cached_bytes(const volux_sequence *q) { return q->cached; }
 uint64_t volux_sequence_loads(const volux_sequence *q) { return q->loads; }
