@@ -165,6 +165,7 @@ static volux_status refresh(guided_state *st, const volux_scene *scene, const in
                 break;
             }
             if ((s = volux_sequence_acquire(seq, step, &v))) break;
+            st->steps_loaded++;
         } else {
             volux_volume_retain(v);
         }
@@ -178,8 +179,10 @@ static volux_status refresh(guided_state *st, const volux_scene *scene, const in
             for (int i = 0; i < n; i++) g->src[list[i]] = -1;
             s = guided_compute_directions(ctx, st->rc.threads, g, v, &lut, &st->vis, list, n);
             volux_transfer_lut_free(ctx, &lut);
-            if (!s)
+            if (!s) {
                 for (int i = 0; i < n; i++) g->src[list[i]] = step;
+                st->swept_directions += (uint64_t)n;
+            }
         }
         volux_volume_release(v);
         if (s) break;
@@ -209,6 +212,7 @@ static volux_status guided_update(void *state, const volux_scene *scene, const v
             if ((s = guided_env_build(ctx, st->rc.threads, &st->env, &st->rc.lights, st->env_res))) return s;
             memcpy(st->env_slot_bits, now, sizeof now);
             st->env_built = 1;
+            st->env_builds++;
         }
         st->n_env = st->rc.lights.n_env;
     }

@@ -109,6 +109,11 @@ typedef struct guided_state {
     int env_built;
     uint64_t env_slot_bits[VOLUX_MAX_LIGHTS / 64]; /* slots in `env`       */
     int n_env;          /* enabled environment lights                     */
+    /* work done by updates so far (tests and benchmarks check that an edit
+     * does the least work) */
+    uint64_t swept_directions; /* directions computed (sweeps or rays)    */
+    uint64_t env_builds;       /* environment quadtree builds              */
+    uint64_t steps_loaded;     /* other time steps acquired for lazy updates */
 } guided_state;
 
 /* ---------------------------------------------------------------- grid (visgrid.c) */
