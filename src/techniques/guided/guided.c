@@ -17,6 +17,7 @@
 
 #include "core/context_internal.h"
 #include "guided.h"
+#include "sweep_kernels.h"
 
 static const volux_param_info guided_params[] = {
     {"strategy", VOLUX_PARAM_STRING, 0, 0, 0, "two_step",
@@ -53,6 +54,9 @@ static const volux_param_info guided_params[] = {
      "round_robin (lazy_budget directions per step, bit-reversed Morton order), environment (lazy_budget "
      "directions per step drawn from the environment), static (all directions every D/lazy_budget steps)"},
     {"lazy_budget", VOLUX_PARAM_INT, 4, 1, 1024, NULL, "directions recomputed per time step by the lazy policies"},
+    {"kernel", VOLUX_PARAM_STRING, 0, 0, 0, "auto",
+     "sweep row loops: auto (AVX-512 where the CPU has it and ray_spacing is 1), scalar (portable reference) or "
+     "simd (AVX-512; an error where unavailable); the same grid up to float rounding"},
     {NULL, 0, 0, 0, 0, NULL, NULL}};
 
 static int is_pow2(int x) { return x > 0 && (x & (x - 1)) == 0; }
@@ -83,6 +87,18 @@ static volux_status read_params(guided_state *st, const volux_scene *scene) {
     if (lazy < 0)
         return volux_error(ctx, VOLUX_ERR_INVALID,
                            "techniques.guided.lazy: expected off, round_robin, environment or static, got \"%s\"", s);
+    s = volux_technique_param_string(scene, cls, "kernel");
+    int simd = -1;
+    if (!strcmp(s, "auto")) simd = guided_sweep_avx512_available();
+    else if (!strcmp(s, "scalar")) simd = 0;
+    else if (!strcmp(s, "simd")) {
+        if (!guided_sweep_avx512_available())
+            return volux_error(ctx, VOLUX_ERR_UNSUPPORTED,
+                               "techniques.guided.kernel: simd needs AVX-512 (F, BW, VL), which this CPU lacks");
+        simd = 1;
+    } else
+        return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.guided.kernel: expected auto, scalar or simd, got \"%s\"",
+                           s);
     int n = (int)volux_technique_param(scene, cls, "directions");
     if (!is_pow2(n))
         return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.guided.directions: %d is not a power of two", n);
@@ -102,6 +118,7 @@ static volux_status read_params(guided_state *st, const volux_scene *scene) {
     v.oversample = (int)volux_technique_param(scene, cls, "oversample");
     v.lazy = lazy;
     v.budget = (int)volux_technique_param(scene, cls, "lazy_budget");
+    v.simd = simd;
     st->vis = v;
     st->dir_levels = 0;
     while ((1 << st->dir_levels) < n) st->dir_levels++;
@@ -118,7 +135,7 @@ static volux_status read_params(guided_state *st, const volux_scene *scene) {
 static int vis_content_differs(const guided_vis_params *a, const guided_vis_params *b) {
     if (a->sweep != b->sweep || a->dir_res != b->dir_res || a->cell != b->cell || a->oversample != b->oversample)
         return 1;
-    if (a->sweep && (a->ray_spacing != b->ray_spacing || a->filter != b->filter ||
+    if (a->sweep && (a->ray_spacing != b->ray_spacing || a->filter != b->filter || a->simd != b->simd ||
                      (a->filter && a->filter_angle != b->filter_angle)))
         return 1;
     return 0;

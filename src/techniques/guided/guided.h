@@ -62,6 +62,7 @@ typedef struct guided_vis_params {
     int oversample;     /* sub-directions per axis per direction texel    */
     int lazy;           /* guided_lazy                                    */
     int budget;         /* directions per time step (lazy policies)       */
+    int simd;           /* AVX-512 sweep rows (sweep_avx512.c)            */
 } guided_vis_params;
 
 /* The visibility grid: cells[0]·cells[1]·cells[2] positions × D = N²

@@ -60,6 +60,7 @@
 #include "core/volume_internal.h"
 #include "guided.h"
 #include "sample/march.h"
+#include "sweep_kernels.h"
 
 /* Quantised V → uint16. */
 static inline uint16_t quantise(float v) {
@@ -143,6 +144,8 @@ typedef struct sweep_buffers {
     float *acc;   /* the direction's value per grid cell                  */
     float *edges; /* depths where each kernel column / row is inside the
                      box: entry, exit per column (2·Ka), per row (2·Kb)   */
+    float *cols;  /* Δt·weight per column, per ray of one row, filter sums
+                     (3·Ka + 1)                                           */
 } sweep_buffers;
 
 /* The depth interval (in planes) where a kernel ray whose tangent position
@@ -169,25 +172,58 @@ static void inside_depths(float p0, float s, int n, float *entry, float *exit) {
  * k − 1 (k + 1) is outside, so a ray that enters or leaves through a side
  * face between two planes is integrated from where it enters to where it
  * leaves. */
+static inline float maxf(float a, float b) { return a > b ? a : b; }
+static inline float minf(float a, float b) { return a < b ? a : b; }
+
 static inline void plane_span(int k, float entry, float exit, float *lo, float *hi) {
     *lo = entry > (float)k - 1.0f ? entry : (float)k - 0.5f;
     *hi = exit < (float)k + 1.0f ? exit : (float)k + 0.5f;
 }
 
-/* One-dimensional box filter of radius r over n values with stride
- * `stride`, edge-clamped (the mean over the values that exist). */
-static void box_1d(const float *in, float *out, int n, size_t stride, int r) {
-    if (r <= 0) {
-        for (int i = 0; i < n; i++) out[(size_t)i * stride] = in[(size_t)i * stride];
-        return;
+/* Box filter of radius r along each row of the window (rows of n values
+ * at `stride`), edge-clamped: the mean over the values that exist. Prefix
+ * sums (in `prefix`, n + 1 floats), so the cost does not depend on r (§8:
+ * "a sliding window") and the output pass vectorises. */
+static void box_rows(const float *in, float *out, int rows, int n, size_t stride, int r, float *prefix) {
+    float inv = 1.0f / (float)(2 * r + 1);
+    for (int j = 0; j < rows; j++) {
+        const float *x = in + (size_t)j * stride;
+        float *y = out + (size_t)j * stride;
+        prefix[0] = 0.0f;
+        for (int i = 0; i < n; i++) prefix[i + 1] = prefix[i] + x[i];
+        int a = r < n ? r : n, b = n - r > a ? n - r : a; /* [a, b): full windows */
+        for (int i = 0; i < a; i++) {
+            int top = i + r < n - 1 ? i + r : n - 1;
+            y[i] = prefix[top + 1] / (float)(top + 1);
+        }
+        for (int i = a; i < b; i++) y[i] = (prefix[i + r + 1] - prefix[i - r]) * inv;
+        for (int i = b; i < n; i++) {
+            int lo = i - r > 0 ? i - r : 0;
+            y[i] = (prefix[n] - prefix[lo]) / (float)(n - lo);
+        }
     }
-    double sum = 0.0;
-    int lo = 0, hi = -1; /* window [lo, hi] */
-    for (int i = 0; i < n; i++) {
-        int want_hi = i + r < n - 1 ? i + r : n - 1, want_lo = i - r > 0 ? i - r : 0;
-        while (hi < want_hi) sum += in[(size_t)(++hi) * stride];
-        while (lo < want_lo) sum -= in[(size_t)(lo++) * stride];
-        out[(size_t)i * stride] = (float)(sum / (double)(hi - lo + 1));
+}
+
+/* The same across rows: one running sum per column, updated a whole row at
+ * a time (contiguous, vectorisable). `sums` holds n floats. */
+static void box_cols(const float *in, float *out, int rows, int n, size_t stride, int r, float *sums) {
+    memset(sums, 0, sizeof(float) * (size_t)n);
+    int hi = r < rows - 1 ? r : rows - 1;
+    for (int j = 0; j <= hi; j++)
+        for (int i = 0; i < n; i++) sums[i] += in[(size_t)j * stride + (size_t)i];
+    for (int j = 0; j < rows; j++) {
+        int lo = j - r > 0 ? j - r : 0, top = j + r < rows - 1 ? j + r : rows - 1;
+        float inv = 1.0f / (float)(top - lo + 1);
+        float *y = out + (size_t)j * stride;
+        for (int i = 0; i < n; i++) y[i] = sums[i] * inv;
+        if (j + r + 1 < rows) {
+            const float *add = in + (size_t)(j + r + 1) * stride;
+            for (int i = 0; i < n; i++) sums[i] += add[i];
+        }
+        if (j - r >= 0) {
+            const float *sub = in + (size_t)(j - r) * stride;
+            for (int i = 0; i < n; i++) sums[i] -= sub[i];
+        }
     }
 }
 
@@ -225,78 +261,144 @@ static void sweep_setup(const volux_volume *v, volux_vec3 w, int h, sweep_geom *
 
 /* σt on plane k for the kernel rays that lie inside the box there; their
  * range is returned in [*ia0, *ia1] × [*ib0, *ib1] (empty if ia0 > ia1). */
-static void plane_sigma(const slices *s, const volux_transfer_lut *lut, const sweep_geom *g, int k, float *sig,
-                        int *ia0, int *ia1, int *ib0, int *ib1) {
-    int plane = g->forward ? s->nn - 1 - k : k;
-    float A = g->off_a - (float)k * g->sa, B = g->off_b - (float)k * g->sb, h = (float)g->h;
-    /* h·i + A ∈ [0, na − 1] */
-    int i0 = (int)ceilf(-A / h), i1 = (int)floorf(((float)(s->na - 1) - A) / h);
-    int j0 = (int)ceilf(-B / h), j1 = (int)floorf(((float)(s->nb - 1) - B) / h);
-    if (i0 < 0) i0 = 0;
-    if (j0 < 0) j0 = 0;
-    if (i1 > g->Ka - 1) i1 = g->Ka - 1;
-    if (j1 > g->Kb - 1) j1 = g->Kb - 1;
-    *ia0 = i0, *ia1 = i1, *ib0 = j0, *ib1 = j1;
-    if (i0 > i1 || j0 > j1) return;
-    float fa = A - floorf(A);
-    int ishift = (int)floorf(A);
-    for (int jb = j0; jb <= j1; jb++) {
-        float pb = h * (float)jb + B;
-        int r0 = (int)pb;
-        if (r0 > s->nb - 1) r0 = s->nb - 1;
-        float fb = pb - (float)r0;
-        int r1 = r0 + 1 < s->nb ? r0 + 1 : r0;
-        const void *R0 = row_ptr(s, plane, r0), *R1 = row_ptr(s, plane, r1);
-        float *out = sig + (size_t)jb * (size_t)g->Ka;
-        for (int ia = i0; ia <= i1; ia++) {
-            int c0 = g->h * ia + ishift;
-            if (c0 < 0) c0 = 0;
-            if (c0 > s->na - 1) c0 = s->na - 1;
-            int c1 = c0 + 1 < s->na ? c0 + 1 : c0;
-            float top = node(s, R0, c0) + fa * (node(s, R0, c1) - node(s, R0, c0));
-            float bot = node(s, R1, c0) + fa * (node(s, R1, c1) - node(s, R1, c0));
-            out[ia] = volux_lut_sigma(lut, top + fb * (bot - top) + s->offset);
-        }
-    }
+/* exp(x) for x ≤ 0 without a library call or a branch, so the slice loops
+ * vectorise: 2^(x·log2 e) split into 2^n (exponent bits; n rounded to
+ * nearest by the 1.5·2²³ trick) times a degree-6 polynomial for 2^f,
+ * f ∈ [−½, ½] (relative error < 2·10⁻⁷); x below −87 is taken as −87. */
+static inline float fast_exp(float x) {
+    x = x > -87.0f ? x : -87.0f;
+    float y = x * 1.44269504f;
+    float n = (y + 12582912.0f) - 12582912.0f;
+    float f = y - n;
+    float p = 1.5353362e-4f;
+    p = p * f + 1.3398874e-3f;
+    p = p * f + 9.6180636e-3f;
+    p = p * f + 5.5503342e-2f;
+    p = p * f + 2.4022652e-1f;
+    p = p * f + 6.9314718e-1f;
+    p = p * f + 1.0f;
+    int32_t bits = ((int32_t)n + 127) << 23;
+    float scale;
+    memcpy(&scale, &bits, sizeof scale);
+    return p * scale;
 }
+
+/* The portable row loop (sweep_kernels.h). */
+#define SWEEP_ROW(NAME, T)                                                                                        \
+    static void NAME(const void *r0v, const void *r1v, int h, float fa, float fb, float offset,                    \
+                     const sweep_lut *L, int n, float *W, const float *wdt, float *sig) {                         \
+        const T *R0 = r0v, *R1 = r1v;                                                                             \
+        for (int i = 0; i < n; i++) {                                                                             \
+            int c = h * i;                                                                                        \
+            float a0 = (float)R0[c], a1 = (float)R0[c + 1], b0 = (float)R1[c], b1 = (float)R1[c + 1];             \
+            float top = a0 + fa * (a1 - a0), bot = b0 + fa * (b1 - b0);                                          \
+            float sg = sweep_lut_sigma(L, top + fb * (bot - top) + offset);                                       \
+            if (sig) sig[i] = sg;                                                                                 \
+            W[i] += wdt[i] * sg;                                                                                  \
+        }                                                                                                         \
+    }
+SWEEP_ROW(row_u8, uint8_t)
+SWEEP_ROW(row_u16, uint16_t)
+SWEEP_ROW(row_f32, float)
 
 /* Sweeps direction w (unit, towards the light) and adds weight·V at every
  * grid centre to b->acc. */
-static void sweep_direction(const volux_volume *v, const void *xt, const volux_transfer_lut *lut,
-                            const guided_grid *grid, const guided_vis_params *p, volux_vec3 w, float weight,
-                            sweep_buffers *b) {
+static void sweep_direction(const volux_volume *v, const void *xt, const sweep_lut *lut, const guided_grid *grid,
+                            const guided_vis_params *p, volux_vec3 w, float weight, sweep_buffers *b) {
     sweep_geom g;
     sweep_setup(v, w, p->ray_spacing, &g);
     slices s;
     slices_for_axis(v, xt, g.n, &s);
+    sweep_row_fn row = s.storage == VOLUX_STORE_U8 ? row_u8 : s.storage == VOLUX_STORE_U16 ? row_u16 : row_f32;
+    if (p->simd && g.h == 1) row = guided_sweep_row_avx512(s.storage);
+    size_t esize = storage_bytes(s.storage);
     size_t K = (size_t)g.Ka * (size_t)g.Kb;
     memset(b->W, 0, K * sizeof(float));
     float *ent_a = b->edges, *ext_a = ent_a + g.Ka, *ent_b = ext_a + g.Ka, *ext_b = ent_b + g.Kb;
+    float *wcol = b->cols, *wray = wcol + g.Ka;
     for (int i = 0; i < g.Ka; i++) {
         inside_depths((float)(g.h * i) + g.off_a, g.sa, s.na, &ent_a[i], &ext_a[i]);
-        ent_a[i] = fmaxf(ent_a[i], 0.0f);
-        ext_a[i] = fminf(ext_a[i], (float)(s.nn - 1));
+        ent_a[i] = maxf(ent_a[i], 0.0f);
+        ext_a[i] = minf(ext_a[i], (float)(s.nn - 1));
     }
     for (int j = 0; j < g.Kb; j++) inside_depths((float)(g.h * j) + g.off_b, g.sb, s.nb, &ent_b[j], &ext_b[j]);
     int gn = grid->cells[g.n], ga = grid->cells[g.a], gb = grid->cells[g.b];
     float cn = grid->cell_size[g.n], ca = grid->cell_size[g.a], cb = grid->cell_size[g.b];
     float tan_beta = tanf(p->filter_angle * VOLUX_PI / (float)p->dir_res);
-    float inv_h = 1.0f / (float)g.h;
+    float inv_h = 1.0f / (float)g.h, hf = (float)g.h;
     float spa = (float)v->spacing[g.a], spb = (float)v->spacing[g.b];
-    /* grid slices in sweep order: depth (planes from P_d) increasing */
-    int next = 0;
+    int next = 0; /* grid slices in sweep order: depth (planes from P_d) increasing */
     for (int k = 0; k < s.nn && next < gn; k++) {
-        int ia0, ia1, ib0, ib1;
-        plane_sigma(&s, lut, &g, k, b->sig, &ia0, &ia1, &ib0, &ib1);
+        /* does a slice of grid centres lie in the depths this plane stands for? */
+        int sl0 = g.forward ? gn - 1 - next : next;
+        float d0 = g.forward ? (float)(s.nn - 1) - guided_cell_center(grid, g.n, sl0) : guided_cell_center(grid, g.n, sl0);
+        int slice_plane = d0 <= (float)k + 0.5f || k == s.nn - 1;
+        float *sig = slice_plane ? b->sig : NULL;
+
+        /* ---- the plane: W += Δt·w·σt over the rays inside the box */
+        int plane = g.forward ? s.nn - 1 - k : k;
+        float A = g.off_a - (float)k * g.sa, B = g.off_b - (float)k * g.sb;
+        int ia0 = (int)ceilf(-A * inv_h), ia1 = (int)floorf(((float)(s.na - 1) - A) * inv_h);
+        int ib0 = (int)ceilf(-B * inv_h), ib1 = (int)floorf(((float)(s.nb - 1) - B) * inv_h);
+        if (ia0 < 0) ia0 = 0;
+        if (ib0 < 0) ib0 = 0;
+        if (ia1 > g.Ka - 1) ia1 = g.Ka - 1;
+        if (ib1 > g.Kb - 1) ib1 = g.Kb - 1;
+        float fa = A - floorf(A);
+        int ishift = (int)floorf(A);
+        /* columns whose rays all read c + 1 inside the row */
+        int ia_fast = ia1;
+        while (ia_fast >= ia0 && g.h * ia_fast + ishift + 1 > s.na - 1) ia_fast--;
+        for (int ia = ia0; ia <= ia1; ia++) {
+            float lo, hi;
+            plane_span(k, ent_a[ia], ext_a[ia], &lo, &hi);
+            wcol[ia] = g.dt * maxf(hi - lo, 0.0f);
+        }
+        for (int jb = ib0; jb <= ib1 && ia0 <= ia1; jb++) {
+            float pb = hf * (float)jb + B;
+            int r0 = (int)pb;
+            if (r0 > s.nb - 1) r0 = s.nb - 1;
+            if (r0 < 0) r0 = 0;
+            float fb = pb - (float)r0;
+            int r1 = r0 + 1 < s.nb ? r0 + 1 : r0;
+            const unsigned char *R0 = row_ptr(&s, plane, r0), *R1 = row_ptr(&s, plane, r1);
+            /* a row entering or leaving through a b-face on this plane needs
+             * per-ray weights; other rows take the columns' */
+            const float *wr = wcol;
+            if (ent_b[jb] > (float)k - 1.0f || ext_b[jb] < (float)k + 1.0f) {
+                for (int ia = ia0; ia <= ia1; ia++) {
+                    float lo, hi;
+                    plane_span(k, maxf(ent_a[ia], ent_b[jb]), minf(ext_a[ia], ext_b[jb]), &lo, &hi);
+                    wray[ia] = g.dt * maxf(hi - lo, 0.0f);
+                }
+                wr = wray;
+            }
+            size_t o = (size_t)jb * (size_t)g.Ka;
+            int c0 = g.h * ia0 + ishift;
+            if (ia_fast >= ia0)
+                row(R0 + (size_t)c0 * esize, R1 + (size_t)c0 * esize, g.h, fa, fb, s.offset, lut, ia_fast - ia0 + 1,
+                    b->W + o + ia0, wr + ia0, sig ? sig + o + ia0 : NULL);
+            for (int ia = ia_fast + 1; ia <= ia1; ia++) { /* the last column: its c + 1 is the row's end */
+                int c = g.h * ia + ishift;
+                if (c > s.na - 1) c = s.na - 1;
+                float top = node(&s, R0, c), bot = node(&s, R1, c);
+                float sg = sweep_lut_sigma(lut, top + fb * (bot - top) + s.offset);
+                if (sig) sig[o + ia] = sg;
+                b->W[o + ia] += wr[ia] * sg;
+            }
+        }
+        if (!slice_plane) continue;
+
+        /* ---- the slices of grid centres in this plane's depths */
         for (; next < gn; next++) {
             int sl = g.forward ? gn - 1 - next : next;
             float zc = guided_cell_center(grid, g.n, sl);
             float depth = g.forward ? (float)(s.nn - 1) - zc : zc;
             if (depth > (float)k + 0.5f && k < s.nn - 1) break;
             /* kernel coordinates of the slice's centres */
-            float A = g.off_a - depth * g.sa, B = g.off_b - depth * g.sb;
-            float ka_lo = (0.5f * ca - A) * inv_h, ka_hi = ((float)(ga - 0.5f) * ca - A) * inv_h;
-            float kb_lo = (0.5f * cb - B) * inv_h, kb_hi = ((float)(gb - 0.5f) * cb - B) * inv_h;
+            float As = g.off_a - depth * g.sa, Bs = g.off_b - depth * g.sb;
+            float ka_lo = (0.5f * ca - As) * inv_h, ka_hi = (((float)ga - 0.5f) * ca - As) * inv_h;
+            float kb_lo = (0.5f * cb - Bs) * inv_h, kb_hi = (((float)gb - 0.5f) * cb - Bs) * inv_h;
             int ra = 0, rb = 0;
             if (p->filter) {
                 float t = depth * g.dt; /* world distance from P_d */
@@ -309,43 +411,51 @@ static void sweep_direction(const volux_volume *v, const void *xt, const volux_t
             if (wb0 < 0) wb0 = 0;
             if (wa1 > g.Ka - 1) wa1 = g.Ka - 1;
             if (wb1 > g.Kb - 1) wb1 = g.Kb - 1;
-            /* V on the window at this depth */
+            /* V on the window at this depth: W now holds plane k's whole
+             * span; take back the part beyond the slice (per column for
+             * rows that neither enter nor leave on this plane, per ray for
+             * those that do) */
+            int ta0 = wa0 > ia0 ? wa0 : ia0, ta1 = wa1 < ia1 ? wa1 : ia1;
+            for (int ia = ta0; ia <= ta1; ia++) {
+                float lo, hi;
+                plane_span(k, ent_a[ia], ext_a[ia], &lo, &hi);
+                float span = maxf(hi - lo, 0.0f), part = minf(maxf(depth - lo, 0.0f), span);
+                wcol[ia] = (span - part) * g.dt;
+            }
             for (int jb = wb0; jb <= wb1; jb++) {
                 const float *Wr = b->W + (size_t)jb * (size_t)g.Ka, *Sr = b->sig + (size_t)jb * (size_t)g.Ka;
                 float *Tr = b->T + (size_t)jb * (size_t)g.Ka;
-                int inside = jb >= ib0 && jb <= ib1;
-                for (int ia = wa0; ia <= wa1; ia++) {
-                    float tau = Wr[ia];
-                    if (inside && ia >= ia0 && ia <= ia1) {
-                        float lo, hi;
-                        plane_span(k, fmaxf(ent_a[ia], ent_b[jb]), fminf(ext_a[ia], ext_b[jb]), &lo, &hi);
-                        float part = fminf(fmaxf(depth - lo, 0.0f), hi - lo);
-                        tau += part * g.dt * Sr[ia];
+                for (int ia = wa0; ia <= wa1; ia++) Tr[ia] = Wr[ia];
+                if (jb >= ib0 && jb <= ib1) {
+                    if (ent_b[jb] > (float)k - 1.0f || ext_b[jb] < (float)k + 1.0f) {
+                        for (int ia = ta0; ia <= ta1; ia++) {
+                            float lo, hi;
+                            plane_span(k, maxf(ent_a[ia], ent_b[jb]), minf(ext_a[ia], ext_b[jb]), &lo, &hi);
+                            float span = maxf(hi - lo, 0.0f), part = minf(maxf(depth - lo, 0.0f), span);
+                            Tr[ia] -= (span - part) * g.dt * Sr[ia];
+                        }
+                    } else {
+                        for (int ia = ta0; ia <= ta1; ia++) Tr[ia] -= wcol[ia] * Sr[ia];
                     }
-                    Tr[ia] = expf(-tau);
                 }
+                for (int ia = wa0; ia <= wa1; ia++) Tr[ia] = fast_exp(-Tr[ia]);
             }
             if (p->filter && (ra > 0 || rb > 0)) {
-                int na_w = wa1 - wa0 + 1;
-                for (int jb = wb0; jb <= wb1; jb++) {
-                    size_t o = (size_t)jb * (size_t)g.Ka + (size_t)wa0;
-                    box_1d(b->T + o, b->tmp + o, na_w, 1, ra);
-                }
-                for (int ia = wa0; ia <= wa1; ia++) {
-                    size_t o = (size_t)wb0 * (size_t)g.Ka + (size_t)ia;
-                    box_1d(b->tmp + o, b->T + o, wb1 - wb0 + 1, (size_t)g.Ka, rb);
-                }
+                size_t o = (size_t)wb0 * (size_t)g.Ka + (size_t)wa0;
+                int na_w = wa1 - wa0 + 1, nb_w = wb1 - wb0 + 1;
+                box_rows(b->T + o, b->tmp + o, nb_w, na_w, (size_t)g.Ka, ra, wray);
+                box_cols(b->tmp + o, b->T + o, nb_w, na_w, (size_t)g.Ka, rb, wray);
             }
             /* bilinear lookup at the projected centres (Fig. 4d) */
             for (int jb = 0; jb < gb; jb++) {
-                float kb = (((float)jb + 0.5f) * cb - B) * inv_h;
+                float kb = (((float)jb + 0.5f) * cb - Bs) * inv_h;
                 int y0 = (int)floorf(kb);
                 float fy = kb - (float)y0;
                 if (y0 < wb0) y0 = wb0, fy = 0.0f;
                 if (y0 > wb1) y0 = wb1, fy = 0.0f;
                 int y1 = y0 + 1 <= wb1 ? y0 + 1 : y0;
                 for (int ja = 0; ja < ga; ja++) {
-                    float ka = (((float)ja + 0.5f) * ca - A) * inv_h;
+                    float ka = (((float)ja + 0.5f) * ca - As) * inv_h;
                     int x0 = (int)floorf(ka);
                     float fx = ka - (float)x0;
                     if (x0 < wa0) x0 = wa0, fx = 0.0f;
@@ -359,17 +469,6 @@ static void sweep_direction(const volux_volume *v, const void *xt, const volux_t
                                   (size_t)c[0];
                     b->acc[cell] += weight * (top + fy * (bot - top));
                 }
-            }
-        }
-        /* W += Δt·σ over the depths plane k stands for */
-        for (int jb = ib0; jb <= ib1 && ia0 <= ia1; jb++) {
-            float *Wr = b->W + (size_t)jb * (size_t)g.Ka;
-            const float *Sr = b->sig + (size_t)jb * (size_t)g.Ka;
-            float eb = ent_b[jb], xb = ext_b[jb];
-            for (int ia = ia0; ia <= ia1; ia++) {
-                float lo, hi;
-                plane_span(k, fmaxf(ent_a[ia], eb), fminf(ext_a[ia], xb), &lo, &hi);
-                Wr[ia] += g.dt * fmaxf(hi - lo, 0.0f) * Sr[ia];
             }
         }
     }
@@ -410,6 +509,7 @@ typedef struct job {
     const volux_volume *v;
     const void *xt;
     const volux_transfer_lut *lut;
+    sweep_lut slut; /* the LUT's σt padded by one node */
     const guided_vis_params *p;
     const int *dirs;
     size_t ncells, K, side; /* grid cells, largest kernel Ka·Kb and Ka or Kb */
@@ -419,17 +519,17 @@ typedef struct job {
 static void do_direction(void *user, int64_t index, int thread) {
     job *J = user;
     const guided_vis_params *p = J->p;
-    size_t per = 4 * J->K + J->ncells + 4 * J->side;
+    size_t per = 4 * J->K + J->ncells + 7 * J->side + 1;
     float *base = J->scratch + (size_t)thread * per;
     sweep_buffers b = {base, base + J->K, base + 2 * J->K, base + 3 * J->K, base + 4 * J->K,
-                       base + 4 * J->K + J->ncells};
+                       base + 4 * J->K + J->ncells, base + 4 * J->K + J->ncells + 4 * J->side};
     memset(b.acc, 0, J->ncells * sizeof(float));
     int d = J->dirs[index], s = p->oversample;
     float weight = 1.0f / (float)(s * s);
     for (int sv = 0; sv < s; sv++)
         for (int su = 0; su < s; su++) {
             volux_vec3 w = guided_direction(p->dir_res, d, s, su, sv);
-            if (p->sweep) sweep_direction(J->v, J->xt, J->lut, J->g, p, w, weight, &b);
+            if (p->sweep) sweep_direction(J->v, J->xt, &J->slut, J->g, p, w, weight, &b);
             else brute_direction(J->v, J->lut, J->g, w, weight, b.acc);
         }
     int D = J->g->dirs;
@@ -461,13 +561,26 @@ volux_status guided_compute_directions(volux_context *ctx, int threads, guided_g
     if (n_dirs <= 0) return VOLUX_OK;
     if (threads < 1) threads = 1;
     if (threads > n_dirs) threads = n_dirs;
-    job J = {g, v, NULL, lut, p, dirs, (size_t)g->cells[0] * (size_t)g->cells[1] * (size_t)g->cells[2], 0, 0, NULL};
+    job J = {g, v, NULL, lut, {NULL, 0, 0, 0}, p, dirs, (size_t)g->cells[0] * (size_t)g->cells[1] * (size_t)g->cells[2],
+             0, 0, NULL};
     J.K = p->sweep ? max_kernel(v, p->ray_spacing, &J.side) : 0;
-    size_t per = 4 * J.K + J.ncells + 4 * J.side, bytes;
+    size_t per = 4 * J.K + J.ncells + 7 * J.side + 1, bytes;
     if (!volux_mul_size(per, (size_t)threads * sizeof(float), &bytes))
         return volux_error(ctx, VOLUX_ERR_LIMIT, "techniques.guided: sweep buffers too large");
+    size_t lut_bytes = sizeof(float) * (size_t)(lut->n + 1);
+    float *pad = volux_malloc(ctx, lut_bytes);
+    if (!pad) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for sweep buffers");
+    memcpy(pad, lut->sigma_t, sizeof(float) * (size_t)lut->n);
+    pad[lut->n] = lut->sigma_t[lut->n - 1];
+    J.slut.t = pad;
+    J.slut.s_min = lut->s_min;
+    J.slut.inv_ds = lut->inv_ds;
+    J.slut.last = (float)(lut->n - 1);
     J.scratch = volux_alloc_aligned(ctx, bytes);
-    if (!J.scratch) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory (%zu bytes) for sweep buffers", bytes);
+    if (!J.scratch) {
+        volux_free(ctx, pad, lut_bytes);
+        return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory (%zu bytes) for sweep buffers", bytes);
+    }
     size_t xt_bytes = 0;
     void *xt = NULL;
     if (p->sweep) {
@@ -481,6 +594,7 @@ volux_status guided_compute_directions(volux_context *ctx, int threads, guided_g
                 }
         if (need_x && !(xt = transpose_x(ctx, v, &xt_bytes))) {
             volux_free_aligned(ctx, J.scratch, bytes);
+            volux_free(ctx, pad, lut_bytes);
             return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for a transposed volume copy");
         }
     }
@@ -488,5 +602,6 @@ volux_status guided_compute_directions(volux_context *ctx, int threads, guided_g
     volux_parallel_for(threads, n_dirs, do_direction, &J);
     if (xt) volux_free_aligned(ctx, xt, xt_bytes);
     volux_free_aligned(ctx, J.scratch, bytes);
+    volux_free(ctx, pad, lut_bytes);
     return VOLUX_OK;
 }
