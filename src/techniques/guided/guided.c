@@ -9,6 +9,9 @@
  *                                shape changes)
  *   environment lights         → the environment quadtree (the product with
  *                                V is formed per scattering event)
+ *   strategy uniform/environment → no visibility work at all (the grid is
+ *                                refreshed when a strategy that reads it is
+ *                                chosen)
  *   other lights, camera, colour, phase, render settings → nothing
  * The estimator reads the base (albedo, g, lights, camera, majorants).
  */
@@ -256,7 +259,11 @@ static volux_status guided_update(void *state, const volux_scene *scene, const v
     guided_vis_params sched = st->vis;
     if (!seq) sched.lazy = GUIDED_LAZY_OFF;
     s = guided_lazy_sources(ctx, &sched, st->grid.dirs, &st->env, LAZY_SEED, volux_scene_time_step(scene), want);
-    if (!s) s = refresh(st, scene, want);
+    /* uniform and environment sampling never read the grid: leave it
+     * stale (it is brought up to date when a strategy that reads it is
+     * chosen) */
+    int needed = st->strategy != GUIDED_UNIFORM && st->strategy != GUIDED_ENVIRONMENT;
+    if (!s && needed) s = refresh(st, scene, want);
     volux_free(ctx, want, want_bytes);
     return s;
 }
