@@ -45,7 +45,7 @@ extern "C" {
 typedef enum volux_change {
     VOLUX_CHANGE_VOLUME = 1u << 0,     /* volume / time step              */
     VOLUX_CHANGE_EXTINCTION = 1u << 1, /* opacity/extinction curve, unit  */
-    VOLUX_CHANGE_COLOR = 1u << 2,      /* colour curve, albedo, material  */
+    VOLUX_CHANGE_COLOR = 1u << 2,      /* colour curve, albedo, materials */
     VOLUX_CHANGE_DENSITY = 1u << 3,    /* global density scale only       */
     VOLUX_CHANGE_PHASE = 1u << 4,      /* HG anisotropy                   */
     VOLUX_CHANGE_LIGHTS = 1u << 5,     /* some light: see lights bitset   */
@@ -124,7 +124,8 @@ VOLUX_API int volux_scene_time_steps(const volux_scene *s); /* 1 for a single vo
 VOLUX_API volux_sequence *volux_scene_sequence(const volux_scene *s);
 /* Copies d (and its points). Compares with the current TF and bumps only
  * what changed: EXTINCTION (opacity/extinction curve, unit distance),
- * DENSITY, COLOR (colour curve, albedo, Blinn–Phong material), PHASE. */
+ * DENSITY, COLOR (colour curve, albedo, Blinn–Phong material, material
+ * channel), PHASE. */
 VOLUX_API volux_status volux_scene_set_transfer(volux_scene *s, const volux_transfer_desc *d);
 /* The current description; its arrays are owned by the scene. */
 VOLUX_API const volux_transfer_desc *volux_scene_transfer(const volux_scene *s);

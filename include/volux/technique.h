@@ -75,6 +75,15 @@ VOLUX_API volux_status volux_technique_create(volux_context *ctx, const char *na
  * until an update succeeds (volux_render retries it). */
 VOLUX_API volux_status volux_technique_update(volux_technique *t, const volux_scene *scene,
                                               volux_change_set *changed);
+/* Does the next step of work a progressive technique deferred after an
+ * update (`sh` with techniques.sh.progressive: the coarse projection a TF
+ * edit shows first is replaced by the full one). Brings the instance up
+ * to date first. *refined (may be NULL) is 1 when this call changed the
+ * instance (a framebuffer then restarts at the next render), *more (may
+ * be NULL) while steps remain. A technique that defers nothing returns
+ * VOLUX_OK with both 0. */
+VOLUX_API volux_status volux_technique_refine(volux_technique *t, const volux_scene *scene, int *refined,
+                                              int *more);
 /* 1 if the instance is up to date with the scene (nothing to update). */
 VOLUX_API int volux_technique_is_current(const volux_technique *t, const volux_scene *scene);
 VOLUX_API const volux_technique_info *volux_technique_info_of(const volux_technique *t);

@@ -40,6 +40,43 @@ typedef struct volux_material {
     float ambient, diffuse, specular, specular_power;
 } volux_material;
 
+/* The material channel (read by `sh`): the reflectance or phase function
+ * of the scalars in [s0, s1] (file units, inclusive; the first range that
+ * contains a scalar wins, scalars in no range keep the TF's own phase
+ * function). BRDFs act where the field looks like a surface (its gradient),
+ * phase functions everywhere (Lindemann & Ropinski 2010, §4.3). */
+typedef enum volux_material_kind {
+    VOLUX_MATERIAL_PHASE,             /* Henyey–Greenstein, anisotropy g     */
+    VOLUX_MATERIAL_LAMBERT,           /* diffuse                             */
+    VOLUX_MATERIAL_BLINN_PHONG,       /* normalised Blinn–Phong lobe         */
+    VOLUX_MATERIAL_ASHIKHMIN_SHIRLEY, /* Ashikhmin & Shirley 2000, isotropic */
+    VOLUX_MATERIAL_COOK_TORRANCE,     /* Beckmann, Schlick Fresnel           */
+    VOLUX_MATERIAL_MERL               /* measured (Matusik et al. 2003)      */
+} volux_material_kind;
+
+#define VOLUX_TF_MAX_MATERIALS 16
+#define VOLUX_MATERIAL_PATH_MAX 1024
+
+typedef struct volux_tf_material {
+    float s0, s1;           /* scalar range, s0 <= s1                       */
+    volux_material_kind kind;
+    float g;                /* phase: HG anisotropy in (−1, 1)              */
+    float diffuse;          /* BRDFs: diffuse weight kd (× TF colour)      */
+    float specular;         /* BRDFs: specular weight ks (white)           */
+    float shininess;        /* Blinn–Phong, Ashikhmin–Shirley exponent     */
+    float roughness;        /* Cook–Torrance RMS slope m in (0, 1]         */
+    float f0;               /* Fresnel reflectance at normal incidence     */
+    char file[VOLUX_MATERIAL_PATH_MAX]; /* MERL: the .binary file          */
+} volux_tf_material;
+
+/* Defaults for a kind: range [0, 0], g 0, kd 0.7, ks 0.3, shininess 32,
+ * roughness 0.3, f0 0.04, no file. */
+VOLUX_API void volux_tf_material_defaults(volux_tf_material *m, volux_material_kind kind);
+/* "phase", "lambert", "blinn_phong", "ashikhmin_shirley", "cook_torrance", "merl". */
+VOLUX_API const char *volux_material_kind_name(volux_material_kind k);
+/* 1 if a and b describe the same material. */
+VOLUX_API int volux_tf_material_equal(const volux_tf_material *a, const volux_tf_material *b);
+
 typedef struct volux_transfer_desc {
     const volux_tf_color_point *color; /* borrowed; sorted by s          */
     int n_color;                       /* 0 = white                       */
@@ -51,14 +88,18 @@ typedef struct volux_transfer_desc {
     float albedo;                      /* in [0,1]                        */
     float anisotropy;                  /* HG g in (−1,1)                  */
     volux_material material;
+    const volux_tf_material *materials; /* borrowed; the material channel */
+    int n_materials;                   /* 0..VOLUX_TF_MAX_MATERIALS      */
 } volux_transfer_desc;
 
 /* Fills the defaults: white, density_scale 1, albedo 0.9 (DESIGN §3 example),
- * anisotropy 0, material (0.2, 0.7, 0.3, 30) as in the peers' TFs. */
+ * anisotropy 0, material (0.2, 0.7, 0.3, 30) as in the peers' TFs, no
+ * material channel. */
 VOLUX_API void volux_transfer_desc_defaults(volux_transfer_desc *d);
 
 /* Validates a description: point counts, sorted s, finite values, α in
- * [0,1], σt ≥ 0, colours in [0,1], albedo in [0,1], |g| < 1. On failure sets
+ * [0,1], σt ≥ 0, colours in [0,1], albedo in [0,1], |g| < 1, the material
+ * channel's ranges and parameters. On failure sets
  * a message naming the field (e.g. "opacity[3]: s must not decrease"). */
 VOLUX_API volux_status volux_transfer_desc_validate(volux_context *ctx, const volux_transfer_desc *d);
 

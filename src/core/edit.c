@@ -105,6 +105,60 @@ static volux_status edit_light_add(volux_scene *s, int k) {
     return volux_scene_set_light(s, slot + 1, &d);
 }
 
+/* Scales the first light's colour by (1, 0.8, 0.6) (even k) and back (odd
+ * k): a colour-and-intensity change with the same position/direction. */
+static volux_status edit_light_color(volux_scene *s, int k) {
+    int slot = first_light(s);
+    if (slot < 0) return VOLUX_ERR_UNSUPPORTED;
+    volux_light_desc d = *volux_scene_light(s, slot);
+    const float f[3] = {1.0f, 0.8f, 0.6f};
+    d.color.y = (k & 1) ? d.color.y / f[1] : d.color.y * f[1];
+    d.color.z = (k & 1) ? d.color.z / f[2] : d.color.z * f[2];
+    return volux_scene_set_light(s, slot, &d);
+}
+
+/* Turns the first environment light by ±10° about +Y (rotation_y). */
+static volux_status edit_light_rotate_env(volux_scene *s, int k) {
+    for (int i = 0; i < volux_scene_light_slots(s); i++) {
+        const volux_light_desc *l = volux_scene_light(s, i);
+        if (!l || l->type != VOLUX_LIGHT_ENVIRONMENT) continue;
+        volux_light_desc d = *l;
+        d.rotation_y_deg += (k & 1) ? -10.0f : 10.0f;
+        return volux_scene_set_light(s, i, &d);
+    }
+    return VOLUX_ERR_UNSUPPORTED;
+}
+
+/* ------------------------------------------------------------------ material channel */
+
+/* Appends a Blinn–Phong material over the upper half of the volume's value
+ * range to the TF's material channel (even k), removes the last material
+ * again (odd k). */
+static volux_status edit_material(volux_scene *s, int k) {
+    const volux_transfer_desc *cur = volux_scene_transfer(s);
+    const volux_volume *v = volux_scene_volume(s);
+    if (!v) return VOLUX_ERR_UNSUPPORTED;
+    volux_tf_material mats[VOLUX_TF_MAX_MATERIALS];
+    int n = cur->n_materials;
+    if (n) memcpy(mats, cur->materials, sizeof *mats * (size_t)n);
+    if (k & 1) {
+        if (n == 0) return VOLUX_ERR_UNSUPPORTED;
+        n--;
+    } else {
+        if (n == VOLUX_TF_MAX_MATERIALS) return VOLUX_ERR_UNSUPPORTED;
+        double lo, hi;
+        volux_volume_range(v, &lo, &hi);
+        volux_tf_material_defaults(&mats[n], VOLUX_MATERIAL_BLINN_PHONG);
+        mats[n].s0 = (float)(0.5 * (lo + hi));
+        mats[n].s1 = (float)hi;
+        n++;
+    }
+    volux_transfer_desc d = *cur;
+    d.materials = n ? mats : NULL;
+    d.n_materials = n;
+    return volux_scene_set_transfer(s, &d);
+}
+
 /* ------------------------------------------------------------------ camera, render, volume */
 
 static volux_status edit_camera(volux_scene *s, int k) {
@@ -188,6 +242,14 @@ static const volux_edit edits[] = {
     {"light_last", "rotate the last light by 10 degrees about +Y", VOLUX_CHANGE_LIGHTS, NULL, 1, edit_light_last},
     {"light_toggle", "switch the first light off/on", VOLUX_CHANGE_LIGHTS, NULL, 1, edit_light_toggle},
     {"light_add", "add a point light after the last one / remove it", VOLUX_CHANGE_LIGHTS, NULL, 1, edit_light_add},
+    {"light_color", "scale the first light's green and blue by 0.8 and 0.6 (colour and intensity)",
+     VOLUX_CHANGE_LIGHTS, NULL, 1, edit_light_color},
+    /* invisible for a constant environment (the test matrix's): no claim */
+    {"light_rotate_env", "turn the first environment light by 10 degrees about +Y", VOLUX_CHANGE_LIGHTS, NULL, 0,
+     edit_light_rotate_env},
+    /* only `sh` reads the material channel: no claim for the others */
+    {"material", "add a Blinn-Phong material over the upper half of the values / remove it", VOLUX_CHANGE_COLOR,
+     NULL, 0, edit_material},
     {"camera", "orbit the camera by 5 degrees", VOLUX_CHANGE_CAMERA, NULL, 1, edit_camera},
     {"background", "change the background colour", VOLUX_CHANGE_RENDER, NULL, 1, edit_background},
     {"step", "scale the ray-march step (render.step)", VOLUX_CHANGE_RENDER, NULL, 0, edit_step},

@@ -33,6 +33,7 @@ struct volux_scene {
     volux_transfer_desc tf;
     volux_tf_color_point *color;
     volux_tf_scalar_point *opacity;
+    volux_tf_material *materials;
     volux_transfer_lut lut; /* baked by the setters of the volume and the TF */
     volux_camera_desc camera;
     light_slot lights[VOLUX_MAX_LIGHTS];
@@ -85,8 +86,10 @@ volux_status volux_scene_create(volux_context *ctx, volux_scene **out) {
 static void free_tf_arrays(volux_scene *s) {
     volux_free(s->ctx, s->color, sizeof *s->color * (size_t)s->tf.n_color);
     volux_free(s->ctx, s->opacity, sizeof *s->opacity * (size_t)s->tf.n_opacity);
+    volux_free(s->ctx, s->materials, sizeof *s->materials * (size_t)s->tf.n_materials);
     s->color = NULL;
     s->opacity = NULL;
+    s->materials = NULL;
 }
 
 void volux_scene_destroy(volux_scene *s) {
@@ -187,6 +190,12 @@ volux_sequence *volux_scene_sequence(const volux_scene *s) { return s->seq; }
 static int same_scalar_points(const volux_tf_scalar_point *a, int na, const volux_tf_scalar_point *b, int nb) {
     return na == nb && (na == 0 || memcmp(a, b, sizeof *a * (size_t)na) == 0);
 }
+static int same_materials(const volux_tf_material *a, int na, const volux_tf_material *b, int nb) {
+    if (na != nb) return 0;
+    for (int i = 0; i < na; i++)
+        if (!volux_tf_material_equal(&a[i], &b[i])) return 0;
+    return 1;
+}
 static int same_color_points(const volux_tf_color_point *a, int na, const volux_tf_color_point *b, int nb) {
     return na == nb && (na == 0 || memcmp(a, b, sizeof *a * (size_t)na) == 0);
 }
@@ -195,15 +204,19 @@ volux_status volux_scene_set_transfer(volux_scene *s, const volux_transfer_desc 
     volux_status st = volux_transfer_desc_validate(s->ctx, d);
     if (st) return st;
     volux_tf_color_point *color = NULL;
+    volux_tf_material *materials = NULL;
     volux_tf_scalar_point *opacity = volux_malloc(s->ctx, sizeof *opacity * (size_t)d->n_opacity);
     if (d->n_color > 0) color = volux_malloc(s->ctx, sizeof *color * (size_t)d->n_color);
-    if (!opacity || (d->n_color > 0 && !color)) {
+    if (d->n_materials > 0) materials = volux_malloc(s->ctx, sizeof *materials * (size_t)d->n_materials);
+    if (!opacity || (d->n_color > 0 && !color) || (d->n_materials > 0 && !materials)) {
         volux_free(s->ctx, opacity, sizeof *opacity * (size_t)d->n_opacity);
         volux_free(s->ctx, color, sizeof *color * (size_t)d->n_color);
+        volux_free(s->ctx, materials, sizeof *materials * (size_t)d->n_materials);
         return volux_error(s->ctx, VOLUX_ERR_NOMEM, "out of memory for transfer function points");
     }
     memcpy(opacity, d->opacity, sizeof *opacity * (size_t)d->n_opacity);
     if (d->n_color > 0) memcpy(color, d->color, sizeof *color * (size_t)d->n_color);
+    if (d->n_materials > 0) memcpy(materials, d->materials, sizeof *materials * (size_t)d->n_materials);
 
     /* Classify the edit before replacing anything (gage-style diff). */
     const volux_transfer_desc *o = &s->tf;
@@ -212,7 +225,9 @@ volux_status volux_scene_set_transfer(volux_scene *s, const volux_transfer_desc 
                      o->extinction != d->extinction || o->opacity_unit_distance != d->opacity_unit_distance;
     int density = first || o->density_scale != d->density_scale;
     int colors = first || !same_color_points(o->color, o->n_color, d->color, d->n_color);
-    int appearance = colors || o->albedo != d->albedo || memcmp(&o->material, &d->material, sizeof o->material) != 0;
+    int appearance = colors || o->albedo != d->albedo ||
+                     memcmp(&o->material, &d->material, sizeof o->material) != 0 ||
+                     !same_materials(o->materials, o->n_materials, d->materials, d->n_materials);
     int phase = first || o->anisotropy != d->anisotropy;
     /* The LUT holds σt and the colour curve (not albedo, material or g). */
     if (s->volume && (extinction || density || colors)) {
@@ -220,6 +235,7 @@ volux_status volux_scene_set_transfer(volux_scene *s, const volux_transfer_desc 
         if ((st = bake(s, s->volume, d, &lut))) {
             volux_free(s->ctx, opacity, sizeof *opacity * (size_t)d->n_opacity);
             volux_free(s->ctx, color, sizeof *color * (size_t)d->n_color);
+            volux_free(s->ctx, materials, sizeof *materials * (size_t)d->n_materials);
             return st;
         }
         replace_lut(s, &lut);
@@ -233,8 +249,10 @@ volux_status volux_scene_set_transfer(volux_scene *s, const volux_transfer_desc 
     s->tf = *d;
     s->color = color;
     s->opacity = opacity;
+    s->materials = materials;
     s->tf.color = color;
     s->tf.opacity = opacity;
+    s->tf.materials = materials;
     return VOLUX_OK;
 }
 

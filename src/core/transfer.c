@@ -53,12 +53,52 @@ volux_status volux_transfer_desc_validate(volux_context *ctx, const volux_transf
     if (!(d->anisotropy > -1.0f && d->anisotropy < 1.0f))
         return volux_error(ctx, VOLUX_ERR_INVALID, "transfer_function.anisotropy: must be in (-1, 1), got %g",
                            d->anisotropy);
+    if (d->n_materials < 0 || d->n_materials > VOLUX_TF_MAX_MATERIALS || (d->n_materials && !d->materials))
+        return volux_error(ctx, VOLUX_ERR_INVALID, "transfer_function.materials: needs 0..%d entries, got %d",
+                           VOLUX_TF_MAX_MATERIALS, d->n_materials);
+    for (int i = 0; i < d->n_materials; i++) {
+        const volux_tf_material *t = &d->materials[i];
+        const char *why = NULL;
+        if (!isfinite(t->s0) || !isfinite(t->s1) || t->s0 > t->s1) why = "range must be finite with s0 <= s1";
+        else if ((unsigned)t->kind > VOLUX_MATERIAL_MERL) why = "unknown type";
+        else if (!(t->g > -1.0f && t->g < 1.0f)) why = "anisotropy must be in (-1, 1)";
+        else if (!(t->diffuse >= 0.0f && t->diffuse <= 1.0f) || !(t->specular >= 0.0f && t->specular <= 1.0f))
+            why = "diffuse and specular must be in [0, 1]";
+        else if (!(t->shininess >= 0.0f && t->shininess <= 1e4f)) why = "shininess must be in [0, 10000]";
+        else if (!(t->roughness > 0.0f && t->roughness <= 1.0f)) why = "roughness must be in (0, 1]";
+        else if (!(t->f0 >= 0.0f && t->f0 <= 1.0f)) why = "f0 must be in [0, 1]";
+        else if (t->kind == VOLUX_MATERIAL_MERL && (!t->file[0] || !memchr(t->file, 0, sizeof t->file)))
+            why = "a merl material needs a file";
+        if (why) return volux_error(ctx, VOLUX_ERR_INVALID, "transfer_function.materials[%d]: %s", i, why);
+    }
     const volux_material *m = &d->material;
     if (!(m->ambient >= 0 && m->diffuse >= 0 && m->specular >= 0 && m->specular_power >= 0) ||
         !isfinite(m->ambient + m->diffuse + m->specular + m->specular_power))
         return volux_error(ctx, VOLUX_ERR_INVALID,
                            "transfer_function: ambient, diffuse, specular and specular_power must be >= 0");
     return VOLUX_OK;
+}
+
+void volux_tf_material_defaults(volux_tf_material *m, volux_material_kind kind) {
+    memset(m, 0, sizeof *m);
+    m->kind = kind;
+    m->diffuse = 0.7f;
+    m->specular = 0.3f;
+    m->shininess = 32.0f;
+    m->roughness = 0.3f;
+    m->f0 = 0.04f;
+}
+
+const char *volux_material_kind_name(volux_material_kind k) {
+    static const char *const names[] = {"phase", "lambert", "blinn_phong", "ashikhmin_shirley", "cook_torrance",
+                                        "merl"};
+    return (unsigned)k <= VOLUX_MATERIAL_MERL ? names[k] : "unknown";
+}
+
+int volux_tf_material_equal(const volux_tf_material *a, const volux_tf_material *b) {
+    return a->s0 == b->s0 && a->s1 == b->s1 && a->kind == b->kind && a->g == b->g && a->diffuse == b->diffuse &&
+           a->specular == b->specular && a->shininess == b->shininess && a->roughness == b->roughness &&
+           a->f0 == b->f0 && strncmp(a->file, b->file, sizeof a->file) == 0;
 }
 
 /* Index of the segment containing s: largest i with p[i].s <= s. */

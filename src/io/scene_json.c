@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "json_reader.h"
+#include "merl.h"
 #include "scene_formats.h"
 
 #define BIG 1e30
@@ -323,12 +324,88 @@ static volux_status read_transfer(scene_reader *sr, const cJSON *obj) {
     return read_tf_object(sr, obj, sr->base_dir);
 }
 
+/* transfer_function.materials: the material channel (volux_tf_material).
+ * Keys per type, so a parameter the type does not have is an error. A MERL
+ * file is resolved against the TF's folder and read once here, so a bad
+ * file fails the load with its path. */
+static volux_status read_materials(scene_reader *sr, const cJSON *obj, const char *tf_dir, volux_tf_material *out,
+                                   int *count) {
+    volux_json_reader *r = &sr->json;
+    const cJSON *arr = cJSON_GetObjectItemCaseSensitive(obj, "materials");
+    *count = 0;
+    if (!arr) return VOLUX_OK;
+    if (!cJSON_IsArray(arr) || cJSON_GetArraySize(arr) > VOLUX_TF_MAX_MATERIALS)
+        return volux_json_error(r, VOLUX_ERR_INVALID, "transfer_function.materials", "expected an array of at most %d objects",
+                                VOLUX_TF_MAX_MATERIALS);
+    static const char *const phase[] = {"range", "type", "anisotropy", "comment", NULL};
+    static const char *const lambert[] = {"range", "type", "diffuse", "comment", NULL};
+    static const char *const blinn[] = {"range", "type", "diffuse", "specular", "shininess", "comment", NULL};
+    static const char *const ashikhmin[] = {"range", "type", "diffuse", "specular", "shininess", "f0", "comment", NULL};
+    static const char *const cook[] = {"range", "type", "diffuse", "specular", "roughness", "f0", "comment", NULL};
+    static const char *const merl[] = {"range", "type", "file", "comment", NULL};
+    static const char *const *const keys[] = {phase, lambert, blinn, ashikhmin, cook, merl};
+    int i = 0;
+    for (const cJSON *m = arr->child; m; m = m->next, i++) {
+        char P[48];
+        snprintf(P, sizeof P, "transfer_function.materials[%d]", i);
+        if (!cJSON_IsObject(m)) return volux_json_error(r, VOLUX_ERR_INVALID, P, "expected an object");
+        const char *type = NULL;
+        volux_status st = volux_json_string(r, m, P, "type", &type);
+        if (st) return st;
+        int kind = -1;
+        for (int k = 0; type && k <= VOLUX_MATERIAL_MERL; k++)
+            if (!strcmp(type, volux_material_kind_name((volux_material_kind)k))) kind = k;
+        if (kind < 0)
+            return volux_json_error(r, VOLUX_ERR_INVALID, P,
+                                    "type must be one of phase, lambert, blinn_phong, ashikhmin_shirley, "
+                                    "cook_torrance, merl");
+        if ((st = volux_json_check_keys(r, m, P, keys[kind]))) return st;
+        volux_tf_material *t = &out[i];
+        volux_tf_material_defaults(t, (volux_material_kind)kind);
+        const cJSON *range = cJSON_GetObjectItemCaseSensitive(m, "range");
+        int ok = cJSON_IsArray(range) && cJSON_GetArraySize(range) == 2 && cJSON_IsNumber(range->child) &&
+                 cJSON_IsNumber(range->child->next);
+        if (ok) {
+            double a = range->child->valuedouble, b = range->child->next->valuedouble;
+            ok = isfinite(a) && isfinite(b) && fabs(a) <= 1e30 && fabs(b) <= 1e30 && a <= b;
+            t->s0 = (float)a, t->s1 = (float)b;
+        }
+        if (!ok) {
+            char q[64];
+            snprintf(q, sizeof q, "%s.range", P);
+            return volux_json_error(r, VOLUX_ERR_INVALID, q, "expected [s0, s1] with s0 <= s1 (file units)");
+        }
+        const char *file = NULL;
+        if ((st = volux_json_float(r, m, P, "anisotropy", -0.999, 0.999, &t->g)) ||
+            (st = volux_json_float(r, m, P, "diffuse", 0, 1, &t->diffuse)) ||
+            (st = volux_json_float(r, m, P, "specular", 0, 1, &t->specular)) ||
+            (st = volux_json_float(r, m, P, "shininess", 0, 1e4, &t->shininess)) ||
+            (st = volux_json_float(r, m, P, "roughness", 1e-3, 1, &t->roughness)) ||
+            (st = volux_json_float(r, m, P, "f0", 0, 1, &t->f0)) || (st = volux_json_string(r, m, P, "file", &file)))
+            return st;
+        if (kind == VOLUX_MATERIAL_MERL) {
+            char q[64];
+            snprintf(q, sizeof q, "%s.file", P);
+            if (!file) return volux_json_error(r, VOLUX_ERR_INVALID, q, "missing (a MERL .binary file)");
+            if ((st = resolve_path(sr, tf_dir, file, q, t->file, sizeof t->file))) return st;
+            volux_merl probe;
+            if ((st = volux_merl_load(r->ctx, t->file, &probe))) {
+                volux_error_prefix(r->ctx, "%s: %s: ", r->file, q);
+                return st;
+            }
+            volux_merl_free(r->ctx, &probe);
+        }
+    }
+    *count = i;
+    return VOLUX_OK;
+}
+
 static volux_status read_tf_object(scene_reader *sr, const cJSON *obj, const char *tf_dir) {
     volux_json_reader *r = &sr->json;
     static const char *const keys[] = {"color",   "opacity",  "extinction",    "opacity_unit_distance",
                                        "density_scale", "albedo", "anisotropy", "preset", "preset_name",
                                        "preset_rescale", "ambient", "diffuse", "specular", "specular_power",
-                                       "comment", NULL};
+                                       "materials", "comment", NULL};
     const char *P = "transfer_function";
     volux_status st = volux_json_check_keys(r, obj, P, keys);
     if (st) return st;
@@ -341,6 +418,7 @@ static volux_status read_tf_object(scene_reader *sr, const cJSON *obj, const cha
     const char *preset_file = NULL, *preset_name = NULL;
     int rescale = 1;
     volux_tf_scalar_point *op = NULL;
+    volux_tf_material *mats = NULL;
     if ((st = volux_json_rows(r, obj, P, "color", 4, VOLUX_TF_MAX_POINTS, &color, &n_color))) goto done;
     if ((st = volux_json_rows(r, obj, P, "opacity", 2, VOLUX_TF_MAX_POINTS, &opacity, &n_opacity))) goto done;
     if ((st = volux_json_rows(r, obj, P, "extinction", 2, VOLUX_TF_MAX_POINTS, &ext, &n_ext))) goto done;
@@ -419,6 +497,15 @@ static volux_status read_tf_object(scene_reader *sr, const cJSON *obj, const cha
         goto done;
     }
     d.extinction = n_ext > 0;
+    if (cJSON_GetObjectItemCaseSensitive(obj, "materials")) {
+        mats = volux_malloc(r->ctx, sizeof *mats * VOLUX_TF_MAX_MATERIALS);
+        if (!mats) {
+            st = volux_json_error(r, VOLUX_ERR_NOMEM, P, "out of memory");
+            goto done;
+        }
+        if ((st = read_materials(sr, obj, tf_dir, mats, &d.n_materials))) goto done;
+        d.materials = mats;
+    }
     st = volux_scene_set_transfer(sr->scene, &d);
     if (st) volux_error_prefix(r->ctx, "%s: ", r->file);
 done:
@@ -427,6 +514,7 @@ done:
     volux_free(r->ctx, ext, sizeof(float) * 2 * (size_t)n_ext);
     volux_free(r->ctx, cp, sizeof *cp * (size_t)n_color);
     volux_free(r->ctx, op, sizeof *op * (size_t)n_pts);
+    volux_free(r->ctx, mats, sizeof *mats * VOLUX_TF_MAX_MATERIALS);
     volux_tf_preset_free(r->ctx, &preset);
     return st;
 }

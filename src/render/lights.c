@@ -19,6 +19,36 @@ volux_vec3 volux_environment_mean(const volux_light_desc *d) {
     return v3_scale(v3_mul(mean, d->color), d->intensity);
 }
 
+void volux_light_prepare(const volux_light_desc *d, int slot, volux_prepared_light *l) {
+    memset(l, 0, sizeof *l);
+    l->slot = slot;
+    l->type = d->type;
+    l->desc = d;
+    switch (d->type) {
+    case VOLUX_LIGHT_DIRECTIONAL:
+        l->travel = v3_normalize(d->direction);
+        l->power = v3_scale(d->color, d->irradiance);
+        break;
+    case VOLUX_LIGHT_SPHERE:
+        /* Irradiance from a sphere of radiance L, radius r at distance
+         * d > r facing it: E = L·π·r²/d², i.e. a point of I = L·π·r². */
+        l->positional = 1;
+        l->pos = d->position;
+        l->radius = d->radius;
+        l->power = v3_scale(d->color, d->radiance * VOLUX_PI * d->radius * d->radius);
+        l->radiance = v3_scale(d->color, d->radiance);
+        break;
+    case VOLUX_LIGHT_ENVIRONMENT: break;
+    default: /* point, spot */
+        l->positional = 1;
+        l->pos = d->position;
+        l->power = v3_scale(d->color, d->intensity);
+        l->spot = d->type == VOLUX_LIGHT_SPOT;
+        l->axis = v3_normalize(d->direction);
+        break;
+    }
+}
+
 void volux_light_list_prepare(const volux_scene *s, volux_light_list *out) {
     out->n_all = out->n_direct = out->n_env = out->n_sphere = 0;
     out->env_mean = v3(0, 0, 0);
@@ -26,37 +56,13 @@ void volux_light_list_prepare(const volux_scene *s, volux_light_list *out) {
         const volux_light_desc *d = volux_scene_light(s, i);
         if (!d || !d->enabled) continue;
         volux_prepared_light *l = &out->all[out->n_all++];
-        memset(l, 0, sizeof *l);
-        l->slot = i;
-        l->type = d->type;
-        l->desc = d;
-        switch (d->type) {
-        case VOLUX_LIGHT_DIRECTIONAL:
-            l->travel = v3_normalize(d->direction);
-            l->power = v3_scale(d->color, d->irradiance);
-            break;
-        case VOLUX_LIGHT_SPHERE:
-            /* Irradiance from a sphere of radiance L, radius r at distance
-             * d > r facing it: E = L·π·r²/d², i.e. a point of I = L·π·r². */
-            l->positional = 1;
-            l->pos = d->position;
-            l->radius = d->radius;
-            l->power = v3_scale(d->color, d->radiance * VOLUX_PI * d->radius * d->radius);
-            l->radiance = v3_scale(d->color, d->radiance);
-            out->n_sphere++;
-            break;
-        case VOLUX_LIGHT_ENVIRONMENT:
+        volux_light_prepare(d, i, l);
+        if (d->type == VOLUX_LIGHT_ENVIRONMENT) {
             out->env_mean = v3_add(out->env_mean, volux_environment_mean(d));
             out->n_env++;
-            break;
-        default: /* point, spot */
-            l->positional = 1;
-            l->pos = d->position;
-            l->power = v3_scale(d->color, d->intensity);
-            l->spot = d->type == VOLUX_LIGHT_SPOT;
-            l->axis = v3_normalize(d->direction);
-            break;
+            continue;
         }
-        if (d->type != VOLUX_LIGHT_ENVIRONMENT) out->direct[out->n_direct++] = *l;
+        out->n_sphere += d->type == VOLUX_LIGHT_SPHERE;
+        out->direct[out->n_direct++] = *l;
     }
 }

@@ -45,6 +45,8 @@ typedef struct volux_light_list {
     volux_vec3 env_mean; /* Σ of the enabled environments' mean radiance (0 if none) */
 } volux_light_list;
 
+/* One light in the prepared form (slot recorded; `desc` borrowed). */
+void volux_light_prepare(const volux_light_desc *d, int slot, volux_prepared_light *l);
 /* Fills `out` from the scene's enabled lights. */
 void volux_light_list_prepare(const volux_scene *s, volux_light_list *out);
 

@@ -141,6 +141,19 @@ volux_status volux_technique_update(volux_technique *t, const volux_scene *scene
     return VOLUX_OK;
 }
 
+volux_status volux_technique_refine(volux_technique *t, const volux_scene *scene, int *refined, int *more) {
+    if (more) *more = 0;
+    if (refined) *refined = 0;
+    volux_status st = volux_technique_update(t, scene, NULL);
+    if (st || !t->cls->refine) return st;
+    int changed = 0, m = 0;
+    st = t->cls->refine(t->state, scene, &changed, &m);
+    if (changed) t->generation = new_generation(); /* framebuffers restart */
+    if (more) *more = m;
+    if (refined) *refined = changed;
+    return st;
+}
+
 size_t volux_technique_memory_bytes(const volux_technique *t) {
     return sizeof *t + t->cls->state_size + volux_raycaster_memory_bytes(t->state) +
            (t->cls->memory_bytes ? t->cls->memory_bytes(t->state) : 0);

@@ -61,6 +61,12 @@ typedef struct volux_technique_class {
     /* Frees the technique's own caches (not the base, not the block); must
      * accept a state whose update failed half-way. May be NULL. */
     void (*release)(void *state);
+    /* Optional (progressive techniques): the next step of cache work an
+     * update deferred, e.g. the full projection after a coarse one. Sets
+     * *changed when the image may change and *more while steps remain;
+     * after a failure the state must still render (the next call
+     * retries). NULL: nothing is ever deferred. */
+    volux_status (*refine)(void *state, const volux_scene *scene, int *changed, int *more);
 } volux_technique_class;
 
 /* Creates an instance of `cls` for the scene (registry.c resolves names). */

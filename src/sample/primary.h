@@ -19,8 +19,9 @@ typedef struct volux_primary {
     float jitter;    /* first-segment offset in [0, 1) */
 } volux_primary;
 
-static inline volux_primary volux_primary_ray(const volux_camera *cam, uint64_t seed, int px, int py,
-                                              uint32_t sample_index) {
+/* Always inlined into the pixel loops (called once per pixel sample). */
+static inline __attribute__((always_inline)) volux_primary volux_primary_ray(const volux_camera *cam, uint64_t seed,
+                                                                             int px, int py, uint32_t sample_index) {
     uint64_t pixel = (uint64_t)py * (uint64_t)cam->width + (uint64_t)px;
     volux_rng rng = volux_rng_make(seed, pixel, sample_index, 0);
     float jx = 0.5f, jy = 0.5f;

@@ -6,7 +6,7 @@
  * without forward scattering and its cone, on the data grid
  * (post-classified) and coarser (box-averaged medium), including rows whose
  * length is not a multiple of the vector width; the vector exp matches
- * lv_exp_neg; selective updates with the SIMD kernel equal its entire
+ * volux_exp_neg_cw7; selective updates with the SIMD kernel equal its entire
  * rebuild. Skipped where the CPU has no AVX2+FMA.
  */
 #include <stdio.h>
@@ -162,7 +162,7 @@ static void test_simd_selective_equals_full(void **state) {
     volux_context_destroy(ctx);
 }
 
-/* The vector exp: lv_exp_neg's reduction and polynomial, so within a few
+/* The vector exp: volux_exp_neg_cw7's reduction and polynomial, so within a few
  * ulps of it; exactly 1 at 0, 0 for +inf and NaN and beyond 2^−126. */
 static void test_simd_exp(void **state) {
     (void)state;
@@ -181,7 +181,7 @@ static void test_simd_exp(void **state) {
     assert_true(y[1] == 0.0f);
     assert_true(y[2] == 0.0f);
     for (int i = 3; i < M; i++) {
-        float r = lv_exp_neg(x[i]);
+        float r = volux_exp_neg_cw7(x[i]);
         if (fabsf(y[i] - r) > 4e-7f * r + 1e-38f) fail_msg("exp(−%g): simd %g, scalar %g", x[i], y[i], r);
         assert_true(y[i] <= 1.0f && y[i] >= 0.0f);
     }

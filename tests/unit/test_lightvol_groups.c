@@ -3,7 +3,7 @@
  * contribution factors: the paper's values in the principal planes, the
  * closest face by the largest h_d = l_dir·n, two groups per light, factors
  * continuous across every group boundary, and an illumination volume that
- * does not pop when a light crosses a boundary. Plus the kernel's exp/acos.
+ * does not pop when a light crosses a boundary.
  */
 #include <stdio.h>
 
@@ -215,26 +215,6 @@ static void test_volume_does_not_pop_across_group_boundaries(void **state) {
     volux_context_destroy(ctx);
 }
 
-static void test_fast_exp_and_acos(void **state) {
-    (void)state;
-    assert_true(lv_exp_neg(0.0f) == 1.0f);
-    assert_true(lv_exp_neg(1000.0f) == 0.0f);
-    assert_true(lv_exp_neg(INFINITY) == 0.0f);
-    float prev = 1.0f;
-    for (int i = 0; i <= 200000; i++) {
-        float x = (float)i * 4e-4f;
-        float e = lv_exp_neg(x), want = expf(-x);
-        assert_true(e <= 1.0f && e >= 0.0f);
-        assert_true(fabsf(e - want) <= 4e-7f * want + 1e-38f);
-        assert_true(e <= prev);
-        prev = e;
-    }
-    for (int i = 0; i <= 10000; i++) {
-        float x = (float)i / 10000.0f;
-        assert_near(lv_acos01(x), acos((double)x), 1e-6);
-    }
-}
-
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_factors_are_eq5_in_principal_planes),
@@ -242,7 +222,6 @@ int main(void) {
         cmocka_unit_test(test_factors_are_continuous_at_group_boundaries),
         cmocka_unit_test(test_point_light_groups_follow_local_directions),
         cmocka_unit_test(test_volume_does_not_pop_across_group_boundaries),
-        cmocka_unit_test(test_fast_exp_and_acos),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -4,7 +4,9 @@
  *
  * Metrics (DESIGN §4): prepare_ms (technique creation = building every
  * cache), render_ms (median), samples_per_s / vertices_per_s, memory_bytes,
- * update_ms.<edit> (median time of volux_technique_update after the edit),
+ * update_ms.<edit> (median time of volux_technique_update after the edit;
+ * for a progressive technique its first state), refine_ms.<edit> (the
+ * work it deferred, when there was any),
  * and with --reference a convergence series (rel_mse and mse vs spp/time).
  */
 #include <math.h>
@@ -169,6 +171,9 @@ int cli_bench(int argc, char **argv) {
         times[k] = cli_now_ms() - t0;
     }
     emit(&o, "prepare_ms", median(times, repeat), "ms", NULL);
+    /* A progressive technique renders its refined state below. */
+    for (int more = 1; more;)
+        if ((st = volux_technique_refine(tech, scene, NULL, &more))) goto fail;
     if ((st = volux_framebuffer_create(ctx, rs->width, rs->height, &fb))) goto fail;
 
     /* render_ms: one warm-up frame, then the median of `repeat` frames. */
@@ -209,9 +214,16 @@ int cli_bench(int argc, char **argv) {
     /* Convergence before the edits: they leave the scene changed. */
     if (reference && (st = convergence(ctx, tech, scene, fb, &ref, &o))) goto fail;
 
-    /* update_ms.<edit>: only the technique's reaction to the edit. */
+    /* update_ms.<edit>: only the technique's reaction to the edit (for a
+     * progressive technique the first, coarse state); refine_ms.<edit>:
+     * the deferred rest, when there is any. */
+    double *refine = calloc((size_t)repeat, sizeof *refine);
+    if (!refine) {
+        rc = CLI_FAIL;
+        goto done;
+    }
     for (int e = 0; e < n_edits; e++) {
-        int ok = 1;
+        int ok = 1, deferred = 0;
         for (int k = 0; k < repeat && ok; k++) {
             st = volux_edit_apply(edits[e], scene, k);
             if (st) {
@@ -222,14 +234,33 @@ int cli_bench(int argc, char **argv) {
                 break;
             }
             double t0 = cli_now_ms();
-            if ((st = volux_technique_update(tech, scene, NULL))) goto fail;
+            if ((st = volux_technique_update(tech, scene, NULL))) {
+                free(refine);
+                goto fail;
+            }
             times[k] = cli_now_ms() - t0;
+            t0 = cli_now_ms();
+            int more = 1, refined = 0;
+            while (more && !st) {
+                st = volux_technique_refine(tech, scene, &refined, &more);
+                deferred |= refined;
+            }
+            if (st) {
+                free(refine);
+                goto fail;
+            }
+            refine[k] = cli_now_ms() - t0;
         }
         if (!ok) continue;
         char metric[64];
         snprintf(metric, sizeof metric, "update_ms.%s", edits[e]->name);
         emit(&o, metric, median(times, repeat), "ms", NULL);
+        if (deferred) {
+            snprintf(metric, sizeof metric, "refine_ms.%s", edits[e]->name);
+            emit(&o, metric, median(refine, repeat), "ms", NULL);
+        }
     }
+    free(refine);
     goto done;
 fail:
     rc = cli_fail("bench", ctx, st);

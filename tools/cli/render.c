@@ -148,6 +148,9 @@ int cli_render(int argc, char **argv) {
         }
         if (!tech) st = volux_technique_create(ctx, rs->technique, scene, &tech);
         else st = volux_technique_update(tech, scene, NULL);
+        /* A progressive technique's deferred work is finished: an image file
+         * is the final result, not the first frame of an interactive session. */
+        for (int more = 1; !st && more;) st = volux_technique_refine(tech, scene, NULL, &more);
         double prepare_ms = cli_now_ms() - t0;
         if (!st && !fb) st = volux_framebuffer_create(ctx, rs->width, rs->height, &fb);
         volux_render_report rep = {0};

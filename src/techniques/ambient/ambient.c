@@ -457,8 +457,8 @@ static inline __attribute__((always_inline)) void inscatter(const void *tech, co
             E = v3_scale(E, f < 1e6f ? f : 1e6f);
         }
         if (E.x <= 0.0f && E.y <= 0.0f && E.z <= 0.0f) continue;
-        float V = scatter_exp_neg(-scatter_grid_sample(&st->cache[l->slot], xj));
-        float theta = scatter_fast_acos(v3_dot(travel, smp->to_eye));
+        float V = volux_exp_nonpos_t6(-scatter_grid_sample(&st->cache[l->slot], xj));
+        float theta = volux_acos_deg3(v3_dot(travel, smp->to_eye));
         float Lo = slice_lookup(st, theta * st->u_theta, us);
         L = v3_add(L, v3_scale(E, V * Lo));
         if (fade > 0.0f) {
@@ -483,5 +483,5 @@ const volux_technique_class volux_ambient_class = {
     {"ambient", "ambient volume scattering: preintegrated multiple scattering in a sphere (Ament et al. 2013)",
      ambient_params, 0},
     sizeof(ambient_state), 0, 0,
-    ambient_init, ambient_update, ambient_render_tile, ambient_memory_bytes, ambient_release,
+    ambient_init, ambient_update, ambient_render_tile, ambient_memory_bytes, ambient_release, NULL,
 };

@@ -47,7 +47,7 @@
 #include "core/context_internal.h"
 #include "core/parallel.h"
 #include "core/rng.h"
-#include "techniques/scatter/fastmath.h"
+#include "core/simd.h"
 #include "techniques/scatter/hg.h"
 
 /* VOLUX_AMBIENT_TABLE_ESTIMATOR (io/ambient_table_file.h) names this
@@ -152,7 +152,7 @@ score_all(float *restrict acc, const float *restrict cos_t, const float *restric
             const float c = cos_t[i], s = sin_t[i];
             float z = ez * c - ex * s, wp = wz * c - wx * s;
             float q = a - b * wp;
-            acc[i] += weight * esc_a * scatter_exp_neg(-sigma * (z + fabsf(z))) / (q * sqrtf(q));
+            acc[i] += weight * esc_a * volux_exp_nonpos_t6(-sigma * (z + fabsf(z))) / (q * sqrtf(q));
         }
         return;
     }
@@ -161,14 +161,14 @@ score_all(float *restrict acc, const float *restrict cos_t, const float *restric
         /* A: rotate the sampled exit */
         float z = ez * c - ex * s, wp = wz * c - wx * s;
         float q = a - b * wp, pb_a = 1.0f / (q * sqrtf(q));
-        float term_a = esc_a * scatter_exp_neg(-sigma * (z + fabsf(z))) * pa_a * pb_a / (pa_a + pb_a);
+        float term_a = esc_a * volux_exp_nonpos_t6(-sigma * (z + fabsf(z))) * pa_a * pb_a / (pa_a + pb_a);
         /* B: the lobe sample w' (v) back into the spun frame, ω = −R_θ^T w' */
         float o0 = -(v0 * c - v2 * s), o1 = -v1, o2 = -(v0 * s + v2 * c);
         float bb = x0 * o0 + x1 * o1 + x2 * o2, disc = bb * bb - cc;
         float l = -bb + sqrtf(0.5f * (disc + fabsf(disc)));
         float e0 = x0 + l * o0, e2 = x2 + l * o2, zb = e2 * c - e0 * s;
         float qa = a - b * (o0 * d0 + o1 * d1 + o2 * d2), pa_b = 1.0f / (qa * sqrtf(qa));
-        float term_b = scatter_exp_neg(-sigma * (l + zb + fabsf(zb))) * pa_b * pb_b / (pa_b + pb_b);
+        float term_b = volux_exp_nonpos_t6(-sigma * (l + zb + fabsf(zb))) * pa_b * pb_b / (pa_b + pb_b);
         acc[i] += weight * (term_a + term_b);
     }
 }

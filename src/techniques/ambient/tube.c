@@ -103,12 +103,12 @@ typedef struct sweep {
      * phase's runs are built while this one's finish) */
     int (*runs[2])[5];
     int64_t n_runs[2];
-    /* the 8-wide node update (tube_simd.h), when usable */
     /* point: the light in grid index units, the first shell that can hold
      * a node (k0 > 0: the light is outside the grid) and the last */
     float P[3];
     int k0, K;
-    int simd;
+    /* the vector node update and fast path (tube_simd.h), when usable */
+    const tube_kernels *simd;
     tube_lanes lanes;
     tube_fast fr;
     /* the g-independent records (tube_geometry): written by a march when
@@ -205,8 +205,7 @@ static void nodes(const sweep *sw, const int start[3], int axis, int count) {
         ptrdiff_t rs = 1;
         size_t r0 = rec_index(sw, start[0], start[1], start[2], &rs);
         if (sw->l->positional && axis != 0) rs = axis == 1 ? sw->V->dims[0] : (ptrdiff_t)sw->V->dims[0] * sw->V->dims[1];
-        if (sw->simd == 2) tube_nodes_avx512(&sw->lanes, start[0], start[1], start[2], axis, count, r0, rs);
-        else tube_nodes_avx2(&sw->lanes, start[0], start[1], start[2], axis, count, r0, rs);
+        sw->simd->nodes(&sw->lanes, start[0], start[1], start[2], axis, count, r0, rs);
         return;
     }
     int idx[3] = {start[0], start[1], start[2]};
@@ -238,12 +237,9 @@ static void fast_run(const sweep *sw, size_t at, int count) {
     const float kscale = sw->fr.kscale, last = sw->fr.last;
     float back[256], u[256];
     int done = 0;
-    if (sw->simd == 2) {
+    if (sw->simd) {
         done = count; /* masked tail */
-        tube_fast_run_avx512(&sw->fr, out, D, R, geo_u, sw->lanes.vac ? sw->lanes.vac + at : NULL, sw->resum, done);
-    } else if (sw->simd) {
-        done = count; /* masked tail */
-        tube_fast_run_avx2(&sw->fr, out, D, R, geo_u, sw->resum, done);
+        sw->simd->fast_run(&sw->fr, out, D, R, geo_u, sw->lanes.vac ? sw->lanes.vac + at : NULL, sw->resum, done);
     }
     for (int i0 = done; i0 < count; i0 += 256) {
         int m = count - i0 < 256 ? count - i0 : 256;
@@ -295,8 +291,7 @@ static void slice_row(void *user, int phase, int64_t item, int thread) {
     if (sw->simd && sw->b1 == 0) {
         /* the whole row in one call of the vector code */
         size_t rec0 = sw->geo ? rec_index(sw, 0, idx[1], idx[2], NULL) : 0;
-        if (sw->simd == 2) tube_row_avx512(&sw->lanes, &sw->fr, idx[1], idx[2], n, c0, c1, rec0, sw->resum);
-        else tube_row_avx2(&sw->lanes, &sw->fr, idx[1], idx[2], n, c0, c1, rec0, sw->resum);
+        sw->simd->row(&sw->lanes, &sw->fr, idx[1], idx[2], n, c0, c1, rec0, sw->resum);
         return;
     }
     /* nodes before the fast run, the fast run, nodes after it */
@@ -350,7 +345,7 @@ static void displaced_corners(const scatter_grid *g, volux_vec3 d, ptrdiff_t off
 }
 
 /* Runs per parallel item of a point sweep: the vector kernels take a batch
- * in one call (see tube_runs_avx2). */
+ * in one call (tube_kernels.runs). */
 enum { RUNS_PER_ITEM = 8 };
 
 static void shell_run(void *user, int phase, int64_t item, int thread) {
@@ -359,10 +354,8 @@ static void shell_run(void *user, int phase, int64_t item, int thread) {
     int (*runs)[5] = sw->runs[phase & 1];
     int64_t n_runs = sw->n_runs[phase & 1];
     int64_t r0 = item * RUNS_PER_ITEM, r1 = r0 + RUNS_PER_ITEM < n_runs ? r0 + RUNS_PER_ITEM : n_runs;
-    if (sw->simd == 2) {
-        tube_runs_avx512(&sw->lanes, (const int(*)[5])runs + r0, (int)(r1 - r0));
-    } else if (sw->simd) {
-        tube_runs_avx2(&sw->lanes, (const int(*)[5])runs + r0, (int)(r1 - r0));
+    if (sw->simd) {
+        sw->simd->runs(&sw->lanes, (const int(*)[5])runs + r0, (int)(r1 - r0));
     } else {
         for (int64_t r = r0; r < r1; r++) nodes(sw, runs[r], runs[r][3], runs[r][4]);
     }
@@ -405,18 +398,24 @@ static void shell_runs(sweep *sw, int buf, const float P[3], int k) {
     sw->n_runs[buf] = r - sw->runs[buf];
 }
 
-/* The 8-wide update needs ρ on V's nodes, every dimension ≥ 2 and
+const tube_kernels *tube_kernels_for(int kernel_cap) {
+    /* AVX2, or AVX-512F where the CPU has both (all three paths are
+     * bit-identical) */
+    const tube_kernels *k = kernel_cap != TUBE_KERNEL_SCALAR ? tube_kernels_avx2() : NULL;
+    if (k && kernel_cap == TUBE_KERNEL_BEST && tube_kernels_avx512()) k = tube_kernels_avx512();
+    return k;
+}
+
+/* The vector update needs ρ on V's nodes, every dimension ≥ 2 and
  * 32-bit node indices. */
 static void setup_lanes(sweep *sw) {
     const tube_input *in = sw->in;
     const scatter_grid *V = sw->V, *R = in->rho;
-    /* 1: AVX2, 2: AVX-512F (all three are bit-identical) */
-    sw->simd = in->kernel_cap != TUBE_KERNEL_SCALAR && tube_simd_available() && in->n_sigma >= 2;
-    if (sw->simd && in->kernel_cap == TUBE_KERNEL_BEST && tube_avx512_available()) sw->simd = 2;
+    sw->simd = in->n_sigma >= 2 ? tube_kernels_for(in->kernel_cap) : NULL;
     for (int a = 0; a < 3; a++)
-        if (R->dims[a] != V->dims[a] || V->dims[a] < 2 || R->inv_h[a] != V->inv_h[a]) sw->simd = 0;
-    if (R->lo.x != V->lo.x || R->lo.y != V->lo.y || R->lo.z != V->lo.z) sw->simd = 0;
-    if ((double)V->dims[0] * V->dims[1] * V->dims[2] >= 2147483647.0) sw->simd = 0;
+        if (R->dims[a] != V->dims[a] || V->dims[a] < 2 || R->inv_h[a] != V->inv_h[a]) sw->simd = NULL;
+    if (R->lo.x != V->lo.x || R->lo.y != V->lo.y || R->lo.z != V->lo.z) sw->simd = NULL;
+    if ((double)V->dims[0] * V->dims[1] * V->dims[2] >= 2147483647.0) sw->simd = NULL;
     if (!sw->simd) return;
     tube_lanes *t = &sw->lanes;
     t->rho = R->v, t->D = V->v;
@@ -436,7 +435,7 @@ static void setup_lanes(sweep *sw) {
      * +0, as the march's invariant assumes */
     uint32_t k0;
     memcpy(&k0, in->kappa, sizeof k0);
-    int use_vac = sw->simd == 2 && sw->geo && (!sw->resum || (sw->geo->vac_ok && k0 == 0));
+    int use_vac = sw->simd->vacuum_chains && sw->geo && (!sw->resum || (sw->geo->vac_ok && k0 == 0));
     t->vac = use_vac ? sw->geo->vac : NULL;
     t->vac_bad = &sw->vac_bad;
     sw->fr.vac_bad = &sw->vac_bad;

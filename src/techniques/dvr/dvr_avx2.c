@@ -37,17 +37,14 @@
 #include <string.h>
 
 #include "core/rng.h"
+#include "core/simd.h"
 #include "core/vecmath.h"
 #include "dvr.h"
 #include "sample/primary.h"
 
-#if defined(__x86_64__) && defined(__GNUC__)
-#include <immintrin.h>
+int volux_dvr_simd_available(void) { return volux_cpu_has_avx2_fma(); }
 
-int volux_dvr_simd_available(void) {
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-}
+#if VOLUX_X86_GNUC
 
 #define A2 __attribute__((target("avx2,fma")))
 #define A2I static inline __attribute__((always_inline, target("avx2,fma")))
@@ -173,27 +170,6 @@ A2I void load_transpose8(const float *base, const int32_t offs[8], __m256 o[8]) 
         o[4 * h + 2] = _mm256_shuffle_ps(t1, t3, 0x44);
         o[4 * h + 3] = _mm256_shuffle_ps(t1, t3, 0xEE);
     }
-}
-
-/* e^x for x ≤ 0 (Cephes expf: round to the nearest power of two, degree-6
- * polynomial on [−ln2/2, ln2/2]); ≤ 2 ulp from libm's expf, and
- * e^x = 0 below −87.3 is not needed (the result stays a tiny normal). */
-A2I __m256 exp_nonpos(__m256 x) {
-    x = _mm256_max_ps(x, _mm256_set1_ps(-87.3f));
-    __m256 n = _mm256_round_ps(_mm256_mul_ps(x, _mm256_set1_ps(1.44269504088896341f)),
-                               _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
-    __m256 r = _mm256_fnmadd_ps(n, _mm256_set1_ps(0.693359375f), x);
-    r = _mm256_fnmadd_ps(n, _mm256_set1_ps(-2.12194440e-4f), r);
-    __m256 y = _mm256_set1_ps(1.9875691500e-4f);
-    y = _mm256_fmadd_ps(y, r, _mm256_set1_ps(1.3981999507e-3f));
-    y = _mm256_fmadd_ps(y, r, _mm256_set1_ps(8.3334519073e-3f));
-    y = _mm256_fmadd_ps(y, r, _mm256_set1_ps(4.1665795894e-2f));
-    y = _mm256_fmadd_ps(y, r, _mm256_set1_ps(1.6666665459e-1f));
-    y = _mm256_fmadd_ps(y, r, _mm256_set1_ps(5.0000001201e-1f));
-    y = _mm256_fmadd_ps(y, _mm256_mul_ps(r, r), r);
-    y = _mm256_add_ps(y, _mm256_set1_ps(1.0f));
-    __m256i e = _mm256_slli_epi32(_mm256_add_epi32(_mm256_cvtps_epi32(n), _mm256_set1_epi32(127)), 23);
-    return _mm256_mul_ps(y, _mm256_castsi256_ps(e));
 }
 
 /* Table coordinate u, interval i and fraction f of 8 samples (as
@@ -374,7 +350,7 @@ A2I void shade8(const dvr_state *st, const __m256 g[3], const __m256 view[3],
         __m256 kd = _mm256_and_ps(_mm256_mul_ps(_mm256_set1_ps(mat->diffuse), ndl), lit);
         __m256 ndh = dot3(n, hn[i]);
         __m256 sp = _mm256_and_ps(lit, _mm256_cmp_ps(ndh, zero, _CMP_GT_OQ));
-        __m256 pw = exp_nonpos(_mm256_mul_ps(_mm256_set1_ps(mat->specular_power),
+        __m256 pw = volux_exp_nonpos_cephes_avx2(_mm256_mul_ps(_mm256_set1_ps(mat->specular_power),
                                              log_pos(_mm256_blendv_ps(one, ndh, sp))));
         __m256 ks = _mm256_and_ps(_mm256_mul_ps(_mm256_set1_ps(mat->specular), pw), sp);
         for (int a = 0; a < 3; a++) {
@@ -607,7 +583,7 @@ A2I void march_packets(const dvr_state *st, const packet_rays pr[NP], const int 
                     shade8(st, g, ps->d, (const __m256(*)[3])ps->hn, c3);
                     cr = c3[0], cg = c3[1], cb = c3[2];
                 }
-                __m256 alpha = _mm256_sub_ps(one, exp_nonpos(_mm256_xor_ps(tau, sign)));
+                __m256 alpha = _mm256_sub_ps(one, volux_exp_nonpos_cephes_avx2(_mm256_xor_ps(tau, sign)));
                 __m256 w = _mm256_and_ps(_mm256_mul_ps(ps->T, alpha), lit);
                 ps->C[0] = _mm256_add_ps(ps->C[0], _mm256_mul_ps(w, cr));
                 ps->C[1] = _mm256_add_ps(ps->C[1], _mm256_mul_ps(w, cg));
@@ -731,8 +707,6 @@ A2 void volux_dvr_render_tile_avx2(const dvr_state *st, const volux_scene *scene
 }
 
 #else /* no AVX2 code on this target: the scalar kernel is used */
-
-int volux_dvr_simd_available(void) { return 0; }
 
 void volux_dvr_render_tile_avx2(const dvr_state *st, const volux_scene *scene, const volux_tile *tile, float *rgb,
                                 volux_tile_stats *stats) {

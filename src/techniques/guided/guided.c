@@ -292,4 +292,5 @@ const volux_technique_class volux_guided_class = {
     guided_render_tile,
     guided_memory_bytes,
     guided_release,
+    NULL,
 };

@@ -133,11 +133,6 @@ static volux_status lightvol_update(void *state, const volux_scene *scene, const
     int realloc_vol = 0, medium = 0, full = 0;
     const char *reason = NULL;
     const uint32_t w = c->what;
-    st->ctx = ctx;
-    st->volume = rc->volume;
-    st->lut = rc->lut;
-    st->albedo = rc->albedo;
-    st->threads = rc->threads;
     if (w & VOLUX_CHANGE_VOLUME) {
         realloc_vol = 1;
         reason = "volume changed";
@@ -188,7 +183,6 @@ static volux_status lightvol_update(void *state, const volux_scene *scene, const
 
 static void lightvol_release(void *state) {
     lightvol_state *st = state;
-    st->ctx = st->rc.ctx; /* an update may have failed before setting it */
     volux_lightvol_free_buffers(st);
     volux_gradient_cache_free(st->rc.ctx, &st->grad);
 }
@@ -229,7 +223,7 @@ static inline float hg(float g, float cos_theta) {
 
 /* Radiance scattered towards the camera per unit optical depth at data
  * index q (world p), colour c (TF colour, σt-weighted over the segment). */
-static inline void scatter(const lightvol_state *st, volux_vec3 p, volux_vec3 q, volux_vec3 dir, const float c[3],
+static inline __attribute__((always_inline)) void scatter(const lightvol_state *st, volux_vec3 p, volux_vec3 q, volux_vec3 dir, const float c[3],
                            float S[3], int local) {
     float I[6];
     volux_vec3 qi = v3(q.x * st->data_to_ill[0], q.y * st->data_to_ill[1], q.z * st->data_to_ill[2]);
@@ -305,7 +299,8 @@ static void lightvol_render_tile(const void *state, const volux_scene *scene, co
                                  volux_tile_stats *stats) {
     const lightvol_state *st = state;
     int local = st->p.local_shading > 0.0f && st->grad.grad;
-    if (st->p.preintegrate && local) volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate, LV_PREINT | LV_LOCAL);
+    if (st->p.preintegrate && local)
+        volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate, LV_PREINT | LV_LOCAL);
     else if (st->p.preintegrate) volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate, LV_PREINT);
     else if (local) volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate, LV_LOCAL);
     else volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate, 0);
@@ -317,5 +312,5 @@ const volux_technique_class volux_lightvol_class = {
      "multi-light illumination volume: coherent propagation + selective light updates (Sunden & Ropinski 2015)",
      lightvol_params, 0},
     sizeof(lightvol_state), 0, 1e-4f,
-    NULL, lightvol_update, lightvol_render_tile, lightvol_memory_bytes, lightvol_release,
+    NULL, lightvol_update, lightvol_render_tile, lightvol_memory_bytes, lightvol_release, NULL,
 };

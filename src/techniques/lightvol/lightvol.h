@@ -24,6 +24,7 @@
 
 #include <string.h>
 
+#include "core/simd.h"
 #include "render/raycaster.h"
 #include "sample/gradient.h"
 
@@ -37,21 +38,6 @@ extern const volux_technique_class volux_lightvol_class;
 #define LV_GROUPS 6
 
 static inline int lv_group(int axis, int sign) { return 2 * axis + (sign < 0); }
-
-/* acos on [0,1] (Abramowitz & Stegun 4.4.46, |error| ≤ 2e-8 rad). */
-static inline float lv_acos01(float x) {
-    x = x > 1.0f ? 1.0f : x;
-    x = x < 0.0f ? 0.0f : x;
-    float p = -0.0012624911f;
-    p = p * x + 0.0066700901f;
-    p = p * x - 0.0170881256f;
-    p = p * x + 0.0308918810f;
-    p = p * x - 0.0501743046f;
-    p = p * x + 0.0889789874f;
-    p = p * x - 0.2145988016f;
-    p = p * x + 1.5707963050f;
-    return sqrtf(1.0f - x) * p;
-}
 
 /*
  * Contribution factors (Eqs. 5a/5b, our continuous reading; see
@@ -74,7 +60,7 @@ static inline unsigned lv_face_weights_raw(volux_vec3 w, float out[LV_GROUPS], i
     if (m[a2] > m[a1]) t = a1, a1 = a2, a2 = t;
     if (m[a3] > m[a2]) t = a2, a2 = a3, a3 = t;
     if (m[a2] > m[a1]) t = a1, a1 = a2, a2 = t;
-    float b1 = lv_acos01(m[a1]), b2 = lv_acos01(m[a2]), b3 = lv_acos01(m[a3]);
+    float b1 = volux_acos01_deg7(m[a1]), b2 = volux_acos01_deg7(m[a2]), b3 = volux_acos01_deg7(m[a3]);
     float den = 2.0f * b3 - b1 - b2, w2;
     if (den > 1e-6f) w2 = (b3 - b2) / den;
     else w2 = 0.5f; /* w ∥ a cube diagonal: every choice is as good */
@@ -118,7 +104,7 @@ static inline float lv_axis_weight(const float m[3], int a) {
     int rank = (mb > ma || (mb == ma && b < a)) + (mc > ma || (mc == ma && c < a));
     /* the other two in the order lv_face_weights would sort them */
     float hi = mc > mb ? mc : mb, lo = mc > mb ? mb : mc;
-    float ba = lv_acos01(ma), bh = lv_acos01(hi), bl = lv_acos01(lo);
+    float ba = volux_acos01_deg7(ma), bh = volux_acos01_deg7(hi), bl = volux_acos01_deg7(lo);
     float b1 = rank == 0 ? ba : bh, b2 = rank == 0 ? bh : ba;
     float den = 2.0f * bl - b1 - b2;
     float q = (bl - b2) / (den > 1e-6f ? den : 1.0f);
@@ -134,31 +120,6 @@ static inline float lv_face_weight(volux_vec3 w, int g) {
     float f[LV_GROUPS];
     lv_face_weights(w, f);
     return f[g];
-}
-
-/* exp(−x) for x ≥ 0 (x may be +inf), branch-free so loops vectorise:
- * Cody–Waite reduction x = n·ln2 + r (ln2 split in two), |r| ≤ ½ln2, then
- * the degree-7 Taylor polynomial of e^−r (relative error < 3e-7); exactly 1
- * at 0, never above 1, 0 beyond 2^−126. */
-static inline float lv_exp_neg(float x) {
-    float y = x * 1.44269504088896341f;
-    if (!(y < 126.0f)) y = 126.0f; /* also catches NaN */
-    int n = (int)(y + 0.5f);
-    float r = (x - (float)n * 0.693145752f) - (float)n * 1.42860677e-6f;
-    float p = -1.0f / 5040.0f;
-    p = p * r + 1.0f / 720.0f;
-    p = p * r - 1.0f / 120.0f;
-    p = p * r + 1.0f / 24.0f;
-    p = p * r - 1.0f / 6.0f;
-    p = p * r + 0.5f;
-    p = p * r - 1.0f;
-    p = p * r + 1.0f;
-    int32_t bits = (127 - n) << 23; /* 2^−n */
-    float scale;
-    memcpy(&scale, &bits, sizeof scale);
-    float e = p * scale;
-    e = e > 1.0f ? 1.0f : e;
-    return y >= 126.0f ? 0.0f : e;
 }
 
 /* ---------------------------------------------------------------- lights */
@@ -240,12 +201,6 @@ typedef struct lv_stats {
 typedef struct lightvol_state {
     volux_raycaster rc;            /* base: volume, LUT, grid, camera, step,
                                       seed, g, albedo, material, threads  */
-    /* Aliases of base fields for the propagation files (set by update). */
-    volux_context *ctx;
-    volux_volume *volume;          /* = rc.volume (not retained here)      */
-    const volux_transfer_lut *lut; /* = rc.lut                             */
-    float albedo;                  /* = rc.albedo                          */
-    int threads;                   /* = rc.threads                         */
     volux_gradient_cache grad;
     lv_params p;
     int use_simd;                  /* resolved kernel: AVX2 row kernels      */
@@ -283,7 +238,7 @@ typedef struct lightvol_state {
     size_t med_bytes;
     float *rows;                   /* per thread row scratch                */
     size_t rows_bytes;
-    float *stage;                  /* x sweeps: staged slices (see propagate.c) */
+    float *stage;                  /* x sweeps: staged slices (see sweep.c) */
     size_t stage_bytes;
     int rows_threads;
     size_t row_stride;
@@ -293,7 +248,8 @@ typedef struct lightvol_state {
     lv_stats stats;
 } lightvol_state;
 
-/* propagate.c */
+/* propagation (buffers.c, medium.c, sources.c, update.c; the files and
+ * their internal interface: sweep.h) */
 volux_status volux_lightvol_alloc(lightvol_state *st);
 volux_status volux_lightvol_build_medium(lightvol_state *st);
 /* Brings the volume up to date with the scene's lights. `force_full`

@@ -3,8 +3,8 @@
  * of the propagation sweeps. All intrinsics of `lightvol` live in this
  * file; it is compiled with target attributes and chosen at run time
  * (volux_lightvol_simd_available, techniques.lightvol.kernel), so the
- * default build runs on any x86-64 and the portable loops of propagate.c
- * stay the reference the tests compare against
+ * default build runs on any x86-64 and the portable loops (rows_dir.c,
+ * rows_pos.c) stay the reference the tests compare against
  * (tests/invariants/test_lightvol_simd.c).
  *
  * Each kernel evaluates the same formulas as the portable loops it
@@ -36,15 +36,13 @@
 #include <math.h>
 #include <string.h>
 
+#include "core/simd.h"
 #include "sweep.h"
 
-#if defined(__x86_64__) && defined(__GNUC__)
-#include <immintrin.h>
+int volux_lightvol_simd_available(void) { return volux_cpu_has_avx2_fma(); }
+int volux_lightvol_avx512_available(void) { return volux_cpu_has_avx2_fma() && volux_cpu_has_avx512f(); }
 
-int volux_lightvol_simd_available(void) {
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-}
+#if VOLUX_X86_GNUC
 
 #define A2 __attribute__((target("avx2,fma")))
 #define A2I static inline __attribute__((always_inline, target("avx2,fma")))
@@ -71,29 +69,6 @@ A2I __m256 bil(const float *r0, const float *r1, __m256 w00, __m256 w10, __m256 
     x = _mm256_fmadd_ps(w10, ld(r0 + 1, full, mk1), x);
     x = _mm256_fmadd_ps(w01, ld(r1, full, mk), x);
     return _mm256_fmadd_ps(w11, ld(r1 + 1, full, mk1), x);
-}
-
-/* lv_exp_neg, eight lanes: the same reduction and polynomial. */
-A2I __m256 exp_neg8(__m256 x) {
-    const __m256 lim = _mm256_set1_ps(126.0f);
-    __m256 y = _mm256_mul_ps(x, _mm256_set1_ps(1.44269504088896341f));
-    __m256 ok = _mm256_cmp_ps(y, lim, _CMP_LT_OQ); /* false for NaN and beyond 2^−126 */
-    y = _mm256_blendv_ps(lim, y, ok);
-    __m256i n = _mm256_cvttps_epi32(_mm256_add_ps(y, _mm256_set1_ps(0.5f)));
-    __m256 nf = _mm256_cvtepi32_ps(n);
-    __m256 r = _mm256_fnmadd_ps(nf, _mm256_set1_ps(0.693145752f), x);
-    r = _mm256_fnmadd_ps(nf, _mm256_set1_ps(1.42860677e-6f), r);
-    __m256 p = _mm256_set1_ps(-1.0f / 5040.0f);
-    p = _mm256_fmadd_ps(p, r, _mm256_set1_ps(1.0f / 720.0f));
-    p = _mm256_fmadd_ps(p, r, _mm256_set1_ps(-1.0f / 120.0f));
-    p = _mm256_fmadd_ps(p, r, _mm256_set1_ps(1.0f / 24.0f));
-    p = _mm256_fmadd_ps(p, r, _mm256_set1_ps(-1.0f / 6.0f));
-    p = _mm256_fmadd_ps(p, r, _mm256_set1_ps(0.5f));
-    p = _mm256_fmadd_ps(p, r, _mm256_set1_ps(-1.0f));
-    p = _mm256_fmadd_ps(p, r, _mm256_set1_ps(1.0f));
-    __m256 scale = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_sub_epi32(_mm256_set1_epi32(127), n), 23));
-    __m256 e = _mm256_min_ps(_mm256_mul_ps(p, scale), _mm256_set1_ps(1.0f));
-    return _mm256_and_ps(e, ok);
 }
 
 /* Transfer-function table position of scalar s: entry i ∈ [0, n − 2] and
@@ -304,8 +279,8 @@ A2 void volux_lightvol_dir_tau_avx2(const lv_sweep *J, const lv_entry *e, int v,
 
 A2 void volux_lightvol_exp_avx2(float *T, const float *tau, int n) {
     int u = 0;
-    for (; u + 8 <= n; u += 8) _mm256_storeu_ps(T + u, exp_neg8(_mm256_loadu_ps(tau + u)));
-    for (; u < n; u++) T[u] = lv_exp_neg(tau[u]); /* the row ends read these right away: no masked store */
+    for (; u + 8 <= n; u += 8) _mm256_storeu_ps(T + u, volux_exp_neg_cw7_avx2(_mm256_loadu_ps(tau + u)));
+    for (; u < n; u++) T[u] = volux_exp_neg_cw7(tau[u]); /* the row ends read these right away: no masked store */
 }
 
 /* a[0..8) += w·x on the lanes of mk. The row accumulators are read back
@@ -526,11 +501,6 @@ A2 void volux_lightvol_dir_light_avx2(const lv_sweep *J, const lv_entry *e, int 
 #define A5 __attribute__((target("avx512f,avx2,fma")))
 #define A5I static inline __attribute__((always_inline, target("avx512f,avx2,fma")))
 
-int volux_lightvol_avx512_available(void) {
-    __builtin_cpu_init();
-    return volux_lightvol_simd_available() && __builtin_cpu_supports("avx512f");
-}
-
 typedef struct light_consts16 {
     __m512 w[4], swc[4], swk[9], sw, g[3], d[3], d1[3], swl, swl1;
 } light_consts16;
@@ -635,16 +605,6 @@ A5 void volux_lightvol_dir_light_avx512(const lv_sweep *J, const lv_entry *e, in
 
 /* ------------------------------------------------------------ positional */
 
-/* lv_acos01 with plain mul/add (no FMA): bit-identical to the scalar one. */
-A2I __m256 acos01_8(__m256 x) {
-    x = _mm256_min_ps(_mm256_max_ps(x, _mm256_setzero_ps()), _mm256_set1_ps(1.0f));
-    static const float c[8] = {-0.0012624911f, 0.0066700901f, -0.0170881256f, 0.0308918810f,
-                               -0.0501743046f, 0.0889789874f, -0.2145988016f, 1.5707963050f};
-    __m256 p = _mm256_set1_ps(c[0]);
-    for (int i = 1; i < 8; i++) p = _mm256_add_ps(_mm256_mul_ps(p, x), _mm256_set1_ps(c[i]));
-    return _mm256_mul_ps(_mm256_sqrt_ps(_mm256_sub_ps(_mm256_set1_ps(1.0f), x)), p);
-}
-
 A2I __m256 sel(__m256 mask, __m256 t, __m256 f) { return _mm256_blendv_ps(f, t, mask); }
 
 /* lv_axis_weight for the face of axis a, magnitudes ma (axis a), mb and mc
@@ -659,7 +619,7 @@ A2I __m256 axis_weight8(__m256 ma, __m256 mb, __m256 mc, int a) {
     __m256 rank2 = _mm256_and_ps(gb, gc);
     __m256 cm = _mm256_cmp_ps(mc, mb, _CMP_GT_OQ);
     __m256 hi = sel(cm, mc, mb), lo = sel(cm, mb, mc);
-    __m256 ba = acos01_8(ma), bh = acos01_8(hi), bl = acos01_8(lo);
+    __m256 ba = volux_acos01_deg7_avx2(ma), bh = volux_acos01_deg7_avx2(hi), bl = volux_acos01_deg7_avx2(lo);
     __m256 b1 = sel(rank0, ba, bh), b2 = sel(rank0, bh, ba);
     __m256 den = _mm256_sub_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_set1_ps(2.0f), bl), b1), b2);
     __m256 big = _mm256_cmp_ps(den, _mm256_set1_ps(1e-6f), _CMP_GT_OQ);
@@ -868,7 +828,7 @@ A2 void volux_lightvol_pos_light_avx2(const lv_sweep *J, const lv_entry *e, cons
         const __m256i jcv = _mm256_set1_epi32(R->jc);
         pos_tap P;
         pos_tap_init(&P, Xv, jcv, ayc, mu, mki);
-        __m256 T = exp_neg8(_mm256_loadu_ps(R->TAU + u)), K = _mm256_loadu_ps(R->K + u);
+        __m256 T = volux_exp_neg_cw7_avx2(_mm256_loadu_ps(R->TAU + u)), K = _mm256_loadu_ps(R->K + u);
         if (one) {
             /* no forward scattering: one channel, accumulated as gain·value */
             __m256 o = _mm256_mul_ps(T, pos_tap_val(&P, Rd[0], mu)), ok = _mm256_mul_ps(o, K);
@@ -886,7 +846,7 @@ A2 void volux_lightvol_pos_light_avx2(const lv_sweep *J, const lv_entry *e, cons
         for (int c = 0; c < 3; c++) o[c] = pos_tap_val(&P, Rd[c], mu);
         if (forward) {
             __m256 Tc[3];
-            for (int c = 0; c < 3; c++) Tc[c] = exp_neg8(_mm256_loadu_ps(R->TAU + (size_t)(1 + c) * ms + u));
+            for (int c = 0; c < 3; c++) Tc[c] = volux_exp_neg_cw7_avx2(_mm256_loadu_ps(R->TAU + (size_t)(1 + c) * ms + u));
             if (cone) {
                 /* 4 taps at ±ρ/√2 along u and v, ρ = len·tan(cone) (fetch() inside the slice) */
                 __m256 rho = _mm256_mul_ps(_mm256_loadu_ps(R->LEN + u), tanc);
@@ -927,8 +887,6 @@ A2 void volux_lightvol_pos_light_avx2(const lv_sweep *J, const lv_entry *e, cons
 
 #else /* not x86-64 GCC/Clang: the portable loops only */
 
-int volux_lightvol_simd_available(void) { return 0; }
-int volux_lightvol_avx512_available(void) { return 0; }
 void volux_lightvol_dir_light_avx512(const lv_sweep *J, const lv_entry *e, int v, int u0, int u1, const float *T,
                                      float *const Tc[3], int empty, float *const out[3], float *acc, size_t m, int ch,
                                      float *S) {

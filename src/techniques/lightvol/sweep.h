@@ -1,13 +1,29 @@
 /*
  * techniques/lightvol/sweep.h — the state of one propagation pass (group,
- * lights, slice buffers, medium slices), shared by the portable sweep code
- * (propagate.c) and the AVX2 kernels (propagate_avx2.c).
+ * lights, slice buffers, medium slices), shared by the portable propagation
+ * files and the AVX2 kernels (propagate_avx2.c); and what the propagation
+ * files share among themselves: the light values, the scratch layout, the
+ * pass plan and the functions one file calls in another.
+ *
+ * The propagation files, one concern each:
+ *   buffers.c   illumination volume and propagation scratch (allocation, free)
+ *   medium.c    the medium the sweeps see (classification, box means)
+ *   sources.c   lv_source from a light, unoccluded value, positional groups
+ *   plan.c      pass planning and the cost model of §5 (work weights)
+ *   rows.h      the per-voxel helpers of the row loops (static inline)
+ *   rows_dir.c  one directional light's row
+ *   rows_pos.c  one positional (point, spot, sphere) light's row
+ *   sweep.c     the sweep driver: pass setup, slice phases, rows → volume
+ *   update.c    selective / entire light updates (cost rule, re-baseline)
  *
  * Internal to the technique.
  */
 #ifndef VOLUX_LIGHTVOL_SWEEP_H
 #define VOLUX_LIGHTVOL_SWEEP_H
 
+#include <math.h>
+
+#include "core/vecmath.h"
 #include "lightvol.h"
 
 enum { E_SKIP, E_INIT, E_INIT_ATT, E_PROP };
@@ -92,7 +108,7 @@ typedef struct lv_sweep {
     int avx512;         /* ... with the 16-wide directional light steps   */
 } lv_sweep;
 
-/* One row of a positional light's propagation (pos_row): per-voxel arrays
+/* One row of a positional light's propagation (volux_lightvol_pos_row): per-voxel arrays
  * (stride ms) and the row's constants. */
 typedef struct lv_pos_row {
     int v, u0, u1;          /* row; interior [u0, u1) (every tap inside)    */
@@ -144,7 +160,7 @@ void volux_lightvol_dir_light_avx512(const lv_sweep *J, const lv_entry *e, int v
                                      float *S);
 
 /* Positional entry e, row R->v: geometry (X, LEN, K, WA, WU, WV) for u in
- * [0, R->ms), bit-identical to pos_row's loop (no FMA there, so the Eq. 5
+ * [0, R->ms), bit-identical to volux_lightvol_pos_row's loop (no FMA there, so the Eq. 5
  * factors of a voxel's groups still sum to 1 exactly). */
 void volux_lightvol_pos_geometry_avx2(const lv_sweep *J, const lv_entry *e, lv_pos_row *R);
 
@@ -157,5 +173,97 @@ void volux_lightvol_pos_tau_avx2(const lv_sweep *J, const lv_pos_row *R);
  * acc (and the direction channels when ch = 6). */
 void volux_lightvol_pos_light_avx2(const lv_sweep *J, const lv_entry *e, const lv_pos_row *R, float *const out[3],
                                    float *acc, size_t m, int ch);
+
+/* ------------------------------------------------------- light values
+ * sources.c; the row loops use them where a fetch falls outside the slice
+ * (the box) and for a spot's cone. */
+
+static inline float lv_spot_factor(const lv_source *s, float cos_angle) {
+    /* volux_spot_falloff with the cosines precomputed */
+    if (cos_angle >= s->cos_fall) return 1.0f;
+    if (cos_angle <= s->cos_cone) return 0.0f;
+    float t = (cos_angle - s->cos_cone) / (s->cos_fall - s->cos_cone);
+    return t * t * (3.0f - 2.0f * t);
+}
+
+/* Value a light sends along the ray through world point p, before 1/r²:
+ * directional E0, positional I·cone(θ). */
+static inline void lv_ray_value(const lv_source *s, volux_vec3 p, float out[3]) {
+    float f = 1.0f;
+    if (s->kind == LV_POSITIONAL && s->spot) {
+        volux_vec3 d = v3_sub(p, s->pos);
+        float r2 = v3_dot(d, d);
+        f = lv_spot_factor(s, r2 > 0.0f ? v3_dot(d, s->dir) / sqrtf(r2) : 1.0f);
+    }
+    out[0] = s->power.x * f;
+    out[1] = s->power.y * f;
+    out[2] = s->power.z * f;
+}
+
+/* Smallest r² a positional light's 1/r² is evaluated at: half the smallest
+ * illumination spacing, squared. */
+static inline float lv_rmin2(const lightvol_state *st) {
+    float h = 0.5f * fminf(st->spacing[0], fminf(st->spacing[1], st->spacing[2]));
+    return h * h;
+}
+
+/* ------------------------------------------------------- scratch layout
+ * Allocated by buffers.c (volux_lightvol_ensure_scratch), used by sweep.c
+ * and the row files. */
+
+/* Row scratch layout (floats, per thread): acc[6·mu] T[mu] Tc[3·mu]
+ * cone[3·mu] cen[3·mu] tau[4·mu], then 16·mu for volux_lightvol_pos_row. */
+#define ROW_FLOATS 36
+
+/* Slices an x sweep stages before writing them to the volume as runs. */
+#define LV_DEFER 8
+
+/* A medium slice buffer: σt, κr, κg, κb planes (or the scalar in plane 0
+ * when post-classified), then per row a (min, max) pair — of the scalar, or
+ * 0 and the largest σt — so rows with an empty footprint skip the
+ * transmittance work. Floats per buffer: */
+static inline size_t lv_med_stride(const lightvol_state *st) {
+    int mmax = st->dims[0] > st->dims[1] ? st->dims[0] : st->dims[1];
+    if (st->dims[2] > mmax) mmax = st->dims[2];
+    return 4 * st->area + 2 * (size_t)mmax;
+}
+
+/* Grows the propagation scratch (slice buffers for `entries` lights per
+ * pass, medium slices, per-thread rows, x-sweep staging) on demand. */
+volux_status volux_lightvol_ensure_scratch(lightvol_state *st, int entries);
+
+/* ------------------------------------------------------- pass plan (plan.c) */
+
+typedef struct lv_pass {
+    int g, first, n; /* group, range in the index list */
+} lv_pass;
+
+/* Plans the passes for `items` (coherent or one light per pass); returns
+ * their number and fills passes/idx when non-NULL (idx: up to n·LV_GROUPS
+ * indices into items). */
+int volux_lightvol_plan(const lv_item *items, int n, int coherent, int max_per_pass, lv_pass *passes, int *idx);
+
+/* Cost of one light entry of a pass by kind, in units of a pass's fixed
+ * per-voxel cost (the calibration is in plan.c). */
+typedef struct lv_work_weights {
+    double dir, pos;
+} lv_work_weights;
+
+/* The weights of the row kernels and medium st propagates with. */
+lv_work_weights volux_lightvol_work_weights(const lightvol_state *st);
+
+/* Estimated work of the plan volux_lightvol_plan would make for `items`. */
+double volux_lightvol_plan_work(const lv_item *items, int n, int coherent, int max_per_pass, lv_work_weights w);
+
+/* ------------------------------------------------------- sweeps */
+
+/* Medium of rows [v0, v1) of slice k into `dst` (a medium slice buffer, see
+ * lv_med_stride): σt and κ_c = σt − f·σs_c, or the scalar values when
+ * post-classified, and each row's range (medium.c). */
+void volux_lightvol_classify_rows(const lv_sweep *J, float *dst, int k, int v0, int v1);
+
+/* Runs the planned passes for items (sweep.c); full = the volume is rebuilt
+ * from zero (the first pass overwrites it). */
+volux_status volux_lightvol_run_passes(lightvol_state *st, const lv_item *items, int n, int full);
 
 #endif

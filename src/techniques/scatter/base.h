@@ -21,7 +21,7 @@
 #ifndef VOLUX_SCATTER_BASE_H
 #define VOLUX_SCATTER_BASE_H
 
-#include "fastmath.h"
+#include "core/simd.h"
 #include "render/raycaster.h"
 
 /* Parameters every scattering technique has. */
@@ -89,7 +89,7 @@ scatter_march(const scatter_base *b, const void *tech, const volux_ray *ray, flo
         volux_lut_rgba(lut, smp.s, rgba);
         float tau = rgba[3] * len;
         if (tau <= 0.0f) continue;
-        float alpha = 1.0f - scatter_exp_neg(-tau);
+        float alpha = 1.0f - volux_exp_nonpos_t6(-tau);
         /* T(x_o), x_o = x + lag·ω: the transmittance at t = e − lag,
          * linear within the recorded segment that contains it. */
         float T_o = T;

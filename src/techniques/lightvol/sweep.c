@@ -1,0 +1,491 @@
+/*
+ * techniques/lightvol/sweep.c — the sweep driver: coherence-based light
+ * propagation (§4, §6), one pass at a time.
+ *
+ * A pass sweeps the slices of one propagation group (an axis and a sign)
+ * and carries every light of the pass in its own pair of 2-D slice buffers
+ * (read = previous slice, write = current slice). Per voxel and light, the
+ * light is fetched from the previous slice where the line towards the light
+ * crosses it (Ropinski et al. 2010), attenuated over that segment, and the
+ * forward-scattered part is gathered from a cone around that point. The
+ * lights' values, weighted by their Eq. 5 contribution factors for the
+ * group and signed (+1 add, −1 remove), are summed and added to the
+ * illumination volume slice by slice.
+ *
+ * What the buffers hold, so that light is never created where none arrives:
+ *   directional: irradiance E along the ray (W/m²), initialised with the
+ *                light's E0 (constant projection, Fig. 5 left);
+ *   point/spot:  intensity J along the ray (W/sr), initialised with the
+ *                projection I·cone(θ) of the light on the first slice
+ *                (Fig. 5 middle/right); the voxel receives J / r².
+ * Both are constant along a ray in empty space and are only ever multiplied
+ * by transmittances ≤ 1 or averaged, so they never exceed the unoccluded
+ * value. The per-voxel formula of §4, l_i = (1 − α)·l_{i−1} + α·c, is read
+ * as l_i = l_{i−1}·(1 − α + α·f·a·c): the absorbed-or-scattered fraction α
+ * is lost except the forward-scattered part f·albedo·colour, taken in its
+ * continuous (step-size independent) form
+ *     l_i = l_{i−1} · exp(−len·(σt − f·σs)),   σs = albedo·c·σt,
+ * with the forward-scattered share gathered from the cone.
+ *
+ * Built with -fno-math-errno -fno-trapping-math (CMakeLists.txt): the
+ * sweeps never look at errno or FP exception flags, and without them the
+ * compiler can use sqrt instructions and if-convert volux_exp_neg_cw7 and the Eq. 5
+ * factors, so the row loops vectorise (same operations, same rounding).
+ *
+ * Slices are parallel within themselves (chunks of rows, one phase of
+ * volux_parallel_phases per slice: one parallel region per sweep);
+ * every voxel depends only on the complete previous slice, so the result is
+ * the same for any thread count.
+ *
+ * This file sets a pass up (per light: offsets, taps, cone stencil,
+ * sub-samples), drives its slices (volux_parallel_phases: classify the next
+ * slice's medium while propagating the current one), runs each row over the
+ * pass's lights (rows_dir.c, rows_pos.c) and adds or stores the row into the
+ * volume (x sweeps through a staging slab); volux_lightvol_run_passes runs
+ * a plan (plan.c).
+ */
+
+#include <math.h>
+#include <string.h>
+
+#include "core/context_internal.h"
+#include "core/parallel.h"
+#include "core/vecmath.h"
+#include "rows.h"
+
+/* ------------------------------------------------------------ pass setup */
+
+/* Bilinear tap at slice offset (du, dv): its cell and weights. */
+static inline lv_tap make_tap(float du, float dv) {
+    float fu = floorf(du), fv = floorf(dv);
+    lv_tap t;
+    t.di = (int)fu;
+    t.dj = (int)fv;
+    float a = du - fu, b = dv - fv;
+    t.w00 = (1.0f - a) * (1.0f - b);
+    t.w10 = a * (1.0f - b);
+    t.w01 = (1.0f - a) * b;
+    t.w11 = a * b;
+    return t;
+}
+
+/* Widens e's tap extents (the row-interior test) to hold t. */
+static inline void extend(lv_entry *e, lv_tap t) {
+    if (t.di < e->di_min) e->di_min = t.di;
+    if (t.di > e->di_max) e->di_max = t.di;
+    if (t.dj < e->dj_min) e->dj_min = t.dj;
+    if (t.dj > e->dj_max) e->dj_max = t.dj;
+}
+
+/* Medium sub-samples along a segment with sideways offset (ou, ov): one per
+ * voxel of travel (see LV_MAX_SUB). */
+static inline int sub_count(float ou, float ov) {
+    float m = fmaxf(fabsf(ou), fabsf(ov));
+    return m <= 1.0f ? 1 : (m >= (float)LV_MAX_SUB ? LV_MAX_SUB : (int)ceilf(m));
+}
+
+/* Fills e->nst/sj/si/swc/swk (see lv_entry) from the centre and cone taps. */
+static void build_stencil(lv_entry *e) {
+    int c0 = e->tc.di, c1 = c0, r0 = e->tc.dj, r1 = r0;
+    for (int q = 0; q < 4; q++) {
+        const lv_tap *t = &e->tcone[q];
+        c0 = t->di < c0 ? t->di : c0, c1 = t->di > c1 ? t->di : c1;
+        r0 = t->dj < r0 ? t->dj : r0, r1 = t->dj > r1 ? t->dj : r1;
+    }
+    e->nst = 0;
+    if (c1 - c0 > 1 || r1 - r0 > 1) return; /* footprint wider than 3×3 */
+    float wk[3][3] = {{0}};
+    for (int q = 0; q < 4; q++) {
+        const lv_tap *t = &e->tcone[q];
+        int j = t->dj - r0, i = t->di - c0;
+        wk[j][i] += 0.25f * t->w00, wk[j][i + 1] += 0.25f * t->w10;
+        wk[j + 1][i] += 0.25f * t->w01, wk[j + 1][i + 1] += 0.25f * t->w11;
+    }
+    const float wc[4] = {e->tc.w00, e->tc.w10, e->tc.w01, e->tc.w11};
+    int used[3][3] = {{0}}, n = 0;
+    for (int k = 0; k < 4; k++) { /* the centre's nodes first */
+        int j = e->tc.dj - r0 + k / 2, i = e->tc.di - c0 + k % 2;
+        e->sj[n] = r0 + j, e->si[n] = c0 + i, e->swc[n] = wc[k], e->swk[n] = wk[j][i];
+        used[j][i] = 1;
+        n++;
+    }
+    for (int j = 0; j < 3; j++)
+        for (int i = 0; i < 3; i++)
+            if (!used[j][i] && wk[j][i] != 0.0f) e->sj[n] = r0 + j, e->si[n] = c0 + i, e->swk[n] = wk[j][i], n++;
+    e->nst = n;
+}
+
+/* ------------------------------------------------------------ rows */
+
+/* Writes the last nb staged slices of row v into the volume: for each u a
+ * contiguous run of nb voxels along x (the sweep axis). */
+static void flush_row(const lv_sweep *J, int v, int nb) {
+    const lightvol_state *st = J->st;
+    const int mu = J->mu, ch = st->ch;
+    const size_t m = (size_t)mu;
+    const size_t plane = (size_t)J->mu * (size_t)J->mv;
+    /* u outer so that the nb voxels of one x-run are written together */
+    const size_t su = J->vs[J->au] * (size_t)ch;
+    const int k_lo = J->s > 0 ? J->step - (nb - 1) : J->ma - 1 - J->step; /* lowest x of the runs */
+    const float *run0 = st->vol + ((size_t)k_lo * J->vs[J->a] + (size_t)v * J->vs[J->av]) * (size_t)ch;
+    const size_t run_bytes = (size_t)nb * (size_t)ch * sizeof(float);
+    for (int u = 0; u < mu; u++) {
+        /* the runs are a whole x-row apart: prefetch a few ahead */
+        if (u + 6 < mu)
+            for (size_t off = 0; off < run_bytes; off += 64)
+                __builtin_prefetch((const char *)(run0 + (size_t)(u + 6) * su) + off, 1, 3);
+        for (int b = 0; b < nb; b++) {
+            int step = J->step - (nb - 1 - b);
+            int k = J->s > 0 ? step : J->ma - 1 - step;
+            const float *src = st->stage + ((size_t)b * plane + (size_t)v * m + (size_t)u) * (size_t)ch;
+            float *p = st->vol + ((size_t)k * J->vs[J->a] + (size_t)v * J->vs[J->av]) * (size_t)ch + (size_t)u * su;
+            if (J->overwrite)
+                for (int c = 0; c < ch; c++) p[c] = src[c];
+            else
+                for (int c = 0; c < ch; c++) p[c] += src[c];
+        }
+    }
+}
+
+/* D += ω·S over a row (a run of same-direction lights, see sweep_row). */
+static void flush_run(float *d, size_t m, const float *restrict S, volux_vec3 w, int n) {
+    float *restrict dx = d, *restrict dy = d + m, *restrict dz = d + 2 * m;
+    for (int u = 0; u < n; u++) {
+        dx[u] += w.x * S[u];
+        dy[u] += w.y * S[u];
+        dz[u] += w.z * S[u];
+    }
+}
+
+/* Row v of the current slice: every light of the pass (rows_dir.c,
+ * rows_pos.c) into its slice buffer, their weighted sum added to (first
+ * pass of an entire update: stored in) the volume. */
+static void sweep_row(const lv_sweep *J, int v, int thread) {
+    lightvol_state *st = J->st;
+    int mu = J->mu, ch = st->ch;
+    size_t m = (size_t)mu;
+    float *sc = st->rows + (size_t)thread * st->row_stride;
+    float *acc = sc, *T = acc + 6 * m;
+    float *Tc[3] = {T + m, T + 2 * m, T + 3 * m};
+    float *cone[3] = {T + 4 * m, T + 5 * m, T + 6 * m};
+    float *cen[3] = {T + 7 * m, T + 8 * m, T + 9 * m};
+    float *tau[4] = {T + 10 * m, T + 11 * m, T + 12 * m, T + 13 * m};
+    memset(acc, 0, (size_t)ch * m * sizeof(float));
+    const lv_entry *last = NULL;
+    size_t off = (size_t)v * m;
+    int run = 0; /* a run of same-direction lights is open (SIMD, ch = 6) */
+    lv_row_geom G = {NULL, 0, 0};
+    for (int i = 0; i < J->ne; i++) {
+        const lv_entry *e = &J->e[i];
+        float *out[3] = {e->wr[0] + off, e->wr[1] + off, e->wr[2] + off};
+        if (e->s->kind == LV_POSITIONAL) {
+            volux_lightvol_pos_row(J, e, v, out, acc, ch, T + 14 * m);
+            continue;
+        }
+        if (J->simd) {
+            /* Consecutive lights with one direction: D += ω·Σ sw·lum(E_l)
+             * once for the run (lum is linear), not per light; the run's sum
+             * lives in the row scratch that the portable path uses for cen. */
+            float *S = NULL;
+            if (ch == 6) {
+                const lv_entry *nx = i + 1 < J->ne ? &J->e[i + 1] : NULL;
+                int same_next = nx && nx->s->kind == LV_DIRECTIONAL && nx->s->dir.x == e->s->dir.x &&
+                                nx->s->dir.y == e->s->dir.y && nx->s->dir.z == e->s->dir.z;
+                if (!run && same_next) memset(cen[0], 0, m * sizeof(float)), run = 1;
+                S = run ? cen[0] : NULL;
+                volux_lightvol_dir_row_simd(J, e, v, out, T, Tc, tau, &G, acc, ch, S);
+                if (run && !same_next) {
+                    flush_run(acc + 3 * m, m, cen[0], e->s->dir, mu);
+                    run = 0;
+                }
+                continue;
+            }
+            volux_lightvol_dir_row_simd(J, e, v, out, T, Tc, tau, &G, acc, ch, S);
+            continue;
+        }
+        volux_lightvol_dir_row(J, e, v, out, T, Tc, cone, cen, tau, &last);
+        for (int c = 0; c < 3; c++) lv_accumulate(acc + (size_t)c * m, out[c], e->sw, mu);
+        if (ch == 6) lv_accumulate_dir(acc + 3 * m, m, out, e->dsw, mu);
+    }
+    /* Add (or, first pass of a full rebuild, store) into the volume. */
+    size_t base = (size_t)J->k * J->vs[J->a] + (size_t)v * J->vs[J->av], su = J->vs[J->au];
+    float *restrict vol = st->vol + base * (size_t)ch;
+    const size_t stride = su * (size_t)ch;
+    if (J->defer) {
+        /* x sweep: park the row in the staging slab (slice-major, AoS) and
+         * flush runs of `defer` voxels along x every `defer` slices */
+        int b = J->step % J->defer;
+        float *restrict dst = st->stage + ((size_t)b * (size_t)J->mu * (size_t)J->mv + (size_t)v * m) * (size_t)ch;
+        for (int u = 0; u < mu; u++)
+            for (int c = 0; c < ch; c++) dst[(size_t)u * (size_t)ch + (size_t)c] = acc[(size_t)c * m + (size_t)u];
+        if (b == J->defer - 1 || J->step == J->ma - 1) flush_row(J, v, b + 1);
+        return;
+    }
+    if (ch == 6) {
+        const float *restrict q0 = acc, *restrict q1 = acc + m, *restrict q2 = acc + 2 * m, *restrict q3 = acc + 3 * m,
+                              *restrict q4 = acc + 4 * m, *restrict q5 = acc + 5 * m;
+        if (J->overwrite) {
+            for (int u = 0; u < mu; u++) {
+                float *p = vol + (size_t)u * stride;
+                p[0] = q0[u], p[1] = q1[u], p[2] = q2[u], p[3] = q3[u], p[4] = q4[u], p[5] = q5[u];
+            }
+        } else {
+            for (int u = 0; u < mu; u++) {
+                float *p = vol + (size_t)u * stride;
+                p[0] += q0[u], p[1] += q1[u], p[2] += q2[u], p[3] += q3[u], p[4] += q4[u], p[5] += q5[u];
+            }
+        }
+    } else {
+        const float *restrict q0 = acc, *restrict q1 = acc + m, *restrict q2 = acc + 2 * m;
+        if (J->overwrite) {
+            for (int u = 0; u < mu; u++) {
+                float *p = vol + (size_t)u * stride;
+                p[0] = q0[u], p[1] = q1[u], p[2] = q2[u];
+            }
+        } else {
+            for (int u = 0; u < mu; u++) {
+                float *p = vol + (size_t)u * stride;
+                p[0] += q0[u], p[1] += q1[u], p[2] += q2[u];
+            }
+        }
+    }
+}
+
+/* ------------------------------------------------------------ slices */
+
+/* One work item of a slice step: a chunk of rows of the current slice's
+ * sweep, or a chunk of rows of the next slice's classification (the
+ * pipeline keeps one fork/join per slice). */
+static void step_item(void *user, int64_t item, int thread) {
+    const lv_sweep *J = user;
+    int i = (int)item, rpi = J->rows_per_item;
+    if (i < J->sweep_items) {
+        int v0 = i * rpi, v1 = v0 + rpi < J->mv ? v0 + rpi : J->mv;
+        for (int v = v0; v < v1; v++) sweep_row(J, v, thread);
+    } else {
+        i -= J->sweep_items;
+        int v0 = i * rpi, v1 = v0 + rpi < J->mv ? v0 + rpi : J->mv;
+        volux_lightvol_classify_rows(J, J->mn, J->kn, v0, v1);
+    }
+}
+
+/* Each light's slice buffers: what step k wrote is what step k + 1 reads. */
+static void swap_slice_buffers(lv_entry *E, int n) {
+    for (int i = 0; i < n; i++)
+        for (int c = 0; c < 3; c++) {
+            float *t = E[i].rd[c];
+            E[i].rd[c] = E[i].wr[c];
+            E[i].wr[c] = t;
+        }
+}
+
+/* Serial part of sweep phase p (volux_parallel_phases; returns the phase's
+ * item count for step_item). Phase 0 classifies the first slice's medium;
+ * phase p ≥ 1 propagates slice step p − 1 and classifies the next slice
+ * together — the propagation reads only the previous and current slices'
+ * media. The media rotate through three buffers. */
+static int64_t sweep_phase(void *user, int phase) {
+    lv_sweep *J = user;
+    if (phase == 0) {
+        J->mn = J->med[0];
+        J->kn = J->s > 0 ? 0 : J->ma - 1;
+        J->sweep_items = 0;
+        J->class_items = J->chunks;
+        return J->chunks;
+    }
+    int step = phase - 1;
+    if (step > 0) swap_slice_buffers(J->e, J->ne);
+    J->step = step;
+    J->k = J->s > 0 ? step : J->ma - 1 - step;
+    J->kp = J->k - J->s;
+    J->mc = J->med[step % 3];
+    J->mp = J->med[(step + 2) % 3];
+    J->mn = J->med[(step + 1) % 3];
+    J->kn = step + 1 < J->ma ? J->k + J->s : -1;
+    for (int i = 0; i < J->ne; i++) {
+        lv_entry *e = &J->e[i];
+        if (e->s->kind == LV_DIRECTIONAL) {
+            e->mode = step == 0 ? E_INIT : E_PROP;
+        } else {
+            /* slices ahead of the light along the sweep only (§7.3: a
+             * light inside the volume needs the opposite groups too) */
+            float dist = (float)J->s * ((float)J->k - e->lidx[J->a]);
+            if (dist <= 0.0f) e->mode = E_SKIP;
+            else if (dist <= 1.0f) e->mode = E_INIT_ATT;
+            else if (step == 0) e->mode = E_INIT; /* projection onto the first slice (§6, Fig. 5) */
+            else e->mode = E_PROP, e->f = 1.0f / dist;
+        }
+    }
+    J->sweep_items = J->chunks;
+    J->class_items = J->kn >= 0 ? J->chunks : 0;
+    return J->sweep_items + J->class_items;
+}
+
+/* ------------------------------------------------------------ passes */
+
+/* One propagation pass: group g, the lights items[idx[0..n)], entries E. */
+static void sweep(lightvol_state *st, int g, const lv_item *items, const int *idx, int n, int overwrite, lv_entry *E) {
+    lv_sweep J;
+    memset(&J, 0, sizeof J);
+    J.st = st;
+    J.g = g;
+    J.a = g / 2;
+    J.s = (g & 1) ? -1 : 1;
+    J.au = J.a == 0 ? 1 : 0;
+    J.av = J.a == 2 ? 1 : 2;
+    J.mu = st->dims[J.au];
+    J.mv = st->dims[J.av];
+    J.ma = st->dims[J.a];
+    J.vs[0] = 1;
+    J.vs[1] = (size_t)st->dims[0];
+    J.vs[2] = (size_t)st->dims[0] * (size_t)st->dims[1];
+    J.area = st->area;
+    J.overwrite = overwrite;
+    J.fwd = st->p.forward;
+    J.forward = st->p.forward > 0.0f;
+    J.cone = J.forward && st->p.cone_deg > 0.0f;
+    J.tan_c = tanf(st->p.cone_deg * VOLUX_PI / 180.0f) * 0.70710678f; /* disc of radius ρ ↔ 4 taps at ρ/√2 */
+    J.rmin2 = lv_rmin2(st);
+    J.nplanes = J.forward ? 4 : 1;
+    J.post = st->on_grid;
+    J.lut = st->rc.lut;
+    J.albedo = st->rc.albedo;
+    /* the AVX2 row-end steps read 9-column windows */
+    J.simd = st->use_simd && J.mu >= 9;
+    J.avx512 = J.simd && st->use_avx512;
+    J.ne = n;
+    /* x sweeps write the volume a whole x-row apart per voxel; staging
+     * `LV_DEFER` slices turns that into runs along x (same values) */
+    J.defer = J.a == 0 ? LV_DEFER : 0;
+    J.e = E;
+    size_t plane = st->area;
+    for (int i = 0; i < n; i++) {
+        lv_entry *e = &E[i];
+        memset(e, 0, sizeof *e);
+        const lv_item *it = &items[idx[i]];
+        e->s = &it->src;
+        e->sign = it->sign;
+        e->nch = 3;
+        e->gain[0] = e->gain[1] = e->gain[2] = 1.0f;
+        if (J.simd && !J.forward) {
+            e->nch = 1;
+            e->norm = it->src;
+            e->norm.power = v3(1.0f, 1.0f, 1.0f);
+            e->s = &e->norm;
+            e->gain[0] = it->src.power.x, e->gain[1] = it->src.power.y, e->gain[2] = it->src.power.z;
+        }
+        float *b = st->slices + (size_t)i * 6 * plane;
+        for (int c = 0; c < 3; c++) {
+            e->rd[c] = b + (size_t)c * plane;
+            e->wr[c] = b + (size_t)(3 + c) * plane;
+        }
+        if (e->s->kind == LV_DIRECTIONAL) {
+            float w[3] = {e->s->dir.x, e->s->dir.y, e->s->dir.z};
+            e->sw = e->sign * e->s->weight[g];
+            e->dsw = v3_scale(e->s->dir, e->sw);
+            /* Back along the light to the previous slice: one slice spacing
+             * along the axis (Ropinski et al. 2010). */
+            float t = st->spacing[J.a] / fabsf(w[J.a]);
+            float lim = 4.0f * (float)(J.mu + J.mv);
+            e->du = clampf(-w[J.au] * t / st->spacing[J.au], -lim, lim);
+            e->dv = clampf(-w[J.av] * t / st->spacing[J.av], -lim, lim);
+            e->len = t;
+            e->tc = make_tap(e->du, e->dv);
+            e->di_min = e->di_max = e->tc.di;
+            e->dj_min = e->dj_max = e->tc.dj;
+            if (J.cone) {
+                float rho = t * J.tan_c, ru = rho / st->spacing[J.au], rv = rho / st->spacing[J.av];
+                const float ox[4] = {ru, -ru, 0.0f, 0.0f}, oy[4] = {0.0f, 0.0f, rv, -rv};
+                for (int q = 0; q < 4; q++) {
+                    e->cu[q] = clampf(e->du + ox[q], -lim, lim);
+                    e->cv[q] = clampf(e->dv + oy[q], -lim, lim);
+                    e->tcone[q] = make_tap(e->cu[q], e->cv[q]);
+                    extend(e, e->tcone[q]);
+                }
+            }
+            if (J.cone) build_stencil(e);
+            e->nsub = sub_count(e->du, e->dv);
+            for (int q = 0; q < e->nsub; q++) {
+                float tq = ((float)q + 0.5f) / (float)e->nsub;
+                e->su[q] = e->du * (1.0f - tq);
+                e->sv[q] = e->dv * (1.0f - tq);
+                e->wp[q] = (1.0f - tq) * t / (float)e->nsub;
+                e->wc[q] = tq * t / (float)e->nsub;
+                e->ts[q] = make_tap(e->su[q], e->sv[q]);
+                extend(e, e->ts[q]);
+            }
+        } else {
+            volux_vec3 q = v3_sub(e->s->pos, st->lo);
+            e->lidx[0] = q.x / st->spacing[0];
+            e->lidx[1] = q.y / st->spacing[1];
+            e->lidx[2] = q.z / st->spacing[2];
+        }
+    }
+    /* Work split: chunks of rows worth ~4k voxel·lights each; small slices
+     * run on one thread (fork/join would cost more than the work). */
+    const size_t sb = lv_med_stride(st);
+    int threads = st->rc.threads > 0 ? st->rc.threads : 1;
+    size_t work = (size_t)J.mu * (size_t)J.mv * (size_t)(n + 1);
+    if (work < 16384) threads = 1;
+    size_t row_work = (size_t)J.mu * (size_t)(n + 1);
+    J.rows_per_item = (int)((4096 + row_work - 1) / row_work);
+    if (J.rows_per_item < 1) J.rows_per_item = 1;
+    if (threads > 1 && J.rows_per_item * 4 * threads > J.mv) {
+        J.rows_per_item = J.mv / (4 * threads);
+        if (J.rows_per_item < 1) J.rows_per_item = 1;
+    }
+    J.chunks = (J.mv + J.rows_per_item - 1) / J.rows_per_item;
+    J.med[0] = st->med;
+    J.med[1] = st->med + sb;
+    J.med[2] = st->med + 2 * sb;
+    /* one parallel region for the whole sweep: a fork/join per slice left the
+     * second thread waiting to be woken (or spinning) at every slice */
+    volux_parallel_phases(threads, J.ma + 1, sweep_phase, step_item, &J);
+    swap_slice_buffers(E, n);
+}
+
+/* Runs the planned passes (sweep.h). */
+volux_status volux_lightvol_run_passes(lightvol_state *st, const lv_item *items, int n, int full) {
+    volux_context *ctx = st->rc.ctx;
+    int coherent = st->p.coherent, maxp = st->p.max_per_pass;
+    int np = volux_lightvol_plan(items, n, coherent, maxp, NULL, NULL);
+    st->stats.passes = np;
+    st->stats.entries = 0;
+    if (np == 0) {
+        if (full) memset(st->vol, 0, st->vol_bytes);
+        return VOLUX_OK;
+    }
+    size_t pbytes = (size_t)np * sizeof(lv_pass), ibytes = (size_t)n * LV_GROUPS * sizeof(int);
+    lv_pass *passes = volux_malloc(ctx, pbytes);
+    int *idx = volux_malloc(ctx, ibytes);
+    lv_entry *E = NULL;
+    size_t ebytes = 0;
+    volux_status s = VOLUX_OK;
+    if (!passes || !idx) {
+        s = volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for the pass plan");
+        goto done;
+    }
+    volux_lightvol_plan(items, n, coherent, maxp, passes, idx);
+    int most = 0;
+    for (int i = 0; i < np; i++)
+        if (passes[i].n > most) most = passes[i].n;
+    if ((s = volux_lightvol_ensure_scratch(st, most))) goto done;
+    ebytes = (size_t)most * sizeof(lv_entry);
+    if (!(E = volux_malloc(ctx, ebytes))) {
+        s = volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for the pass entries");
+        goto done;
+    }
+    for (int i = 0; i < np; i++) {
+        sweep(st, passes[i].g, items, idx + passes[i].first, passes[i].n, full && i == 0, E);
+        st->stats.entries += passes[i].n;
+        if (volux_progress(ctx, "lightvol", (double)(i + 1) / (double)np)) {
+            s = volux_error(ctx, VOLUX_ERR_CANCELLED, "lightvol: propagation cancelled");
+            goto done;
+        }
+    }
+done:
+    volux_free(ctx, E, ebytes);
+    volux_free(ctx, passes, pbytes);
+    volux_free(ctx, idx, ibytes);
+    return s;
+}

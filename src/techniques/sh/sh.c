@@ -1,0 +1,495 @@
+/*
+ * techniques/sh/sh.c — `sh`: advanced light–material interaction with
+ * spherical harmonics (Lindemann & Ropinski 2010): the class, its update
+ * (edits map to the least work) and the renderer (Eq. 3).
+ *
+ * Rendering. Each camera ray composites front to back (the ray-caster
+ * base's emission–absorption march); a segment emits, per unit opacity,
+ *
+ *     L(x, ω_o) = [∫ M L_i dω_i] · [∫ L'_mi L_i dω_i] / ∫ L_i dω_i
+ *
+ * — the paper's two successive double products (§4.3), divided by the
+ * light's total so the result is a radiance (a deviation, see the docs:
+ * the product is then exact when either M or L'_mi is constant over the
+ * sphere, e.g. for an isotropic phase function or for an unshadowed
+ * point). The second factor does not depend on ω_o: it is evaluated once
+ * per coefficient node when the light or the coefficients change (the
+ * shade volume S, three floats per node, trilinear at render time) —
+ * the same dot products, in an order that makes camera edits free and
+ * light edits a bake of S. The first factor is, for the TF's phase
+ * function and phase materials, albedo·c(s)·Σ_lm g^l L_lm Y_lm(ω) per ray
+ * (Funk–Hecke with the HG kernel), and for BRDF materials a lookup of the
+ * material–light table F(n, ω_o) (material.c) at the gradient normal,
+ * blended with the phase function by the gradient magnitude (surfaces
+ * reflect, homogeneous regions scatter).
+ */
+#include <math.h>
+#include <string.h>
+
+#include "core/context_internal.h"
+#include "core/parallel.h"
+#include "sh.h"
+
+static const volux_param_info sh_params[] = {
+    {"bands", VOLUX_PARAM_INT, 4, 1, 4, NULL, "SH bands L + 1 of every projection (the paper: 4, i.e. 16 coefficients)"},
+    {"chroma_bands", VOLUX_PARAM_INT, 0, 0, 4, NULL,
+     "0: RGB coefficients at `bands`; n > 0: luma at `bands`, chroma (Cb, Cr) at n bands (the paper's §5: 2)"},
+    {"downsample", VOLUX_PARAM_INT, 3, 1, 8, NULL,
+     "fine voxels per coefficient voxel (the paper: coefficient volumes at ~33 % resolution)"},
+    {"rays", VOLUX_PARAM_INT, 64, 4, 4096, NULL, "rays per coefficient voxel (stratified over the sampling region)"},
+    {"step_growth", VOLUX_PARAM_NUMBER, 1.15, 1, 2, NULL,
+     "factor by which the projection's ray step grows per step (Ritschel 2007); coarser pyramid levels follow it"},
+    {"ray_opacity", VOLUX_PARAM_NUMBER, 0.95, 0.5, 0.9999, NULL,
+     "a projection ray stops at this opacity (the paper: 95 %)"},
+    {"bleeding", VOLUX_PARAM_BOOL, 0, 0, 1, NULL,
+     "colour bleeding: project T + the composited albedo·colour along each ray (RGB coefficients)"},
+    {"scattering", VOLUX_PARAM_BOOL, 0, 0, 1, NULL,
+     "scattering pass (Eq. 4): gather L_mi over N(x) weighted by the dipole R_d of `scatter_material`"},
+    {"scatter_material", VOLUX_PARAM_STRING, 0, 0, 0, "skin1",
+     "R_d preset (Jensen et al. 2001): apple, chicken1, chicken2, cream, ketchup, marble, potato, skimmilk, "
+     "skin1, skin2, spectralon, wholemilk"},
+    {"scatter_scale", VOLUX_PARAM_NUMBER, 0.5, 1e-3, 1e3, NULL,
+     "millimetres of material per world unit (the presets' coefficients are per mm)"},
+    {"neighbourhood", VOLUX_PARAM_NUMBER, 0.1, 0.01, 0.5, NULL,
+     "radius of the scattering neighbourhood N(x) as a fraction of the largest extent (the paper: 10 %)"},
+    {"progressive", VOLUX_PARAM_BOOL, 0, 0, 1, NULL,
+     "project coarse first (2x coarser grid, 1/8 of the rays) and refine in later steps (volux_technique_refine)"},
+    VOLUX_PARAM_GRADIENT_THRESHOLD("BRDF shading is"),
+    VOLUX_PARAM_PREINTEGRATE,
+    VOLUX_PARAM_EARLY_TERMINATION,
+    VOLUX_PARAM_SKIP_EMPTY,
+    {NULL, 0, 0, 0, 0, NULL, NULL}};
+
+/* ------------------------------------------------------------------ update */
+
+static volux_status read_projection_params(sh_state *st, const volux_scene *scene, sh_projection_params *p) {
+    const volux_technique_class *cls = st->rc.cls;
+    memset(p, 0, sizeof *p);
+    p->bands = (int)volux_technique_param(scene, cls, "bands");
+    p->chroma_bands = (int)volux_technique_param(scene, cls, "chroma_bands");
+    p->downsample = (int)volux_technique_param(scene, cls, "downsample");
+    p->rays = (int)volux_technique_param(scene, cls, "rays");
+    p->step_growth = (float)volux_technique_param(scene, cls, "step_growth");
+    p->ray_opacity = (float)volux_technique_param(scene, cls, "ray_opacity");
+    p->bleeding = (int)volux_technique_param(scene, cls, "bleeding");
+    p->scattering = (int)volux_technique_param(scene, cls, "scattering");
+    p->scatter_scale = (float)volux_technique_param(scene, cls, "scatter_scale");
+    p->neighbourhood = (float)volux_technique_param(scene, cls, "neighbourhood");
+    p->progressive = (int)volux_technique_param(scene, cls, "progressive");
+    const char *name = volux_technique_param_string(scene, cls, "scatter_material");
+    const sh_dipole_material *m = sh_dipole_find(name);
+    if (!m)
+        return volux_error(st->rc.ctx, VOLUX_ERR_INVALID,
+                           "techniques.sh.scatter_material: unknown preset \"%s\" (apple, chicken1, chicken2, cream, "
+                           "ketchup, marble, potato, skimmilk, skin1, skin2, spectralon, wholemilk)",
+                           name);
+    p->scatter_preset = (int)(m - sh_dipole_at(0));
+    if (!p->scattering) p->scatter_preset = 0, p->scatter_scale = 0, p->neighbourhood = 0;
+    if (!p->bleeding && !p->scattering) p->chroma_bands = 0;
+    return VOLUX_OK;
+}
+
+/* FNV-1a over the colour curve and albedo: what bleeding reads of COLOR. */
+static uint64_t color_hash(const volux_transfer_desc *tf) {
+    uint64_t h = 1469598103934665603ull;
+    const unsigned char *p = (const unsigned char *)tf->color;
+    for (size_t i = 0; i < sizeof *tf->color * (size_t)tf->n_color; i++) h = (h ^ p[i]) * 1099511628211ull;
+    p = (const unsigned char *)&tf->albedo;
+    for (size_t i = 0; i < sizeof tf->albedo; i++) h = (h ^ p[i]) * 1099511628211ull;
+    return h ^ (uint64_t)tf->n_color;
+}
+
+typedef struct bake_job {
+    const sh_state *st;
+    const sh_grid *grid;
+    const sh_layout *L;
+    const float *coef;
+    float *shade;
+    float E[3];
+} bake_job;
+
+/* S_c = ∫ L'_mi,c L_i,c / ∫ L_i,c at every node (Eq. 3's second factor,
+ * normalised); Y/Cb/Cr channels are mixed back to RGB linearly. */
+static void bake_slice(void *user, int64_t z, int thread) {
+    (void)thread;
+    const bake_job *b = user;
+    const sh_state *st = b->st;
+    const sh_layout *L = b->L;
+    static const float ycc[3][3] = {{1.0f, 0.0f, 1.5748f}, {1.0f, -0.18732f, -0.46812f}, {1.0f, 1.8556f, 0.0f}};
+    size_t per = (size_t)b->grid->dims[0] * b->grid->dims[1];
+    for (size_t n = (size_t)z * per; n < (size_t)(z + 1) * per; n++) {
+        const float *cf = b->coef + n * (size_t)L->stride;
+        float *S = b->shade + 4 * n;
+        for (int c = 0; c < 3; c++) {
+            float v = 0.0f;
+            if (L->channels == 1) v = sh_dot(L->bands[0], cf, st->li[c]);
+            else if (!L->ycc) v = sh_dot(L->bands[c], cf + L->offset[c], st->li[c]);
+            else
+                for (int q = 0; q < 3; q++)
+                    if (ycc[c][q] != 0.0f) v += ycc[c][q] * sh_dot(L->bands[q], cf + L->offset[q], st->li[c]);
+            S[c] = b->E[c] > 1e-12f && v > 0.0f ? v / b->E[c] : 0.0f;
+        }
+        S[3] = 0.0f;
+    }
+}
+
+/* Bakes the shade volume of (grid, layout, coef) into shade (4 per node). */
+static void bake_into(sh_state *st, const sh_grid *g, const sh_layout *L, const float *coef, float *shade) {
+    bake_job b = {st, g, L, coef, shade, {0, 0, 0}};
+    for (int c = 0; c < 3; c++) b.E[c] = 3.5449077f * st->li[c][0]; /* ∫ L_i = √(4π)·L_00 */
+    volux_parallel_for(st->rc.threads, g->dims[2], bake_slice, &b);
+    st->bakes++;
+}
+
+static volux_status bake(sh_state *st) {
+    size_t bytes = st->grid.nodes * 4 * sizeof(float);
+    if (bytes != st->shade_bytes) {
+        if (st->shade) volux_free_aligned(st->rc.ctx, st->shade, st->shade_bytes);
+        st->shade_bytes = 0;
+        if (!(st->shade = volux_alloc_aligned(st->rc.ctx, bytes)))
+            return volux_error(st->rc.ctx, VOLUX_ERR_NOMEM, "sh: out of memory for the shade volume");
+        st->shade_bytes = bytes;
+    }
+    bake_into(st, &st->grid, &st->layout, st->coef, st->shade);
+    return VOLUX_OK;
+}
+
+static void free_materials(sh_state *st) {
+    for (int i = 0; i < SH_MAX_MATERIALS; i++) sh_material_free(st->rc.ctx, &st->mat[i]);
+    st->n_materials = 0;
+    st->any_brdf = 0;
+}
+
+static volux_status prepare_materials(sh_state *st, const volux_scene *scene) {
+    const volux_transfer_desc *tf = volux_scene_transfer(scene);
+    const volux_transfer_lut *lut = st->rc.lut;
+    free_materials(st);
+    volux_status s;
+    for (int i = 0; i < tf->n_materials; i++) {
+        if ((s = sh_material_prepare(st->rc.ctx, &tf->materials[i], &st->mat[i]))) {
+            free_materials(st);
+            return s;
+        }
+        st->n_materials = i + 1;
+        st->any_brdf |= st->mat[i].brdf;
+    }
+    /* material per LUT entry: the first range that holds the scalar */
+    int n = lut->n < 4096 ? lut->n : 4096;
+    for (int e = 0; e < 4096; e++) {
+        float sv = lut->s_min + (float)(e < n ? e : n - 1) * (lut->s_max - lut->s_min) / (float)(n > 1 ? n - 1 : 1);
+        st->mat_index[e] = 255;
+        for (int i = 0; i < tf->n_materials; i++)
+            if (sv >= tf->materials[i].s0 && sv <= tf->materials[i].s1) {
+                st->mat_index[e] = (uint8_t)i;
+                break;
+            }
+    }
+    return VOLUX_OK;
+}
+
+static volux_status sh_update(void *state, const volux_scene *scene, const volux_change_set *c) {
+    sh_state *st = state;
+    volux_raycaster *rc = &st->rc;
+    const volux_technique_class *cls = rc->cls;
+    const uint32_t w = c->what;
+    volux_status s;
+    if (w & VOLUX_CHANGE_VOLUME) {
+        if ((s = volux_volume_build_bricks(rc->volume))) return s;
+        st->have_grad = 0;
+    }
+    if (w & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME)) {
+        st->preintegrate = (int)volux_technique_param(scene, cls, "preintegrate");
+        st->skip_empty = (int)volux_technique_param(scene, cls, "skip_empty");
+        st->t_min = (float)volux_technique_param(scene, cls, "early_termination");
+        st->grad_ref = volux_raycaster_gradient_ref(rc, volux_technique_param(scene, cls, "gradient_threshold"));
+    }
+    sh_projection_params p;
+    if ((s = read_projection_params(st, scene, &p))) return s;
+    uint64_t ch = p.bleeding ? color_hash(volux_scene_transfer(scene)) : 0;
+    int reproject = !st->have_coef || (w & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY)) ||
+                    memcmp(&p, &st->applied, sizeof p) != 0 || ch != st->applied_color;
+    int relight = (w & (VOLUX_CHANGE_LIGHTS | VOLUX_CHANGE_VOLUME)) != 0;
+    if (reproject) {
+        st->have_coef = st->have_shade = 0;
+        if (st->coef) volux_free_aligned(rc->ctx, st->coef, st->coef_bytes);
+        st->coef = NULL;
+        st->coef_bytes = 0;
+        /* progressive: the coarse level first (2× coarser grid, ⅛ of the rays) */
+        int ratio = p.progressive ? 2 * p.downsample : p.downsample;
+        int rays = p.progressive ? (p.rays + 7) / 8 : p.rays;
+        if ((s = sh_project(st, &p, ratio, rays, &st->grid, &st->layout, &st->coef, &st->coef_bytes))) return s;
+        st->applied = p;
+        st->applied_color = ch;
+        st->coarse = p.progressive;
+        st->have_coef = 1;
+        st->projections++;
+    }
+    if (relight) {
+        volux_vec3 centre;
+        float radius;
+        volux_scene_bounds_sphere(scene, &centre, &radius);
+        for (int i = 0; i < volux_scene_light_slots(scene); i++) {
+            const volux_light_desc *d = volux_scene_light(scene, i);
+            if (d && ((w & VOLUX_CHANGE_VOLUME) || volux_change_light(c, i))) {
+                if ((s = sh_light_project(rc->ctx, d, centre, st->light_sh[i]))) return s;
+                st->light_projections++;
+            }
+        }
+        memset(st->li, 0, sizeof st->li);
+        for (int i = 0; i < rc->lights.n_all; i++) {
+            int slot = rc->lights.all[i].slot;
+            for (int k = 0; k < 3; k++)
+                for (int j = 0; j < SH_MAX_COEFFS; j++) st->li[k][j] += st->light_sh[slot][k][j];
+        }
+        st->have_shade = st->have_light_tables = 0;
+    }
+    if (!st->have_shade) {
+        if ((s = bake(st))) return s;
+        st->have_shade = 1;
+    }
+    if ((w & (VOLUX_CHANGE_COLOR | VOLUX_CHANGE_VOLUME)) || !st->have_tables) {
+        st->have_tables = st->have_light_tables = 0;
+        if ((s = prepare_materials(st, scene))) return s;
+        st->have_tables = 1;
+    }
+    if (!st->have_light_tables) {
+        for (int i = 0; i < st->n_materials; i++)
+            if ((s = sh_material_light_table(rc->ctx, &st->mat[i], (const float(*)[SH_MAX_COEFFS])st->li))) return s;
+        st->have_light_tables = 1;
+    }
+    if (st->any_brdf && !st->have_grad) {
+        if ((s = volux_gradient_cache_build(rc->ctx, rc->volume, &st->grad, "sh"))) return s;
+        st->have_grad = 1;
+    }
+    return VOLUX_OK;
+}
+
+/* Progressive mode: the full projection replaces the coarse one. */
+static volux_status sh_refine(void *state, const volux_scene *scene, int *changed, int *more) {
+    (void)scene;
+    sh_state *st = state;
+    *more = 0;
+    if (!st->coarse) return VOLUX_OK;
+    sh_grid g;
+    sh_layout lay;
+    float *coef = NULL;
+    size_t bytes = 0;
+    volux_status s = sh_project(st, &st->applied, st->applied.downsample, st->applied.rays, &g, &lay, &coef, &bytes);
+    if (s) return s; /* the coarse level stays, and renders */
+    size_t shade_bytes = g.nodes * 4 * sizeof(float);
+    float *shade = volux_alloc_aligned(st->rc.ctx, shade_bytes);
+    if (!shade) {
+        volux_free_aligned(st->rc.ctx, coef, bytes);
+        return volux_error(st->rc.ctx, VOLUX_ERR_NOMEM, "sh: out of memory for the shade volume");
+    }
+    bake_into(st, &g, &lay, coef, shade);
+    volux_free_aligned(st->rc.ctx, st->coef, st->coef_bytes);
+    if (st->shade) volux_free_aligned(st->rc.ctx, st->shade, st->shade_bytes);
+    st->grid = g, st->layout = lay;
+    st->coef = coef, st->coef_bytes = bytes;
+    st->shade = shade, st->shade_bytes = shade_bytes;
+    st->coarse = 0;
+    st->projections++;
+    *changed = 1;
+    return VOLUX_OK;
+}
+
+static size_t sh_memory_bytes(const void *state) {
+    const sh_state *st = state;
+    size_t tables = 0;
+    for (int i = 0; i < st->n_materials; i++) {
+        if (st->mat[i].table) tables += sizeof *st->mat[i].table * SH_TABLE_THETA;
+        if (st->mat[i].light_table) tables += sizeof(float) * 6 * SH_OCTA * SH_OCTA * SH_OCTA * SH_OCTA;
+    }
+    return st->coef_bytes + st->shade_bytes + tables + st->grad.bytes;
+}
+
+static void sh_release(void *state) {
+    sh_state *st = state;
+    volux_context *ctx = st->rc.ctx;
+    if (st->coef) volux_free_aligned(ctx, st->coef, st->coef_bytes);
+    if (st->shade) volux_free_aligned(ctx, st->shade, st->shade_bytes);
+    st->coef = st->shade = NULL;
+    free_materials(st);
+    volux_gradient_cache_free(ctx, &st->grad);
+}
+
+/* ------------------------------------------------------------------ render */
+
+/* What one camera ray needs: the first factor of Eq. 3 for the TF's phase
+ * function and each phase material (constant along the ray), and the
+ * outgoing direction's cell of the material–light tables. */
+typedef struct sh_ray {
+    const sh_state *st;
+    float a_def[3];
+    float a_mat[SH_MAX_MATERIALS][3];
+    int wo_cell[4];
+    float wo_w[4];
+} sh_ray;
+
+/* albedo·∫ p_g(ω·d) L_i(ω) dω per colour = albedo·Σ_l g^l Σ_m L_lm Y_lm(d)
+ * (Funk–Hecke with the HG kernel), for the band sums b[c][l] of this ray. */
+static inline void phase_factor(float albedo, float g, const float b[3][SH_MAX_BANDS], float out[3]) {
+    const float g2 = g * g, gl[SH_MAX_BANDS] = {1.0f, g, g2, g2 * g};
+    for (int c = 0; c < 3; c++)
+        out[c] = albedo * (b[c][0] + gl[1] * b[c][1] + gl[2] * b[c][2] + gl[3] * b[c][3]);
+}
+
+/* Σ_m L_lm Y_lm(d) per colour and band. */
+static inline void band_sums(const sh_state *st, volux_vec3 d, float b[3][SH_MAX_BANDS]) {
+    float y[SH_MAX_COEFFS];
+    sh_eval(4, d, y);
+    for (int c = 0; c < 3; c++)
+        for (int l = 0; l < SH_MAX_BANDS; l++) {
+            float s = 0.0f;
+            for (int j = l * l; j < (l + 1) * (l + 1); j++) s += st->li[c][j] * y[j];
+            b[c][l] = s;
+        }
+}
+
+/* Bilinear cells of an octahedral table for direction d. */
+static void octa_cells(volux_vec3 d, int cell[4], float wgt[4]) {
+    float u, v;
+    sh_octa_encode(d, &u, &v);
+    float x = u * SH_OCTA - 0.5f, y = v * SH_OCTA - 0.5f;
+    int x0 = (int)floorf(x), y0 = (int)floorf(y);
+    float fx = x - (float)x0, fy = y - (float)y0;
+    for (int k = 0; k < 4; k++) {
+        int xi = x0 + (k & 1), yi = y0 + (k >> 1);
+        xi = xi < 0 ? 0 : xi >= SH_OCTA ? SH_OCTA - 1 : xi;
+        yi = yi < 0 ? 0 : yi >= SH_OCTA ? SH_OCTA - 1 : yi;
+        cell[k] = yi * SH_OCTA + xi;
+        wgt[k] = ((k & 1) ? fx : 1.0f - fx) * ((k >> 1) ? fy : 1.0f - fy);
+    }
+}
+
+/* Trilinear S at fine index q: eight weights, then one pass over the
+ * four floats of each corner (vectorises). */
+static inline void shade_lookup(const sh_state *st, volux_vec3 q, float S[4]) {
+    const sh_grid *g = &st->grid;
+    const float inv = 1.0f / (float)g->ratio;
+    float x = q.x * inv, y = q.y * inv, z = q.z * inv;
+    int i = (int)x, j = (int)y, k = (int)z;
+    i = i > g->dims[0] - 2 ? (g->dims[0] > 1 ? g->dims[0] - 2 : 0) : i;
+    j = j > g->dims[1] - 2 ? (g->dims[1] > 1 ? g->dims[1] - 2 : 0) : j;
+    k = k > g->dims[2] - 2 ? (g->dims[2] > 1 ? g->dims[2] - 2 : 0) : k;
+    float fx = x - (float)i, fy = y - (float)j, fz = z - (float)k;
+    fx = fx < 0.0f ? 0.0f : fx > 1.0f ? 1.0f : fx;
+    fy = fy < 0.0f ? 0.0f : fy > 1.0f ? 1.0f : fy;
+    fz = fz < 0.0f ? 0.0f : fz > 1.0f ? 1.0f : fz;
+    const size_t sx = g->dims[0] > 1 ? 4 : 0, sy = g->dims[1] > 1 ? 4 * (size_t)g->dims[0] : 0,
+                 sz = g->dims[2] > 1 ? 4 * (size_t)g->dims[0] * g->dims[1] : 0;
+    const float *p = st->shade + 4 * (((size_t)k * g->dims[1] + j) * g->dims[0] + i);
+    const float gx = 1.0f - fx, gy = 1.0f - fy, gz = 1.0f - fz;
+    const float w[8] = {gx * gy * gz, fx * gy * gz, gx * fy * gz, fx * fy * gz,
+                        gx * gy * fz, fx * gy * fz, gx * fy * fz, fx * fy * fz};
+    const size_t o[8] = {0, sx, sy, sx + sy, sz, sx + sz, sy + sz, sx + sy + sz};
+    float acc[4] = {0, 0, 0, 0};
+    for (int n = 0; n < 8; n++)
+        for (int c = 0; c < 4; c++) acc[c] += w[n] * p[o[n] + c];
+    for (int c = 0; c < 4; c++) S[c] = acc[c];
+}
+
+enum { SH_MATERIALS = 1, SH_PREINT = 2 };
+#define SH_VARIANT(mat, preint, storage) ((mat) | (preint) << 1 | (int)(storage) << 2)
+
+static inline __attribute__((always_inline)) float sample_at(const void *tech, const volux_ray *r, float t,
+                                                              int variant) {
+    const sh_ray *ry = tech;
+    return volux_volume_sample_bricked(ry->st->rc.volume, r->q0.x + r->dq.x * t, r->q0.y + r->dq.y * t,
+                                       r->q0.z + r->dq.z * t, (volux_storage)(variant >> 2));
+}
+
+static inline __attribute__((always_inline)) void shade_at(const void *tech, const volux_ray *ray, float t,
+                                                            float c[3], int variant) {
+    const sh_ray *ry = tech;
+    const sh_state *st = ry->st;
+    volux_vec3 q = v3_madd(ray->q0, ray->dq, t);
+    float S[4];
+    shade_lookup(st, q, S);
+    const float *a = ry->a_def;
+    if (variant & SH_MATERIALS) {
+        float sv = volux_volume_sample_bricked(st->rc.volume, q.x, q.y, q.z, (volux_storage)(variant >> 2));
+        const volux_transfer_lut *lut = st->rc.lut;
+        float u = (sv - lut->s_min) * lut->inv_ds;
+        int e = u <= 0.0f ? 0 : u >= 4095.0f ? 4095 : (int)(u + 0.5f);
+        int mi = st->mat_index[e];
+        if (mi != 255) {
+            const sh_material *m = &st->mat[mi];
+            if (!m->brdf) a = ry->a_mat[mi];
+            else {
+                volux_vec3 n;
+                float f = volux_shading_normal(volux_gradient_cache_sample(&st->grad, st->rc.volume, q), st->grad_ref,
+                                               ray->d, &n);
+                if (f > 0.0f) {
+                    int nc[4];
+                    float nw[4], F[6] = {0, 0, 0, 0, 0, 0};
+                    octa_cells(n, nc, nw);
+                    for (int p = 0; p < 4; p++)
+                        for (int o = 0; o < 4; o++) {
+                            const float *tb =
+                                m->light_table + 6 * ((size_t)nc[p] * SH_OCTA * SH_OCTA + (size_t)ry->wo_cell[o]);
+                            float wgt = nw[p] * ry->wo_w[o];
+                            for (int k = 0; k < 6; k++) F[k] += wgt * tb[k];
+                        }
+                    for (int k = 0; k < 3; k++) {
+                        float lit = f * (c[k] * F[k] + F[3 + k]) + (1.0f - f) * c[k] * ry->a_def[k];
+                        c[k] = fmaxf(lit * S[k], 0.0f);
+                    }
+                    return;
+                }
+            }
+        }
+    }
+    for (int k = 0; k < 3; k++) c[k] = fmaxf(c[k] * a[k] * S[k], 0.0f);
+}
+
+static inline __attribute__((always_inline)) volux_vec3 integrate(const void *tech, const volux_ray *ray,
+                                                                   float jitter, float *T, uint64_t *samples,
+                                                                   int variant) {
+    const sh_state *st = tech;
+    sh_ray ry;
+    ry.st = st;
+    float b[3][SH_MAX_BANDS];
+    band_sums(st, ray->d, b);
+    phase_factor(st->rc.albedo, st->rc.g, b, ry.a_def);
+    if (variant & SH_MATERIALS) {
+        for (int i = 0; i < st->n_materials; i++)
+            if (!st->mat[i].brdf) phase_factor(st->rc.albedo, st->mat[i].g, b, ry.a_mat[i]);
+        octa_cells(v3_scale(ray->d, -1.0f), ry.wo_cell, ry.wo_w);
+    }
+    const volux_ea_march_desc m = {st->rc.lut, st->skip_empty ? &st->rc.grid : NULL, st->rc.step, st->t_min};
+    return volux_ea_march(&m, &ry, ray, jitter, T, samples, (variant & SH_PREINT) != 0, sample_at, shade_at, variant);
+}
+
+static inline __attribute__((always_inline)) void tile_as(const sh_state *st, const volux_scene *scene,
+                                                           const volux_tile *tile, float *rgb,
+                                                           volux_tile_stats *stats, int mat, int preint) {
+    switch (st->rc.volume->storage) {
+    case VOLUX_STORE_U8:
+        volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate, SH_VARIANT(mat, preint, VOLUX_STORE_U8));
+        break;
+    case VOLUX_STORE_U16:
+        volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate, SH_VARIANT(mat, preint, VOLUX_STORE_U16));
+        break;
+    default:
+        volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate, SH_VARIANT(mat, preint, VOLUX_STORE_F32));
+        break;
+    }
+}
+
+static void sh_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
+                           volux_tile_stats *stats) {
+    const sh_state *st = state;
+    int mat = st->n_materials > 0;
+    if (mat && st->preintegrate) tile_as(st, scene, tile, rgb, stats, 1, 1);
+    else if (mat) tile_as(st, scene, tile, rgb, stats, 1, 0);
+    else if (st->preintegrate) tile_as(st, scene, tile, rgb, stats, 0, 1);
+    else tile_as(st, scene, tile, rgb, stats, 0, 0);
+}
+
+const volux_technique_class volux_sh_class = {
+    {"sh", "light-material interaction with spherical harmonics (Lindemann & Ropinski 2010)", sh_params, 0},
+    sizeof(sh_state), 0, 0,
+    NULL, sh_update, sh_render_tile, sh_memory_bytes, sh_release, sh_refine,
+};

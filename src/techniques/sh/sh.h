@@ -1,0 +1,140 @@
+/*
+ * techniques/sh/sh.h — `sh`: light–material interaction with spherical
+ * harmonics (Lindemann & Ropinski 2010). State and the internal entry
+ * points of its passes, for the class (sh.c) and white-box tests.
+ *
+ * Caches and what invalidates them (details in README.md):
+ *   coefficient volume L'_mi (projection + scattering)
+ *        ← volume, extinction, density, projection/scattering parameters,
+ *          colour (only with bleeding, only the colour curve and albedo)
+ *   light SH L_i (per slot)          ← that light, volume (distant centre)
+ *   shade volume S = ∫L'_mi L_i / ∫L_i  ← coefficient volume, lights
+ *   material SH tables (per θ_o)     ← material channel
+ *   material–light tables F(n, ω_o)  ← material channel, lights
+ *   material index over the TF domain ← material channel, volume
+ *   gradient cache (BRDF normals)    ← volume (only with BRDF materials)
+ * Camera, phase (g is read per ray) and render edits touch none.
+ */
+#ifndef VOLUX_SH_H
+#define VOLUX_SH_H
+
+#include "dipole.h"
+#include "render/raycaster.h"
+#include "sample/gradient.h"
+#include "shbasis.h"
+
+extern const volux_technique_class volux_sh_class;
+
+/* A node-centred grid over the volume: node i lies at fine index i·ratio
+ * (the last node may sit past the last voxel; samples clamp). */
+typedef struct sh_grid {
+    int dims[3];
+    int ratio;
+    size_t nodes;
+} sh_grid;
+
+/* How coefficients are stored per node: `channels` channels (1 grey, 3 RGB
+ * or Y/Cb/Cr), channel c with bands[c]² coefficients at offset[c]. */
+typedef struct sh_layout {
+    int channels, ycc;
+    int bands[3], offset[3], stride;
+} sh_layout;
+
+/* What a projection computes (parameters that change its result). */
+typedef struct sh_projection_params {
+    int bands, chroma_bands, downsample, rays, bleeding, scattering, scatter_preset, progressive;
+    float step_growth, ray_opacity, neighbourhood, scatter_scale;
+} sh_projection_params;
+
+#define SH_MAX_MATERIALS (VOLUX_TF_MAX_MATERIALS + 1)
+#define SH_TABLE_THETA 32 /* material SH tables: θ_o samples over [0, π/2] */
+#define SH_OCTA 16        /* material–light tables: octahedral n and ω_o   */
+
+/* One material of the channel, prepared. */
+typedef struct sh_material {
+    int kind;   /* volux_material_kind */
+    float g;    /* phase                */
+    int brdf;   /* needs a normal       */
+    /* BRDF: per θ_o, the SH of M(·, ω_o)·cos⁺ in the local frame, diffuse
+     * (× TF colour) and specular (white; MERL: per channel) parts */
+    float (*table)[4][SH_MAX_COEFFS]; /* [SH_TABLE_THETA][d, sR, sG, sB] */
+    /* material–light table: [n octa][ω_o octa][6] = F_d rgb, F_s rgb */
+    float *light_table;
+} sh_material;
+
+typedef struct sh_state {
+    volux_raycaster rc;
+    /* render parameters */
+    int preintegrate, skip_empty;
+    float t_min, grad_ref;
+    int progressive;
+    /* projection: what the current coefficient volume was made from */
+    sh_projection_params applied;
+    uint64_t applied_color;   /* hash of colour curve + albedo (bleeding) */
+    int have_coef;            /* 0: rebuild at the next update            */
+    int coarse;               /* progressive: the coefficient volume is the coarse level */
+    sh_grid grid;
+    sh_layout layout;
+    float *coef;              /* layout.stride floats per node            */
+    size_t coef_bytes;
+    /* lights */
+    float light_sh[VOLUX_MAX_LIGHTS][3][SH_MAX_COEFFS];
+    float li[3][SH_MAX_COEFFS];  /* Σ over enabled lights, RGB             */
+    /* shade volume: S(x) RGB per node (4 floats, w unused) */
+    float *shade;
+    size_t shade_bytes;
+    int have_shade;
+    /* material channel */
+    int n_materials;
+    sh_material mat[SH_MAX_MATERIALS];
+    int any_brdf, have_tables, have_light_tables;
+    uint8_t mat_index[4096];  /* per LUT entry: material, 255 = the TF's phase */
+    volux_gradient_cache grad;
+    int have_grad;
+    size_t table_bytes;
+    /* statistics (tests, bench) */
+    uint64_t projections, bakes, light_projections;
+    uint64_t rays_cast;       /* projection rays, all projections so far */
+    double projection_ms;
+} sh_state;
+
+/* Coefficient volume L_mi (and L'_mi with scattering) for the state's
+ * volume and LUT with parameters p on grid `ratio`: allocates *out
+ * (layout in *lay) through ctx. Parallel, progress "sh projection". */
+volux_status sh_project(sh_state *st, const sh_projection_params *p, int ratio, int rays, sh_grid *grid,
+                        sh_layout *lay, float **out, size_t *out_bytes);
+/* SH of one light seen from `centre` (RGB × 16), distant approximation. */
+volux_status sh_light_project(volux_context *ctx, const volux_light_desc *d, volux_vec3 centre, float out[3][16]);
+/* Material SH tables (allocates m->table). */
+volux_status sh_material_prepare(volux_context *ctx, const volux_tf_material *t, sh_material *m);
+/* Material–light table for lights li (allocates m->light_table). */
+volux_status sh_material_light_table(volux_context *ctx, sh_material *m, const float li[3][SH_MAX_COEFFS]);
+void sh_material_free(volux_context *ctx, sh_material *m);
+/* BRDF·cos⁺ of a material in the local frame (z = normal): diffuse part
+ * (to be tinted) and specular rgb. For tests. */
+void sh_material_eval(const volux_tf_material *t, const void *merl, const double wi[3], const double wo[3],
+                      double *diffuse, double spec[3]);
+
+/* Octahedral map of a unit direction to [0,1)² and back. */
+static inline void sh_octa_encode(volux_vec3 d, float *u, float *v) {
+    float s = fabsf(d.x) + fabsf(d.y) + fabsf(d.z);
+    float x = d.x / s, y = d.y / s;
+    if (d.z < 0.0f) {
+        float ox = (1.0f - fabsf(y)) * (x >= 0.0f ? 1.0f : -1.0f);
+        float oy = (1.0f - fabsf(x)) * (y >= 0.0f ? 1.0f : -1.0f);
+        x = ox, y = oy;
+    }
+    *u = 0.5f * x + 0.5f;
+    *v = 0.5f * y + 0.5f;
+}
+static inline volux_vec3 sh_octa_decode(float u, float v) {
+    float x = 2.0f * u - 1.0f, y = 2.0f * v - 1.0f, z = 1.0f - fabsf(x) - fabsf(y);
+    if (z < 0.0f) {
+        float ox = (1.0f - fabsf(y)) * (x >= 0.0f ? 1.0f : -1.0f);
+        float oy = (1.0f - fabsf(x)) * (y >= 0.0f ? 1.0f : -1.0f);
+        x = ox, y = oy;
+    }
+    return v3_normalize(v3(x, y, z));
+}
+
+#endif
