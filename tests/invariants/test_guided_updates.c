@@ -69,7 +69,12 @@ static void test_each_edit_does_the_least_work(void **state) {
         int dirs, env;
     } expect[] = {
         {"camera", 0, 0},   {"background", 0, 0}, {"step", 0, 0},     {"phase", 0, 0},
-        {"tf_color", 0, 0}, {"light", 0, 1},      {"light_last", 0, 0}, {"light_toggle", 0, 1},
+        {"tf_color", 0, 0}, {"light", 0, 1},
+        /* environment rotation and colour: the product pdf's environment only
+         * (the issue's least-work row; before light_toggle switches the
+         * environment off); the material channel: nothing */
+        {"light_rotate_env", 0, 1}, {"light_color", 0, 1}, {"material", 0, 0},
+        {"light_last", 0, 0}, {"light_toggle", 0, 1},
         {"light_add", 0, 0}, {"tf", -1, 0},       {"density", -1, 0}, {"time_step", -1, 0},
     };
     for (size_t i = 0; i < sizeof expect / sizeof expect[0]; i++) {
