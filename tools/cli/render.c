@@ -3,6 +3,7 @@
 #include <string.h>
 #include <strings.h>
 
+#include "tools/mpi/distribute.h"
 #include "scene_args.h"
 
 static void usage(FILE *f) {
@@ -11,12 +12,16 @@ static void usage(FILE *f) {
             "                    [--width W] [--height H] [--threads N] [--seed S] [--step S]\n"
             "                    [--time-ms MS] [--target-error E] [--max-depth D] [--exposure EV]\n"
             "                    [--time-step N | --all-steps] [--set dotted.path=JSON-value]... [--quiet]\n"
+            "                    [--distribute image]   (under mpirun; the default there)\n"
             "Renders until the scene's spp, time budget or target relative error is reached and\n"
             "writes the image (PNG tone-mapped with render.exposure; PFM/EXR linear).\n"
             "--time-step N renders step N of a time-varying volume (render.time_step).\n"
             "--all-steps renders every step into numbered files: OUT_0000.png, OUT_0001.png, ...,\n"
             "or OUT's own printf number (-o frame%%03d.png); one technique instance is updated\n"
-            "from step to step, as in an animation.\n");
+            "from step to step, as in an animation.\n"
+            "Under mpirun the ranks share the frame's tiles and render.spp samples are taken\n"
+            "(time and error limits apply to a single process only); rank 0 writes the image,\n"
+            "bit-identical to a single-process render.\n");
 }
 
 static int supported_output(const char *path) {
@@ -64,6 +69,8 @@ int cli_render(int argc, char **argv) {
     cli_scene_args args = {0};
     const char *out_path = NULL;
     int quiet = 0, all_steps = 0, one_step = 0;
+    dist_mode distribute = DIST_NONE;
+    dist_quiet_followers();
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "-h") || !strcmp(argv[i], "--help")) {
             usage(stdout);
@@ -75,6 +82,10 @@ int cli_render(int argc, char **argv) {
                 return CLI_USAGE;
             }
             out_path = argv[i];
+            continue;
+        }
+        if (!strcmp(argv[i], "--distribute")) {
+            if (!dist_parse_mode("render", ++i < argc ? argv[i] : NULL, &distribute)) return CLI_USAGE;
             continue;
         }
         if (!strcmp(argv[i], "--quiet")) {
@@ -114,68 +125,88 @@ int cli_render(int argc, char **argv) {
                             : "a numbered output (%d) needs --all-steps");
         return CLI_USAGE;
     }
-    volux_context *ctx = cli_context(0);
-    if (!ctx) return CLI_FAIL;
+    int mode = dist_begin("render", distribute);
+    if (mode < 0) return CLI_USAGE;
+    if (mode == DIST_DATA) {
+        fprintf(stderr, "volux render: --distribute data: not available yet (use image)\n");
+        dist_end();
+        return CLI_USAGE;
+    }
+    volux_context *ctx = cli_context(dist_default_threads());
+    if (!ctx) {
+        dist_end();
+        return CLI_FAIL;
+    }
+    if (dist_rank() > 0) volux_context_set_progress(ctx, NULL, NULL);
     volux_scene *scene = NULL;
     volux_technique *tech = NULL;
     volux_framebuffer *fb = NULL;
     volux_image img = {0};
-    int rc = cli_load_scene("render", ctx, &args, &scene);
-    if (rc) goto done;
+    char msg[1024] = "";
+    int rc = cli_load_scene_quiet("render", ctx, &args, &scene, msg, sizeof msg);
+    if ((rc = dist_agree_msg("render", rc, msg))) goto done;
     const volux_render_settings *rs = volux_scene_render(scene);
     int first = volux_scene_time_step(scene), last = all_steps ? volux_scene_time_steps(scene) - 1 : first;
     if (all_steps) first = 0;
-    volux_status st = VOLUX_OK;
-    for (int step = first; step <= last && !st; step++) {
+    for (int step = first; step <= last && !rc; step++) {
         char path[4096];
         const char *out = out_path;
         if (all_steps) {
             if (!step_path(out_path, pattern, step, path, sizeof path)) {
-                fprintf(stderr, "volux render: -o %s: output name too long\n", out_path);
+                if (dist_rank() == 0) fprintf(stderr, "volux render: -o %s: output name too long\n", out_path);
                 rc = CLI_USAGE;
                 goto done;
             }
             out = path;
         }
         /* The first step creates the technique; later steps are edits it
-         * updates (volux_render brings it up to date and restarts the
-         * accumulation). */
+         * updates (the accumulation restarts). */
         double t0 = cli_now_ms();
-        if ((st = volux_scene_set_time_step(scene, step))) {
-            fprintf(stderr, "volux render: %s: time step %d: %s\n", args.scene_path, step, volux_context_error(ctx));
-            rc = cli_exit_status(st);
-            goto done;
+        volux_status st = volux_scene_set_time_step(scene, step);
+        if (!st) {
+            if (!tech) st = volux_technique_create(ctx, rs->technique, scene, &tech);
+            else st = volux_technique_update(tech, scene, NULL);
         }
-        if (!tech) st = volux_technique_create(ctx, rs->technique, scene, &tech);
-        else st = volux_technique_update(tech, scene, NULL);
         /* A progressive technique's deferred work is finished: an image file
          * is the final result, not the first frame of an interactive session. */
         for (int more = 1; !st && more;) st = volux_technique_refine(tech, scene, NULL, &more);
         double prepare_ms = cli_now_ms() - t0;
         if (!st && !fb) st = volux_framebuffer_create(ctx, rs->width, rs->height, &fb);
-        volux_render_report rep = {0};
-        if (!st) st = volux_render(tech, scene, fb, NULL, &rep);
-        if (!st) st = volux_framebuffer_resolve(fb, &img);
-        if (!st) st = volux_image_save(ctx, out, &img, rs->exposure);
-        volux_image_free(ctx, &img);
-        if (!st && !quiet) {
-            if (all_steps)
-                fprintf(stderr, "volux render: %s: step %d/%d: %s %dx%d, %u spp, %s %.1f ms, render %.1f ms -> %s\n",
-                        args.scene_path, step, last + 1, rs->technique, rs->width, rs->height, rep.spp,
-                        step == first ? "prepare" : "update", prepare_ms, rep.ms, out);
-            else
-                fprintf(stderr,
-                        "volux render: %s: %s %dx%d, %u spp, prepare %.1f ms, render %.1f ms, rel. error %.3g -> %s\n",
-                        args.scene_path, rs->technique, rs->width, rs->height, rep.spp, prepare_ms, rep.ms,
-                        rep.rel_error, out);
+        else if (!st) volux_framebuffer_reset(fb);
+        if ((rc = dist_agree("render", ctx, st))) goto done;
+        dist_timing timing;
+        st = dist_render_image(tech, scene, fb, &timing);
+        if ((rc = dist_agree("render", ctx, st))) goto done;
+        if (dist_rank() == 0) {
+            st = volux_framebuffer_resolve(fb, &img);
+            if (!st) st = volux_image_save(ctx, out, &img, rs->exposure);
+            volux_image_free(ctx, &img);
+            rc = st ? cli_fail("render", ctx, st) : CLI_OK;
+            if (!rc && !quiet) {
+                if (all_steps)
+                    fprintf(stderr, "volux render: %s: step %d/%d: %s %dx%d, %u spp, %s %.1f ms, render %.1f ms",
+                            args.scene_path, step, last + 1, rs->technique, rs->width, rs->height,
+                            volux_framebuffer_spp(fb), step == first ? "prepare" : "update", prepare_ms,
+                            timing.render_ms);
+                else
+                    fprintf(stderr, "volux render: %s: %s %dx%d, %u spp, prepare %.1f ms, render %.1f ms",
+                            args.scene_path, rs->technique, rs->width, rs->height, volux_framebuffer_spp(fb),
+                            prepare_ms, timing.render_ms);
+                if (dist_size() > 1)
+                    fprintf(stderr, " (%d ranks, %.1f-%.1f ms each, composite %.1f ms)", dist_size(),
+                            timing.rank_render_ms_min, timing.rank_render_ms_max, timing.composite_ms);
+                if (all_steps) fprintf(stderr, " -> %s\n", out);
+                else fprintf(stderr, ", rel. error %.3g -> %s\n", volux_framebuffer_rel_error(fb), out);
+            }
         }
+        rc = dist_share_exit(rc);
     }
-    if (st) rc = cli_fail("render", ctx, st);
 done:
     volux_image_free(ctx, &img);
     volux_framebuffer_destroy(fb);
     volux_technique_destroy(tech);
     volux_scene_destroy(scene);
     volux_context_destroy(ctx);
+    dist_end();
     return rc;
 }
