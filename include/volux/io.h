@@ -64,6 +64,33 @@ VOLUX_API volux_status volux_image_load(volux_context *ctx, const char *path, vo
  * exposure applies to PNG only (2^exposure, then sRGB, clamp, 8 bit). */
 VOLUX_API volux_status volux_image_save(volux_context *ctx, const char *path, const volux_image *img,
                                         float exposure);
+/* Text metadata stored with an image: PNG tEXt chunks (before the pixel
+ * data), OpenEXR string attributes of part 0. The CLI records how an image
+ * was made ("volux.spp", "volux.technique", "volux.interrupted", ...). PFM
+ * has no place for it. Keys up to 63 bytes, values up to 255. */
+#define VOLUX_IMAGE_MAX_META 16
+typedef struct volux_image_meta {
+    int count;
+    char key[VOLUX_IMAGE_MAX_META][64];
+    char value[VOLUX_IMAGE_MAX_META][256];
+} volux_image_meta;
+/* Adds or replaces key (silently ignored when full or too long). */
+VOLUX_API void volux_image_meta_set(volux_image_meta *m, const char *key, const char *value);
+/* The value of key, or NULL. */
+VOLUX_API const char *volux_image_meta_get(const volux_image_meta *m, const char *key);
+/* volux_image_save with metadata (NULL: none; ignored for PFM). */
+VOLUX_API volux_status volux_image_save_meta(volux_context *ctx, const char *path, const volux_image *img,
+                                             float exposure, const volux_image_meta *meta);
+/* volux_image_load plus the file's metadata (PNG text chunks before the
+ * pixels; EXR string, int, float and double attributes that are not part
+ * of the format's required set). meta->count is 0 for PFM and HDR. */
+VOLUX_API volux_status volux_image_load_meta(volux_context *ctx, const char *path, volux_image *out,
+                                             volux_image_meta *meta);
+/* Checks, before any work, that an image can be written at `path`: a
+ * writable extension (.png .pfm .exr), an existing writable folder, and
+ * not a folder itself. VOLUX_ERR_INVALID for the extension, VOLUX_ERR_IO
+ * otherwise, with the reason. Writes nothing. */
+VOLUX_API volux_status volux_image_check_output(volux_context *ctx, const char *path);
 /* Image details (see src/io/image_formats.h): PNG reads 8/16-bit gray, RGB,
  * palette, with alpha dropped, decoding sRGB to linear; PNG writes 8-bit RGB.
  * PFM reads PF/Pf of either endianness and writes little-endian PF. EXR reads
