@@ -122,6 +122,48 @@ VOLUX_API volux_status volux_scene_load_string(volux_context *ctx, const char *j
                                                const char *name, const char *const *overrides,
                                                int n_overrides, volux_scene **out);
 
+/* The general loader. Give `path` (a scene file; relative names resolve
+ * against its folder) or `json` (text; against `base_dir`, "." if NULL;
+ * `name` labels messages). File names may start with "$VOLUX_DATA/": the
+ * shared data root `data_dir` (NULL: the VOLUX_DATA environment variable;
+ * docs/CONVENTIONS.md). An --set override that reaches into a key given by
+ * file reference (transfer_function: "tf.json") first reads that file into
+ * the scene, whose names keep resolving against the file's folder. A scene
+ * without a transfer_function gets the quick-look default
+ * (volux_transfer_auto_from_volume) and a note (volux_scene_notes). */
+typedef struct volux_scene_load_options {
+    const char *path;
+    const char *json;
+    const char *base_dir, *name;
+    const char *const *overrides;
+    int n_overrides;
+    const char *data_dir;
+    /* A volume the caller already loaded from `volume_file`: used when the
+     * scene's volume is exactly {"file": volume_file} (no layout keys). */
+    volux_volume *volume;
+    const char *volume_file;
+    /* Optional out: the scene as read (after overrides and defaults) as
+     * JSON text, its file names rebased to `effective_dir` (NULL:
+     * absolute); free with volux_scene_json_free. */
+    char **effective_json;
+    const char *effective_dir;
+} volux_scene_load_options;
+
+VOLUX_API volux_status volux_scene_load_ex(volux_context *ctx, const volux_scene_load_options *options,
+                                           volux_scene **out);
+VOLUX_API void volux_scene_json_free(volux_context *ctx, char *json);
+
+/* The quick-look scene of a volume as JSON text (free with
+ * volux_scene_json_free): `volume_json` is the scene's "volume" value as
+ * JSON text (e.g. {"file": "head.nii"}), `vol` that volume, loaded. The
+ * scene: the default transfer function (volux_transfer_auto_from_volume),
+ * an orbit camera framing the volume (up = the file's superior direction
+ * when it has one: "z_up": true for the usual axial stacks), one key light
+ * over the viewer's left shoulder, a ParaView-like background, `shaded` at
+ * 512×512. */
+VOLUX_API volux_status volux_scene_default_json(volux_context *ctx, const char *volume_json,
+                                                const volux_volume *vol, char **json);
+
 /* ParaView colour-map preset (JSON: a list of presets or one preset object
  * with "RGBPoints" [x,r,g,b,...]; "Points" opacity optional). Picks the
  * preset called `name` (a single object must carry that Name too), or the

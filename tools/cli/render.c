@@ -1,29 +1,37 @@
-/* tools/cli/render.c — `volux render SCENE.json -o OUT.(png|pfm|exr) [...]`. */
+/* tools/cli/render.c — `volux render SCENE.json|VOLUME -o OUT.(png|pfm|exr) [...]`. */
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
-#include <strings.h>
 
 #include "scene_args.h"
 
 static void usage(FILE *f) {
     fprintf(f,
-            "usage: volux render SCENE.json -o OUT.(png|pfm|exr) [--technique T] [--spp N]\n"
+            "usage: volux render SCENE.json|VOLUME -o OUT.(png|pfm|exr) [--technique T] [--spp N]\n"
             "                    [--width W] [--height H] [--threads N] [--seed S] [--step S]\n"
             "                    [--time-ms MS] [--target-error E] [--max-depth D] [--exposure EV]\n"
-            "                    [--set dotted.path=JSON-value]... [--quiet]\n"
+            "                    [--set dotted.path=JSON-value]... [--dump-scene OUT.json] [--quiet]\n"
             "Renders until the scene's spp, time budget or target relative error is reached and\n"
-            "writes the image (PNG tone-mapped with render.exposure; PFM/EXR linear).\n");
+            "writes the image (PNG tone-mapped with render.exposure; PFM/EXR linear).\n"
+            "VOLUME (.nrrd .nhdr .mhd .mha .nii .nii.gz, or procedural:NAME[:N]) renders its quick-look\n"
+            "scene: a transfer function from the histogram, an orbit camera, one key light, `shaded`.\n"
+            "--dump-scene writes the scene as read (after --set and defaults) as JSON; without -o it\n"
+            "only writes that.\n"
+            "Non-progressive techniques (ea, shaded, ...) give the same image for every sample: spp > 1\n"
+            "renders that many jittered passes (anti-aliasing). Ctrl-C (or SIGTERM) stops a render and\n"
+            "writes the samples so far (spp in the message and in PNG/EXR metadata), exit 130 (143);\n"
+            "a second Ctrl-C aborts at once.\n");
 }
 
-static int supported_output(const char *path) {
-    const char *dot = strrchr(path, '.');
-    return dot && (!strcasecmp(dot, ".png") || !strcasecmp(dot, ".pfm") || !strcasecmp(dot, ".exr"));
+static void format_error(double e, char *out, size_t n) {
+    if (e < 0.0) snprintf(out, n, "n/a");
+    else snprintf(out, n, "%.3g", e);
 }
 
 int cli_render(int argc, char **argv) {
-    cli_scene_args args = {0};
+    cli_scene_args args;
+    memset(&args, 0, sizeof args);
     const char *out_path = NULL;
-    int quiet = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "-h") || !strcmp(argv[i], "--help")) {
             usage(stdout);
@@ -38,7 +46,7 @@ int cli_render(int argc, char **argv) {
             continue;
         }
         if (!strcmp(argv[i], "--quiet")) {
-            quiet = 1;
+            args.quiet = 1;
             continue;
         }
         int r = cli_scene_arg("render", &args, argc, argv, &i);
@@ -49,26 +57,37 @@ int cli_render(int argc, char **argv) {
             return CLI_USAGE;
         }
     }
-    if (!args.scene_path || !out_path) {
-        fprintf(stderr, "volux render: %s\n", !args.scene_path ? "missing SCENE.json" : "missing -o OUT.png|pfm|exr");
+    if (!args.scene_path || (!out_path && !args.dump_path)) {
+        fprintf(stderr, "volux render: %s\n",
+                !args.scene_path ? "missing SCENE.json (or a volume)" : "missing -o OUT.png|pfm|exr");
         usage(stderr);
-        return CLI_USAGE;
-    }
-    if (!supported_output(out_path)) {
-        fprintf(stderr, "volux render: -o %s: unsupported image type (use .png, .pfm or .exr)\n", out_path);
         return CLI_USAGE;
     }
     volux_context *ctx = cli_context(0);
     if (!ctx) return CLI_FAIL;
+    /* Everything about the outputs is checked before any work. */
+    volux_status st = out_path ? volux_image_check_output(ctx, out_path) : VOLUX_OK;
+    if (st) {
+        int rc = cli_fail("render", ctx, st);
+        volux_context_destroy(ctx);
+        return rc;
+    }
+    if (args.dump_path && !cli_check_writable("render", "--dump-scene", args.dump_path)) {
+        volux_context_destroy(ctx);
+        return CLI_USAGE;
+    }
+    cli_catch_interrupts();
     volux_scene *scene = NULL;
     volux_technique *tech = NULL;
     volux_framebuffer *fb = NULL;
     volux_image img = {0};
     int rc = cli_load_scene("render", ctx, &args, &scene);
-    if (rc) goto done;
+    if (rc && cli_interrupted()) rc = 128 + cli_interrupted();
+    if (rc || !out_path) goto done;
     const volux_render_settings *rs = volux_scene_render(scene);
+    const volux_technique_info *info = volux_technique_info_find(rs->technique);
     double t0 = cli_now_ms();
-    volux_status st = volux_technique_create(ctx, rs->technique, scene, &tech);
+    st = volux_technique_create(ctx, rs->technique, scene, &tech);
     /* A progressive technique's deferred work is finished: an image file
      * is the final result, not the first frame of an interactive session. */
     for (int more = 1; !st && more;) st = volux_technique_refine(tech, scene, NULL, &more);
@@ -76,16 +95,55 @@ int cli_render(int argc, char **argv) {
     if (!st) st = volux_framebuffer_create(ctx, rs->width, rs->height, &fb);
     volux_render_report rep = {0};
     if (!st) st = volux_render(tech, scene, fb, NULL, &rep);
-    if (!st) st = volux_framebuffer_resolve(fb, &img);
-    if (!st) st = volux_image_save(ctx, out_path, &img, rs->exposure);
-    if (st) {
-        rc = cli_fail("render", ctx, st);
+    int stopped = st == VOLUX_ERR_CANCELLED && cli_interrupted();
+    if (stopped && (!fb || volux_framebuffer_spp(fb) == 0)) {
+        fprintf(stderr, "volux render: interrupted before the first sample of every pixel; nothing written\n");
+        rc = 128 + cli_interrupted();
         goto done;
     }
-    if (!quiet)
-        fprintf(stderr, "volux render: %s: %s %dx%d, %u spp, prepare %.1f ms, render %.1f ms, rel. error %.3g -> %s\n",
-                args.scene_path, rs->technique, rs->width, rs->height, rep.spp, prepare_ms, rep.ms, rep.rel_error,
+    if (stopped) st = VOLUX_OK; /* the samples so far are the image */
+    if (!st) st = volux_framebuffer_resolve(fb, &img);
+    if (!st) {
+        /* How the image was made, in the file (PNG text, EXR attributes). */
+        volux_image_meta meta;
+        memset(&meta, 0, sizeof meta);
+        char v[64];
+        volux_image_meta_set(&meta, "Software", "volux " VOLUX_VERSION);
+        volux_image_meta_set(&meta, "volux.scene", args.scene_path);
+        volux_image_meta_set(&meta, "volux.technique", rs->technique);
+        snprintf(v, sizeof v, "%u", volux_framebuffer_spp(fb));
+        volux_image_meta_set(&meta, "volux.spp", v);
+        snprintf(v, sizeof v, "%d", rs->spp);
+        volux_image_meta_set(&meta, "volux.spp_target", v);
+        format_error(rep.rel_error, v, sizeof v);
+        volux_image_meta_set(&meta, "volux.rel_error", v);
+        volux_image_meta_set(&meta, "volux.interrupted", stopped ? "true" : "false");
+        /* A second Ctrl-C while the file is written waits for the rename,
+         * so it never leaves a temporary file behind. */
+        cli_hold_interrupts(1);
+        st = volux_image_save_meta(ctx, out_path, &img, rs->exposure, &meta);
+        cli_hold_interrupts(0);
+    }
+    if (st) {
+        rc = cli_fail("render", ctx, st);
+        if (st == VOLUX_ERR_CANCELLED && cli_interrupted()) rc = 128 + cli_interrupted();
+        goto done;
+    }
+    char err[32];
+    format_error(rep.rel_error, err, sizeof err);
+    if (stopped) {
+        fprintf(stderr, "volux render: interrupted at %u of %d spp (rel. error %s): wrote %s\n",
+                volux_framebuffer_spp(fb), rs->spp, err, out_path);
+        rc = 128 + cli_interrupted();
+    } else if (!args.quiet) {
+        /* A technique that is not progressive gives the same image for
+         * every sample index but the pixel jitter: say what spp > 1 did. */
+        const char *what = info && !info->progressive && rep.spp > 1 ? " (anti-aliasing passes)" : "";
+        fprintf(stderr,
+                "volux render: %s: %s %dx%d, %u spp%s, prepare %.1f ms, render %.1f ms, rel. error %s -> %s\n",
+                args.scene_path, rs->technique, rs->width, rs->height, rep.spp, what, prepare_ms, rep.ms, err,
                 out_path);
+    }
 done:
     volux_image_free(ctx, &img);
     volux_framebuffer_destroy(fb);

@@ -15,6 +15,8 @@ typedef struct cli_scene_args {
     const char *overrides[CLI_MAX_OVERRIDES];
     char storage[CLI_MAX_OVERRIDES][160];
     int n_overrides;
+    const char *dump_path; /* --dump-scene: the scene as read, as JSON */
+    int quiet;             /* no notes on stderr */
 } cli_scene_args;
 
 /* If argv[*i] is a scene option, consumes it (and its value), returns 1;
@@ -22,7 +24,15 @@ typedef struct cli_scene_args {
 int cli_scene_arg(const char *cmd, cli_scene_args *a, int argc, char **argv, int *i);
 
 /* Loads the scene with the overrides and checks technique parameters.
- * On error prints the message and returns the exit status (nonzero). */
+ * The input may also be a volume file or procedural:NAME[:N]: its quick-
+ * look scene (volux_scene_default_json). With --dump-scene, writes the
+ * scene as read. On error prints the message and returns the exit status
+ * (nonzero). */
 int cli_load_scene(const char *cmd, volux_context *ctx, const cli_scene_args *a, volux_scene **out);
+
+/* The registered technique nearest to `name` (edit distance or prefix),
+ * or NULL when none is close; all names, comma-separated. */
+const char *cli_closest_technique(const char *name);
+void cli_technique_names(char *out, size_t n);
 
 #endif
