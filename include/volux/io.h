@@ -175,6 +175,9 @@ typedef struct volux_tf_preset {
     int n_color;
     volux_tf_scalar_point *opacity; /* NULL when the preset has none */
     int n_opacity;
+    /* Opacity segments whose ParaView sharpness is > 0: drawn piecewise-
+     * linear through their midpoint (the curve's shape is not modelled). */
+    int n_sharp;
 } volux_tf_preset;
 
 VOLUX_API volux_status volux_tf_preset_load(volux_context *ctx, const char *path, const char *name,

@@ -432,6 +432,15 @@ static volux_status read_tf_object(scene_reader *sr, const cJSON *obj, const cha
     } else if (preset.n_opacity) { /* the preset's opacity ("Points") */
         d.opacity = preset.opacity;
         d.n_opacity = preset.n_opacity;
+        if (preset.n_sharp) {
+            char note[512];
+            snprintf(note, sizeof note,
+                     "%s: transfer_function.preset: %d opacity segment%s of '%.200s' %s a sharpness > 0; drawn "
+                     "piecewise-linear through the midpoint (give \"opacity\" points to shape the curve)",
+                     r->file, preset.n_sharp, preset.n_sharp == 1 ? "" : "s", preset_file,
+                     preset.n_sharp == 1 ? "has" : "have");
+            volux_scene_add_note(sr->scene, note);
+        }
     } else {
         st = volux_json_error(r, VOLUX_ERR_INVALID, P, "needs opacity or extinction points");
         goto done;
