@@ -110,4 +110,13 @@ grep -q '^pathtrace ' "$tmp/out" && bad "volux techniques ambient lists other te
 expect 2 "unknown technique 'nope'" "$volux" techniques nope
 expect 2 "did you mean 'pathtrace'" "$volux" techniques pathtracer
 
+# volux info on images: a Radiance .hdr is an image, not a NIfTI header.
+printf '#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n\x80\x80\x80\x81\x80\x80\x80\x81' >"$tmp/env.hdr"
+expect 0 "" "$volux" info "$tmp/env.hdr"
+grep -q "^image *2 x 1" "$tmp/out" || bad "volux info env.hdr: $(cat "$tmp/out")"
+expect 0 "" "$volux" info "$tmp/q.pfm"
+grep -q "^image *32 x 32" "$tmp/out" || bad "volux info q.pfm: $(cat "$tmp/out")"
+printf 'garbage' >"$tmp/bad.hdr"
+expect 2 "bad.hdr" "$volux" info "$tmp/bad.hdr"
+
 exit $fail
