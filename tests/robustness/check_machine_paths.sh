@@ -35,7 +35,7 @@ scan() {
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 printf '{"volume": {"file": "/data/ct/head.nhdr"}}\n' >"$tmp/abs.json"
-printf 'DATA=/work/shared/data/volumes\n' >"$tmp/root.sh"
+printf 'DATA=/%s/shared/data/volumes\n' work >"$tmp/root.sh" # (split, or this file would hold one)
 printf 'see %s/bench/x.json\n' "$here" >"$tmp/self.txt"
 printf '{"volume": {"file": "$VOLUX_DATA/volumes/a.nhdr"}}\nexec /usr/bin/python3 /tmp/x\n' >"$tmp/clean.json"
 for f in abs.json root.sh self.txt; do
