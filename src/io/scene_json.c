@@ -798,9 +798,11 @@ static void relative_to(const char *from, const char *target, char *out, size_t 
 }
 
 /* Rewrites the file name in node (relative to from_dir) for a scene file in
- * to_dir: relative when both resolve, else absolute; "$VOLUX_DATA/" names
- * and names that cannot be resolved are kept. */
-static void rebase_name(cJSON *node, const char *from_dir, const char *to_dir) {
+ * to_dir: "$VOLUX_DATA/..." when it lies under the data root (`data_root`,
+ * resolved; NULL: none), so the scene works on any machine; else relative
+ * when both resolve, else absolute. "$VOLUX_DATA/" names and names that
+ * cannot be resolved are kept. */
+static void rebase_name(cJSON *node, const char *from_dir, const char *to_dir, const char *data_root) {
     if (!cJSON_IsString(node) || !node->valuestring[0]) return;
     const char *name = node->valuestring;
     if (!strncmp(name, DATA_PREFIX, strlen(DATA_PREFIX))) return;
@@ -812,30 +814,34 @@ static void rebase_name(cJSON *node, const char *from_dir, const char *to_dir) {
     if (!target) return;
     char *dir = to_dir ? realpath(to_dir, NULL) : NULL;
     char out[4096];
-    if (dir) relative_to(dir, target, out, sizeof out);
+    size_t root_len = data_root ? strlen(data_root) : 0;
+    if (root_len > 1 && !strncmp(target, data_root, root_len) && target[root_len] == '/')
+        snprintf(out, sizeof out, DATA_PREFIX "%s", target + root_len + 1);
+    else if (dir) relative_to(dir, target, out, sizeof out);
     else snprintf(out, sizeof out, "%s", target);
     free(dir);
     free(target);
     cJSON_SetValuestring(node, out);
 }
 
-static void rebase_names(cJSON *root, const char *base_dir, const char *tf_file, const char *to_dir) {
+static void rebase_names(cJSON *root, const char *base_dir, const char *tf_file, const char *to_dir,
+                         const char *data_root) {
     rebase_name(cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(root, "volume"), "file"), base_dir,
-                to_dir);
+                to_dir, data_root);
     cJSON *tf = cJSON_GetObjectItemCaseSensitive(root, "transfer_function");
-    if (cJSON_IsString(tf)) rebase_name(tf, base_dir, to_dir);
+    if (cJSON_IsString(tf)) rebase_name(tf, base_dir, to_dir, data_root);
     else if (cJSON_IsObject(tf)) {
         char tf_dir[4096];
         if (tf_file && *tf_file) dir_of(tf_file, tf_dir, sizeof tf_dir);
         else snprintf(tf_dir, sizeof tf_dir, "%s", base_dir);
-        rebase_name(cJSON_GetObjectItemCaseSensitive(tf, "preset"), tf_dir, to_dir);
+        rebase_name(cJSON_GetObjectItemCaseSensitive(tf, "preset"), tf_dir, to_dir, data_root);
         cJSON *m;
         cJSON_ArrayForEach(m, cJSON_GetObjectItemCaseSensitive(tf, "materials"))
-        rebase_name(cJSON_GetObjectItemCaseSensitive(m, "file"), tf_dir, to_dir);
+        rebase_name(cJSON_GetObjectItemCaseSensitive(m, "file"), tf_dir, to_dir, data_root);
     }
     cJSON *l;
     cJSON_ArrayForEach(l, cJSON_GetObjectItemCaseSensitive(root, "lights"))
-    rebase_name(cJSON_GetObjectItemCaseSensitive(l, "file"), base_dir, to_dir);
+    rebase_name(cJSON_GetObjectItemCaseSensitive(l, "file"), base_dir, to_dir, data_root);
 }
 
 /* A growable text buffer in context memory. */
@@ -1004,7 +1010,10 @@ static volux_status parse_with(volux_context *ctx, const char *text, size_t n, c
     }
     st = read_scene(&sr, root);
     if (!st && o && o->effective_json) {
-        rebase_names(root, sr.base_dir, sr.tf_file, o->effective_dir);
+        const char *root_dir = data_dir(&sr);
+        char *data_root = root_dir ? realpath(root_dir, NULL) : NULL;
+        rebase_names(root, sr.base_dir, sr.tf_file, o->effective_dir, data_root);
+        free(data_root);
         st = volux_json_print(ctx, root, o->effective_json);
     }
     cJSON_Delete(root);

@@ -299,6 +299,13 @@ static void test_dump_rebases_file_names(void **state) {
     volux_scene_json_free(ctx, dump);
     assert_int_equal(volux_scene_load(ctx, moved, NULL, 0, &s), VOLUX_OK);
     volux_scene_destroy(s);
+    /* A file under the data root is written as "$VOLUX_DATA/...": the dump
+     * then works on any machine that has the data. */
+    o.data_dir = tu_temp_path("ql_a");
+    s = load(ctx, &o);
+    volux_scene_destroy(s);
+    assert_non_null(strstr(dump, "\"file\": \"$VOLUX_DATA/vol.nrrd\""));
+    volux_scene_json_free(ctx, dump);
     volux_context_destroy(ctx);
 }
 
