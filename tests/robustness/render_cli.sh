@@ -116,6 +116,7 @@ expect 0 "" "$volux" info "$tmp/env.hdr"
 grep -q "^image *2 x 1" "$tmp/out" || bad "volux info env.hdr: $(cat "$tmp/out")"
 expect 0 "" "$volux" info "$tmp/q.pfm"
 grep -q "^image *32 x 32" "$tmp/out" || bad "volux info q.pfm: $(cat "$tmp/out")"
+expect 2 "a Radiance HDR image, not a volume" "$volux" render "$tmp/env.hdr" -o "$tmp/e.png"
 printf 'garbage' >"$tmp/bad.hdr"
 expect 2 "bad.hdr" "$volux" info "$tmp/bad.hdr"
 

@@ -196,6 +196,23 @@ int cli_load_scene(const char *cmd, volux_context *ctx, const cli_scene_args *a,
     }
     const char *in = a->scene_path;
     int kind = input_kind(in);
+    if (kind == INPUT_VOLUME && ends_with_ci(in, ".hdr")) {
+        /* .hdr is also Radiance's image format ("#?RADIANCE"): say what it
+         * is instead of letting the NIfTI reader blame its header size. */
+        FILE *f = fopen(in, "rb");
+        char magic[2] = {0, 0};
+        if (f) {
+            size_t got = fread(magic, 1, 2, f);
+            fclose(f);
+            if (got == 2 && magic[0] == '#' && magic[1] == '?') {
+                fprintf(stderr,
+                        "volux %s: %s: a Radiance HDR image, not a volume (use it as an environment light: "
+                        "\"lights\": [{\"type\": \"environment\", \"file\": ...}])\n",
+                        cmd, in);
+                return CLI_USAGE;
+            }
+        }
+    }
     if (kind == INPUT_UNKNOWN) {
         fprintf(stderr,
                 "volux %s: %s: neither a scene (a JSON object) nor a volume (" VOLUME_EXTENSIONS
