@@ -78,13 +78,19 @@ static int progress_bar(void *user, const char *task, double fraction) {
     return 0;
 }
 
+static progress_state bar_state = {"", -1};
+
+void cli_progress(const char *task, double fraction) {
+    if (isatty(STDERR_FILENO)) progress_bar(&bar_state, task, fraction);
+}
+
 volux_context *cli_context(int threads) {
-    static progress_state state = {"", -1};
+    progress_state *state = &bar_state;
     volux_context_desc d = {0};
     d.threads = threads;
     /* Always installed: it is also how an interrupt reaches the library. */
     d.progress = progress_bar;
-    d.progress_user = isatty(STDERR_FILENO) ? &state : NULL;
+    d.progress_user = isatty(STDERR_FILENO) ? state : NULL;
     volux_context *ctx = NULL;
     if (volux_context_create(&d, &ctx) != VOLUX_OK) {
         fprintf(stderr, "volux: out of memory\n");
@@ -136,6 +142,15 @@ const char *cli_data_dir(void) {
 
 int cli_is_procedural(const char *spec) { return !strncmp(spec, "procedural:", strlen("procedural:")); }
 
+int cli_procedural_size_ok(const char *spec) {
+    const char *colon = strchr(spec + strlen("procedural:"), ':');
+    if (!colon) return 1;
+    char *end = NULL;
+    errno = 0;
+    long n = strtol(colon + 1, &end, 10);
+    return !errno && end != colon + 1 && !*end && n >= 1 && n <= VOLUX_MAX_DIM;
+}
+
 volux_status cli_procedural(volux_context *ctx, const char *cmd, const char *spec, uint64_t seed, volux_volume **out,
                             char *json, size_t json_size) {
     char name[64];
@@ -155,10 +170,10 @@ volux_status cli_procedural(volux_context *ctx, const char *cmd, const char *spe
     return st;
 }
 
-int cli_check_writable(const char *cmd, const char *option, const char *path) {
+int cli_check_writable(const char *option, const char *path, char *msg, size_t msg_size) {
     struct stat sb;
     if (stat(path, &sb) == 0 && S_ISDIR(sb.st_mode)) {
-        fprintf(stderr, "volux %s: %s %s: is a folder\n", cmd, option, path);
+        snprintf(msg, msg_size, "%s %s: is a folder", option, path);
         return 0;
     }
     const char *slash = strrchr(path, '/');
@@ -167,8 +182,8 @@ int cli_check_writable(const char *cmd, const char *option, const char *path) {
     else if (slash == path) snprintf(dir, sizeof dir, "/");
     else snprintf(dir, sizeof dir, "%.*s", (int)(slash - path) < 4000 ? (int)(slash - path) : 4000, path);
     if (stat(dir, &sb) != 0 || !S_ISDIR(sb.st_mode) || access(dir, W_OK | X_OK) != 0) {
-        fprintf(stderr, "volux %s: %s %s: folder '%s' %s\n", cmd, option, path, dir,
-                stat(dir, &sb) != 0 ? "does not exist" : !S_ISDIR(sb.st_mode) ? "is not a folder" : "is not writable");
+        snprintf(msg, msg_size, "%s %s: folder '%s' %s", option, path, dir,
+                 stat(dir, &sb) != 0 ? "does not exist" : !S_ISDIR(sb.st_mode) ? "is not a folder" : "is not writable");
         return 0;
     }
     return 1;

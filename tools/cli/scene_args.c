@@ -1,4 +1,5 @@
 /* tools/cli/scene_args.c — see scene_args.h. */
+#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -129,21 +130,29 @@ static void dir_of(const char *path, char *out, size_t n) {
     else snprintf(out, n, "%.*s", (int)(slash - path), path);
 }
 
-/* Writes text to path through a temporary file and a rename. */
-static int write_text(const char *cmd, const char *path, const char *text) {
+/* Writes text to path through a temporary file and a rename; on failure
+ * the reason goes to msg. */
+static int write_text(const char *path, const char *text, char *msg, size_t msg_size) {
     char tmp[4200];
     snprintf(tmp, sizeof tmp, "%s.tmp-%ld", path, (long)getpid());
     FILE *f = fopen(tmp, "w");
     int ok = f && fputs(text, f) >= 0;
-    if (f && (fflush(f) != 0 || fsync(fileno(f)) != 0)) ok = 0;
-    if (f && fclose(f) != 0) ok = 0;
-    if (ok && rename(tmp, path) != 0) ok = 0;
+    int err = ok ? 0 : errno;
+    if (f && (fflush(f) != 0 || fsync(fileno(f)) != 0) && ok) ok = 0, err = errno;
+    if (f && fclose(f) != 0 && ok) ok = 0, err = errno;
+    if (ok && rename(tmp, path) != 0) ok = 0, err = errno;
     if (!ok) {
-        perror(path);
         unlink(tmp);
-        fprintf(stderr, "volux %s: --dump-scene %s: cannot write\n", cmd, path);
+        snprintf(msg, msg_size, "--dump-scene %s: cannot write: %s", path, strerror(err));
     }
     return ok;
+}
+
+/* The context's message (or the status name) into msg; the exit status. */
+static int context_failure(volux_context *ctx, volux_status st, char *msg, size_t msg_size) {
+    const char *e = volux_context_error(ctx);
+    snprintf(msg, msg_size, "%s", e && *e ? e : volux_status_name(st));
+    return cli_exit_status(st);
 }
 
 /* Levenshtein distance, for "did you mean". */
@@ -189,9 +198,11 @@ void cli_technique_names(char *out, size_t n) {
     }
 }
 
-int cli_load_scene(const char *cmd, volux_context *ctx, const cli_scene_args *a, volux_scene **out) {
+int cli_load_scene_quiet(const char *cmd, volux_context *ctx, const cli_scene_args *a, volux_scene **out,
+                         char *msg, size_t msg_size) {
+    msg[0] = 0;
     if (!a->scene_path) {
-        fprintf(stderr, "volux %s: missing SCENE.json (or a volume)\n", cmd);
+        snprintf(msg, msg_size, "missing SCENE.json (or a volume)");
         return CLI_USAGE;
     }
     const char *in = a->scene_path;
@@ -205,19 +216,17 @@ int cli_load_scene(const char *cmd, volux_context *ctx, const cli_scene_args *a,
             size_t got = fread(magic, 1, 2, f);
             fclose(f);
             if (got == 2 && magic[0] == '#' && magic[1] == '?') {
-                fprintf(stderr,
-                        "volux %s: %s: a Radiance HDR image, not a volume (use it as an environment light: "
-                        "\"lights\": [{\"type\": \"environment\", \"file\": ...}])\n",
-                        cmd, in);
+                snprintf(msg, msg_size,
+                         "%s: a Radiance HDR image, not a volume (use it as an environment light: "
+                         "\"lights\": [{\"type\": \"environment\", \"file\": ...}])",
+                         in);
                 return CLI_USAGE;
             }
         }
     }
     if (kind == INPUT_UNKNOWN) {
-        fprintf(stderr,
-                "volux %s: %s: neither a scene (a JSON object) nor a volume (" VOLUME_EXTENSIONS
-                ", procedural:NAME[:N])\n",
-                cmd, in);
+        snprintf(msg, msg_size,
+                 "%s: neither a scene (a JSON object) nor a volume (" VOLUME_EXTENSIONS ", procedural:NAME[:N])", in);
         return CLI_USAGE;
     }
     volux_scene_load_options o;
@@ -238,12 +247,15 @@ int cli_load_scene(const char *cmd, volux_context *ctx, const cli_scene_args *a,
         /* A quick look: the default scene of the volume, loaded once. */
         char vjson[4200];
         if (cli_is_procedural(in)) {
+            if (!cli_procedural_size_ok(in)) {
+                snprintf(msg, msg_size, "%s: the size must be an integer in [1, %d]", in, VOLUX_MAX_DIM);
+                return CLI_USAGE;
+            }
             st = cli_procedural(ctx, cmd, in, 1, &vol, vjson, sizeof vjson);
-            if (st == VOLUX_ERR_INVALID && !*volux_context_error(ctx)) return CLI_USAGE;
         } else {
             char quoted[4096];
             if (!json_string(in, quoted, sizeof quoted)) {
-                fprintf(stderr, "volux %s: %s: path too long\n", cmd, in);
+                snprintf(msg, msg_size, "%s: path too long", in);
                 return CLI_USAGE;
             }
             snprintf(vjson, sizeof vjson, "{\"file\": %s}", quoted);
@@ -252,7 +264,7 @@ int cli_load_scene(const char *cmd, volux_context *ctx, const cli_scene_args *a,
         if (!st) st = volux_scene_default_json(ctx, vjson, vol, &json);
         if (st) {
             volux_volume_release(vol);
-            return cli_fail(cmd, ctx, st);
+            return context_failure(ctx, st, msg, msg_size);
         }
         o.json = json;
         o.base_dir = ".";
@@ -266,39 +278,47 @@ int cli_load_scene(const char *cmd, volux_context *ctx, const cli_scene_args *a,
     st = volux_scene_load_ex(ctx, &o, &scene);
     volux_scene_json_free(ctx, json);
     volux_volume_release(vol);
-    if (st) return cli_fail(cmd, ctx, st);
-    if (dump && !write_text(cmd, a->dump_path, dump)) {
+    if (st) return context_failure(ctx, st, msg, msg_size);
+    if (dump && !write_text(a->dump_path, dump, msg, msg_size)) {
         volux_scene_json_free(ctx, dump);
         volux_scene_destroy(scene);
         return CLI_FAIL;
     }
     volux_scene_json_free(ctx, dump);
-    const char *notes = volux_scene_notes(scene);
-    if (*notes && !a->quiet) {
-        /* One "volux CMD: note:" line per note. */
-        for (const char *p = notes; *p;) {
-            const char *nl = strchr(p, '\n');
-            int len = nl ? (int)(nl - p) : (int)strlen(p);
-            fprintf(stderr, "volux %s: note: %.*s\n", cmd, len, p);
-            p += len + (nl ? 1 : 0);
-        }
-    }
     const char *tech = volux_scene_render(scene)->technique;
     if (!volux_technique_info_find(tech)) {
         char names[256];
         cli_technique_names(names, sizeof names);
         const char *guess = cli_closest_technique(tech);
-        fprintf(stderr, "volux %s: %s: render.technique: unknown technique '%s'%s%s%s (techniques: %s)\n", cmd, in,
-                tech, guess ? "; did you mean '" : "", guess ? guess : "", guess ? "'?" : "", names);
+        snprintf(msg, msg_size, "%s: render.technique: unknown technique '%s'%s%s%s (techniques: %s)", in, tech,
+                 guess ? "; did you mean '" : "", guess ? guess : "", guess ? "'?" : "", names);
         volux_scene_destroy(scene);
         return CLI_USAGE;
     }
     if ((st = volux_technique_validate_params(ctx, scene))) {
-        fprintf(stderr, "volux %s: %s: %s\n", cmd, in, volux_context_error(ctx));
+        snprintf(msg, msg_size, "%s: %s", in, volux_context_error(ctx));
         volux_scene_destroy(scene);
         return cli_exit_status(st);
     }
     if (volux_scene_render(scene)->threads > 0) volux_context_set_threads(ctx, volux_scene_render(scene)->threads);
     *out = scene;
     return CLI_OK;
+}
+
+void cli_print_notes(const char *cmd, const volux_scene *scene) {
+    /* One "volux CMD: note:" line per note. */
+    for (const char *p = volux_scene_notes(scene); *p;) {
+        const char *nl = strchr(p, '\n');
+        int len = nl ? (int)(nl - p) : (int)strlen(p);
+        fprintf(stderr, "volux %s: note: %.*s\n", cmd, len, p);
+        p += len + (nl ? 1 : 0);
+    }
+}
+
+int cli_load_scene(const char *cmd, volux_context *ctx, const cli_scene_args *a, volux_scene **out) {
+    char msg[1024];
+    int rc = cli_load_scene_quiet(cmd, ctx, a, out, msg, sizeof msg);
+    if (rc) fprintf(stderr, "volux %s: %s\n", cmd, msg);
+    else if (!a->quiet) cli_print_notes(cmd, *out);
+    return rc;
 }

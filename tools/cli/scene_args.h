@@ -6,6 +6,8 @@
 #ifndef VOLUX_CLI_SCENE_ARGS_H
 #define VOLUX_CLI_SCENE_ARGS_H
 
+#include <stddef.h>
+
 #include "cli.h"
 
 #define CLI_MAX_OVERRIDES 128
@@ -27,8 +29,14 @@ int cli_scene_arg(const char *cmd, cli_scene_args *a, int argc, char **argv, int
  * The input may also be a volume file or procedural:NAME[:N]: its quick-
  * look scene (volux_scene_default_json). With --dump-scene, writes the
  * scene as read. On error prints the message and returns the exit status
- * (nonzero). */
+ * (nonzero); on success prints the scene's notes unless quiet. */
 int cli_load_scene(const char *cmd, volux_context *ctx, const cli_scene_args *a, volux_scene **out);
+/* The same without printing: the message goes to msg (for front ends that
+ * print one message for many processes); notes are left to the caller. */
+int cli_load_scene_quiet(const char *cmd, volux_context *ctx, const cli_scene_args *a, volux_scene **out,
+                         char *msg, size_t msg_size);
+/* The scene's notes, one "volux CMD: note: ..." line each, on stderr. */
+void cli_print_notes(const char *cmd, const volux_scene *scene);
 
 /* The registered technique nearest to `name` (edit distance or prefix),
  * or NULL when none is close; all names, comma-separated. */
