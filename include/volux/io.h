@@ -94,6 +94,33 @@ VOLUX_API volux_status volux_image_load(volux_context *ctx, const char *path, vo
  * exposure applies to PNG only (2^exposure, then sRGB, clamp, 8 bit). */
 VOLUX_API volux_status volux_image_save(volux_context *ctx, const char *path, const volux_image *img,
                                         float exposure);
+/* Text metadata stored with an image: PNG tEXt chunks (before the pixel
+ * data), OpenEXR string attributes of part 0. The CLI records how an image
+ * was made ("volux.spp", "volux.technique", "volux.interrupted", ...). PFM
+ * has no place for it. Keys up to 63 bytes, values up to 255. */
+#define VOLUX_IMAGE_MAX_META 16
+typedef struct volux_image_meta {
+    int count;
+    char key[VOLUX_IMAGE_MAX_META][64];
+    char value[VOLUX_IMAGE_MAX_META][256];
+} volux_image_meta;
+/* Adds or replaces key (silently ignored when full or too long). */
+VOLUX_API void volux_image_meta_set(volux_image_meta *m, const char *key, const char *value);
+/* The value of key, or NULL. */
+VOLUX_API const char *volux_image_meta_get(const volux_image_meta *m, const char *key);
+/* volux_image_save with metadata (NULL: none; ignored for PFM). */
+VOLUX_API volux_status volux_image_save_meta(volux_context *ctx, const char *path, const volux_image *img,
+                                             float exposure, const volux_image_meta *meta);
+/* volux_image_load plus the file's metadata (PNG text chunks before the
+ * pixels; EXR string, int, float and double attributes that are not part
+ * of the format's required set). meta->count is 0 for PFM and HDR. */
+VOLUX_API volux_status volux_image_load_meta(volux_context *ctx, const char *path, volux_image *out,
+                                             volux_image_meta *meta);
+/* Checks, before any work, that an image can be written at `path`: a
+ * writable extension (.png .pfm .exr), an existing writable folder, and
+ * not a folder itself. VOLUX_ERR_INVALID for the extension, VOLUX_ERR_IO
+ * otherwise, with the reason. Writes nothing. */
+VOLUX_API volux_status volux_image_check_output(volux_context *ctx, const char *path);
 /* Image details (see src/io/image_formats.h): PNG reads 8/16-bit gray, RGB,
  * palette, with alpha dropped, decoding sRGB to linear; PNG writes 8-bit RGB.
  * PFM reads PF/Pf of either endianness and writes little-endian PF. EXR reads
@@ -125,6 +152,48 @@ VOLUX_API volux_status volux_scene_load_string(volux_context *ctx, const char *j
                                                const char *name, const char *const *overrides,
                                                int n_overrides, volux_scene **out);
 
+/* The general loader. Give `path` (a scene file; relative names resolve
+ * against its folder) or `json` (text; against `base_dir`, "." if NULL;
+ * `name` labels messages). File names may start with "$VOLUX_DATA/": the
+ * shared data root `data_dir` (NULL: the VOLUX_DATA environment variable;
+ * docs/CONVENTIONS.md). An --set override that reaches into a key given by
+ * file reference (transfer_function: "tf.json") first reads that file into
+ * the scene, whose names keep resolving against the file's folder. A scene
+ * without a transfer_function gets the quick-look default
+ * (volux_transfer_auto_from_volume) and a note (volux_scene_notes). */
+typedef struct volux_scene_load_options {
+    const char *path;
+    const char *json;
+    const char *base_dir, *name;
+    const char *const *overrides;
+    int n_overrides;
+    const char *data_dir;
+    /* A volume the caller already loaded from `volume_file`: used when the
+     * scene's volume is exactly {"file": volume_file} (no layout keys). */
+    volux_volume *volume;
+    const char *volume_file;
+    /* Optional out: the scene as read (after overrides and defaults) as
+     * JSON text, its file names rebased to `effective_dir` (NULL:
+     * absolute); free with volux_scene_json_free. */
+    char **effective_json;
+    const char *effective_dir;
+} volux_scene_load_options;
+
+VOLUX_API volux_status volux_scene_load_ex(volux_context *ctx, const volux_scene_load_options *options,
+                                           volux_scene **out);
+VOLUX_API void volux_scene_json_free(volux_context *ctx, char *json);
+
+/* The quick-look scene of a volume as JSON text (free with
+ * volux_scene_json_free): `volume_json` is the scene's "volume" value as
+ * JSON text (e.g. {"file": "head.nii"}), `vol` that volume, loaded. The
+ * scene: the default transfer function (volux_transfer_auto_from_volume),
+ * an orbit camera framing the volume (up = the file's superior direction
+ * when it has one: "z_up": true for the usual axial stacks), one key light
+ * over the viewer's left shoulder, a ParaView-like background, `shaded` at
+ * 512×512. */
+VOLUX_API volux_status volux_scene_default_json(volux_context *ctx, const char *volume_json,
+                                                const volux_volume *vol, char **json);
+
 /* ParaView colour-map preset (JSON: a list of presets or one preset object
  * with "RGBPoints" [x,r,g,b,...]; "Points" opacity optional). Picks the
  * preset called `name` (a single object must carry that Name too), or the
@@ -136,6 +205,9 @@ typedef struct volux_tf_preset {
     int n_color;
     volux_tf_scalar_point *opacity; /* NULL when the preset has none */
     int n_opacity;
+    /* Opacity segments whose ParaView sharpness is > 0: drawn piecewise-
+     * linear through their midpoint (the curve's shape is not modelled). */
+    int n_sharp;
 } volux_tf_preset;
 
 VOLUX_API volux_status volux_tf_preset_load(volux_context *ctx, const char *path, const char *name,

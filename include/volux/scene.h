@@ -149,6 +149,12 @@ VOLUX_API const volux_light_desc *volux_scene_light(const volux_scene *s, int sl
 /* One past the highest occupied slot. */
 VOLUX_API int volux_scene_light_slots(const volux_scene *s);
 
+/* Notes the loader left for the user (e.g. "no transfer_function: using
+ * the default ..."), one per line; "" when none. The library never prints
+ * them; the CLI does. */
+VOLUX_API const char *volux_scene_notes(const volux_scene *s);
+VOLUX_API void volux_scene_add_note(volux_scene *s, const char *note);
+
 VOLUX_API void volux_scene_set_background(volux_scene *s, volux_vec3 rgb);
 VOLUX_API volux_vec3 volux_scene_background(const volux_scene *s);
 VOLUX_API volux_status volux_scene_set_render(volux_scene *s, const volux_render_settings *r);

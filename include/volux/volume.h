@@ -76,6 +76,12 @@ VOLUX_API void volux_volume_spacing(const volux_volume *v, double spacing[3]);
 VOLUX_API volux_vec3 volux_volume_origin(const volux_volume *v);
 VOLUX_API volux_scalar_type volux_volume_type(const volux_volume *v);
 VOLUX_API volux_storage volux_volume_storage_kind(const volux_volume *v);
+/* The direction of anatomical superior (the patient's head) in world
+ * coordinates, as the file's orientation gives it (NIfTI qform/sform,
+ * NRRD "space" + "space directions"; the grid's axes are the world's, so
+ * this is where "up" is for medical data). Returns 0 and leaves *dir
+ * alone when the file has no anatomical orientation. */
+VOLUX_API int volux_volume_superior(const volux_volume *v, volux_vec3 *dir);
 /* Smallest and largest value (file units). */
 VOLUX_API void volux_volume_range(const volux_volume *v, double *min, double *max);
 /* World-space bounding box corners. */

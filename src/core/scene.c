@@ -44,6 +44,7 @@ struct volux_scene {
     int n_params;
     uint32_t aspect[A_COUNT];
     uint32_t light_version[VOLUX_MAX_LIGHTS];
+    char notes[1024];
 };
 
 static uint64_t next_scene_id = 1;
@@ -349,6 +350,14 @@ const volux_light_desc *volux_scene_light(const volux_scene *s, int slot) {
 }
 
 int volux_scene_light_slots(const volux_scene *s) { return s->light_slots; }
+
+const char *volux_scene_notes(const volux_scene *s) { return s->notes; }
+
+void volux_scene_add_note(volux_scene *s, const char *note) {
+    size_t n = strlen(s->notes);
+    if (n + 2 >= sizeof s->notes) return;
+    snprintf(s->notes + n, sizeof s->notes - n, "%s%s", n ? "\n" : "", note);
+}
 
 void volux_scene_set_background(volux_scene *s, volux_vec3 rgb) {
     if (memcmp(&rgb, &s->background, sizeof rgb) == 0) return;

@@ -304,6 +304,20 @@ void volux_volume_release(volux_volume *v) {
 void volux_volume_dims(const volux_volume *v, int dims[3]) { memcpy(dims, v->dims, sizeof v->dims); }
 void volux_volume_spacing(const volux_volume *v, double spacing[3]) { memcpy(spacing, v->spacing, sizeof v->spacing); }
 volux_vec3 volux_volume_origin(const volux_volume *v) { return v->origin; }
+void volux_volume_set_superior(volux_volume *v, const double dir[3]) {
+    v->has_superior = 0;
+    if (!dir) return;
+    double len = sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+    if (!(len > 0.0) || !isfinite(len)) return;
+    v->superior = (volux_vec3){(float)(dir[0] / len), (float)(dir[1] / len), (float)(dir[2] / len)};
+    v->has_superior = 1;
+}
+
+int volux_volume_superior(const volux_volume *v, volux_vec3 *dir) {
+    if (!v->has_superior) return 0;
+    *dir = v->superior;
+    return 1;
+}
 volux_scalar_type volux_volume_type(const volux_volume *v) { return v->type; }
 volux_storage volux_volume_storage_kind(const volux_volume *v) { return v->storage; }
 void volux_volume_range(const volux_volume *v, double *min, double *max) {

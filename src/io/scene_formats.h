@@ -9,6 +9,8 @@
 #ifndef VOLUX_SCENE_FORMATS_H
 #define VOLUX_SCENE_FORMATS_H
 
+#include <cjson/cJSON.h>
+
 #include "volux/io.h"
 
 /* Flags for volux_scene_parse. */
@@ -25,6 +27,15 @@ enum {
 volux_status volux_scene_parse(volux_context *ctx, const char *text, size_t n, const char *base_dir,
                                const char *name, const char *const *overrides, int n_overrides, unsigned flags,
                                volux_scene **out);
+
+/* The default transfer function of `vol` as a scene's "transfer_function"
+ * object (rounded values, a comment saying where they came from). NULL
+ * with *status set (NOMEM) on failure. */
+cJSON *volux_auto_tf_json(volux_context *ctx, const volux_volume *vol, volux_status *status);
+
+/* A JSON tree as text in context memory (free with volux_scene_json_free):
+ * one key per line, arrays of numbers (vectors, TF rows) on one line. */
+volux_status volux_json_print(volux_context *ctx, const cJSON *root, char **out);
 
 /* volux_tf_preset_load on text of length n; `name` is used in messages
  * (the file name), `preset_name` picks a preset (NULL: the first). */

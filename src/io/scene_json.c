@@ -7,7 +7,9 @@
  */
 #include <limits.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "json_reader.h"
@@ -26,18 +28,44 @@ typedef struct scene_reader {
     const char *base_dir;
     volux_scene *scene;
     unsigned flags; /* VOLUX_SCENE_* */
+    const volux_scene_load_options *opt; /* data folder, preloaded volume (may be NULL) */
+    /* A transfer function given as a file name that --set reached into:
+     * the file was read into the tree, and its relative names still
+     * resolve against its own folder ("" when none). */
+    char tf_file[4096];
 } scene_reader;
+
+#define DATA_PREFIX "$VOLUX_DATA/"
 
 /* dir + "/" + name unless name is absolute. `key` is the scene path of the
  * name, for messages. Every file the scene names passes through here, so
  * this is where VOLUX_SCENE_NO_FILES stops them. */
+/* The folder "$VOLUX_DATA/" names: the caller's, else the environment's. */
+static const char *data_dir(const scene_reader *sr) {
+    if (sr->opt && sr->opt->data_dir && *sr->opt->data_dir) return sr->opt->data_dir;
+    const char *env = getenv("VOLUX_DATA");
+    return env && *env ? env : NULL;
+}
+
 static volux_status resolve_path(scene_reader *sr, const char *base_dir, const char *name, const char *key,
                                  char *out, size_t n) {
     if (sr->flags & VOLUX_SCENE_NO_FILES)
         return volux_json_error(&sr->json, VOLUX_ERR_UNSUPPORTED, key, "file references are disabled here");
     if (!*name) return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "empty file name");
-    int w = name[0] == '/' || !base_dir || !*base_dir ? snprintf(out, n, "%s", name)
+    int w;
+    if (!strncmp(name, DATA_PREFIX, strlen(DATA_PREFIX))) {
+        /* The shared data (docs/CONVENTIONS.md): one root for every scene. */
+        const char *root = data_dir(sr);
+        if (!root)
+            return volux_json_error(&sr->json, VOLUX_ERR_IO, key,
+                                    "%.200s: VOLUX_DATA is not set (the folder holding volumes/ and envmaps/; the "
+                                    "volux command defaults it to ../shared/data beside the repository)",
+                                    name);
+        w = snprintf(out, n, "%s/%s", root, name + strlen(DATA_PREFIX));
+    } else {
+        w = name[0] == '/' || !base_dir || !*base_dir ? snprintf(out, n, "%s", name)
                                                       : snprintf(out, n, "%s/%s", base_dir, name);
+    }
     if (w < 0 || (size_t)w >= n) return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "path too long");
     return VOLUX_OK;
 }
@@ -261,6 +289,15 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
         } else {
             frame_list frames = {NULL, 0, 0};
             st = read_frames(sr, obj, &frames);
+            const volux_scene_load_options *o = sr->opt;
+            const cJSON *file_item = cJSON_GetObjectItemCaseSensitive(obj, "file");
+            if (!st && single && o && o->volume && o->volume_file && cJSON_IsString(file_item) &&
+                !strcmp(file_item->valuestring, o->volume_file) && !opt.raw && !use_file_origin && !allow_outside) {
+                /* The caller already loaded this file the same way (a quick
+                 * look at a volume: the default scene names it). */
+                free_frame_list(r->ctx, &frames);
+                return volux_scene_set_volume(sr->scene, o->volume);
+            }
             if (!st && single) {
                 st = volux_volume_load(r->ctx, frames.paths[0], &opt, &vol);
                 if (st) volux_error_prefix(r->ctx, "%s: volume.file: ", r->file); /* the loader names the file */
@@ -291,33 +328,71 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
 
 static volux_status read_tf_object(scene_reader *sr, const cJSON *obj, const char *tf_dir);
 
-static volux_status read_transfer(scene_reader *sr, const cJSON *obj) {
+/* Reads the JSON file `name` (a scene key's value, e.g. a transfer function
+ * file) into a tree; *path gets its resolved name. Messages name the scene,
+ * the key and the file. */
+static volux_status load_tree(scene_reader *sr, const char *name, const char *key, char *path, size_t n,
+                              cJSON **tree) {
     volux_json_reader *r = &sr->json;
-    if (!obj) return volux_json_error(r, VOLUX_ERR_INVALID, "transfer_function", "missing");
-    if (cJSON_IsString(obj)) {
-        /* "transfer_function": "tf.json" — the same TF file the peers read. */
+    volux_status st = resolve_path(sr, sr->base_dir, name, key, path, n);
+    if (st) return st;
+    char *text;
+    size_t len;
+    if ((st = volux_json_read_file(r->ctx, path, &text, &len))) {
+        volux_error_prefix(r->ctx, "%s: %s: ", r->file, key);
+        return st;
+    }
+    volux_json_reader sub = {r->ctx, path};
+    st = volux_json_parse(&sub, text, len, tree);
+    volux_free(r->ctx, text, len + 1);
+    if (st) volux_error_prefix(r->ctx, "%s: %s: ", r->file, key);
+    return st;
+}
+
+static volux_status read_transfer(scene_reader *sr, cJSON *root) {
+    volux_json_reader *r = &sr->json;
+    cJSON *obj = cJSON_GetObjectItemCaseSensitive(root, "transfer_function");
+    if (!obj) {
+        /* No TF: the quick-look default from the volume's histogram, put
+         * into the tree so a dump of the scene shows exactly what is used. */
+        volux_status st = VOLUX_OK;
+        cJSON *tf = volux_auto_tf_json(r->ctx, volux_scene_volume(sr->scene), &st);
+        if (!tf) return st ? st : volux_json_error(r, VOLUX_ERR_NOMEM, "transfer_function", "out of memory");
+        if (!cJSON_AddItemToObject(root, "transfer_function", tf)) {
+            cJSON_Delete(tf);
+            return volux_json_error(r, VOLUX_ERR_NOMEM, "transfer_function", "out of memory");
+        }
+        const cJSON *op = cJSON_GetObjectItemCaseSensitive(tf, "opacity");
+        double s0 = cJSON_GetArrayItem(cJSON_GetArrayItem(op, 0), 0)->valuedouble;
+        double s1 = cJSON_GetArrayItem(cJSON_GetArrayItem(op, 1), 0)->valuedouble;
+        char note[320];
+        snprintf(note, sizeof note,
+                 "%s: no transfer_function: using the default (opacity ramp over %g..%g from the histogram, "
+                 "Cool to Warm colours; --dump-scene writes it out)",
+                 r->file, s0, s1);
+        volux_scene_add_note(sr->scene, note);
+        obj = tf;
+    }
+    if (cJSON_IsString(obj) || sr->tf_file[0]) {
+        /* "transfer_function": "tf.json" — the same TF file the peers read
+         * (or such a file that --set reached into, already in the tree). */
         char path[4096];
-        volux_status st = resolve_path(sr, sr->base_dir, obj->valuestring, "transfer_function", path, sizeof path);
-        if (st) return st;
-        char *text;
-        size_t n;
-        if ((st = volux_json_read_file(r->ctx, path, &text, &n))) {
-            volux_error_prefix(r->ctx, "%s: transfer_function: ", r->file);
-            return st;
+        cJSON *tree = NULL;
+        volux_status st = VOLUX_OK;
+        if (cJSON_IsString(obj)) {
+            if ((st = load_tree(sr, obj->valuestring, "transfer_function", path, sizeof path, &tree))) return st;
+        } else {
+            snprintf(path, sizeof path, "%s", sr->tf_file);
         }
         /* Messages from inside the TF file name that file (keys are read
          * under the same "transfer_function." paths), after the scene. */
         volux_json_reader sub = {r->ctx, path};
-        cJSON *tree = NULL;
-        st = volux_json_parse(&sub, text, n, &tree);
-        volux_free(r->ctx, text, n + 1);
-        if (!st) {
-            char dir[4096];
-            dir_of(path, dir, sizeof dir);
-            scene_reader sub_sr = {sub, sr->base_dir, sr->scene, sr->flags};
-            st = read_tf_object(&sub_sr, tree, dir);
-            cJSON_Delete(tree);
-        }
+        char dir[4096];
+        dir_of(path, dir, sizeof dir);
+        scene_reader sub_sr = *sr;
+        sub_sr.json = sub;
+        st = read_tf_object(&sub_sr, tree ? tree : obj, dir);
+        cJSON_Delete(tree);
         if (st) volux_error_prefix(r->ctx, "%s: transfer_function: ", r->file);
         return st;
     }
@@ -492,6 +567,15 @@ static volux_status read_tf_object(scene_reader *sr, const cJSON *obj, const cha
     } else if (preset.n_opacity) { /* the preset's opacity ("Points") */
         d.opacity = preset.opacity;
         d.n_opacity = preset.n_opacity;
+        if (preset.n_sharp) {
+            char note[512];
+            snprintf(note, sizeof note,
+                     "%s: transfer_function.preset: %d opacity segment%s of '%.200s' %s a sharpness > 0; drawn "
+                     "piecewise-linear through the midpoint (give \"opacity\" points to shape the curve)",
+                     r->file, preset.n_sharp, preset.n_sharp == 1 ? "" : "s", preset_file,
+                     preset.n_sharp == 1 ? "has" : "have");
+            volux_scene_add_note(sr->scene, note);
+        }
     } else {
         st = volux_json_error(r, VOLUX_ERR_INVALID, P, "needs opacity or extinction points");
         goto done;
@@ -526,7 +610,7 @@ static volux_status read_camera(scene_reader *sr, const cJSON *obj) {
     volux_camera_desc d;
     volux_camera_desc_defaults(&d);
     if (!obj) return volux_scene_set_camera(sr->scene, &d);
-    static const char *const keys[] = {"type", "eye", "look_at", "up", "fov_y", "height", "orbit", "comment", NULL};
+    static const char *const keys[] = {"type", "eye", "look_at", "up", "z_up", "fov_y", "height", "orbit", "comment", NULL};
     static const char *const orbit_keys[] = {"azimuth", "elevation", "distance", NULL};
     volux_status st = volux_json_check_keys(r, obj, "camera", keys);
     if (st) return st;
@@ -543,19 +627,32 @@ static volux_status read_camera(scene_reader *sr, const cJSON *obj) {
     if ((st = volux_json_float(r, obj, "camera", "fov_y", 1e-3, 179.999, &d.fov_y_deg)) ||
         (st = volux_json_float(r, obj, "camera", "height", 1e-9, BIG, &d.height)))
         return st;
+    /* up: the view's up for eye/look_at, the orbit's axis for an orbit
+     * (default +Y); "z_up": true is the shortcut for [0, 0, 1] (medical
+     * data, whose slices stack along z). */
+    float up[3] = {0, 1, 0};
+    int z_up = 0;
+    if ((st = volux_json_vec3(r, obj, "camera", "up", -COORD, COORD, up)) ||
+        (st = volux_json_bool(r, obj, "camera", "z_up", &z_up)))
+        return st;
+    if (cJSON_GetObjectItemCaseSensitive(obj, "z_up") && cJSON_GetObjectItemCaseSensitive(obj, "up"))
+        return volux_json_error(r, VOLUX_ERR_INVALID, "camera", "give up or z_up, not both");
+    if (z_up) up[0] = 0, up[1] = 0, up[2] = 1;
+    if (!(up[0] * up[0] + up[1] * up[1] + up[2] * up[2] > 0.0f))
+        return volux_json_error(r, VOLUX_ERR_INVALID, "camera.up", "must not be the zero vector");
+    d.up = (volux_vec3){up[0], up[1], up[2]};
     if (eye) {
-        float e[3], at[3] = {0, 0, 0}, up[3] = {0, 1, 0};
+        float e[3], at[3] = {0, 0, 0};
         d.use_orbit = 0;
         if ((st = volux_json_vec3(r, obj, "camera", "eye", -COORD, COORD, e)) ||
-            (st = volux_json_vec3(r, obj, "camera", "look_at", -COORD, COORD, at)) ||
-            (st = volux_json_vec3(r, obj, "camera", "up", -COORD, COORD, up)))
+            (st = volux_json_vec3(r, obj, "camera", "look_at", -COORD, COORD, at)))
             return st;
         d.eye = (volux_vec3){e[0], e[1], e[2]};
         d.look_at = (volux_vec3){at[0], at[1], at[2]};
-        d.up = (volux_vec3){up[0], up[1], up[2]};
     } else {
-        if (cJSON_GetObjectItemCaseSensitive(obj, "look_at") || cJSON_GetObjectItemCaseSensitive(obj, "up"))
-            return volux_json_error(r, VOLUX_ERR_INVALID, "camera", "look_at/up need an eye");
+        if (cJSON_GetObjectItemCaseSensitive(obj, "look_at"))
+            return volux_json_error(r, VOLUX_ERR_INVALID, "camera.look_at",
+                                    "needs an eye (an orbit always looks at the volume's centre)");
         /* DESIGN §3: the default distance fits the bounding sphere for this
          * fov_y (also without an "orbit" object, where the defaults'
          * distance would only fit their own 30°). */
@@ -773,7 +870,7 @@ static volux_status read_techniques(scene_reader *sr, const cJSON *obj) {
 
 /* ------------------------------------------------------------------ entry points */
 
-static volux_status read_scene(scene_reader *sr, const cJSON *root) {
+static volux_status read_scene(scene_reader *sr, cJSON *root) {
     volux_json_reader *r = &sr->json;
     static const char *const keys[] = {"volume", "transfer_function", "camera", "lights", "background",
                                        "render", "techniques", "comment", NULL};
@@ -782,10 +879,11 @@ static volux_status read_scene(scene_reader *sr, const cJSON *root) {
     float bg[3] = {0, 0, 0};
     if ((st = volux_json_vec3(r, root, "", "background", 0, BIG, bg))) return st;
     /* Order matters: the TF preset is rescaled to the volume's range (of
-     * time step 0, so every step of a sequence gets the same TF). */
+     * time step 0, so every step of a sequence gets the same TF), and a
+     * missing TF is made from the volume's histogram. */
     if ((st = read_render(sr, cJSON_GetObjectItemCaseSensitive(root, "render"))) ||
         (st = read_volume(sr, cJSON_GetObjectItemCaseSensitive(root, "volume"))) ||
-        (st = read_transfer(sr, cJSON_GetObjectItemCaseSensitive(root, "transfer_function"))) ||
+        (st = read_transfer(sr, root)) ||
         (st = read_time_step(sr, cJSON_GetObjectItemCaseSensitive(root, "render"))) ||
         (st = read_camera(sr, cJSON_GetObjectItemCaseSensitive(root, "camera"))) ||
         (st = read_lights(sr, cJSON_GetObjectItemCaseSensitive(root, "lights"))) ||
@@ -795,10 +893,253 @@ static volux_status read_scene(scene_reader *sr, const cJSON *root) {
     return VOLUX_OK;
 }
 
-volux_status volux_scene_parse(volux_context *ctx, const char *text, size_t n, const char *base_dir,
-                               const char *name, const char *const *overrides, int n_overrides, unsigned flags,
-                               volux_scene **out) {
-    scene_reader sr = {{ctx, name ? name : "scene"}, base_dir ? base_dir : ".", NULL, flags};
+/* An override that reaches into a key whose value is a file name (today
+ * only transfer_function, the one object a scene may give by reference):
+ * the file is read into the tree first, so "--set
+ * transfer_function.albedo=0.8" edits the referenced TF like an inline one
+ * (its relative names keep resolving against its own folder). */
+static volux_status inline_referenced(scene_reader *sr, cJSON *root, const char *assignment) {
+    static const char *const by_reference[] = {"transfer_function"};
+    for (size_t k = 0; k < sizeof by_reference / sizeof by_reference[0]; k++) {
+        size_t len = strlen(by_reference[k]);
+        if (strncmp(assignment, by_reference[k], len) || assignment[len] != '.') continue;
+        cJSON *node = cJSON_GetObjectItemCaseSensitive(root, by_reference[k]);
+        if (!cJSON_IsString(node)) continue;
+        char path[4096];
+        cJSON *tree = NULL;
+        volux_status st = load_tree(sr, node->valuestring, by_reference[k], path, sizeof path, &tree);
+        if (st) return st;
+        if (!cJSON_IsObject(tree)) {
+            cJSON_Delete(tree);
+            volux_json_reader sub = {sr->json.ctx, path};
+            st = volux_json_error(&sub, VOLUX_ERR_INVALID, NULL, "expected a JSON object");
+            volux_error_prefix(sr->json.ctx, "%s: %s: ", sr->json.file, by_reference[k]);
+            return st;
+        }
+        if (!cJSON_ReplaceItemInObjectCaseSensitive(root, by_reference[k], tree)) {
+            cJSON_Delete(tree);
+            return volux_json_error(&sr->json, VOLUX_ERR_NOMEM, by_reference[k], "out of memory");
+        }
+        snprintf(sr->tf_file, sizeof sr->tf_file, "%s", path);
+    }
+    return VOLUX_OK;
+}
+
+/* ---- the effective scene as JSON (--dump-scene) ---- */
+
+/* "a/b/../c" style normalisation is left to realpath(); this only makes
+ * `target` (absolute, normalised) relative to the folder `from` (same). */
+static void relative_to(const char *from, const char *target, char *out, size_t n) {
+    size_t common = 0, i = 0;
+    /* The longest common prefix that ends at a folder boundary. */
+    while (from[i] && target[i] && from[i] == target[i]) {
+        i++;
+        if ((from[i] == '/' || from[i] == 0) && (target[i] == '/' || target[i] == 0)) common = i;
+    }
+    if (from[0] == '/' && from[1] == 0) common = 0; /* from the root */
+    size_t w = 0;
+    out[0] = 0;
+    for (const char *p = from + common; *p; p++)
+        if (*p == '/' && w + 4 < n) w += (size_t)snprintf(out + w, n - w, "../");
+    const char *rest = target + common;
+    if (*rest == '/') rest++;
+    snprintf(out + w, n - w, "%s", rest);
+}
+
+/* Rewrites the file name in node (relative to from_dir) for a scene file in
+ * to_dir: "$VOLUX_DATA/..." when it lies under the data root (`data_root`,
+ * resolved; NULL: none), so the scene works on any machine; else relative
+ * when both resolve, else absolute. "$VOLUX_DATA/" names and names that
+ * cannot be resolved are kept. */
+static void rebase_name(cJSON *node, const char *from_dir, const char *to_dir, const char *data_root) {
+    if (!cJSON_IsString(node) || !node->valuestring[0]) return;
+    const char *name = node->valuestring;
+    if (!strncmp(name, DATA_PREFIX, strlen(DATA_PREFIX))) return;
+    char joined[4096];
+    int w = name[0] == '/' ? snprintf(joined, sizeof joined, "%s", name)
+                           : snprintf(joined, sizeof joined, "%s/%s", from_dir, name);
+    if (w < 0 || (size_t)w >= sizeof joined) return;
+    char *target = realpath(joined, NULL);
+    if (!target) return;
+    char *dir = to_dir ? realpath(to_dir, NULL) : NULL;
+    char out[4096];
+    size_t root_len = data_root ? strlen(data_root) : 0;
+    if (root_len > 1 && !strncmp(target, data_root, root_len) && target[root_len] == '/')
+        snprintf(out, sizeof out, DATA_PREFIX "%s", target + root_len + 1);
+    else if (dir) relative_to(dir, target, out, sizeof out);
+    else snprintf(out, sizeof out, "%s", target);
+    free(dir);
+    free(target);
+    cJSON_SetValuestring(node, out);
+}
+
+static void rebase_names(cJSON *root, const char *base_dir, const char *tf_file, const char *to_dir,
+                         const char *data_root) {
+    rebase_name(cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(root, "volume"), "file"), base_dir,
+                to_dir, data_root);
+    cJSON *tf = cJSON_GetObjectItemCaseSensitive(root, "transfer_function");
+    if (cJSON_IsString(tf)) rebase_name(tf, base_dir, to_dir, data_root);
+    else if (cJSON_IsObject(tf)) {
+        char tf_dir[4096];
+        if (tf_file && *tf_file) dir_of(tf_file, tf_dir, sizeof tf_dir);
+        else snprintf(tf_dir, sizeof tf_dir, "%s", base_dir);
+        rebase_name(cJSON_GetObjectItemCaseSensitive(tf, "preset"), tf_dir, to_dir, data_root);
+        cJSON *m;
+        cJSON_ArrayForEach(m, cJSON_GetObjectItemCaseSensitive(tf, "materials"))
+        rebase_name(cJSON_GetObjectItemCaseSensitive(m, "file"), tf_dir, to_dir, data_root);
+    }
+    cJSON *l;
+    cJSON_ArrayForEach(l, cJSON_GetObjectItemCaseSensitive(root, "lights"))
+    rebase_name(cJSON_GetObjectItemCaseSensitive(l, "file"), base_dir, to_dir, data_root);
+}
+
+/* A growable text buffer in context memory. */
+typedef struct text_buf {
+    volux_context *ctx;
+    char *p;
+    size_t n, cap;
+    int failed;
+} text_buf;
+
+static void put(text_buf *b, const char *fmt, ...) VOLUX_PRINTF(2, 3);
+static void put(text_buf *b, const char *fmt, ...) {
+    if (b->failed) return;
+    va_list ap;
+    va_start(ap, fmt);
+    char tmp[512];
+    int w = vsnprintf(tmp, sizeof tmp, fmt, ap);
+    va_end(ap);
+    if (w < 0) return;
+    const char *src = tmp;
+    char *big = NULL;
+    if ((size_t)w >= sizeof tmp) { /* a long string value */
+        big = volux_malloc(b->ctx, (size_t)w + 1);
+        if (!big) {
+            b->failed = 1;
+            return;
+        }
+        va_start(ap, fmt);
+        vsnprintf(big, (size_t)w + 1, fmt, ap);
+        va_end(ap);
+        src = big;
+    }
+    if (b->n + (size_t)w + 1 > b->cap) {
+        size_t cap = b->cap ? b->cap : 4096;
+        while (cap < b->n + (size_t)w + 1) cap *= 2;
+        char *q = volux_malloc(b->ctx, cap);
+        if (!q) {
+            b->failed = 1;
+            if (big) volux_free(b->ctx, big, (size_t)w + 1);
+            return;
+        }
+        if (b->p) {
+            memcpy(q, b->p, b->n);
+            volux_free(b->ctx, b->p, b->cap);
+        }
+        b->p = q;
+        b->cap = cap;
+    }
+    memcpy(b->p + b->n, src, (size_t)w + 1);
+    b->n += (size_t)w;
+    if (big) volux_free(b->ctx, big, (size_t)w + 1);
+}
+
+static void put_string(text_buf *b, const char *s) {
+    put(b, "\"");
+    for (; *s; s++) {
+        unsigned char c = (unsigned char)*s;
+        if (c == '"' || c == '\\') put(b, "\\%c", c);
+        else if (c < 0x20) put(b, "\\u%04x", c);
+        else put(b, "%c", c);
+    }
+    put(b, "\"");
+}
+
+static int is_scalar(const cJSON *v) { return !cJSON_IsArray(v) && !cJSON_IsObject(v); }
+
+static void put_value(text_buf *b, const cJSON *v, int indent);
+
+/* Arrays of scalars (vectors, TF rows) stay on one line; arrays of rows
+ * get one row per line; objects one key per line. */
+static void put_value(text_buf *b, const cJSON *v, int indent) {
+    if (cJSON_IsNumber(v)) {
+        double d = v->valuedouble;
+        if (d == floor(d) && fabs(d) < 1e15) put(b, "%.0f", d);
+        else put(b, "%.15g", d);
+    } else if (cJSON_IsString(v)) put_string(b, v->valuestring);
+    else if (cJSON_IsTrue(v)) put(b, "true");
+    else if (cJSON_IsFalse(v)) put(b, "false");
+    else if (cJSON_IsNull(v)) put(b, "null");
+    else if (cJSON_IsArray(v)) {
+        int flat = 1, rows = 1;
+        const cJSON *c;
+        cJSON_ArrayForEach(c, v) {
+            if (!is_scalar(c)) flat = 0;
+            if (!cJSON_IsArray(c)) rows = 0;
+            else {
+                const cJSON *e;
+                cJSON_ArrayForEach(e, c) if (!is_scalar(e)) rows = 0;
+            }
+        }
+        put(b, "[");
+        int first = 1;
+        cJSON_ArrayForEach(c, v) {
+            if (!first) put(b, flat ? ", " : ",");
+            if (!flat) put(b, "\n%*s", indent + 2, "");
+            put_value(b, c, indent + 2);
+            first = 0;
+        }
+        if (!flat && !first) put(b, "\n%*s", indent, "");
+        put(b, "]");
+        (void)rows;
+    } else if (cJSON_IsObject(v)) {
+        put(b, "{");
+        int first = 1;
+        const cJSON *c;
+        cJSON_ArrayForEach(c, v) {
+            put(b, "%s\n%*s", first ? "" : ",", indent + 2, "");
+            put_string(b, c->string ? c->string : "");
+            put(b, ": ");
+            put_value(b, c, indent + 2);
+            first = 0;
+        }
+        if (first) put(b, "}");
+        else put(b, "\n%*s}", indent, "");
+    }
+}
+
+volux_status volux_json_print(volux_context *ctx, const cJSON *root, char **out) {
+    text_buf b = {ctx, NULL, 0, 0, 0};
+    put_value(&b, root, 0);
+    put(&b, "\n");
+    if (b.failed || !b.p) {
+        if (b.p) volux_free(ctx, b.p, b.cap);
+        return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory writing the scene as JSON");
+    }
+    /* Hand out an exact-size block so volux_scene_json_free needs no size. */
+    char *s = volux_malloc(ctx, b.n + 1);
+    if (!s) {
+        volux_free(ctx, b.p, b.cap);
+        return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory writing the scene as JSON");
+    }
+    memcpy(s, b.p, b.n + 1);
+    volux_free(ctx, b.p, b.cap);
+    *out = s;
+    return VOLUX_OK;
+}
+
+void volux_scene_json_free(volux_context *ctx, char *json) {
+    if (json) volux_free(ctx, json, strlen(json) + 1);
+}
+
+static volux_status parse_with(volux_context *ctx, const char *text, size_t n, const volux_scene_load_options *o,
+                               const char *base_dir, const char *name, unsigned flags, volux_scene **out) {
+    scene_reader sr;
+    memset(&sr, 0, sizeof sr);
+    sr.json = (volux_json_reader){ctx, name ? name : "scene"};
+    sr.base_dir = base_dir ? base_dir : ".";
+    sr.flags = flags;
+    sr.opt = o;
     cJSON *root = NULL;
     volux_status st = volux_json_parse(&sr.json, text, n, &root);
     if (st) return st;
@@ -806,8 +1147,9 @@ volux_status volux_scene_parse(volux_context *ctx, const char *text, size_t n, c
         cJSON_Delete(root);
         return volux_json_error(&sr.json, VOLUX_ERR_INVALID, NULL, "the scene must be a JSON object");
     }
-    for (int i = 0; i < n_overrides; i++)
-        if ((st = volux_json_apply_override(&sr.json, root, overrides[i]))) {
+    for (int i = 0; o && i < o->n_overrides; i++)
+        if ((st = inline_referenced(&sr, root, o->overrides[i])) ||
+            (st = volux_json_apply_override(&sr.json, root, o->overrides[i]))) {
             cJSON_Delete(root);
             return st;
         }
@@ -816,6 +1158,13 @@ volux_status volux_scene_parse(volux_context *ctx, const char *text, size_t n, c
         return st;
     }
     st = read_scene(&sr, root);
+    if (!st && o && o->effective_json) {
+        const char *root_dir = data_dir(&sr);
+        char *data_root = root_dir ? realpath(root_dir, NULL) : NULL;
+        rebase_names(root, sr.base_dir, sr.tf_file, o->effective_dir, data_root);
+        free(data_root);
+        st = volux_json_print(ctx, root, o->effective_json);
+    }
     cJSON_Delete(root);
     if (st) {
         volux_scene_destroy(sr.scene);
@@ -825,21 +1174,44 @@ volux_status volux_scene_parse(volux_context *ctx, const char *text, size_t n, c
     return VOLUX_OK;
 }
 
+volux_status volux_scene_parse(volux_context *ctx, const char *text, size_t n, const char *base_dir,
+                               const char *name, const char *const *overrides, int n_overrides, unsigned flags,
+                               volux_scene **out) {
+    volux_scene_load_options o;
+    memset(&o, 0, sizeof o);
+    o.overrides = overrides;
+    o.n_overrides = n_overrides;
+    return parse_with(ctx, text, n, &o, base_dir, name, flags, out);
+}
+
 volux_status volux_scene_load_string(volux_context *ctx, const char *json, const char *base_dir, const char *name,
                                      const char *const *overrides, int n_overrides, volux_scene **out) {
     return volux_scene_parse(ctx, json, strlen(json), base_dir, name, overrides, n_overrides, 0, out);
 }
 
-volux_status volux_scene_load(volux_context *ctx, const char *path, const char *const *overrides, int n_overrides,
-                              volux_scene **out) {
+volux_status volux_scene_load_ex(volux_context *ctx, const volux_scene_load_options *o, volux_scene **out) {
+    if (o->effective_json) *o->effective_json = NULL;
+    if (!o->path == !o->json)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "volux_scene_load_ex: give exactly one of path and json");
+    if (o->json) return parse_with(ctx, o->json, strlen(o->json), o, o->base_dir, o->name, 0, out);
     char *text;
     size_t n;
-    volux_status st = volux_json_read_file(ctx, path, &text, &n);
+    volux_status st = volux_json_read_file(ctx, o->path, &text, &n);
     if (st) return st;
     char dir[4096];
-    dir_of(path, dir, sizeof dir);
+    dir_of(o->path, dir, sizeof dir);
     /* The parser rejects NUL bytes with their line and column. */
-    st = volux_scene_parse(ctx, text, n, dir, path, overrides, n_overrides, 0, out);
+    st = parse_with(ctx, text, n, o, dir, o->path, 0, out);
     volux_free(ctx, text, n + 1);
     return st;
+}
+
+volux_status volux_scene_load(volux_context *ctx, const char *path, const char *const *overrides, int n_overrides,
+                              volux_scene **out) {
+    volux_scene_load_options o;
+    memset(&o, 0, sizeof o);
+    o.path = path;
+    o.overrides = overrides;
+    o.n_overrides = n_overrides;
+    return volux_scene_load_ex(ctx, &o, out);
 }

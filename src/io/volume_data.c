@@ -509,6 +509,7 @@ volux_status volux_volume_read_data(volux_context *ctx, const volux_volume_heade
         volux_error_prefix(ctx, "%s: ", name);
         goto fail;
     }
+    volux_volume_set_superior(v, h->has_superior ? h->superior : NULL);
     *out = v;
     return VOLUX_OK;
 

@@ -51,6 +51,10 @@ typedef struct volux_volume_header {
     double spacing[3]; /* > 0, finite                                  */
     double origin[3];  /* world position of node (0,0,0)...            */
     int has_origin;    /* ...if the header gives one                   */
+    /* Anatomical superior in the grid's axes (unit-free; the loader
+     * normalises), if the header gives an anatomical orientation. */
+    double superior[3];
+    int has_superior;
     /* Linear value map (NIfTI scl_slope/scl_inter): when set, a value is
      * slope·stored + inter and the volume is stored as float32. */
     int apply_scale;

@@ -84,14 +84,16 @@ static volux_status resolve_data_path(volux_context *ctx, const char *header_pat
     if (!allow_outside) {
         if (data_file[0] == '/')
             return volux_error(ctx, VOLUX_ERR_FORMAT,
-                               "%s: data file: absolute path '%s' is outside the header's folder (not allowed)",
+                               "%s: data file: absolute path '%s' is outside the header's folder (not allowed unless "
+                               "the scene's volume says \"allow_outside_dir\": true)",
                                header_path, data_file);
         for (const char *p = data_file; *p;) {
             const char *slash = strchr(p, '/');
             size_t len = slash ? (size_t)(slash - p) : strlen(p);
             if (len == 2 && p[0] == '.' && p[1] == '.')
                 return volux_error(ctx, VOLUX_ERR_FORMAT,
-                                   "%s: data file: '%s' leads outside the header's folder ('..' is not allowed)",
+                                   "%s: data file: '%s' leads outside the header's folder ('..' is not allowed unless "
+                                   "the scene's volume says \"allow_outside_dir\": true)",
                                    header_path, data_file);
             p += len + (slash ? 1 : 0);
         }

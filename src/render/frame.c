@@ -19,11 +19,22 @@
 struct volux_framebuffer {
     volux_context *ctx;
     int width, height;
-    uint32_t spp;
+    uint32_t spp;   /* complete waves: every tile has at least this many */
     double *sum;    /* 3 per pixel: Σ radiance               */
     double *sum_sq; /* 1 per pixel: Σ luminance²             */
+    /* Samples per tile: a wave cancelled half-way leaves some tiles one
+     * sample ahead; each pixel's mean divides by its own tile's count, so
+     * the image so far is consistent, and the next render fills in the
+     * missing tiles first. */
+    uint32_t *tile_spp;
+    int tiles_x, tiles;
     uint64_t generation; /* technique generation the samples came from (0: none) */
 };
+
+static uint32_t pixel_spp(const volux_framebuffer *fb, size_t p) {
+    size_t x = p % (size_t)fb->width, y = p / (size_t)fb->width;
+    return fb->tile_spp[(y / VOLUX_TILE_SIZE) * (size_t)fb->tiles_x + x / VOLUX_TILE_SIZE];
+}
 
 volux_status volux_framebuffer_create(volux_context *ctx, int width, int height, volux_framebuffer **out) {
     if (width < 1 || height < 1 || width > VOLUX_MAX_IMAGE_DIM || height > VOLUX_MAX_IMAGE_DIM)
@@ -35,9 +46,12 @@ volux_status volux_framebuffer_create(volux_context *ctx, int width, int height,
     fb->ctx = ctx;
     fb->width = width;
     fb->height = height;
+    fb->tiles_x = (width + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE;
+    fb->tiles = fb->tiles_x * ((height + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE);
     fb->sum = volux_calloc(ctx, 3 * n, sizeof(double));
     fb->sum_sq = volux_calloc(ctx, n, sizeof(double));
-    if (!fb->sum || !fb->sum_sq) {
+    fb->tile_spp = volux_calloc(ctx, (size_t)fb->tiles, sizeof(uint32_t));
+    if (!fb->sum || !fb->sum_sq || !fb->tile_spp) {
         volux_framebuffer_destroy(fb);
         return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for a %dx%d framebuffer", width, height);
     }
@@ -50,6 +64,7 @@ void volux_framebuffer_destroy(volux_framebuffer *fb) {
     size_t n = (size_t)fb->width * (size_t)fb->height;
     volux_free(fb->ctx, fb->sum, 3 * n * sizeof(double));
     volux_free(fb->ctx, fb->sum_sq, n * sizeof(double));
+    volux_free(fb->ctx, fb->tile_spp, (size_t)fb->tiles * sizeof(uint32_t));
     volux_free(fb->ctx, fb, sizeof *fb);
 }
 
@@ -57,6 +72,7 @@ void volux_framebuffer_reset(volux_framebuffer *fb) {
     size_t n = (size_t)fb->width * (size_t)fb->height;
     memset(fb->sum, 0, 3 * n * sizeof(double));
     memset(fb->sum_sq, 0, n * sizeof(double));
+    memset(fb->tile_spp, 0, (size_t)fb->tiles * sizeof(uint32_t));
     fb->spp = 0;
     fb->generation = 0;
 }
@@ -68,28 +84,41 @@ int volux_framebuffer_height(const volux_framebuffer *fb) { return fb->height; }
 volux_status volux_framebuffer_resolve(const volux_framebuffer *fb, volux_image *out) {
     volux_status st = volux_image_create(fb->ctx, fb->width, fb->height, out);
     if (st) return st;
-    size_t n = 3 * (size_t)fb->width * (size_t)fb->height;
-    double inv = fb->spp ? 1.0 / fb->spp : 0.0;
-    for (size_t i = 0; i < n; i++) out->rgb[i] = (float)(fb->sum[i] * inv);
+    size_t n = (size_t)fb->width * (size_t)fb->height;
+    for (size_t p = 0; p < n; p++) {
+        uint32_t k = pixel_spp(fb, p);
+        double inv = k ? 1.0 / k : 0.0;
+        for (int c = 0; c < 3; c++) out->rgb[3 * p + (size_t)c] = (float)(fb->sum[3 * p + (size_t)c] * inv);
+    }
     return VOLUX_OK;
 }
 
 static double luminance(const double *c) { return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]; }
 
 double volux_framebuffer_rel_error(const volux_framebuffer *fb) {
-    if (fb->spp < 2) return 0.0;
-    size_t n = (size_t)fb->width * (size_t)fb->height;
-    double k = fb->spp, var_sum = 0.0, mean_sum = 0.0;
+    if (fb->spp < VOLUX_REL_ERROR_MIN_SPP) return -1.0;
+    size_t n = (size_t)fb->width * (size_t)fb->height, noisy = 0;
+    double var_sum = 0.0, mean_sum = 0.0;
     for (size_t i = 0; i < n; i++) {
+        double k = pixel_spp(fb, i);
+        if (k < 2.0) continue; /* a tile this process did not render (volux_render_tiles) */
         double mean = luminance(&fb->sum[3 * i]) / k;
         double var = (fb->sum_sq[i] / k - mean * mean) * k / (k - 1.0); /* sample variance */
-        if (var < 0.0) var = 0.0;
+        /* A pixel whose samples agree (background seen straight, empty
+         * space) has nothing left to converge: counting its value in the
+         * mean would dilute the error of the pixels that do. "Agree" is
+         * one 8-bit level: a per-sample standard deviation under 1/256 of
+         * the pixel's value, invisible even at 1 spp. It also absorbs the
+         * rounding of the sums and the tiny spread of an environment map
+         * seen through a jittered pixel, which is not noise anyone sees. */
+        if (!(var > mean * mean * (1.0 / (256.0 * 256.0)))) continue;
         var_sum += var / k; /* variance of the pixel mean */
         mean_sum += mean;
+        noisy++;
     }
-    if (mean_sum <= 0.0) return 0.0;
-    /* RMS standard error over pixels relative to the mean pixel value. */
-    return sqrt(var_sum / (double)n) / (mean_sum / (double)n);
+    if (noisy == 0 || mean_sum <= 0.0) return 0.0;
+    /* RMS standard error over the noisy pixels relative to their mean value. */
+    return sqrt(var_sum / (double)noisy) / (mean_sum / (double)noisy);
 }
 
 typedef struct wave_job {
@@ -113,6 +142,8 @@ static void render_one_tile(void *user, int64_t slot, int thread) {
     if (__atomic_load_n(job->cancelled, __ATOMIC_RELAXED)) return;
     volux_framebuffer *fb = job->fb;
     int64_t index = job->tile_first + slot;
+    /* Already has this sample (from a wave that was cancelled half-way). */
+    if (fb->tile_spp[index] > job->sample_index) return;
     volux_tile tile;
     tile.x0 = (int)(index % job->tiles_x) * VOLUX_TILE_SIZE;
     tile.y0 = (int)(index / job->tiles_x) * VOLUX_TILE_SIZE;
@@ -133,6 +164,7 @@ static void render_one_tile(void *user, int64_t slot, int thread) {
             fb->sum[3 * p + 2] += c[2];
             fb->sum_sq[p] += lum * lum;
         }
+    fb->tile_spp[index] = job->sample_index + 1;
     int done = __atomic_add_fetch(job->done_tiles, 1, __ATOMIC_RELAXED);
     /* Progress from whichever thread gets the flag; never concurrently. */
     if (job->ctx->progress && !__atomic_exchange_n(job->progress_busy, 1, __ATOMIC_ACQUIRE)) {
@@ -206,7 +238,16 @@ static volux_status render_waves(volux_technique *t, const volux_scene *scene, v
         }
         fb->spp++;
         if (lim.time_ms > 0.0 && now_ms() - start >= lim.time_ms) break;
-        if (lim.target_error > 0.0 && fb->spp >= 4 && volux_framebuffer_rel_error(fb) <= lim.target_error) break;
+        if (lim.target_error > 0.0 && fb->spp >= VOLUX_REL_ERROR_MIN_SPP) {
+            double e = volux_framebuffer_rel_error(fb);
+            if (e >= 0.0 && e <= lim.target_error) break;
+        }
+        /* A cancel asked for between waves (nothing left to skip in the
+         * wave that just ended) still stops here. */
+        if (ctx->progress && volux_progress(ctx, "render", fmin(0.999, waves ? (double)(fb->spp - start_spp) / waves : 0.0))) {
+            st = volux_error(ctx, VOLUX_ERR_CANCELLED, "render cancelled");
+            break;
+        }
     }
     volux_progress(ctx, "render", 1.0);
     volux_free(ctx, stats, (size_t)tile_count * sizeof *stats);
@@ -301,6 +342,7 @@ volux_status volux_render_tiles(volux_technique *t, const volux_scene *scene, vo
             memset(&fb->sum[3 * p], 0, 3 * (size_t)w * sizeof(double));
             memset(&fb->sum_sq[p], 0, (size_t)w * sizeof(double));
         }
+        fb->tile_spp[i] = 0;
     }
     fb->spp = 0;
     volux_render_limits lim = {spp ? spp : 1, 0.0, 0.0};
@@ -320,5 +362,7 @@ size_t volux_framebuffer_read_tiles(const volux_framebuffer *fb, int first, int 
 size_t volux_framebuffer_write_tiles(volux_framebuffer *fb, int first, int count, const double *in, uint32_t spp) {
     if (!tile_range_ok(fb, first, count)) return 0;
     fb->spp = spp;
+    /* Those tiles now hold spp samples (another process rendered them). */
+    for (int i = first; i < first + count; i++) fb->tile_spp[i] = spp;
     return copy_tiles(fb, first, count, (double *)in, 0);
 }

@@ -95,9 +95,10 @@ static volux_status convergence(volux_context *ctx, volux_technique *t, volux_sc
         st = volux_image_compare(ctx, &img, ref, &err);
         volux_image_free(ctx, &img);
         if (st) return st;
-        char extra[160];
-        snprintf(extra, sizeof extra, "\"spp\":%u,\"ms\":%.3f,\"mse\":%.6g,\"rel_error\":%.6g", spp, total_ms,
-                 err.rmse * err.rmse, rep.rel_error);
+        char extra[160], rel[32] = "null"; /* null: not available below 4 spp */
+        if (rep.rel_error >= 0.0) snprintf(rel, sizeof rel, "%.6g", rep.rel_error);
+        snprintf(extra, sizeof extra, "\"spp\":%u,\"ms\":%.3f,\"mse\":%.6g,\"rel_error\":%s", spp, total_ms,
+                 err.rmse * err.rmse, rel);
         emit(o, "convergence.rel_mse", err.rel_mse, "", extra);
         if (spp == target) break;
     }

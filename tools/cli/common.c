@@ -1,8 +1,10 @@
 /* tools/cli/common.c — exit codes, context with progress bar, option parsing. */
 #include <errno.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -26,8 +28,40 @@ typedef struct progress_state {
     int last_tenth;
 } progress_state;
 
+static volatile sig_atomic_t stop_signal;
+
+static void on_interrupt(int sig) {
+    if (stop_signal) _exit(128 + sig); /* the second one: at once */
+    stop_signal = sig;
+    static const char msg[] = "\nvolux: stopping; an image in progress is written with what it has "
+                              "(press Ctrl-C again to abort at once)\n";
+    ssize_t w = write(STDERR_FILENO, msg, sizeof msg - 1);
+    (void)w;
+}
+
+void cli_catch_interrupts(void) {
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_interrupt;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+}
+
+int cli_interrupted(void) { return (int)stop_signal; }
+
+void cli_hold_interrupts(int hold) {
+    sigset_t set;
+    sigemptyset(&set);
+    sigaddset(&set, SIGINT);
+    sigaddset(&set, SIGTERM);
+    sigprocmask(hold ? SIG_BLOCK : SIG_UNBLOCK, &set, NULL);
+}
+
 static int progress_bar(void *user, const char *task, double fraction) {
     progress_state *p = user;
+    if (stop_signal) return 1; /* asks the library to stop */
+    if (!p) return 0;          /* not a terminal: nothing to draw */
     int tenth = (int)(fraction * 40.0);
     if (tenth == p->last_tenth && !strcmp(p->task, task)) return 0;
     p->last_tenth = tenth;
@@ -54,10 +88,9 @@ volux_context *cli_context(int threads) {
     progress_state *state = &bar_state;
     volux_context_desc d = {0};
     d.threads = threads;
-    if (isatty(STDERR_FILENO)) {
-        d.progress = progress_bar;
-        d.progress_user = state;
-    }
+    /* Always installed: it is also how an interrupt reaches the library. */
+    d.progress = progress_bar;
+    d.progress_user = isatty(STDERR_FILENO) ? state : NULL;
     volux_context *ctx = NULL;
     if (volux_context_create(&d, &ctx) != VOLUX_OK) {
         fprintf(stderr, "volux: out of memory\n");
@@ -95,4 +128,63 @@ double cli_now_ms(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
+}
+
+const char *cli_data_dir(void) {
+    const char *env = getenv("VOLUX_DATA");
+    if (env && *env) return env;
+#ifdef VOLUX_DEFAULT_DATA_DIR
+    return VOLUX_DEFAULT_DATA_DIR;
+#else
+    return NULL;
+#endif
+}
+
+int cli_is_procedural(const char *spec) { return !strncmp(spec, "procedural:", strlen("procedural:")); }
+
+int cli_procedural_size_ok(const char *spec) {
+    const char *colon = strchr(spec + strlen("procedural:"), ':');
+    if (!colon) return 1;
+    char *end = NULL;
+    errno = 0;
+    long n = strtol(colon + 1, &end, 10);
+    return !errno && end != colon + 1 && !*end && n >= 1 && n <= VOLUX_MAX_DIM;
+}
+
+volux_status cli_procedural(volux_context *ctx, const char *cmd, const char *spec, uint64_t seed, volux_volume **out,
+                            char *json, size_t json_size) {
+    char name[64];
+    const char *rest = spec + strlen("procedural:");
+    const char *colon = strchr(rest, ':');
+    size_t len = colon ? (size_t)(colon - rest) : strlen(rest);
+    if (len >= sizeof name) len = sizeof name - 1;
+    memcpy(name, rest, len);
+    name[len] = 0;
+    long n = 64;
+    if (colon && !cli_parse_int(cmd, spec, colon + 1, 1, VOLUX_MAX_DIM, &n)) return VOLUX_ERR_INVALID;
+    int dims[3] = {(int)n, (int)n, (int)n};
+    volux_status st = volux_volume_procedural(ctx, name, dims, seed, out);
+    if (!st && json)
+        snprintf(json, json_size, "{\"procedural\": \"%s\", \"dims\": [%ld, %ld, %ld], \"seed\": %llu}", name, n, n, n,
+                 (unsigned long long)seed);
+    return st;
+}
+
+int cli_check_writable(const char *option, const char *path, char *msg, size_t msg_size) {
+    struct stat sb;
+    if (stat(path, &sb) == 0 && S_ISDIR(sb.st_mode)) {
+        snprintf(msg, msg_size, "%s %s: is a folder", option, path);
+        return 0;
+    }
+    const char *slash = strrchr(path, '/');
+    char dir[4096];
+    if (!slash) snprintf(dir, sizeof dir, ".");
+    else if (slash == path) snprintf(dir, sizeof dir, "/");
+    else snprintf(dir, sizeof dir, "%.*s", (int)(slash - path) < 4000 ? (int)(slash - path) : 4000, path);
+    if (stat(dir, &sb) != 0 || !S_ISDIR(sb.st_mode) || access(dir, W_OK | X_OK) != 0) {
+        snprintf(msg, msg_size, "%s %s: folder '%s' %s", option, path, dir,
+                 stat(dir, &sb) != 0 ? "does not exist" : !S_ISDIR(sb.st_mode) ? "is not a folder" : "is not writable");
+        return 0;
+    }
+    return 1;
 }
