@@ -2,18 +2,22 @@
 #   make demo   install missing Debian packages, build (Release), render scenes/demo.json
 #   make test   install, build (warnings as errors) + run the suite, then the
 #               same suite under AddressSanitizer + UBSan
+#   make install PREFIX=/opt/volux   build, then install the CLI, headers, libvolux.so/.a,
+#               volux.pc, the CMake package and the Python package (docs/API.md)
 # Other targets: build, asan, fuzz, bench, clean.
 
 PACKAGES := build-essential cmake pkg-config clang libpng-dev zlib1g-dev libcjson-dev \
             libopenexr-dev libcmocka-dev
 # Only the tests need these: `locales` has the de_DE sources a test compiles
-# into a temporary decimal-comma locale (header numbers must not follow it).
-TEST_PACKAGES := locales
+# into a temporary decimal-comma locale (header numbers must not follow it);
+# python3-numpy for the Python package's tests (python/).
+TEST_PACKAGES := locales python3-numpy
 JOBS     ?= $(shell nproc 2>/dev/null || echo 2)
 BUILD    ?= build
 VOLUX    := $(BUILD)/volux
+PREFIX   ?= /usr/local
 
-.PHONY: all deps test-deps build demo test test-release test-asan asan fuzz bench clean
+.PHONY: all deps test-deps build demo test test-release test-asan asan fuzz bench install clean
 
 all: build
 
@@ -62,6 +66,9 @@ test-asan: asan test-deps
 fuzz: deps
 	CC=clang cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DVOLUX_FUZZ=ON -DVOLUX_TESTS=OFF >/dev/null
 	cmake --build build-fuzz -j $(JOBS)
+
+install: build
+	cmake --install $(BUILD) --prefix $(PREFIX)
 
 bench: build
 	bench/run.sh
