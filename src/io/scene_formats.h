@@ -25,6 +25,11 @@ enum {
 volux_status volux_scene_parse(volux_context *ctx, const char *text, size_t n, const char *base_dir,
                                const char *name, const char *const *overrides, int n_overrides, unsigned flags,
                                volux_scene **out);
+/* The same with the caller's volume (NULL: read "volume"); see
+ * volux_scene_load_string_with_volume. */
+volux_status volux_scene_parse_with_volume(volux_context *ctx, const char *text, size_t n, const char *base_dir,
+                                           const char *name, const char *const *overrides, int n_overrides,
+                                           unsigned flags, volux_volume *volume, volux_scene **out);
 
 /* volux_tf_preset_load on text of length n; `name` is used in messages
  * (the file name), `preset_name` picks a preset (NULL: the first). */

@@ -26,6 +26,7 @@ typedef struct scene_reader {
     const char *base_dir;
     volux_scene *scene;
     unsigned flags; /* VOLUX_SCENE_* */
+    volux_volume *supplied; /* the caller's volume: "volume" is not read */
 } scene_reader;
 
 /* dir + "/" + name unless name is absolute. `key` is the scene path of the
@@ -181,7 +182,7 @@ static volux_status read_transfer(scene_reader *sr, const cJSON *obj) {
         if (!st) {
             char dir[4096];
             dir_of(path, dir, sizeof dir);
-            scene_reader sub_sr = {sub, sr->base_dir, sr->scene, sr->flags};
+            scene_reader sub_sr = {sub, sr->base_dir, sr->scene, sr->flags, sr->supplied};
             st = read_tf_object(&sub_sr, tree, dir);
             cJSON_Delete(tree);
         }
@@ -638,7 +639,8 @@ static volux_status read_scene(scene_reader *sr, const cJSON *root) {
     if ((st = volux_json_vec3(r, root, "", "background", 0, BIG, bg))) return st;
     /* Order matters: the TF preset is rescaled to the volume's range. */
     if ((st = read_render(sr, cJSON_GetObjectItemCaseSensitive(root, "render"))) ||
-        (st = read_volume(sr, cJSON_GetObjectItemCaseSensitive(root, "volume"))) ||
+        (st = sr->supplied ? volux_scene_set_volume(sr->scene, sr->supplied)
+                           : read_volume(sr, cJSON_GetObjectItemCaseSensitive(root, "volume"))) ||
         (st = read_transfer(sr, cJSON_GetObjectItemCaseSensitive(root, "transfer_function"))) ||
         (st = read_camera(sr, cJSON_GetObjectItemCaseSensitive(root, "camera"))) ||
         (st = read_lights(sr, cJSON_GetObjectItemCaseSensitive(root, "lights"))) ||
@@ -651,7 +653,13 @@ static volux_status read_scene(scene_reader *sr, const cJSON *root) {
 volux_status volux_scene_parse(volux_context *ctx, const char *text, size_t n, const char *base_dir,
                                const char *name, const char *const *overrides, int n_overrides, unsigned flags,
                                volux_scene **out) {
-    scene_reader sr = {{ctx, name ? name : "scene"}, base_dir ? base_dir : ".", NULL, flags};
+    return volux_scene_parse_with_volume(ctx, text, n, base_dir, name, overrides, n_overrides, flags, NULL, out);
+}
+
+volux_status volux_scene_parse_with_volume(volux_context *ctx, const char *text, size_t n, const char *base_dir,
+                                           const char *name, const char *const *overrides, int n_overrides,
+                                           unsigned flags, volux_volume *volume, volux_scene **out) {
+    scene_reader sr = {{ctx, name ? name : "scene"}, base_dir ? base_dir : ".", NULL, flags, volume};
     cJSON *root = NULL;
     volux_status st = volux_json_parse(&sr.json, text, n, &root);
     if (st) return st;
@@ -681,6 +689,13 @@ volux_status volux_scene_parse(volux_context *ctx, const char *text, size_t n, c
 volux_status volux_scene_load_string(volux_context *ctx, const char *json, const char *base_dir, const char *name,
                                      const char *const *overrides, int n_overrides, volux_scene **out) {
     return volux_scene_parse(ctx, json, strlen(json), base_dir, name, overrides, n_overrides, 0, out);
+}
+
+volux_status volux_scene_load_string_with_volume(volux_context *ctx, const char *json, const char *base_dir,
+                                                 const char *name, const char *const *overrides, int n_overrides,
+                                                 volux_volume *volume, volux_scene **out) {
+    return volux_scene_parse_with_volume(ctx, json, strlen(json), base_dir, name, overrides, n_overrides, 0, volume,
+                                         out);
 }
 
 volux_status volux_scene_load(volux_context *ctx, const char *path, const char *const *overrides, int n_overrides,
