@@ -93,5 +93,15 @@ write_basic_package_version_file(${VOLUX_DIST_DIR}/voluxConfigVersion.cmake COMP
 install(FILES ${VOLUX_DIST_DIR}/voluxConfig.cmake ${VOLUX_DIST_DIR}/voluxConfigVersion.cmake
         DESTINATION ${VOLUX_CMAKE_DIR})
 
+# The Python package (python/volux), plus _install.py naming the installed
+# library so `import volux` finds it without LD_LIBRARY_PATH.
+set(VOLUX_PYTHON_DIR lib/python3/dist-packages CACHE STRING
+    "Where `make install` puts the Python package, relative to the prefix (Debian's layout)")
+install(DIRECTORY ${CMAKE_SOURCE_DIR}/python/volux DESTINATION ${VOLUX_PYTHON_DIR}
+        PATTERN "__pycache__" EXCLUDE PATTERN "_install.py" EXCLUDE)
+install(CODE "file(WRITE \"${VOLUX_DIST_DIR}/_install.py\"
+  \"# Written by cmake --install: where this package's libvolux.so lives.\\nLIBDIR = r'\${CMAKE_INSTALL_PREFIX}/${CMAKE_INSTALL_LIBDIR}'\\n\")")
+install(FILES ${VOLUX_DIST_DIR}/_install.py DESTINATION ${VOLUX_PYTHON_DIR}/volux)
+
 # Examples go to the documentation folder as sources.
 install(DIRECTORY ${CMAKE_SOURCE_DIR}/examples/ DESTINATION ${CMAKE_INSTALL_DOCDIR}/examples)

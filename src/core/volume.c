@@ -161,6 +161,24 @@ static void build_macrocells(volux_volume *v) {
     }
 }
 
+/* The bricked layout's shape, fixed at creation so that concurrent
+ * builders agree on it without writing it (see volux_volume_build_bricks). */
+static void brick_shape(volux_volume *v) {
+    size_t count = 1;
+    for (int a = 0; a < 3; a++) {
+        int nb = (v->dims[a] - 1 + VOLUX_BRICK_CELLS - 1) / VOLUX_BRICK_CELLS;
+        v->brick_counts[a] = nb < 1 ? 1 : nb;
+        count *= (size_t)v->brick_counts[a];
+    }
+    size_t elem = v->storage == VOLUX_STORE_U8 ? 1 : v->storage == VOLUX_STORE_U16 ? 2 : 4, bytes;
+    /* SIMD gathers read whole 32-bit words, i.e. up to 3 bytes past the last
+     * node they need: a zeroed tail keeps them inside the allocation. */
+    v->brick_bytes = volux_mul_size(count, (size_t)VOLUX_BRICK_VOXELS * elem, &bytes) &&
+                             volux_add_size(bytes, VOLUX_BRICK_TAIL, &bytes)
+                         ? bytes
+                         : SIZE_MAX;
+}
+
 volux_status volux_volume_finalize(volux_volume *v, const double *origin) {
     volux_context *ctx = v->ctx;
     for (int a = 0; a < 3; a++) {
@@ -199,6 +217,7 @@ volux_status volux_volume_finalize(volux_volume *v, const double *origin) {
     v->cell_max = volux_malloc(ctx, v->cell_bytes);
     if (!v->cell_min || !v->cell_max) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for macrocells");
     build_macrocells(v);
+    brick_shape(v);
     return VOLUX_OK;
 }
 
@@ -367,21 +386,16 @@ volux_status volux_volume_from_memory(volux_context *ctx, const volux_volume_mem
     return VOLUX_OK;
 }
 
+/* Thread-safe: a volume is immutable and may be shared by scenes that set up
+ * techniques in different threads at once, so each builder fills its own
+ * copy and publishes it with one compare-and-swap; a loser frees its copy. */
 volux_status volux_volume_build_bricks(volux_volume *v) {
-    if (v->bricks) return VOLUX_OK;
-    int nb[3];
-    size_t count = 1;
-    for (int a = 0; a < 3; a++) {
-        nb[a] = (v->dims[a] - 1 + VOLUX_BRICK_CELLS - 1) / VOLUX_BRICK_CELLS;
-        if (nb[a] < 1) nb[a] = 1;
-        count *= (size_t)nb[a];
-    }
-    size_t elem = v->storage == VOLUX_STORE_U8 ? 1 : v->storage == VOLUX_STORE_U16 ? 2 : 4, bytes;
-    if (!volux_mul_size(count, (size_t)VOLUX_BRICK_VOXELS * elem, &bytes) || bytes > v->ctx->max_bytes)
+    if (__atomic_load_n(&v->bricks, __ATOMIC_ACQUIRE)) return VOLUX_OK;
+    const int *nb = v->brick_counts;
+    size_t elem = v->storage == VOLUX_STORE_U8 ? 1 : v->storage == VOLUX_STORE_U16 ? 2 : 4;
+    size_t bytes = v->brick_bytes;
+    if (bytes == SIZE_MAX || bytes - VOLUX_BRICK_TAIL > v->ctx->max_bytes)
         return volux_error(v->ctx, VOLUX_ERR_LIMIT, "bricked volume copy exceeds the memory cap");
-    /* SIMD gathers read whole 32-bit words, i.e. up to 3 bytes past the last
-     * node they need: a zeroed tail keeps them inside the allocation. */
-    bytes += VOLUX_BRICK_TAIL;
     unsigned char *dst = volux_alloc_aligned(v->ctx, bytes);
     if (!dst) return volux_error(v->ctx, VOLUX_ERR_NOMEM, "out of memory (%zu bytes) for the bricked volume", bytes);
     /* Node (8b + l) of each axis, replicated at the far border. */
@@ -406,9 +420,9 @@ volux_status volux_volume_build_bricks(volux_volume *v) {
                     }
                 }
             }
-    v->bricks = dst;
-    v->brick_bytes = bytes;
-    memcpy(v->brick_counts, nb, sizeof nb);
+    void *expected = NULL;
+    if (!__atomic_compare_exchange_n(&v->bricks, &expected, dst, 0, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE))
+        volux_free_aligned(v->ctx, dst, bytes); /* another thread published the same bricks first */
     return VOLUX_OK;
 }
 
@@ -442,7 +456,7 @@ void volux_volume_bounds(const volux_volume *v, volux_vec3 *lo, volux_vec3 *hi) 
              v->origin.z + (float)((v->dims[2] - 1) * v->spacing[2]));
 }
 size_t volux_volume_memory_bytes(const volux_volume *v) {
-    return (v->borrowed ? 0 : v->data_bytes) + v->brick_bytes + 2 * v->cell_bytes + sizeof *v;
+    return (v->borrowed ? 0 : v->data_bytes) + (v->bricks ? v->brick_bytes : 0) + 2 * v->cell_bytes + sizeof *v;
 }
 
 float volux_volume_value_at(const volux_volume *v, int i, int j, int k) {

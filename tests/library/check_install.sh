@@ -63,4 +63,24 @@ cmake --build "$tmp/ex" -j2 >> "$tmp/ex.log" 2>&1 || { cat "$tmp/ex.log"; fail "
 "$tmp/ex/beer_lambert" || fail "CMake example (volux::volux) failed"
 "$tmp/ex/beer_lambert_static" || fail "CMake example (volux::volux_static) failed"
 readelf -d "$tmp/ex/beer_lambert_static" | grep -q 'libvolux' && fail "volux::volux_static links libvolux.so"
-echo "ok: installed to $prefix; pkg-config (shared, static) and find_package (shared, static) consumers pass"
+# Python: the installed package finds the installed library by itself, and
+# `pip install` of the tree works offline. (Not with a sanitizer library:
+# the interpreter is not instrumented.)
+if ((${#flags[@]} == 0)); then
+  py=/usr/bin/python3
+  pycheck='import volux, numpy as np
+v = volux.Volume.from_numpy(np.ones((8, 8, 8), np.float32))
+s = volux.Scene.from_json({"transfer_function": {"opacity": [[0, 0], [1, 0.5]]}, "render": {"width": 8, "height": 8}}, volume=v)
+img = s.render()
+assert img.shape == (8, 8, 3) and img.dtype == np.float32, img.shape
+print("python ok", volux.version(), volux.__file__)'
+  [[ -r $prefix/lib/python3/dist-packages/volux/_install.py ]] || fail "no installed Python package"
+  (cd "$tmp" && env -u VOLUX_LIBRARY PYTHONPATH="$prefix/lib/python3/dist-packages" "$py" -c "$pycheck") |
+    grep -q "python ok $version $prefix" || fail "installed Python package does not work"
+  cp -r "$src/python" "$tmp/pysrc"
+  "$py" -m pip install -q --no-build-isolation --no-deps --no-index --target "$tmp/pip" "$tmp/pysrc" > "$tmp/pip.log" 2>&1 ||
+    { cat "$tmp/pip.log"; fail "pip install ./python (offline)"; }
+  (cd "$tmp" && VOLUX_LIBRARY="$libdir/libvolux.so.$version" PYTHONPATH="$tmp/pip" "$py" -c "$pycheck") |
+    grep -q "python ok $version $tmp/pip" || fail "pip-installed Python package does not work"
+fi
+echo "ok: installed to $prefix; pkg-config (shared, static), find_package (shared, static) and Python consumers pass"
