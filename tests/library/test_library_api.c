@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include "test_util.h"
+#include "tu_volume.h"
 
 static const char *SCENE_JSON =
     "{\"volume\": {\"procedural\": \"sphere\", \"dims\": [24, 24, 24]},"
@@ -168,6 +169,49 @@ static void test_memory_refusals(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* Allocation failure at every point of the new entry points: a status, no
+ * leak, no release call, and the first success is complete. */
+static void test_memory_oom(void **state) {
+    (void)state;
+    enum { N = 12 };
+    static float f[N * N * N];
+    for (int i = 0; i < N * N * N; i++) f[i] = (float)(i % 7);
+    for (int mode = 0; mode < 2; mode++) {
+        int ok = 0;
+        for (long k = 1; k < 200 && !ok; k++) {
+            tu_alloc_stats stats = {0};
+            volux_context *ctx = tu_context_counting(0, &stats);
+            size_t base = stats.live; /* the context's own storage */
+            stats.fail_at = stats.count + k;
+            int one = 1;
+            released = 0;
+            volux_volume_memory_desc d = {.dims = {N, N, N}, .type = VOLUX_FLOAT32, .data = f,
+                                          .mode = (volux_memory_mode)mode, .release = on_release,
+                                          .release_user = &one};
+            volux_volume *v = NULL;
+            volux_scene *s = NULL;
+            volux_status st = volux_volume_from_memory(ctx, &d, &v);
+            if (st == VOLUX_OK) {
+                st = volux_scene_load_string_with_volume(ctx, SCENE_JSON, NULL, "t.json", NULL, 0, v, &s);
+                if (st == VOLUX_OK) {
+                    ok = 1;
+                    assert_true(volux_volume_value_at(v, 5, 6, 7) == f[5 + N * (6 + N * 7)]);
+                    volux_scene_destroy(s);
+                } else
+                    assert_int_equal(st, VOLUX_ERR_NOMEM);
+                volux_volume_release(v);
+                assert_int_equal(released, mode == VOLUX_MEMORY_BORROW ? 1 : 0);
+            } else {
+                assert_int_equal(st, VOLUX_ERR_NOMEM);
+                assert_int_equal(released, 0);
+            }
+            assert_int_equal(stats.live, base);
+            volux_context_destroy(ctx);
+        }
+        assert_true(ok);
+    }
+}
+
 /* The scene's "volume" key is not read when a volume is supplied: not even
  * a missing file is opened. */
 static void test_supplied_volume_ignores_key(void **state) {
@@ -301,6 +345,7 @@ int main(void) {
         cmocka_unit_test(test_copy_strided),
         cmocka_unit_test(test_borrow),
         cmocka_unit_test(test_memory_refusals),
+        cmocka_unit_test(test_memory_oom),
         cmocka_unit_test(test_supplied_volume_ignores_key),
         cmocka_unit_test(test_assign),
         cmocka_unit_test(test_two_threads_equal_serial),
