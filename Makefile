@@ -10,8 +10,9 @@ PACKAGES := build-essential cmake pkg-config clang libpng-dev zlib1g-dev libcjso
             libopenexr-dev libcmocka-dev
 # Only the tests need these: `locales` has the de_DE sources a test compiles
 # into a temporary decimal-comma locale (header numbers must not follow it);
-# python3-numpy for the Python package's tests (python/).
-TEST_PACKAGES := locales python3-numpy
+# python3-numpy for the Python package's tests (python/), python3-pip and
+# python3-setuptools for its offline `pip install ./python` test.
+TEST_PACKAGES := locales python3-numpy python3-pip python3-setuptools
 JOBS     ?= $(shell nproc 2>/dev/null || echo 2)
 BUILD    ?= build
 VOLUX    := $(BUILD)/volux
