@@ -7,6 +7,7 @@
 # layout: the public headers and nothing else, both libraries with the
 # SONAME link, volux.pc, the CMake package, the CLI (which must run from the
 # prefix through its RPATH).
+# The headers must also compile as C99 and C++11 (embedding in C++ tools).
 # Usage: check_install.sh VOLUX SRC_DIR
 set -u
 volux=${1:?usage: check_install.sh VOLUX SRC_DIR}
@@ -48,6 +49,16 @@ cc -std=c11 -Wall -Wextra -Werror "${flags[@]}" "$src/examples/beer_lambert.c" -
 readelf -d "$tmp/bl_shared" | grep -q "NEEDED.*\[$soname\]" || fail "consumer does not need $soname"
 "$tmp/bl_shared" || fail "pkg-config shared example failed"
 ldd "$tmp/bl_shared" | grep -q "$libdir/$soname" || fail "consumer did not load the installed library"
+
+# The installed headers stand alone for C99 and C++11 consumers (extern "C",
+# no C11-only syntax, no warnings under -pedantic).
+printf '#include <volux/volux.h>\nint main(void) { return volux_version_number() > 0 ? 0 : 1; }\n' > "$tmp/hdr.c"
+cc -std=c99 -Wall -Wextra -Werror -pedantic "${flags[@]}" "$tmp/hdr.c" -o "$tmp/hdr_c" $(pkg-config --cflags --libs volux) \
+   -Wl,-rpath,"$libdir" && "$tmp/hdr_c" || fail "the headers do not compile as C99"
+if command -v g++ > /dev/null; then
+  g++ -std=c++11 -Wall -Wextra -Werror -pedantic "${flags[@]}" -x c++ "$tmp/hdr.c" -o "$tmp/hdr_cxx" \
+      $(pkg-config --cflags --libs volux) -Wl,-rpath,"$libdir" && "$tmp/hdr_cxx" || fail "the headers do not compile as C++11"
+fi
 
 # pkg-config --static: libvolux.a plus Libs.private.
 cc -std=c11 -Wall -Wextra -Werror "${flags[@]}" "$src/examples/beer_lambert.c" -o "$tmp/bl_static" \
