@@ -10,8 +10,9 @@ add_library(volux_shared SHARED ${VOLUX_OBJECTS})
 set_target_properties(volux_shared PROPERTIES OUTPUT_NAME volux LINKER_LANGUAGE C
                       VERSION ${PROJECT_VERSION} SOVERSION ${VOLUX_SOVERSION})
 target_include_directories(volux_shared PUBLIC $<BUILD_INTERFACE:${CMAKE_SOURCE_DIR}/include>)
-target_link_libraries(volux_shared PRIVATE OpenMP::OpenMP_C PNG::PNG ZLIB::ZLIB PkgConfig::CJSON
-                      ${OPENEXR_CORE_LIB} ${MATH_LIB})
+# The same dependencies as the internal archive, whatever a later change adds
+# to it (read at generate time).
+target_link_libraries(volux_shared PRIVATE $<TARGET_PROPERTY:volux,INTERFACE_LINK_LIBRARIES>)
 if(NOT VOLUX_FUZZ)
   # Every dependency is named at link time, so `ldd` tells the whole story.
   target_link_options(volux_shared PRIVATE -Wl,--no-undefined)
@@ -40,7 +41,9 @@ add_custom_target(volux_dist_static ALL DEPENDS ${VOLUX_DIST_STATIC})
 
 # ---------------------------------------------------------------- what a static link needs
 # The same dependency list feeds volux.pc (Libs.private) and the CMake
-# package's static target, so the two cannot drift apart.
+# package's static target, so the two cannot drift apart. A library added to
+# `volux`'s link must be added here too: check_install.sh's static builds
+# fail with its undefined symbols otherwise.
 set(VOLUX_STATIC_DEP_FILES ${OpenMP_C_LIBRARIES} ${PNG_LIBRARIES} ${ZLIB_LIBRARIES} ${CJSON_LINK_LIBRARIES}
     ${OPENEXR_CORE_LIB} ${MATH_LIB})
 list(REMOVE_DUPLICATES VOLUX_STATIC_DEP_FILES)
