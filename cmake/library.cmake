@@ -38,6 +38,10 @@ add_custom_command(
   COMMENT "Linking the installable static archive dist/libvolux.a"
   COMMAND_EXPAND_LISTS VERBATIM)
 add_custom_target(volux_dist_static ALL DEPENDS ${VOLUX_DIST_STATIC})
+# The object files are other targets' outputs: build those targets first
+# (a file-level DEPENDS alone has no rule to make them in a fresh tree).
+get_property(VOLUX_LAYER_TARGET_LIST GLOBAL PROPERTY VOLUX_LAYER_TARGETS)
+add_dependencies(volux_dist_static ${VOLUX_LAYER_TARGET_LIST})
 
 # ---------------------------------------------------------------- what a static link needs
 # The same dependency list feeds volux.pc (Libs.private) and the CMake
