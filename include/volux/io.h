@@ -151,6 +151,15 @@ VOLUX_API volux_status volux_scene_load(volux_context *ctx, const char *path, co
 VOLUX_API volux_status volux_scene_load_string(volux_context *ctx, const char *json, const char *base_dir,
                                                const char *name, const char *const *overrides,
                                                int n_overrides, volux_scene **out);
+/* Same, with the volume supplied by the caller (e.g. from
+ * volux_volume_from_memory) instead of the scene's "volume" key: the key
+ * may be absent, and if present it is not read (no file is opened for it).
+ * The scene retains `volume`; a TF preset with preset_rescale is rescaled
+ * to its range. */
+VOLUX_API volux_status volux_scene_load_string_with_volume(volux_context *ctx, const char *json,
+                                                           const char *base_dir, const char *name,
+                                                           const char *const *overrides, int n_overrides,
+                                                           volux_volume *volume, volux_scene **out);
 
 /* The general loader. Give `path` (a scene file; relative names resolve
  * against its folder) or `json` (text; against `base_dir`, "." if NULL;

@@ -184,6 +184,18 @@ VOLUX_API void volux_scene_bounds_sphere(const volux_scene *s, volux_vec3 *cente
 /* Ray-march step in world units (render.step × smallest spacing). */
 VOLUX_API float volux_scene_step_world(const volux_scene *s);
 
+/* Makes dst describe what src describes, aspect by aspect, through the
+ * setters above, so only what really differs is bumped (an edit applied to
+ * a copy of a scene — e.g. a reloaded JSON with one --set path changed —
+ * then costs the techniques exactly that edit). Volume (unless keep_volume;
+ * dst retains src's volume), transfer function, camera, every light slot
+ * (set, replaced or removed), background, render settings, and every
+ * technique parameter of src (parameters only dst has are kept). Both
+ * scenes must come from contexts used by this thread. On failure dst holds
+ * the aspects assigned so far (each one consistent) and the error is in
+ * dst's context. */
+VOLUX_API volux_status volux_scene_assign(volux_scene *dst, const volux_scene *src, int keep_volume);
+
 VOLUX_API volux_scene_stamp volux_scene_stamp_now(const volux_scene *s);
 /* What changed since `seen`. A stamp from another scene (or zeroed) yields
  * VOLUX_CHANGE_ALL with every light bit set. */

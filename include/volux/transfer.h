@@ -109,7 +109,9 @@ VOLUX_API void volux_tf_eval_color(const volux_tf_color_point *p, int n, float s
 
 /* A baked transfer function: tables of `n` entries over [s_min, s_max].
  * Entries are node samples: entry i is at s_min + i·(s_max−s_min)/(n−1).
- * Read-only after baking; safe to share between threads. */
+ * Read-only after baking; safe to share between threads.
+ * (The scene's internal representation, public for techniques and tests:
+ * its layout may change in any 0.x MINOR release, docs/API.md.) */
 typedef struct volux_transfer_lut {
     int n;
     float s_min, s_max;

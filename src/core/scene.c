@@ -490,3 +490,39 @@ volux_vec3 volux_scene_escape_radiance(const volux_scene *s, volux_vec3 dir) {
     }
     return any ? sum : s->background;
 }
+
+/* Light descriptions equal, maps compared by content (each scene owns its copy). */
+static int light_equal(const volux_light_desc *a, const volux_light_desc *b) {
+    volux_light_desc x = *a, y = *b;
+    x.map = y.map = NULL;
+    if (memcmp(&x, &y, sizeof x) != 0) return 0;
+    if (!a->map || !b->map) return a->map == b->map;
+    return a->map->width == b->map->width && a->map->height == b->map->height &&
+           memcmp(a->map->rgb, b->map->rgb, sizeof(float) * 3 * (size_t)a->map->width * (size_t)a->map->height) == 0;
+}
+
+volux_status volux_scene_assign(volux_scene *dst, const volux_scene *src, int keep_volume) {
+    volux_status st;
+    if (!keep_volume && src->volume && src->volume != dst->volume &&
+        (st = volux_scene_set_volume(dst, src->volume)))
+        return st;
+    if ((st = volux_scene_set_transfer(dst, &src->tf))) return st;
+    if (memcmp(&dst->camera, &src->camera, sizeof src->camera) != 0 && (st = volux_scene_set_camera(dst, &src->camera)))
+        return st;
+    int slots = dst->light_slots > src->light_slots ? dst->light_slots : src->light_slots;
+    for (int i = 0; i < slots; i++) {
+        const light_slot *a = &dst->lights[i], *b = &src->lights[i];
+        if (b->present && (!a->present || !light_equal(&a->desc, &b->desc))) {
+            if ((st = volux_scene_set_light(dst, i, &b->desc))) return st;
+        } else if (!b->present && a->present && (st = volux_scene_remove_light(dst, i)))
+            return st;
+    }
+    volux_scene_set_background(dst, src->background);
+    if ((st = volux_scene_set_render(dst, &src->render))) return st;
+    for (int i = 0; i < src->n_params; i++) {
+        const param_entry *p = &src->params[i], *q = find_param(dst, p->technique, p->name);
+        int same = q && (p->string ? q->string && !strcmp(p->string, q->string) : !q->string && q->number == p->number);
+        if (!same && (st = volux_scene_set_param(dst, p->technique, p->name, p->number, p->string))) return st;
+    }
+    return VOLUX_OK;
+}

@@ -30,7 +30,10 @@ struct volux_volume {
     volux_storage storage;
     float value_offset;
     void *data;
-    size_t data_bytes;
+    size_t data_bytes;      /* bytes of `data`; owned unless `borrowed`    */
+    int borrowed;           /* data is the caller's (volux_volume_from_memory) */
+    void (*release_data)(void *user);
+    void *release_user;
     double vmin, vmax;
     /* Unit direction of anatomical superior (head) in the volume's world,
      * from the file's orientation (NIfTI qform/sform, NRRD space); used to

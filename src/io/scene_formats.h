@@ -27,6 +27,11 @@ enum {
 volux_status volux_scene_parse(volux_context *ctx, const char *text, size_t n, const char *base_dir,
                                const char *name, const char *const *overrides, int n_overrides, unsigned flags,
                                volux_scene **out);
+/* The same with the caller's volume (NULL: read "volume"); see
+ * volux_scene_load_string_with_volume. */
+volux_status volux_scene_parse_with_volume(volux_context *ctx, const char *text, size_t n, const char *base_dir,
+                                           const char *name, const char *const *overrides, int n_overrides,
+                                           unsigned flags, volux_volume *volume, volux_scene **out);
 
 /* The default transfer function of `vol` as a scene's "transfer_function"
  * object (rounded values, a comment saying where they came from). NULL

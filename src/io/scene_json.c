@@ -33,6 +33,7 @@ typedef struct scene_reader {
      * the file was read into the tree, and its relative names still
      * resolve against its own folder ("" when none). */
     char tf_file[4096];
+    volux_volume *supplied; /* the caller's volume: "volume" is not read */
 } scene_reader;
 
 #define DATA_PREFIX "$VOLUX_DATA/"
@@ -882,7 +883,8 @@ static volux_status read_scene(scene_reader *sr, cJSON *root) {
      * time step 0, so every step of a sequence gets the same TF), and a
      * missing TF is made from the volume's histogram. */
     if ((st = read_render(sr, cJSON_GetObjectItemCaseSensitive(root, "render"))) ||
-        (st = read_volume(sr, cJSON_GetObjectItemCaseSensitive(root, "volume"))) ||
+        (st = sr->supplied ? volux_scene_set_volume(sr->scene, sr->supplied)
+                           : read_volume(sr, cJSON_GetObjectItemCaseSensitive(root, "volume"))) ||
         (st = read_transfer(sr, root)) ||
         (st = read_time_step(sr, cJSON_GetObjectItemCaseSensitive(root, "render"))) ||
         (st = read_camera(sr, cJSON_GetObjectItemCaseSensitive(root, "camera"))) ||
@@ -1133,13 +1135,15 @@ void volux_scene_json_free(volux_context *ctx, char *json) {
 }
 
 static volux_status parse_with(volux_context *ctx, const char *text, size_t n, const volux_scene_load_options *o,
-                               const char *base_dir, const char *name, unsigned flags, volux_scene **out) {
+                               const char *base_dir, const char *name, unsigned flags, volux_volume *supplied,
+                               volux_scene **out) {
     scene_reader sr;
     memset(&sr, 0, sizeof sr);
     sr.json = (volux_json_reader){ctx, name ? name : "scene"};
     sr.base_dir = base_dir ? base_dir : ".";
     sr.flags = flags;
     sr.opt = o;
+    sr.supplied = supplied;
     cJSON *root = NULL;
     volux_status st = volux_json_parse(&sr.json, text, n, &root);
     if (st) return st;
@@ -1181,7 +1185,7 @@ volux_status volux_scene_parse(volux_context *ctx, const char *text, size_t n, c
     memset(&o, 0, sizeof o);
     o.overrides = overrides;
     o.n_overrides = n_overrides;
-    return parse_with(ctx, text, n, &o, base_dir, name, flags, out);
+    return parse_with(ctx, text, n, &o, base_dir, name, flags, NULL, out);
 }
 
 volux_status volux_scene_load_string(volux_context *ctx, const char *json, const char *base_dir, const char *name,
@@ -1189,11 +1193,28 @@ volux_status volux_scene_load_string(volux_context *ctx, const char *json, const
     return volux_scene_parse(ctx, json, strlen(json), base_dir, name, overrides, n_overrides, 0, out);
 }
 
+volux_status volux_scene_parse_with_volume(volux_context *ctx, const char *text, size_t n, const char *base_dir,
+                                           const char *name, const char *const *overrides, int n_overrides,
+                                           unsigned flags, volux_volume *volume, volux_scene **out) {
+    volux_scene_load_options o;
+    memset(&o, 0, sizeof o);
+    o.overrides = overrides;
+    o.n_overrides = n_overrides;
+    return parse_with(ctx, text, n, &o, base_dir, name, flags, volume, out);
+}
+
+volux_status volux_scene_load_string_with_volume(volux_context *ctx, const char *json, const char *base_dir,
+                                                 const char *name, const char *const *overrides, int n_overrides,
+                                                 volux_volume *volume, volux_scene **out) {
+    return volux_scene_parse_with_volume(ctx, json, strlen(json), base_dir, name, overrides, n_overrides, 0, volume,
+                                         out);
+}
+
 volux_status volux_scene_load_ex(volux_context *ctx, const volux_scene_load_options *o, volux_scene **out) {
     if (o->effective_json) *o->effective_json = NULL;
     if (!o->path == !o->json)
         return volux_error(ctx, VOLUX_ERR_INVALID, "volux_scene_load_ex: give exactly one of path and json");
-    if (o->json) return parse_with(ctx, o->json, strlen(o->json), o, o->base_dir, o->name, 0, out);
+    if (o->json) return parse_with(ctx, o->json, strlen(o->json), o, o->base_dir, o->name, 0, NULL, out);
     char *text;
     size_t n;
     volux_status st = volux_json_read_file(ctx, o->path, &text, &n);
@@ -1201,7 +1222,7 @@ volux_status volux_scene_load_ex(volux_context *ctx, const volux_scene_load_opti
     char dir[4096];
     dir_of(o->path, dir, sizeof dir);
     /* The parser rejects NUL bytes with their line and column. */
-    st = parse_with(ctx, text, n, o, dir, o->path, 0, out);
+    st = parse_with(ctx, text, n, o, dir, o->path, 0, NULL, out);
     volux_free(ctx, text, n + 1);
     return st;
 }
