@@ -15,14 +15,17 @@
  * data) and read their transfer-function records with one 32-byte load
  * each, transposed into 8 vectors (cheaper than 8 gathers).
  *
- * Ray streaming: a tile's rays that hit the volume are set up first (in
- * 4-pixel-wide blocks, so neighbouring lanes stay close in the volume) into
- * a list; each lane of a packet marches one ray, and when rays finish
- * (left the volume, or early termination) their lanes take the next rays
- * of the list. Lanes thus stay busy until the tile's last rays, instead of
- * idling until the longest ray of their packet ends — the difference grows
- * with the width. A lane's arithmetic never depends on the other lanes, so
- * the order in which rays are marched cannot change a pixel.
+ * Ray list: a tile's rays that hit the volume are set up first (in blocks
+ * 4 pixels wide and DVR_W/4 tall, so a packet's lanes are neighbours and
+ * stay close in the volume) into a list; a packet takes the next DVR_W
+ * rays of the list when all of its rays have ended (left the volume, or
+ * early termination). Refilling lanes as soon as some rays end (ray
+ * streaming, so lanes never idle) was measured and dropped: the refilled
+ * lanes come from other pixel blocks, the packet's gathers lose their
+ * locality, and on bonsai (Zen 4, 1 thread) `shaded` took 12–14 % and
+ * `ea` 2–3 % longer at both widths (docs/BENCHMARKS.md). A lane's
+ * arithmetic never depends on the other lanes, so the order in which rays
+ * are marched cannot change a pixel.
  *
  * Same image as the scalar kernel in dvr.c, lane by lane:
  *   - the same segment positions (fixed grid t0 + (k−1+jitter)·h, the same
@@ -535,9 +538,9 @@ DI void march_tile(const march_consts *mc, const ray_list *rl, float *rgb, uint6
     }
     uint64_t count = 0;
     for (;;) {
-        /* Lanes whose rays ended give their pixel back and take new rays.
-         * A packet refills when at least a quarter of its lanes are free
-         * (a refill costs about one packet step), or when it is empty. */
+        /* Lanes whose rays ended give their pixel back; a packet whose
+         * rays have all ended takes the next block of rays (see the top of
+         * this file for why not earlier). */
         int any = 0;
         for (int p = 0; p < DVR_NP; p++) {
             packet_state *ps = &P[p];
@@ -547,7 +550,7 @@ DI void march_tile(const march_consts *mc, const ray_list *rl, float *rgb, uint6
                 ps->occupied = m_andnot(done, ps->occupied);
             }
             int busy = __builtin_popcount((unsigned)m_bits(ps->occupied));
-            if (next < rl->n && (busy <= DVR_W - DVR_W / 4 || !busy)) refill(mc, ps, rl, &next);
+            if (next < rl->n && !busy) refill(mc, ps, rl, &next);
             any |= m_bits(ps->active);
         }
         if (!any) break;
