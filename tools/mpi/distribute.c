@@ -1,0 +1,288 @@
+/* tools/mpi/distribute.c — MPI front end (see distribute.h). */
+#include <mpi.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <fcntl.h>
+#include <unistd.h>
+
+#include "tools/cli/cli.h"
+#include "distribute.h"
+
+static int started, rank, size = 1, saved_stderr = -1;
+
+void dist_quiet_followers(void) {
+    if (!dist_launched()) return;
+    const char *r = getenv("OMPI_COMM_WORLD_RANK");
+    if (!r) r = getenv("PMIX_RANK");
+    if (!r) r = getenv("PMI_RANK");
+    if (!r || !strcmp(r, "0") || saved_stderr >= 0) return;
+    int null = open("/dev/null", O_WRONLY);
+    if (null < 0) return;
+    fflush(stderr);
+    saved_stderr = dup(STDERR_FILENO);
+    dup2(null, STDERR_FILENO);
+    close(null);
+}
+
+/* Gives stderr back after dist_quiet_followers (crash reports stay
+ * visible; normal messages come from rank 0 only). */
+static void restore_stderr(void) {
+    if (saved_stderr < 0) return;
+    fflush(stderr);
+    dup2(saved_stderr, STDERR_FILENO);
+    close(saved_stderr);
+    saved_stderr = -1;
+}
+
+int dist_begin(const char *cmd, dist_mode requested) {
+    restore_stderr();
+    if (!requested && !dist_launched()) return DIST_NONE;
+    int provided = 0;
+    /* Threads render tiles but only the main thread calls MPI. */
+    if (MPI_Init_thread(NULL, NULL, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS) {
+        fprintf(stderr, "volux %s: MPI could not start\n", cmd);
+        return -1;
+    }
+    started = 1;
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &size);
+    return requested ? (int)requested : DIST_IMAGE;
+}
+
+void dist_end(void) {
+    if (started) MPI_Finalize();
+    started = 0;
+}
+
+int dist_rank(void) { return rank; }
+int dist_size(void) { return size; }
+
+int dist_default_threads(void) {
+    if (!started) return 0;
+    const char *local = getenv("OMPI_COMM_WORLD_LOCAL_SIZE");
+    long ranks_here = local ? strtol(local, NULL, 10) : size;
+    long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    if (ranks_here < 1) ranks_here = 1;
+    long t = cores / ranks_here;
+    return t > 1 ? (int)t : 1;
+}
+
+int dist_agree_msg(const char *cmd, int rc, const char *msg) {
+    if (!started) {
+        if (rc) fprintf(stderr, "volux %s: %s\n", cmd, msg);
+        return rc;
+    }
+    int mine = rc ? rank : size, first = size;
+    MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    if (first == size) return 0;
+    char text[1024] = "";
+    if (rank == first) snprintf(text, sizeof text, "%s", msg);
+    MPI_Bcast(text, (int)sizeof text, MPI_CHAR, first, MPI_COMM_WORLD);
+    MPI_Bcast(&rc, 1, MPI_INT, first, MPI_COMM_WORLD);
+    if (rank == 0) {
+        if (first) fprintf(stderr, "volux %s: rank %d: %s\n", cmd, first, text);
+        else fprintf(stderr, "volux %s: %s\n", cmd, text);
+    }
+    return rc;
+}
+
+int dist_agree(const char *cmd, volux_context *ctx, volux_status st) {
+    const char *e = st && ctx ? volux_context_error(ctx) : "";
+    return dist_agree_msg(cmd, cli_exit_status(st), e && *e ? e : volux_status_name(st));
+}
+
+int dist_share_exit(int rc) {
+    if (started) MPI_Bcast(&rc, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    return rc;
+}
+
+void dist_barrier(void) {
+    if (started) MPI_Barrier(MPI_COMM_WORLD);
+}
+
+void dist_max(double *v) {
+    double m = *v;
+    if (started) MPI_Reduce(v, &m, 1, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
+    *v = m;
+}
+
+void dist_gather2(const double v[2], double *out) {
+    if (started) MPI_Gather(v, 2, MPI_DOUBLE, out, 2, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    else memcpy(out, v, 2 * sizeof *v);
+}
+
+static double now_ms(void) { return cli_now_ms(); }
+
+/* Tiles per chunk: about 8 chunks per rank, so a slow rank's last chunk
+ * is a small part of the frame, and at least 2 tiles per thread so a
+ * chunk keeps every thread of a rank busy. */
+static int chunk_tiles(int total, int threads) {
+    int c = total / (8 * size);
+    if (c < 2 * threads) c = 2 * threads;
+    return c < 1 ? 1 : c;
+}
+
+/* The pixels of tile `index` (row-major tiles of VOLUX_TILE_SIZE²). */
+static void tile_rect(int width, int height, int index, int *x0, int *y0, int *w, int *h) {
+    int tiles_x = (width + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE;
+    *x0 = (index % tiles_x) * VOLUX_TILE_SIZE;
+    *y0 = (index / tiles_x) * VOLUX_TILE_SIZE;
+    *w = width - *x0 < VOLUX_TILE_SIZE ? width - *x0 : VOLUX_TILE_SIZE;
+    *h = height - *y0 < VOLUX_TILE_SIZE ? height - *y0 : VOLUX_TILE_SIZE;
+}
+
+/* Copies the pixels of the chunks between the frame arrays (sum: 3 per
+ * pixel, sq: 1) and a packed run of 4 doubles per pixel, chunk by chunk,
+ * tile by tile, row by row: pack when to_packed, else unpack. Returns the
+ * number of pixels. */
+static size_t copy_chunks(int width, int height, const int *chunks, int n_chunks, double *sum, double *sq,
+                          double *packed, int to_packed) {
+    size_t k = 0;
+    for (int c = 0; c < n_chunks; c++)
+        for (int tile = chunks[2 * c]; tile < chunks[2 * c] + chunks[2 * c + 1]; tile++) {
+            int x0, y0, w, h;
+            tile_rect(width, height, tile, &x0, &y0, &w, &h);
+            for (int y = y0; y < y0 + h; y++)
+                for (int x = x0; x < x0 + w; x++, k++) {
+                    size_t p = (size_t)y * (size_t)width + (size_t)x;
+                    if (!packed) continue;
+                    if (to_packed) {
+                        memcpy(&packed[4 * k], &sum[3 * p], 3 * sizeof(double));
+                        packed[4 * k + 3] = sq[p];
+                    } else {
+                        memcpy(&sum[3 * p], &packed[4 * k], 3 * sizeof(double));
+                        sq[p] = packed[4 * k + 3];
+                    }
+                }
+        }
+    return k;
+}
+
+/* Collective: rank 0's fb receives every rank's chunks (see above). */
+static volux_status gather_tiles(volux_framebuffer *fb, const int *chunks, int n_chunks, uint32_t spp) {
+    int width = volux_framebuffer_width(fb), height = volux_framebuffer_height(fb);
+    size_t n = (size_t)width * (size_t)height;
+    int my_px = (int)copy_chunks(width, height, chunks, n_chunks, NULL, NULL, NULL, 0);
+    double *frame = malloc(4 * n * sizeof(double));
+    double *packed = malloc((my_px ? (size_t)my_px : 1) * 4 * sizeof(double));
+    double *received = rank == 0 ? malloc(4 * n * sizeof(double)) : NULL;
+    /* rank 0: (chunks, pixels) per rank, then counts and displacements */
+    int *meta = rank == 0 ? calloc(6 * (size_t)size, sizeof(int)) : NULL;
+    int *all_chunks = rank == 0 ? malloc(2 * (size_t)(volux_framebuffer_tile_count(fb) + 1) * sizeof(int)) : NULL;
+    int ok = frame && packed && (rank || (received && meta && all_chunks)), all_ok = 0;
+    MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    volux_status st = all_ok ? VOLUX_OK : VOLUX_ERR_NOMEM;
+    if (all_ok) {
+        volux_framebuffer_get_sums(fb, frame, frame + 3 * n);
+        copy_chunks(width, height, chunks, n_chunks, frame, frame + 3 * n, packed, 1);
+        int mine[2] = {n_chunks, my_px};
+        int *pairs = meta, *chunk_n = NULL, *px_n = NULL, *chunk_at = NULL, *px_at = NULL;
+        if (meta) {
+            chunk_n = meta + 2 * size;
+            px_n = meta + 3 * size;
+            chunk_at = meta + 4 * size;
+            px_at = meta + 5 * size;
+        }
+        MPI_Gather(mine, 2, MPI_INT, pairs, 2, MPI_INT, 0, MPI_COMM_WORLD);
+        MPI_Datatype pair, pixel;
+        MPI_Type_contiguous(2, MPI_INT, &pair);
+        MPI_Type_contiguous(4, MPI_DOUBLE, &pixel);
+        MPI_Type_commit(&pair);
+        MPI_Type_commit(&pixel);
+        if (rank == 0)
+            for (int r = 0, ca = 0, pa = 0; r < size; r++) {
+                chunk_n[r] = pairs[2 * r];
+                px_n[r] = pairs[2 * r + 1];
+                chunk_at[r] = ca;
+                px_at[r] = pa;
+                ca += chunk_n[r];
+                pa += px_n[r];
+            }
+        MPI_Gatherv(chunks, n_chunks, pair, all_chunks, chunk_n, chunk_at, pair, 0, MPI_COMM_WORLD);
+        MPI_Gatherv(packed, my_px, pixel, received, px_n, px_at, pixel, 0, MPI_COMM_WORLD);
+        MPI_Type_free(&pair);
+        MPI_Type_free(&pixel);
+        if (rank == 0) {
+            for (int r = 0; r < size; r++)
+                copy_chunks(width, height, all_chunks + 2 * chunk_at[r], chunk_n[r], frame, frame + 3 * n,
+                            received + 4 * (size_t)px_at[r], 0);
+            volux_framebuffer_set_sums(fb, frame, frame + 3 * n, spp);
+        }
+    }
+    free(frame);
+    free(packed);
+    free(received);
+    free(meta);
+    free(all_chunks);
+    return st;
+}
+
+volux_status dist_render_image(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
+                               dist_timing *timing) {
+    memset(timing, 0, sizeof *timing);
+    if (!started) {
+        volux_render_report rep = {0};
+        volux_status st = volux_render(t, scene, fb, NULL, &rep);
+        timing->render_ms = timing->rank_render_ms_min = timing->rank_render_ms_max = rep.ms;
+        timing->tiles = volux_framebuffer_tile_count(fb);
+        return st;
+    }
+    const volux_render_settings *rs = volux_scene_render(scene);
+    int total = volux_framebuffer_tile_count(fb);
+    int threads = rs->threads > 0 ? rs->threads : dist_default_threads();
+    int chunk = chunk_tiles(total, threads > 0 ? threads : 1);
+    uint32_t spp = rs->spp > 0 ? (uint32_t)rs->spp : 1;
+
+    /* The shared tile counter lives in rank 0's window. */
+    int *counter = NULL;
+    MPI_Win win;
+    MPI_Win_allocate(rank == 0 ? (MPI_Aint)sizeof(int) : 0, sizeof(int), MPI_INFO_NULL, MPI_COMM_WORLD, &counter,
+                     &win);
+    if (rank == 0) *counter = 0;
+    MPI_Barrier(MPI_COMM_WORLD); /* the counter is 0 before anyone takes */
+
+    /* The chunks this rank took: (first tile, count) pairs. */
+    int max_chunks = total / chunk + 1, n_chunks = 0;
+    int *chunks = malloc(2 * (size_t)max_chunks * sizeof *chunks);
+    volux_status st = chunks ? VOLUX_OK : VOLUX_ERR_NOMEM;
+    double start = now_ms();
+    const int add = chunk;
+    for (;;) {
+        int first = 0;
+        MPI_Win_lock(MPI_LOCK_SHARED, 0, 0, win);
+        MPI_Fetch_and_op(&add, &first, MPI_INT, 0, 0, MPI_SUM, win);
+        MPI_Win_unlock(0, win);
+        if (first >= total || !chunks) break;
+        int count = total - first < chunk ? total - first : chunk;
+        if (rank == 0 && !st) cli_progress("render", (double)first / total);
+        st = volux_render_tiles(t, scene, fb, first, count, spp, NULL);
+        if (st) break; /* the others take the rest; dist_agree reports it */
+        timing->tiles += count;
+        chunks[2 * n_chunks] = first;
+        chunks[2 * n_chunks + 1] = count;
+        n_chunks++;
+    }
+    timing->render_ms = now_ms() - start;
+    if (rank == 0) cli_progress("render", 1.0);
+
+    /* Gather every rank's tiles onto rank 0 with MPI_Gatherv: each pixel
+     * travels once, from the rank that rendered it, so the traffic is one
+     * frame whatever the rank count and the sums arrive unchanged. */
+    double wait_start = now_ms();
+    MPI_Barrier(MPI_COMM_WORLD);
+    timing->wait_ms = now_ms() - wait_start;
+    double t0 = now_ms();
+    volux_status gst = gather_tiles(fb, chunks, n_chunks, spp);
+    timing->composite_ms = now_ms() - t0;
+    if (!st) st = gst;
+    free(chunks);
+    MPI_Win_free(&win);
+
+    double r[2] = {-timing->render_ms, timing->render_ms}, ext[2];
+    MPI_Reduce(r, ext, 2, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
+    timing->rank_render_ms_min = -ext[0];
+    timing->rank_render_ms_max = ext[1];
+    return st;
+}
