@@ -297,6 +297,16 @@ static void test_kernel_parameter_is_validated(void **state) {
     assert_int_equal(volux_scene_set_param(s, "ea", "kernel", 0, volux_dvr_simd_available() ? "simd" : "auto"),
                      VOLUX_OK);
     assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    /* "avx2" (the 8-lane packets) exists where the SIMD kernel does, and is
+     * refused with the CPU named where it does not */
+    assert_int_equal(volux_scene_set_param(s, "ea", "kernel", 0, "avx2"), VOLUX_OK);
+    volux_context_clear_error(ctx);
+    if (volux_dvr_simd_available()) {
+        assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    } else {
+        assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_ERR_UNSUPPORTED);
+        assert_non_null(strstr(volux_context_error(ctx), "AVX2"));
+    }
     volux_technique_destroy(t);
     volux_scene_destroy(s);
     volux_context_destroy(ctx);
