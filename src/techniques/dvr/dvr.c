@@ -214,8 +214,8 @@ static volux_status resolve_kernel(dvr_state *st) {
     for (int i = 0; i < ls->n_direct; i++) directional_only &= !ls->direct[i].positional;
     int ok = volux_dvr_simd_available() && (!st->shaded || directional_only);
     if ((st->kernel == DVR_KERNEL_SIMD || st->kernel == DVR_KERNEL_AVX2) && !ok)
-        return volux_error(st->rc.ctx, VOLUX_ERR_UNSUPPORTED, "techniques.%s.kernel: \"simd\" needs %s",
-                           st->rc.cls->info.name,
+        return volux_error(st->rc.ctx, VOLUX_ERR_UNSUPPORTED, "techniques.%s.kernel: \"%s\" needs %s",
+                           st->rc.cls->info.name, st->kernel == DVR_KERNEL_AVX2 ? "avx2" : "simd",
                            volux_dvr_simd_available() ? "at most 4 lights, all directional (shaded)"
                                                       : "a CPU with AVX2 and FMA");
     st->use_simd = st->kernel != DVR_KERNEL_SCALAR && ok;
