@@ -82,6 +82,19 @@ static volux_status edit_light(volux_scene *s, int k) { return rotate_light(s, k
  * second light type (e.g. a point light after a directional one) */
 static volux_status edit_light_last(volux_scene *s, int k) { return rotate_light(s, k, last_light(s)); }
 
+/* Scales the first light's strength (irradiance, intensity or radiance,
+ * whichever its type uses) by 1.25, undone by odd calls. */
+static volux_status edit_light_intensity(volux_scene *s, int k) {
+    int slot = first_light(s);
+    if (slot < 0) return VOLUX_ERR_UNSUPPORTED;
+    volux_light_desc d = *volux_scene_light(s, slot);
+    float f = (k & 1) ? 0.8f : 1.25f;
+    d.irradiance *= f;
+    d.intensity *= f;
+    d.radiance *= f;
+    return volux_scene_set_light(s, slot, &d);
+}
+
 static volux_status edit_light_toggle(volux_scene *s, int k) {
     (void)k;
     int slot = first_light(s);
@@ -202,8 +215,13 @@ static volux_status mirrored(const volux_volume *v, volux_volume **out) {
     return VOLUX_OK;
 }
 
+/* The next time step of a sequence (wrapping: the k-th call plays the
+ * sequence forward, as an animation does); a single volume is replaced by
+ * its mirror image, a new volume of the same shape. */
 static volux_status edit_time_step(volux_scene *s, int k) {
     (void)k;
+    int n = volux_scene_time_steps(s);
+    if (n > 1) return volux_scene_set_time_step(s, (volux_scene_time_step(s) + 1) % n);
     const volux_volume *v = volux_scene_volume(s);
     if (!v) return VOLUX_ERR_UNSUPPORTED;
     volux_volume *next;
@@ -235,6 +253,8 @@ static const volux_edit edits[] = {
     {"phase", "change the HG anisotropy by 0.2", VOLUX_CHANGE_PHASE, NULL, 1, edit_phase},
     {"light", "rotate the first light by 10 degrees about +Y", VOLUX_CHANGE_LIGHTS, NULL, 1, edit_light},
     {"light_last", "rotate the last light by 10 degrees about +Y", VOLUX_CHANGE_LIGHTS, NULL, 1, edit_light_last},
+    {"light_intensity", "scale the first light's irradiance/intensity/radiance by 1.25", VOLUX_CHANGE_LIGHTS, NULL,
+     1, edit_light_intensity},
     {"light_toggle", "switch the first light off/on", VOLUX_CHANGE_LIGHTS, NULL, 1, edit_light_toggle},
     {"light_add", "add a point light after the last one / remove it", VOLUX_CHANGE_LIGHTS, NULL, 1, edit_light_add},
     {"light_color", "scale the first light's green and blue by 0.8 and 0.6 (colour and intensity)",
@@ -248,7 +268,7 @@ static const volux_edit edits[] = {
     {"camera", "orbit the camera by 5 degrees", VOLUX_CHANGE_CAMERA, NULL, 1, edit_camera},
     {"background", "change the background colour", VOLUX_CHANGE_RENDER, NULL, 1, edit_background},
     {"step", "scale the ray-march step (render.step)", VOLUX_CHANGE_RENDER, NULL, 0, edit_step},
-    {"time_step", "replace the volume by a new one (mirrored along x)", VOLUX_CHANGE_VOLUME, NULL, 1, edit_time_step},
+    {"time_step", "the next step of a sequence (a single volume: replaced by its mirror image)", VOLUX_CHANGE_VOLUME, NULL, 1, edit_time_step},
     {"full_sequential", "entire light update, one light per propagation pass", VOLUX_CHANGE_PARAMS, "lightvol",
      0, edit_full_sequential},
     {"full_coherent", "entire light update, lights grouped by propagation direction", VOLUX_CHANGE_PARAMS,
