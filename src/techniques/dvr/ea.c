@@ -5,8 +5,9 @@
 #define DVR_COMMON_PARAMS                                                                                        \
     VOLUX_PARAM_PREINTEGRATE, VOLUX_PARAM_EARLY_TERMINATION, VOLUX_PARAM_SKIP_EMPTY,                             \
         {"kernel", VOLUX_PARAM_STRING, 0, 0, 0, "auto",                                                          \
-         "\"auto\" (SIMD when the CPU has AVX2+FMA; shaded: with at most 4 lights, all directional), "         \
-         "\"scalar\" (portable reference) or \"simd\" (error if unavailable); same image up to float rounding"}
+         "\"auto\" (SIMD when the CPU has AVX2+FMA, 16-lane AVX-512 packets where it has those too; shaded: with " \
+         "at most 4 lights, all directional), \"scalar\" (portable reference), \"simd\" (as auto; error if "     \
+         "unavailable) or \"avx2\" (8-lane packets only, the same image); same image up to float rounding"}
 
 static const volux_param_info ea_params[] = {DVR_COMMON_PARAMS, {NULL, 0, 0, 0, 0, NULL, NULL}};
 
