@@ -60,6 +60,7 @@ int cli_render(int argc, char **argv) {
     }
     volux_context *ctx = cli_context(0);
     if (!ctx) return CLI_FAIL;
+    if (quiet) volux_context_set_progress(ctx, NULL, NULL); /* warnings and notes still show */
     volux_scene *scene = NULL;
     volux_technique *tech = NULL;
     volux_framebuffer *fb = NULL;
