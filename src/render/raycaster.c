@@ -33,7 +33,7 @@ volux_status volux_raycaster_update(volux_raycaster *rc, const volux_scene *scen
         rc->seed = rs->seed;
         rc->max_depth = rs->max_depth;
     }
-    if (w & (VOLUX_CHANGE_COLOR | VOLUX_CHANGE_PHASE | VOLUX_CHANGE_VOLUME)) {
+    if (w & (VOLUX_CHANGE_COLOR | VOLUX_CHANGE_ALBEDO | VOLUX_CHANGE_PHASE | VOLUX_CHANGE_VOLUME)) {
         const volux_transfer_desc *tf = volux_scene_transfer(scene);
         rc->albedo = tf->albedo;
         rc->g = tf->anisotropy;
