@@ -161,7 +161,7 @@ static inline __attribute__((always_inline)) void inscatter(const void *tech, co
     *Ls = L;
 }
 
-SCATTER_RENDER_TILE(single_render_tile, single_state, 0.0f, inscatter)
+SCATTER_RENDER_TILE(single_render_tile, single_state, 0.0f, NULL, inscatter)
 
 const volux_technique_class volux_single_class = {
     {"single", "single scattering with shadow rays and an optional transmittance cache (Ament 2013 baseline)",
