@@ -138,6 +138,9 @@ static volux_status lightvol_update(void *state, const volux_scene *scene, const
         reason = "volume changed";
         volux_gradient_cache_free(ctx, &st->grad);
     }
+    if (w & VOLUX_CHANGE_LIGHTS) /* no sweep direction to propagate an environment along (docs) */
+        volux_raycaster_warn_unused_lights(rc, 1u << VOLUX_LIGHT_ENVIRONMENT,
+                                           "environment lights are not propagated through the illumination volume");
     if (w & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY | VOLUX_CHANGE_COLOR |
              VOLUX_CHANGE_ALBEDO))
         medium = 1;
