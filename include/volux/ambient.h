@@ -63,7 +63,7 @@ VOLUX_API void volux_ambient_table_desc_defaults(volux_ambient_table_desc *d);
  * albedo[] of d, nothing else. */
 VOLUX_API void volux_ambient_table_desc_albedo_set(volux_ambient_table_desc *d);
 /* The table compiled into the library: 64 × 64 × 10 (g ∈ [−0.9, 0.9]),
- * Σ̃t = 20, the albedo set above, 16384 walks per column. A table with
+ * Σ̃t = 20, the albedo set above, 4096 walks per column. A table with
  * this description is read from the library, never built. */
 VOLUX_API void volux_ambient_table_desc_builtin(volux_ambient_table_desc *d);
 
@@ -95,6 +95,10 @@ typedef struct volux_ambient_table_summary {
  * VOLUX_ERR_WRITE naming the file. `out` may be NULL. */
 VOLUX_API volux_status volux_ambient_table_write(volux_context *ctx, const volux_ambient_table_desc *d,
                                                  const char *path, volux_ambient_table_summary *out);
+/* Rewrites the table file `in` as `out` without its per-entry error block
+ * (half the size; the values are unchanged): how the built-in table is
+ * made small. Errors as for inspect, VOLUX_ERR_WRITE naming `out`. */
+VOLUX_API volux_status volux_ambient_table_strip(volux_context *ctx, const char *in, const char *out);
 /* Reads and verifies a table file (magic, version, sizes, ranges, values,
  * checksum) and summarises it: VOLUX_ERR_IO if unreadable, VOLUX_ERR_FORMAT
  * naming the file otherwise. */

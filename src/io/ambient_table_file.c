@@ -66,6 +66,7 @@ void volux_ambient_table_desc_builtin(volux_ambient_table_desc *d) {
     d->n_theta = 64;
     d->n_sigma = 64;
     d->n_g = 10;
+    d->paths = 4096; /* median relative error per entry ~2 % (the paper's size at 16384: ~1 %) */
     volux_ambient_table_desc_albedo_set(d);
 }
 

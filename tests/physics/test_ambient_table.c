@@ -495,6 +495,85 @@ static void test_bad_descriptions_name_the_field(void **state) {
 }
 
 /* The CLI builds a table file that loads back. */
+/* The built-in table: compiled in, read without a build even with the disk
+ * cache off, described exactly as volux_ambient_table_desc_builtin says,
+ * and physical: its albedo-0 block is the analytic uncollided term (the
+ * estimator scores it exactly), its σ̃t = 0 column p_g for every albedo,
+ * and more albedo never gives less light (monotone within the noise). */
+static void test_builtin_table(void **state) {
+    (void)state;
+    volux_context_desc cd = {0};
+    cd.threads = 2;
+    cd.cache_dir = ""; /* no disk cache: only the built-in bytes can avoid a build */
+    volux_context *ctx = NULL;
+    assert_int_equal(volux_context_create(&cd, &ctx), VOLUX_OK);
+    size_t size = 0;
+    assert_non_null(volux_ambient_builtin_table(&size));
+    assert_true(size > 128);
+    volux_ambient_table_desc d;
+    volux_ambient_table_desc_builtin(&d);
+    assert_int_equal(d.n_albedo, 12);
+    volux_ambient_table t = get(ctx, &d, 0);
+    assert_true(volux_ambient_table_desc_equal(&t.desc, &d));
+    for (int ig = 0; ig < d.n_g; ig++)
+        for (int is = 0; is < d.n_sigma; is += 7)
+            for (int it = 0; it < d.n_theta; it += 5) {
+                double want = volux_ambient_uncollided(theta_at(&d, it), sigma_at(&d, is), g_at(&d, ig));
+                assert_near(t.data[volux_ambient_table_index4(&d, it, is, ig, 0)], want, 1e-5 * want + 1e-30);
+                for (int ia = 0; ia < d.n_albedo; ia++) {
+                    double p = scatter_hg_d(g_at(&d, ig), cos(theta_at(&d, it)));
+                    assert_near(t.data[volux_ambient_table_index4(&d, it, 0, ig, ia)], p, 1e-5 * p);
+                }
+            }
+    /* Energy over θ grows with the albedo (g = 0 column, σ̃t = 10). */
+    int ig0 = (d.n_g - 1) / 2, is10 = (d.n_sigma - 1) / 2;
+    double prev = -1.0;
+    for (int ia = 0; ia < d.n_albedo; ia++) {
+        double e = 0.0;
+        for (int it = 0; it < d.n_theta; it++)
+            e += t.data[volux_ambient_table_index4(&d, it, is10, ig0, ia)] * sin(theta_at(&d, it));
+        assert_true(e > prev);
+        prev = e;
+    }
+    /* The lookup is linear in the albedo between nodes. */
+    double a = volux_ambient_table_eval(&t, 1.0, 5.0, 0.3, 0.9), b = volux_ambient_table_eval(&t, 1.0, 5.0, 0.3, 0.95);
+    assert_near(volux_ambient_table_eval(&t, 1.0, 5.0, 0.3, 0.925), 0.5 * (a + b), 1e-9 * (a + b));
+    volux_ambient_table_free(ctx, &t);
+    /* The technique's default parameters describe it: no build, no note. */
+    volux_context_destroy(ctx);
+}
+
+/* A table that has to be built says so (a note through the context's
+ * message callback naming its size and where it is kept). */
+typedef struct notes {
+    int n;
+    char last[512];
+} notes;
+static void note(void *user, volux_message_level level, const char *text) {
+    notes *n = user;
+    assert_int_equal(level, VOLUX_MESSAGE_NOTE);
+    n->n++;
+    snprintf(n->last, sizeof n->last, "%s", text);
+}
+static void test_a_build_is_announced(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(2);
+    notes seen = {0, ""};
+    volux_context_set_message(ctx, note, &seen);
+    volux_ambient_table_desc d = small_desc();
+    d.paths = 16;
+    d.seed = 77;
+    volux_ambient_table t = get(ctx, &d, 1);
+    assert_int_equal(seen.n, 2); /* "building ..." and "built in ..., kept in ..." */
+    assert_non_null(strstr(seen.last, "kept in"));
+    assert_non_null(strstr(seen.last, ".vxat"));
+    volux_ambient_table_free(ctx, &t);
+    t = get(ctx, &d, 0); /* from the cache: silent */
+    assert_int_equal(seen.n, 2);
+    volux_ambient_table_free(ctx, &t);
+    volux_context_destroy(ctx);
+}
+
 static void test_cli_builds_a_table(void **state) {
     (void)state;
     const char *path = tu_temp_path("cli.vxat"), *err;
@@ -530,6 +609,8 @@ int main(void) {
         cmocka_unit_test(test_public_write_and_inspect),
         cmocka_unit_test(test_bad_descriptions_name_the_field),
         cmocka_unit_test(test_cli_builds_a_table),
+        cmocka_unit_test(test_builtin_table),
+        cmocka_unit_test(test_a_build_is_announced),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

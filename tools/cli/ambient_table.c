@@ -6,6 +6,7 @@
  *                       [--sigma N] [--g N] [--sigma-max S] [--g-min G]
  *                       [--g-max G] [--paths N] [--seed S] [--threads N] [--json]
  *   volux ambient-table --info FILE [--json]
+ *   volux ambient-table --strip FILE -o OUT
  */
 #include <stdio.h>
 #include <string.h>
@@ -18,6 +19,7 @@ static void usage(FILE *f) {
             "                           [--sigma N] [--g N] [--sigma-max S] [--g-min G] [--g-max G]\n"
             "                           [--paths N] [--seed S] [--threads N] [--json]\n"
             "       volux ambient-table --info FILE [--json]\n"
+            "       volux ambient-table --strip FILE -o OUT\n"
             "Builds the preintegration table of ambient volume scattering (Ament et al. 2013,\n"
             "Sec. 4.1) by Monte-Carlo path tracing and writes it to FILE (defaults: the paper's\n"
             "256 x 256 x 19 entries, sigma in [0, 20], g in [-0.9, 0.9], albedo 0.9), or prints\n"
@@ -26,7 +28,8 @@ static void usage(FILE *f) {
             "..., 0.9, 0.95, 1). --builtin starts from the description of the table built into\n"
             "the library (64 x 64 x 10, the albedo set; how src/techniques/ambient/\n"
             "builtin_table.vxat is made). --paths is the number of random walks per (sigma, g,\n"
-            "albedo) column; every walk scores every theta entry.\n");
+            "albedo) column; every walk scores every theta entry. --strip copies a table without\n"
+            "its per-entry error block (half the size).\n");
 }
 
 /* "0.9" or "0,0.1,...": the albedos, comma-separated. */
@@ -94,7 +97,7 @@ static void report(const char *path, const volux_ambient_table_summary *t, int j
 int cli_ambient_table(int argc, char **argv) {
     volux_ambient_table_desc d;
     volux_ambient_table_desc_defaults(&d);
-    const char *out = NULL, *info = NULL;
+    const char *out = NULL, *info = NULL, *strip = NULL;
     int json = 0;
     long threads = 0;
     for (int i = 1; i < argc; i++) {
@@ -108,12 +111,13 @@ int cli_ambient_table(int argc, char **argv) {
             json = 1;
         } else if (!strcmp(a, "--builtin")) {
             volux_ambient_table_desc_builtin(&d); /* options after it adjust it */
-        } else if (!strcmp(a, "-o") || !strcmp(a, "--output") || !strcmp(a, "--info")) {
+        } else if (!strcmp(a, "-o") || !strcmp(a, "--output") || !strcmp(a, "--info") || !strcmp(a, "--strip")) {
             if (!v) {
                 fprintf(stderr, "volux ambient-table: %s needs a file name\n", a);
                 return CLI_USAGE;
             }
             if (!strcmp(a, "--info")) info = v;
+            else if (!strcmp(a, "--strip")) strip = v;
             else out = v;
             i++;
         } else if (!strcmp(a, "--theta") || !strcmp(a, "--sigma") || !strcmp(a, "--g")) {
@@ -144,6 +148,18 @@ int cli_ambient_table(int argc, char **argv) {
             usage(stderr);
             return CLI_USAGE;
         }
+    }
+    if (strip) {
+        if (!out || info) {
+            fprintf(stderr, "volux ambient-table: --strip FILE needs -o OUT (and no --info)\n");
+            return CLI_USAGE;
+        }
+        volux_context *ctx = cli_context((int)threads);
+        if (!ctx) return CLI_FAIL;
+        volux_status st = volux_ambient_table_strip(ctx, strip, out);
+        int rc = st ? cli_fail("ambient-table", ctx, st) : CLI_OK;
+        volux_context_destroy(ctx);
+        return rc;
     }
     if (!out == !info) {
         fprintf(stderr, "volux ambient-table: give exactly one of -o FILE or --info FILE\n");

@@ -89,7 +89,8 @@ static const volux_param_info ambient_params[] = {
      "table entries in ambient extinction (built-in: 64; paper: 256)"},
     {"table_g", VOLUX_PARAM_INT, 10, 2, 4096, NULL, "table entries in g over [-0.9, 0.9] (built-in: 10; paper: 19)"},
     {"table_sigma_max", VOLUX_PARAM_NUMBER, 20, 0.01, 1e4, NULL, "largest optical radius r·σ̃t of the table (paper: 20)"},
-    {"table_paths", VOLUX_PARAM_INT, 16384, 1, 1e9, NULL, "random walks per (σ̃t, g, albedo) column of the table"},
+    {"table_paths", VOLUX_PARAM_INT, 4096, 1, 1e9, NULL,
+     "random walks per (σ̃t, g, albedo) column of the table (built-in: 4096)"},
     {"table_albedo_axis", VOLUX_PARAM_BOOL, 1, 0, 1, NULL,
      "tables for the albedos 0, 0.1, ..., 0.9, 0.95, 1, interpolated (an albedo edit re-sums the radiance "
      "caches); false: one table at the albedo, rebuilt when it changes (the paper: one table at 0.9)"},

@@ -457,6 +457,17 @@ volux_status volux_ambient_table_write(volux_context *ctx, const volux_ambient_t
     return st;
 }
 
+volux_status volux_ambient_table_strip(volux_context *ctx, const char *in, const char *out) {
+    volux_ambient_table t;
+    volux_status st = volux_ambient_table_load(ctx, in, &t);
+    if (st) return st;
+    if (t.rel_error) volux_free(ctx, t.rel_error, volux_ambient_table_values(&t.desc) * sizeof(float));
+    t.rel_error = NULL;
+    st = volux_ambient_table_save(ctx, &t, out);
+    volux_ambient_table_free(ctx, &t);
+    return st;
+}
+
 volux_status volux_ambient_table_inspect(volux_context *ctx, const char *path, volux_ambient_table_summary *out) {
     volux_ambient_table t;
     volux_status st = volux_ambient_table_load(ctx, path, &t);
