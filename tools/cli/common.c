@@ -65,6 +65,15 @@ static int progress_bar(void *user, const char *task, double fraction) {
     return 0;
 }
 
+static progress_state bar_state = {"", -1, 0, 0.0};
+
+void cli_progress(const char *task, double fraction) {
+    if (isatty(STDERR_FILENO)) {
+        bar_state.tty = 1;
+        progress_bar(&bar_state, task, fraction);
+    }
+}
+
 /* Warnings and notes from the library, one line each on stderr (a progress
  * bar in the way is cleared first). */
 static void print_message(void *user, volux_message_level level, const char *text) {
@@ -75,14 +84,14 @@ static void print_message(void *user, volux_message_level level, const char *tex
 }
 
 volux_context *cli_context(int threads) {
-    static progress_state state = {"", -1, 0, 0.0};
+    progress_state *state = &bar_state;
     volux_context_desc d = {0};
     d.threads = threads;
-    state.tty = isatty(STDERR_FILENO);
+    state->tty = isatty(STDERR_FILENO);
     d.progress = progress_bar;
-    d.progress_user = &state;
+    d.progress_user = state;
     d.message = print_message;
-    d.message_user = &state;
+    d.message_user = state;
     volux_context *ctx = NULL;
     if (volux_context_create(&d, &ctx) != VOLUX_OK) {
         fprintf(stderr, "volux: out of memory\n");
