@@ -133,9 +133,9 @@ static int nearest_dir(const volux_vec3 *from, int K, volux_vec3 d) {
  * integrated over its cell (the directions nearer to it than to any
  * other). A map is integrated texel by texel (solid angle
  * (2π/W)(π/H)·sin θ each), so its energy is kept exactly — a sun lands in
- * its nearest direction instead of falling between point samples (point
- * sampling a 1k sunset map this way was 2× too bright on the aneurism); a
- * constant environment uses 64 finer Fibonacci points per direction
+ * its nearest direction instead of falling between point samples (on the
+ * Venice sunset map the images barely changed: that map's sun is wide);
+ * a constant environment uses 64 finer Fibonacci points per direction
  * (≈ L·4π/K each). Light travels opposite to the direction it comes from. */
 static void env_prepare(single_state *st) {
     const volux_light_list *ls = &st->b.rc.lights;
