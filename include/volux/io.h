@@ -20,6 +20,7 @@
 #include "base.h"
 #include "image.h"
 #include "scene.h"
+#include "sequence.h"
 #include "transfer.h"
 #include "volume.h"
 
@@ -57,6 +58,35 @@ VOLUX_API volux_status volux_volume_procedural(volux_context *ctx, const char *n
                                                uint64_t seed, volux_volume **out);
 /* Comma-separated list of procedural names (for messages). */
 VOLUX_API const char *volux_procedural_names(void);
+/* The procedural volume at a time: only "cloud" is animated (its puffs
+ * drift and change shape smoothly with `time`; time 0 is the static cloud);
+ * a nonzero time for another volume is VOLUX_ERR_INVALID. */
+VOLUX_API volux_status volux_volume_procedural_at(volux_context *ctx, const char *name, const int dims[3],
+                                                  uint64_t seed, double time, volux_volume **out);
+/* 1 if the named procedural volume changes with time. */
+VOLUX_API int volux_procedural_is_animated(const char *name);
+
+/* Time-varying volumes (volux/sequence.h). Each returns a sequence whose
+ * steps load on demand (caller destroys, or a scene keeps it);
+ * cache_bytes bounds the cached steps (0 = default).
+ *   files:      one volume file per step (options apply to every file).
+ *               Every file's header is read now: a missing file, or a
+ *               frame whose dims, type or spacing differ from the first,
+ *               is an error naming both (VOLUX_ERR_FORMAT for a mismatch).
+ *   pattern:    the files pattern % i for i = first, first + stride, ...,
+ *               ≤ last; the pattern holds exactly one %d, %Nd or %0Nd
+ *               (and "%%" for a literal %), e.g. "frames/t%03d.nhdr".
+ *   procedural: the animated procedural `name` (only "cloud") at times
+ *               time0 + i·time_per_step, i ∈ [0, steps). */
+VOLUX_API volux_status volux_sequence_load_files(volux_context *ctx, const char *const *paths, int n,
+                                                 const volux_volume_load_options *options, uint64_t cache_bytes,
+                                                 volux_sequence **out);
+VOLUX_API volux_status volux_sequence_load_pattern(volux_context *ctx, const char *pattern, int first, int last,
+                                                   int stride, const volux_volume_load_options *options,
+                                                   uint64_t cache_bytes, volux_sequence **out);
+VOLUX_API volux_status volux_sequence_procedural(volux_context *ctx, const char *name, const int dims[3],
+                                                 uint64_t seed, double time0, double time_per_step, int steps,
+                                                 uint64_t cache_bytes, volux_sequence **out);
 
 /* Images. Format by extension: .png .pfm .exr .hdr (read only). */
 VOLUX_API volux_status volux_image_load(volux_context *ctx, const char *path, volux_image *out);

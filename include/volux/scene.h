@@ -30,6 +30,7 @@
 #include "base.h"
 #include "camera.h"
 #include "light.h"
+#include "sequence.h"
 #include "transfer.h"
 #include "volume.h"
 
@@ -102,9 +103,27 @@ VOLUX_API volux_status volux_scene_create(volux_context *ctx, volux_scene **out)
 VOLUX_API void volux_scene_destroy(volux_scene *s);
 VOLUX_API volux_context *volux_scene_context(const volux_scene *s);
 
-/* Retains v and releases the previous volume. Bumps VOLUME. */
+/* Retains v and releases the previous volume (and sequence: v is a single
+ * volume, time step 0 of 1). Bumps VOLUME. */
 VOLUX_API volux_status volux_scene_set_volume(volux_scene *s, volux_volume *v);
 VOLUX_API volux_volume *volux_scene_volume(const volux_scene *s); /* borrowed */
+
+/* Time-varying volumes (volux/sequence.h). set_sequence KEEPS q on
+ * success (the scene destroys it, and any earlier sequence or volume is
+ * replaced) and selects `step`; on failure the caller still owns q and the
+ * scene is unchanged. set_time_step makes step `step` the volume (loaded
+ * through the sequence's cache, LUT baked) and bumps VOLUME when the step
+ * changes; a single volume has the one step 0. VOLUX_ERR_INVALID for a step
+ * out of range, VOLUX_ERR_FORMAT for a step whose shape differs, the
+ * loader's status otherwise; on failure the scene is unchanged. */
+VOLUX_API volux_status volux_scene_set_sequence(volux_scene *s, volux_sequence *q, int step);
+VOLUX_API volux_status volux_scene_set_time_step(volux_scene *s, int step);
+VOLUX_API int volux_scene_time_step(const volux_scene *s);  /* 0 for a single volume */
+VOLUX_API int volux_scene_time_steps(const volux_scene *s); /* 1 for a single volume */
+/* The scene's sequence (owned by the scene), NULL for a single volume.
+ * Techniques that read other steps than the current one acquire them here
+ * from update code (acquiring may load and changes the cache). */
+VOLUX_API volux_sequence *volux_scene_sequence(const volux_scene *s);
 /* Copies d (and its points). Compares with the current TF and bumps only
  * what changed: EXTINCTION (opacity/extinction curve, unit distance),
  * DENSITY, COLOR (colour curve, albedo, Blinn–Phong material, material

@@ -11,6 +11,7 @@
 #include "light.h"
 #include "render.h"
 #include "scene.h"
+#include "sequence.h"
 #include "technique.h"
 #include "transfer.h"
 #include "volume.h"

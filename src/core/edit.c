@@ -226,8 +226,13 @@ static volux_status mirrored(const volux_volume *v, volux_volume **out) {
     return VOLUX_OK;
 }
 
+/* The next time step of a sequence (wrapping: the k-th call plays the
+ * sequence forward, as an animation does); a single volume is replaced by
+ * its mirror image, a new volume of the same shape. */
 static volux_status edit_time_step(volux_scene *s, int k) {
     (void)k;
+    int n = volux_scene_time_steps(s);
+    if (n > 1) return volux_scene_set_time_step(s, (volux_scene_time_step(s) + 1) % n);
     const volux_volume *v = volux_scene_volume(s);
     if (!v) return VOLUX_ERR_UNSUPPORTED;
     volux_volume *next;
@@ -275,7 +280,7 @@ static const volux_edit edits[] = {
     {"camera", "orbit the camera by 5 degrees", VOLUX_CHANGE_CAMERA, NULL, 1, edit_camera},
     {"background", "change the background colour", VOLUX_CHANGE_RENDER, NULL, 1, edit_background},
     {"step", "scale the ray-march step (render.step)", VOLUX_CHANGE_RENDER, NULL, 0, edit_step},
-    {"time_step", "replace the volume by a new one (mirrored along x)", VOLUX_CHANGE_VOLUME, NULL, 1, edit_time_step},
+    {"time_step", "the next step of a sequence (a single volume: replaced by its mirror image)", VOLUX_CHANGE_VOLUME, NULL, 1, edit_time_step},
     {"full_sequential", "entire light update, one light per propagation pass", VOLUX_CHANGE_PARAMS, "lightvol",
      0, edit_full_sequential},
     {"full_coherent", "entire light update, lights grouped by propagation direction", VOLUX_CHANGE_PARAMS,

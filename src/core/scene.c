@@ -7,6 +7,7 @@
 #include "vecmath.h"
 #include "volume_internal.h"
 #include "volux/scene.h"
+#include "volux/sequence.h"
 
 enum { A_VOLUME, A_EXTINCTION, A_COLOR, A_DENSITY, A_PHASE, A_LIGHTS, A_CAMERA, A_PARAMS, A_RENDER, A_ALBEDO, A_COUNT };
 
@@ -27,6 +28,8 @@ struct volux_scene {
     volux_context *ctx;
     uint64_t id;
     volux_volume *volume;
+    volux_sequence *seq; /* NULL: a single volume; else `volume` is step `time_step` */
+    int time_step;
     volux_transfer_desc tf;
     volux_tf_color_point *color;
     volux_tf_scalar_point *opacity;
@@ -93,6 +96,7 @@ void volux_scene_destroy(volux_scene *s) {
     if (!s) return;
     volux_context *ctx = s->ctx;
     volux_volume_release(s->volume);
+    volux_sequence_destroy(s->seq);
     free_tf_arrays(s);
     volux_transfer_lut_free(ctx, &s->lut);
     for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) volux_image_free(ctx, &s->lights[i].map);
@@ -123,8 +127,8 @@ static void replace_lut(volux_scene *s, volux_transfer_lut *lut) {
     s->lut = *lut;
 }
 
-volux_status volux_scene_set_volume(volux_scene *s, volux_volume *v) {
-    if (!v) return volux_error(s->ctx, VOLUX_ERR_INVALID, "scene: volume is NULL");
+/* Makes v (retained) the volume after baking its LUT; bumps VOLUME. */
+static volux_status replace_volume(volux_scene *s, volux_volume *v) {
     volux_transfer_lut lut;
     volux_status st = bake(s, v, &s->tf, &lut);
     if (st) return st;
@@ -136,7 +140,52 @@ volux_status volux_scene_set_volume(volux_scene *s, volux_volume *v) {
     return VOLUX_OK;
 }
 
+volux_status volux_scene_set_volume(volux_scene *s, volux_volume *v) {
+    if (!v) return volux_error(s->ctx, VOLUX_ERR_INVALID, "scene: volume is NULL");
+    volux_status st = replace_volume(s, v);
+    if (st) return st;
+    volux_sequence_destroy(s->seq);
+    s->seq = NULL;
+    s->time_step = 0;
+    return VOLUX_OK;
+}
+
 volux_volume *volux_scene_volume(const volux_scene *s) { return s->volume; }
+
+volux_status volux_scene_set_sequence(volux_scene *s, volux_sequence *q, int step) {
+    if (!q) return volux_error(s->ctx, VOLUX_ERR_INVALID, "scene: sequence is NULL");
+    if (q == s->seq) return volux_scene_set_time_step(s, step);
+    volux_volume *v;
+    volux_status st = volux_sequence_acquire(q, step, &v);
+    if (st) return st;
+    st = replace_volume(s, v);
+    volux_volume_release(v);
+    if (st) return st;
+    volux_sequence_destroy(s->seq);
+    s->seq = q;
+    s->time_step = step;
+    return VOLUX_OK;
+}
+
+volux_status volux_scene_set_time_step(volux_scene *s, int step) {
+    int n = volux_scene_time_steps(s);
+    if (step < 0 || step >= n)
+        return volux_error(s->ctx, VOLUX_ERR_INVALID, "time step %d is outside [0, %d) (the volume has %d time step%s)",
+                           step, n, n, n == 1 ? "" : "s");
+    if (step == s->time_step) return VOLUX_OK;
+    volux_volume *v;
+    volux_status st = volux_sequence_acquire(s->seq, step, &v);
+    if (st) return st;
+    st = replace_volume(s, v);
+    volux_volume_release(v);
+    if (st) return st;
+    s->time_step = step;
+    return VOLUX_OK;
+}
+
+int volux_scene_time_step(const volux_scene *s) { return s->time_step; }
+int volux_scene_time_steps(const volux_scene *s) { return s->seq ? volux_sequence_steps(s->seq) : 1; }
+volux_sequence *volux_scene_sequence(const volux_scene *s) { return s->seq; }
 
 static int same_scalar_points(const volux_tf_scalar_point *a, int na, const volux_tf_scalar_point *b, int nb) {
     return na == nb && (na == 0 || memcmp(a, b, sizeof *a * (size_t)na) == 0);

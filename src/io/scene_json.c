@@ -51,30 +51,109 @@ static void dir_of(const char *path, char *out, size_t n) {
 
 /* ------------------------------------------------------------------ volume */
 
+/* The files of a file-based volume, resolved against the scene's folder:
+ * one "file" or a "files" list (allocated through ctx; *n of them). */
+typedef struct frame_list {
+    char **paths;
+    int n, cap;
+} frame_list;
+
+static void free_frame_list(volux_context *ctx, frame_list *f) {
+    for (int i = 0; i < f->n; i++) volux_strfree(ctx, f->paths[i]);
+    volux_free(ctx, f->paths, sizeof *f->paths * (size_t)f->cap);
+    f->paths = NULL;
+    f->n = f->cap = 0;
+}
+
+static volux_status add_frame(scene_reader *sr, frame_list *f, const char *name, const char *key) {
+    char path[4096];
+    volux_status st = resolve_path(sr, sr->base_dir, name, key, path, sizeof path);
+    if (st) return st;
+    if (!(f->paths[f->n] = volux_strdup(sr->json.ctx, path)))
+        return volux_json_error(&sr->json, VOLUX_ERR_NOMEM, key, "out of memory");
+    f->n++;
+    return VOLUX_OK;
+}
+
+static volux_status read_frames(scene_reader *sr, const cJSON *obj, frame_list *f) {
+    volux_json_reader *r = &sr->json;
+    const cJSON *files = cJSON_GetObjectItemCaseSensitive(obj, "files");
+    const char *file = NULL;
+    volux_status st = volux_json_string(r, obj, "volume", "file", &file);
+    if (st) return st;
+    int n = 1;
+    if (files) {
+        if (!cJSON_IsArray(files) || cJSON_GetArraySize(files) < 1)
+            return volux_json_error(r, VOLUX_ERR_INVALID, "volume.files", "expected a non-empty array of file names");
+        n = cJSON_GetArraySize(files);
+        if (n > VOLUX_MAX_STEPS)
+            return volux_json_error(r, VOLUX_ERR_LIMIT, "volume.files", "more than %d files", VOLUX_MAX_STEPS);
+    }
+    f->paths = volux_calloc(r->ctx, (size_t)n, sizeof *f->paths);
+    if (!f->paths) return volux_json_error(r, VOLUX_ERR_NOMEM, "volume", "out of memory");
+    f->cap = n;
+    if (!files) return add_frame(sr, f, file, "volume.file");
+    int i = 0;
+    for (const cJSON *c = files->child; c; c = c->next, i++) {
+        char p[48];
+        snprintf(p, sizeof p, "volume.files[%d]", i);
+        if (!cJSON_IsString(c)) return volux_json_error(r, VOLUX_ERR_INVALID, p, "expected a file name");
+        if ((st = add_frame(sr, f, c->valuestring, p))) return st;
+    }
+    return VOLUX_OK;
+}
+
+/* "pattern" + "range": [first, last] or [first, last, step]. */
+static volux_status read_range(scene_reader *sr, const cJSON *obj, int range[3]) {
+    volux_json_reader *r = &sr->json;
+    const cJSON *jr = cJSON_GetObjectItemCaseSensitive(obj, "range");
+    if (!jr || !cJSON_IsArray(jr) || (cJSON_GetArraySize(jr) != 2 && cJSON_GetArraySize(jr) != 3))
+        return volux_json_error(r, VOLUX_ERR_INVALID, "volume.range",
+                                "a pattern needs \"range\": [first, last] or [first, last, step]");
+    range[2] = 1;
+    int i = 0;
+    for (const cJSON *c = jr->child; c; c = c->next, i++) {
+        if (!cJSON_IsNumber(c) || c->valuedouble != floor(c->valuedouble) || fabs(c->valuedouble) > 1e9) {
+            char p[32];
+            snprintf(p, sizeof p, "volume.range[%d]", i);
+            return volux_json_error(r, VOLUX_ERR_INVALID, p, "expected an integer in [-1e9, 1e9]");
+        }
+        range[i] = (int)c->valuedouble;
+    }
+    if (range[1] < range[0] || range[2] < 1)
+        return volux_json_error(r, VOLUX_ERR_INVALID, "volume.range",
+                                "[%d, %d] step %d is empty (need first <= last, step >= 1)", range[0], range[1],
+                                range[2]);
+    return VOLUX_OK;
+}
+
 static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
     volux_json_reader *r = &sr->json;
     /* Keys per kind: a raw-file key on a procedural volume (or a seed on a
      * file) would otherwise be silently ignored. */
-    static const char *const file_keys[] = {"file",      "dims",           "type",   "endian",
-                                            "spacing",   "byte_skip",      "use_file_origin",
-                                            "allow_outside_dir", "comment", NULL};
-    static const char *const proc_keys[] = {"procedural", "dims", "seed", "comment", NULL};
+    static const char *const file_keys[] = {"file",      "files",          "pattern", "range", "dims",
+                                            "type",      "endian",         "spacing", "byte_skip",
+                                            "use_file_origin", "allow_outside_dir", "cache_mb", "comment", NULL};
+    static const char *const proc_keys[] = {"procedural", "dims", "seed", "time", "steps", "time_per_step",
+                                            "cache_mb", "comment", NULL};
     volux_status st;
     if (!obj) return volux_json_error(r, VOLUX_ERR_INVALID, "volume", "missing (a file or a procedural volume)");
     if (!cJSON_IsObject(obj)) return volux_json_error(r, VOLUX_ERR_INVALID, "volume", "expected an object");
-    int has_file = cJSON_GetObjectItemCaseSensitive(obj, "file") != NULL;
-    if (has_file == (cJSON_GetObjectItemCaseSensitive(obj, "procedural") != NULL))
-        return volux_json_error(r, VOLUX_ERR_INVALID, "volume", "give exactly one of file, procedural");
+    static const char *const kinds[] = {"file", "files", "pattern", "procedural"};
+    int n_kinds = 0;
+    for (int i = 0; i < 4; i++) n_kinds += cJSON_GetObjectItemCaseSensitive(obj, kinds[i]) != NULL;
+    if (n_kinds != 1)
+        return volux_json_error(r, VOLUX_ERR_INVALID, "volume", "give exactly one of file, files, pattern, procedural");
+    int has_file = cJSON_GetObjectItemCaseSensitive(obj, "procedural") == NULL;
     if ((st = volux_json_check_keys(r, obj, "volume", has_file ? file_keys : proc_keys))) return st;
-    const char *file = NULL, *proc = NULL, *type = NULL, *endian = NULL;
-    if ((st = volux_json_string(r, obj, "volume", "file", &file)) ||
-        (st = volux_json_string(r, obj, "volume", "procedural", &proc)) ||
+    const char *proc = NULL, *type = NULL, *endian = NULL;
+    if ((st = volux_json_string(r, obj, "volume", "procedural", &proc)) ||
         (st = volux_json_string(r, obj, "volume", "type", &type)) ||
         (st = volux_json_string(r, obj, "volume", "endian", &endian)))
         return st;
-    int dims[3] = {0, 0, 0}, use_file_origin = 0, allow_outside = 0;
+    int dims[3] = {0, 0, 0}, use_file_origin = 0, allow_outside = 0, steps = 1;
     float spacing[3] = {1, 1, 1};
-    double seed = 1, byte_skip = 0;
+    double seed = 1, byte_skip = 0, time0 = 0, time_per_step = 0.05, cache_mb = 0;
     const cJSON *jd = cJSON_GetObjectItemCaseSensitive(obj, "dims");
     if (jd) {
         if (!cJSON_IsArray(jd) || cJSON_GetArraySize(jd) != 3)
@@ -94,16 +173,32 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
         (st = volux_json_number(r, obj, "volume", "seed", 0, 9007199254740992.0, &seed)) ||
         (st = volux_json_number(r, obj, "volume", "byte_skip", 0, 9007199254740992.0, &byte_skip)) ||
         (st = volux_json_bool(r, obj, "volume", "use_file_origin", &use_file_origin)) ||
-        (st = volux_json_bool(r, obj, "volume", "allow_outside_dir", &allow_outside)))
+        (st = volux_json_bool(r, obj, "volume", "allow_outside_dir", &allow_outside)) ||
+        (st = volux_json_number(r, obj, "volume", "time", -1e6, 1e6, &time0)) ||
+        (st = volux_json_number(r, obj, "volume", "time_per_step", -1e3, 1e3, &time_per_step)) ||
+        (st = volux_json_int(r, obj, "volume", "steps", 1, VOLUX_MAX_STEPS, &steps)) ||
+        (st = volux_json_number(r, obj, "volume", "cache_mb", 1, 1e9, &cache_mb)))
         return st;
     if (seed != floor(seed)) return volux_json_error(r, VOLUX_ERR_INVALID, "volume.seed", "expected an integer");
     if (byte_skip != floor(byte_skip))
         return volux_json_error(r, VOLUX_ERR_INVALID, "volume.byte_skip", "expected an integer");
+    uint64_t cache_bytes = (uint64_t)(cache_mb * 1048576.0);
 
     volux_volume *vol = NULL;
+    volux_sequence *seq = NULL;
     if (proc) {
         if (!jd) dims[0] = dims[1] = dims[2] = 64;
-        st = volux_volume_procedural(r->ctx, proc, dims, (uint64_t)seed, &vol);
+        int animated = volux_procedural_is_animated(proc);
+        if (!animated && (cJSON_GetObjectItemCaseSensitive(obj, "time") || steps > 1 ||
+                          cJSON_GetObjectItemCaseSensitive(obj, "time_per_step")))
+            return volux_json_error(r, VOLUX_ERR_INVALID, "volume", "procedural '%.32s' is not animated (time, steps "
+                                    "and time_per_step are for \"cloud\")", proc);
+        if (steps == 1 && (cJSON_GetObjectItemCaseSensitive(obj, "time_per_step") ||
+                           cJSON_GetObjectItemCaseSensitive(obj, "cache_mb")))
+            return volux_json_error(r, VOLUX_ERR_INVALID, "volume", "time_per_step and cache_mb need steps > 1");
+        st = steps > 1 ? volux_sequence_procedural(r->ctx, proc, dims, (uint64_t)seed, time0, time_per_step, steps,
+                                                   cache_bytes, &seq)
+                       : volux_volume_procedural_at(r->ctx, proc, dims, (uint64_t)seed, time0, &vol);
         if (st) {
             volux_error_prefix(r->ctx, "%s: volume.procedural: ", r->file);
             return st;
@@ -139,15 +234,53 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
             raw.byte_skip = (uint64_t)byte_skip;
             opt.raw = &raw;
         }
+        int single = cJSON_GetObjectItemCaseSensitive(obj, "file") != NULL;
+        const char *pattern = NULL;
+        if ((st = volux_json_string(r, obj, "volume", "pattern", &pattern))) return st;
+        if (single && cJSON_GetObjectItemCaseSensitive(obj, "cache_mb"))
+            return volux_json_error(r, VOLUX_ERR_INVALID, "volume.cache_mb", "only for files or a pattern");
+        if (!pattern && cJSON_GetObjectItemCaseSensitive(obj, "range"))
+            return volux_json_error(r, VOLUX_ERR_INVALID, "volume.range", "only with a pattern");
         /* The layout is checked first: its errors do not depend on the file. */
-        char path[4096];
-        if ((st = resolve_path(sr, sr->base_dir, file, "volume.file", path, sizeof path))) return st;
-        st = volux_volume_load(r->ctx, path, &opt, &vol);
-        if (st) {
-            /* The loader's message names the file; add where it came from. */
-            volux_error_prefix(r->ctx, "%s: volume.file: ", r->file);
-            return st;
+        if (pattern) {
+            int range[3];
+            char resolved[4096], dir[4096];
+            /* The scene's folder goes in front of the pattern, so any % in
+             * it must become a literal %%. */
+            size_t o = 0;
+            for (const char *c = sr->base_dir; *c && o + 2 < sizeof dir; c++) {
+                if (*c == '%') dir[o++] = '%';
+                dir[o++] = *c;
+            }
+            dir[o] = 0;
+            if ((st = read_range(sr, obj, range)) ||
+                (st = resolve_path(sr, dir, pattern, "volume.pattern", resolved, sizeof resolved)))
+                return st;
+            st = volux_sequence_load_pattern(r->ctx, resolved, range[0], range[1], range[2], &opt, cache_bytes, &seq);
+            if (st) volux_error_prefix(r->ctx, "%s: volume.pattern: ", r->file);
+        } else {
+            frame_list frames = {NULL, 0, 0};
+            st = read_frames(sr, obj, &frames);
+            if (!st && single) {
+                st = volux_volume_load(r->ctx, frames.paths[0], &opt, &vol);
+                if (st) volux_error_prefix(r->ctx, "%s: volume.file: ", r->file); /* the loader names the file */
+            } else if (!st) {
+                st = volux_sequence_load_files(r->ctx, (const char *const *)frames.paths, frames.n, &opt, cache_bytes,
+                                               &seq);
+                if (st) volux_error_prefix(r->ctx, "%s: volume.files: ", r->file);
+            }
+            free_frame_list(r->ctx, &frames);
         }
+        if (st) return st;
+    }
+    if (seq) {
+        /* Step 0 for now; render.time_step is applied after the volume. */
+        st = volux_scene_set_sequence(sr->scene, seq, 0);
+        if (st) {
+            volux_sequence_destroy(seq);
+            volux_error_prefix(r->ctx, "%s: volume: ", r->file);
+        }
+        return st;
     }
     st = volux_scene_set_volume(sr->scene, vol);
     volux_volume_release(vol);
@@ -560,7 +693,7 @@ static volux_status read_render(scene_reader *sr, const cJSON *obj) {
     if (obj) {
         static const char *const keys[] = {"technique", "width",   "height",  "spp",       "step",
                                            "seed",      "max_depth", "exposure", "threads", "time_ms",
-                                           "target_error", "comment", NULL};
+                                           "target_error", "time_step", "comment", NULL};
         const char *P = "render";
         volux_status st = volux_json_check_keys(r, obj, P, keys);
         if (st) return st;
@@ -588,6 +721,18 @@ static volux_status read_render(scene_reader *sr, const cJSON *obj) {
     }
     volux_status st = volux_scene_set_render(sr->scene, &rs);
     if (st) volux_error_prefix(r->ctx, "%s: ", r->file);
+    return st;
+}
+
+/* render.time_step: selects the step of a sequence (after the volume is
+ * read; a single volume has only step 0). */
+static volux_status read_time_step(scene_reader *sr, const cJSON *render) {
+    volux_json_reader *r = &sr->json;
+    int step = 0;
+    if (!render || !cJSON_GetObjectItemCaseSensitive(render, "time_step")) return VOLUX_OK;
+    volux_status st = volux_json_int(r, render, "render", "time_step", 0, VOLUX_MAX_STEPS - 1, &step);
+    if (st) return st;
+    if ((st = volux_scene_set_time_step(sr->scene, step))) volux_error_prefix(r->ctx, "%s: render.time_step: ", r->file);
     return st;
 }
 
@@ -636,10 +781,12 @@ static volux_status read_scene(scene_reader *sr, const cJSON *root) {
     if (st) return st;
     float bg[3] = {0, 0, 0};
     if ((st = volux_json_vec3(r, root, "", "background", 0, BIG, bg))) return st;
-    /* Order matters: the TF preset is rescaled to the volume's range. */
+    /* Order matters: the TF preset is rescaled to the volume's range (of
+     * time step 0, so every step of a sequence gets the same TF). */
     if ((st = read_render(sr, cJSON_GetObjectItemCaseSensitive(root, "render"))) ||
         (st = read_volume(sr, cJSON_GetObjectItemCaseSensitive(root, "volume"))) ||
         (st = read_transfer(sr, cJSON_GetObjectItemCaseSensitive(root, "transfer_function"))) ||
+        (st = read_time_step(sr, cJSON_GetObjectItemCaseSensitive(root, "render"))) ||
         (st = read_camera(sr, cJSON_GetObjectItemCaseSensitive(root, "camera"))) ||
         (st = read_lights(sr, cJSON_GetObjectItemCaseSensitive(root, "lights"))) ||
         (st = read_techniques(sr, cJSON_GetObjectItemCaseSensitive(root, "techniques"))))

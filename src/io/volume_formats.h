@@ -163,6 +163,19 @@ volux_status volux_source_inflate_prefix(volux_context *ctx, volux_source *s, ui
 volux_status volux_volume_read_data(volux_context *ctx, const volux_volume_header *h, volux_source *src,
                                     int use_file_origin, volux_volume **out);
 
+/* What a volume file holds, from its header alone. */
+typedef struct volux_volume_shape {
+    int dims[3];
+    volux_scalar_type type; /* as loaded (float32 when the file scales values) */
+    double spacing[3];
+} volux_volume_shape;
+
+/* Reads only the header of `path` (the same checks as volux_volume_load,
+ * none of the data): for checking that the frames of a sequence agree
+ * before any of them is loaded. */
+volux_status volux_volume_probe(volux_context *ctx, const char *path, const volux_volume_load_options *options,
+                                volux_volume_shape *out);
+
 /* ------------------------------------------------------------------ */
 /* Whole-file loading from memory (fuzzing, tests)                     */
 /* ------------------------------------------------------------------ */

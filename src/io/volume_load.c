@@ -133,28 +133,20 @@ static volux_status load_from(volux_context *ctx, kind k, volux_source *src, int
     return st;
 }
 
-volux_status volux_volume_load(volux_context *ctx, const char *path, const volux_volume_load_options *options,
-                               volux_volume **out) {
+/* Opens `path` and decides its format (by extension, else by its first
+ * bytes). On success the caller closes *src. */
+static volux_status open_volume(volux_context *ctx, const char *path, volux_source *src, kind *k_out) {
     if (!path || !*path) return volux_error(ctx, VOLUX_ERR_INVALID, "volume path is empty");
-    volux_source src;
-    volux_status st;
     kind k = kind_from_extension(path);
-    if (options && options->raw) {
-        volux_volume_header h;
-        if ((st = volux_raw_header_from_desc(ctx, options->raw, path, &h))) return st;
-        if ((st = volux_source_open(ctx, path, &src))) return st;
-        st = volux_volume_read_data(ctx, &h, &src, 0, out);
-        volux_source_close(&src);
-        return st;
-    }
     if (k == K_RAW)
         return volux_error(ctx, VOLUX_ERR_INVALID,
                            "%s: a .raw file needs a description of its layout (dims, type, byte order)", path);
-    if ((st = volux_source_open(ctx, path, &src))) return st;
+    volux_status st = volux_source_open(ctx, path, src);
+    if (st) return st;
     if (k == K_UNKNOWN) {
         unsigned char b[16];
         size_t got;
-        if (!(st = volux_source_read(ctx, &src, 0, b, sizeof b, &got))) {
+        if (!(st = volux_source_read(ctx, src, 0, b, sizeof b, &got))) {
             k = kind_from_bytes(b, got);
             if (k == K_UNKNOWN)
                 st = volux_error(ctx, VOLUX_ERR_UNSUPPORTED,
@@ -163,9 +155,56 @@ volux_status volux_volume_load(volux_context *ctx, const char *path, const volux
                                  path);
         }
     }
-    if (!st) st = load_from(ctx, k, &src, 0, options, out);
+    if (st) {
+        volux_source_close(src);
+        return st;
+    }
+    *k_out = k;
+    return VOLUX_OK;
+}
+
+volux_status volux_volume_load(volux_context *ctx, const char *path, const volux_volume_load_options *options,
+                               volux_volume **out) {
+    if (!path || !*path) return volux_error(ctx, VOLUX_ERR_INVALID, "volume path is empty");
+    volux_source src;
+    volux_status st;
+    if (options && options->raw) {
+        volux_volume_header h;
+        if ((st = volux_raw_header_from_desc(ctx, options->raw, path, &h))) return st;
+        if ((st = volux_source_open(ctx, path, &src))) return st;
+        st = volux_volume_read_data(ctx, &h, &src, 0, out);
+        volux_source_close(&src);
+        return st;
+    }
+    kind k;
+    if ((st = open_volume(ctx, path, &src, &k))) return st;
+    st = load_from(ctx, k, &src, 0, options, out);
     volux_source_close(&src);
     return st;
+}
+
+volux_status volux_volume_probe(volux_context *ctx, const char *path, const volux_volume_load_options *options,
+                                volux_volume_shape *out) {
+    volux_volume_header h;
+    volux_status st;
+    if (options && options->raw) {
+        if ((st = volux_raw_header_from_desc(ctx, options->raw, path, &h))) return st;
+        /* the file must exist and be readable like every other frame */
+        volux_source src;
+        if ((st = volux_source_open(ctx, path, &src))) return st;
+        volux_source_close(&src);
+    } else {
+        volux_source src;
+        kind k;
+        if ((st = open_volume(ctx, path, &src, &k))) return st;
+        st = parse_header(ctx, k, &src, &h);
+        volux_source_close(&src);
+        if (st) return st;
+    }
+    memcpy(out->dims, h.dims, sizeof out->dims);
+    memcpy(out->spacing, h.spacing, sizeof out->spacing);
+    out->type = h.apply_scale ? VOLUX_FLOAT32 : h.type;
+    return VOLUX_OK;
 }
 
 volux_status volux_volume_load_memory(volux_context *ctx, const void *bytes, size_t n, const char *name,

@@ -58,7 +58,7 @@ static const malformed CASES[] = {
     /* volume */
     {"{" TF "}", VOLUX_ERR_INVALID, "volume: missing"},
     {SCENE_VOL("[]"), VOLUX_ERR_INVALID, "volume: expected an object"},
-    {SCENE_VOL("{}"), VOLUX_ERR_INVALID, "volume: give exactly one of file, procedural"},
+    {SCENE_VOL("{}"), VOLUX_ERR_INVALID, "volume: give exactly one of file, files, pattern, procedural"},
     {SCENE_VOL("{\"procedural\": \"sphere\", \"file\": \"a.nrrd\"}"), VOLUX_ERR_INVALID, "give exactly one"},
     {SCENE_VOL("{\"procedural\": 3}"), VOLUX_ERR_INVALID, "volume.procedural: expected a string"},
     {SCENE_VOL("{\"procedural\": \"torus\"}"), VOLUX_ERR_INVALID, "volume.procedural: procedural: unknown volume"},

@@ -660,7 +660,7 @@ static void test_override_errors_name_the_assignment(void **state) {
         {"lights.1.intensity=-1", VOLUX_ERR_INVALID, "lights[1].intensity: -1 is outside"},
         {"transfer_function.opacity.1.1=2", VOLUX_ERR_INVALID, "transfer_function.opacity[1]: 2 is outside [0, 1]"},
         {"volume.dims.2=0", VOLUX_ERR_INVALID, "volume.dims[2]: must be an integer"},
-        {"volume.file=x.nrrd", VOLUX_ERR_INVALID, "give exactly one of file, procedural"},
+        {"volume.file=x.nrrd", VOLUX_ERR_INVALID, "give exactly one of file, files, pattern, procedural"},
         {"techniques.ea=3", VOLUX_ERR_INVALID, "techniques.ea: expected an object of parameters"},
         {"techniques.ea.mode=[1]", VOLUX_ERR_INVALID, "techniques.ea.mode: expected a number, boolean or string"},
         {long_path, VOLUX_ERR_INVALID, "path longer than 511"},

@@ -11,10 +11,14 @@ static void usage(FILE *f) {
             "usage: volux render SCENE.json -o OUT.(png|pfm|exr) [--technique T] [--spp N]\n"
             "                    [--width W] [--height H] [--threads N] [--seed S] [--step S]\n"
             "                    [--time-ms MS] [--target-error E] [--max-depth D] [--exposure EV]\n"
-            "                    [--set dotted.path=JSON-value]... [--quiet]\n"
+            "                    [--time-step N | --all-steps] [--set dotted.path=JSON-value]... [--quiet]\n"
             "                    [--distribute image]   (under mpirun; the default there)\n"
             "Renders until the scene's spp, time budget or target relative error is reached and\n"
             "writes the image (PNG tone-mapped with render.exposure; PFM/EXR linear).\n"
+            "--time-step N renders step N of a time-varying volume (render.time_step).\n"
+            "--all-steps renders every step into numbered files: OUT_0000.png, OUT_0001.png, ...,\n"
+            "or OUT's own printf number (-o frame%%03d.png); one technique instance is updated\n"
+            "from step to step, as in an animation.\n"
             "Under mpirun the ranks share the frame's tiles and render.spp samples are taken\n"
             "(time and error limits apply to a single process only); rank 0 writes the image,\n"
             "bit-identical to a single-process render.\n");
@@ -25,10 +29,46 @@ static int supported_output(const char *path) {
     return dot && (!strcasecmp(dot, ".png") || !strcasecmp(dot, ".pfm") || !strcasecmp(dot, ".exr"));
 }
 
+/* 1 if `path` holds one %d / %Nd / %0Nd conversion (and otherwise only
+ * "%%"), 0 if it holds no '%' at all, −1 if it is malformed. */
+static int numbered_pattern(const char *path) {
+    int conversions = 0;
+    for (const char *p = path; *p; p++) {
+        if (*p != '%') continue;
+        if (p[1] == '%') {
+            p++;
+            continue;
+        }
+        const char *q = p + 1;
+        if (*q == '0') q++;
+        if (*q >= '1' && *q <= '9') q++;
+        if (*q != 'd') return -1;
+        conversions++;
+        p = q;
+    }
+    return conversions > 1 ? -1 : conversions;
+}
+
+/* The output file of step `step`: OUT's printf number, or _%04d before the
+ * extension. 0 if the name does not fit. */
+static int step_path(const char *out, int has_pattern, int step, char *buf, size_t n) {
+    int w;
+    if (has_pattern) {
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wformat-nonliteral"
+        w = snprintf(buf, n, out, step); /* checked by numbered_pattern */
+#pragma GCC diagnostic pop
+    } else {
+        const char *dot = strrchr(out, '.');
+        w = snprintf(buf, n, "%.*s_%04d%s", (int)(dot - out), out, step, dot);
+    }
+    return w >= 0 && (size_t)w < n;
+}
+
 int cli_render(int argc, char **argv) {
     cli_scene_args args = {0};
     const char *out_path = NULL;
-    int quiet = 0;
+    int quiet = 0, all_steps = 0, one_step = 0;
     dist_mode distribute = DIST_NONE;
     dist_quiet_followers();
     for (int i = 1; i < argc; i++) {
@@ -52,6 +92,11 @@ int cli_render(int argc, char **argv) {
             quiet = 1;
             continue;
         }
+        if (!strcmp(argv[i], "--all-steps")) {
+            all_steps = 1;
+            continue;
+        }
+        if (!strcmp(argv[i], "--time-step")) one_step = 1;
         int r = cli_scene_arg("render", &args, argc, argv, &i);
         if (r < 0) return CLI_USAGE;
         if (r == 0) {
@@ -67,6 +112,17 @@ int cli_render(int argc, char **argv) {
     }
     if (!supported_output(out_path)) {
         fprintf(stderr, "volux render: -o %s: unsupported image type (use .png, .pfm or .exr)\n", out_path);
+        return CLI_USAGE;
+    }
+    if (all_steps && one_step) {
+        fprintf(stderr, "volux render: give --time-step or --all-steps, not both\n");
+        return CLI_USAGE;
+    }
+    int pattern = numbered_pattern(out_path);
+    if (pattern < 0 || (pattern && !all_steps)) {
+        fprintf(stderr, "volux render: -o %s: %s\n", out_path,
+                pattern < 0 ? "a numbered output holds one %d, %Nd or %0Nd (%% for a literal %)"
+                            : "a numbered output (%d) needs --all-steps");
         return CLI_USAGE;
     }
     int mode = dist_begin("render", distribute);
@@ -93,31 +149,61 @@ int cli_render(int argc, char **argv) {
     int rc = cli_load_scene_quiet("render", ctx, &args, &scene, msg, sizeof msg);
     if ((rc = dist_agree_msg("render", rc, msg))) goto done;
     const volux_render_settings *rs = volux_scene_render(scene);
-    double t0 = cli_now_ms();
-    volux_status st = volux_technique_create(ctx, rs->technique, scene, &tech);
-    /* A progressive technique's deferred work is finished: an image file
-     * is the final result, not the first frame of an interactive session. */
-    for (int more = 1; !st && more;) st = volux_technique_refine(tech, scene, NULL, &more);
-    double prepare_ms = cli_now_ms() - t0;
-    if (!st) st = volux_framebuffer_create(ctx, rs->width, rs->height, &fb);
-    if ((rc = dist_agree("render", ctx, st))) goto done;
-    dist_timing timing;
-    st = dist_render_image(tech, scene, fb, &timing);
-    if ((rc = dist_agree("render", ctx, st))) goto done;
-    if (dist_rank() == 0) {
-        st = volux_framebuffer_resolve(fb, &img);
-        if (!st) st = volux_image_save(ctx, out_path, &img, rs->exposure);
-        rc = st ? cli_fail("render", ctx, st) : CLI_OK;
-        if (!rc && !quiet) {
-            fprintf(stderr, "volux render: %s: %s %dx%d, %u spp, prepare %.1f ms, render %.1f ms", args.scene_path,
-                    rs->technique, rs->width, rs->height, volux_framebuffer_spp(fb), prepare_ms, timing.render_ms);
-            if (dist_size() > 1)
-                fprintf(stderr, " (%d ranks, %.1f-%.1f ms each, composite %.1f ms)", dist_size(),
-                        timing.rank_render_ms_min, timing.rank_render_ms_max, timing.composite_ms);
-            fprintf(stderr, ", rel. error %.3g -> %s\n", volux_framebuffer_rel_error(fb), out_path);
+    int first = volux_scene_time_step(scene), last = all_steps ? volux_scene_time_steps(scene) - 1 : first;
+    if (all_steps) first = 0;
+    for (int step = first; step <= last && !rc; step++) {
+        char path[4096];
+        const char *out = out_path;
+        if (all_steps) {
+            if (!step_path(out_path, pattern, step, path, sizeof path)) {
+                if (dist_rank() == 0) fprintf(stderr, "volux render: -o %s: output name too long\n", out_path);
+                rc = CLI_USAGE;
+                goto done;
+            }
+            out = path;
         }
+        /* The first step creates the technique; later steps are edits it
+         * updates (the accumulation restarts). */
+        double t0 = cli_now_ms();
+        volux_status st = volux_scene_set_time_step(scene, step);
+        if (!st) {
+            if (!tech) st = volux_technique_create(ctx, rs->technique, scene, &tech);
+            else st = volux_technique_update(tech, scene, NULL);
+        }
+        /* A progressive technique's deferred work is finished: an image file
+         * is the final result, not the first frame of an interactive session. */
+        for (int more = 1; !st && more;) st = volux_technique_refine(tech, scene, NULL, &more);
+        double prepare_ms = cli_now_ms() - t0;
+        if (!st && !fb) st = volux_framebuffer_create(ctx, rs->width, rs->height, &fb);
+        else if (!st) volux_framebuffer_reset(fb);
+        if ((rc = dist_agree("render", ctx, st))) goto done;
+        dist_timing timing;
+        st = dist_render_image(tech, scene, fb, &timing);
+        if ((rc = dist_agree("render", ctx, st))) goto done;
+        if (dist_rank() == 0) {
+            st = volux_framebuffer_resolve(fb, &img);
+            if (!st) st = volux_image_save(ctx, out, &img, rs->exposure);
+            volux_image_free(ctx, &img);
+            rc = st ? cli_fail("render", ctx, st) : CLI_OK;
+            if (!rc && !quiet) {
+                if (all_steps)
+                    fprintf(stderr, "volux render: %s: step %d/%d: %s %dx%d, %u spp, %s %.1f ms, render %.1f ms",
+                            args.scene_path, step, last + 1, rs->technique, rs->width, rs->height,
+                            volux_framebuffer_spp(fb), step == first ? "prepare" : "update", prepare_ms,
+                            timing.render_ms);
+                else
+                    fprintf(stderr, "volux render: %s: %s %dx%d, %u spp, prepare %.1f ms, render %.1f ms",
+                            args.scene_path, rs->technique, rs->width, rs->height, volux_framebuffer_spp(fb),
+                            prepare_ms, timing.render_ms);
+                if (dist_size() > 1)
+                    fprintf(stderr, " (%d ranks, %.1f-%.1f ms each, composite %.1f ms)", dist_size(),
+                            timing.rank_render_ms_min, timing.rank_render_ms_max, timing.composite_ms);
+                if (all_steps) fprintf(stderr, " -> %s\n", out);
+                else fprintf(stderr, ", rel. error %.3g -> %s\n", volux_framebuffer_rel_error(fb), out);
+            }
+        }
+        rc = dist_share_exit(rc);
     }
-    rc = dist_share_exit(rc);
 done:
     volux_image_free(ctx, &img);
     volux_framebuffer_destroy(fb);

@@ -35,7 +35,8 @@ int cli_scene_arg(const char *cmd, cli_scene_args *a, int argc, char **argv, int
         {"--threads", "render.threads=%s"},         {"--seed", "render.seed=%s"},
         {"--step", "render.step=%s"},               {"--exposure", "render.exposure=%s"},
         {"--time-ms", "render.time_ms=%s"},         {"--target-error", "render.target_error=%s"},
-        {"--max-depth", "render.max_depth=%s"},     {"--set", "%s"},
+        {"--max-depth", "render.max_depth=%s"},     {"--time-step", "render.time_step=%s"},
+        {"--set", "%s"},
     };
     const char *arg = argv[*i];
     for (size_t k = 0; k < sizeof map / sizeof map[0]; k++) {

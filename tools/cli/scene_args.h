@@ -1,7 +1,8 @@
 /*
  * tools/cli/scene_args.h — the scene options `render` and `bench` share:
  * SCENE.json plus --technique/--spp/--width/--height/--threads/--seed/
- * --set, turned into --set overrides so there is one path into the scene.
+ * --time-step/--set, turned into --set overrides so there is one path into
+ * the scene.
  */
 #ifndef VOLUX_CLI_SCENE_ARGS_H
 #define VOLUX_CLI_SCENE_ARGS_H
