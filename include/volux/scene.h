@@ -45,14 +45,16 @@ extern "C" {
 typedef enum volux_change {
     VOLUX_CHANGE_VOLUME = 1u << 0,     /* volume / time step              */
     VOLUX_CHANGE_EXTINCTION = 1u << 1, /* opacity/extinction curve, unit  */
-    VOLUX_CHANGE_COLOR = 1u << 2,      /* colour curve, albedo, materials */
+    VOLUX_CHANGE_COLOR = 1u << 2,      /* colour curve, materials         */
     VOLUX_CHANGE_DENSITY = 1u << 3,    /* global density scale only       */
     VOLUX_CHANGE_PHASE = 1u << 4,      /* HG anisotropy                   */
     VOLUX_CHANGE_LIGHTS = 1u << 5,     /* some light: see lights bitset   */
     VOLUX_CHANGE_CAMERA = 1u << 6,
     VOLUX_CHANGE_PARAMS = 1u << 7,     /* technique parameters            */
     VOLUX_CHANGE_RENDER = 1u << 8,     /* step, size, seed, max_depth, background */
-    VOLUX_CHANGE_ALL = 0x1ffu
+    VOLUX_CHANGE_ALBEDO = 1u << 9,     /* scattering albedo only (σs/σt; emission–
+                                          absorption images do not depend on it) */
+    VOLUX_CHANGE_ALL = 0x3ffu
 } volux_change;
 
 typedef struct volux_change_set {
@@ -75,7 +77,7 @@ static inline volux_change_set volux_change_all(void) {
 /* The versions a consumer saw (opaque contents, copyable). */
 typedef struct volux_scene_stamp {
     uint64_t scene_id;
-    uint32_t aspect[9];
+    uint32_t aspect[10];
     uint32_t light[VOLUX_MAX_LIGHTS];
 } volux_scene_stamp;
 

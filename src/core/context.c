@@ -77,6 +77,8 @@ volux_status volux_context_create(const volux_context_desc *desc, volux_context 
     ctx->max_bytes = desc && desc->max_bytes ? desc->max_bytes : VOLUX_DEFAULT_MAX_BYTES;
     ctx->progress = desc ? desc->progress : NULL;
     ctx->progress_user = desc ? desc->progress_user : NULL;
+    ctx->message = desc ? desc->message : NULL;
+    ctx->message_user = desc ? desc->message_user : NULL;
     if (!copy_cache_dir(ctx, desc ? desc->cache_dir : NULL, &ctx->cache_dir)) {
         alloc(user, ctx, sizeof *ctx, 0);
         return VOLUX_ERR_NOMEM;
@@ -114,6 +116,10 @@ int volux_context_threads(const volux_context *ctx) {
 void volux_context_set_progress(volux_context *ctx, volux_progress_fn fn, void *user) {
     ctx->progress = fn;
     ctx->progress_user = user;
+}
+void volux_context_set_message(volux_context *ctx, volux_message_fn fn, void *user) {
+    ctx->message = fn;
+    ctx->message_user = user;
 }
 uint64_t volux_context_max_bytes(const volux_context *ctx) { return ctx->max_bytes; }
 uint64_t volux_context_bytes_in_use(const volux_context *ctx) {
@@ -232,6 +238,16 @@ void volux_error_prefix(volux_context *ctx, const char *fmt, ...) {
     if (m > sizeof ctx->error - 1 - n) m = sizeof ctx->error - 1 - n;
     memcpy(ctx->error + n, old, m);
     ctx->error[n + m] = 0;
+}
+
+void volux_message(volux_context *ctx, volux_message_level level, const char *fmt, ...) {
+    if (!ctx->message) return;
+    char text[VOLUX_ERROR_MAX];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(text, sizeof text, fmt, ap);
+    va_end(ap);
+    ctx->message(ctx->message_user, level, text);
 }
 
 int volux_progress(volux_context *ctx, const char *task, double fraction) {

@@ -22,6 +22,8 @@ struct volux_context {
     void *alloc_user;
     volux_progress_fn progress;
     void *progress_user;
+    volux_message_fn message;
+    void *message_user;
     volux_status error_status;
     char error[VOLUX_ERROR_MAX];
     uint64_t bytes_in_use; /* updated atomically */
@@ -55,6 +57,8 @@ void volux_error_prefix(volux_context *ctx, const char *fmt, ...) VOLUX_PRINTF(2
 
 /* Reports progress; returns nonzero if the caller asked to cancel. */
 int volux_progress(volux_context *ctx, const char *task, double fraction);
+/* Passes a warning or note to the caller's message callback (none: dropped). */
+void volux_message(volux_context *ctx, volux_message_level level, const char *fmt, ...) VOLUX_PRINTF(3, 4);
 
 /* Checked size arithmetic: return 0 on overflow. */
 static inline int volux_mul_size(size_t a, size_t b, size_t *out) {

@@ -8,7 +8,7 @@
 
 /* ------------------------------------------------------------------ transfer function */
 
-enum { TF_OPACITY, TF_COLOR, TF_DENSITY, TF_PHASE };
+enum { TF_OPACITY, TF_COLOR, TF_DENSITY, TF_PHASE, TF_ALBEDO };
 
 static volux_status edit_transfer(volux_scene *s, int k, int what) {
     const volux_transfer_desc *cur = volux_scene_transfer(s);
@@ -27,13 +27,23 @@ static volux_status edit_transfer(volux_scene *s, int k, int what) {
             op[i].v = d.extinction ? v : fminf(v, 1.0f);
         }
         break;
-    case TF_COLOR: /* swap red and blue of every colour point (white TF: scale the albedo) */
+    case TF_COLOR: /* swap red and blue of every colour point (white TF: tint it, and back) */
         for (int i = 0; i < d.n_color; i++) {
             float r = col[i].r;
             col[i].r = col[i].b;
             col[i].b = r;
         }
-        if (!d.n_color) d.albedo = (k & 1) ? d.albedo * 0.9f : d.albedo / 0.9f > 1 ? 1 : d.albedo / 0.9f;
+        if (!cur->n_color) {
+            col[0] = (volux_tf_color_point){0.0f, 1.0f, 0.85f, 0.7f};
+            d.color = col;
+            d.n_color = 1;
+        } else if (cur->n_color == 1 && col[0].r == 0.7f && col[0].g == 0.85f && col[0].b == 1.0f) {
+            d.color = NULL; /* the tint of a white TF swapped back: white again */
+            d.n_color = 0;
+        }
+        break;
+    case TF_ALBEDO: /* 0.9 ↔ 0.6 (an albedo near 0 scales up, so the pair still alternates) */
+        d.albedo = d.albedo >= 0.75f ? d.albedo - 0.3f : d.albedo + 0.3f;
         break;
     case TF_DENSITY: d.density_scale *= f; break;
     case TF_PHASE:
@@ -49,6 +59,7 @@ static volux_status edit_tf(volux_scene *s, int k) { return edit_transfer(s, k, 
 static volux_status edit_tf_color(volux_scene *s, int k) { return edit_transfer(s, k, TF_COLOR); }
 static volux_status edit_density(volux_scene *s, int k) { return edit_transfer(s, k, TF_DENSITY); }
 static volux_status edit_phase(volux_scene *s, int k) { return edit_transfer(s, k, TF_PHASE); }
+static volux_status edit_albedo(volux_scene *s, int k) { return edit_transfer(s, k, TF_ALBEDO); }
 
 /* ------------------------------------------------------------------ lights */
 
@@ -251,6 +262,7 @@ static const volux_edit edits[] = {
     {"tf_color", "swap red and blue of the colour curve", VOLUX_CHANGE_COLOR, NULL, 1, edit_tf_color},
     {"density", "scale density_scale", VOLUX_CHANGE_DENSITY, NULL, 1, edit_density},
     {"phase", "change the HG anisotropy by 0.2", VOLUX_CHANGE_PHASE, NULL, 1, edit_phase},
+    {"albedo", "change the scattering albedo by 0.3 (0.9 <-> 0.6)", VOLUX_CHANGE_ALBEDO, NULL, 1, edit_albedo},
     {"light", "rotate the first light by 10 degrees about +Y", VOLUX_CHANGE_LIGHTS, NULL, 1, edit_light},
     {"light_last", "rotate the last light by 10 degrees about +Y", VOLUX_CHANGE_LIGHTS, NULL, 1, edit_light_last},
     {"light_intensity", "scale the first light's irradiance/intensity/radiance by 1.25", VOLUX_CHANGE_LIGHTS, NULL,

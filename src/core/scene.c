@@ -9,7 +9,7 @@
 #include "volux/scene.h"
 #include "volux/sequence.h"
 
-enum { A_VOLUME, A_EXTINCTION, A_COLOR, A_DENSITY, A_PHASE, A_LIGHTS, A_CAMERA, A_PARAMS, A_RENDER, A_COUNT };
+enum { A_VOLUME, A_EXTINCTION, A_COLOR, A_DENSITY, A_PHASE, A_LIGHTS, A_CAMERA, A_PARAMS, A_RENDER, A_ALBEDO, A_COUNT };
 
 typedef struct light_slot {
     int present;
@@ -226,8 +226,8 @@ volux_status volux_scene_set_transfer(volux_scene *s, const volux_transfer_desc 
                      o->extinction != d->extinction || o->opacity_unit_distance != d->opacity_unit_distance;
     int density = first || o->density_scale != d->density_scale;
     int colors = first || !same_color_points(o->color, o->n_color, d->color, d->n_color);
-    int appearance = colors || o->albedo != d->albedo ||
-                     memcmp(&o->material, &d->material, sizeof o->material) != 0 ||
+    int albedo = first || o->albedo != d->albedo;
+    int appearance = colors || memcmp(&o->material, &d->material, sizeof o->material) != 0 ||
                      !same_materials(o->materials, o->n_materials, d->materials, d->n_materials);
     int phase = first || o->anisotropy != d->anisotropy;
     /* The LUT holds σt and the colour curve (not albedo, material or g). */
@@ -244,6 +244,7 @@ volux_status volux_scene_set_transfer(volux_scene *s, const volux_transfer_desc 
     if (extinction) bump(s, A_EXTINCTION);
     if (density) bump(s, A_DENSITY);
     if (appearance) bump(s, A_COLOR);
+    if (albedo) bump(s, A_ALBEDO);
     if (phase) bump(s, A_PHASE);
 
     free_tf_arrays(s);

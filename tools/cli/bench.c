@@ -4,7 +4,8 @@
  *
  * Metrics (DESIGN §4): prepare_ms (technique creation = building every
  * cache), render_ms (median), samples_per_s / vertices_per_s, memory_bytes,
- * update_ms.<edit> (median time of volux_technique_update after the edit;
+ * warnings (how many the technique's creation gave, with their text:
+ * lights it ignores), update_ms.<edit> (median time of volux_technique_update after the edit;
  * for a progressive technique its first state), refine_ms.<edit> (the
  * work it deferred, when there was any), refine_steps.<edit> (how many
  * refinement steps, i.e. frames, that took) and refine_step_ms.<edit> (the
@@ -42,6 +43,40 @@ static void emit(const bench_out *o, const char *metric, double value, const cha
     else
         printf("%-10s %-22s %14.4g %-10s %s\n", o->technique, metric, value, unit, extra ? extra : "");
     fflush(stdout);
+}
+
+/* Warnings from the library (e.g. a light the technique cannot use): shown
+ * on stderr as they come and listed in the output ("warnings" metric), so
+ * that a benchmark table never compares a technique that dropped a light
+ * without saying so. */
+#define MAX_WARNINGS 16
+typedef struct bench_messages {
+    int n;
+    char text[MAX_WARNINGS][256];
+} bench_messages;
+
+static void collect_message(void *user, volux_message_level level, const char *text) {
+    bench_messages *m = user;
+    fprintf(stderr, "volux: %s: %s\n", level == VOLUX_MESSAGE_WARNING ? "warning" : "note", text);
+    if (level != VOLUX_MESSAGE_WARNING) return;
+    if (m->n < MAX_WARNINGS) snprintf(m->text[m->n], sizeof m->text[0], "%s", text);
+    m->n++;
+}
+
+static void emit_warnings(const bench_out *o, const bench_messages *m) {
+    char list[MAX_WARNINGS * 300 + 32];
+    size_t at = (size_t)snprintf(list, sizeof list, "\"messages\":[");
+    for (int i = 0; i < m->n && i < MAX_WARNINGS; i++) {
+        if (i) list[at++] = ',';
+        list[at++] = '"';
+        for (const char *c = m->text[i]; *c && at + 8 < sizeof list; c++) {
+            if (*c == '"' || *c == '\\') list[at++] = '\\';
+            list[at++] = (unsigned char)*c < 0x20 ? ' ' : *c;
+        }
+        list[at++] = '"';
+    }
+    snprintf(list + at, sizeof list - at, "]");
+    emit(o, "warnings", m->n, "count", list);
 }
 
 static int cmp_double(const void *a, const void *b) {
@@ -171,6 +206,8 @@ int cli_bench(int argc, char **argv) {
     }
     volux_context *ctx = cli_context(0);
     if (!ctx) return CLI_FAIL;
+    static bench_messages messages;
+    volux_context_set_message(ctx, collect_message, &messages);
     volux_scene *scene = NULL;
     volux_technique *tech = NULL;
     volux_framebuffer *fb = NULL;
@@ -192,11 +229,13 @@ int cli_bench(int argc, char **argv) {
     for (int k = 0; k < repeat; k++) {
         volux_technique_destroy(tech);
         tech = NULL;
+        messages.n = 0; /* each creation warns again: keep one's */
         double t0 = cli_now_ms();
         if ((st = volux_technique_create(ctx, rs->technique, scene, &tech))) goto fail;
         times[k] = cli_now_ms() - t0;
     }
     emit(&o, "prepare_ms", median(times, repeat), "ms", NULL);
+    emit_warnings(&o, &messages);
     /* A progressive technique renders its refined state below. */
     for (int more = 1; more;)
         if ((st = volux_technique_refine(tech, scene, NULL, &more))) goto fail;

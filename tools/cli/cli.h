@@ -36,6 +36,8 @@ volux_context *cli_context(int threads);
 /* Draws the terminal progress bar of cli_context for work the library
  * does not see (nothing when stderr is not a terminal). */
 void cli_progress(const char *task, double fraction);
+/* No progress output from now on (--quiet); Ctrl-C still stops work. */
+void cli_quiet_progress(void);
 /* Parses a positive/non-negative integer option value; prints an error. */
 int cli_parse_int(const char *cmd, const char *opt, const char *s, long lo, long hi, long *out);
 int cli_parse_double(const char *cmd, const char *opt, const char *s, double *out);

@@ -21,11 +21,16 @@ int cli_fail(const char *cmd, volux_context *ctx, volux_status st) {
     return cli_exit_status(st);
 }
 
-/* A one-line progress bar on stderr, redrawn at most every 1/10 of the way
- * (or on task change); cleared when the task finishes. */
+/* Progress on stderr. On a terminal: a one-line bar with the time left,
+ * redrawn at most every 1/40 of the way (or on task change), cleared when
+ * the task finishes. Elsewhere (a log): one line per 10 % for tasks that
+ * have run for more than 5 s, so short renders stay quiet. */
 typedef struct progress_state {
     char task[64];
-    int last_tenth;
+    int last_step;
+    int tty;
+    int quiet; /* draw nothing (interrupts still stop the library) */
+    double start_ms;
 } progress_state;
 
 static volatile sig_atomic_t stop_signal;
@@ -58,39 +63,73 @@ void cli_hold_interrupts(int hold) {
     sigprocmask(hold ? SIG_BLOCK : SIG_UNBLOCK, &set, NULL);
 }
 
+static void format_left(double ms, char *buf, size_t size) {
+    long s = (long)(ms * 1e-3 + 0.5);
+    if (s >= 3600) snprintf(buf, size, "%ld:%02ld:%02ld left", s / 3600, s / 60 % 60, s % 60);
+    else snprintf(buf, size, "%ld:%02ld left", s / 60, s % 60);
+}
+
 static int progress_bar(void *user, const char *task, double fraction) {
     progress_state *p = user;
     if (stop_signal) return 1; /* asks the library to stop */
-    if (!p) return 0;          /* not a terminal: nothing to draw */
-    int tenth = (int)(fraction * 40.0);
-    if (tenth == p->last_tenth && !strcmp(p->task, task)) return 0;
-    p->last_tenth = tenth;
+    if (p->quiet) return 0;
+    int steps = p->tty ? 40 : 10, step = (int)(fraction * steps);
+    int new_task = strcmp(p->task, task) != 0;
+    if (step == p->last_step && !new_task) return 0;
+    if (new_task) p->start_ms = cli_now_ms();
+    p->last_step = step;
     snprintf(p->task, sizeof p->task, "%s", task);
+    double elapsed = cli_now_ms() - p->start_ms;
+    char left[32] = "";
+    if (fraction > 0.02 && fraction < 1.0 && elapsed > 1000.0)
+        format_left(elapsed * (1.0 - fraction) / fraction, left, sizeof left);
+    if (!p->tty) {
+        if (elapsed > 5000.0 && fraction < 1.0)
+            fprintf(stderr, "volux: %s: %d%% %s\n", task, (int)(fraction * 100.0), left);
+        return 0;
+    }
     if (fraction >= 1.0) {
         fprintf(stderr, "\r\033[K");
         return 0;
     }
     char bar[41];
-    for (int i = 0; i < 40; i++) bar[i] = i < tenth ? '#' : '.';
+    for (int i = 0; i < 40; i++) bar[i] = i < step ? '#' : '.';
     bar[40] = 0;
-    fprintf(stderr, "\r%-20.20s [%s] %3d%%", task, bar, (int)(fraction * 100.0));
+    fprintf(stderr, "\r%-20.20s [%s] %3d%% %s\033[K", task, bar, (int)(fraction * 100.0), left);
     fflush(stderr);
     return 0;
 }
 
-static progress_state bar_state = {"", -1};
+static progress_state bar_state = {"", -1, 0, 0, 0.0};
+
+void cli_quiet_progress(void) { bar_state.quiet = 1; }
 
 void cli_progress(const char *task, double fraction) {
-    if (isatty(STDERR_FILENO)) progress_bar(&bar_state, task, fraction);
+    if (isatty(STDERR_FILENO)) {
+        bar_state.tty = 1;
+        progress_bar(&bar_state, task, fraction);
+    }
+}
+
+/* Warnings and notes from the library, one line each on stderr (a progress
+ * bar in the way is cleared first). */
+static void print_message(void *user, volux_message_level level, const char *text) {
+    progress_state *p = user;
+    if (p->tty && p->last_step >= 0) fprintf(stderr, "\r\033[K");
+    fprintf(stderr, "volux: %s: %s\n", level == VOLUX_MESSAGE_WARNING ? "warning" : "note", text);
+    p->last_step = -1; /* redraw the bar */
 }
 
 volux_context *cli_context(int threads) {
     progress_state *state = &bar_state;
     volux_context_desc d = {0};
     d.threads = threads;
+    state->tty = isatty(STDERR_FILENO);
     /* Always installed: it is also how an interrupt reaches the library. */
     d.progress = progress_bar;
-    d.progress_user = isatty(STDERR_FILENO) ? state : NULL;
+    d.progress_user = state;
+    d.message = print_message;
+    d.message_user = state;
     volux_context *ctx = NULL;
     if (volux_context_create(&d, &ctx) != VOLUX_OK) {
         fprintf(stderr, "volux: out of memory\n");

@@ -144,7 +144,11 @@ int cli_render(int argc, char **argv) {
         dist_end();
         return CLI_FAIL;
     }
+    /* --quiet silences progress, not warnings and notes; other ranks repeat
+     * rank 0's messages, so only rank 0 prints them */
+    if (args.quiet) cli_quiet_progress();
     if (dist_rank() > 0) volux_context_set_progress(ctx, NULL, NULL);
+    if (dist_rank() > 0) volux_context_set_message(ctx, NULL, NULL);
     volux_scene *scene = NULL;
     volux_technique *tech = NULL;
     volux_framebuffer *fb = NULL;

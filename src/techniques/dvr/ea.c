@@ -11,10 +11,11 @@
 
 static const volux_param_info ea_params[] = {DVR_COMMON_PARAMS, {NULL, 0, 0, 0, 0, NULL, NULL}};
 
-/* Lights and the phase function never reach an emission–absorption image. */
+/* Lights, the phase function and the scattering albedo never reach an
+ * emission–absorption image. */
 const volux_technique_class volux_ea_class = {
     {"ea", "emission-absorption ray casting (no lighting)", ea_params, 0},
-    sizeof(dvr_state), VOLUX_CHANGE_LIGHTS | VOLUX_CHANGE_PHASE, 0,
+    sizeof(dvr_state), VOLUX_CHANGE_LIGHTS | VOLUX_CHANGE_PHASE | VOLUX_CHANGE_ALBEDO, 0,
     volux_dvr_init, volux_dvr_update, volux_dvr_render_tile, volux_dvr_memory_bytes, volux_dvr_release,
     NULL, NULL, NULL, /* no refine, pending work or statistics */
 };
@@ -26,10 +27,10 @@ static const volux_param_info shaded_params[] = {
     VOLUX_PARAM_GRADIENT_THRESHOLD("shading is"),
     {NULL, 0, 0, 0, 0, NULL, NULL}};
 
-/* Blinn–Phong has no phase function. */
+/* Blinn–Phong has no phase function and no scattering albedo. */
 const volux_technique_class volux_shaded_class = {
     {"shaded", "emission-absorption plus gradient Blinn-Phong from all non-ambient lights", shaded_params, 0},
-    sizeof(dvr_state), VOLUX_CHANGE_PHASE, 0,
+    sizeof(dvr_state), VOLUX_CHANGE_PHASE | VOLUX_CHANGE_ALBEDO, 0,
     volux_dvr_init, volux_dvr_update, volux_dvr_render_tile, volux_dvr_memory_bytes, volux_dvr_release,
     NULL, NULL, NULL, /* no refine, pending work or statistics */
 };
