@@ -5,8 +5,10 @@
  * read it strictly into a fresh scene (unknown keys are errors naming their
  * path). Relative file names resolve against the scene file's folder.
  */
+#include <errno.h>
 #include <limits.h>
 #include <math.h>
+#include <stdlib.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -26,6 +28,8 @@ typedef struct scene_reader {
     const char *base_dir;
     volux_scene *scene;
     unsigned flags; /* VOLUX_SCENE_* */
+    const volux_scene_files *files; /* NULL: names are used as given */
+    int untrusted_volume;           /* set by resolve_path for volume.file */
 } scene_reader;
 
 /* dir + "/" + name unless name is absolute. `key` is the scene path of the
@@ -39,6 +43,23 @@ static volux_status resolve_path(scene_reader *sr, const char *base_dir, const c
     int w = name[0] == '/' || !base_dir || !*base_dir ? snprintf(out, n, "%s", name)
                                                       : snprintf(out, n, "%s/%s", base_dir, name);
     if (w < 0 || (size_t)w >= n) return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "path too long");
+    const volux_scene_files *f = sr->files;
+    if (!f || (!f->record && !f->root)) return VOLUX_OK;
+    char real[PATH_MAX];
+    if (!realpath(out, real)) {
+        if (!f->root) return VOLUX_OK; /* recording: the loader reports it */
+        return volux_json_error(&sr->json, VOLUX_ERR_IO, key, "%s: cannot open: %s", out, strerror(errno));
+    }
+    if (f->record && volux_path_list_add(sr->json.ctx, f->record, real))
+        return volux_json_error(&sr->json, VOLUX_ERR_NOMEM, key, "out of memory");
+    if (!f->root) return VOLUX_OK;
+    int trusted = f->trusted && volux_path_list_has(f->trusted, real);
+    if (!trusted && !volux_path_inside(real, f->root))
+        return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "'%s' is outside the data root %s", name, f->root);
+    if (!strcmp(key, "volume.file")) sr->untrusted_volume = !trusted;
+    /* Open the name that was checked (no symlink left to swap). */
+    if (strlen(real) >= n) return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "path too long");
+    strcpy(out, real);
     return VOLUX_OK;
 }
 
@@ -142,6 +163,15 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
         /* The layout is checked first: its errors do not depend on the file. */
         char path[4096];
         if ((st = resolve_path(sr, sr->base_dir, file, "volume.file", path, sizeof path))) return st;
+        if (sr->untrusted_volume) {
+            /* A header the loaded document did not name: its detached data
+             * must stay in the data root too. */
+            if (allow_outside)
+                return volux_json_error(r, VOLUX_ERR_INVALID, "volume.allow_outside_dir",
+                                        "not allowed for a file outside the loaded scene (data root %s)",
+                                        sr->files->root);
+            opt.data_root = sr->files->root;
+        }
         st = volux_volume_load(r->ctx, path, &opt, &vol);
         if (st) {
             /* The loader's message names the file; add where it came from. */
@@ -181,7 +211,7 @@ static volux_status read_transfer(scene_reader *sr, const cJSON *obj) {
         if (!st) {
             char dir[4096];
             dir_of(path, dir, sizeof dir);
-            scene_reader sub_sr = {sub, sr->base_dir, sr->scene, sr->flags};
+            scene_reader sub_sr = {sub, sr->base_dir, sr->scene, sr->flags, sr->files, 0};
             st = read_tf_object(&sub_sr, tree, dir);
             cJSON_Delete(tree);
         }
@@ -648,10 +678,94 @@ static volux_status read_scene(scene_reader *sr, const cJSON *root) {
     return VOLUX_OK;
 }
 
+volux_status volux_scene_read_tree(volux_context *ctx, const cJSON *root, const char *base_dir, const char *name,
+                                   const volux_scene_files *files, volux_scene *out) {
+    scene_reader sr = {{ctx, name ? name : "scene"}, base_dir ? base_dir : ".", out, 0, files, 0};
+    if (!cJSON_IsObject(root))
+        return volux_json_error(&sr.json, VOLUX_ERR_INVALID, NULL, "the scene must be a JSON object");
+    return read_scene(&sr, root);
+}
+
+/* Exact structural equality (cJSON_Compare treats numbers within a
+ * relative epsilon as equal, which would let a tiny edit go unapplied). */
+static int json_same(const cJSON *a, const cJSON *b) {
+    if (!a || !b) return a == b;
+    if ((a->type & 0xff) != (b->type & 0xff)) return 0;
+    if (cJSON_IsNumber(a)) return a->valuedouble == b->valuedouble;
+    if (cJSON_IsString(a)) return !strcmp(a->valuestring, b->valuestring);
+    if (cJSON_IsArray(a) || cJSON_IsObject(a)) {
+        const cJSON *x = a->child, *y = b->child;
+        for (; x && y; x = x->next, y = y->next) {
+            if (cJSON_IsObject(a) && strcmp(x->string, y->string)) return 0;
+            if (!json_same(x, y)) return 0;
+        }
+        return !x && !y;
+    }
+    return 1; /* true, false, null */
+}
+
+static const cJSON *item(const cJSON *obj, const char *key) {
+    return obj ? cJSON_GetObjectItemCaseSensitive(obj, key) : NULL;
+}
+
+volux_status volux_scene_read_edit(volux_context *ctx, const cJSON *root, const cJSON *old_root,
+                                   const volux_scene *live, const char *base_dir, const char *name,
+                                   const volux_scene_files *files, volux_scene *candidate,
+                                   volux_scene_edit_plan *plan) {
+    scene_reader sr = {{ctx, name ? name : "scene"}, base_dir ? base_dir : ".", candidate, 0, files, 0};
+    volux_json_reader *r = &sr.json;
+    memset(plan, 0, sizeof *plan);
+    if (!cJSON_IsObject(root)) return volux_json_error(r, VOLUX_ERR_INVALID, NULL, "the scene must be a JSON object");
+    static const char *const keys[] = {"volume", "transfer_function", "camera", "lights", "background",
+                                       "render", "techniques", "comment", NULL};
+    volux_status st = volux_json_check_keys(r, root, "", keys);
+    if (st) return st;
+    float bg[3] = {0, 0, 0};
+    if ((st = volux_json_vec3(r, root, "", "background", 0, BIG, bg))) return st;
+    if ((st = read_render(&sr, item(root, "render")))) return st;
+    /* The volume: read again only when its section changed (a file load
+     * or a procedural build is the expensive part of a scene). */
+    plan->volume = !json_same(item(old_root, "volume"), item(root, "volume"));
+    if (plan->volume) st = read_volume(&sr, item(root, "volume"));
+    else st = volux_scene_set_volume(candidate, volux_scene_volume(live));
+    if (st) return st;
+    /* A new volume changes what the TF (preset rescaling) and the camera
+     * (orbit radius, finite view) read from it. */
+    plan->transfer = plan->volume || !json_same(item(old_root, "transfer_function"), item(root, "transfer_function"));
+    if (plan->transfer) st = read_transfer(&sr, item(root, "transfer_function"));
+    else st = volux_scene_set_transfer(candidate, volux_scene_transfer(live));
+    if (st) return st;
+    plan->camera = plan->volume || !json_same(item(old_root, "camera"), item(root, "camera"));
+    if (plan->camera) st = read_camera(&sr, item(root, "camera"));
+    else st = volux_scene_set_camera(candidate, volux_scene_camera_desc(live));
+    if (st) return st;
+    const cJSON *lights = item(root, "lights"), *old_lights = item(old_root, "lights");
+    if (lights) {
+        if (!cJSON_IsArray(lights)) return volux_json_error(r, VOLUX_ERR_INVALID, "lights", "expected an array");
+        int n = cJSON_GetArraySize(lights);
+        if (n > VOLUX_MAX_LIGHTS)
+            return volux_json_error(r, VOLUX_ERR_LIMIT, "lights", "at most %d lights, got %d", VOLUX_MAX_LIGHTS, n);
+        plan->n_lights = n;
+        const cJSON *old = cJSON_IsArray(old_lights) ? old_lights->child : NULL;
+        int i = 0;
+        for (const cJSON *l = lights->child; l; l = l->next, i++) {
+            const volux_light_desc *kept = volux_scene_light(live, i);
+            plan->light[i] = !kept || !json_same(old, l);
+            if (plan->light[i]) st = read_light(&sr, l, i);
+            else st = volux_scene_set_light(candidate, i, kept); /* copies its map: no file read */
+            if (st) return st;
+            if (old) old = old->next;
+        }
+    }
+    if ((st = read_techniques(&sr, item(root, "techniques")))) return st;
+    volux_scene_set_background(candidate, (volux_vec3){bg[0], bg[1], bg[2]});
+    return VOLUX_OK;
+}
+
 volux_status volux_scene_parse(volux_context *ctx, const char *text, size_t n, const char *base_dir,
                                const char *name, const char *const *overrides, int n_overrides, unsigned flags,
                                volux_scene **out) {
-    scene_reader sr = {{ctx, name ? name : "scene"}, base_dir ? base_dir : ".", NULL, flags};
+    scene_reader sr = {{ctx, name ? name : "scene"}, base_dir ? base_dir : ".", NULL, flags, NULL, 0};
     cJSON *root = NULL;
     volux_status st = volux_json_parse(&sr.json, text, n, &root);
     if (st) return st;
