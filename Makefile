@@ -5,7 +5,7 @@
 # Other targets: build, asan, fuzz, bench, clean.
 
 PACKAGES := build-essential cmake pkg-config clang libpng-dev zlib1g-dev libcjson-dev \
-            libopenexr-dev libcmocka-dev
+            libopenexr-dev libcmocka-dev libmicrohttpd-dev libjpeg-dev
 # Only the tests need these: `locales` has the de_DE sources a test compiles
 # into a temporary decimal-comma locale (header numbers must not follow it).
 TEST_PACKAGES := locales
