@@ -4,6 +4,7 @@
  * server, prints the URL and runs until SIGINT/SIGTERM.
  */
 #include <cjson/cJSON.h>
+#include <arpa/inet.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -102,6 +103,12 @@ int cli_serve(int argc, char **argv) {
                 if (!cli_parse_int("serve", a, val, 0, 65535, &n)) goto out;
                 o->port = (int)n;
             } else if (!strcmp(a, "--bind")) {
+                unsigned char probe[16];
+                if (strcmp(val, "localhost") && inet_pton(AF_INET, val, probe) != 1 &&
+                    inet_pton(AF_INET6, val, probe) != 1) {
+                    fprintf(stderr, "volux serve: --bind %s: expected an IPv4 or IPv6 address\n", val);
+                    goto out;
+                }
                 o->bind = val;
             } else if (!strcmp(a, "--token")) {
                 if (!*val) {
