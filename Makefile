@@ -7,13 +7,17 @@
 PACKAGES := build-essential cmake pkg-config clang libpng-dev zlib1g-dev libcjson-dev \
             libopenexr-dev libcmocka-dev libmicrohttpd-dev libjpeg-dev
 # Only the tests need these: `locales` has the de_DE sources a test compiles
-# into a temporary decimal-comma locale (header numbers must not follow it).
-TEST_PACKAGES := locales
+# into a temporary decimal-comma locale (header numbers must not follow it);
+# `chromium` runs the viewer's browser test, driven by playwright-core from
+# npm (tests/browser/package-lock.json; Debian's nodejs + npm unless a node
+# is already installed). Without them that one test is skipped.
+TEST_PACKAGES := locales chromium
+NODE_PACKAGES := nodejs npm
 JOBS     ?= $(shell nproc 2>/dev/null || echo 2)
 BUILD    ?= build
 VOLUX    := $(BUILD)/volux
 
-.PHONY: all deps test-deps build demo test test-release test-asan asan fuzz bench clean
+.PHONY: all deps test-deps node-deps build demo test test-release test-asan asan fuzz bench clean
 
 all: build
 
@@ -35,6 +39,14 @@ deps:
 
 test-deps: deps
 	$(call install_missing,$(TEST_PACKAGES))
+	@command -v npm >/dev/null || $(MAKE) --no-print-directory node-deps
+	@if [ ! -f tests/browser/node_modules/playwright-core/package.json ]; then \
+	  (cd tests/browser && npm ci --no-audit --no-fund --loglevel=error) || \
+	  echo "warning: npm ci in tests/browser failed: the browser test will be skipped"; \
+	fi
+
+node-deps:
+	$(call install_missing,$(NODE_PACKAGES))
 
 build: deps
 	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release -DVOLUX_WERROR=ON >/dev/null

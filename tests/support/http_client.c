@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -23,9 +24,15 @@
 int tu_server_start(tu_server *s, const char *args) {
     int fd[2];
     if (pipe(fd)) return 0;
+    pid_t parent = getpid();
     pid_t pid = fork();
     if (pid < 0) return 0;
     if (pid == 0) {
+        /* A test that fails an assertion never reaches tu_server_stop: the
+         * server must not outlive it (it would hold ctest's output pipe
+         * open and the test would hang until its timeout). */
+        prctl(PR_SET_PDEATHSIG, SIGKILL);
+        if (getppid() != parent) _exit(127);
         dup2(fd[1], 1);
         close(fd[0]);
         close(fd[1]);
