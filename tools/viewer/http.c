@@ -35,7 +35,7 @@ typedef struct request {
     char *body;
     size_t len, cap;
     int rejected; /* a response was queued early */
-    double t0;
+    double t0, cpu0;
 } request;
 
 /* ------------------------------------------------------------------ replies */
@@ -188,10 +188,10 @@ static char *next_event(stream *s) {
             int hn = snprintf(head, sizeof head,
                               "event: frame\ndata: {\"id\":%llu,\"version\":%llu,\"kind\":\"%s\",\"spp\":%u,"
                               "\"width\":%d,\"height\":%d,\"format\":\"%s\",\"bytes\":%zu,\"update_ms\":%.3f,"
-                              "\"render_ms\":%.3f,\"encode_ms\":%.3f,\"latency_ms\":%.3f,\"data\":\"",
+                              "\"render_ms\":%.3f,\"encode_ms\":%.3f,\"latency_ms\":%.3f,\"cpu_ms\":%.3f,\"data\":\"",
                               (unsigned long long)f->id, (unsigned long long)f->version, kinds[f->kind], f->spp,
                               f->width, f->height, f->format, f->size, f->update_ms, f->render_ms, f->encode_ms,
-                              f->latency_ms);
+                              f->latency_ms, f->cpu_ms);
             event = malloc((size_t)hn + n64 + 8);
             if (event) {
                 memcpy(event, head, (size_t)hn);
@@ -376,7 +376,11 @@ static enum MHD_Result serve_edit(viewer *v, struct MHD_Connection *c, request *
     snprintf(msg, sizeof msg, "%s", volux_context_error(v->ctx));
     uint64_t version = volux_scene_doc_version(v->doc);
     if (!st) {
-        if (!v->need_latency) v->last_edit_ms = rq->t0; /* coalesced edits: the oldest one counts */
+        if (!v->need_latency) { /* coalesced edits: the oldest one counts */
+            v->last_edit_ms = rq->t0;
+            v->last_edit_cpu_ms = rq->cpu0;
+        }
+        v->last_change_ms = rq->t0;
         v->need_latency = v->need_final_latency = 1;
         if (!viewer_snapshot(v)) st = VOLUX_ERR_NOMEM, snprintf(msg, sizeof msg, "out of memory");
     }
@@ -526,6 +530,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
         return MHD_YES;
     }
     rq->t0 = viewer_now_ms();
+    rq->cpu0 = viewer_cpu_ms();
     if (!strcmp(method, "POST")) return serve_edit(v, c, rq);
     if (!strcmp(url, "/api/scene")) {
         const char *paths = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "paths");

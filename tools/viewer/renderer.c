@@ -27,6 +27,12 @@ double viewer_now_ms(void) {
     return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
 }
 
+double viewer_cpu_ms(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
+}
+
 /* ------------------------------------------------------------------ lock */
 
 void viewer_lock_edit(viewer *v) {
@@ -74,7 +80,7 @@ static void render_failed(viewer *v, const char *what, volux_status st) {
 /* Encodes `img` (ownership passes to the frame) and publishes it. Runs
  * without `lock`. `since_edit_ms` < 0: no latency to report. */
 static void publish(viewer *v, volux_image *img, frame_kind kind, uint64_t version, uint32_t spp, float exposure,
-                    double update_ms, double render_ms, double since_edit_t0) {
+                    double update_ms, double render_ms, double since_edit_t0, double since_edit_cpu) {
     double t0 = viewer_now_ms();
     unsigned char *data = NULL;
     size_t size = 0;
@@ -121,13 +127,17 @@ static void publish(viewer *v, volux_image *img, frame_kind kind, uint64_t versi
     f->render_ms = render_ms;
     f->encode_ms = t1 - t0;
     f->latency_ms = since_edit_t0 > 0 ? t1 - since_edit_t0 : -1;
+    f->cpu_ms = since_edit_t0 > 0 ? viewer_cpu_ms() - since_edit_cpu : -1;
     memset(img, 0, sizeof *img);
     viewer_stats *s = &v->stats;
     s->frames++;
     s->last_encode_ms = f->encode_ms;
     s->last_render_ms = render_ms;
     s->error[0] = 0;
-    if (kind == FRAME_PREVIEW && f->latency_ms >= 0) s->last_latency_ms = f->latency_ms;
+    if (kind == FRAME_PREVIEW && f->latency_ms >= 0) {
+        s->last_latency_ms = f->latency_ms;
+        s->last_latency_cpu_ms = f->cpu_ms;
+    }
     if (kind == FRAME_FINAL && f->latency_ms >= 0) s->last_final_ms = f->latency_ms;
     pthread_cond_broadcast(&v->frame_cv);
     pthread_mutex_unlock(&v->frame_lock);
@@ -230,7 +240,8 @@ static void do_preview(viewer *v, uint64_t version) {
             v->refined = 0;
             if (v->fb_full) volux_framebuffer_reset(v->fb_full);
             pthread_mutex_unlock(&v->lock);
-            publish(v, &img, FRAME_PREVIEW, version, 1, full.exposure, t1 - t0, viewer_now_ms() - t1, edit_t0);
+            publish(v, &img, FRAME_PREVIEW, version, 1, full.exposure, t1 - t0, viewer_now_ms() - t1, edit_t0,
+                    v->last_edit_cpu_ms);
             pthread_mutex_lock(&v->lock);
             return;
         }
@@ -304,7 +315,8 @@ static void do_refine(viewer *v) {
     uint64_t version = v->shown_version;
     float exposure = rs->exposure;
     pthread_mutex_unlock(&v->lock);
-    publish(v, &img, final ? FRAME_FINAL : FRAME_REFINE, version, spp, exposure, 0, now - t0, edit_t0);
+    publish(v, &img, final ? FRAME_FINAL : FRAME_REFINE, version, spp, exposure, 0, now - t0, edit_t0,
+            v->last_edit_cpu_ms);
     pthread_mutex_lock(&v->lock);
 }
 
@@ -328,7 +340,7 @@ static void *render_main(void *arg) {
         if (version != v->shown_version || !v->tech) {
             do_preview(v, version);
         } else if (!v->refined) {
-            double wait = v->last_edit_ms + v->opt.idle_ms - viewer_now_ms();
+            double wait = v->last_change_ms + v->opt.idle_ms - viewer_now_ms();
             if (wait > 0) wait_ms(v, wait);
             else do_refine(v);
         } else {

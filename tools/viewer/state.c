@@ -228,6 +228,7 @@ char *viewer_stats_json(viewer *v) {
     cJSON_AddNumberToObject(o, "width", f.width);
     cJSON_AddNumberToObject(o, "height", f.height);
     cJSON_AddNumberToObject(o, "edit_to_preview_ms", s.last_latency_ms);
+    cJSON_AddNumberToObject(o, "edit_to_preview_cpu_ms", s.last_latency_cpu_ms);
     cJSON_AddNumberToObject(o, "edit_to_final_ms", s.last_final_ms);
     cJSON_AddNumberToObject(o, "update_ms", s.last_update_ms);
     cJSON_AddNumberToObject(o, "render_ms", s.last_render_ms);

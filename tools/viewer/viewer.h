@@ -48,6 +48,8 @@ typedef struct viewer_frame {
     float exposure;
     double render_ms, update_ms, encode_ms;
     double latency_ms; /* edit received → this frame published (first frame after an edit) */
+    double cpu_ms;     /* CPU time the process spent meanwhile (all threads): a
+                          figure a loaded machine inflates far less than latency_ms */
 } viewer_frame;
 
 typedef struct viewer_options {
@@ -71,6 +73,7 @@ typedef struct viewer_options {
 typedef struct viewer_stats {
     uint64_t edits, edits_rejected, frames, requests, requests_rejected, cancelled;
     double last_latency_ms;       /* edit → first preview published    */
+    double last_latency_cpu_ms;   /* process CPU time over that interval */
     double last_final_ms;         /* edit → final frame published      */
     double last_update_ms, last_render_ms, last_encode_ms, last_refine_ms;
     uint32_t last_changes;        /* volux_change bits of the last update */
@@ -90,7 +93,9 @@ typedef struct viewer {
     pthread_cond_t work; /* an edit happened / quit                   */
     pthread_cond_t turn; /* waiters went away                         */
     atomic_int waiters, edit_waiters, quit, cancellable;
-    double last_edit_ms;    /* when the last edit was applied        */
+    double last_edit_ms;    /* when the oldest edit not yet shown arrived */
+    double last_edit_cpu_ms; /* process CPU time then                   */
+    double last_change_ms;  /* when the latest edit arrived (idle time) */
     uint64_t edit_version;  /* document version of the last edit     */
     int need_latency;       /* the next preview reports latency      */
     int need_final_latency; /* the next final frame reports latency  */
@@ -120,8 +125,9 @@ typedef struct viewer {
     int port;
 } viewer;
 
-/* Milliseconds on the monotonic clock. */
+/* Milliseconds on the monotonic clock; CPU milliseconds of the process. */
 double viewer_now_ms(void);
+double viewer_cpu_ms(void);
 
 /* renderer.c: the render thread. */
 int viewer_render_start(viewer *v);

@@ -20,6 +20,8 @@ const pending = new Map();
 let inflight = false;
 const editT0 = [];       // [version, t0] of edits whose frame has not been seen
 const latencies = [];    // edit → first frame on screen, ms (page-measured)
+// window.volux: what tests and benchmarks read (and `edit`, the controls'
+// own path to the server, so a script's edit is timed like a drag).
 window.volux = { latencies, frames: [], lastFrame: null, state: () => state, errors: [] };
 
 async function api(path, opts = {}) {
@@ -869,5 +871,6 @@ async function pollStats() {
   await loadState();
   connect();
   pollStats();
+  window.volux.edit = edit;
   window.volux.ready = true;
 })();
