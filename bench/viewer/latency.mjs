@@ -44,7 +44,9 @@ const plan = (process.env.VOLUX_BENCH_PLAN || 'ea:tf,camera;shaded:light,tf;ligh
 const loadavg = () => readFileSync('/proc/loadavg', 'utf8').split(' ').slice(0, 3).join(' ');
 console.log(`load before: ${loadavg()}`);
 
-const server = spawn(volux, ['serve', scenePath, '--port', '0', '--quiet'], {
+// VOLUX_BENCH_SERVE_ARGS: more `volux serve` options, e.g. --preview-png
+const extra = (process.env.VOLUX_BENCH_SERVE_ARGS || '').split(' ').filter(Boolean);
+const server = spawn(volux, ['serve', scenePath, '--port', '0', '--quiet', ...extra], {
   stdio: ['ignore', 'pipe', 'inherit'], env: { ...process.env, OMP_WAIT_POLICY: 'passive' },
 });
 const url = await new Promise((resolve, reject) => {
@@ -111,7 +113,7 @@ async function measure(technique, kind, n) {
         render_ms: preview.render_ms, encode_ms: preview.encode_ms, bytes: preview.bytes,
         preview: `${preview.width}x${preview.height}`, kind: preview.kind,
         final_ms: fin ? fin.shown - t0 : null, final_render_ms: fin ? fin.render_ms : null,
-        final_encode_ms: fin ? fin.encode_ms : null,
+        final_encode_ms: fin ? fin.encode_ms : null, final_bytes: fin ? fin.bytes : null, final_cpu_ms: fin ? fin.cpu_ms : null, format: preview.format,
       });
     }
     return out;
@@ -121,8 +123,8 @@ async function measure(technique, kind, n) {
 const median = (a) => { const s = [...a].sort((x, y) => x - y); return s.length ? s[Math.floor((s.length - 1) / 2)] : NaN; };
 const pct = (a, q) => { const s = [...a].sort((x, y) => x - y); return s.length ? s[Math.min(s.length - 1, Math.ceil(q * s.length) - 1)] : NaN; };
 const f1 = (x) => (Number.isFinite(x) ? x.toFixed(1) : '–');
-console.log('| technique | edit | edits | page: edit → preview median (p90) ms | server: edit → preview published | server CPU (all threads) | update | preview render | JPEG encode (KiB) | edit → final 512² median ms (seen) |');
-console.log('|---|---|---:|---:|---:|---:|---:|---:|---:|---:|');
+console.log('| technique | edit | edits | page: edit → preview median (p90) ms | server: edit → preview published | server CPU (all threads) | update | preview render | preview encode ms (KiB) | edit → final 512² median ms (seen) | final: server CPU |');
+console.log('|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|');
 for (const [technique, kinds] of plan) {
   for (const kind of kinds) {
     const rec = await measure(technique, kind, perKind);
@@ -136,11 +138,14 @@ for (const [technique, kinds] of plan) {
       jpeg_kib: median(ok.map((r) => r.bytes)) / 1024, preview: ok[0] && ok[0].preview,
       final_median_ms: median(fins), finals_seen: fins.length,
       final_encode_median_ms: median(ok.map((r) => r.final_encode_ms).filter((x) => x !== null)),
+      final_cpu_median_ms: median(ok.map((r) => r.final_cpu_ms).filter((x) => x !== null)),
+      final_png_kib: median(ok.map((r) => r.final_bytes).filter((x) => x !== null)) / 1024,
+      preview_format: ok[0] && ok[0].format, serve_args: extra.join(' '),
       threads: 2, load: loadavg(),
     };
     console.log(`| ${technique} | ${kind} | ${row.edits} | ${f1(row.page_latency_median_ms)} (${f1(row.page_latency_p90_ms)}) | ` +
       `${f1(row.server_latency_median_ms)} | ${f1(row.server_cpu_median_ms)} | ${f1(row.update_median_ms)} | ${f1(row.preview_render_median_ms)} | ` +
-      `${f1(row.encode_median_ms)} (${f1(row.jpeg_kib)}) | ${f1(row.final_median_ms)} (${fins.length}/${ok.length}) |`);
+      `${f1(row.encode_median_ms)} (${f1(row.jpeg_kib)}) | ${f1(row.final_median_ms)} (${fins.length}/${ok.length}) | ${f1(row.final_cpu_median_ms)} |`);
     if (outPath) appendFileSync(outPath, JSON.stringify(row) + '\n');
   }
 }
