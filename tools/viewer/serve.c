@@ -10,7 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "scene_args.h"
+#include "tools/cli/scene_args.h"
 #include "viewer.h"
 
 static void usage(FILE *f) {
