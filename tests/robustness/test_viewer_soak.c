@@ -5,8 +5,9 @@
  * event stream throughout, another polls /api/stats. Every request must be
  * answered (good edits 200, bad ones 400), the open descriptors must come
  * back to where they were, and the resident set must stay flat after the
- * warm-up (growth under 20 %: a leak per edit would show). Prints the edit
- * latencies (p50/p99) and the RSS/fd figures.
+ * warm-up (growth under 20 %: a leak per edit would show; not under ASan,
+ * whose quarantine grows RSS — LeakSanitizer checks the server's exit
+ * instead). Prints the edit latencies (p50/p99) and the RSS/fd figures.
  *
  * Default: 4 clients × 25 edits; with --slow (ctest label `slow`, skipped
  * under ASan): 4 × 250 = 1000 edits, the issue's soak.
@@ -203,7 +204,13 @@ static void run_soak(int n_clients, int edits) {
     assert_int_equal(stats_failed, 0);
     assert_true(stream_bytes > 0);
     assert_int_equal(fds1, fds0);
+#ifndef __SANITIZE_ADDRESS__
     assert_true((double)rss1 < 1.20 * (double)rss_warm);
+#else
+    /* ASan keeps freed blocks in its quarantine (up to 256 MiB), so RSS
+     * grows without a leak; its LeakSanitizer checks the server at exit
+     * instead (tu_server_stop must see status 0). */
+#endif
     assert_true(tu_server_alive(&server));
 }
 
