@@ -124,6 +124,66 @@ static int chunk_tiles(int total, int threads) {
     return c < 1 ? 1 : c;
 }
 
+/* Collective: rank 0's fb receives every other rank's chunks (their
+ * tile sums, packed by volux_framebuffer_read_tiles); rank 0's own tiles
+ * are already in place. */
+static volux_status gather_tiles(volux_framebuffer *fb, const int *chunks, int n_chunks, uint32_t spp) {
+    const int S = VOLUX_TILE_SUMS;
+    size_t my_px = 0;
+    if (rank > 0)
+        for (int c = 0; c < n_chunks; c++) my_px += volux_framebuffer_tile_pixels(fb, chunks[2 * c], chunks[2 * c + 1]);
+    size_t frame_px = (size_t)volux_framebuffer_width(fb) * (size_t)volux_framebuffer_height(fb);
+    double *packed = malloc((my_px ? my_px : 1) * S * sizeof(double));
+    double *received = rank == 0 ? malloc((frame_px ? frame_px : 1) * S * sizeof(double)) : NULL;
+    /* rank 0: (chunks, pixels) per rank, then their counts and offsets */
+    int *meta = rank == 0 ? calloc(6 * (size_t)size, sizeof(int)) : NULL;
+    int *all_chunks = rank == 0 ? malloc(2 * (size_t)(volux_framebuffer_tile_count(fb) + 1) * sizeof(int)) : NULL;
+    int ok = packed && (rank || (received && meta && all_chunks)), all_ok = 0;
+    MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    if (all_ok) {
+        for (int c = 0, at = 0; rank > 0 && c < n_chunks; c++)
+            at += (int)volux_framebuffer_read_tiles(fb, chunks[2 * c], chunks[2 * c + 1], packed + (size_t)S * at);
+        int mine[2] = {rank > 0 ? n_chunks : 0, (int)my_px};
+        MPI_Gather(mine, 2, MPI_INT, meta, 2, MPI_INT, 0, MPI_COMM_WORLD);
+        int *chunk_n = NULL, *px_n = NULL, *chunk_at = NULL, *px_at = NULL;
+        if (meta) {
+            chunk_n = meta + 2 * size;
+            px_n = meta + 3 * size;
+            chunk_at = meta + 4 * size;
+            px_at = meta + 5 * size;
+            for (int r = 0, ca = 0, pa = 0; r < size; r++) {
+                chunk_n[r] = meta[2 * r];
+                px_n[r] = meta[2 * r + 1];
+                chunk_at[r] = ca;
+                px_at[r] = pa;
+                ca += chunk_n[r];
+                pa += px_n[r];
+            }
+        }
+        /* Counts in whole pixels and chunk pairs: an MPI count is an int. */
+        MPI_Datatype pair, pixel;
+        MPI_Type_contiguous(2, MPI_INT, &pair);
+        MPI_Type_contiguous(S, MPI_DOUBLE, &pixel);
+        MPI_Type_commit(&pair);
+        MPI_Type_commit(&pixel);
+        MPI_Gatherv(chunks, mine[0], pair, all_chunks, chunk_n, chunk_at, pair, 0, MPI_COMM_WORLD);
+        MPI_Gatherv(packed, (int)my_px, pixel, received, px_n, px_at, pixel, 0, MPI_COMM_WORLD);
+        MPI_Type_free(&pair);
+        MPI_Type_free(&pixel);
+        if (rank == 0)
+            for (int r = 1; r < size; r++) {
+                const double *in = received + (size_t)S * px_at[r];
+                for (int c = chunk_at[r]; c < chunk_at[r] + chunk_n[r]; c++)
+                    in += (size_t)S * volux_framebuffer_write_tiles(fb, all_chunks[2 * c], all_chunks[2 * c + 1], in, spp);
+            }
+    }
+    free(packed);
+    free(received);
+    free(meta);
+    free(all_chunks);
+    return all_ok ? VOLUX_OK : VOLUX_ERR_NOMEM;
+}
+
 volux_status dist_render_image(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
                                dist_timing *timing) {
     memset(timing, 0, sizeof *timing);
@@ -148,7 +208,10 @@ volux_status dist_render_image(volux_technique *t, const volux_scene *scene, vol
     if (rank == 0) *counter = 0;
     MPI_Barrier(MPI_COMM_WORLD); /* the counter is 0 before anyone takes */
 
-    volux_status st = VOLUX_OK;
+    /* The chunks this rank took: (first tile, count) pairs. */
+    int max_chunks = total / chunk + 1, n_chunks = 0;
+    int *chunks = malloc(2 * (size_t)max_chunks * sizeof *chunks);
+    volux_status st = chunks ? VOLUX_OK : VOLUX_ERR_NOMEM;
     double start = now_ms();
     const int add = chunk;
     for (;;) {
@@ -156,40 +219,31 @@ volux_status dist_render_image(volux_technique *t, const volux_scene *scene, vol
         MPI_Win_lock(MPI_LOCK_SHARED, 0, 0, win);
         MPI_Fetch_and_op(&add, &first, MPI_INT, 0, 0, MPI_SUM, win);
         MPI_Win_unlock(0, win);
-        if (first >= total) break;
+        if (first >= total || !chunks) break;
         int count = total - first < chunk ? total - first : chunk;
         if (rank == 0 && !st) cli_progress("render", (double)first / total);
         st = volux_render_tiles(t, scene, fb, first, count, spp, NULL);
         if (st) break; /* the others take the rest; dist_agree reports it */
         timing->tiles += count;
+        chunks[2 * n_chunks] = first;
+        chunks[2 * n_chunks + 1] = count;
+        n_chunks++;
     }
     timing->render_ms = now_ms() - start;
     if (rank == 0) cli_progress("render", 1.0);
 
-    /* Sum the frames: every pixel is non-zero on one rank at most, so the
-     * sum is exact and independent of the reduction order. */
-    size_t n = (size_t)volux_framebuffer_width(fb) * (size_t)volux_framebuffer_height(fb);
-    double *mine = malloc(4 * n * sizeof(double)), *all = rank == 0 ? malloc(4 * n * sizeof(double)) : NULL;
-    int ok = mine && (rank || all), all_ok = 0;
-    MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    /* Gather every rank's tiles onto rank 0 with MPI_Gatherv: each pixel
+     * travels once, from the rank that rendered it, so the traffic is at
+     * most one frame whatever the rank count, and the sums arrive
+     * unchanged (bit-identical to one process). */
     double wait_start = now_ms();
     MPI_Barrier(MPI_COMM_WORLD);
     timing->wait_ms = now_ms() - wait_start;
-    if (all_ok) {
-        volux_framebuffer_get_sums(fb, mine, mine + 3 * n);
-        double t0 = now_ms();
-        /* In pieces: an MPI count is an int. */
-        for (size_t at = 0, piece = (size_t)1 << 26; at < 4 * n; at += piece) {
-            size_t m = 4 * n - at < piece ? 4 * n - at : piece;
-            MPI_Reduce(mine + at, all ? all + at : NULL, (int)m, MPI_DOUBLE, MPI_SUM, 0, MPI_COMM_WORLD);
-        }
-        timing->composite_ms = now_ms() - t0;
-        if (rank == 0 && !st) volux_framebuffer_set_sums(fb, all, all + 3 * n, spp);
-    } else if (!st) {
-        st = VOLUX_ERR_NOMEM;
-    }
-    free(mine);
-    free(all);
+    double t0 = now_ms();
+    volux_status gst = gather_tiles(fb, chunks, n_chunks, spp);
+    timing->composite_ms = now_ms() - t0;
+    if (!st) st = gst;
+    free(chunks);
     MPI_Win_free(&win);
 
     double r[2] = {-timing->render_ms, timing->render_ms}, ext[2];
