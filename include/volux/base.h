@@ -116,6 +116,12 @@ VOLUX_API void volux_context_destroy(volux_context *ctx);
 VOLUX_API const char *volux_context_error(const volux_context *ctx);
 VOLUX_API volux_status volux_context_error_status(const volux_context *ctx);
 VOLUX_API void volux_context_clear_error(volux_context *ctx);
+/* Records an error the way the library does (ignored when an error is
+ * already recorded: the first wins) and returns `status`. For callbacks
+ * the library calls that report through the context (e.g. the validate
+ * hook of volux_scene_doc_options). */
+VOLUX_API volux_status volux_context_set_error(volux_context *ctx, volux_status status, const char *fmt, ...)
+    VOLUX_PRINTF(3, 4);
 
 VOLUX_API void volux_context_set_threads(volux_context *ctx, int threads);
 /* Threads actually used (resolves 0 to the core count). */

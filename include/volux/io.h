@@ -42,6 +42,9 @@ typedef struct volux_volume_load_options {
     int use_file_origin;       /* 1: origin from the header, else centred  */
     int allow_outside_dir;     /* 1: detached data may lie outside the
                                   header's folder                          */
+    const char *data_root;     /* non-NULL: detached data must also lie in
+                                  this folder once symbolic links are
+                                  resolved (absolute, symlink-free name)   */
 } volux_volume_load_options;
 
 /* Loads a volume file, choosing the reader by extension (.nrrd .nhdr .mhd
@@ -134,6 +137,17 @@ VOLUX_API volux_status volux_image_check_output(volux_context *ctx, const char *
 VOLUX_API float volux_srgb_encode(float linear);
 VOLUX_API float volux_srgb_decode(float encoded);
 
+/* The tone mapping of PNG output as 8-bit sRGB: ×2^exposure, the sRGB
+ * curve, clamp to [0,1], round; NaN and negatives are black. `out` holds
+ * width·height·3 bytes, rows from the top. */
+VOLUX_API void volux_image_to_srgb8(const volux_image *img, float exposure, unsigned char *out);
+/* Encodes an image in memory as the file volux_image_save would write:
+ * format "png" (tone-mapped with `exposure`), "pfm" or "exr" (linear).
+ * *out is allocated through ctx; free with volux_encoded_free. */
+VOLUX_API volux_status volux_image_encode(volux_context *ctx, const volux_image *img, const char *format,
+                                          float exposure, unsigned char **out, size_t *size);
+VOLUX_API void volux_encoded_free(volux_context *ctx, unsigned char *data, size_t size);
+
 /* Scenes. Loads a scene file; `overrides` are "dotted.path=VALUE" strings
  * applied to the JSON before validation (e.g. "render.width=64",
  * "lights.0.irradiance=2", "render.technique=shaded"): VALUE is one JSON
@@ -202,6 +216,101 @@ VOLUX_API void volux_scene_json_free(volux_context *ctx, char *json);
  * 512×512. */
 VOLUX_API volux_status volux_scene_default_json(volux_context *ctx, const char *volume_json,
                                                 const volux_volume *vol, char **json);
+
+/* ---- Scene documents --------------------------------------------------
+ *
+ * A scene together with the JSON it was read from, so that a long-running
+ * front end (the viewer, `volux serve`) can apply edits in the --set form
+ * to a LIVE scene. An edit ("lights.0.irradiance=2") is applied to a copy
+ * of the JSON, the copy is read by the same strict reader as
+ * volux_scene_load (so every message is the one the CLI prints), and only
+ * when all of it is valid is the live scene brought to it through its
+ * setters, section by section: only what really changed bumps a version,
+ * so techniques see the incremental change set of the edit (a light edit
+ * bumps that light's slot only). Files (volumes, maps, presets) are read
+ * again only when their section changed.
+ *
+ * Files an edit names must resolve, with symbolic links followed, inside
+ * the data root (or be files the loaded document already named): an
+ * edit from a browser cannot make the process read arbitrary files.
+ *
+ * DOES NOT: check technique names or parameters (io cannot see the
+ * registry): pass a `validate` callback for that. Not thread-safe: the
+ * caller serialises edits and keeps renders off the scene while editing.
+ *
+ * STEP BY STEP
+ *     volux_scene_doc *doc;
+ *     volux_scene_doc_load(ctx, "scene.json", NULL, 0, NULL, &doc);
+ *     volux_scene *s = volux_scene_doc_scene(doc);     // render it
+ *     const char *set[] = {"lights.0.irradiance=2"};
+ *     if (volux_scene_doc_edit(doc, set, 1, NULL) != VOLUX_OK)
+ *         puts(volux_context_error(ctx));              // scene unchanged
+ *     volux_scene_doc_destroy(doc);
+ */
+typedef struct volux_scene_doc volux_scene_doc;
+
+typedef struct volux_scene_doc_options {
+    /* Folder that files named by edits must lie in; NULL = the scene
+     * file's folder. Must exist. */
+    const char *data_root;
+    /* Called with the fully read candidate scene of the load and of every
+     * edit before the live scene changes; a non-OK status (with its message
+     * recorded in ctx, e.g. by volux_context_set_error) rejects the edit;
+     * the message is then prefixed with the scene's file name. May be NULL. */
+    volux_status (*validate)(void *user, volux_context *ctx, const volux_scene *candidate);
+    void *validate_user;
+} volux_scene_doc_options;
+
+/* What an edit changed (bits of *changed in volux_scene_doc_edit). */
+enum {
+    VOLUX_DOC_VOLUME = 1u << 0,
+    VOLUX_DOC_TRANSFER = 1u << 1,
+    VOLUX_DOC_CAMERA = 1u << 2,
+    VOLUX_DOC_LIGHTS = 1u << 3,
+    VOLUX_DOC_OTHER = 1u << 4 /* render settings, background, parameters */
+};
+
+/* Loads a scene file with --set overrides (as volux_scene_load) and keeps
+ * its JSON. options may be NULL. Caller destroys. */
+VOLUX_API volux_status volux_scene_doc_load(volux_context *ctx, const char *path, const char *const *overrides,
+                                            int n_overrides, const volux_scene_doc_options *options,
+                                            volux_scene_doc **out);
+VOLUX_API void volux_scene_doc_destroy(volux_scene_doc *doc);
+/* The live scene, owned by the document (valid until it is destroyed). */
+VOLUX_API volux_scene *volux_scene_doc_scene(const volux_scene_doc *doc);
+/* The absolute data root in use. */
+VOLUX_API const char *volux_scene_doc_data_root(const volux_scene_doc *doc);
+/* Number of edits applied since the load (a version for clients). */
+VOLUX_API uint64_t volux_scene_doc_version(const volux_scene_doc *doc);
+
+/* Applies "dotted.path=VALUE" assignments, all or none: on any error (bad
+ * path, bad value, unknown key, missing file, outside the data root, the
+ * validate callback) the document and the scene are unchanged and the
+ * message, prefixed with the scene's file name, is in ctx. *changed (may
+ * be NULL) receives VOLUX_DOC_* bits. Only VOLUX_ERR_NOMEM while the live
+ * scene is being updated can leave it partly edited (the document then
+ * keeps its old JSON; the next successful edit re-applies the sections it
+ * touches). */
+VOLUX_API volux_status volux_scene_doc_edit(volux_scene_doc *doc, const char *const *assignments, int n,
+                                            uint32_t *changed);
+/* The same edits as a JSON text: [{"path": "lights.0.irradiance", "value": 2}, ...]
+ * (at most 256 entries; each object has exactly the keys path and value).
+ * Messages name the entry ("edit[1].path: ...") or come from the edit. */
+VOLUX_API volux_status volux_scene_doc_edit_json(volux_scene_doc *doc, const char *text, size_t n,
+                                                 uint32_t *changed);
+
+/* Flags of volux_scene_doc_json. */
+enum {
+    VOLUX_DOC_JSON_PRETTY = 1u << 0,
+    /* Relative file names become absolute, so the text renders the same
+     * scene from any folder. */
+    VOLUX_DOC_JSON_ABSOLUTE_PATHS = 1u << 1
+};
+/* The document's JSON after its edits: rendering it with volux_scene_load
+ * gives the live scene. *out is NUL-terminated, allocated through ctx;
+ * free with volux_scene_doc_json_free. */
+VOLUX_API volux_status volux_scene_doc_json(const volux_scene_doc *doc, unsigned flags, char **out, size_t *len);
+VOLUX_API void volux_scene_doc_json_free(const volux_scene_doc *doc, char *text, size_t len);
 
 /* ParaView colour-map preset (JSON: a list of presets or one preset object
  * with "RGBPoints" [x,r,g,b,...]; "Points" opacity optional). Picks the

@@ -167,6 +167,10 @@ VOLUX_API const volux_render_settings *volux_scene_render(const volux_scene *s);
  * volux_technique_validate_params(). Bumps PARAMS. */
 VOLUX_API volux_status volux_scene_set_param(volux_scene *s, const char *technique, const char *name,
                                              double number, const char *string /* NULL: number */);
+/* Removes a parameter (the technique then uses its default); bumps PARAMS
+ * if it was set, does nothing otherwise. Never fails today (a status for
+ * symmetry with the setters). */
+VOLUX_API volux_status volux_scene_remove_param(volux_scene *s, const char *technique, const char *name);
 /* Number value, or `fallback` when unset. */
 VOLUX_API double volux_scene_param(const volux_scene *s, const char *technique, const char *name,
                                    double fallback);

@@ -224,6 +224,16 @@ volux_status volux_error(volux_context *ctx, volux_status status, const char *fm
     return status;
 }
 
+volux_status volux_context_set_error(volux_context *ctx, volux_status status, const char *fmt, ...) {
+    if (ctx->error_status != VOLUX_OK || status == VOLUX_OK) return status;
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(ctx->error, sizeof ctx->error, fmt, ap);
+    va_end(ap);
+    ctx->error_status = status;
+    return status;
+}
+
 void volux_error_prefix(volux_context *ctx, const char *fmt, ...) {
     char prefix[VOLUX_ERROR_MAX], old[VOLUX_ERROR_MAX];
     va_list ap;

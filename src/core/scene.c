@@ -432,6 +432,19 @@ volux_status volux_scene_set_param(volux_scene *s, const char *technique, const 
     return VOLUX_OK;
 }
 
+volux_status volux_scene_remove_param(volux_scene *s, const char *technique, const char *name) {
+    param_entry *p = find_param(s, technique, name);
+    if (!p) return VOLUX_OK;
+    volux_strfree(s->ctx, p->string);
+    /* Keep the order of the others: volux_scene_param_at enumerates them. */
+    size_t i = (size_t)(p - s->params);
+    memmove(p, p + 1, sizeof *p * ((size_t)s->n_params - i - 1));
+    s->n_params--;
+    memset(&s->params[s->n_params], 0, sizeof s->params[0]);
+    bump(s, A_PARAMS);
+    return VOLUX_OK;
+}
+
 double volux_scene_param(const volux_scene *s, const char *technique, const char *name, double fallback) {
     const param_entry *p = find_param(s, technique, name);
     return p && !p->string ? p->number : fallback;

@@ -54,6 +54,14 @@ volux_status volux_exr_read_memory(volux_context *ctx, const char *name, const v
 volux_status volux_hdr_read_memory(volux_context *ctx, const char *name, const void *data, size_t size,
                                    volux_image *out);
 
+/* 8-bit sRGB code of a linear value (after exposure): exactly
+ * volux_srgb8_reference (sRGB curve, clamp, ×255 + 0.5, truncate; NaN and
+ * negatives → 0), by a threshold search. volux_srgb8_init() must have run
+ * (it is idempotent and thread-safe). */
+void volux_srgb8_init(void);
+unsigned char volux_srgb8(float v);
+unsigned char volux_srgb8_reference(float v);
+
 /* Writers. `f` is an open binary stream positioned at 0; `name` labels
  * messages. They report VOLUX_ERR_WRITE for stream failures and leave
  * closing, syncing and renaming to the caller. */

@@ -4,6 +4,7 @@
 #include <fcntl.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <strings.h>
 #include <sys/stat.h>
@@ -258,4 +259,47 @@ volux_status volux_image_save_meta(volux_context *ctx, const char *path, const v
 done:
     volux_free(ctx, tmp, tmp_size);
     return st;
+}
+
+/* ---- in memory ---- */
+
+volux_status volux_image_encode(volux_context *ctx, const volux_image *img, const char *format, float exposure,
+                                unsigned char **out, size_t *size) {
+    image_format fmt = FORMAT_UNKNOWN;
+    if (format && !strcasecmp(format, "png")) fmt = FORMAT_PNG;
+    else if (format && !strcasecmp(format, "pfm")) fmt = FORMAT_PFM;
+    else if (format && !strcasecmp(format, "exr")) fmt = FORMAT_EXR;
+    if (fmt == FORMAT_UNKNOWN)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "image encoding '%s': expected png, pfm or exr",
+                           format ? format : "(null)");
+    if (!img || !img->rgb || img->width < 1 || img->height < 1 || img->width > VOLUX_MAX_IMAGE_DIM ||
+        img->height > VOLUX_MAX_IMAGE_DIM)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "image encoding: no image");
+    if (fmt == FORMAT_PNG && !isfinite(exposure))
+        return volux_error(ctx, VOLUX_ERR_INVALID, "image encoding: exposure must be finite");
+    /* The writers stream into a FILE; a memory stream reuses them as they
+     * are, so the bytes are those of the file volux_image_save writes. */
+    char *buf = NULL;
+    size_t len = 0;
+    FILE *f = open_memstream(&buf, &len);
+    if (!f) return volux_error(ctx, VOLUX_ERR_NOMEM, "image encoding: out of memory");
+    char name[16];
+    snprintf(name, sizeof name, "(%s)", format);
+    volux_status st = write_format(ctx, fmt, name, f, img, exposure, NULL);
+    if (fclose(f) != 0 && !st) st = volux_error(ctx, VOLUX_ERR_NOMEM, "image encoding: out of memory");
+    if (!st) {
+        unsigned char *copy = volux_alloc_or_error(ctx, len ? len : 1, "an encoded image");
+        if (!copy) st = VOLUX_ERR_NOMEM;
+        else {
+            memcpy(copy, buf, len);
+            *out = copy;
+            *size = len;
+        }
+    }
+    free(buf);
+    return st;
+}
+
+void volux_encoded_free(volux_context *ctx, unsigned char *data, size_t size) {
+    if (data) volux_free(ctx, data, size ? size : 1);
 }

@@ -247,14 +247,10 @@ static volux_status encode(png_job *job, png_structp png, png_infop info, const 
     png_write_info(png, info);
     float scale = exp2f(exposure);
     size_t n_values = (size_t)img->width * 3;
+    volux_srgb8_init();
     for (int y = 0; y < img->height; y++) {
         const float *src = img->rgb + (size_t)y * n_values;
-        for (size_t i = 0; i < n_values; i++) {
-            float v = src[i] * scale;
-            float s = v > 0.0f ? volux_srgb_encode(v) : 0.0f; /* NaN and negatives → black */
-            if (s > 1.0f) s = 1.0f;
-            job->rows[i] = (unsigned char)(s * 255.0f + 0.5f);
-        }
+        for (size_t i = 0; i < n_values; i++) job->rows[i] = volux_srgb8(src[i] * scale);
         png_write_row(png, job->rows);
     }
     png_write_end(png, info);

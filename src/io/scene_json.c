@@ -5,9 +5,11 @@
  * read it strictly into a fresh scene (unknown keys are errors naming their
  * path). Relative file names resolve against the scene file's folder.
  */
+#include <errno.h>
 #include <limits.h>
 #include <math.h>
 #include <stdarg.h>
+#include <stdlib.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -34,6 +36,8 @@ typedef struct scene_reader {
      * resolve against its own folder ("" when none). */
     char tf_file[4096];
     volux_volume *supplied; /* the caller's volume: "volume" is not read */
+    const volux_scene_files *files; /* NULL: names are used as given */
+    int untrusted_volume;           /* set by resolve_path for volume.file */
 } scene_reader;
 
 #define DATA_PREFIX "$VOLUX_DATA/"
@@ -68,6 +72,23 @@ static volux_status resolve_path(scene_reader *sr, const char *base_dir, const c
                                                       : snprintf(out, n, "%s/%s", base_dir, name);
     }
     if (w < 0 || (size_t)w >= n) return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "path too long");
+    const volux_scene_files *f = sr->files;
+    if (!f || (!f->record && !f->root)) return VOLUX_OK;
+    char real[PATH_MAX];
+    if (!realpath(out, real)) {
+        if (!f->root) return VOLUX_OK; /* recording: the loader reports it */
+        return volux_json_error(&sr->json, VOLUX_ERR_IO, key, "%s: cannot open: %s", out, strerror(errno));
+    }
+    if (f->record && volux_path_list_add(sr->json.ctx, f->record, real))
+        return volux_json_error(&sr->json, VOLUX_ERR_NOMEM, key, "out of memory");
+    if (!f->root) return VOLUX_OK;
+    int trusted = f->trusted && volux_path_list_has(f->trusted, real);
+    if (!trusted && !volux_path_inside(real, f->root))
+        return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "'%s' is outside the data root %s", name, f->root);
+    if (!strcmp(key, "volume.file")) sr->untrusted_volume = !trusted;
+    /* Open the name that was checked (no symlink left to swap). */
+    if (strlen(real) >= n) return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "path too long");
+    strcpy(out, real);
     return VOLUX_OK;
 }
 
@@ -298,6 +319,15 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
                  * look at a volume: the default scene names it). */
                 free_frame_list(r->ctx, &frames);
                 return volux_scene_set_volume(sr->scene, o->volume);
+            }
+            if (!st && single && sr->untrusted_volume) {
+                /* A header the loaded document did not name: its detached
+                 * data must stay in the data root too. */
+                if (allow_outside)
+                    st = volux_json_error(r, VOLUX_ERR_INVALID, "volume.allow_outside_dir",
+                                          "not allowed for a file outside the loaded scene (data root %s)",
+                                          sr->files->root);
+                else opt.data_root = sr->files->root;
             }
             if (!st && single) {
                 st = volux_volume_load(r->ctx, frames.paths[0], &opt, &vol);
@@ -1132,6 +1162,102 @@ volux_status volux_json_print(volux_context *ctx, const cJSON *root, char **out)
 
 void volux_scene_json_free(volux_context *ctx, char *json) {
     if (json) volux_free(ctx, json, strlen(json) + 1);
+}
+
+volux_status volux_scene_read_tree(volux_context *ctx, const cJSON *root, const char *base_dir, const char *name,
+                                   const volux_scene_files *files, volux_scene *out) {
+    scene_reader sr;
+    memset(&sr, 0, sizeof sr);
+    sr.json = (volux_json_reader){ctx, name ? name : "scene"};
+    sr.base_dir = base_dir ? base_dir : ".";
+    sr.scene = out;
+    sr.files = files;
+    if (!cJSON_IsObject(root))
+        return volux_json_error(&sr.json, VOLUX_ERR_INVALID, NULL, "the scene must be a JSON object");
+    /* read_scene may add the default transfer function to a tree without
+     * one (so the document shows what is rendered). */
+    return read_scene(&sr, (cJSON *)root);
+}
+
+/* Exact structural equality (cJSON_Compare treats numbers within a
+ * relative epsilon as equal, which would let a tiny edit go unapplied). */
+static int json_same(const cJSON *a, const cJSON *b) {
+    if (!a || !b) return a == b;
+    if ((a->type & 0xff) != (b->type & 0xff)) return 0;
+    if (cJSON_IsNumber(a)) return a->valuedouble == b->valuedouble;
+    if (cJSON_IsString(a)) return !strcmp(a->valuestring, b->valuestring);
+    if (cJSON_IsArray(a) || cJSON_IsObject(a)) {
+        const cJSON *x = a->child, *y = b->child;
+        for (; x && y; x = x->next, y = y->next) {
+            if (cJSON_IsObject(a) && strcmp(x->string, y->string)) return 0;
+            if (!json_same(x, y)) return 0;
+        }
+        return !x && !y;
+    }
+    return 1; /* true, false, null */
+}
+
+static const cJSON *item(const cJSON *obj, const char *key) {
+    return obj ? cJSON_GetObjectItemCaseSensitive(obj, key) : NULL;
+}
+
+volux_status volux_scene_read_edit(volux_context *ctx, const cJSON *root, const cJSON *old_root,
+                                   const volux_scene *live, const char *base_dir, const char *name,
+                                   const volux_scene_files *files, volux_scene *candidate,
+                                   volux_scene_edit_plan *plan) {
+    scene_reader sr;
+    memset(&sr, 0, sizeof sr);
+    sr.json = (volux_json_reader){ctx, name ? name : "scene"};
+    sr.base_dir = base_dir ? base_dir : ".";
+    sr.scene = candidate;
+    sr.files = files;
+    volux_json_reader *r = &sr.json;
+    memset(plan, 0, sizeof *plan);
+    if (!cJSON_IsObject(root)) return volux_json_error(r, VOLUX_ERR_INVALID, NULL, "the scene must be a JSON object");
+    static const char *const keys[] = {"volume", "transfer_function", "camera", "lights", "background",
+                                       "render", "techniques", "comment", NULL};
+    volux_status st = volux_json_check_keys(r, root, "", keys);
+    if (st) return st;
+    float bg[3] = {0, 0, 0};
+    if ((st = volux_json_vec3(r, root, "", "background", 0, BIG, bg))) return st;
+    if ((st = read_render(&sr, item(root, "render")))) return st;
+    /* The volume: read again only when its section changed (a file load
+     * or a procedural build is the expensive part of a scene). */
+    plan->volume = !json_same(item(old_root, "volume"), item(root, "volume"));
+    if (plan->volume) st = read_volume(&sr, item(root, "volume"));
+    else st = volux_scene_set_volume(candidate, volux_scene_volume(live));
+    if (st) return st;
+    /* A new volume changes what the TF (preset rescaling) and the camera
+     * (orbit radius, finite view) read from it. */
+    plan->transfer = plan->volume || !json_same(item(old_root, "transfer_function"), item(root, "transfer_function"));
+    if (plan->transfer) st = read_transfer(&sr, (cJSON *)root); /* as in volux_scene_read_tree */
+    else st = volux_scene_set_transfer(candidate, volux_scene_transfer(live));
+    if (st) return st;
+    plan->camera = plan->volume || !json_same(item(old_root, "camera"), item(root, "camera"));
+    if (plan->camera) st = read_camera(&sr, item(root, "camera"));
+    else st = volux_scene_set_camera(candidate, volux_scene_camera_desc(live));
+    if (st) return st;
+    const cJSON *lights = item(root, "lights"), *old_lights = item(old_root, "lights");
+    if (lights) {
+        if (!cJSON_IsArray(lights)) return volux_json_error(r, VOLUX_ERR_INVALID, "lights", "expected an array");
+        int n = cJSON_GetArraySize(lights);
+        if (n > VOLUX_MAX_LIGHTS)
+            return volux_json_error(r, VOLUX_ERR_LIMIT, "lights", "at most %d lights, got %d", VOLUX_MAX_LIGHTS, n);
+        plan->n_lights = n;
+        const cJSON *old = cJSON_IsArray(old_lights) ? old_lights->child : NULL;
+        int i = 0;
+        for (const cJSON *l = lights->child; l; l = l->next, i++) {
+            const volux_light_desc *kept = volux_scene_light(live, i);
+            plan->light[i] = !kept || !json_same(old, l);
+            if (plan->light[i]) st = read_light(&sr, l, i);
+            else st = volux_scene_set_light(candidate, i, kept); /* copies its map: no file read */
+            if (st) return st;
+            if (old) old = old->next;
+        }
+    }
+    if ((st = read_techniques(&sr, item(root, "techniques")))) return st;
+    volux_scene_set_background(candidate, (volux_vec3){bg[0], bg[1], bg[2]});
+    return VOLUX_OK;
 }
 
 static volux_status parse_with(volux_context *ctx, const char *text, size_t n, const volux_scene_load_options *o,

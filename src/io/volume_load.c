@@ -4,9 +4,13 @@
  * memory, parses it, applies the detached-data folder policy, and hands the
  * data to the common reader (volume_data.c).
  */
+#include <errno.h>
+#include <limits.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "header_text.h"
+#include "scene_formats.h"
 #include "volume_formats.h"
 
 #define MAX_PATH_BYTES 4096
@@ -121,6 +125,20 @@ static volux_status load_from(volux_context *ctx, kind k, volux_source *src, int
     char path[MAX_PATH_BYTES];
     st = resolve_data_path(ctx, src->name, h.data_file, options && options->allow_outside_dir, path, sizeof path);
     if (st) return st;
+    if (options && options->data_root && !from_memory) {
+        /* The textual checks above cannot see a symbolic link that leaves
+         * the folder; the resolved name can. */
+        char real[PATH_MAX];
+        if (!realpath(path, real))
+            return volux_error(ctx, VOLUX_ERR_IO, "%s: data file: %s: cannot open: %s", src->name, path,
+                               strerror(errno));
+        if (!volux_path_inside(real, options->data_root))
+            return volux_error(ctx, VOLUX_ERR_INVALID, "%s: data file: '%s' is outside the data root %s", src->name,
+                               h.data_file, options->data_root);
+        if (strlen(real) >= sizeof path)
+            return volux_error(ctx, VOLUX_ERR_LIMIT, "%s: data file: path is too long", src->name);
+        strcpy(path, real);
+    }
     if (from_memory)
         return volux_error(ctx, VOLUX_ERR_IO, "%s: data file: '%s' cannot be read when loading from memory",
                            src->name, h.data_file);

@@ -11,6 +11,7 @@ static const cli_command commands[] = {
     {"bench", "timings of a technique on a scene (one JSON object per line)", cli_bench},
     {"techniques", "list techniques and their parameters", cli_techniques},
     {"ambient-table", "build or inspect the ambient-scattering preintegration table", cli_ambient_table},
+    {"serve", "interactive web viewer of a scene (HTTP on 127.0.0.1)", cli_serve},
 };
 
 static void usage(FILE *f) {
