@@ -27,6 +27,7 @@ int cli_bench_distributed(int argc, char **argv, int distribute_mode);
 int cli_techniques(int argc, char **argv);
 int cli_ambient_table(int argc, char **argv);
 int cli_serve(int argc, char **argv); /* tools/viewer/serve.c */
+int cli_view(int argc, char **argv);  /* tools/viewer/view.c: a volume's quick look in the viewer */
 
 /* Prints "volux CMD: <context error>" and returns the exit status for st. */
 int cli_fail(const char *cmd, volux_context *ctx, volux_status st);
