@@ -79,16 +79,6 @@ static void emit_warnings(const bench_out *o, const bench_messages *m) {
     emit(o, "warnings", m->n, "count", list);
 }
 
-static int cmp_double(const void *a, const void *b) {
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
-static double median(double *v, int n) {
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 static void usage(FILE *f) {
     fprintf(f, "usage: volux bench SCENE.json [--technique T] [--repeat N] [--edit KIND]... [--json]\n"
                "                   [--reference IMG] [scene options as for render]\n"
@@ -234,7 +224,7 @@ int cli_bench(int argc, char **argv) {
         if ((st = volux_technique_create(ctx, rs->technique, scene, &tech))) goto fail;
         times[k] = cli_now_ms() - t0;
     }
-    emit(&o, "prepare_ms", median(times, repeat), "ms", NULL);
+    emit(&o, "prepare_ms", cli_median(times, repeat), "ms", NULL);
     emit_warnings(&o, &messages);
     /* A progressive technique renders its refined state below. */
     for (int more = 1; more;)
@@ -260,21 +250,21 @@ int cli_bench(int argc, char **argv) {
     }
     char extra[96];
     snprintf(extra, sizeof extra, "\"spp\":%u", rep.spp);
-    emit(&o, "render_ms", median(times, repeat), "ms", extra);
-    emit(&o, "render_cpu_ms", median(cpu, repeat), "ms", NULL);
-    double sps = median(samples_rate, repeat), vps = median(vertex_rate, repeat);
+    emit(&o, "render_ms", cli_median(times, repeat), "ms", extra);
+    emit(&o, "render_cpu_ms", cli_median(cpu, repeat), "ms", NULL);
+    double sps = cli_median(samples_rate, repeat), vps = cli_median(vertex_rate, repeat);
     if (sps > 0) {
         emit(&o, "samples_per_s", sps, "1/s", NULL);
         emit(&o, "samples_per_s_per_thread", sps / o.threads, "1/s", NULL);
-        emit(&o, "samples_per_cpu_s", median(cpu_rate, repeat), "1/s", NULL);
+        emit(&o, "samples_per_cpu_s", cli_median(cpu_rate, repeat), "1/s", NULL);
     }
     if (vps > 0) {
         emit(&o, "vertices_per_s", vps, "1/s", NULL);
-        emit(&o, "vertices_per_cpu_s", median(vertex_cpu_rate, repeat), "1/s", NULL);
+        emit(&o, "vertices_per_cpu_s", cli_median(vertex_cpu_rate, repeat), "1/s", NULL);
     }
     /* pixel samples (camera paths for a path tracer) per second */
     emit(&o, "pixel_samples_per_s",
-         (double)rs->width * rs->height * rep.spp / (median(times, repeat) * 1e-3), "1/s", NULL);
+         (double)rs->width * rs->height * rep.spp / (cli_median(times, repeat) * 1e-3), "1/s", NULL);
     emit(&o, "memory_bytes", (double)(volux_technique_memory_bytes(tech)), "bytes", NULL);
 
     /* Convergence before the edits: they leave the scene changed. */
@@ -338,14 +328,14 @@ int cli_bench(int argc, char **argv) {
         if (!ok) continue;
         char metric[64];
         snprintf(metric, sizeof metric, "update_ms.%s", edits[e]->name);
-        emit(&o, metric, median(times, repeat), "ms", NULL);
+        emit(&o, metric, cli_median(times, repeat), "ms", NULL);
         if (deferred) {
             snprintf(metric, sizeof metric, "refine_ms.%s", edits[e]->name);
-            emit(&o, metric, median(refine, repeat), "ms", NULL);
+            emit(&o, metric, cli_median(refine, repeat), "ms", NULL);
             snprintf(metric, sizeof metric, "refine_steps.%s", edits[e]->name);
-            emit(&o, metric, median(frames, repeat), "steps", NULL);
+            emit(&o, metric, cli_median(frames, repeat), "steps", NULL);
             snprintf(metric, sizeof metric, "refine_step_ms.%s", edits[e]->name);
-            emit(&o, metric, median(steps, (int)n_steps), "ms", NULL);
+            emit(&o, metric, cli_median(steps, (int)n_steps), "ms", NULL);
         }
     }
     goto edits_done;

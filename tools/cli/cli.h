@@ -43,6 +43,8 @@ void cli_quiet_progress(void);
 /* Parses a positive/non-negative integer option value; prints an error. */
 int cli_parse_int(const char *cmd, const char *opt, const char *s, long lo, long hi, long *out);
 int cli_parse_double(const char *cmd, const char *opt, const char *s, double *out);
+/* Median of v[0..n) (n >= 1); sorts v in place. */
+double cli_median(double *v, int n);
 /* Monotonic wall clock in milliseconds. */
 double cli_now_ms(void);
 

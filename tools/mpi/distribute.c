@@ -186,14 +186,8 @@ static volux_status gather_tiles(volux_framebuffer *fb, const int *chunks, int n
 
 volux_status dist_render_image(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
                                dist_timing *timing) {
+    if (!started) return dist_render_local(t, scene, fb, timing);
     memset(timing, 0, sizeof *timing);
-    if (!started) {
-        volux_render_report rep = {0};
-        volux_status st = volux_render(t, scene, fb, NULL, &rep);
-        timing->render_ms = timing->rank_render_ms_min = timing->rank_render_ms_max = rep.ms;
-        timing->tiles = volux_framebuffer_tile_count(fb);
-        return st;
-    }
     const volux_render_settings *rs = volux_scene_render(scene);
     int total = volux_framebuffer_tile_count(fb);
     int threads = rs->threads > 0 ? rs->threads : dist_default_threads();

@@ -34,10 +34,5 @@ int dist_share_exit(int rc) { return rc; }
 
 volux_status dist_render_image(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
                                dist_timing *timing) {
-    memset(timing, 0, sizeof *timing);
-    volux_render_report rep = {0};
-    volux_status st = volux_render(t, scene, fb, NULL, &rep);
-    timing->render_ms = timing->rank_render_ms_min = timing->rank_render_ms_max = rep.ms;
-    timing->tiles = volux_framebuffer_tile_count(fb);
-    return st;
+    return dist_render_local(t, scene, fb, timing);
 }
