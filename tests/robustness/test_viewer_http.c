@@ -106,6 +106,7 @@ static void test_api_basics(void **state) {
     assert_int_equal(r.status, 200);
     assert_contains(r.body, "\"histogram\"");
     assert_contains(r.body, "\"resolved\"");
+    assert_null(strstr(r.body, "\"sequence\"")); /* a single volume: no step slider */
     tu_reply_free(&r);
     r = get("/");
     assert_int_equal(r.status, 200);

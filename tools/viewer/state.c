@@ -145,6 +145,11 @@ int viewer_snapshot(viewer *v) {
     cJSON_AddItemToObject(c, "type", cJSON_CreateString(cam->projection == VOLUX_ORTHOGRAPHIC ? "orthographic"
                                                                                              : "perspective"));
     cJSON_AddItemToObject(o, "volume", cJSON_Duplicate(vol_info, 1));
+    if (volux_scene_sequence(s)) { /* a time-varying volume: the page shows its step slider */
+        cJSON *q = cJSON_AddObjectToObject(o, "sequence");
+        cJSON_AddNumberToObject(q, "steps", volux_scene_time_steps(s));
+        cJSON_AddNumberToObject(q, "step", volux_scene_time_step(s));
+    }
     cJSON *lim = cJSON_AddObjectToObject(o, "limits");
     cJSON_AddNumberToObject(lim, "max_image", v->opt.max_image);
     cJSON_AddNumberToObject(lim, "preview_max", v->opt.preview_max);
