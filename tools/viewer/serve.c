@@ -16,7 +16,8 @@
 static void usage(FILE *f) {
     fprintf(f,
             "usage: volux serve SCENE.json [--port P] [--bind ADDR] [--token T] [--data-root DIR]\n"
-            "                   [--preview N] [--idle-ms MS] [--max-image N] [--jpeg-quality Q] [--preview-png]\n"
+            "                   [--preview N] [--preview-budget MS] [--idle-ms MS] [--max-image N]\n"
+            "                   [--jpeg-quality Q] [--preview-png]\n"
             "                   [--max-connections N] [--timeout S] [--max-mb MB] [--quiet]\n"
             "                   [--technique T] [--spp N] [--width W] [--height H] [--threads N]\n"
             "                   [--set dotted.path=JSON-value]...\n"
@@ -27,6 +28,9 @@ static void usage(FILE *f) {
             "  --token T          every request needs the token (or set VOLUX_SERVE_TOKEN)\n"
             "  --data-root DIR    files an edit names must lie in DIR (default: the scene's folder)\n"
             "  --preview N        longest side of the preview shown while editing (default 256)\n"
+            "  --preview-budget MS  the first frame after an edit is made smaller when the technique's\n"
+            "                     measured cost says the --preview size would arrive later than MS;\n"
+            "                     the --preview size follows at once (default 100; 0 = always --preview)\n"
             "  --idle-ms MS       quiet time before refinement starts (default 100)\n"
             "  --max-image N      largest render.width/height an edit may set (default 4096)\n"
             "  --port 0           any free port (the URL printed says which)\n");
@@ -68,6 +72,7 @@ int cli_serve(int argc, char **argv) {
     o->port = 8080;
     o->preview_max = 256;
     o->idle_ms = 100;
+    o->preview_budget_ms = 100;
     o->max_image = 4096;
     o->jpeg_quality = 85;
     o->max_connections = 64;
@@ -95,7 +100,8 @@ int cli_serve(int argc, char **argv) {
         }
         static const char *const valued[] = {"--port",    "--bind",        "--token",           "--data-root",
                                              "--preview", "--idle-ms",     "--max-image",       "--jpeg-quality",
-                                             "--timeout", "--max-mb",      "--max-connections", NULL};
+                                             "--timeout", "--max-mb",      "--max-connections", "--preview-budget",
+                                             NULL};
         int is_valued = 0;
         for (int k = 0; valued[k]; k++) is_valued |= !strcmp(a, valued[k]);
         if (is_valued) {
@@ -133,6 +139,13 @@ int cli_serve(int argc, char **argv) {
                     goto out;
                 }
                 o->idle_ms = d;
+            } else if (!strcmp(a, "--preview-budget")) {
+                if (!cli_parse_double("serve", a, val, &d)) goto out;
+                if (!(d >= 0 && d <= 60000)) {
+                    fprintf(stderr, "volux serve: --preview-budget: expected 0..60000, got %s\n", val);
+                    goto out;
+                }
+                o->preview_budget_ms = d;
             } else if (!strcmp(a, "--max-image")) {
                 if (!cli_parse_int("serve", a, val, 16, VOLUX_MAX_IMAGE_DIM, &n)) goto out;
                 o->max_image = (int)n;
