@@ -1,15 +1,17 @@
 /*
  * tools/viewer/renderer.c — the render thread: after every edit a preview
- * (reduced resolution, one sample per pixel), then, once the scene has been
- * quiet for `idle_ms`, refinement: the technique's deferred work
- * (volux_technique_refine) and full-resolution waves of one sample each up
- * to the scene's render.spp. The last wave is the "final" frame: the image
- * `volux render` writes for the same scene.
+ * (reduced resolution, one sample per pixel; with a preview budget the first
+ * one may be smaller still, and the --preview size follows at once), then,
+ * once the scene has been quiet for `idle_ms`, refinement: the technique's
+ * deferred work (volux_technique_refine) and full-resolution waves of one
+ * sample each up to the scene's render.spp. The last wave is the "final"
+ * frame: the image `volux render` writes for the same scene.
  *
- * A refinement frame in flight is cancelled through the context's progress
- * callback as soon as an edit waits for the lock; a preview is not (it is
- * the cheap immediate answer, and cancelling it while the user drags would
- * show nothing at all).
+ * A refinement frame (or the --preview size after a reduced first frame) in
+ * flight is cancelled through the context's progress callback as soon as an
+ * edit waits for the lock; the first frame after an edit is not (it is the
+ * cheap immediate answer, and cancelling it while the user drags would show
+ * nothing at all).
  */
 #include <math.h>
 #include <stdio.h>
