@@ -105,12 +105,29 @@ typedef struct wave_job {
     int *progress_busy;
     int *cancelled;
     double progress_base, progress_span;
+    float *wave;              /* 3 floats per pixel: this wave's samples   */
+    volux_deadline *deadline; /* NULL: no time budget                      */
+    int first_wave;           /* fb has no samples: an overrun is kept     */
 } wave_job;
+
+int volux_tile_expired(const volux_tile *t) {
+    volux_deadline *d = t->deadline;
+    if (!d) return 0;
+    if (__atomic_load_n(&d->expired, __ATOMIC_RELAXED)) return 1;
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    if ((double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6 < d->at_ms) return 0;
+    __atomic_store_n(&d->expired, 1, __ATOMIC_RELAXED);
+    return 1;
+}
 
 static void render_one_tile(void *user, int64_t index, int thread) {
     (void)thread;
     wave_job *job = user;
     if (__atomic_load_n(job->cancelled, __ATOMIC_RELAXED)) return;
+    /* A wave that overran the budget is dropped (unless it is the first),
+     * so its remaining tiles need not be rendered. */
+    if (job->deadline && !job->first_wave && __atomic_load_n(&job->deadline->expired, __ATOMIC_RELAXED)) return;
     volux_framebuffer *fb = job->fb;
     volux_tile tile;
     tile.x0 = (int)(index % job->tiles_x) * VOLUX_TILE_SIZE;
@@ -118,20 +135,14 @@ static void render_one_tile(void *user, int64_t index, int thread) {
     tile.w = fb->width - tile.x0 < VOLUX_TILE_SIZE ? fb->width - tile.x0 : VOLUX_TILE_SIZE;
     tile.h = fb->height - tile.y0 < VOLUX_TILE_SIZE ? fb->height - tile.y0 : VOLUX_TILE_SIZE;
     tile.sample_index = job->sample_index;
+    tile.deadline = job->deadline;
     float rgb[VOLUX_TILE_SIZE * VOLUX_TILE_SIZE * 3];
     memset(rgb, 0, sizeof rgb);
     volux_tile_stats *stats = &job->stats[index];
     job->cls->render_tile(job->state, job->scene, &tile, rgb, stats);
     for (int y = 0; y < tile.h; y++)
-        for (int x = 0; x < tile.w; x++) {
-            size_t p = (size_t)(tile.y0 + y) * (size_t)fb->width + (size_t)(tile.x0 + x);
-            const float *c = &rgb[3 * (y * tile.w + x)];
-            double lum = 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
-            fb->sum[3 * p + 0] += c[0];
-            fb->sum[3 * p + 1] += c[1];
-            fb->sum[3 * p + 2] += c[2];
-            fb->sum_sq[p] += lum * lum;
-        }
+        memcpy(&job->wave[3 * ((size_t)(tile.y0 + y) * (size_t)fb->width + (size_t)tile.x0)], &rgb[3 * y * tile.w],
+               3 * sizeof(float) * (size_t)tile.w);
     int done = __atomic_add_fetch(job->done_tiles, 1, __ATOMIC_RELAXED);
     /* Progress from whichever thread gets the flag; never concurrently. */
     if (job->ctx->progress && !__atomic_exchange_n(job->progress_busy, 1, __ATOMIC_ACQUIRE)) {
@@ -173,16 +184,24 @@ volux_status volux_render(volux_technique *t, const volux_scene *scene, volux_fr
     int tiles_x = (fb->width + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE;
     int tiles_y = (fb->height + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE;
     int tiles = tiles_x * tiles_y;
+    size_t pixels = (size_t)fb->width * (size_t)fb->height;
     volux_tile_stats *stats = volux_calloc(ctx, (size_t)tiles, sizeof *stats);
-    if (!stats) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for tile statistics");
+    float *wave = volux_malloc(ctx, 3 * pixels * sizeof(float));
+    if (!stats || !wave) {
+        volux_free(ctx, stats, (size_t)tiles * sizeof *stats);
+        volux_free(ctx, wave, 3 * pixels * sizeof(float));
+        return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for a %dx%d sample wave", fb->width, fb->height);
+    }
     int threads = rs->threads > 0 ? rs->threads : volux_context_threads(ctx);
-    int done = 0, busy = 0, cancelled = 0;
-    wave_job job = {cls, volux_technique_state(t), scene, fb, ctx, tiles_x, tiles, 0, stats, &done, &busy, &cancelled,
-                    0.0, 1.0};
+    int done = 0, busy = 0, cancelled = 0, truncated = 0;
     double start = now_ms(), cpu_start = clock_ms(CLOCK_PROCESS_CPUTIME_ID);
+    volux_deadline deadline = {start + lim.time_ms, 0};
+    wave_job job = {cls, volux_technique_state(t), scene, fb, ctx, tiles_x, tiles, 0, stats, &done, &busy, &cancelled,
+                    0.0, 1.0, wave, lim.time_ms > 0.0 ? &deadline : NULL, 0};
     uint32_t start_spp = fb->spp;
     uint64_t samples = 0, vertices = 0;
     while (fb->spp < lim.spp) {
+        job.first_wave = fb->spp == 0;
         job.sample_index = fb->spp;
         done = 0;
         uint32_t waves = lim.spp - start_spp;
@@ -198,13 +217,25 @@ volux_status volux_render(volux_technique *t, const volux_scene *scene, volux_fr
             samples += stats[i].samples;
             vertices += stats[i].vertices;
         }
+        if (deadline.expired && !job.first_wave) break; /* an incomplete wave: dropped */
+        truncated = deadline.expired;
+        for (size_t p = 0; p < pixels; p++) {
+            const float *c = &wave[3 * p];
+            double lum = 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+            fb->sum[3 * p + 0] += c[0];
+            fb->sum[3 * p + 1] += c[1];
+            fb->sum[3 * p + 2] += c[2];
+            fb->sum_sq[p] += lum * lum;
+        }
         fb->spp++;
         if (lim.time_ms > 0.0 && now_ms() - start >= lim.time_ms) break;
         if (lim.target_error > 0.0 && fb->spp >= 4 && volux_framebuffer_rel_error(fb) <= lim.target_error) break;
     }
     volux_progress(ctx, "render", 1.0);
     volux_free(ctx, stats, (size_t)tiles * sizeof *stats);
+    volux_free(ctx, wave, 3 * pixels * sizeof(float));
     if (report) {
+        report->truncated = truncated;
         report->spp = fb->spp;
         report->ms = now_ms() - start;
         report->cpu_ms = clock_ms(CLOCK_PROCESS_CPUTIME_ID) - cpu_start;

@@ -63,6 +63,7 @@
 #include "medium.h"
 #include "pathtrace.h"
 #include "sample/phase.h"
+#include "sample/regular_tracking.h"
 
 /* Ratio tracking: below this running weight, Russian roulette with survival
  * probability T/PT_RATIO_RR, and T = PT_RATIO_RR on survival (E[T] kept). */
@@ -70,10 +71,15 @@
 
 typedef struct pt_path {
     const pt_state *st;
+    const volux_tile *tile;
     volux_rng rng;
     uint64_t samples;  /* volume lookups */
     uint64_t vertices; /* path vertices */
+    int stopped;       /* the render's time budget ran out: end the path */
 } pt_path;
+
+/* Volume samples between two looks at the render's clock. */
+#define PT_CLOCK_EVERY 0x3fffu
 
 static inline float rnd(pt_path *p) { return volux_rng_float(&p->rng); }
 
@@ -112,22 +118,52 @@ static inline int iter_next(pt_iter *i, volux_interval *iv) {
 
 static inline float sigma_at(pt_path *p, const volux_ray *r, float t, float *rgb) {
     const pt_state *st = p->st;
-    p->samples++;
+    /* Long paths honour the render's time budget (--time-ms). */
+    if ((++p->samples & PT_CLOCK_EVERY) == 0 && volux_tile_expired(p->tile)) p->stopped = 1;
     return pt_medium_eval(st->rc.volume, st->rc.lut, st->pre, v3_madd(r->q0, r->dq, t), rgb);
 }
 
+/* Regular tracking over [t, t1] (sample/regular_tracking.h), for intervals where
+ * delta tracking would take too many steps or cannot advance t: the first
+ * collision with optical depth −ln(1 − u). */
+static int delta_track_regular(pt_path *p, const volux_ray *r, float t, float t1, float *t_hit) {
+    volux_track_steps steps;
+    volux_track_steps_init(&steps, t, t1, p->st->rc.min_spacing);
+    float target = -logf(1.0f - rnd(p)), a, b, m;
+    while (volux_track_steps_next(&steps, &a, &b, &m) && !p->stopped) {
+        float sigma = sigma_at(p, r, m, NULL), tau = sigma * (b - a);
+        if (tau >= target) {
+            *t_hit = volux_track_hit(a, b, sigma, target);
+            return 1;
+        }
+        target -= tau;
+    }
+    return 0;
+}
+
 /* Delta tracking over [ta, tb] of the clipped ray r: returns 1 and the
- * distance of the first real collision, or 0 if the ray gets through. */
+ * distance of the first real collision, or 0 if the ray gets through (or
+ * the time budget ended the path: p->stopped). Every loop advances t or
+ * ends: see sample/regular_tracking.h. */
 static int delta_track(pt_path *p, const volux_ray *r, float ta, float tb, float *t_hit) {
     pt_iter it;
     volux_interval iv;
     iter_init(&it, p->st, r, ta, tb);
-    while (iter_next(&it, &iv)) {
+    while (iter_next(&it, &iv) && !p->stopped) {
         if (!(iv.sigma_max > 0.0f)) continue; /* empty space: no collisions */
+        if (volux_track_needs_regular(iv.sigma_max, iv.t0, iv.t1)) {
+            if (delta_track_regular(p, r, iv.t0, iv.t1, t_hit)) return 1;
+            continue;
+        }
         float inv = 1.0f / iv.sigma_max, t = iv.t0;
-        for (;;) {
-            t += exp_step(p, inv);
-            if (t >= iv.t1) break; /* memoryless: restart at the next interval */
+        while (!p->stopped) {
+            float tn = t + exp_step(p, inv);
+            if (tn >= iv.t1) break; /* memoryless: restart at the next interval */
+            if (!(tn > t)) {        /* a step below half an ulp of t */
+                if (delta_track_regular(p, r, t, iv.t1, t_hit)) return 1;
+                break;
+            }
+            t = tn;
             float sigma = sigma_at(p, r, t, NULL);
             if (rnd(p) * iv.sigma_max < sigma) {
                 *t_hit = t;
@@ -136,6 +172,23 @@ static int delta_track(pt_path *p, const volux_ray *r, float ta, float tb, float
         }
     }
     return 0;
+}
+
+/* Ratio tracking's regular-tracking fallback over [t, t1]: multiplies *T by
+ * the closed-form transmittance of each sub-step; 0 when the path's weight
+ * was rouletted away. */
+static int ratio_track_regular(pt_path *p, const volux_ray *r, float t, float t1, float *T) {
+    volux_track_steps steps;
+    volux_track_steps_init(&steps, t, t1, p->st->rc.min_spacing);
+    float a, b, m;
+    while (volux_track_steps_next(&steps, &a, &b, &m) && !p->stopped) {
+        *T *= expf(-sigma_at(p, r, m, NULL) * (b - a));
+        if (*T < PT_RATIO_RR) {
+            if (!(*T > 0.0f) || rnd(p) * PT_RATIO_RR >= *T) return 0;
+            *T = PT_RATIO_RR;
+        }
+    }
+    return 1;
 }
 
 /* Ratio tracking estimate of the transmittance from o along unit d over
@@ -150,12 +203,21 @@ static float transmittance(pt_path *p, volux_vec3 o, volux_vec3 d, float dist) {
     pt_iter it;
     volux_interval iv;
     iter_init(&it, st, &r, r.t0, tb);
-    while (iter_next(&it, &iv)) {
+    while (iter_next(&it, &iv) && !p->stopped) {
         if (!(iv.sigma_max > 0.0f)) continue;
+        if (volux_track_needs_regular(iv.sigma_max, iv.t0, iv.t1)) {
+            if (!ratio_track_regular(p, &r, iv.t0, iv.t1, &T)) return 0.0f;
+            continue;
+        }
         float inv = 1.0f / iv.sigma_max, t = iv.t0;
-        for (;;) {
-            t += exp_step(p, inv);
-            if (t >= iv.t1) break;
+        while (!p->stopped) {
+            float tn = t + exp_step(p, inv);
+            if (tn >= iv.t1) break;
+            if (!(tn > t)) { /* a step below half an ulp of t */
+                if (!ratio_track_regular(p, &r, t, iv.t1, &T)) return 0.0f;
+                break;
+            }
+            t = tn;
             T *= 1.0f - sigma_at(p, &r, t, NULL) * inv; /* Novák et al. 2014, Eq. 6 */
             if (T < PT_RATIO_RR) {
                 if (!(T > 0.0f) || rnd(p) * PT_RATIO_RR >= T) return 0.0f;
@@ -163,7 +225,7 @@ static float transmittance(pt_path *p, volux_vec3 o, volux_vec3 d, float dist) {
             }
         }
     }
-    return T;
+    return p->stopped ? 0.0f : T;
 }
 
 /* Distance along unit d from o to the outside of a sphere light, or −1 if
@@ -320,6 +382,7 @@ static volux_vec3 trace(pt_path *p, const volux_scene *scene, volux_vec3 o, volu
         volux_ray r;
         float t_hit = INFINITY;
         int collided = volux_ray_clip(st->rc.volume, o, d, &r) && delta_track(p, &r, r.t0, r.t1, &t_hit);
+        if (p->stopped) break; /* out of time: the path ends here */
         if (depth == 0) {
             if (!collided) {
                 /* Unscattered camera ray: T·L_escape, T estimated by the
@@ -371,7 +434,7 @@ void volux_pathtrace_render_tile(const void *state, const volux_scene *scene, co
                                  volux_tile_stats *stats) {
     const pt_state *st = state;
     const volux_camera *cam = &st->rc.camera;
-    pt_path p = {st, {0, 0}, 0, 0};
+    pt_path p = {st, tile, {0, 0}, 0, 0, 0};
     for (int y = 0; y < tile->h; y++)
         for (int x = 0; x < tile->w; x++) {
             int px = tile->x0 + x, py = tile->y0 + y;
