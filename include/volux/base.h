@@ -79,6 +79,13 @@ typedef void *(*volux_alloc_fn)(void *user, void *ptr, size_t old_size, size_t n
  * May be called from any thread, but never concurrently. */
 typedef int (*volux_progress_fn)(void *user, const char *task, double fraction);
 
+/* Warning: something a call that succeeded wants its caller to know (a
+ * file's trailing bytes ignored, non-finite values replaced as asked, a
+ * render cut short by its time budget). The message is escaped like error
+ * messages (no control characters, valid UTF-8). Called on the calling
+ * thread, never concurrently for one context. */
+typedef void (*volux_warning_fn)(void *user, const char *message);
+
 typedef struct volux_context_desc {
     int threads;               /* worker threads; 0 = all cores             */
     uint64_t max_bytes;        /* cap on one volume/image allocation;
@@ -99,7 +106,9 @@ VOLUX_API void volux_context_destroy(volux_context *ctx);
 
 /* The FIRST error recorded on this context since the caller last cleared
  * it ("" / VOLUX_OK if none): a failure that follows from an earlier one
- * never hides it (SQLite, VolPack). The library never clears it; call
+ * never hides it (SQLite, VolPack). Safe to print: control characters,
+ * DEL and bytes that are not UTF-8 (e.g. from a file name or header) are
+ * written as \xHH. The library never clears it; call
  * volux_context_clear_error() before an operation whose own message you
  * want. The string is valid until the next volux call on the context. */
 VOLUX_API const char *volux_context_error(const volux_context *ctx);
@@ -110,6 +119,8 @@ VOLUX_API void volux_context_set_threads(volux_context *ctx, int threads);
 /* Threads actually used (resolves 0 to the core count). */
 VOLUX_API int volux_context_threads(const volux_context *ctx);
 VOLUX_API void volux_context_set_progress(volux_context *ctx, volux_progress_fn fn, void *user);
+/* Sets the warning callback (NULL: warnings are dropped, the default). */
+VOLUX_API void volux_context_set_warning(volux_context *ctx, volux_warning_fn fn, void *user);
 VOLUX_API uint64_t volux_context_max_bytes(const volux_context *ctx);
 /* Bytes currently allocated through the context (for memory reports); the
  * context's own storage (itself, its cache folder name) is not counted. */

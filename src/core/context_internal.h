@@ -22,6 +22,8 @@ struct volux_context {
     void *alloc_user;
     volux_progress_fn progress;
     void *progress_user;
+    volux_warning_fn warning;
+    void *warning_user;
     volux_status error_status;
     char error[VOLUX_ERROR_MAX];
     uint64_t bytes_in_use; /* updated atomically */
@@ -52,6 +54,20 @@ void volux_free_aligned(volux_context *ctx, void *p, size_t n);
 volux_status volux_error(volux_context *ctx, volux_status status, const char *fmt, ...) VOLUX_PRINTF(3, 4);
 /* Prepends "prefix" to the recorded message (keeps the status). */
 void volux_error_prefix(volux_context *ctx, const char *fmt, ...) VOLUX_PRINTF(2, 3);
+/* Reports something the caller should know about a call that succeeded
+ * (data repaired or ignored) through the context's warning callback, if
+ * any. Escaped like error messages. */
+void volux_warn(volux_context *ctx, const char *fmt, ...) VOLUX_PRINTF(2, 3);
+
+/* Length of the valid UTF-8 sequence at p (n bytes available), 0 if the
+ * bytes there are not one (RFC 3629: no overlongs, surrogates or values
+ * above U+10FFFF). */
+size_t volux_utf8_sequence(const unsigned char *p, size_t n);
+/* Copies `in` into out (cap bytes, NUL-terminated, truncated at a whole
+ * character) with control characters, DEL and bytes that are not valid
+ * UTF-8 written as \xHH. Returns the length written. Every error and
+ * warning message passes through it. */
+size_t volux_escape_text(const char *in, char *out, size_t cap);
 
 /* Reports progress; returns nonzero if the caller asked to cancel. */
 int volux_progress(volux_context *ctx, const char *task, double fraction);

@@ -366,6 +366,8 @@ volux_status volux_nrrd_parse_header(volux_context *ctx, const char *bytes, size
     }
     if ((st = parse_spacing(&p, (int)ndim, axes, &h))) return st;
     if ((st = parse_skips(&p, &h))) return st;
+    /* Teem reads raw data followed by more bytes, with a warning. */
+    h.trailing_ok = h.encoding == VOLUX_ENCODING_RAW;
 
     if (p.present[F_DATA_FILE]) {
         if ((st = volux_header_data_file(ctx, name, "data file", p.value[F_DATA_FILE], &h))) return st;

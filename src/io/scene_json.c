@@ -57,7 +57,7 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
      * file) would otherwise be silently ignored. */
     static const char *const file_keys[] = {"file",      "dims",           "type",   "endian",
                                             "spacing",   "byte_skip",      "use_file_origin",
-                                            "allow_outside_dir", "comment", NULL};
+                                            "allow_outside_dir", "allow_nonfinite", "comment", NULL};
     static const char *const proc_keys[] = {"procedural", "dims", "seed", "comment", NULL};
     volux_status st;
     if (!obj) return volux_json_error(r, VOLUX_ERR_INVALID, "volume", "missing (a file or a procedural volume)");
@@ -72,7 +72,7 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
         (st = volux_json_string(r, obj, "volume", "type", &type)) ||
         (st = volux_json_string(r, obj, "volume", "endian", &endian)))
         return st;
-    int dims[3] = {0, 0, 0}, use_file_origin = 0, allow_outside = 0;
+    int dims[3] = {0, 0, 0}, use_file_origin = 0, allow_outside = 0, allow_nonfinite = 0;
     float spacing[3] = {1, 1, 1};
     double seed = 1, byte_skip = 0;
     const cJSON *jd = cJSON_GetObjectItemCaseSensitive(obj, "dims");
@@ -94,7 +94,8 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
         (st = volux_json_number(r, obj, "volume", "seed", 0, 9007199254740992.0, &seed)) ||
         (st = volux_json_number(r, obj, "volume", "byte_skip", 0, 9007199254740992.0, &byte_skip)) ||
         (st = volux_json_bool(r, obj, "volume", "use_file_origin", &use_file_origin)) ||
-        (st = volux_json_bool(r, obj, "volume", "allow_outside_dir", &allow_outside)))
+        (st = volux_json_bool(r, obj, "volume", "allow_outside_dir", &allow_outside)) ||
+        (st = volux_json_bool(r, obj, "volume", "allow_nonfinite", &allow_nonfinite)))
         return st;
     if (seed != floor(seed)) return volux_json_error(r, VOLUX_ERR_INVALID, "volume.seed", "expected an integer");
     if (byte_skip != floor(byte_skip))
@@ -124,6 +125,7 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
         volux_raw_desc raw;
         opt.use_file_origin = use_file_origin;
         opt.allow_outside_dir = allow_outside;
+        opt.allow_nonfinite = allow_nonfinite;
         if (jd || type) { /* an explicit layout means a raw file */
             memset(&raw, 0, sizeof raw);
             if (!jd || !type)
@@ -572,7 +574,7 @@ static volux_status read_render(scene_reader *sr, const cJSON *obj) {
             (st = volux_json_int(r, obj, P, "spp", 1, 1 << 24, &rs.spp)) ||
             (st = volux_json_float(r, obj, P, "step", 1e-3, 64, &rs.step)) ||
             (st = volux_json_number(r, obj, P, "seed", 0, 9007199254740992.0, &seed)) ||
-            (st = volux_json_int(r, obj, P, "max_depth", 1, 100000, &rs.max_depth)) ||
+            (st = volux_json_int(r, obj, P, "max_depth", 0, 100000, &rs.max_depth)) ||
             (st = volux_json_float(r, obj, P, "exposure", -64, 64, &rs.exposure)) ||
             (st = volux_json_int(r, obj, P, "threads", 0, 1024, &rs.threads)) ||
             (st = volux_json_number(r, obj, P, "time_ms", 0, 1e12, &rs.time_ms)) ||

@@ -394,7 +394,11 @@ static volux_status raw_start(volux_context *ctx, const volux_volume_header *h, 
         return volux_error(ctx, VOLUX_ERR_FORMAT,
                            "%s: data is truncated: %s needs %llu bytes, only %llu are present", name, dims,
                            (unsigned long long)need, (unsigned long long)avail);
-    if (avail > need)
+    if (avail > need && h->trailing_ok) {
+        /* Teem reads such a file and warns; so do we. */
+        volux_warn(ctx, "%s: %llu bytes after the %llu bytes of %s data are ignored", name,
+                   (unsigned long long)(avail - need), (unsigned long long)need, dims);
+    } else if (avail > need)
         return volux_error(ctx, VOLUX_ERR_FORMAT,
                            "%s: size mismatch: %s needs %llu bytes, but %llu are present (byte skip -1 reads "
                            "the data at the end of the file)",
@@ -416,8 +420,26 @@ static volux_status discard(stream *s, unsigned char *buf, uint64_t n) {
     return VOLUX_OK;
 }
 
+/* NaN/Inf in float data: refused with their count and the first voxel,
+ * or (allowed) replaced by the lowest value with a warning. */
+static volux_status check_nonfinite(volux_context *ctx, const char *name, const volux_volume *v, int allow) {
+    size_t first = 0, bad = volux_volume_count_nonfinite(v, &first);
+    if (!bad) return VOLUX_OK;
+    size_t nx = (size_t)v->dims[0], ny = (size_t)v->dims[1];
+    size_t x = first % nx, y = first / nx % ny, z = first / (nx * ny);
+    if (!allow)
+        return volux_error(ctx, VOLUX_ERR_FORMAT,
+                           "%s: %zu non-finite values (NaN/Inf) in the data, the first at voxel (%zu, %zu, %zu); "
+                           "\"allow_nonfinite\": true maps them to the lowest value",
+                           name, bad, x, y, z);
+    volux_warn(ctx, "%s: %zu non-finite values (NaN/Inf), the first at voxel (%zu, %zu, %zu), mapped to the lowest value",
+               name, bad, x, y, z);
+    return VOLUX_OK;
+}
+
 volux_status volux_volume_read_data(volux_context *ctx, const volux_volume_header *h, volux_source *src,
-                                    int use_file_origin, volux_volume **out) {
+                                    const volux_volume_load_options *options, volux_volume **out) {
+    int use_file_origin = options && options->use_file_origin;
     const char *name = src->name;
     volux_status st = volux_volume_header_check(ctx, name, h);
     if (st) return st;
@@ -504,6 +526,7 @@ volux_status volux_volume_read_data(volux_context *ctx, const volux_volume_heade
     stream_close(&s);
     volux_free(ctx, buf, CHUNK);
     buf = NULL;
+    if ((st = check_nonfinite(ctx, name, v, options && options->allow_nonfinite))) goto fail;
     st = volux_volume_finalize(v, use_file_origin && h->has_origin ? h->origin : NULL);
     if (st) {
         volux_error_prefix(ctx, "%s: ", name);

@@ -62,6 +62,8 @@ typedef struct volux_volume_header {
     int64_t byte_skip;    /* ...bytes skipped: raw: file bytes, -1 = the
                              data ends at the end of the file; zlib: bytes
                              of the decoded stream                          */
+    int trailing_ok;      /* raw data may be followed by more bytes (NRRD,
+                             as Teem: ignored with a warning)               */
 } volux_volume_header;
 
 /* Sets the defaults every parser starts from: spacing 1, little endian,
@@ -157,11 +159,14 @@ volux_status volux_source_inflate_prefix(volux_context *ctx, volux_source *s, ui
                                          size_t n, size_t *got);
 
 /* Reads the data a checked header describes from `src`, fills a new volume
- * and finalizes it (origin from the header when use_file_origin and the
- * header has one, else centred). Rejects data shorter or longer than
- * dims × type size with VOLUX_ERR_FORMAT. Caller releases *out. */
+ * and finalizes it (origin from the header when options->use_file_origin
+ * and the header has one, else centred). Rejects data shorter or longer
+ * than dims × type size with VOLUX_ERR_FORMAT (longer raw data with
+ * h->trailing_ok: a warning), and NaN/Inf values unless
+ * options->allow_nonfinite (then a warning). options may be NULL. Caller
+ * releases *out. */
 volux_status volux_volume_read_data(volux_context *ctx, const volux_volume_header *h, volux_source *src,
-                                    int use_file_origin, volux_volume **out);
+                                    const volux_volume_load_options *options, volux_volume **out);
 
 /* ------------------------------------------------------------------ */
 /* Whole-file loading from memory (fuzzing, tests)                     */

@@ -4,6 +4,10 @@
  * memory, parses it, applies the detached-data folder policy, and hands the
  * data to the common reader (volume_data.c).
  */
+#include <errno.h>
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "header_text.h"
@@ -77,8 +81,7 @@ static volux_status parse_header(volux_context *ctx, kind k, volux_source *src, 
 /* Detached data: the data file's path, relative to the header's folder.
  * Unless allowed, names that could leave that folder are refused: an
  * absolute path or any ".." component (a header from an untrusted source
- * must not make us read arbitrary files). Symbolic links inside the folder
- * are followed. */
+ * must not make us read arbitrary files). */
 static volux_status resolve_data_path(volux_context *ctx, const char *header_path, const char *data_file,
                                       int allow_outside, char *out, size_t cap) {
     if (!allow_outside) {
@@ -106,30 +109,58 @@ static volux_status resolve_data_path(volux_context *ctx, const char *header_pat
     return VOLUX_OK;
 }
 
+/* The data file `path` (already free of ".." and absolute names) must
+ * still lie inside the header's folder once symbolic links are resolved:
+ * a link in the folder may point anywhere (/etc/passwd). Compares the
+ * realpath of both. A missing file is left to the open that follows. The
+ * message names the field, never the link's target or its size. */
+static volux_status check_containment(volux_context *ctx, const char *header_path, const char *data_file,
+                                      const char *path) {
+    char dir[MAX_PATH_BYTES], real_dir[PATH_MAX], real_file[PATH_MAX];
+    const char *slash = strrchr(header_path, '/');
+    size_t n = slash ? (size_t)(slash - header_path) : 0;
+    if (!slash) snprintf(dir, sizeof dir, ".");
+    else if (n == 0) snprintf(dir, sizeof dir, "/");
+    else snprintf(dir, sizeof dir, "%.*s", (int)n, header_path);
+    if (!realpath(dir, real_dir))
+        return volux_error(ctx, VOLUX_ERR_IO, "%s: cannot resolve the header's folder: %s", header_path,
+                           strerror(errno));
+    if (!realpath(path, real_file)) return VOLUX_OK; /* missing: reported by the open */
+    size_t d = strlen(real_dir);
+    int inside = strncmp(real_file, real_dir, d) == 0 && (real_file[d] == '/' || (d == 1 && real_dir[0] == '/'));
+    if (!inside)
+        return volux_error(ctx, VOLUX_ERR_FORMAT,
+                           "%s: data file: '%s' is a symbolic link (or lies under one) that leads outside the "
+                           "header's folder (not allowed)",
+                           header_path, data_file);
+    return VOLUX_OK;
+}
+
 /* Parses the header in `src` and reads the data, from `src` itself or from
- * the detached file (which a memory source cannot reach). */
+ * the detached file (which a memory source cannot reach). Errors about the
+ * detached data name the header the caller passed first. */
 static volux_status load_from(volux_context *ctx, kind k, volux_source *src, int from_memory,
                               const volux_volume_load_options *options, volux_volume **out) {
     volux_volume_header h;
     volux_status st = parse_header(ctx, k, src, &h);
     if (st) return st;
-    int use_origin = options && options->use_file_origin;
-    if (!h.data_file[0]) return volux_volume_read_data(ctx, &h, src, use_origin, out);
+    if (!h.data_file[0]) return volux_volume_read_data(ctx, &h, src, options, out);
 
     char path[MAX_PATH_BYTES];
-    st = resolve_data_path(ctx, src->name, h.data_file, options && options->allow_outside_dir, path, sizeof path);
+    int allow_outside = options && options->allow_outside_dir;
+    st = resolve_data_path(ctx, src->name, h.data_file, allow_outside, path, sizeof path);
     if (st) return st;
     if (from_memory)
         return volux_error(ctx, VOLUX_ERR_IO, "%s: data file: '%s' cannot be read when loading from memory",
                            src->name, h.data_file);
+    if (!allow_outside && (st = check_containment(ctx, src->name, h.data_file, path))) return st;
     volux_source data;
     st = volux_source_open(ctx, path, &data);
-    if (st) {
-        volux_error_prefix(ctx, "%s: data file: ", src->name);
-        return st;
+    if (!st) {
+        st = volux_volume_read_data(ctx, &h, &data, options, out);
+        volux_source_close(&data);
     }
-    st = volux_volume_read_data(ctx, &h, &data, use_origin, out);
-    volux_source_close(&data);
+    if (st) volux_error_prefix(ctx, "%s: data file: ", src->name);
     return st;
 }
 
@@ -143,7 +174,7 @@ volux_status volux_volume_load(volux_context *ctx, const char *path, const volux
         volux_volume_header h;
         if ((st = volux_raw_header_from_desc(ctx, options->raw, path, &h))) return st;
         if ((st = volux_source_open(ctx, path, &src))) return st;
-        st = volux_volume_read_data(ctx, &h, &src, 0, out);
+        st = volux_volume_read_data(ctx, &h, &src, options, out);
         volux_source_close(&src);
         return st;
     }

@@ -105,7 +105,7 @@ static void test_nrrd_bad_fields(void **state) {
         {HEAD "sizes: 2 2 2\nencoding: raw\n", 0, VOLUX_ERR_FORMAT, "no data"},
         /* data size vs. header */
         {HEAD "sizes: 2 2 2\nencoding: raw\n\n", 7, VOLUX_ERR_FORMAT, "truncated"},
-        {HEAD "sizes: 2 2 2\nencoding: raw\n\n", 9, VOLUX_ERR_FORMAT, "size mismatch"},
+        /* (raw data followed by more bytes loads with a warning: test_volume_policies.c) */
         {HEAD "sizes: 2 2 2\nencoding: gzip\n\n", 0, VOLUX_ERR_FORMAT, "compressed data is missing"},
         {HEAD "sizes: 2 2 2\nencoding: gzip\n\n", 20, VOLUX_ERR_FORMAT, "corrupt compressed data"},
         /* detached data file names */

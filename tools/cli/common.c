@@ -44,6 +44,13 @@ static int progress_bar(void *user, const char *task, double fraction) {
     return 0;
 }
 
+/* Library warnings (trailing bytes ignored, non-finite values mapped, a
+ * render cut short) go to stderr; the library escapes them. */
+static void print_warning(void *user, const char *message) {
+    (void)user;
+    fprintf(stderr, "volux: warning: %s\n", message);
+}
+
 volux_context *cli_context(int threads) {
     static progress_state state = {"", -1};
     volux_context_desc d = {0};
@@ -57,6 +64,7 @@ volux_context *cli_context(int threads) {
         fprintf(stderr, "volux: out of memory\n");
         return NULL;
     }
+    volux_context_set_warning(ctx, print_warning, NULL);
     return ctx;
 }
 
