@@ -24,7 +24,7 @@
 extern "C" {
 #endif
 
-#define VOLUX_TF_MAX_POINTS 4096
+#define VOLUX_TF_MAX_POINTS 65536
 /* Largest extinction a baked table holds (1/world unit): σt·density_scale
  * is clamped to it, so optical depths, their running integrals and every
  * product with a length stay finite (a free path of 1e-30 units is opaque

@@ -318,8 +318,8 @@ volux_status volux_scene_set_render(volux_scene *s, const volux_render_settings 
         return volux_error(ctx, VOLUX_ERR_INVALID, "render.spp: must be in [1, 2^24], got %d", r->spp);
     if (!(r->step > 0.0f) || !(r->step <= 64.0f))
         return volux_error(ctx, VOLUX_ERR_INVALID, "render.step: must be in (0, 64], got %g", r->step);
-    if (r->max_depth < 1 || r->max_depth > 100000)
-        return volux_error(ctx, VOLUX_ERR_INVALID, "render.max_depth: must be in [1, 100000], got %d", r->max_depth);
+    if (r->max_depth < 0 || r->max_depth > 100000)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "render.max_depth: must be in [0, 100000] (0: no scattering), got %d", r->max_depth);
     if (!isfinite(r->exposure) || fabsf(r->exposure) > 64.0f)
         return volux_error(ctx, VOLUX_ERR_INVALID, "render.exposure: must be in [-64, 64], got %g", r->exposure);
     if (r->threads < 0 || r->threads > 1024)

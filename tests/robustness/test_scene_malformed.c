@@ -12,6 +12,7 @@
 
 #include "io/scene_formats.h"
 #include "test_util.h"
+#include "volux/edit.h"
 
 #define assert_contains(hay, needle)                                                                   \
     do {                                                                                               \
@@ -88,7 +89,7 @@ static const malformed CASES[] = {
     {"{" VOL "}", VOLUX_ERR_INVALID, "transfer_function: missing"},
     {SCENE_TF("3"), VOLUX_ERR_INVALID, "transfer_function: expected an object"},
     {SCENE_TF("{}"), VOLUX_ERR_INVALID, "transfer_function: needs opacity or extinction points"},
-    {SCENE_TF("{\"opacity\": []}"), VOLUX_ERR_INVALID, "transfer_function.opacity: needs 1..4096 rows, got 0"},
+    {SCENE_TF("{\"opacity\": []}"), VOLUX_ERR_INVALID, "transfer_function.opacity: needs 1..65536 rows, got 0"},
     {SCENE_TF("{\"opacity\": {}}"), VOLUX_ERR_INVALID, "transfer_function.opacity: expected an array"},
     {SCENE_TF("{\"opacity\": [[0, 0], [1, 0.5], [2, 7]]}"), VOLUX_ERR_INVALID,
      "transfer_function.opacity[2]: 7 is outside [0, 1]"},
@@ -177,7 +178,7 @@ static const malformed CASES[] = {
     {SCENE(", \"render\": {\"step\": 0}"), VOLUX_ERR_INVALID, "render.step"},
     {SCENE(", \"render\": {\"seed\": 0.5}"), VOLUX_ERR_INVALID, "render.seed: expected an integer"},
     {SCENE(", \"render\": {\"threads\": -1}"), VOLUX_ERR_INVALID, "render.threads"},
-    {SCENE(", \"render\": {\"max_depth\": 0}"), VOLUX_ERR_INVALID, "render.max_depth"},
+    {SCENE(", \"render\": {\"max_depth\": -1}"), VOLUX_ERR_INVALID, "render.max_depth"},
     {SCENE(", \"render\": {\"exposure\": 100}"), VOLUX_ERR_INVALID, "render.exposure"},
     {SCENE(", \"render\": {\"technique\": \"a-technique-name-longer-than-31-chars\"}"), VOLUX_ERR_INVALID,
      "render.technique: name too long"},
@@ -243,8 +244,8 @@ static void test_huge_arrays_deep_nesting_and_many_keys(void **state) {
     } cases[] = {
         {repeat("{" VOL ", " TF ", \"lights\": [", "{\"type\": \"point\"}", 100000, ",", "]}"), VOLUX_ERR_LIMIT,
          "lights: at most 256 lights, got 100000"},
-        {repeat("{" VOL ", \"transfer_function\": {\"opacity\": [", "[0, 0]", 5000, ",", "]}}"), VOLUX_ERR_INVALID,
-         "transfer_function.opacity: needs 1..4096 rows, got 5000"},
+        {repeat("{" VOL ", \"transfer_function\": {\"opacity\": [", "[0, 0]", 65537, ",", "]}}"), VOLUX_ERR_INVALID,
+         "transfer_function.opacity: needs 1..65536 rows, got 65537"},
         {repeat("{" VOL ", \"transfer_function\": {\"opacity\": [[", "0", 200000, ",", "]]}}"), VOLUX_ERR_INVALID,
          "transfer_function.opacity[0]: expected a row of 2 numbers"},
         {repeat("{\"volume\": {\"procedural\": \"sphere\", \"dims\": [", "1", 200000, ",", "]}}"), VOLUX_ERR_INVALID,
@@ -265,6 +266,24 @@ static void test_huge_arrays_deep_nesting_and_many_keys(void **state) {
                      cases[i].part);
         assert_int_equal(volux_context_bytes_in_use(ctx), 0);
         free(cases[i].json);
+    }
+    /* The cap itself is fine (issue 16: 50 000-point TFs exist): 65 536
+     * opacity and colour points load, and a TF edit copies them. */
+    {
+        char *big = malloc(65536 * 40 + 256), *p = big;
+        p += sprintf(p, "{" VOL ", \"transfer_function\": {\"opacity\": [");
+        for (int i = 0; i < 65536; i++) p += sprintf(p, "%s[%d, %g]", i ? "," : "", i, (i % 7) / 7.0);
+        p += sprintf(p, "], \"color\": [");
+        for (int i = 0; i < 65536; i++) p += sprintf(p, "%s[%d, 1, 0.5, 0]", i ? "," : "", i);
+        sprintf(p, "]}}");
+        volux_scene *s = NULL;
+        volux_context_clear_error(ctx);
+        if (volux_scene_load_string(ctx, big, NULL, "big.json", NULL, 0, &s) != VOLUX_OK)
+            fail_msg("65536 TF points: %s", volux_context_error(ctx));
+        assert_int_equal(volux_scene_transfer(s)->n_opacity, 65536);
+        assert_int_equal(volux_edit_apply(volux_edit_find("tf"), s, 0), VOLUX_OK);
+        volux_scene_destroy(s);
+        free(big);
     }
     /* 64 levels are fine as far as nesting goes (the key is then unknown). */
     char *ok = repeat("{\"comment\": ", "[", 63, "", "");
