@@ -47,6 +47,28 @@ static const malformed CASES[] = {
     {SCENE_VOL("{\"procedural\": \"sphere\\u0000.png\"}"), VOLUX_ERR_FORMAT, "\\u0000"},
     /* a literal backslash followed by u0000 is fine text; the key is unknown */
     {"{\"a\\\\u0000\": 1}", VOLUX_ERR_INVALID, "a\\u0000: unknown key"},
+    /* what RFC 8259 forbids and cJSON accepts (issue 16) */
+    {SCENE(", \"render\": {\"width\": 064}"), VOLUX_ERR_FORMAT, "invalid number at line 1"},
+    {SCENE(", \"render\": {\"width\": +64}"), VOLUX_ERR_FORMAT, "invalid number"},
+    {SCENE(", \"render\": {\"step\": .5}"), VOLUX_ERR_FORMAT, "invalid number"},
+    {SCENE(", \"render\": {\"step\": 1.}"), VOLUX_ERR_FORMAT, "invalid number"},
+    {SCENE(", \"render\": {\"step\": 1e}"), VOLUX_ERR_FORMAT, "invalid number"},
+    {SCENE(", \"render\": {\"width\": 0x40}"), VOLUX_ERR_FORMAT, "invalid number"},
+    {SCENE(", \"render\": {\"width\": -064}"), VOLUX_ERR_FORMAT, "invalid number"},
+    {SCENE(", \"comment\": \"\\uZZ12\""), VOLUX_ERR_FORMAT, "\\u needs four hex digits"},
+    {SCENE(", \"comment\": \"\\u12\""), VOLUX_ERR_FORMAT, "\\u needs four hex digits"},
+    {SCENE(", \"comment\": \"\\q\""), VOLUX_ERR_FORMAT, "invalid escape"},
+    {SCENE(", \"comment\": \"\\ud800\""), VOLUX_ERR_FORMAT, "lone UTF-16 high surrogate"},
+    {SCENE(", \"comment\": \"\\ud800\\u0041\""), VOLUX_ERR_FORMAT, "lone UTF-16 high surrogate"},
+    {SCENE(", \"comment\": \"\\udc00\""), VOLUX_ERR_FORMAT, "lone UTF-16 low surrogate"},
+    {SCENE(", \"comment\": \"\xff\""), VOLUX_ERR_FORMAT, "invalid UTF-8 at line 1"},
+    {SCENE(", \"comment\": \"\xc0\xaf\""), VOLUX_ERR_FORMAT, "invalid UTF-8"},       /* overlong '/' */
+    {SCENE(", \"comment\": \"\xed\xa0\x80\""), VOLUX_ERR_FORMAT, "invalid UTF-8"},   /* a surrogate */
+    {SCENE(", \"comment\": \"\xf4\x90\x80\x80\""), VOLUX_ERR_FORMAT, "invalid UTF-8"}, /* > U+10FFFF */
+    {SCENE(", \"comment\": \"a\tb\""), VOLUX_ERR_FORMAT, "control character in a string"},
+    /* valid: a surrogate pair, UTF-8, 0, -0.5e-3, 1E+2 (the comment is free text) */
+    {SCENE(", \"comment\": \"\\ud83d\\ude00 \xc3\xa9 \\u00e9\", \"render\": {\"step\": 0, \"width\": 1E+2}"),
+     VOLUX_ERR_INVALID, "render.step"},
     /* unknown and duplicate keys, with their full path */
     {SCENE(", \"lihgts\": []"), VOLUX_ERR_INVALID, "lihgts: unknown key (expected one of: volume,"},
     {SCENE(", \"render\": {\"widht\": 64}"), VOLUX_ERR_INVALID, "render.widht: unknown key"},
