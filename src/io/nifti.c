@@ -141,12 +141,24 @@ volux_status volux_nifti_parse_header(volux_context *ctx, const unsigned char *b
         return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: bitpix: %d does not match datatype %s", name, bitpix,
                            volux_scalar_type_name(h.type));
 
+    int sform = i16(&r, O_SFORM_CODE) > 0;
     for (int a = 0; a < 3; a++) {
         double s = f32(&r, O_PIXDIM + 4 * (size_t)(a + 1));
         if (!isfinite(s))
             return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: pixdim[%d]: not finite", name, a + 1);
-        /* Many writers leave pixdim 0 for "unknown"; 1 is the usual reading. */
-        h.spacing[a] = s == 0.0 ? 1.0 : fabs(s);
+        if (s == 0.0) {
+            /* A zero spacing is only readable through the sform: the
+             * length of its column a is the voxel size along axis a. */
+            double c[3];
+            for (int k = 0; k < 3; k++) c[k] = f32(&r, O_SROW + 16 * (size_t)k + 4 * (size_t)a);
+            s = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+            if (!sform || !isfinite(s) || s == 0.0)
+                return volux_error(ctx, VOLUX_ERR_FORMAT,
+                                   "%s: pixdim[%d]: zero, and no sform (sform_code > 0, nonzero column %d) to take "
+                                   "the voxel size from",
+                                   name, a + 1, a);
+        }
+        h.spacing[a] = fabs(s);
     }
 
     double vox = f32(&r, O_VOX_OFFSET);
@@ -158,7 +170,14 @@ volux_status volux_nifti_parse_header(volux_context *ctx, const unsigned char *b
     if (pair && (st = pair_data_file(ctx, name, &h))) return st;
 
     double slope = f32(&r, O_SCL_SLOPE), inter = f32(&r, O_SCL_INTER);
-    if (isfinite(slope) && isfinite(inter) && slope != 0.0 && !(slope == 1.0 && inter == 0.0)) {
+    /* NIfTI-1: slope 0 means "no scaling"; NaN slope or intercept are read
+     * as unset (nibabel). An infinite one would turn every value into ±Inf
+     * or NaN: a broken header. */
+    if (isinf(slope)) return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: scl_slope: infinite", name);
+    if (isinf(inter) && isfinite(slope) && slope != 0.0)
+        return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: scl_inter: infinite", name);
+    if (isnan(inter)) inter = 0.0;
+    if (isfinite(slope) && slope != 0.0 && !(slope == 1.0 && inter == 0.0)) {
         h.apply_scale = 1;
         h.scale_slope = slope;
         h.scale_inter = inter;

@@ -242,6 +242,7 @@ static volux_status parse_spacing(parser *p, int ndim, const int axes[3], volux_
     if (p->present[F_SPACE_DIRECTIONS]) {
         volux_text rest = p->value[F_SPACE_DIRECTIONS], tok;
         int space = -1;
+        double dir[3][MAX_SPACE];
         for (int i = 0; i < ndim; i++) {
             volux_text t = volux_text_trim(rest);
             if (t.n >= 4 && memcmp(t.p, "none", 4) == 0) {
@@ -273,10 +274,27 @@ static volux_status parse_spacing(parser *p, int ndim, const int axes[3], volux_
                         return volux_error(p->ctx, VOLUX_ERR_FORMAT,
                                            "%s: space directions: axis %d has a zero or non-finite vector", p->name, i);
                     h->spacing[a] = len;
+                    memcpy(dir[a], v, sizeof v);
                 }
         }
         if (volux_text_token(&rest, &tok))
             return volux_error(p->ctx, VOLUX_ERR_FORMAT, "%s: space directions: more than %d entries", p->name, ndim);
+        /* The three spatial axes must span space: parallel (or coplanar)
+         * directions are a broken header, not a volume (Gram determinant,
+         * relative to the lengths; works for any space dimension). */
+        double g[3][3];
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++) {
+                g[i][j] = 0.0;
+                for (int c = 0; c < space; c++) g[i][j] += dir[i][c] * dir[j][c];
+            }
+        double det = g[0][0] * (g[1][1] * g[2][2] - g[1][2] * g[2][1]) - g[0][1] * (g[1][0] * g[2][2] - g[1][2] * g[2][0]) +
+                     g[0][2] * (g[1][0] * g[2][1] - g[1][1] * g[2][0]);
+        if (!(det > 1e-12 * g[0][0] * g[1][1] * g[2][2]))
+            return volux_error(p->ctx, VOLUX_ERR_FORMAT,
+                               "%s: space directions: the vectors of axes %d, %d, %d are parallel or coplanar "
+                               "(they must span the space)",
+                               p->name, axes[0], axes[1], axes[2]);
     }
     if (p->present[F_SPACE_ORIGIN]) {
         volux_text rest = p->value[F_SPACE_ORIGIN], tok;

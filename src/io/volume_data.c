@@ -468,6 +468,12 @@ volux_status volux_volume_read_data(volux_context *ctx, const volux_volume_heade
                          (unsigned long long)src->size);
         goto fail;
     }
+    if (zlib && h->compressed_size && h->compressed_size > src->size - begin) {
+        st = volux_error(ctx, VOLUX_ERR_FORMAT,
+                         "%s: CompressedDataSize: %llu bytes declared, but only %llu follow the header", name,
+                         (unsigned long long)h->compressed_size, (unsigned long long)(src->size - begin));
+        goto fail;
+    }
     if (zlib) {
         /* Deflate expands at most 1032:1 (zlib's technical notes), so a
          * short stream cannot hold a big volume: refuse before allocating

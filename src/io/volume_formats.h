@@ -64,6 +64,8 @@ typedef struct volux_volume_header {
                              of the decoded stream                          */
     int trailing_ok;      /* raw data may be followed by more bytes (NRRD,
                              as Teem: ignored with a warning)               */
+    uint64_t compressed_size; /* bytes of compressed data the header declares
+                                 (MetaImage CompressedDataSize); 0 = not given */
 } volux_volume_header;
 
 /* Sets the defaults every parser starts from: spacing 1, little endian,
@@ -88,6 +90,11 @@ struct volux_text;
 volux_status volux_header_sizes(volux_context *ctx, const char *name, const char *field, struct volux_text value,
                                 int count, int64_t *sizes);
 /* Parses exactly `count` numbers (nan/inf allowed: callers judge). */
+/* 1 if three axis vectors do not span 3-D space: one is zero (or not
+ * finite) or they are (nearly) coplanar — |det| ≤ 1e-6·|a|·|b|·|c|, i.e.
+ * the parallelepiped they span is flatter than about 1e-4 degrees. */
+int volux_header_axes_degenerate(const double a[3], const double b[3], const double c[3]);
+
 volux_status volux_header_numbers(volux_context *ctx, const char *name, const char *field, struct volux_text value,
                                   int count, double *out);
 /* Chooses the three spatial axes of an ndim-axis array: ndim 3, or 4 with

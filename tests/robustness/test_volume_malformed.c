@@ -103,6 +103,13 @@ static void test_nrrd_bad_fields(void **state) {
         {HEAD "sizes: 2 2 2\nencoding: raw\nspace origin: (1,2)\n\n", 8, VOLUX_ERR_FORMAT, "space origin"},
         {HEAD "sizes: 2 2 2\nencoding: raw\nspace origin: (1,nan,2)\n\n", 8, VOLUX_ERR_FORMAT, "space origin"},
         {HEAD "sizes: 2 2 2\nencoding: raw\n", 0, VOLUX_ERR_FORMAT, "no data"},
+        /* axes that do not span space (issue 16) */
+        {HEAD "sizes: 2 2 2\nencoding: raw\nspace dimension: 3\nspace directions: (1,0,0) (2,0,0) (0,0,1)\n\n", 8,
+         VOLUX_ERR_FORMAT, "space directions: the vectors of axes 0, 1, 2 are parallel"},
+        {HEAD "sizes: 2 2 2\nencoding: raw\nspace dimension: 3\nspace directions: (1,0,0) (0,1,0) (1,1,0)\n\n", 8,
+         VOLUX_ERR_FORMAT, "coplanar"},
+        {HEAD "sizes: 2 2 2\nencoding: raw\nspace dimension: 3\nspace directions: (1,0,0) (0,0,0) (0,0,1)\n\n", 8,
+         VOLUX_ERR_FORMAT, "zero"},
         /* data size vs. header */
         {HEAD "sizes: 2 2 2\nencoding: raw\n\n", 7, VOLUX_ERR_FORMAT, "truncated"},
         /* (raw data followed by more bytes loads with a warning: test_volume_policies.c) */
@@ -247,6 +254,21 @@ static void test_metaimage_bad_fields(void **state) {
         {MI "ElementType = MET_UCHAR\nElementType = MET_UCHAR\nElementDataFile = LOCAL\n", 8, VOLUX_ERR_FORMAT,
          "twice"},
         {MI "ElementType = MET_UCHAR\njunk line\nElementDataFile = LOCAL\n", 8, VOLUX_ERR_FORMAT, "line 4"},
+        /* issue 16: a singular direction matrix, compressed sizes that cannot be */
+        {MI "ElementType = MET_UCHAR\nTransformMatrix = 0 0 0 0 0 0 0 0 0\nElementDataFile = LOCAL\n", 8,
+         VOLUX_ERR_FORMAT, "TransformMatrix: singular"},
+        {MI "ElementType = MET_UCHAR\nTransformMatrix = 1 0 0 1 0 0 0 0 1\nElementDataFile = LOCAL\n", 8,
+         VOLUX_ERR_FORMAT, "TransformMatrix: singular"},
+        {MI "ElementType = MET_UCHAR\nTransformMatrix = 1 0 0 0 1 0 0 0 nan\nElementDataFile = LOCAL\n", 8,
+         VOLUX_ERR_FORMAT, "TransformMatrix"},
+        {MI "ElementType = MET_UCHAR\nTransformMatrix = 1 0 0 0 1 0\nElementDataFile = LOCAL\n", 8,
+         VOLUX_ERR_FORMAT, "TransformMatrix"},
+        {MI "ElementType = MET_UCHAR\nCompressedData = True\nCompressedDataSize = -5\nElementDataFile = LOCAL\n", 30,
+         VOLUX_ERR_FORMAT, "CompressedDataSize: expected a positive integer, got '-5'"},
+        {MI "ElementType = MET_UCHAR\nCompressedData = True\nCompressedDataSize = 100000\nElementDataFile = LOCAL\n",
+         30, VOLUX_ERR_FORMAT, "CompressedDataSize: 100000 bytes declared, but only 30"},
+        {MI "ElementType = MET_UCHAR\nCompressedDataSize = 8\nElementDataFile = LOCAL\n", 8, VOLUX_ERR_FORMAT,
+         "CompressedData is not True"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         char name[32];
@@ -286,6 +308,11 @@ static void test_nifti_bad_fields(void **state) {
         {108, 2, -1, VOLUX_ERR_FORMAT, "vox_offset"},
         {108, 2, 4000, VOLUX_ERR_FORMAT, "past the end"},
         {108, 2, 340, VOLUX_ERR_FORMAT, "vox_offset"},
+        /* issue 16: zero pixdim without an sform, infinite scaling */
+        {84, 2, 0, VOLUX_ERR_FORMAT, "pixdim[2]: zero, and no sform"},
+        {112, 2, INFINITY, VOLUX_ERR_FORMAT, "scl_slope: infinite"},
+        {116, 4, INFINITY, VOLUX_ERR_FORMAT, "scl_inter: infinite"}, /* with scl_slope 2 */
+        {116, 4, -INFINITY, VOLUX_ERR_FORMAT, "scl_inter: infinite"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++)
         for (int big = 0; big < 2; big++) {
@@ -296,6 +323,10 @@ static void test_nifti_bad_fields(void **state) {
             case 1: tu_put_i32(h, cases[i].off, (long)cases[i].value, big); break;
             case 2: tu_put_f32(h, cases[i].off, (float)cases[i].value, big); break;
             case 3: memcpy(h + cases[i].off, "\0\0\0\0", 4); break;
+            case 4:
+                tu_put_f32(h, 112, 2.0f, big);
+                tu_put_f32(h, cases[i].off, (float)cases[i].value, big);
+                break;
             }
             if (cases[i].kind == 0 && cases[i].off == 40 && cases[i].value == 4) tu_put_i16(h, 48, 3, big);
             char name[32];
@@ -303,6 +334,23 @@ static void test_nifti_bad_fields(void **state) {
             print_message("case %zu (%s): %s\n", i, big ? "big" : "little", cases[i].what);
             expect_failure(tu_write_file(name, h, 352 + 8), NULL, cases[i].status, cases[i].what);
         }
+    /* A zero pixdim with an sform takes the voxel size from the sform's
+     * column (srow_y[1] = 2.5 here). */
+    tu_nifti_header(h, 0, dims, 2, 8);
+    memset(h + 352, 1, 8);
+    tu_put_f32(h, 84, 0.0f, 0);
+    tu_put_i16(h, 254, 1, 0);
+    tu_put_f32(h, 300, 2.5f, 0);
+    {
+        volux_context *ctx = tu_context(1);
+        volux_volume *v = NULL;
+        assert_int_equal(volux_volume_load(ctx, tu_write_file("sform.nii", h, 352 + 8), NULL, &v), VOLUX_OK);
+        double sp[3];
+        volux_volume_spacing(v, sp);
+        assert_true(sp[0] == 1.0 && sp[1] == 2.5 && sp[2] == 1.0);
+        volux_volume_release(v);
+        volux_context_destroy(ctx);
+    }
     /* too short, truncated data, trailing bytes, truncated .nii.gz */
     tu_nifti_header(h, 0, dims, 2, 8);
     expect_failure(tu_write_file("short.nii", h, 200), NULL, VOLUX_ERR_FORMAT, "shorter than the 348-byte");
