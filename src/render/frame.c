@@ -232,6 +232,11 @@ volux_status volux_render(volux_technique *t, const volux_scene *scene, volux_fr
         if (lim.target_error > 0.0 && fb->spp >= 4 && volux_framebuffer_rel_error(fb) <= lim.target_error) break;
     }
     volux_progress(ctx, "render", 1.0);
+    if (truncated)
+        volux_warn(ctx,
+                   "render: the time budget of %g ms ran out inside the first sample; its paths were cut short "
+                   "(the image is darker than it should be)",
+                   lim.time_ms);
     volux_free(ctx, stats, (size_t)tiles * sizeof *stats);
     volux_free(ctx, wave, 3 * pixels * sizeof(float));
     if (report) {

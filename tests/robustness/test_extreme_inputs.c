@@ -177,6 +177,51 @@ CASE(5)
 CASE(6)
 CASE(7)
 
+static void collect_warning(void *user, const char *message) {
+    int *n = user;
+    (*n)++;
+    printf("  warning: %s\n", message);
+}
+
+/* --time-ms is honoured inside a path: a white (albedo 1), dense medium
+ * with max_depth 100000 makes every path scatter 1e5 times (no roulette
+ * at throughput 1), far more work than the budget. The render returns
+ * with the first wave kept and reported as cut short, with a warning; the
+ * ctest timeout would catch a render that ignores the budget. */
+static void test_time_budget_ends_long_paths(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(2);
+    int warnings = 0;
+    volux_context_set_warning(ctx, collect_warning, &warnings);
+    volux_scene *s = tu_scene(ctx, "{\"volume\": {\"procedural\": \"constant\", \"dims\": [32, 32, 32]},"
+                                   " \"transfer_function\": {\"extinction\": [[0, 20], [2, 20]], \"albedo\": 1},"
+                                   " \"lights\": [{\"type\": \"environment\", \"radiance\": 1}],"
+                                   " \"render\": {\"technique\": \"pathtrace\", \"width\": 32, \"height\": 32,"
+                                   "   \"spp\": 64, \"max_depth\": 100000, \"threads\": 2}}");
+    volux_technique *t = NULL;
+    assert_int_equal(volux_technique_create(ctx, "pathtrace", s, &t), VOLUX_OK);
+    volux_framebuffer *fb = NULL;
+    assert_int_equal(volux_framebuffer_create(ctx, 32, 32, &fb), VOLUX_OK);
+    volux_render_limits lim = {64, 100.0, 0.0};
+    volux_render_report rep;
+    memset(&rep, 0, sizeof rep);
+    double t0 = now_ms();
+    assert_int_equal(volux_render(t, s, fb, &lim, &rep), VOLUX_OK);
+    printf("  time budget 100 ms: returned after %.1f ms, %u spp, truncated %d\n", now_ms() - t0, rep.spp,
+           rep.truncated);
+    assert_int_equal(rep.spp, 1);
+    assert_int_equal(rep.truncated, 1);
+    assert_int_equal(warnings, 1);
+    volux_image img = {0};
+    assert_int_equal(volux_framebuffer_resolve(fb, &img), VOLUX_OK);
+    for (int i = 0; i < 3 * img.width * img.height; i++) assert_true(isfinite(img.rgb[i]));
+    volux_image_free(ctx, &img);
+    volux_framebuffer_destroy(fb);
+    volux_technique_destroy(t);
+    volux_scene_destroy(s);
+    volux_context_destroy(ctx);
+}
+
 /* Values whose span max − min exceeds FLT_MAX cannot be mapped onto a
  * table in float (inf·0 = NaN): refused with the range named. */
 static void test_value_span_beyond_float_is_refused(void **state) {
@@ -201,6 +246,7 @@ int main(void) {
         cmocka_unit_test(test_case_3), cmocka_unit_test(test_case_4), cmocka_unit_test(test_case_5),
         cmocka_unit_test(test_case_6), cmocka_unit_test(test_case_7),
         cmocka_unit_test(test_value_span_beyond_float_is_refused),
+        cmocka_unit_test(test_time_budget_ends_long_paths),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
