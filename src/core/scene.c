@@ -262,8 +262,30 @@ volux_status volux_scene_set_light(volux_scene *s, int slot, const volux_light_d
     if (st) return st;
     volux_image map = {0};
     if (d->type == VOLUX_LIGHT_ENVIRONMENT && d->map) {
-        st = volux_image_copy(s->ctx, d->map, &map);
+        /* Texels: NaN/Inf are refused (they would reach every pixel that
+         * sees the sky); values above VOLUX_ENV_TEXEL_MAX are clamped with
+         * a warning, so sums over the map, its sampling table and
+         * radiance × intensity × throughput stay finite (an RGBE exponent
+         * of 255 gives 1.7e38). Negative values are kept (filters leave
+         * tiny ones; lookups clamp at 0). */
+        const volux_image *m = d->map;
+        size_t n = 3 * (size_t)m->width * (size_t)m->height, bad = 0, first = 0, clamped = 0;
+        for (size_t i = 0; i < n; i++)
+            if (!isfinite(m->rgb[i]) && !bad++) first = i / 3;
+        if (bad)
+            return volux_error(s->ctx, VOLUX_ERR_INVALID,
+                               "%s.file: %zu non-finite texel values (NaN/Inf), the first at texel (%zu, %zu)", path,
+                               bad, first % (size_t)m->width, first / (size_t)m->width);
+        st = volux_image_copy(s->ctx, m, &map);
         if (st) return st;
+        for (size_t i = 0; i < n; i++)
+            if (fabsf(map.rgb[i]) > VOLUX_ENV_TEXEL_MAX) {
+                map.rgb[i] = map.rgb[i] > 0.0f ? VOLUX_ENV_TEXEL_MAX : -VOLUX_ENV_TEXEL_MAX;
+                clamped++;
+            }
+        if (clamped)
+            volux_warn(s->ctx, "%s.file: %zu texel values above %g clamped to it", path, clamped,
+                       (double)VOLUX_ENV_TEXEL_MAX);
     }
     light_slot *l = &s->lights[slot];
     volux_image_free(s->ctx, &l->map);

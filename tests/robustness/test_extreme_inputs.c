@@ -102,6 +102,11 @@ static const extreme_case cases[] = {
      " \"lights\": [{\"type\": \"environment\", \"file\": \"env65504.pfm\"},"
      "   {\"type\": \"environment\", \"file\": \"envsun.pfm\", \"intensity\": 2}]," RENDER,
      0},
+    {"environment 3e38 (clamped)",
+     "{\"volume\": {\"procedural\": \"cloud\", \"dims\": [16, 14, 12]},"
+     " \"transfer_function\": {\"opacity\": [[0, 0], [255, 0.3]], \"albedo\": 0.9},"
+     " \"lights\": [{\"type\": \"environment\", \"file\": \"envhuge.pfm\", \"intensity\": 1000}]," RENDER,
+     0},
     {"anisotropy 0.999",
      "{\"volume\": {\"procedural\": \"cloud\", \"dims\": [16, 14, 12]},"
      " \"transfer_function\": {\"opacity\": [[0, 0], [255, 0.5]], \"albedo\": 1, \"anisotropy\": 0.999}," LIGHTS
@@ -121,6 +126,7 @@ static const extreme_case cases[] = {
 static void check_case(const extreme_case *c) {
     write_env("env65504.pfm", 65504.0f, 65504.0f);
     write_env("envsun.pfm", 1e-6f, 65504.0f);
+    write_env("envhuge.pfm", 3e38f, 3e38f);
     write_huge_volume("huge.raw", 1.7e38f);
     for (int k = 0; k < volux_technique_count(); k++) {
         const char *name = volux_technique_info_at(k)->name;
@@ -176,6 +182,7 @@ CASE(4)
 CASE(5)
 CASE(6)
 CASE(7)
+CASE(8)
 
 static void collect_warning(void *user, const char *message) {
     int *n = user;
@@ -222,6 +229,21 @@ static void test_time_budget_ends_long_paths(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* A map holding Inf or NaN is refused, naming the light and the texel. */
+static void test_nonfinite_environment_texels_are_refused(void **state) {
+    (void)state;
+    write_env("envinf.pfm", 1.0f, INFINITY);
+    volux_context *ctx = tu_context(1);
+    volux_scene *s = NULL;
+    const char *json = "{\"volume\": {\"procedural\": \"cloud\", \"dims\": [8, 8, 8]},"
+                       " \"transfer_function\": {\"opacity\": [[0, 0], [255, 0.3]]},"
+                       " \"lights\": [{\"type\": \"environment\", \"file\": \"envinf.pfm\"}]}";
+    assert_int_equal(volux_scene_load_string(ctx, json, tu_temp_path(""), "inf.json", NULL, 0, &s), VOLUX_ERR_INVALID);
+    tu_assert_error_mentions(ctx, "inf.json", "lights[0].file", "6 non-finite", "texel (5, 4)", (const char *)NULL); /* PFM rows go bottom-up */
+    assert_int_equal(volux_context_bytes_in_use(ctx), 0);
+    volux_context_destroy(ctx);
+}
+
 /* Values whose span max − min exceeds FLT_MAX cannot be mapped onto a
  * table in float (inf·0 = NaN): refused with the range named. */
 static void test_value_span_beyond_float_is_refused(void **state) {
@@ -240,12 +262,13 @@ static void test_value_span_beyond_float_is_refused(void **state) {
 }
 
 int main(void) {
-    _Static_assert(sizeof cases / sizeof cases[0] == 8, "one test per case");
+    _Static_assert(sizeof cases / sizeof cases[0] == 9, "one test per case");
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_case_0), cmocka_unit_test(test_case_1), cmocka_unit_test(test_case_2),
         cmocka_unit_test(test_case_3), cmocka_unit_test(test_case_4), cmocka_unit_test(test_case_5),
-        cmocka_unit_test(test_case_6), cmocka_unit_test(test_case_7),
+        cmocka_unit_test(test_case_6), cmocka_unit_test(test_case_7), cmocka_unit_test(test_case_8),
         cmocka_unit_test(test_value_span_beyond_float_is_refused),
+        cmocka_unit_test(test_nonfinite_environment_texels_are_refused),
         cmocka_unit_test(test_time_budget_ends_long_paths),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
