@@ -127,10 +127,13 @@ volux_status volux_nrrd_parse_header(volux_context *ctx, const char *bytes, size
 volux_status volux_metaimage_parse_header(volux_context *ctx, const char *bytes, size_t n, const char *name,
                                           volux_volume_header *out);
 
-/* NIfTI-1: the 348-byte header (either byte order). `name` decides nothing
- * but the messages, except for a "ni1" header (a .hdr/.img pair), whose
- * data_file is the basename of `name` with .hdr replaced by .img. */
+/* NIfTI-1 (the 348-byte header) or NIfTI-2 (540 bytes), either byte
+ * order; n is what the file holds (a NIfTI-1 file may be shorter than 540).
+ * `name` decides nothing but the messages, except for a "ni1"/"ni2" header
+ * (a .hdr/.img pair), whose data_file is the basename of `name` with .hdr
+ * replaced by .img. */
 #define VOLUX_NIFTI_HEADER_BYTES 348
+#define VOLUX_NIFTI2_HEADER_BYTES 540
 volux_status volux_nifti_parse_header(volux_context *ctx, const unsigned char *bytes, size_t n,
                                       const char *name, volux_volume_header *out);
 

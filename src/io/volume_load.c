@@ -35,7 +35,9 @@ static kind kind_from_bytes(const unsigned char *b, size_t n) {
     if (n >= 7 && memcmp(b, "NRRD000", 7) == 0) return K_NRRD;
     if (n >= 2 && b[0] == 0x1f && b[1] == 0x8b) return K_NIFTI_GZ;
     if (n >= 4 && ((b[0] == 0x5c && b[1] == 1 && !b[2] && !b[3]) || (!b[0] && !b[1] && b[2] == 1 && b[3] == 0x5c)))
-        return K_NIFTI;
+        return K_NIFTI; /* sizeof_hdr 348 */
+    if (n >= 4 && ((b[0] == 0x1c && b[1] == 2 && !b[2] && !b[3]) || (!b[0] && !b[1] && b[2] == 2 && b[3] == 0x1c)))
+        return K_NIFTI; /* 540: NIfTI-2 */
     volux_text t = {(const char *)b, n};
     volux_text rest = t, tok;
     if (volux_text_token(&rest, &tok) && tok.n >= 5 &&
@@ -48,7 +50,7 @@ static kind kind_from_bytes(const unsigned char *b, size_t n) {
 static volux_status parse_header(volux_context *ctx, kind k, volux_source *src, volux_volume_header *h) {
     const char *name = src->name;
     if (k == K_NIFTI || k == K_NIFTI_GZ) {
-        unsigned char b[VOLUX_NIFTI_HEADER_BYTES];
+        unsigned char b[VOLUX_NIFTI2_HEADER_BYTES]; /* a NIfTI-1 file may be shorter: got says */
         size_t got;
         volux_status st = k == K_NIFTI ? volux_source_read(ctx, src, 0, b, sizeof b, &got)
                                        : volux_source_inflate_prefix(ctx, src, 0, b, sizeof b, &got);
