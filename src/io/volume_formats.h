@@ -36,6 +36,9 @@
 #define VOLUX_MAX_HEADER_BYTES (1u << 20)
 /* Longest detached data file name; Teem 1.12 aborts on long ones (§5). */
 #define VOLUX_MAX_DATA_NAME 1024
+/* Most data files one volume may be split into (one per slice of the
+ * largest axis). */
+#define VOLUX_MAX_DATA_FILES VOLUX_MAX_DIM
 
 typedef enum volux_encoding {
     VOLUX_ENCODING_RAW,
@@ -64,6 +67,17 @@ typedef struct volux_volume_header {
                              of the decoded stream                          */
     int trailing_ok;      /* raw data may be followed by more bytes (NRRD,
                              as Teem: ignored with a warning)               */
+    /* Data split over several files (NRRD "data file: FMT MIN MAX STEP" or
+     * "data file: LIST"): file_count > 0 files, each holding an equal,
+     * consecutive share of the values (x fastest). Pattern form: data_file
+     * is a printf format with one integer conversion, file i's number is
+     * file_first + i·file_step. LIST form (file_list): the names are the
+     * lines of the header file from byte list_offset on. Skips apply to
+     * every file. */
+    int file_count;
+    int file_list;
+    int64_t file_first, file_step;
+    uint64_t list_offset;
     uint64_t compressed_size; /* bytes of compressed data the header declares
                                  (MetaImage CompressedDataSize); 0 = not given */
 } volux_volume_header;
@@ -175,6 +189,19 @@ volux_status volux_source_inflate_prefix(volux_context *ctx, volux_source *s, ui
  * h->trailing_ok: a warning), and NaN/Inf values unless
  * options->allow_nonfinite (then a warning). options may be NULL. Caller
  * releases *out. */
+/* The same for a volume split over `parts` sources (each holds 1/parts of
+ * the values, in order), all sizes checked before allocating. The parts
+ * are opened one at a time through ps (twice: sizes, then data); `name`
+ * (the header) prefixes messages. */
+typedef struct volux_part_source {
+    volux_status (*open)(void *user, int k, volux_source *out);
+    void (*close)(void *user, volux_source *s);
+    void *user;
+    const char *name;
+} volux_part_source;
+volux_status volux_volume_read_parts(volux_context *ctx, const volux_volume_header *h, int parts,
+                                     const volux_part_source *ps, const volux_volume_load_options *options,
+                                     volux_volume **out);
 volux_status volux_volume_read_data(volux_context *ctx, const volux_volume_header *h, volux_source *src,
                                     const volux_volume_load_options *options, volux_volume **out);
 

@@ -138,6 +138,114 @@ static volux_status check_containment(volux_context *ctx, const char *header_pat
     return VOLUX_OK;
 }
 
+/* A volume split over h->file_count data files. Names are made (pattern)
+ * or found (LIST lines, indexed once) when a part is opened; each is
+ * resolved and contained like a single data file. */
+typedef struct split_files {
+    volux_context *ctx;
+    const volux_volume_header *h;
+    const char *header;
+    int allow_outside;
+    const char *list;    /* LIST: the header file's bytes after the LIST line */
+    size_t *line_start;  /* LIST: where entry i starts / its length */
+    size_t *line_len;
+    char path[MAX_PATH_BYTES];
+} split_files;
+
+static volux_status split_open(void *user, int k, volux_source *out) {
+    split_files *f = user;
+    volux_context *ctx = f->ctx;
+    char name[VOLUX_MAX_DATA_NAME + 1];
+    if (f->h->file_list) {
+        memcpy(name, f->list + f->line_start[k], f->line_len[k]);
+        name[f->line_len[k]] = 0;
+    } else {
+        int64_t number = f->h->file_first + (int64_t)k * f->h->file_step;
+        if (number < -2147483647 - 1 || number > 2147483647)
+            return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: data file: number %lld does not fit the format", f->header,
+                               (long long)number);
+        /* The format was checked to hold exactly one int conversion. */
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wformat-nonliteral"
+        int n = snprintf(name, sizeof name, f->h->data_file, (int)number);
+#pragma GCC diagnostic pop
+        if (n < 0 || (size_t)n >= sizeof name)
+            return volux_error(ctx, VOLUX_ERR_LIMIT, "%s: data file: name %d is too long", f->header, k + 1);
+    }
+    volux_status st = resolve_data_path(ctx, f->header, name, f->allow_outside, f->path, sizeof f->path);
+    if (!st && !f->allow_outside) st = check_containment(ctx, f->header, name, f->path);
+    if (!st && (st = volux_source_open(ctx, f->path, out)))
+        volux_error_prefix(ctx, "%s: data file %d of %d: ", f->header, k + 1, f->h->file_count);
+    return st;
+}
+
+static void split_close(void *user, volux_source *s) {
+    (void)user;
+    volux_source_close(s);
+}
+
+static volux_status load_files(volux_context *ctx, const volux_volume_header *h, volux_source *src,
+                               const volux_volume_load_options *options, volux_volume **out) {
+    int n = h->file_count;
+    split_files f;
+    memset(&f, 0, sizeof f);
+    f.ctx = ctx;
+    f.h = h;
+    f.header = src->name;
+    f.allow_outside = options && options->allow_outside_dir;
+    char *list = NULL;
+    size_t list_cap = 0, list_n = 0;
+    volux_status st = VOLUX_OK;
+    if (h->file_list) {
+        uint64_t avail = src->size > h->list_offset ? src->size - h->list_offset : 0;
+        uint64_t cap = (uint64_t)n * (VOLUX_MAX_DATA_NAME + 2) + 4096;
+        list_cap = (size_t)(avail < cap ? avail : cap); /* more: reported as extra entries below */
+        list = volux_malloc(ctx, list_cap + 1);
+        f.line_start = volux_calloc(ctx, (size_t)n, sizeof *f.line_start);
+        f.line_len = volux_calloc(ctx, (size_t)n, sizeof *f.line_len);
+        if (!list || !f.line_start || !f.line_len) {
+            st = volux_error(ctx, VOLUX_ERR_NOMEM, "%s: out of memory for the data file list", src->name);
+            goto done;
+        }
+        if ((st = volux_source_read(ctx, src, h->list_offset, list, list_cap, &list_n))) goto done;
+        /* One name per line; blank lines name nothing. */
+        size_t pos = 0;
+        int i = 0;
+        while (pos < list_n) {
+            const char *line = list + pos, *nl = memchr(line, '\n', list_n - pos);
+            size_t len = nl ? (size_t)(nl - line) : list_n - pos;
+            volux_text t = volux_text_trim((volux_text){line, len});
+            pos += len + (nl ? 1 : 0);
+            if (t.n == 0) continue;
+            if (i == n) {
+                st = volux_error(ctx, VOLUX_ERR_FORMAT, "%s: data file: LIST names more than the %d files the sizes need",
+                                 src->name, n);
+                goto done;
+            }
+            if (t.n > VOLUX_MAX_DATA_NAME || memchr(t.p, 0, t.n)) {
+                st = volux_error(ctx, VOLUX_ERR_FORMAT, "%s: data file: LIST entry %d is too long or holds a NUL byte",
+                                 src->name, i + 1);
+                goto done;
+            }
+            f.line_start[i] = (size_t)(t.p - list);
+            f.line_len[i++] = t.n;
+        }
+        if (i < n) {
+            st = volux_error(ctx, VOLUX_ERR_FORMAT, "%s: data file: LIST names %d files, the sizes need %d", src->name,
+                             i, n);
+            goto done;
+        }
+        f.list = list;
+    }
+    volux_part_source ps = {split_open, split_close, &f, src->name};
+    st = volux_volume_read_parts(ctx, h, n, &ps, options, out);
+done:
+    volux_free(ctx, list, list_cap + 1);
+    volux_free(ctx, f.line_start, (size_t)n * sizeof *f.line_start);
+    volux_free(ctx, f.line_len, (size_t)n * sizeof *f.line_len);
+    return st;
+}
+
 /* Parses the header in `src` and reads the data, from `src` itself or from
  * the detached file (which a memory source cannot reach). Errors about the
  * detached data name the header the caller passed first. */
@@ -146,6 +254,12 @@ static volux_status load_from(volux_context *ctx, kind k, volux_source *src, int
     volux_volume_header h;
     volux_status st = parse_header(ctx, k, src, &h);
     if (st) return st;
+    if (h.file_count > 0) {
+        if (from_memory)
+            return volux_error(ctx, VOLUX_ERR_IO, "%s: data file: %d data files cannot be read when loading from memory",
+                               src->name, h.file_count);
+        return load_files(ctx, &h, src, options, out);
+    }
     if (!h.data_file[0]) return volux_volume_read_data(ctx, &h, src, options, out);
 
     char path[MAX_PATH_BYTES];

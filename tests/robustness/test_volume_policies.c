@@ -224,6 +224,106 @@ static void test_messages_escape_untrusted_bytes(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* A folder of its own for a split volume's files. */
+static const char *stack_dir(const char *name) {
+    static char dir[256];
+    snprintf(dir, sizeof dir, "%s", tu_temp_path(name));
+    if (access(dir, F_OK) != 0) assert_int_equal(mkdir(dir, 0700), 0);
+    return dir;
+}
+
+static void put(const char *dir, const char *name, const void *data, size_t n) {
+    char path[512];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(data, 1, n, f), n);
+    fclose(f);
+}
+
+static volux_status load_in(const char *dir, const char *header, volux_context *ctx, volux_volume **v) {
+    char path[512];
+    snprintf(path, sizeof path, "%s/h.nhdr", dir);
+    put(dir, "h.nhdr", header, strlen(header));
+    return volux_volume_load(ctx, path, NULL, v);
+}
+
+/* NRRD data over several files (issue 16): "FMT MIN MAX STEP [subdim]" and
+ * "LIST [subdim]", raw or gzip, skips applied to every file. A 3×2×4
+ * uint8 volume whose value at (x, y, z) is 50·z + 10·y + x, one slice per
+ * file. */
+static void test_nrrd_slice_stacks(void **state) {
+    (void)state;
+    const char *dir = stack_dir("stack");
+    for (int z = 0; z < 4; z++) {
+        unsigned char slice[2 + 6];
+        slice[0] = slice[1] = 0xee; /* 2 bytes skipped in every file */
+        for (int i = 0; i < 6; i++) slice[2 + i] = (unsigned char)(50 * z + 10 * (i / 3) + i % 3);
+        char name[32];
+        snprintf(name, sizeof name, "s%03d.raw", 10 - 2 * z); /* 10, 8, 6, 4: a descending pattern */
+        put(dir, name, slice, sizeof slice);
+        size_t zn;
+        unsigned char *gz = tu_deflate(slice + 2, 6, 1, &zn);
+        snprintf(name, sizeof name, "z%d.gz", z);
+        put(dir, name, gz, zn);
+        free(gz);
+    }
+#define H "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 3 2 4\n"
+    volux_context *ctx = tu_context(1);
+    volux_volume *v = NULL;
+    const char *ok[] = {
+        H "encoding: raw\nbyte skip: 2\ndata file: s%03d.raw 10 4 -2\n",
+        H "encoding: raw\nbyte skip: 2\ndata file: s%03d.raw 10 4 -2 2\n",
+        H "encoding: gzip\ndata file: LIST\nz0.gz\n  z1.gz\nz2.gz\n\nz3.gz\n\n",
+    };
+    for (size_t c = 0; c < sizeof ok / sizeof ok[0]; c++) {
+        if (load_in(dir, ok[c], ctx, &v)) fail_msg("case %zu: %s", c, volux_context_error(ctx));
+        double lo, hi;
+        volux_volume_range(v, &lo, &hi);
+        assert_true(lo == 0 && hi == 162);
+        /* every voxel: the range alone would not catch swapped slices */
+        for (int z = 0; z < 4; z++)
+            for (int y = 0; y < 2; y++)
+                for (int x = 0; x < 3; x++)
+                    if (volux_volume_value_at(v, x, y, z) != 50 * z + 10 * y + x)
+                        fail_msg("case %zu: voxel (%d, %d, %d) = %g", c, x, y, z, volux_volume_value_at(v, x, y, z));
+        volux_volume_release(v);
+        v = NULL;
+    }
+    static const struct {
+        const char *header;
+        volux_status status;
+        const char *what;
+    } bad[] = {
+        {H "encoding: raw\nbyte skip: 2\ndata file: s%03d.raw 10 6 -2\n", VOLUX_ERR_FORMAT, "names 3 files, the sizes need 4"},
+        {H "encoding: raw\ndata file: s%03d.raw 10 4 2\n", VOLUX_ERR_FORMAT, "never goes from 10 to 4"},
+        {H "encoding: raw\ndata file: s%s.raw 1 4 1\n", VOLUX_ERR_FORMAT, "one integer conversion"},
+        {H "encoding: raw\ndata file: s%d%d.raw 1 4 1\n", VOLUX_ERR_FORMAT, "one integer conversion"},
+        {H "encoding: raw\ndata file: s%n.raw 1 4 1\n", VOLUX_ERR_FORMAT, "one integer conversion"},
+        {H "encoding: raw\ndata file: ../s%03d.raw 1 4 1\n", VOLUX_ERR_FORMAT, "outside"},
+        {H "encoding: raw\nbyte skip: 2\ndata file: s%03d.raw 12 6 -2\n", VOLUX_ERR_IO, "data file 1 of 4"},
+        {H "encoding: raw\nbyte skip: 3\ndata file: s%03d.raw 10 4 -2\n", VOLUX_ERR_FORMAT, "data file 1 of 4"}, /* 5 for 6 */
+        {H "encoding: gzip\ndata file: LIST\nz0.gz\nz1.gz\nz2.gz\n", VOLUX_ERR_FORMAT, "LIST names 3 files, the sizes need 4"},
+        {H "encoding: gzip\ndata file: LIST\nz0.gz\nz1.gz\nz2.gz\nz3.gz\nz3.gz\n", VOLUX_ERR_FORMAT, "more than the 4"},
+        {H "encoding: gzip\ndata file: LIST\nz0.gz\n/etc/passwd\nz2.gz\nz3.gz\n", VOLUX_ERR_FORMAT, "/etc/passwd"},
+        {H "encoding: gzip\ndata file: LIST 4\nz0.gz\n", VOLUX_ERR_FORMAT, "subdim must be in [1, 3]"},
+        {"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 16384 2\nencoding: raw\ndata file: LIST 1\n", VOLUX_ERR_LIMIT,
+         "over the limit"},
+    };
+    for (size_t c = 0; c < sizeof bad / sizeof bad[0]; c++) {
+        volux_context_clear_error(ctx);
+        volux_status st = load_in(dir, bad[c].header, ctx, &v);
+        if (st != bad[c].status || !strstr(volux_context_error(ctx), bad[c].what) ||
+            !strstr(volux_context_error(ctx), "h.nhdr"))
+            fail_msg("bad case %zu: got %s '%s', expected %s '%s'", c, volux_status_name(st), volux_context_error(ctx),
+                     volux_status_name(bad[c].status), bad[c].what);
+        assert_null(v);
+    }
+#undef H
+    assert_int_equal(volux_context_bytes_in_use(ctx), 0);
+    volux_context_destroy(ctx);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_raw_nrrd_trailing_bytes_load_with_a_warning),
@@ -234,6 +334,7 @@ int main(void) {
         cmocka_unit_test(test_symlinked_data_must_stay_inside),
         cmocka_unit_test(test_detached_messages_name_the_header),
         cmocka_unit_test(test_messages_escape_untrusted_bytes),
+        cmocka_unit_test(test_nrrd_slice_stacks),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
