@@ -7,8 +7,10 @@
 PACKAGES := build-essential cmake pkg-config clang libpng-dev zlib1g-dev libcjson-dev \
             libopenexr-dev libcmocka-dev
 # Only the tests need these: `locales` has the de_DE sources a test compiles
-# into a temporary decimal-comma locale (header numbers must not follow it).
-TEST_PACKAGES := locales
+# into a temporary decimal-comma locale (header numbers must not follow it);
+# Open MPI for the MPI front end's tests (tests/distributed; the CLI is
+# built with MPI whenever it is installed).
+TEST_PACKAGES := locales libopenmpi-dev openmpi-bin
 JOBS     ?= $(shell nproc 2>/dev/null || echo 2)
 BUILD    ?= build
 VOLUX    := $(BUILD)/volux
@@ -47,7 +49,9 @@ demo: build
 
 test: test-release test-asan
 
-test-release: build test-deps
+# test-deps first: the build then finds MPI and registers its tests.
+test-release: test-deps
+	$(MAKE) build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
 asan: deps
@@ -56,7 +60,7 @@ asan: deps
 
 test-asan: asan test-deps
 	cd build-asan && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-	  ctest --output-on-failure -j $(JOBS) -LE slow
+	  ctest --output-on-failure -j $(JOBS) -LE 'slow|mpi'
 
 # libFuzzer harnesses (clang). Run one: build-fuzz/fuzz/fuzz_nrrd fuzz/corpus/nrrd
 fuzz: deps

@@ -74,6 +74,34 @@ typedef struct volux_render_report {
 VOLUX_API volux_status volux_render(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
                                     const volux_render_limits *limits, volux_render_report *report);
 
+/* ---- building blocks for distributed front ends (tools/mpi) ----
+ *
+ * A frame is cut into volux_framebuffer_tile_count() tiles of
+ * VOLUX_TILE_SIZE², numbered row-major. volux_render_tiles renders samples
+ * 0…spp−1 of tiles [tile_first, tile_first + tile_count) into fb from zero
+ * (other tiles keep their sums; fb's sample count becomes spp), with exactly
+ * the arithmetic of volux_render: a tile's sums are bit-identical to the
+ * same tile of a whole-frame volux_render, whichever process rendered it.
+ * It brings t up to date like volux_render; time and error limits do not
+ * apply. INVALID for a tile range outside the frame.
+ *
+ *     // every process: its tiles, then one sum over processes
+ *     volux_render_tiles(t, scene, fb, first, count, spp, NULL);
+ *     volux_framebuffer_get_sums(fb, sum, sum_sq);   // 3n and n doubles
+ *     ... MPI_Reduce(sum, ..., MPI_SUM) ...          // untouched pixels are 0
+ *     volux_framebuffer_set_sums(fb, total, total_sq, spp);
+ */
+VOLUX_API int volux_framebuffer_tile_count(const volux_framebuffer *fb);
+VOLUX_API volux_status volux_render_tiles(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
+                                          int tile_first, int tile_count, uint32_t spp,
+                                          volux_render_report *report);
+/* Copies fb's per-pixel sums out: sum holds 3·w·h radiance sums (RGB),
+ * sum_sq w·h sums of squared luminance (caller-owned arrays). */
+VOLUX_API void volux_framebuffer_get_sums(const volux_framebuffer *fb, double *sum, double *sum_sq);
+/* Replaces fb's sums and sample count (arrays as in get_sums). */
+VOLUX_API void volux_framebuffer_set_sums(volux_framebuffer *fb, const double *sum, const double *sum_sq,
+                                          uint32_t spp);
+
 #ifdef __cplusplus
 }
 #endif

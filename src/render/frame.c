@@ -98,7 +98,7 @@ typedef struct wave_job {
     const volux_scene *scene;
     volux_framebuffer *fb;
     volux_context *ctx;
-    int tiles_x, tiles_total;
+    int tiles_x, tile_first, tiles_total;
     uint32_t sample_index;
     volux_tile_stats *stats; /* per tile */
     int *done_tiles;
@@ -121,7 +121,15 @@ int volux_tile_expired(const volux_tile *t) {
     return 1;
 }
 
-static void render_one_tile(void *user, int64_t index, int thread) {
+/* The pixel rectangle of tile `index`. */
+static void tile_rect(const volux_framebuffer *fb, int tiles_x, int64_t index, volux_tile *tile) {
+    tile->x0 = (int)(index % tiles_x) * VOLUX_TILE_SIZE;
+    tile->y0 = (int)(index / tiles_x) * VOLUX_TILE_SIZE;
+    tile->w = fb->width - tile->x0 < VOLUX_TILE_SIZE ? fb->width - tile->x0 : VOLUX_TILE_SIZE;
+    tile->h = fb->height - tile->y0 < VOLUX_TILE_SIZE ? fb->height - tile->y0 : VOLUX_TILE_SIZE;
+}
+
+static void render_one_tile(void *user, int64_t slot, int thread) {
     (void)thread;
     wave_job *job = user;
     if (__atomic_load_n(job->cancelled, __ATOMIC_RELAXED)) return;
@@ -129,17 +137,17 @@ static void render_one_tile(void *user, int64_t index, int thread) {
      * so its remaining tiles need not be rendered. */
     if (job->deadline && !job->first_wave && __atomic_load_n(&job->deadline->expired, __ATOMIC_RELAXED)) return;
     volux_framebuffer *fb = job->fb;
+    int64_t index = job->tile_first + slot;
     volux_tile tile;
-    tile.x0 = (int)(index % job->tiles_x) * VOLUX_TILE_SIZE;
-    tile.y0 = (int)(index / job->tiles_x) * VOLUX_TILE_SIZE;
-    tile.w = fb->width - tile.x0 < VOLUX_TILE_SIZE ? fb->width - tile.x0 : VOLUX_TILE_SIZE;
-    tile.h = fb->height - tile.y0 < VOLUX_TILE_SIZE ? fb->height - tile.y0 : VOLUX_TILE_SIZE;
+    tile_rect(fb, job->tiles_x, index, &tile);
     tile.sample_index = job->sample_index;
     tile.deadline = job->deadline;
     float rgb[VOLUX_TILE_SIZE * VOLUX_TILE_SIZE * 3];
     memset(rgb, 0, sizeof rgb);
-    volux_tile_stats *stats = &job->stats[index];
+    volux_tile_stats *stats = &job->stats[slot];
     job->cls->render_tile(job->state, job->scene, &tile, rgb, stats);
+    /* Kept apart until the whole wave is done: a wave cut short by the
+     * time budget or cancelled leaves fb as it was. */
     for (int y = 0; y < tile.h; y++)
         memcpy(&job->wave[3 * ((size_t)(tile.y0 + y) * (size_t)fb->width + (size_t)tile.x0)], &rgb[3 * y * tile.w],
                3 * sizeof(float) * (size_t)tile.w);
@@ -160,12 +168,11 @@ static double clock_ms(clockid_t id) {
 static double now_ms(void) { return clock_ms(CLOCK_MONOTONIC); }
 
 
-volux_status volux_render(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
-                          const volux_render_limits *limits, volux_render_report *report) {
-    volux_context *ctx = fb->ctx;
+/* Brings t up to date and drops fb's samples from another state. */
+static volux_status prepare(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb) {
     const volux_render_settings *rs = volux_scene_render(scene);
     if (fb->width != rs->width || fb->height != rs->height)
-        return volux_error(ctx, VOLUX_ERR_INVALID, "framebuffer is %dx%d but the scene renders %dx%d", fb->width,
+        return volux_error(fb->ctx, VOLUX_ERR_INVALID, "framebuffer is %dx%d but the scene renders %dx%d", fb->width,
                            fb->height, rs->width, rs->height);
     /* A technique never renders a scene it is not up to date with, and a
      * framebuffer never mixes samples of two states. */
@@ -175,20 +182,25 @@ volux_status volux_render(volux_technique *t, const volux_scene *scene, volux_fr
         if (fb->spp) volux_framebuffer_reset(fb);
         fb->generation = volux_technique_generation(t);
     }
-    volux_render_limits lim = {(uint32_t)rs->spp, rs->time_ms, rs->target_error};
-    if (limits) lim = *limits;
-    if (lim.spp == 0) lim.spp = 1;
-    const volux_technique_class *cls = volux_technique_class_of(t);
-    if (!cls->info.progressive && lim.spp > 1 && lim.target_error > 0.0) lim.target_error = 0.0;
+    return VOLUX_OK;
+}
 
+/* The wave loop of volux_render and volux_render_tiles over the tiles
+ * [tile_first, tile_first + tile_count): waves fb->spp, fb->spp + 1, … until
+ * lim says stop. Every pixel of a tile is accumulated in sample order, so a
+ * tile's sums do not depend on which other tiles were rendered with it. */
+static volux_status render_waves(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
+                                 int tile_first, int tile_count, volux_render_limits lim,
+                                 volux_render_report *report) {
+    volux_context *ctx = fb->ctx;
+    const volux_render_settings *rs = volux_scene_render(scene);
+    const volux_technique_class *cls = volux_technique_class_of(t);
     int tiles_x = (fb->width + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE;
-    int tiles_y = (fb->height + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE;
-    int tiles = tiles_x * tiles_y;
     size_t pixels = (size_t)fb->width * (size_t)fb->height;
-    volux_tile_stats *stats = volux_calloc(ctx, (size_t)tiles, sizeof *stats);
+    volux_tile_stats *stats = volux_calloc(ctx, (size_t)tile_count, sizeof *stats);
     float *wave = volux_malloc(ctx, 3 * pixels * sizeof(float));
     if (!stats || !wave) {
-        volux_free(ctx, stats, (size_t)tiles * sizeof *stats);
+        volux_free(ctx, stats, (size_t)tile_count * sizeof *stats);
         volux_free(ctx, wave, 3 * pixels * sizeof(float));
         return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for a %dx%d sample wave", fb->width, fb->height);
     }
@@ -196,8 +208,10 @@ volux_status volux_render(volux_technique *t, const volux_scene *scene, volux_fr
     int done = 0, busy = 0, cancelled = 0, truncated = 0;
     double start = now_ms(), cpu_start = clock_ms(CLOCK_PROCESS_CPUTIME_ID);
     volux_deadline deadline = {start + lim.time_ms, 0};
-    wave_job job = {cls, volux_technique_state(t), scene, fb, ctx, tiles_x, tiles, 0, stats, &done, &busy, &cancelled,
-                    0.0, 1.0, wave, lim.time_ms > 0.0 ? &deadline : NULL, 0};
+    wave_job job = {cls,   volux_technique_state(t), scene, fb,         ctx, tiles_x, tile_first, tile_count, 0,
+                    stats, &done,                    &busy, &cancelled, 0.0, 1.0, wave,
+                    lim.time_ms > 0.0 ? &deadline : NULL, 0};
+    volux_status st = VOLUX_OK;
     uint32_t start_spp = fb->spp;
     uint64_t samples = 0, vertices = 0;
     while (fb->spp < lim.spp) {
@@ -207,25 +221,31 @@ volux_status volux_render(volux_technique *t, const volux_scene *scene, volux_fr
         uint32_t waves = lim.spp - start_spp;
         job.progress_base = waves ? (double)(fb->spp - start_spp) / waves : 0.0;
         job.progress_span = waves ? 1.0 / waves : 1.0;
-        memset(stats, 0, (size_t)tiles * sizeof *stats);
-        volux_parallel_for(threads, tiles, render_one_tile, &job);
+        memset(stats, 0, (size_t)tile_count * sizeof *stats);
+        volux_parallel_for(threads, tile_count, render_one_tile, &job);
         if (cancelled) {
             st = volux_error(ctx, VOLUX_ERR_CANCELLED, "render cancelled");
             break;
         }
-        for (int i = 0; i < tiles; i++) {
+        for (int i = 0; i < tile_count; i++) {
             samples += stats[i].samples;
             vertices += stats[i].vertices;
         }
         if (deadline.expired && !job.first_wave) break; /* an incomplete wave: dropped */
         truncated = deadline.expired;
-        for (size_t p = 0; p < pixels; p++) {
-            const float *c = &wave[3 * p];
-            double lum = 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
-            fb->sum[3 * p + 0] += c[0];
-            fb->sum[3 * p + 1] += c[1];
-            fb->sum[3 * p + 2] += c[2];
-            fb->sum_sq[p] += lum * lum;
+        for (int i = tile_first; i < tile_first + tile_count; i++) {
+            volux_tile tile;
+            tile_rect(fb, tiles_x, i, &tile);
+            for (int y = tile.y0; y < tile.y0 + tile.h; y++)
+                for (int x = tile.x0; x < tile.x0 + tile.w; x++) {
+                    size_t p = (size_t)y * (size_t)fb->width + (size_t)x;
+                    const float *c = &wave[3 * p];
+                    double lum = 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+                    fb->sum[3 * p + 0] += c[0];
+                    fb->sum[3 * p + 1] += c[1];
+                    fb->sum[3 * p + 2] += c[2];
+                    fb->sum_sq[p] += lum * lum;
+                }
         }
         fb->spp++;
         if (lim.time_ms > 0.0 && now_ms() - start >= lim.time_ms) break;
@@ -237,7 +257,7 @@ volux_status volux_render(volux_technique *t, const volux_scene *scene, volux_fr
                    "render: the time budget of %g ms ran out inside the first sample; its paths were cut short "
                    "(the image is darker than it should be)",
                    lim.time_ms);
-    volux_free(ctx, stats, (size_t)tiles * sizeof *stats);
+    volux_free(ctx, stats, (size_t)tile_count * sizeof *stats);
     volux_free(ctx, wave, 3 * pixels * sizeof(float));
     if (report) {
         report->truncated = truncated;
@@ -249,4 +269,62 @@ volux_status volux_render(volux_technique *t, const volux_scene *scene, volux_fr
         report->vertices = vertices;
     }
     return st;
+}
+
+static int tile_count_of(const volux_framebuffer *fb) {
+    return ((fb->width + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE) * ((fb->height + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE);
+}
+
+int volux_framebuffer_tile_count(const volux_framebuffer *fb) { return tile_count_of(fb); }
+
+volux_status volux_render(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
+                          const volux_render_limits *limits, volux_render_report *report) {
+    volux_status st = prepare(t, scene, fb);
+    if (st) return st;
+    const volux_render_settings *rs = volux_scene_render(scene);
+    volux_render_limits lim = {(uint32_t)rs->spp, rs->time_ms, rs->target_error};
+    if (limits) lim = *limits;
+    if (lim.spp == 0) lim.spp = 1;
+    if (!volux_technique_class_of(t)->info.progressive && lim.spp > 1 && lim.target_error > 0.0)
+        lim.target_error = 0.0;
+    return render_waves(t, scene, fb, 0, tile_count_of(fb), lim, report);
+}
+
+volux_status volux_render_tiles(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb, int tile_first,
+                                int tile_count, uint32_t spp, volux_render_report *report) {
+    int total = tile_count_of(fb);
+    if (tile_first < 0 || tile_count < 1 || tile_first > total - tile_count)
+        return volux_error(fb->ctx, VOLUX_ERR_INVALID, "tiles %d..%d are outside the frame's %d tiles", tile_first,
+                           tile_first + tile_count - 1, total);
+    volux_status st = prepare(t, scene, fb);
+    if (st) return st;
+    /* Restart these tiles from zero samples; the frame's sample count is
+     * the one every rendered tile has. */
+    int tiles_x = (fb->width + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE;
+    for (int i = tile_first; i < tile_first + tile_count; i++) {
+        int x0 = (i % tiles_x) * VOLUX_TILE_SIZE, y0 = (i / tiles_x) * VOLUX_TILE_SIZE;
+        int w = fb->width - x0 < VOLUX_TILE_SIZE ? fb->width - x0 : VOLUX_TILE_SIZE;
+        int h = fb->height - y0 < VOLUX_TILE_SIZE ? fb->height - y0 : VOLUX_TILE_SIZE;
+        for (int y = y0; y < y0 + h; y++) {
+            size_t p = (size_t)y * (size_t)fb->width + (size_t)x0;
+            memset(&fb->sum[3 * p], 0, 3 * (size_t)w * sizeof(double));
+            memset(&fb->sum_sq[p], 0, (size_t)w * sizeof(double));
+        }
+    }
+    fb->spp = 0;
+    volux_render_limits lim = {spp ? spp : 1, 0.0, 0.0};
+    return render_waves(t, scene, fb, tile_first, tile_count, lim, report);
+}
+
+void volux_framebuffer_get_sums(const volux_framebuffer *fb, double *sum, double *sum_sq) {
+    size_t n = (size_t)fb->width * (size_t)fb->height;
+    memcpy(sum, fb->sum, 3 * n * sizeof(double));
+    memcpy(sum_sq, fb->sum_sq, n * sizeof(double));
+}
+
+void volux_framebuffer_set_sums(volux_framebuffer *fb, const double *sum, const double *sum_sq, uint32_t spp) {
+    size_t n = (size_t)fb->width * (size_t)fb->height;
+    memcpy(fb->sum, sum, 3 * n * sizeof(double));
+    memcpy(fb->sum_sq, sum_sq, n * sizeof(double));
+    fb->spp = spp;
 }

@@ -3,7 +3,8 @@
 # <- render <- techniques <- tools, io -> core only, and techniques may use io.
 # A technique folder includes only itself, the shared family folders below
 # and the lower layers; src/techniques/*.c (the registry) may name any
-# technique; tools/ includes only volux/ and its own folder's headers.
+# technique; tools/ includes only volux/ and tools/ headers (the CLI and its
+# MPI front end share tools/cli/cli.h and tools/mpi/distribute.h).
 # Every #include "..." or <...> whose target starts with a project folder is
 # judged on its target alone; a target containing ".." is always refused (it
 # would step around the per-layer include roots the build uses).
@@ -32,7 +33,7 @@ allowed_for() {
       printf '%s\n' volux/ core/ io/ sample/ render/ "techniques/$name/"
       for s in "${SHARED_TECHNIQUE_FOLDERS[@]}"; do echo "techniques/$s/"; done ;;
     src/techniques/*) printf '%s\n' volux/ core/ io/ sample/ render/ techniques/ ;;
-    tools/*)         echo volux/ ;;
+    tools/*)         printf '%s\n' volux/ tools/ ;;
     *)               echo "unknown location $f" >&2; return 1 ;;
   esac
 }

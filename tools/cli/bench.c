@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "tools/mpi/distribute.h"
 #include "scene_args.h"
 
 #define MAX_EDITS 16
@@ -50,6 +51,7 @@ static double median(double *v, int n) {
 static void usage(FILE *f) {
     fprintf(f, "usage: volux bench SCENE.json [--technique T] [--repeat N] [--edit KIND]... [--json]\n"
                "                   [--reference IMG] [scene options as for render]\n"
+               "                   [--distribute image] (under mpirun: distributed frame timings)\n"
                "edits (default: tf camera; 'all' for every one):\n");
     for (int i = 0; volux_edit_at(i); i++) {
         const volux_edit *e = volux_edit_at(i);
@@ -86,6 +88,12 @@ static volux_status convergence(volux_context *ctx, volux_technique *t, volux_sc
 }
 
 int cli_bench(int argc, char **argv) {
+    /* Under mpirun or with --distribute: the distributed frame's timings. */
+    dist_mode distribute = DIST_NONE;
+    for (int i = 1; i < argc; i++)
+        if (!strcmp(argv[i], "--distribute") && !dist_parse_mode("bench", i + 1 < argc ? argv[i + 1] : NULL, &distribute))
+            return CLI_USAGE;
+    if (distribute || dist_launched()) return cli_bench_distributed(argc, argv, distribute);
     cli_scene_args args = {0};
     const volux_edit *edits[MAX_EDITS];
     int n_edits = 0, json = 0, repeat = 5;

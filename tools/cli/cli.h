@@ -21,6 +21,9 @@ int cli_render(int argc, char **argv);
 int cli_info(int argc, char **argv);
 int cli_compare(int argc, char **argv);
 int cli_bench(int argc, char **argv);
+/* `volux bench` under mpirun / --distribute (bench_distributed.c);
+ * distribute_mode is a dist_mode (tools/mpi/distribute.h). */
+int cli_bench_distributed(int argc, char **argv, int distribute_mode);
 int cli_techniques(int argc, char **argv);
 int cli_ambient_table(int argc, char **argv);
 
@@ -30,6 +33,9 @@ int cli_fail(const char *cmd, volux_context *ctx, volux_status st);
 int cli_exit_status(volux_status st);
 /* Creates a context with a terminal progress bar (when stderr is a tty). */
 volux_context *cli_context(int threads);
+/* Draws the terminal progress bar of cli_context for work the library
+ * does not see (nothing when stderr is not a terminal). */
+void cli_progress(const char *task, double fraction);
 /* Parses a positive/non-negative integer option value; prints an error. */
 int cli_parse_int(const char *cmd, const char *opt, const char *s, long lo, long hi, long *out);
 int cli_parse_double(const char *cmd, const char *opt, const char *s, double *out);

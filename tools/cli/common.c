@@ -51,13 +51,19 @@ static void print_warning(void *user, const char *message) {
     fprintf(stderr, "volux: warning: %s\n", message);
 }
 
+static progress_state bar_state = {"", -1};
+
+void cli_progress(const char *task, double fraction) {
+    if (isatty(STDERR_FILENO)) progress_bar(&bar_state, task, fraction);
+}
+
 volux_context *cli_context(int threads) {
-    static progress_state state = {"", -1};
+    progress_state *state = &bar_state;
     volux_context_desc d = {0};
     d.threads = threads;
     if (isatty(STDERR_FILENO)) {
         d.progress = progress_bar;
-        d.progress_user = &state;
+        d.progress_user = state;
     }
     volux_context *ctx = NULL;
     if (volux_context_create(&d, &ctx) != VOLUX_OK) {

@@ -63,27 +63,39 @@ int cli_scene_arg(const char *cmd, cli_scene_args *a, int argc, char **argv, int
     return 0;
 }
 
-int cli_load_scene(const char *cmd, volux_context *ctx, const cli_scene_args *a, volux_scene **out) {
+int cli_load_scene_quiet(const char *cmd, volux_context *ctx, const cli_scene_args *a, volux_scene **out,
+                         char *msg, size_t msg_size) {
     if (!a->scene_path) {
-        fprintf(stderr, "volux %s: missing SCENE.json\n", cmd);
+        snprintf(msg, msg_size, "missing SCENE.json");
         return CLI_USAGE;
     }
     volux_scene *scene = NULL;
     volux_status st = volux_scene_load(ctx, a->scene_path, a->overrides, a->n_overrides, &scene);
-    if (st) return cli_fail(cmd, ctx, st);
+    if (st) {
+        const char *e = volux_context_error(ctx);
+        snprintf(msg, msg_size, "%s", e && *e ? e : volux_status_name(st));
+        return cli_exit_status(st);
+    }
     const char *tech = volux_scene_render(scene)->technique;
     if (!volux_technique_info_find(tech)) {
-        fprintf(stderr, "volux %s: %s: render.technique: unknown technique '%s' (see `volux techniques`)\n", cmd,
-                a->scene_path, tech);
+        snprintf(msg, msg_size, "%s: render.technique: unknown technique '%s' (see `volux techniques`)", a->scene_path,
+                 tech);
         volux_scene_destroy(scene);
         return CLI_USAGE;
     }
     if ((st = volux_technique_validate_params(ctx, scene))) {
-        fprintf(stderr, "volux %s: %s: %s\n", cmd, a->scene_path, volux_context_error(ctx));
+        snprintf(msg, msg_size, "%s: %s", a->scene_path, volux_context_error(ctx));
         volux_scene_destroy(scene);
         return cli_exit_status(st);
     }
     if (volux_scene_render(scene)->threads > 0) volux_context_set_threads(ctx, volux_scene_render(scene)->threads);
     *out = scene;
     return CLI_OK;
+}
+
+int cli_load_scene(const char *cmd, volux_context *ctx, const cli_scene_args *a, volux_scene **out) {
+    char msg[1024];
+    int rc = cli_load_scene_quiet(cmd, ctx, a, out, msg, sizeof msg);
+    if (rc) fprintf(stderr, "volux %s: %s\n", cmd, msg);
+    return rc;
 }

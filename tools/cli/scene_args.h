@@ -6,6 +6,8 @@
 #ifndef VOLUX_CLI_SCENE_ARGS_H
 #define VOLUX_CLI_SCENE_ARGS_H
 
+#include <stddef.h>
+
 #include "cli.h"
 
 #define CLI_MAX_OVERRIDES 128
@@ -24,5 +26,9 @@ int cli_scene_arg(const char *cmd, cli_scene_args *a, int argc, char **argv, int
 /* Loads the scene with the overrides and checks technique parameters.
  * On error prints the message and returns the exit status (nonzero). */
 int cli_load_scene(const char *cmd, volux_context *ctx, const cli_scene_args *a, volux_scene **out);
+/* The same without printing: the message goes to msg (for front ends that
+ * print one message for many processes). */
+int cli_load_scene_quiet(const char *cmd, volux_context *ctx, const cli_scene_args *a, volux_scene **out,
+                         char *msg, size_t msg_size);
 
 #endif

@@ -1,0 +1,159 @@
+/*
+ * tools/cli/bench_distributed.c — `volux bench` under mpirun or with
+ * --distribute image (issue 15): the frame time of the distributed render
+ * and where it goes.
+ *
+ * Metrics (rank 0 prints; every line carries "ranks"):
+ *   prepare_ms              technique creation + refinement (slowest rank)
+ *   render_ms               whole distributed frame, tiles to composited
+ *                           sums on rank 0 (median of --repeat)
+ *   composite_ms            the reduction of the sums (median)
+ *   composite_fraction      composite_ms / render_ms
+ *   rank_render_ms.<k>      rank k's tile rendering (median), tiles.<k>
+ * Edits and --reference are single-process measurements: refused here.
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "tools/mpi/distribute.h"
+#include "scene_args.h"
+
+#define MAX_REPEAT 1000
+
+static int cmp_double(const void *a, const void *b) {
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+static double median(double *v, int n) {
+    qsort(v, (size_t)n, sizeof *v, cmp_double);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+typedef struct line_out {
+    int json, threads, width, height, ranks;
+    const char *scene, *technique;
+} line_out;
+
+static void emit(const line_out *o, const char *metric, double value, const char *unit) {
+    if (o->json)
+        printf("{\"scene\":\"%s\",\"technique\":\"%s\",\"metric\":\"%s\",\"value\":%.6g,\"unit\":\"%s\","
+               "\"threads\":%d,\"width\":%d,\"height\":%d,\"ranks\":%d}\n",
+               o->scene, o->technique, metric, value, unit, o->threads, o->width, o->height, o->ranks);
+    else
+        printf("%-10s %-22s %14.4g %-10s ranks %d\n", o->technique, metric, value, unit, o->ranks);
+    fflush(stdout);
+}
+
+int cli_bench_distributed(int argc, char **argv, int distribute_mode) {
+    dist_mode requested = (dist_mode)distribute_mode;
+    cli_scene_args args = {0};
+    int json = 0, repeat = 5;
+    dist_quiet_followers();
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (!strcmp(a, "--json")) {
+            json = 1;
+        } else if (!strcmp(a, "--distribute")) {
+            i++; /* parsed by the caller */
+        } else if (!strcmp(a, "--repeat")) {
+            long v;
+            if (!cli_parse_int("bench", "--repeat", i + 1 < argc ? argv[++i] : NULL, 1, MAX_REPEAT, &v))
+                return CLI_USAGE;
+            repeat = (int)v;
+        } else if (!strcmp(a, "--edit") || !strcmp(a, "--reference")) {
+            fprintf(stderr, "volux bench: %s: not available in a distributed run (run one process)\n", a);
+            return CLI_USAGE;
+        } else {
+            int r = cli_scene_arg("bench", &args, argc, argv, &i);
+            if (r < 0) return CLI_USAGE;
+            if (r == 0) {
+                fprintf(stderr, "volux bench: unknown option '%s'\n", a);
+                return CLI_USAGE;
+            }
+        }
+    }
+    if (!args.scene_path) {
+        fprintf(stderr, "volux bench: missing SCENE.json\n");
+        return CLI_USAGE;
+    }
+    int mode = dist_begin("bench", requested);
+    if (mode < 0) return CLI_USAGE;
+    if (mode == DIST_DATA) {
+        fprintf(stderr, "volux bench: --distribute data: not available yet (use image)\n");
+        dist_end();
+        return CLI_USAGE;
+    }
+    volux_context *ctx = cli_context(dist_default_threads());
+    if (!ctx) {
+        dist_end();
+        return CLI_FAIL;
+    }
+    volux_context_set_progress(ctx, NULL, NULL); /* timings, not bars */
+    volux_scene *scene = NULL;
+    volux_technique *tech = NULL;
+    volux_framebuffer *fb = NULL;
+    int ranks = dist_size(), rank = dist_rank();
+    double *frame = calloc((size_t)repeat, sizeof *frame), *composite = calloc((size_t)repeat, sizeof *composite),
+           *mine = calloc((size_t)repeat, sizeof *mine), *all = calloc(2 * (size_t)ranks, sizeof *all);
+    char msg[1024] = "";
+    int rc = cli_load_scene_quiet("bench", ctx, &args, &scene, msg, sizeof msg);
+    if (!rc && (!frame || !composite || !mine || !all)) {
+        rc = CLI_FAIL;
+        snprintf(msg, sizeof msg, "out of memory");
+    }
+    if ((rc = dist_agree_msg("bench", rc, msg))) goto done;
+    const volux_render_settings *rs = volux_scene_render(scene);
+    line_out o = {json, volux_context_threads(ctx), rs->width, rs->height, ranks, args.scene_path, rs->technique};
+
+    double t0 = cli_now_ms();
+    volux_status st = volux_technique_create(ctx, rs->technique, scene, &tech);
+    for (int more = 1; !st && more;) st = volux_technique_refine(tech, scene, NULL, &more);
+    double prepare = cli_now_ms() - t0, prepare_max = prepare;
+    if (!st) st = volux_framebuffer_create(ctx, rs->width, rs->height, &fb);
+    if ((rc = dist_agree("bench", ctx, st))) goto done;
+    dist_max(&prepare_max);
+
+    dist_timing tm;
+    st = dist_render_image(tech, scene, fb, &tm); /* warm-up: connections, caches */
+    int tiles = tm.tiles;
+    for (int k = 0; k < repeat && !st; k++) {
+        dist_barrier();
+        t0 = cli_now_ms();
+        st = dist_render_image(tech, scene, fb, &tm);
+        frame[k] = cli_now_ms() - t0;
+        composite[k] = tm.composite_ms;
+        mine[k] = tm.render_ms;
+    }
+    if ((rc = dist_agree("bench", ctx, st))) goto done;
+    /* Every rank's medians and tile counts to rank 0. */
+    double stats[2] = {median(mine, repeat), (double)tiles};
+    double *gathered = rank == 0 ? all : NULL;
+    dist_gather2(stats, gathered);
+    if (rank == 0) {
+        emit(&o, "prepare_ms", prepare_max, "ms");
+        double render = median(frame, repeat), comp = median(composite, repeat);
+        emit(&o, "render_ms", render, "ms");
+        emit(&o, "composite_ms", comp, "ms");
+        emit(&o, "composite_fraction", render > 0 ? comp / render : 0.0, "");
+        for (int r = 0; r < ranks; r++) {
+            char metric[64];
+            snprintf(metric, sizeof metric, "rank_render_ms.%d", r);
+            emit(&o, metric, gathered[2 * r], "ms");
+            snprintf(metric, sizeof metric, "tiles.%d", r);
+            emit(&o, metric, gathered[2 * r + 1], "tiles");
+        }
+    }
+done:
+    free(frame);
+    free(composite);
+    free(mine);
+    free(all);
+    volux_framebuffer_destroy(fb);
+    volux_technique_destroy(tech);
+    volux_scene_destroy(scene);
+    volux_context_destroy(ctx);
+    dist_end();
+    return rc;
+}

@@ -1,0 +1,21 @@
+/* tools/mpi/mode.c — the --distribute option, with or without MPI. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "distribute.h"
+
+int dist_parse_mode(const char *cmd, const char *value, dist_mode *out) {
+    if (value && !strcmp(value, "image")) *out = DIST_IMAGE;
+    else if (value && !strcmp(value, "data")) *out = DIST_DATA;
+    else {
+        fprintf(stderr, "volux %s: --distribute: expected 'image' or 'data', got '%s'\n", cmd,
+                value ? value : "(missing)");
+        return 0;
+    }
+    return 1;
+}
+
+/* mpirun (Open MPI, or any PMI/PMIx launcher) leaves these in the
+ * environment of every process it starts. */
+int dist_launched(void) { return getenv("OMPI_COMM_WORLD_SIZE") || getenv("PMIX_RANK") || getenv("PMI_RANK"); }
