@@ -78,6 +78,13 @@ static void test_double_dash_ends_options(void **state) {
     assert_int_equal(run_in_temp("render -o -dd.pfm --quiet -- -scene.json"), 0);
     assert_int_equal(run_in_temp("compare -- -dd.pfm dd.pfm"), 0);
     assert_int_equal(run_in_temp("bench --repeat 1 -- -scene.json"), 0);
+    /* NaN data: refused, or mapped with a warning on request */
+    float f[8] = {0, 1, 2, 3, 4, 5, 6, 7};
+    f[3] = f[3] / 0.0f - f[3] / 0.0f; /* NaN without <math.h> */
+    tu_write_parts("nan.nrrd", "NRRD0004\ntype: float\ndimension: 3\nsizes: 2 2 2\nendian: little\nencoding: raw\n\n", f,
+                   sizeof f);
+    assert_int_equal(run_in_temp("info nan.nrrd"), 2);
+    assert_int_equal(run_in_temp("info --allow-nonfinite nan.nrrd"), 0);
 }
 
 int main(void) {

@@ -22,6 +22,7 @@ static void usage(FILE *f) {
             "  --raw-spacing X Y Z  voxel spacing (default 1 1 1)\n"
             "  --raw-skip N         bytes to skip at the start of the file\n"
             "  --file-origin        report the origin stored in the file instead of the centred one\n"
+            "  --allow-nonfinite    map NaN/Inf float values to the lowest value (with a warning)\n"
             "  --bins N             histogram bins (default 16)\n"
             "  --seed S             seed for procedural volumes (default 1)\n",
             volux_procedural_names());
@@ -30,7 +31,7 @@ static void usage(FILE *f) {
 typedef struct options {
     const char *file;
     volux_raw_desc raw;
-    int has_raw, has_raw_type, file_origin;
+    int has_raw, has_raw_type, file_origin, allow_nonfinite;
     long bins;
     long seed;
 } options;
@@ -79,6 +80,8 @@ static int parse_args(int argc, char **argv, options *o) {
             if (!cli_parse_int(CMD, a, argv[++i], 0, LONG_MAX, &o->seed)) return CLI_USAGE;
         } else if (!strcmp(a, "--file-origin")) {
             o->file_origin = 1;
+        } else if (!strcmp(a, "--allow-nonfinite")) {
+            o->allow_nonfinite = 1;
         } else if (a[0] == '-' && a[1]) {
             fprintf(stderr, "volux info: unknown option or missing value: '%s'\n", a);
             return CLI_USAGE;
@@ -195,6 +198,7 @@ int cli_info(int argc, char **argv) {
         volux_volume_load_options lo = {0};
         lo.raw = o.has_raw ? &o.raw : NULL;
         lo.use_file_origin = o.file_origin;
+        lo.allow_nonfinite = o.allow_nonfinite;
         st = volux_volume_load(ctx, o.file, &lo, &v);
     }
     if (st != VOLUX_OK) {
