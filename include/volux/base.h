@@ -56,6 +56,13 @@ typedef enum volux_status {
 
 /* Short stable name of a status ("invalid", "io", ...). Never NULL. */
 VOLUX_API const char *volux_status_name(volux_status s);
+/* Copies `in` into out (cap bytes, NUL-terminated, cut at a whole
+ * character) with control characters other than newline and tab, DEL and
+ * bytes that are not valid UTF-8 written as \xHH. Every error and warning
+ * message of the library has been through it; the CLI passes its own
+ * messages (which quote command-line arguments) through it too. Returns
+ * the length written. */
+VOLUX_API size_t volux_escape_text(const char *in, char *out, size_t cap);
 
 /* 1 if a status means "the input was bad" (CLI exit status 2). */
 VOLUX_API int volux_status_is_input_error(volux_status s);

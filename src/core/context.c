@@ -236,7 +236,8 @@ size_t volux_escape_text(const char *in, char *out, size_t cap) {
     size_t n = strlen(in), o = 0;
     if (cap == 0) return 0;
     for (size_t i = 0; i < n;) {
-        size_t len = p[i] >= 0x20 && p[i] != 0x7f ? volux_utf8_sequence(p + i, n - i) : 0;
+        int plain = (p[i] >= 0x20 && p[i] != 0x7f) || p[i] == '\n' || p[i] == '\t';
+        size_t len = plain ? volux_utf8_sequence(p + i, n - i) : 0;
         if (len) {
             if (o + len >= cap) break;
             memcpy(out + o, p + i, len);

@@ -63,11 +63,7 @@ void volux_warn(volux_context *ctx, const char *fmt, ...) VOLUX_PRINTF(2, 3);
  * bytes there are not one (RFC 3629: no overlongs, surrogates or values
  * above U+10FFFF). */
 size_t volux_utf8_sequence(const unsigned char *p, size_t n);
-/* Copies `in` into out (cap bytes, NUL-terminated, truncated at a whole
- * character) with control characters, DEL and bytes that are not valid
- * UTF-8 written as \xHH. Returns the length written. Every error and
- * warning message passes through it. */
-size_t volux_escape_text(const char *in, char *out, size_t cap);
+/* volux_escape_text: volux/base.h. */
 
 /* Reports progress; returns nonzero if the caller asked to cancel. */
 int volux_progress(volux_context *ctx, const char *task, double fraction);

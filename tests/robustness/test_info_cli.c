@@ -87,11 +87,29 @@ static void test_double_dash_ends_options(void **state) {
     assert_int_equal(run_in_temp("info --allow-nonfinite nan.nrrd"), 0);
 }
 
+/* Untrusted text never reaches the terminal raw (issue 16): a file name
+ * holding an escape sequence and an invalid byte, in the CLI's own
+ * message (an unknown option) and in a library message (a missing file),
+ * comes out as \xHH. */
+static void test_messages_are_escaped(void **state) {
+    (void)state;
+    const char *err;
+    assert_int_equal(tu_run_cli("info \"$(printf 'evil\\033[2J\\377.nrrd')\"", &err), 2);
+    assert_null(strchr(err, 0x1b));
+    assert_null(strchr(err, (char)0xff));
+    assert_non_null(strstr(err, "evil\\x1b[2J\\xff.nrrd"));
+    assert_int_equal(tu_run_cli("info a.nrrd \"$(printf -- '--x\\033]0;t\\007')\"", &err), 2);
+    assert_null(strchr(err, 0x1b));
+    assert_null(strchr(err, 0x07));
+    assert_non_null(strstr(err, "--x\\x1b]0;t\\x07"));
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_info_reads_volumes_and_procedurals),
         cmocka_unit_test(test_info_bad_input_exits_2_naming_the_file),
         cmocka_unit_test(test_double_dash_ends_options),
+        cmocka_unit_test(test_messages_are_escaped),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

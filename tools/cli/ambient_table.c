@@ -66,7 +66,7 @@ int cli_ambient_table(int argc, char **argv) {
             json = 1;
         } else if (!strcmp(a, "-o") || !strcmp(a, "--output") || !strcmp(a, "--info")) {
             if (!v) {
-                fprintf(stderr, "volux ambient-table: %s needs a file name\n", a);
+                cli_eprintf("volux ambient-table: %s needs a file name\n", a);
                 return CLI_USAGE;
             }
             if (!strcmp(a, "--info")) info = v;
@@ -95,13 +95,13 @@ int cli_ambient_table(int argc, char **argv) {
             else d.g_max = x;
             i++;
         } else {
-            fprintf(stderr, "volux ambient-table: unknown option '%s'\n", a);
+            cli_eprintf("volux ambient-table: unknown option '%s'\n", a);
             usage(stderr);
             return CLI_USAGE;
         }
     }
     if (!out == !info) {
-        fprintf(stderr, "volux ambient-table: give exactly one of -o FILE or --info FILE\n");
+        cli_eprintf("volux ambient-table: give exactly one of -o FILE or --info FILE\n");
         usage(stderr);
         return CLI_USAGE;
     }

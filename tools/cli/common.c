@@ -1,5 +1,6 @@
 /* tools/cli/common.c — exit codes, context with progress bar, option parsing. */
 #include <errno.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -8,6 +9,16 @@
 
 #include "cli.h"
 
+void cli_eprintf(const char *fmt, ...) {
+    char msg[8192], safe[8192];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    volux_escape_text(msg, safe, sizeof safe);
+    fputs(safe, stderr);
+}
+
 int cli_exit_status(volux_status st) {
     if (st == VOLUX_OK) return CLI_OK;
     return volux_status_is_input_error(st) ? CLI_USAGE : CLI_FAIL;
@@ -15,7 +26,7 @@ int cli_exit_status(volux_status st) {
 
 int cli_fail(const char *cmd, volux_context *ctx, volux_status st) {
     const char *msg = ctx ? volux_context_error(ctx) : "";
-    fprintf(stderr, "volux %s: %s\n", cmd, msg && *msg ? msg : volux_status_name(st));
+    cli_eprintf("volux %s: %s\n", cmd, msg && *msg ? msg : volux_status_name(st));
     return cli_exit_status(st);
 }
 
@@ -48,7 +59,7 @@ static int progress_bar(void *user, const char *task, double fraction) {
  * render cut short) go to stderr; the library escapes them. */
 static void print_warning(void *user, const char *message) {
     (void)user;
-    fprintf(stderr, "volux: warning: %s\n", message);
+    cli_eprintf("volux: warning: %s\n", message);
 }
 
 static progress_state bar_state = {"", -1};
@@ -67,7 +78,7 @@ volux_context *cli_context(int threads) {
     }
     volux_context *ctx = NULL;
     if (volux_context_create(&d, &ctx) != VOLUX_OK) {
-        fprintf(stderr, "volux: out of memory\n");
+        cli_eprintf("volux: out of memory\n");
         return NULL;
     }
     volux_context_set_warning(ctx, print_warning, NULL);
@@ -79,7 +90,7 @@ int cli_parse_int(const char *cmd, const char *opt, const char *s, long lo, long
     errno = 0;
     long v = s ? strtol(s, &end, 10) : 0;
     if (!s || errno || end == s || *end || v < lo || v > hi) {
-        fprintf(stderr, "volux %s: %s: expected an integer in [%ld, %ld], got '%s'\n", cmd, opt, lo, hi,
+        cli_eprintf("volux %s: %s: expected an integer in [%ld, %ld], got '%s'\n", cmd, opt, lo, hi,
                 s ? s : "(missing)");
         return 0;
     }
@@ -92,7 +103,7 @@ int cli_parse_double(const char *cmd, const char *opt, const char *s, double *ou
     errno = 0;
     double v = s ? strtod(s, &end) : 0;
     if (!s || errno || end == s || *end) {
-        fprintf(stderr, "volux %s: %s: expected a number, got '%s'\n", cmd, opt, s ? s : "(missing)");
+        cli_eprintf("volux %s: %s: expected a number, got '%s'\n", cmd, opt, s ? s : "(missing)");
         return 0;
     }
     *out = v;

@@ -59,14 +59,14 @@ static int parse_args(int argc, char **argv, options *o) {
                 if (!cli_parse_double(CMD, a, argv[++i], &o->raw.spacing[k])) return CLI_USAGE;
         } else if (!strcmp(a, "--raw-type") && left >= 1) {
             if (volux_scalar_type_parse(argv[++i], &o->raw.type) != 0) {
-                fprintf(stderr, "volux info: --raw-type: unknown type '%s'\n", argv[i]);
+                cli_eprintf("volux info: --raw-type: unknown type '%s'\n", argv[i]);
                 return CLI_USAGE;
             }
             o->has_raw_type = 1;
         } else if (!strcmp(a, "--raw-endian") && left >= 1) {
             const char *e = argv[++i];
             if (strcmp(e, "little") && strcmp(e, "big")) {
-                fprintf(stderr, "volux info: --raw-endian: expected little or big, got '%s'\n", e);
+                cli_eprintf("volux info: --raw-endian: expected little or big, got '%s'\n", e);
                 return CLI_USAGE;
             }
             o->raw.big_endian = !strcmp(e, "big");
@@ -83,10 +83,10 @@ static int parse_args(int argc, char **argv, options *o) {
         } else if (!strcmp(a, "--allow-nonfinite")) {
             o->allow_nonfinite = 1;
         } else if (a[0] == '-' && a[1]) {
-            fprintf(stderr, "volux info: unknown option or missing value: '%s'\n", a);
+            cli_eprintf("volux info: unknown option or missing value: '%s'\n", a);
             return CLI_USAGE;
         } else if (o->file) {
-            fprintf(stderr, "volux info: one volume at a time (got '%s' and '%s')\n", o->file, a);
+            cli_eprintf("volux info: one volume at a time (got '%s' and '%s')\n", o->file, a);
             return CLI_USAGE;
         } else {
             o->file = a;
@@ -97,7 +97,7 @@ static int parse_args(int argc, char **argv, options *o) {
         return CLI_USAGE;
     }
     if (o->has_raw != o->has_raw_type) {
-        fprintf(stderr, "volux info: %s: raw data needs both --raw-dims and --raw-type\n", o->file);
+        cli_eprintf("volux info: %s: raw data needs both --raw-dims and --raw-type\n", o->file);
         return CLI_USAGE;
     }
     return CLI_OK;
@@ -143,7 +143,7 @@ static int print_info(const char *file, volux_volume *v, int bins) {
     uint64_t voxels = (uint64_t)d[0] * (uint64_t)d[1] * (uint64_t)d[2];
     uint64_t *counts = calloc((size_t)bins, sizeof *counts);
     if (!counts) {
-        fprintf(stderr, "volux info: out of memory\n");
+        cli_eprintf("volux info: out of memory\n");
         return CLI_FAIL;
     }
     volux_volume_histogram(v, bins, counts);

@@ -83,7 +83,7 @@ int main(int argc, char **argv) {
         if (!strcmp(argv[1], commands[i].name)) {
             char **args = end_of_options(argc - 1, argv + 1);
             if (!args) {
-                fprintf(stderr, "volux: out of memory\n");
+                cli_eprintf("volux: out of memory\n");
                 return CLI_FAIL;
             }
             int n = 0;
@@ -92,7 +92,7 @@ int main(int argc, char **argv) {
             free_args(args, argv + 1, argc - 1);
             return rc;
         }
-    fprintf(stderr, "volux: unknown command '%s'\n", argv[1]);
+    cli_eprintf("volux: unknown command '%s'\n", argv[1]);
     usage(stderr);
     return CLI_USAGE;
 }

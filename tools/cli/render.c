@@ -38,7 +38,7 @@ int cli_render(int argc, char **argv) {
         }
         if (!strcmp(argv[i], "-o") || !strcmp(argv[i], "--output")) {
             if (++i >= argc) {
-                fprintf(stderr, "volux render: -o needs a file name\n");
+                cli_eprintf("volux render: -o needs a file name\n");
                 return CLI_USAGE;
             }
             out_path = argv[i];
@@ -55,24 +55,24 @@ int cli_render(int argc, char **argv) {
         int r = cli_scene_arg("render", &args, argc, argv, &i);
         if (r < 0) return CLI_USAGE;
         if (r == 0) {
-            fprintf(stderr, "volux render: unknown option '%s'\n", argv[i]);
+            cli_eprintf("volux render: unknown option '%s'\n", argv[i]);
             usage(stderr);
             return CLI_USAGE;
         }
     }
     if (!args.scene_path || !out_path) {
-        fprintf(stderr, "volux render: %s\n", !args.scene_path ? "missing SCENE.json" : "missing -o OUT.png|pfm|exr");
+        cli_eprintf("volux render: %s\n", !args.scene_path ? "missing SCENE.json" : "missing -o OUT.png|pfm|exr");
         usage(stderr);
         return CLI_USAGE;
     }
     if (!supported_output(out_path)) {
-        fprintf(stderr, "volux render: -o %s: unsupported image type (use .png, .pfm or .exr)\n", out_path);
+        cli_eprintf("volux render: -o %s: unsupported image type (use .png, .pfm or .exr)\n", out_path);
         return CLI_USAGE;
     }
     int mode = dist_begin("render", distribute);
     if (mode < 0) return CLI_USAGE;
     if (mode == DIST_DATA) {
-        fprintf(stderr, "volux render: --distribute data: not available yet (use image)\n");
+        cli_eprintf("volux render: --distribute data: not available yet (use image)\n");
         dist_end();
         return CLI_USAGE;
     }
@@ -106,12 +106,12 @@ int cli_render(int argc, char **argv) {
         if (!st) st = volux_image_save(ctx, out_path, &img, rs->exposure);
         rc = st ? cli_fail("render", ctx, st) : CLI_OK;
         if (!rc && !quiet) {
-            fprintf(stderr, "volux render: %s: %s %dx%d, %u spp, prepare %.1f ms, render %.1f ms", args.scene_path,
+            cli_eprintf("volux render: %s: %s %dx%d, %u spp, prepare %.1f ms, render %.1f ms", args.scene_path,
                     rs->technique, rs->width, rs->height, volux_framebuffer_spp(fb), prepare_ms, timing.render_ms);
             if (dist_size() > 1)
-                fprintf(stderr, " (%d ranks, %.1f-%.1f ms each, composite %.1f ms)", dist_size(),
+                cli_eprintf(" (%d ranks, %.1f-%.1f ms each, composite %.1f ms)", dist_size(),
                         timing.rank_render_ms_min, timing.rank_render_ms_max, timing.composite_ms);
-            fprintf(stderr, ", rel. error %.3g -> %s\n", volux_framebuffer_rel_error(fb), out_path);
+            cli_eprintf(", rel. error %.3g -> %s\n", volux_framebuffer_rel_error(fb), out_path);
         }
     }
     rc = dist_share_exit(rc);

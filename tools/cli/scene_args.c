@@ -6,7 +6,7 @@
 
 static int add_override(const char *cmd, cli_scene_args *a, const char *fmt, const char *value) {
     if (a->n_overrides >= CLI_MAX_OVERRIDES) {
-        fprintf(stderr, "volux %s: too many overrides (max %d)\n", cmd, CLI_MAX_OVERRIDES);
+        cli_eprintf("volux %s: too many overrides (max %d)\n", cmd, CLI_MAX_OVERRIDES);
         return -1;
     }
     if (!strcmp(fmt, "%s")) {
@@ -19,7 +19,7 @@ static int add_override(const char *cmd, cli_scene_args *a, const char *fmt, con
     char *dst = a->storage[a->n_overrides];
     int n = snprintf(dst, sizeof a->storage[0], fmt, value);
     if (n < 0 || (size_t)n >= sizeof a->storage[0]) {
-        fprintf(stderr, "volux %s: option value too long: %s\n", cmd, value);
+        cli_eprintf("volux %s: option value too long: %s\n", cmd, value);
         return -1;
     }
     a->overrides[a->n_overrides++] = dst;
@@ -41,12 +41,12 @@ int cli_scene_arg(const char *cmd, cli_scene_args *a, int argc, char **argv, int
     for (size_t k = 0; k < sizeof map / sizeof map[0]; k++) {
         if (strcmp(arg, map[k].opt)) continue;
         if (*i + 1 >= argc) {
-            fprintf(stderr, "volux %s: %s needs a value\n", cmd, arg);
+            cli_eprintf("volux %s: %s needs a value\n", cmd, arg);
             return -1;
         }
         const char *value = argv[++*i];
         if (!strcmp(arg, "--set") && !strchr(value, '=')) {
-            fprintf(stderr, "volux %s: --set %s: expected dotted.path=value\n", cmd, value);
+            cli_eprintf("volux %s: --set %s: expected dotted.path=value\n", cmd, value);
             return -1;
         }
         if (strcmp(arg, "--set") && strcmp(arg, "--technique")) {
@@ -96,6 +96,6 @@ int cli_load_scene_quiet(const char *cmd, volux_context *ctx, const cli_scene_ar
 int cli_load_scene(const char *cmd, volux_context *ctx, const cli_scene_args *a, volux_scene **out) {
     char msg[1024];
     int rc = cli_load_scene_quiet(cmd, ctx, a, out, msg, sizeof msg);
-    if (rc) fprintf(stderr, "volux %s: %s\n", cmd, msg);
+    if (rc) cli_eprintf("volux %s: %s\n", cmd, msg);
     return rc;
 }
