@@ -124,6 +124,101 @@ static int chunk_tiles(int total, int threads) {
     return c < 1 ? 1 : c;
 }
 
+/* The pixels of tile `index` (row-major tiles of VOLUX_TILE_SIZE²). */
+static void tile_rect(int width, int height, int index, int *x0, int *y0, int *w, int *h) {
+    int tiles_x = (width + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE;
+    *x0 = (index % tiles_x) * VOLUX_TILE_SIZE;
+    *y0 = (index / tiles_x) * VOLUX_TILE_SIZE;
+    *w = width - *x0 < VOLUX_TILE_SIZE ? width - *x0 : VOLUX_TILE_SIZE;
+    *h = height - *y0 < VOLUX_TILE_SIZE ? height - *y0 : VOLUX_TILE_SIZE;
+}
+
+/* Copies the pixels of the chunks between the frame arrays (sum: 3 per
+ * pixel, sq: 1) and a packed run of 4 doubles per pixel, chunk by chunk,
+ * tile by tile, row by row: pack when to_packed, else unpack. Returns the
+ * number of pixels. */
+static size_t copy_chunks(int width, int height, const int *chunks, int n_chunks, double *sum, double *sq,
+                          double *packed, int to_packed) {
+    size_t k = 0;
+    for (int c = 0; c < n_chunks; c++)
+        for (int tile = chunks[2 * c]; tile < chunks[2 * c] + chunks[2 * c + 1]; tile++) {
+            int x0, y0, w, h;
+            tile_rect(width, height, tile, &x0, &y0, &w, &h);
+            for (int y = y0; y < y0 + h; y++)
+                for (int x = x0; x < x0 + w; x++, k++) {
+                    size_t p = (size_t)y * (size_t)width + (size_t)x;
+                    if (!packed) continue;
+                    if (to_packed) {
+                        memcpy(&packed[4 * k], &sum[3 * p], 3 * sizeof(double));
+                        packed[4 * k + 3] = sq[p];
+                    } else {
+                        memcpy(&sum[3 * p], &packed[4 * k], 3 * sizeof(double));
+                        sq[p] = packed[4 * k + 3];
+                    }
+                }
+        }
+    return k;
+}
+
+/* Collective: rank 0's fb receives every rank's chunks (see above). */
+static volux_status gather_tiles(volux_framebuffer *fb, const int *chunks, int n_chunks, uint32_t spp) {
+    int width = volux_framebuffer_width(fb), height = volux_framebuffer_height(fb);
+    size_t n = (size_t)width * (size_t)height;
+    int my_px = (int)copy_chunks(width, height, chunks, n_chunks, NULL, NULL, NULL, 0);
+    double *frame = malloc(4 * n * sizeof(double));
+    double *packed = malloc((my_px ? (size_t)my_px : 1) * 4 * sizeof(double));
+    double *received = rank == 0 ? malloc(4 * n * sizeof(double)) : NULL;
+    /* rank 0: (chunks, pixels) per rank, then counts and displacements */
+    int *meta = rank == 0 ? calloc(6 * (size_t)size, sizeof(int)) : NULL;
+    int *all_chunks = rank == 0 ? malloc(2 * (size_t)(volux_framebuffer_tile_count(fb) + 1) * sizeof(int)) : NULL;
+    int ok = frame && packed && (rank || (received && meta && all_chunks)), all_ok = 0;
+    MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    volux_status st = all_ok ? VOLUX_OK : VOLUX_ERR_NOMEM;
+    if (all_ok) {
+        volux_framebuffer_get_sums(fb, frame, frame + 3 * n);
+        copy_chunks(width, height, chunks, n_chunks, frame, frame + 3 * n, packed, 1);
+        int mine[2] = {n_chunks, my_px};
+        int *pairs = meta, *chunk_n = NULL, *px_n = NULL, *chunk_at = NULL, *px_at = NULL;
+        if (meta) {
+            chunk_n = meta + 2 * size;
+            px_n = meta + 3 * size;
+            chunk_at = meta + 4 * size;
+            px_at = meta + 5 * size;
+        }
+        MPI_Gather(mine, 2, MPI_INT, pairs, 2, MPI_INT, 0, MPI_COMM_WORLD);
+        MPI_Datatype pair, pixel;
+        MPI_Type_contiguous(2, MPI_INT, &pair);
+        MPI_Type_contiguous(4, MPI_DOUBLE, &pixel);
+        MPI_Type_commit(&pair);
+        MPI_Type_commit(&pixel);
+        if (rank == 0)
+            for (int r = 0, ca = 0, pa = 0; r < size; r++) {
+                chunk_n[r] = pairs[2 * r];
+                px_n[r] = pairs[2 * r + 1];
+                chunk_at[r] = ca;
+                px_at[r] = pa;
+                ca += chunk_n[r];
+                pa += px_n[r];
+            }
+        MPI_Gatherv(chunks, n_chunks, pair, all_chunks, chunk_n, chunk_at, pair, 0, MPI_COMM_WORLD);
+        MPI_Gatherv(packed, my_px, pixel, received, px_n, px_at, pixel, 0, MPI_COMM_WORLD);
+        MPI_Type_free(&pair);
+        MPI_Type_free(&pixel);
+        if (rank == 0) {
+            for (int r = 0; r < size; r++)
+                copy_chunks(width, height, all_chunks + 2 * chunk_at[r], chunk_n[r], frame, frame + 3 * n,
+                            received + 4 * (size_t)px_at[r], 0);
+            volux_framebuffer_set_sums(fb, frame, frame + 3 * n, spp);
+        }
+    }
+    free(frame);
+    free(packed);
+    free(received);
+    free(meta);
+    free(all_chunks);
+    return st;
+}
+
 volux_status dist_render_image(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
                                dist_timing *timing) {
     memset(timing, 0, sizeof *timing);
@@ -148,7 +243,10 @@ volux_status dist_render_image(volux_technique *t, const volux_scene *scene, vol
     if (rank == 0) *counter = 0;
     MPI_Barrier(MPI_COMM_WORLD); /* the counter is 0 before anyone takes */
 
-    volux_status st = VOLUX_OK;
+    /* The chunks this rank took: (first tile, count) pairs. */
+    int max_chunks = total / chunk + 1, n_chunks = 0;
+    int *chunks = malloc(2 * (size_t)max_chunks * sizeof *chunks);
+    volux_status st = chunks ? VOLUX_OK : VOLUX_ERR_NOMEM;
     double start = now_ms();
     const int add = chunk;
     for (;;) {
@@ -156,40 +254,30 @@ volux_status dist_render_image(volux_technique *t, const volux_scene *scene, vol
         MPI_Win_lock(MPI_LOCK_SHARED, 0, 0, win);
         MPI_Fetch_and_op(&add, &first, MPI_INT, 0, 0, MPI_SUM, win);
         MPI_Win_unlock(0, win);
-        if (first >= total) break;
+        if (first >= total || !chunks) break;
         int count = total - first < chunk ? total - first : chunk;
         if (rank == 0 && !st) cli_progress("render", (double)first / total);
         st = volux_render_tiles(t, scene, fb, first, count, spp, NULL);
         if (st) break; /* the others take the rest; dist_agree reports it */
         timing->tiles += count;
+        chunks[2 * n_chunks] = first;
+        chunks[2 * n_chunks + 1] = count;
+        n_chunks++;
     }
     timing->render_ms = now_ms() - start;
     if (rank == 0) cli_progress("render", 1.0);
 
-    /* Sum the frames: every pixel is non-zero on one rank at most, so the
-     * sum is exact and independent of the reduction order. */
-    size_t n = (size_t)volux_framebuffer_width(fb) * (size_t)volux_framebuffer_height(fb);
-    double *mine = malloc(4 * n * sizeof(double)), *all = rank == 0 ? malloc(4 * n * sizeof(double)) : NULL;
-    int ok = mine && (rank || all), all_ok = 0;
-    MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    /* Gather every rank's tiles onto rank 0 with MPI_Gatherv: each pixel
+     * travels once, from the rank that rendered it, so the traffic is one
+     * frame whatever the rank count and the sums arrive unchanged. */
     double wait_start = now_ms();
     MPI_Barrier(MPI_COMM_WORLD);
     timing->wait_ms = now_ms() - wait_start;
-    if (all_ok) {
-        volux_framebuffer_get_sums(fb, mine, mine + 3 * n);
-        double t0 = now_ms();
-        /* In pieces: an MPI count is an int. */
-        for (size_t at = 0, piece = (size_t)1 << 26; at < 4 * n; at += piece) {
-            size_t m = 4 * n - at < piece ? 4 * n - at : piece;
-            MPI_Reduce(mine + at, all ? all + at : NULL, (int)m, MPI_DOUBLE, MPI_SUM, 0, MPI_COMM_WORLD);
-        }
-        timing->composite_ms = now_ms() - t0;
-        if (rank == 0 && !st) volux_framebuffer_set_sums(fb, all, all + 3 * n, spp);
-    } else if (!st) {
-        st = VOLUX_ERR_NOMEM;
-    }
-    free(mine);
-    free(all);
+    double t0 = now_ms();
+    volux_status gst = gather_tiles(fb, chunks, n_chunks, spp);
+    timing->composite_ms = now_ms() - t0;
+    if (!st) st = gst;
+    free(chunks);
     MPI_Win_free(&win);
 
     double r[2] = {-timing->render_ms, timing->render_ms}, ext[2];
