@@ -85,22 +85,29 @@ VOLUX_API volux_status volux_render(volux_technique *t, const volux_scene *scene
  * It brings t up to date like volux_render; time and error limits do not
  * apply. INVALID for a tile range outside the frame.
  *
- *     // every process: its tiles, then one sum over processes
+ *     // a worker: render some tiles, send their sums
  *     volux_render_tiles(t, scene, fb, first, count, spp, NULL);
- *     volux_framebuffer_get_sums(fb, sum, sum_sq);   // 3n and n doubles
- *     ... MPI_Reduce(sum, ..., MPI_SUM) ...          // untouched pixels are 0
- *     volux_framebuffer_set_sums(fb, total, total_sq, spp);
+ *     size_t px = volux_framebuffer_read_tiles(fb, first, count, buf);
+ *     ... send buf (px · VOLUX_TILE_SUMS doubles) to the collector ...
+ *     // the collector: put them into its frame, then resolve as usual
+ *     volux_framebuffer_write_tiles(fb, first, count, buf, spp);
  */
+#define VOLUX_TILE_SUMS 4 /* doubles per pixel: Σ R, Σ G, Σ B, Σ luminance² */
 VOLUX_API int volux_framebuffer_tile_count(const volux_framebuffer *fb);
 VOLUX_API volux_status volux_render_tiles(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
                                           int tile_first, int tile_count, uint32_t spp,
                                           volux_render_report *report);
-/* Copies fb's per-pixel sums out: sum holds 3·w·h radiance sums (RGB),
- * sum_sq w·h sums of squared luminance (caller-owned arrays). */
-VOLUX_API void volux_framebuffer_get_sums(const volux_framebuffer *fb, double *sum, double *sum_sq);
-/* Replaces fb's sums and sample count (arrays as in get_sums). */
-VOLUX_API void volux_framebuffer_set_sums(volux_framebuffer *fb, const double *sum, const double *sum_sq,
-                                          uint32_t spp);
+/* Pixels in tiles [first, first + count) (0 for a range outside the frame). */
+VOLUX_API size_t volux_framebuffer_tile_pixels(const volux_framebuffer *fb, int first, int count);
+/* Copies the sums of tiles [first, first + count) into out (caller-owned,
+ * volux_framebuffer_tile_pixels · VOLUX_TILE_SUMS doubles), tile by tile,
+ * rows top to bottom; returns the pixel count (0: range outside the frame,
+ * nothing copied). */
+VOLUX_API size_t volux_framebuffer_read_tiles(const volux_framebuffer *fb, int first, int count, double *out);
+/* The reverse: replaces those tiles' sums with `in` and sets fb's sample
+ * count to spp; returns the pixel count (0: range outside, nothing done). */
+VOLUX_API size_t volux_framebuffer_write_tiles(volux_framebuffer *fb, int first, int count, const double *in,
+                                               uint32_t spp);
 
 #ifdef __cplusplus
 }

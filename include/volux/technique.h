@@ -86,6 +86,22 @@ VOLUX_API volux_status volux_technique_refine(volux_technique *t, const volux_sc
                                               int *more);
 /* 1 if the instance is up to date with the scene (nothing to update). */
 VOLUX_API int volux_technique_is_current(const volux_technique *t, const volux_scene *scene);
+
+/* Deferred work left in a progressive update, in the technique's own units
+ * (manylights: virtual lights still to be replaced after an extinction
+ * edit, W13 §4.2); 0 when nothing is deferred or the technique does not
+ * measure it. Each refine step that changes the instance decreases it. */
+VOLUX_API uint64_t volux_technique_pending(const volux_technique *t);
+
+/* Technique-specific statistics of the current state, for benchmarks
+ * (e.g. manylights: "vl_count", "avsm_build_ms"). name and unit are static
+ * strings. Writes at most `max` and returns how many the technique has. */
+typedef struct volux_technique_stat {
+    const char *name;
+    double value;
+    const char *unit;
+} volux_technique_stat;
+VOLUX_API int volux_technique_stats(const volux_technique *t, volux_technique_stat *out, int max);
 VOLUX_API const volux_technique_info *volux_technique_info_of(const volux_technique *t);
 /* Bytes held by the instance's state and caches. */
 VOLUX_API size_t volux_technique_memory_bytes(const volux_technique *t);

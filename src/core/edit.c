@@ -94,6 +94,19 @@ static volux_status edit_light(volux_scene *s, int k) { return rotate_light(s, k
  * second light type (e.g. a point light after a directional one) */
 static volux_status edit_light_last(volux_scene *s, int k) { return rotate_light(s, k, last_light(s)); }
 
+/* Scales the first light's strength (irradiance, intensity or radiance,
+ * whichever its type uses) by 1.25, undone by odd calls. */
+static volux_status edit_light_intensity(volux_scene *s, int k) {
+    int slot = first_light(s);
+    if (slot < 0) return VOLUX_ERR_UNSUPPORTED;
+    volux_light_desc d = *volux_scene_light(s, slot);
+    float f = (k & 1) ? 0.8f : 1.25f;
+    d.irradiance *= f;
+    d.intensity *= f;
+    d.radiance *= f;
+    return volux_scene_set_light(s, slot, &d);
+}
+
 static volux_status edit_light_toggle(volux_scene *s, int k) {
     (void)k;
     int slot = first_light(s);
@@ -247,6 +260,8 @@ static const volux_edit edits[] = {
     {"phase", "change the HG anisotropy by 0.2", VOLUX_CHANGE_PHASE, NULL, 1, edit_phase},
     {"light", "rotate the first light by 10 degrees about +Y", VOLUX_CHANGE_LIGHTS, NULL, 1, edit_light},
     {"light_last", "rotate the last light by 10 degrees about +Y", VOLUX_CHANGE_LIGHTS, NULL, 1, edit_light_last},
+    {"light_intensity", "scale the first light's irradiance/intensity/radiance by 1.25", VOLUX_CHANGE_LIGHTS, NULL,
+     1, edit_light_intensity},
     {"light_toggle", "switch the first light off/on", VOLUX_CHANGE_LIGHTS, NULL, 1, edit_light_toggle},
     {"light_add", "add a point light after the last one / remove it", VOLUX_CHANGE_LIGHTS, NULL, 1, edit_light_add},
     {"light_color", "scale the first light's green and blue by 0.8 and 0.6 (colour and intensity)",

@@ -290,6 +290,49 @@ volux_status volux_render(volux_technique *t, const volux_scene *scene, volux_fr
     return render_waves(t, scene, fb, 0, tile_count_of(fb), lim, report);
 }
 
+/* The pixels of tile `index` (row-major tiles of VOLUX_TILE_SIZE²). */
+static void tile_rect(const volux_framebuffer *fb, int index, int *x0, int *y0, int *w, int *h) {
+    int tiles_x = (fb->width + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE;
+    *x0 = (index % tiles_x) * VOLUX_TILE_SIZE;
+    *y0 = (index / tiles_x) * VOLUX_TILE_SIZE;
+    *w = fb->width - *x0 < VOLUX_TILE_SIZE ? fb->width - *x0 : VOLUX_TILE_SIZE;
+    *h = fb->height - *y0 < VOLUX_TILE_SIZE ? fb->height - *y0 : VOLUX_TILE_SIZE;
+}
+
+/* Copies the sums of tiles [first, first + count) to (to_packed) or from a
+ * packed run of VOLUX_TILE_SUMS doubles per pixel, tile by tile, row by
+ * row; returns the number of pixels. packed NULL: only counts. */
+static size_t copy_tiles(volux_framebuffer *fb, int first, int count, double *packed, int to_packed) {
+    size_t k = 0;
+    for (int i = first; i < first + count; i++) {
+        int x0, y0, w, h;
+        tile_rect(fb, i, &x0, &y0, &w, &h);
+        for (int y = y0; y < y0 + h; y++)
+            for (int x = x0; x < x0 + w; x++, k++) {
+                size_t p = (size_t)y * (size_t)fb->width + (size_t)x;
+                if (!packed) continue;
+                double *q = &packed[VOLUX_TILE_SUMS * k];
+                if (to_packed) {
+                    q[0] = fb->sum[3 * p];
+                    q[1] = fb->sum[3 * p + 1];
+                    q[2] = fb->sum[3 * p + 2];
+                    q[3] = fb->sum_sq[p];
+                } else {
+                    fb->sum[3 * p] = q[0];
+                    fb->sum[3 * p + 1] = q[1];
+                    fb->sum[3 * p + 2] = q[2];
+                    fb->sum_sq[p] = q[3];
+                }
+            }
+    }
+    return k;
+}
+
+static int tile_range_ok(const volux_framebuffer *fb, int first, int count) {
+    int total = tile_count_of(fb);
+    return first >= 0 && count >= 0 && first <= total - count;
+}
+
 volux_status volux_render_tiles(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb, int tile_first,
                                 int tile_count, uint32_t spp, volux_render_report *report) {
     int total = tile_count_of(fb);
@@ -300,11 +343,9 @@ volux_status volux_render_tiles(volux_technique *t, const volux_scene *scene, vo
     if (st) return st;
     /* Restart these tiles from zero samples; the frame's sample count is
      * the one every rendered tile has. */
-    int tiles_x = (fb->width + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE;
     for (int i = tile_first; i < tile_first + tile_count; i++) {
-        int x0 = (i % tiles_x) * VOLUX_TILE_SIZE, y0 = (i / tiles_x) * VOLUX_TILE_SIZE;
-        int w = fb->width - x0 < VOLUX_TILE_SIZE ? fb->width - x0 : VOLUX_TILE_SIZE;
-        int h = fb->height - y0 < VOLUX_TILE_SIZE ? fb->height - y0 : VOLUX_TILE_SIZE;
+        int x0, y0, w, h;
+        tile_rect(fb, i, &x0, &y0, &w, &h);
         for (int y = y0; y < y0 + h; y++) {
             size_t p = (size_t)y * (size_t)fb->width + (size_t)x0;
             memset(&fb->sum[3 * p], 0, 3 * (size_t)w * sizeof(double));
@@ -316,15 +357,18 @@ volux_status volux_render_tiles(volux_technique *t, const volux_scene *scene, vo
     return render_waves(t, scene, fb, tile_first, tile_count, lim, report);
 }
 
-void volux_framebuffer_get_sums(const volux_framebuffer *fb, double *sum, double *sum_sq) {
-    size_t n = (size_t)fb->width * (size_t)fb->height;
-    memcpy(sum, fb->sum, 3 * n * sizeof(double));
-    memcpy(sum_sq, fb->sum_sq, n * sizeof(double));
+size_t volux_framebuffer_tile_pixels(const volux_framebuffer *fb, int first, int count) {
+    if (!tile_range_ok(fb, first, count)) return 0;
+    return copy_tiles((volux_framebuffer *)fb, first, count, NULL, 0);
 }
 
-void volux_framebuffer_set_sums(volux_framebuffer *fb, const double *sum, const double *sum_sq, uint32_t spp) {
-    size_t n = (size_t)fb->width * (size_t)fb->height;
-    memcpy(fb->sum, sum, 3 * n * sizeof(double));
-    memcpy(fb->sum_sq, sum_sq, n * sizeof(double));
+size_t volux_framebuffer_read_tiles(const volux_framebuffer *fb, int first, int count, double *out) {
+    if (!tile_range_ok(fb, first, count)) return 0;
+    return copy_tiles((volux_framebuffer *)fb, first, count, out, 1);
+}
+
+size_t volux_framebuffer_write_tiles(volux_framebuffer *fb, int first, int count, const double *in, uint32_t spp) {
+    if (!tile_range_ok(fb, first, count)) return 0;
     fb->spp = spp;
+    return copy_tiles(fb, first, count, (double *)in, 0);
 }

@@ -13,7 +13,7 @@ struct volux_technique {
     const volux_technique_class *cls;
     void *state; /* cls->state_size bytes, starting with a volux_raycaster */
     volux_scene_stamp stamp;
-    uint64_t generation; /* unique per (instance, applied update) */
+    uint64_t generation; /* unique per (instance, applied update or step) */
 };
 
 /* Generations are unique across instances, so a framebuffer can tell its
@@ -152,6 +152,14 @@ volux_status volux_technique_refine(volux_technique *t, const volux_scene *scene
     if (more) *more = m;
     if (refined) *refined = changed;
     return st;
+}
+
+uint64_t volux_technique_pending(const volux_technique *t) {
+    return t->cls->pending ? t->cls->pending(t->state) : 0;
+}
+
+int volux_technique_stats(const volux_technique *t, volux_technique_stat *out, int max) {
+    return t->cls->stats ? t->cls->stats(t->state, out, max) : 0;
 }
 
 size_t volux_technique_memory_bytes(const volux_technique *t) {

@@ -78,11 +78,18 @@ typedef struct volux_technique_class {
      * accept a state whose update failed half-way. May be NULL. */
     void (*release)(void *state);
     /* Optional (progressive techniques): the next step of cache work an
-     * update deferred, e.g. the full projection after a coarse one. Sets
-     * *changed when the image may change and *more while steps remain;
-     * after a failure the state must still render (the next call
+     * update deferred, e.g. the full projection after a coarse one, or
+     * `manylights`' next virtual lights and shadow maps of a replacement.
+     * Sets *changed when the image may change and *more while steps
+     * remain; after a failure the state must still render (the next call
      * retries). NULL: nothing is ever deferred. */
     volux_status (*refine)(void *state, const volux_scene *scene, int *changed, int *more);
+    /* Optional: the deferred work left, in the technique's own units (0 =
+     * none); every refine step that changes the state must decrease it
+     * (the test matrix checks). NULL: not measured. */
+    uint64_t (*pending)(const void *state);
+    /* Optional statistics for benchmarks (volux_technique_stats). */
+    int (*stats)(const void *state, volux_technique_stat *out, int max);
 } volux_technique_class;
 
 /* Creates an instance of `cls` for the scene (registry.c resolves names). */
@@ -91,8 +98,9 @@ volux_status volux_technique_create_class(volux_context *ctx, const volux_techni
 const volux_technique_class *volux_technique_class_of(const volux_technique *t);
 /* The class's state, read-only (for the frame loop and white-box tests). */
 const void *volux_technique_state(const volux_technique *t);
-/* Increases whenever an update applied a change (the frame loop compares
- * it with what a framebuffer's samples were rendered from). */
+/* Increases whenever an update or a refinement step applied a change (the
+ * frame loop compares it with what a framebuffer's samples were rendered
+ * from). */
 uint64_t volux_technique_generation(const volux_technique *t);
 
 /* Checks one stored parameter against its technique's table

@@ -25,6 +25,15 @@
  *   8. rendering after an edit without calling update, into the framebuffer
  *      of the earlier frame, gives the fresh image: volux_render brings the
  *      technique up to date and drops the stale samples.
+ *
+ * Deferred work (volux/technique.h, volux_technique_refine): where create
+ * and update stop at the same first state (sh's coarse projection) the
+ * first states are compared; for every technique that defers work, also
+ * the states after all refinement steps (manylights answers an extinction
+ * edit at once and replaces its virtual lights over later steps, while a
+ * fresh instance is finished at once). Where the class measures its
+ * pending work, every step must decrease it, and an allocation failure in
+ * a step must leave a state the following steps finish from.
  */
 #include <math.h>
 #include <stdio.h>
@@ -52,7 +61,9 @@ static const char *scene_json =
     " \"render\": {\"width\": 20, \"height\": 18, \"spp\": 2, \"step\": 1, \"max_depth\": 4, \"threads\": 1},"
     " \"techniques\": {\"ambient\": {\"radius\": 2, \"table_theta\": 16, \"table_sigma\": 16, \"table_g\": 3,"
     "                                \"table_paths\": 64, \"table_albedo\": 0.8},"
-    "                  \"lightvol\": {\"forward_scattering\": 0.5}}}";
+    "                  \"lightvol\": {\"forward_scattering\": 0.5},"
+    "                  \"manylights\": {\"vl_count\": 24, \"avsm_resolution\": 3, \"avsm_nodes\": 4,"
+    "                                   \"samples\": 2, \"update_budget\": 7}}}";
 
 static volux_scene *load(volux_context *ctx, const char *technique) {
     char override[96];
@@ -75,9 +86,57 @@ static double image_max(const volux_image *img) {
     return m;
 }
 
-/* Fresh technique for the scene as it is now. */
-static volux_image fresh(volux_context *ctx, volux_scene *s, const char *technique) {
-    return tu_render(ctx, s, technique);
+/* Finishes the work a progressive technique deferred (refine until no
+ * step remains); where the class measures its pending work, every step
+ * that changes the instance must decrease it. */
+static void converge(volux_technique *t, volux_scene *s, const char *what) {
+    for (long steps = 0;; steps++) {
+        uint64_t left = volux_technique_pending(t);
+        int refined = 0, more = 0;
+        if (volux_technique_refine(t, s, &refined, &more))
+            fail_msg("%s: refine: %s", what, volux_context_error(volux_scene_context(s)));
+        uint64_t now = volux_technique_pending(t);
+        if (refined && left > 0 && now >= left)
+            fail_msg("%s: a refinement step left %llu units of work pending (before: %llu)", what,
+                     (unsigned long long)now, (unsigned long long)left);
+        if (!more) break;
+        if (steps > 100000) fail_msg("%s: the deferred work never finishes", what);
+    }
+}
+
+/* Fresh technique for the scene as it is now: its first state, or with
+ * `finished` the state after its deferred work. */
+static volux_image fresh(volux_context *ctx, volux_scene *s, const char *technique, int finished) {
+    volux_technique *t = NULL;
+    if (volux_technique_create(ctx, technique, s, &t)) fail_msg("%s: %s", technique, volux_context_error(ctx));
+    if (finished) converge(t, s, technique);
+    volux_image img = tu_render_with(ctx, s, t);
+    volux_technique_destroy(t);
+    return img;
+}
+
+/* The updated instance t against a fresh one. Where create and update stop
+ * at the same state (no pending-work measure, e.g. sh's coarse
+ * projection), the first states; for every technique with deferred work
+ * also the finished states (manylights: a fresh instance is finished at
+ * once, an updated one after its replacement steps). Returns t's last
+ * image (caller frees). */
+static volux_image against_fresh(const volux_technique_class *cls, volux_context *ctx, volux_scene *s,
+                                 volux_technique *t, const char *what) {
+    const char *name = cls->info.name;
+    volux_image img = {0};
+    for (int finished = cls->pending ? 1 : 0; finished <= (cls->refine ? 1 : 0); finished++) {
+        volux_image_free(ctx, &img);
+        if (finished) converge(t, s, what);
+        img = tu_render_with(ctx, s, t);
+        volux_image ref = fresh(ctx, s, name, finished);
+        double diff = tu_max_abs_diff(&img, &ref), tol = cls->update_tolerance * image_max(&ref);
+        if (!(diff <= tol))
+            fail_msg("%s: incremental differs from fresh%s by %g (allowed %g)", what,
+                     finished ? " (deferred work finished)" : "", diff, tol);
+        volux_image_free(ctx, &ref);
+    }
+    return img;
 }
 
 static void check_update(const volux_technique_class *cls, const volux_edit *e) {
@@ -93,11 +152,9 @@ static void check_update(const volux_technique_class *cls, const volux_edit *e) 
     if ((applied.what & e->touches) != e->touches)
         fail_msg("%s × %s: the scene reported changes 0x%x, the edit declares 0x%x", name, e->name, applied.what,
                  e->touches);
-    volux_image after = tu_render_with(ctx, s, t);
-    volux_image ref = fresh(ctx, s, name);
-    double diff = tu_max_abs_diff(&after, &ref), tol = cls->update_tolerance * image_max(&ref);
-    if (!(diff <= tol))
-        fail_msg("%s × %s: incremental differs from fresh by %g (allowed %g)", name, e->name, diff, tol);
+    char what[128];
+    snprintf(what, sizeof what, "%s × %s", name, e->name);
+    volux_image after = against_fresh(cls, ctx, s, t, what);
     int changed = tu_max_abs_diff(&before, &after) > 0.0;
     int must = (e->touches & ~cls->image_ignores) != 0;
     if (e->visible && changed != must)
@@ -105,7 +162,6 @@ static void check_update(const volux_technique_class *cls, const volux_edit *e) 
                  changed ? "changed" : "did not change", must ? "must" : "cannot");
     volux_image_free(ctx, &before);
     volux_image_free(ctx, &after);
-    volux_image_free(ctx, &ref);
     volux_technique_destroy(t);
     volux_scene_destroy(s);
     assert_int_equal(volux_context_bytes_in_use(ctx), 0);
@@ -131,14 +187,12 @@ static void check_update_oom(const volux_technique_class *cls, const volux_edit 
                 fail_msg("%s × %s: failing allocation %ld of the update gave %s: %s", name, e->name, k,
                          volux_status_name(st), volux_context_error(ctx));
             volux_context_clear_error(ctx);
-            volux_image after = tu_render_with(ctx, s, t); /* retries the update */
-            volux_image ref = fresh(ctx, s, name);
-            double diff = tu_max_abs_diff(&after, &ref), tol = cls->update_tolerance * image_max(&ref);
-            if (!(diff <= tol))
-                fail_msg("%s × %s: after failing allocation %ld the next render differs from fresh by %g", name,
-                         e->name, k, diff);
+            volux_image retried = tu_render_with(ctx, s, t); /* retries the update */
+            volux_image_free(ctx, &retried);
+            char what[160];
+            snprintf(what, sizeof what, "%s × %s, after failing allocation %ld of the update", name, e->name, k);
+            volux_image after = against_fresh(cls, ctx, s, t, what);
             volux_image_free(ctx, &after);
-            volux_image_free(ctx, &ref);
         }
         volux_technique_destroy(t);
         volux_scene_destroy(s);
@@ -147,6 +201,50 @@ static void check_update_oom(const volux_technique_class *cls, const volux_edit 
                      (unsigned long long)volux_context_bytes_in_use(ctx));
         volux_context_destroy(ctx);
         assert_int_equal(stats.live, 0);
+        if (st == VOLUX_OK) break;
+        assert_true(k < 100000);
+    }
+}
+
+/* Classes that measure their deferred work: an allocation failure at every
+ * point of the first refinement step after the edit is NOMEM without a
+ * leak, leaves the pending work as it was, and the steps that follow still
+ * end at the fresh image. */
+static void check_refine_oom(const volux_technique_class *cls, const volux_edit *e) {
+    const char *name = cls->info.name;
+    if (!cls->refine || !cls->pending) return;
+    for (long k = 1;; k++) {
+        tu_alloc_stats stats = {0};
+        volux_context *ctx = tu_context_counting(0, &stats);
+        volux_scene *s = load(ctx, name);
+        volux_technique *t = NULL;
+        if (volux_technique_create(ctx, name, s, &t)) fail_msg("%s: %s", name, volux_context_error(ctx));
+        if (volux_edit_apply(e, s, 0)) fail_msg("%s × %s: %s", name, e->name, volux_context_error(ctx));
+        if (volux_technique_update(t, s, NULL)) fail_msg("%s × %s: %s", name, e->name, volux_context_error(ctx));
+        uint64_t before = volux_technique_pending(t);
+        volux_status st = VOLUX_OK;
+        if (before > 0) {
+            stats.fail_at = stats.count + k;
+            st = volux_technique_refine(t, s, NULL, NULL);
+            stats.fail_at = 0;
+            if (st != VOLUX_OK) {
+                if (st != VOLUX_ERR_NOMEM)
+                    fail_msg("%s × %s: failing allocation %ld of a refinement step gave %s", name, e->name, k,
+                             volux_status_name(st));
+                if (volux_technique_pending(t) != before)
+                    fail_msg("%s × %s: a failed refinement step changed the pending work", name, e->name);
+                volux_context_clear_error(ctx);
+            }
+            char what[160];
+            snprintf(what, sizeof what, "%s × %s, after failing allocation %ld of a step", name, e->name, k);
+            volux_image after = against_fresh(cls, ctx, s, t, what);
+            volux_image_free(ctx, &after);
+        }
+        volux_technique_destroy(t);
+        volux_scene_destroy(s);
+        if (volux_context_bytes_in_use(ctx) != 0)
+            fail_msg("%s × %s: failing allocation %ld of a step leaked", name, e->name, k);
+        volux_context_destroy(ctx);
         if (st == VOLUX_OK) break;
         assert_true(k < 100000);
     }
@@ -173,14 +271,10 @@ static void check_params(const volux_technique_class *cls) {
         if (volux_scene_set_param(s, name, p->name, v, NULL)) fail_msg("%s.%s: %s", name, p->name, volux_context_error(ctx));
         volux_status st = volux_technique_update(t, s, NULL);
         if (st == VOLUX_OK) {
-            volux_image after = tu_render_with(ctx, s, t);
-            volux_image ref = fresh(ctx, s, name);
-            double diff = tu_max_abs_diff(&after, &ref), tol = cls->update_tolerance * image_max(&ref);
-            if (!(diff <= tol))
-                fail_msg("%s: techniques.%s.%s = %g: incremental differs from fresh by %g", name, name, p->name, v,
-                         diff);
+            char what[160];
+            snprintf(what, sizeof what, "%s: techniques.%s.%s = %g", name, name, p->name, v);
+            volux_image after = against_fresh(cls, ctx, s, t, what);
             volux_image_free(ctx, &after);
-            volux_image_free(ctx, &ref);
         } else {
             /* a value the table allows but the technique refuses in this
              * scene must be refused by a fresh create too, with its name */
@@ -207,7 +301,7 @@ static void check_threads(const volux_technique_class *cls) {
         volux_render_settings rs = *volux_scene_render(s);
         rs.threads = n;
         assert_int_equal(volux_scene_set_render(s, &rs), VOLUX_OK);
-        img[n - 1] = fresh(ctx[n - 1], s, name);
+        img[n - 1] = fresh(ctx[n - 1], s, name, cls->refine != NULL);
         volux_scene_destroy(s);
     }
     double d = tu_max_abs_diff(&img[0], &img[1]);
@@ -295,13 +389,23 @@ static void check_stale_render(const volux_technique_class *cls) {
     assert_int_equal(volux_render(t, s, fb, NULL, NULL), VOLUX_OK);
     assert_true(volux_technique_is_current(t, s));
     assert_int_equal(volux_framebuffer_spp(fb), (uint32_t)volux_scene_render(s)->spp);
-    volux_image got, ref = fresh(ctx, s, name);
-    assert_int_equal(volux_framebuffer_resolve(fb, &got), VOLUX_OK);
-    double diff = tu_max_abs_diff(&got, &ref);
-    if (!(diff <= cls->update_tolerance * image_max(&ref)))
-        fail_msg("%s: render after an edit without update differs from fresh by %g", name, diff);
-    volux_image_free(ctx, &got);
-    volux_image_free(ctx, &ref);
+    /* first states where create and update stop at the same one; finished
+     * states (the front end refines between frames) where work is deferred */
+    for (int finished = cls->pending ? 1 : 0; finished <= (cls->refine ? 1 : 0); finished++) {
+        if (finished) {
+            converge(t, s, name);
+            assert_int_equal(volux_render(t, s, fb, NULL, NULL), VOLUX_OK);
+            assert_int_equal(volux_framebuffer_spp(fb), (uint32_t)volux_scene_render(s)->spp);
+        }
+        volux_image got, ref = fresh(ctx, s, name, finished);
+        assert_int_equal(volux_framebuffer_resolve(fb, &got), VOLUX_OK);
+        double diff = tu_max_abs_diff(&got, &ref);
+        if (!(diff <= cls->update_tolerance * image_max(&ref)))
+            fail_msg("%s: render after an edit without update differs from fresh%s by %g", name,
+                     finished ? " (deferred work finished)" : "", diff);
+        volux_image_free(ctx, &got);
+        volux_image_free(ctx, &ref);
+    }
     volux_framebuffer_destroy(fb);
     volux_technique_destroy(t);
     volux_scene_destroy(s);
@@ -316,6 +420,7 @@ static void run_technique(void **state) {
         if (!applies(e, cls->info.name)) continue;
         check_update(cls, e);
         check_update_oom(cls, e);
+        check_refine_oom(cls, e);
     }
     check_params(cls);
     check_threads(cls);

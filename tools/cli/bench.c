@@ -6,8 +6,14 @@
  * cache), render_ms (median), samples_per_s / vertices_per_s, memory_bytes,
  * update_ms.<edit> (median time of volux_technique_update after the edit;
  * for a progressive technique its first state), refine_ms.<edit> (the
- * work it deferred, when there was any),
- * and with --reference a convergence series (rel_mse and mse vs spp/time).
+ * work it deferred, when there was any), refine_steps.<edit> (how many
+ * refinement steps, i.e. frames, that took) and refine_step_ms.<edit> (the
+ * median step), and with --reference a convergence series (rel_mse and
+ * mse vs spp/time).
+ *
+ * Generic extras: the technique's own statistics (volux_technique_stats)
+ * after creation, as <stat>, and after each edit's update, as <stat>.<edit>
+ * (e.g. manylights: vl_count, avsm_build_ms, avsm_built).
  */
 #include <math.h>
 #include <stdio.h>
@@ -57,6 +63,17 @@ static void usage(FILE *f) {
         const volux_edit *e = volux_edit_at(i);
         if (e->technique) fprintf(f, "  %-15s %s (%s only)\n", e->name, e->doc, e->technique);
         else fprintf(f, "  %-15s %s\n", e->name, e->doc);
+    }
+}
+
+/* The technique's statistics as metrics, named <stat><suffix>. */
+static void emit_stats(const bench_out *o, const volux_technique *t, const char *suffix) {
+    volux_technique_stat stats[32];
+    int n = volux_technique_stats(t, stats, 32);
+    for (int i = 0; i < n && i < 32; i++) {
+        char metric[96];
+        snprintf(metric, sizeof metric, "%s%s", stats[i].name, suffix);
+        emit(o, metric, stats[i].value, stats[i].unit, NULL);
     }
 }
 
@@ -182,6 +199,7 @@ int cli_bench(int argc, char **argv) {
     /* A progressive technique renders its refined state below. */
     for (int more = 1; more;)
         if ((st = volux_technique_refine(tech, scene, NULL, &more))) goto fail;
+    emit_stats(&o, tech, "");
     if ((st = volux_framebuffer_create(ctx, rs->width, rs->height, &fb))) goto fail;
 
     /* render_ms: one warm-up frame, then the median of `repeat` frames. */
@@ -223,15 +241,20 @@ int cli_bench(int argc, char **argv) {
     if (reference && (st = convergence(ctx, tech, scene, fb, &ref, &o))) goto fail;
 
     /* update_ms.<edit>: only the technique's reaction to the edit (for a
-     * progressive technique the first, coarse state); refine_ms.<edit>:
-     * the deferred rest, when there is any. */
-    double *refine = calloc((size_t)repeat, sizeof *refine);
-    if (!refine) {
+     * progressive technique its first state); refine_ms.<edit>: the
+     * deferred rest, when there is any, driven to its end so that every
+     * repeat starts from a finished state; refine_steps.<edit> and
+     * refine_step_ms.<edit>: how many steps (frames) that took and the
+     * median step. */
+    double *refine = NULL, *steps = NULL, *frames = NULL;
+    size_t n_steps = 0, cap_steps = 0;
+    if (!(refine = calloc((size_t)repeat, sizeof *refine)) || !(frames = calloc((size_t)repeat, sizeof *frames))) {
         rc = CLI_FAIL;
-        goto done;
+        goto edits_done;
     }
     for (int e = 0; e < n_edits; e++) {
         int ok = 1, deferred = 0;
+        n_steps = 0;
         for (int k = 0; k < repeat && ok; k++) {
             st = volux_edit_apply(edits[e], scene, k);
             if (st) {
@@ -242,22 +265,35 @@ int cli_bench(int argc, char **argv) {
                 break;
             }
             double t0 = cli_now_ms();
-            if ((st = volux_technique_update(tech, scene, NULL))) {
-                free(refine);
-                goto fail;
-            }
+            if ((st = volux_technique_update(tech, scene, NULL))) goto edits_fail;
             times[k] = cli_now_ms() - t0;
-            t0 = cli_now_ms();
-            int more = 1, refined = 0;
-            while (more && !st) {
-                st = volux_technique_refine(tech, scene, &refined, &more);
-                deferred |= refined;
+            if (k == repeat - 1) {
+                char suffix[48];
+                snprintf(suffix, sizeof suffix, ".%s", edits[e]->name);
+                emit_stats(&o, tech, suffix);
             }
-            if (st) {
-                free(refine);
-                goto fail;
+            refine[k] = frames[k] = 0.0;
+            for (int more = 1; more;) {
+                int refined = 0;
+                double s0 = cli_now_ms();
+                if ((st = volux_technique_refine(tech, scene, &refined, &more))) goto edits_fail;
+                double ms = cli_now_ms() - s0;
+                refine[k] += ms;
+                if (!refined) continue;
+                deferred = 1;
+                frames[k] += 1.0;
+                if (n_steps == cap_steps) {
+                    size_t cap = cap_steps ? 2 * cap_steps : 256;
+                    double *q = realloc(steps, cap * sizeof *q);
+                    if (!q) {
+                        rc = CLI_FAIL;
+                        goto edits_done;
+                    }
+                    steps = q;
+                    cap_steps = cap;
+                }
+                steps[n_steps++] = ms;
             }
-            refine[k] = cli_now_ms() - t0;
         }
         if (!ok) continue;
         char metric[64];
@@ -266,9 +302,19 @@ int cli_bench(int argc, char **argv) {
         if (deferred) {
             snprintf(metric, sizeof metric, "refine_ms.%s", edits[e]->name);
             emit(&o, metric, median(refine, repeat), "ms", NULL);
+            snprintf(metric, sizeof metric, "refine_steps.%s", edits[e]->name);
+            emit(&o, metric, median(frames, repeat), "steps", NULL);
+            snprintf(metric, sizeof metric, "refine_step_ms.%s", edits[e]->name);
+            emit(&o, metric, median(steps, (int)n_steps), "ms", NULL);
         }
     }
+    goto edits_done;
+edits_fail:
+    rc = cli_fail("bench", ctx, st);
+edits_done:
     free(refine);
+    free(steps);
+    free(frames);
     goto done;
 fail:
     rc = cli_fail("bench", ctx, st);

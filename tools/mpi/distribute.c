@@ -124,99 +124,64 @@ static int chunk_tiles(int total, int threads) {
     return c < 1 ? 1 : c;
 }
 
-/* The pixels of tile `index` (row-major tiles of VOLUX_TILE_SIZE²). */
-static void tile_rect(int width, int height, int index, int *x0, int *y0, int *w, int *h) {
-    int tiles_x = (width + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE;
-    *x0 = (index % tiles_x) * VOLUX_TILE_SIZE;
-    *y0 = (index / tiles_x) * VOLUX_TILE_SIZE;
-    *w = width - *x0 < VOLUX_TILE_SIZE ? width - *x0 : VOLUX_TILE_SIZE;
-    *h = height - *y0 < VOLUX_TILE_SIZE ? height - *y0 : VOLUX_TILE_SIZE;
-}
-
-/* Copies the pixels of the chunks between the frame arrays (sum: 3 per
- * pixel, sq: 1) and a packed run of 4 doubles per pixel, chunk by chunk,
- * tile by tile, row by row: pack when to_packed, else unpack. Returns the
- * number of pixels. */
-static size_t copy_chunks(int width, int height, const int *chunks, int n_chunks, double *sum, double *sq,
-                          double *packed, int to_packed) {
-    size_t k = 0;
-    for (int c = 0; c < n_chunks; c++)
-        for (int tile = chunks[2 * c]; tile < chunks[2 * c] + chunks[2 * c + 1]; tile++) {
-            int x0, y0, w, h;
-            tile_rect(width, height, tile, &x0, &y0, &w, &h);
-            for (int y = y0; y < y0 + h; y++)
-                for (int x = x0; x < x0 + w; x++, k++) {
-                    size_t p = (size_t)y * (size_t)width + (size_t)x;
-                    if (!packed) continue;
-                    if (to_packed) {
-                        memcpy(&packed[4 * k], &sum[3 * p], 3 * sizeof(double));
-                        packed[4 * k + 3] = sq[p];
-                    } else {
-                        memcpy(&sum[3 * p], &packed[4 * k], 3 * sizeof(double));
-                        sq[p] = packed[4 * k + 3];
-                    }
-                }
-        }
-    return k;
-}
-
-/* Collective: rank 0's fb receives every rank's chunks (see above). */
+/* Collective: rank 0's fb receives every other rank's chunks (their
+ * tile sums, packed by volux_framebuffer_read_tiles); rank 0's own tiles
+ * are already in place. */
 static volux_status gather_tiles(volux_framebuffer *fb, const int *chunks, int n_chunks, uint32_t spp) {
-    int width = volux_framebuffer_width(fb), height = volux_framebuffer_height(fb);
-    size_t n = (size_t)width * (size_t)height;
-    int my_px = (int)copy_chunks(width, height, chunks, n_chunks, NULL, NULL, NULL, 0);
-    double *frame = malloc(4 * n * sizeof(double));
-    double *packed = malloc((my_px ? (size_t)my_px : 1) * 4 * sizeof(double));
-    double *received = rank == 0 ? malloc(4 * n * sizeof(double)) : NULL;
-    /* rank 0: (chunks, pixels) per rank, then counts and displacements */
+    const int S = VOLUX_TILE_SUMS;
+    size_t my_px = 0;
+    if (rank > 0)
+        for (int c = 0; c < n_chunks; c++) my_px += volux_framebuffer_tile_pixels(fb, chunks[2 * c], chunks[2 * c + 1]);
+    size_t frame_px = (size_t)volux_framebuffer_width(fb) * (size_t)volux_framebuffer_height(fb);
+    double *packed = malloc((my_px ? my_px : 1) * S * sizeof(double));
+    double *received = rank == 0 ? malloc((frame_px ? frame_px : 1) * S * sizeof(double)) : NULL;
+    /* rank 0: (chunks, pixels) per rank, then their counts and offsets */
     int *meta = rank == 0 ? calloc(6 * (size_t)size, sizeof(int)) : NULL;
     int *all_chunks = rank == 0 ? malloc(2 * (size_t)(volux_framebuffer_tile_count(fb) + 1) * sizeof(int)) : NULL;
-    int ok = frame && packed && (rank || (received && meta && all_chunks)), all_ok = 0;
+    int ok = packed && (rank || (received && meta && all_chunks)), all_ok = 0;
     MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
-    volux_status st = all_ok ? VOLUX_OK : VOLUX_ERR_NOMEM;
     if (all_ok) {
-        volux_framebuffer_get_sums(fb, frame, frame + 3 * n);
-        copy_chunks(width, height, chunks, n_chunks, frame, frame + 3 * n, packed, 1);
-        int mine[2] = {n_chunks, my_px};
-        int *pairs = meta, *chunk_n = NULL, *px_n = NULL, *chunk_at = NULL, *px_at = NULL;
+        for (int c = 0, at = 0; rank > 0 && c < n_chunks; c++)
+            at += (int)volux_framebuffer_read_tiles(fb, chunks[2 * c], chunks[2 * c + 1], packed + (size_t)S * at);
+        int mine[2] = {rank > 0 ? n_chunks : 0, (int)my_px};
+        MPI_Gather(mine, 2, MPI_INT, meta, 2, MPI_INT, 0, MPI_COMM_WORLD);
+        int *chunk_n = NULL, *px_n = NULL, *chunk_at = NULL, *px_at = NULL;
         if (meta) {
             chunk_n = meta + 2 * size;
             px_n = meta + 3 * size;
             chunk_at = meta + 4 * size;
             px_at = meta + 5 * size;
-        }
-        MPI_Gather(mine, 2, MPI_INT, pairs, 2, MPI_INT, 0, MPI_COMM_WORLD);
-        MPI_Datatype pair, pixel;
-        MPI_Type_contiguous(2, MPI_INT, &pair);
-        MPI_Type_contiguous(4, MPI_DOUBLE, &pixel);
-        MPI_Type_commit(&pair);
-        MPI_Type_commit(&pixel);
-        if (rank == 0)
             for (int r = 0, ca = 0, pa = 0; r < size; r++) {
-                chunk_n[r] = pairs[2 * r];
-                px_n[r] = pairs[2 * r + 1];
+                chunk_n[r] = meta[2 * r];
+                px_n[r] = meta[2 * r + 1];
                 chunk_at[r] = ca;
                 px_at[r] = pa;
                 ca += chunk_n[r];
                 pa += px_n[r];
             }
-        MPI_Gatherv(chunks, n_chunks, pair, all_chunks, chunk_n, chunk_at, pair, 0, MPI_COMM_WORLD);
-        MPI_Gatherv(packed, my_px, pixel, received, px_n, px_at, pixel, 0, MPI_COMM_WORLD);
+        }
+        /* Counts in whole pixels and chunk pairs: an MPI count is an int. */
+        MPI_Datatype pair, pixel;
+        MPI_Type_contiguous(2, MPI_INT, &pair);
+        MPI_Type_contiguous(S, MPI_DOUBLE, &pixel);
+        MPI_Type_commit(&pair);
+        MPI_Type_commit(&pixel);
+        MPI_Gatherv(chunks, mine[0], pair, all_chunks, chunk_n, chunk_at, pair, 0, MPI_COMM_WORLD);
+        MPI_Gatherv(packed, (int)my_px, pixel, received, px_n, px_at, pixel, 0, MPI_COMM_WORLD);
         MPI_Type_free(&pair);
         MPI_Type_free(&pixel);
-        if (rank == 0) {
-            for (int r = 0; r < size; r++)
-                copy_chunks(width, height, all_chunks + 2 * chunk_at[r], chunk_n[r], frame, frame + 3 * n,
-                            received + 4 * (size_t)px_at[r], 0);
-            volux_framebuffer_set_sums(fb, frame, frame + 3 * n, spp);
-        }
+        if (rank == 0)
+            for (int r = 1; r < size; r++) {
+                const double *in = received + (size_t)S * px_at[r];
+                for (int c = chunk_at[r]; c < chunk_at[r] + chunk_n[r]; c++)
+                    in += (size_t)S * volux_framebuffer_write_tiles(fb, all_chunks[2 * c], all_chunks[2 * c + 1], in, spp);
+            }
     }
-    free(frame);
     free(packed);
     free(received);
     free(meta);
     free(all_chunks);
-    return st;
+    return all_ok ? VOLUX_OK : VOLUX_ERR_NOMEM;
 }
 
 volux_status dist_render_image(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
@@ -268,8 +233,9 @@ volux_status dist_render_image(volux_technique *t, const volux_scene *scene, vol
     if (rank == 0) cli_progress("render", 1.0);
 
     /* Gather every rank's tiles onto rank 0 with MPI_Gatherv: each pixel
-     * travels once, from the rank that rendered it, so the traffic is one
-     * frame whatever the rank count and the sums arrive unchanged. */
+     * travels once, from the rank that rendered it, so the traffic is at
+     * most one frame whatever the rank count, and the sums arrive
+     * unchanged (bit-identical to one process). */
     double wait_start = now_ms();
     MPI_Barrier(MPI_COMM_WORLD);
     timing->wait_ms = now_ms() - wait_start;

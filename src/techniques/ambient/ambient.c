@@ -483,5 +483,6 @@ const volux_technique_class volux_ambient_class = {
     {"ambient", "ambient volume scattering: preintegrated multiple scattering in a sphere (Ament et al. 2013)",
      ambient_params, 0},
     sizeof(ambient_state), 0, 0,
-    ambient_init, ambient_update, ambient_render_tile, ambient_memory_bytes, ambient_release, NULL,
+    ambient_init, ambient_update, ambient_render_tile, ambient_memory_bytes, ambient_release,
+    NULL, NULL, NULL, /* no refine, pending work or statistics */
 };

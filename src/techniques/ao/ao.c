@@ -88,5 +88,6 @@ const volux_technique_class volux_ao_class = {
     {"ao", "SAT ambient occlusion (Schlegel et al. 2011) lighting single scattering (Ament 2013 baseline)",
      ao_params, 0},
     sizeof(ao_state), 0, 0,
-    NULL, ao_update, ao_render_tile, ao_memory_bytes, ao_release, NULL,
+    NULL, ao_update, ao_render_tile, ao_memory_bytes, ao_release,
+    NULL, NULL, NULL, /* no refine, pending work or statistics */
 };

@@ -14,7 +14,8 @@ static const volux_param_info ea_params[] = {DVR_COMMON_PARAMS, {NULL, 0, 0, 0, 
 const volux_technique_class volux_ea_class = {
     {"ea", "emission-absorption ray casting (no lighting)", ea_params, 0},
     sizeof(dvr_state), VOLUX_CHANGE_LIGHTS | VOLUX_CHANGE_PHASE, 0,
-    volux_dvr_init, volux_dvr_update, volux_dvr_render_tile, volux_dvr_memory_bytes, volux_dvr_release, NULL,
+    volux_dvr_init, volux_dvr_update, volux_dvr_render_tile, volux_dvr_memory_bytes, volux_dvr_release,
+    NULL, NULL, NULL, /* no refine, pending work or statistics */
 };
 
 static const volux_param_info shaded_params[] = {
@@ -28,5 +29,6 @@ static const volux_param_info shaded_params[] = {
 const volux_technique_class volux_shaded_class = {
     {"shaded", "emission-absorption plus gradient Blinn-Phong from all non-ambient lights", shaded_params, 0},
     sizeof(dvr_state), VOLUX_CHANGE_PHASE, 0,
-    volux_dvr_init, volux_dvr_update, volux_dvr_render_tile, volux_dvr_memory_bytes, volux_dvr_release, NULL,
+    volux_dvr_init, volux_dvr_update, volux_dvr_render_tile, volux_dvr_memory_bytes, volux_dvr_release,
+    NULL, NULL, NULL, /* no refine, pending work or statistics */
 };

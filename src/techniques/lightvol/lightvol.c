@@ -312,5 +312,6 @@ const volux_technique_class volux_lightvol_class = {
      "multi-light illumination volume: coherent propagation + selective light updates (Sunden & Ropinski 2015)",
      lightvol_params, 0},
     sizeof(lightvol_state), 0, 1e-4f,
-    NULL, lightvol_update, lightvol_render_tile, lightvol_memory_bytes, lightvol_release, NULL,
+    NULL, lightvol_update, lightvol_render_tile, lightvol_memory_bytes, lightvol_release,
+    NULL, NULL, NULL, /* no refine, pending work or statistics */
 };

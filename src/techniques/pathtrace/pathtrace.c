@@ -79,5 +79,6 @@ const volux_technique_class volux_pathtrace_class = {
     {"pathtrace", "unbiased reference volumetric path tracer (delta/ratio tracking on macrocell majorants, NEE + MIS)",
      pt_params, 1},
     sizeof(pt_state), 0, 0,
-    NULL, pt_update, volux_pathtrace_render_tile, pt_memory_bytes, pt_release, NULL,
+    NULL, pt_update, volux_pathtrace_render_tile, pt_memory_bytes, pt_release,
+    NULL, NULL, NULL, /* no refine, pending work or statistics */
 };

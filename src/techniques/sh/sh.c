@@ -492,4 +492,5 @@ const volux_technique_class volux_sh_class = {
     {"sh", "light-material interaction with spherical harmonics (Lindemann & Ropinski 2010)", sh_params, 0},
     sizeof(sh_state), 0, 0,
     NULL, sh_update, sh_render_tile, sh_memory_bytes, sh_release, sh_refine,
+    NULL, NULL, /* no pending-work measure, no statistics */
 };

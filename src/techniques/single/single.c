@@ -167,5 +167,6 @@ const volux_technique_class volux_single_class = {
     {"single", "single scattering with shadow rays and an optional transmittance cache (Ament 2013 baseline)",
      single_params, 0},
     sizeof(single_state), 0, 0,
-    single_init, single_update, single_render_tile, single_memory_bytes, single_release, NULL,
+    single_init, single_update, single_render_tile, single_memory_bytes, single_release,
+    NULL, NULL, NULL, /* no refine, pending work or statistics */
 };

@@ -1,0 +1,273 @@
+/*
+ * manylights: every edit does the least work W13 allows, and progressive
+ * updates (W13 §4.2) end exactly where a fresh instance starts.
+ *
+ *   1. least work, from the technique's own counters (AVSMs built, VLs
+ *      traced, pending work) per edit kind: camera, light colour/strength,
+ *      TF colour, density (Eq. 8 placement), phase (isotropic sampling)
+ *      build and trace nothing; a light move rebuilds that light's VLs
+ *      only; extinction, phase (HG sampling) and density (placement by the
+ *      density in use) trace the new subpaths but build no AVSM at once
+ *      (rule 2) and leave work pending;
+ *   2. the timeline of an extinction edit (a frame = the front end's
+ *      refinement step, then volux_render): the immediate image (Eq. 6)
+ *      is closer to the fresh image than the image before the edit; at
+ *      most ceil(N/budget) + lights frames; a step builds AVSMs for about
+ *      `update_budget` VLs (rule 1); the last frame equals a fresh create
+ *      bit for bit;
+ *   3. edits during a replacement (extinction again, a light switched off
+ *      — a new share of vl_count —, colour) still end at the fresh image;
+ *   4. intermediate states are reproducible: 1 and 2 threads agree at every
+ *      step.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "test_util.h"
+
+static const char *scene_json =
+    "{\"volume\": {\"procedural\": \"cloud\", \"dims\": [24, 22, 20]},"
+    " \"transfer_function\": {\"opacity\": [[0, 0], [60, 0.05], [160, 0.35], [255, 0.6]],"
+    "   \"color\": [[0, 0.9, 0.4, 0.2], [128, 0.3, 0.8, 0.4], [255, 0.2, 0.3, 1.0]],"
+    "   \"albedo\": 0.8, \"anisotropy\": 0.3},"
+    " \"camera\": {\"orbit\": {\"azimuth\": 35, \"elevation\": 25}, \"fov_y\": 40},"
+    " \"lights\": [{\"type\": \"directional\", \"direction\": [-0.4, -1, -0.3], \"irradiance\": 2},"
+    "   {\"type\": \"environment\", \"radiance\": 0.3, \"color\": [0.6, 0.7, 1.0], \"visible\": false},"
+    "   {\"type\": \"point\", \"position\": [30, 20, 25], \"intensity\": 900, \"color\": [1, 0.8, 0.6]}],"
+    " \"render\": {\"technique\": \"manylights\", \"width\": 20, \"height\": 18, \"spp\": 2, \"step\": 1,"
+    "            \"max_depth\": 6, \"threads\": 1},"
+    " \"techniques\": {\"manylights\": {\"vl_count\": 90, \"avsm_resolution\": 4, \"avsm_nodes\": 4,"
+    "                                 \"samples\": 2, \"update_budget\": 10}}}";
+
+enum { N_VL = 90, BUDGET = 10, LIGHTS = 3 };
+
+static double stat(const volux_technique *t, const char *name) {
+    volux_technique_stat s[32];
+    int n = volux_technique_stats(t, s, 32);
+    for (int i = 0; i < n && i < 32; i++)
+        if (!strcmp(s[i].name, name)) return s[i].value;
+    fail_msg("no statistic %s", name);
+    return 0.0;
+}
+
+static volux_image fresh(volux_context *ctx, volux_scene *s) {
+    volux_technique *t = NULL;
+    assert_int_equal(volux_technique_create(ctx, "manylights", s, &t), VOLUX_OK);
+    assert_int_equal(volux_technique_pending(t), 0);
+    volux_image img = tu_render_with(ctx, s, t);
+    volux_technique_destroy(t);
+    return img;
+}
+
+/* One refinement step (a frame's worth); returns whether more remain. */
+static int step(volux_technique *t, volux_scene *s) {
+    int refined = 0, more = 0;
+    assert_int_equal(volux_technique_refine(t, s, &refined, &more), VOLUX_OK);
+    return more;
+}
+
+static void converge(volux_technique *t, volux_scene *s) {
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    for (uint64_t left = volux_technique_pending(t); left > 0;) {
+        int more = step(t, s);
+        uint64_t now = volux_technique_pending(t);
+        if (now >= left) fail_msg("a step left %llu pending (before %llu)", (unsigned long long)now, (unsigned long long)left);
+        assert_int_equal(more, now > 0);
+        left = now;
+    }
+}
+
+static void assert_fresh(volux_context *ctx, volux_scene *s, volux_technique *t, const char *what) {
+    converge(t, s);
+    volux_image a = tu_render_with(ctx, s, t), b = fresh(ctx, s);
+    double d = tu_max_abs_diff(&a, &b);
+    if (d != 0.0) fail_msg("%s: converged image differs from fresh by %g", what, d);
+    volux_image_free(ctx, &a);
+    volux_image_free(ctx, &b);
+}
+
+static double mean_abs_diff(const volux_image *a, const volux_image *b) {
+    double s = 0.0;
+    size_t n = 3 * (size_t)a->width * (size_t)a->height;
+    for (size_t i = 0; i < n; i++) s += fabs((double)a->rgb[i] - (double)b->rgb[i]);
+    return s / (double)n;
+}
+
+typedef struct expect {
+    const char *edit;
+    const char *param; /* set before creating (NULL: none) */
+    double value;
+    const char *string;
+    int avsms_min, avsms_max; /* AVSMs built by the update */
+    int traced_min, traced_max;
+    int pending; /* 1: work left after the update */
+} expect;
+
+static void test_least_work(void **state) {
+    (void)state;
+    const expect cases[] = {
+        {"camera", NULL, 0, NULL, 0, 0, 0, 0, 0},
+        {"background", NULL, 0, NULL, 0, 0, 0, 0, 0},
+        {"step", NULL, 0, NULL, 0, 0, 0, 0, 0},
+        {"light_color", NULL, 0, NULL, 0, 0, 0, 0, 0},
+        {"light_intensity", NULL, 0, NULL, 0, 0, 0, 0, 0},
+        {"tf_color", NULL, 0, NULL, 0, 0, 0, 0, 0},
+        {"density", NULL, 0, NULL, 0, 0, 0, 0, 0},
+        {"phase", "phase_sampling", 0, "isotropic", 0, 0, 0, 0, 0},
+        /* the first light's share (30 VLs, whole subpaths: ≤ 30 + max_depth) */
+        {"light", NULL, 0, NULL, 30, 36, 30, 36, 0},
+        {"tf", NULL, 0, NULL, 0, 0, N_VL, N_VL + 3 * 6, 1},
+        {"phase", NULL, 0, NULL, 0, 0, N_VL, N_VL + 3 * 6, 1},
+        {"density", "density_min", 0, NULL, 0, 0, N_VL, N_VL + 3 * 6, 1},
+        {"time_step", NULL, 0, NULL, N_VL, N_VL + 3 * 6, N_VL, N_VL + 3 * 6, 0},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        const expect *c = &cases[i];
+        volux_context *ctx = tu_context(1);
+        volux_scene *s = tu_scene(ctx, scene_json);
+        if (c->param) assert_int_equal(volux_scene_set_param(s, "manylights", c->param, c->value, c->string), VOLUX_OK);
+        volux_technique *t = NULL;
+        assert_int_equal(volux_technique_create(ctx, "manylights", s, &t), VOLUX_OK);
+        double n_vl = stat(t, "vl_count");
+        assert_true(n_vl >= N_VL && n_vl <= N_VL + 3 * 6);
+        assert_int_equal(volux_edit_apply(volux_edit_find(c->edit), s, 0), VOLUX_OK);
+        assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+        int avsms = (int)stat(t, "avsm_built"), traced = (int)stat(t, "vl_traced");
+        int pending = volux_technique_pending(t) > 0;
+        printf("  %-16s %-15s AVSMs %3d  traced %3d  pending %d\n", c->edit, c->param ? c->param : "", avsms, traced,
+               pending);
+        if (avsms < c->avsms_min || avsms > c->avsms_max || traced < c->traced_min || traced > c->traced_max ||
+            pending != c->pending)
+            fail_msg("%s (%s): built %d AVSMs, traced %d VLs, pending %d; expected [%d, %d], [%d, %d], %d", c->edit,
+                     c->param ? c->param : "-", avsms, traced, pending, c->avsms_min, c->avsms_max, c->traced_min,
+                     c->traced_max, c->pending);
+        assert_fresh(ctx, s, t, c->edit);
+        volux_technique_destroy(t);
+        volux_scene_destroy(s);
+        volux_context_destroy(ctx);
+    }
+}
+
+static void test_extinction_timeline(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(2);
+    volux_scene *s = tu_scene(ctx, scene_json);
+    volux_technique *t = NULL;
+    assert_int_equal(volux_technique_create(ctx, "manylights", s, &t), VOLUX_OK);
+    volux_framebuffer *fb;
+    assert_int_equal(volux_framebuffer_create(ctx, 20, 18, &fb), VOLUX_OK);
+    assert_int_equal(volux_render(t, s, fb, NULL, NULL), VOLUX_OK);
+    volux_image before;
+    assert_int_equal(volux_framebuffer_resolve(fb, &before), VOLUX_OK);
+    /* a strong edit: extinction ×0.4 */
+    for (int k = 0; k < 4; k++) assert_int_equal(volux_edit_apply(volux_edit_find("tf"), s, 2 * (k & 1) + 1), VOLUX_OK);
+    volux_image ref = fresh(ctx, s);
+    int frames = 0;
+    double first_err = -1.0;
+    do {
+        /* a frame: the front end's refinement step (after the first), then
+         * volux_render */
+        uint64_t left = volux_technique_pending(t);
+        if (frames > 0) step(t, s);
+        assert_int_equal(volux_render(t, s, fb, NULL, NULL), VOLUX_OK);
+        frames++;
+        if (frames > 1) {
+            assert_true(volux_technique_pending(t) < left);
+            int built = (int)stat(t, "avsm_built");
+            /* rule 1: about a budget of new AVSMs per frame (whole subpaths) */
+            if (built > BUDGET + 6) fail_msg("frame %d built %d AVSMs", frames, built);
+        } else {
+            assert_int_equal((int)stat(t, "avsm_built"), 0); /* immediate: Eq. 6 only */
+        }
+        volux_image img;
+        assert_int_equal(volux_framebuffer_resolve(fb, &img), VOLUX_OK);
+        if (frames == 1) {
+            first_err = mean_abs_diff(&img, &ref);
+            double old_err = mean_abs_diff(&before, &ref);
+            printf("  immediate image: mean |I - fresh| %.4g (before the edit %.4g)\n", first_err, old_err);
+            assert_true(first_err < old_err);
+            assert_true(first_err > 0.0);
+        }
+        volux_image_free(ctx, &img);
+        assert_true(frames <= (N_VL + 3 * 6) / BUDGET + LIGHTS + 2);
+    } while (volux_technique_pending(t) > 0);
+    printf("  frames to converge: %d\n", frames);
+    assert_true(frames >= N_VL / (BUDGET + 6));
+    /* the last frame showed the converged state */
+    volux_image last;
+    assert_int_equal(volux_framebuffer_resolve(fb, &last), VOLUX_OK);
+    assert_true(tu_max_abs_diff(&last, &ref) == 0.0);
+    volux_image_free(ctx, &last);
+    volux_image_free(ctx, &ref);
+    volux_image_free(ctx, &before);
+    volux_framebuffer_destroy(fb);
+    volux_technique_destroy(t);
+    volux_scene_destroy(s);
+    volux_context_destroy(ctx);
+}
+
+static void test_edits_during_replacement(void **state) {
+    (void)state;
+    const char *second[] = {"tf", "light_toggle", "tf_color", "light", "density", "light_add"};
+    for (size_t i = 0; i < sizeof second / sizeof second[0]; i++) {
+        volux_context *ctx = tu_context(1);
+        volux_scene *s = tu_scene(ctx, scene_json);
+        volux_technique *t = NULL;
+        assert_int_equal(volux_technique_create(ctx, "manylights", s, &t), VOLUX_OK);
+        assert_int_equal(volux_edit_apply(volux_edit_find("tf"), s, 0), VOLUX_OK);
+        assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+        for (int k = 0; k < 3; k++) step(t, s);
+        assert_true(volux_technique_pending(t) > 0);
+        assert_int_equal(volux_edit_apply(volux_edit_find(second[i]), s, 1), VOLUX_OK);
+        assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+        for (int k = 0; k < 2; k++) step(t, s);
+        /* and a third edit of the same kind (a slider that keeps moving) */
+        assert_int_equal(volux_edit_apply(volux_edit_find(second[i]), s, 2), VOLUX_OK);
+        assert_fresh(ctx, s, t, second[i]);
+        volux_technique_destroy(t);
+        volux_scene_destroy(s);
+        volux_context_destroy(ctx);
+    }
+}
+
+static void test_steps_thread_independent(void **state) {
+    (void)state;
+    volux_context *ctx[2];
+    volux_scene *s[2];
+    volux_technique *t[2];
+    for (int n = 0; n < 2; n++) {
+        ctx[n] = tu_context(n + 1);
+        s[n] = tu_scene(ctx[n], scene_json);
+        volux_render_settings rs = *volux_scene_render(s[n]);
+        rs.threads = n + 1;
+        assert_int_equal(volux_scene_set_render(s[n], &rs), VOLUX_OK);
+        assert_int_equal(volux_technique_create(ctx[n], "manylights", s[n], &t[n]), VOLUX_OK);
+        assert_int_equal(volux_edit_apply(volux_edit_find("tf"), s[n], 0), VOLUX_OK);
+        assert_int_equal(volux_technique_update(t[n], s[n], NULL), VOLUX_OK);
+    }
+    for (int k = 0; k < 20; k++) {
+        volux_image a = tu_render_with(ctx[0], s[0], t[0]), b = tu_render_with(ctx[1], s[1], t[1]);
+        assert_true(tu_max_abs_diff(&a, &b) == 0.0);
+        volux_image_free(ctx[0], &a);
+        volux_image_free(ctx[1], &b);
+        assert_int_equal(volux_technique_pending(t[0]), volux_technique_pending(t[1]));
+        if (!volux_technique_pending(t[0])) break;
+        for (int n = 0; n < 2; n++) step(t[n], s[n]);
+    }
+    for (int n = 0; n < 2; n++) {
+        volux_technique_destroy(t[n]);
+        volux_scene_destroy(s[n]);
+        volux_context_destroy(ctx[n]);
+    }
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_least_work),
+        cmocka_unit_test(test_extinction_timeline),
+        cmocka_unit_test(test_edits_during_replacement),
+        cmocka_unit_test(test_steps_thread_independent),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
