@@ -121,8 +121,8 @@ int volux_tile_expired(const volux_tile *t) {
     return 1;
 }
 
-/* The pixel rectangle of tile `index`. */
-static void tile_rect(const volux_framebuffer *fb, int tiles_x, int64_t index, volux_tile *tile) {
+/* The pixel rectangle of tile `index` as a volux_tile. */
+static void wave_tile(const volux_framebuffer *fb, int tiles_x, int64_t index, volux_tile *tile) {
     tile->x0 = (int)(index % tiles_x) * VOLUX_TILE_SIZE;
     tile->y0 = (int)(index / tiles_x) * VOLUX_TILE_SIZE;
     tile->w = fb->width - tile->x0 < VOLUX_TILE_SIZE ? fb->width - tile->x0 : VOLUX_TILE_SIZE;
@@ -139,7 +139,7 @@ static void render_one_tile(void *user, int64_t slot, int thread) {
     volux_framebuffer *fb = job->fb;
     int64_t index = job->tile_first + slot;
     volux_tile tile;
-    tile_rect(fb, job->tiles_x, index, &tile);
+    wave_tile(fb, job->tiles_x, index, &tile);
     tile.sample_index = job->sample_index;
     tile.deadline = job->deadline;
     float rgb[VOLUX_TILE_SIZE * VOLUX_TILE_SIZE * 3];
@@ -235,7 +235,7 @@ static volux_status render_waves(volux_technique *t, const volux_scene *scene, v
         truncated = deadline.expired;
         for (int i = tile_first; i < tile_first + tile_count; i++) {
             volux_tile tile;
-            tile_rect(fb, tiles_x, i, &tile);
+            wave_tile(fb, tiles_x, i, &tile);
             for (int y = tile.y0; y < tile.y0 + tile.h; y++)
                 for (int x = tile.x0; x < tile.x0 + tile.w; x++) {
                     size_t p = (size_t)y * (size_t)fb->width + (size_t)x;
