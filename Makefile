@@ -2,20 +2,29 @@
 #   make demo   install missing Debian packages, build (Release), render scenes/demo.json
 #   make test   install, build (warnings as errors) + run the suite, then the
 #               same suite under AddressSanitizer + UBSan
+#   make install PREFIX=/opt/volux   build, then install the CLI, headers, libvolux.so/.a,
+#               volux.pc, the CMake package and the Python package (docs/API.md)
 # Other targets: build, asan, fuzz, bench, clean.
 
 PACKAGES := build-essential cmake pkg-config clang libpng-dev zlib1g-dev libcjson-dev \
-            libopenexr-dev libcmocka-dev
+            libopenexr-dev libcmocka-dev libmicrohttpd-dev libjpeg-dev
 # Only the tests need these: `locales` has the de_DE sources a test compiles
 # into a temporary decimal-comma locale (header numbers must not follow it);
-# Open MPI for the MPI front end's tests (tests/distributed; the CLI is
-# built with MPI whenever it is installed).
-TEST_PACKAGES := locales libopenmpi-dev openmpi-bin
+# python3-numpy for the Python package's tests (python/), python3-pip and
+# python3-setuptools for its offline `pip install ./python` test; Open MPI
+# for the MPI front end's tests (tests/distributed; the CLI is built with
+# MPI whenever it is installed); `chromium` runs the viewer's browser test,
+# driven by playwright-core from npm (tests/browser/package-lock.json;
+# Debian's nodejs + npm unless a node is already installed). Without them
+# that one test is skipped.
+TEST_PACKAGES := locales python3-numpy python3-pip python3-setuptools libopenmpi-dev openmpi-bin chromium
+NODE_PACKAGES := nodejs npm
 JOBS     ?= $(shell nproc 2>/dev/null || echo 2)
 BUILD    ?= build
 VOLUX    := $(BUILD)/volux
+PREFIX   ?= /usr/local
 
-.PHONY: all deps test-deps build demo test test-release test-asan asan fuzz bench clean
+.PHONY: all deps test-deps node-deps build demo test test-release test-asan asan fuzz bench install clean
 
 all: build
 
@@ -37,6 +46,14 @@ deps:
 
 test-deps: deps
 	$(call install_missing,$(TEST_PACKAGES))
+	@command -v npm >/dev/null || $(MAKE) --no-print-directory node-deps
+	@if [ ! -f tests/browser/node_modules/playwright-core/package.json ]; then \
+	  (cd tests/browser && npm ci --no-audit --no-fund --loglevel=error) || \
+	  echo "warning: npm ci in tests/browser failed: the browser test will be skipped"; \
+	fi
+
+node-deps:
+	$(call install_missing,$(NODE_PACKAGES))
 
 build: deps
 	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release -DVOLUX_WERROR=ON >/dev/null
@@ -66,6 +83,9 @@ test-asan: asan test-deps
 fuzz: deps
 	CC=clang cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DVOLUX_FUZZ=ON -DVOLUX_TESTS=OFF >/dev/null
 	cmake --build build-fuzz -j $(JOBS)
+
+install: build
+	cmake --install $(BUILD) --prefix $(PREFIX)
 
 bench: build
 	bench/run.sh

@@ -1,7 +1,7 @@
 #!/bin/bash
 # bench/classical_metrics.sh — the issue-2 metric set for `ea` and `shaded`:
 # prepare_ms, render_ms (wall and CPU), samples_per_s, update_ms.tf,
-# update_ms.camera, memory_bytes; 512×512, the real volumes of ../shared and
+# update_ms.camera, memory_bytes; 512×512, the real volumes of $VOLUX_DATA and
 # a 256³ procedural volume; 1 and 2 threads. Prints a markdown table and
 # keeps the raw JSON lines in $OUT/metrics.jsonl.
 #   bench/classical_metrics.sh            (REPEAT=7 THREADS="1 2" by default)
@@ -9,9 +9,10 @@ set -eu
 HERE=$(cd "$(dirname "$0")" && pwd)
 ROOT=$(dirname "$HERE")
 VOLUX=${VOLUX:-$ROOT/build/volux}
-DATA=${DATA:-$(cd "$ROOT/../shared/data/volumes" && pwd)}
-TF=${TF:-$(cd "$ROOT/../shared/peers/tf" && pwd)}
-OUT=${OUT:-/tmp/volux_classical}
+VOLUX_DATA=${VOLUX_DATA:-$ROOT/../shared/data}   # docs/CONVENTIONS.md
+DATA=${DATA:-$(cd "$VOLUX_DATA/volumes" && pwd)}
+TF=${TF:-$(cd "$VOLUX_DATA/../peers/tf" && pwd)}
+OUT=${OUT:-${BENCH_OUT:-$ROOT/out/bench}/classical}
 REPEAT=${REPEAT:-7}
 THREADS=${THREADS:-1 2}
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}

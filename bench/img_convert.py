@@ -14,7 +14,8 @@ import sys
 
 import numpy as np
 
-PEERS = os.environ.get("PEERS", os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared", "peers"))
+PEERS = os.environ.get("PEERS", os.path.join(os.environ.get("VOLUX_DATA", os.path.join(
+    os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared", "data")), "..", "peers"))
 sys.path.insert(0, PEERS)
 
 

@@ -5,7 +5,9 @@
 # skipping; axis-aligned (az 0 el 0) and oblique (az 30 el 20) orthographic
 # views. Prints million samples per CPU-second (= per core: robust on a
 # shared machine) for the scalar and SIMD kernels, with and without
-# pre-integration, and the wall-clock rate at 1 and 2 threads.
+# pre-integration, and the wall-clock rate at 1 and 2 threads. SIMD kernels
+# (KERNELS, default "avx2 simd"): "avx2" = the 8-lane packets, "simd" = the
+# widest the CPU has (16-lane AVX-512 where present).
 #   bench/kernel_rates.sh [REPEAT]      (VOLUX=build/volux)
 set -u
 HERE=$(cd "$(dirname "$0")" && pwd)
@@ -17,7 +19,7 @@ echo "| view | kernel | pre-integration | threads | M samples / CPU-s | M sample
 echo "|---|---|---|---|---|---|---|---|"
 for view in "0 0" "30 20"; do
     set -- $view
-    for kernel in scalar simd; do
+    for kernel in scalar ${KERNELS:-avx2 simd}; do
         for pre in false true; do
             for th in 1 2; do
                 out=$("$VOLUX" bench "$S" --json --repeat "$REPEAT" --threads "$th" --edit camera \

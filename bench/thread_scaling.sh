@@ -1,12 +1,12 @@
 #!/bin/bash
 # bench/thread_scaling.sh — wall-clock speed-up of 2 threads over 1 for the
-# scenes vtk_compare.sh wrote (SCENES=/tmp/volux_vtk_compare/scenes/*.json).
+# scenes vtk_compare.sh wrote (SCENES=$BENCH_OUT/vtk_compare/scenes, default out/bench/...).
 # Each pair of runs starts once the 2-core machine is < 15 % busy (waiting up
 # to WAIT_MAX s) and records the busy fraction; medians of REPEAT frames.
 set -u
 HERE=$(cd "$(dirname "$0")" && pwd)
 VOLUX=${VOLUX:-$(dirname "$HERE")/build/volux}
-SCENES=${SCENES:-/tmp/volux_vtk_compare/scenes}
+SCENES=${SCENES:-${BENCH_OUT:-$(dirname "$HERE")/out/bench}/vtk_compare/scenes}
 REPEAT=${REPEAT:-9}
 WAIT_MAX=${WAIT_MAX:-60}
 busy() {

@@ -8,7 +8,7 @@
 #
 # Needs: a Release build (VOLUX=build/volux), ../shared/peers set up
 # (sh setup.sh; make; make volumes — see its README) and Debian's
-# /usr/bin/python3 (numpy + VTK). Writes OUT (default /tmp/volux_vtk_compare):
+# /usr/bin/python3 (numpy + VTK). Writes OUT (default out/bench/vtk_compare):
 # results.md (table), results.csv, log.txt, images/ (PNGs, PFMs, montages).
 #
 # Conventions matched (../shared/peers/README.md): volume centred, orbit
@@ -30,9 +30,10 @@ set -u
 HERE=$(cd "$(dirname "$0")" && pwd)
 ROOT=$(dirname "$HERE")
 VOLUX=${VOLUX:-$ROOT/build/volux}
-PEERS=${PEERS:-$(cd "$ROOT/../shared/peers" 2>/dev/null && pwd)}
-DATA=${DATA:-$(cd "$ROOT/../shared/data/volumes" 2>/dev/null && pwd)}
-OUT=${OUT:-/tmp/volux_vtk_compare}
+VOLUX_DATA=${VOLUX_DATA:-$ROOT/../shared/data}   # docs/CONVENTIONS.md
+PEERS=${PEERS:-$(cd "$VOLUX_DATA/../peers" 2>/dev/null && pwd)}
+DATA=${DATA:-$(cd "$VOLUX_DATA/volumes" 2>/dev/null && pwd)}
+OUT=${OUT:-${BENCH_OUT:-$ROOT/out/bench}/vtk_compare}
 RUNS=${RUNS:-5}
 THREADS=${THREADS:-1 2}
 CASES=${CASES:-ml bonsai aneurism engine}
@@ -44,7 +45,7 @@ export PEERS
 AZ=30 EL=20 SIZE=512
 
 [ -x "$VOLUX" ] || { echo "vtk_compare: no volux binary at $VOLUX (build Release first)" >&2; exit 2; }
-[ -n "$PEERS" ] && [ -f "$PEERS/vtk_render.py" ] || { echo "vtk_compare: ../shared/peers not found" >&2; exit 2; }
+[ -n "$PEERS" ] && [ -f "$PEERS/vtk_render.py" ] || { echo "vtk_compare: $VOLUX_DATA/../peers not found" >&2; exit 2; }
 if [ ! -f "$PEERS/data/ml256.nhdr" ]; then make -C "$PEERS" volumes >/dev/null || exit 1; fi
 mkdir -p "$OUT/images" "$OUT/scenes"
 LOG=$OUT/log.txt

@@ -11,7 +11,7 @@
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 volux=${1:-$here/../../build/volux}
-outdir=${2:-$here/out}
+outdir=${2:-${BENCH_OUT:-$here/../../out/bench}/ambient_compare}
 spp=${SPP:-1024}
 scenes=${SCENES:-"bonsai engine aneurism"}
 size=${SIZE:-512}

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # bench/ambient/run.sh — Ament et al. 2013, Table 1 on our data: update and
 # render times of ea / ao / single / ambient on the scenes of this folder
-# (512×512, 2 threads, real volumes from ../shared/data by absolute path).
+# (512×512, 2 threads, real volumes from $VOLUX_DATA, docs/CONVENTIONS.md).
 #
 #   bench/ambient/run.sh [VOLUX] [OUT.jsonl]      (REPEAT=5 by default;
 #                                                   TECHS, SCENES to narrow)
@@ -17,7 +17,8 @@ set -euo pipefail
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
 here=$(cd "$(dirname "$0")" && pwd)
 volux=${1:-$here/../../build/volux}
-out=${2:-$here/results.jsonl}
+out=${2:-${BENCH_OUT:-$here/../../out/bench}/ambient/results.jsonl}
+mkdir -p "$(dirname "$out")"
 repeat=${REPEAT:-5}
 scenes=${SCENES:-"bonsai engine aneurism"}
 techs=${TECHS:-"ea ao single ambient"}

@@ -29,7 +29,7 @@
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 volux=${1:-$here/../../build/volux}
-out=${2:-/tmp/ea_vs_pathtrace}
+out=${2:-${BENCH_OUT:-$(cd "$(dirname "$0")/../.." && pwd)/out/bench}/ea_vs_pathtrace}
 size=${SIZE:-128}
 spp_absorb=${SPP_ABSORB:-1024}
 spp_lit=${SPP_LIT:-256}

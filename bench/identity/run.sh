@@ -21,7 +21,7 @@ common=(--width "$size" --height "$size" --spp "$spp" --threads 2
         --set techniques.ambient.table_sigma=64 --set techniques.ambient.table_g=5)
 differ=0
 scenes=(scenes/*.json)
-[[ -d ../shared/data/volumes ]] && scenes+=(bench/scenes/*.json bench/ambient/*.json)
+[[ -d ${VOLUX_DATA:-../shared/data}/volumes ]] && scenes+=(bench/scenes/*.json bench/ambient/*.json)
 for scene in "${scenes[@]}"; do
   for t in $techniques; do
     name=$(basename "$scene" .json)_$t

@@ -8,11 +8,14 @@
 # lights, config). Single-threaded by default (THREADS=1): the development
 # machine has 2 cores shared with other jobs, and CPU-time medians are the
 # stable numbers there; set THREADS=2 for a parallel run. REPEAT (default 3)
-# repeats per metric. Needs ../shared/data (absolute paths in the scenes).
+# repeats per metric. Needs $VOLUX_DATA (docs/CONVENTIONS.md).
 set -euo pipefail
 ROOT="$(cd "$(dirname "$0")/../.." && pwd)"
 BUILD="${1:-$ROOT/build}"
-OUT="${2:-$ROOT/bench/lightvol/results.jsonl}"
+# bench_lightvol reads the scenes through the library, which has no default root.
+export VOLUX_DATA="${VOLUX_DATA:-$ROOT/../shared/data}"
+OUT="${2:-${BENCH_OUT:-$ROOT/out/bench}/lightvol/results.jsonl}"
+mkdir -p "$(dirname "$OUT")"
 THREADS="${THREADS:-1}"
 REPEAT="${REPEAT:-3}"
 BENCH="$BUILD/bench/bench_lightvol"

@@ -12,7 +12,7 @@
 set -euo pipefail
 ROOT="$(cd "$(dirname "$0")/../.." && pwd)"
 BUILD="${1:-$ROOT/build}"
-OUT="${2:-/tmp/lightvol_vs_pathtrace}"
+OUT="${2:-${BENCH_OUT:-$(cd "$(dirname "$0")/../.." && pwd)/out/bench}/lightvol_vs_pathtrace}"
 SCENE="${3:-$ROOT/bench/scenes/lightvol_engine_fig9a.json}"
 SPP1="${SPP1:-1024}" SPP64="${SPP64:-256}" W="${W:-256}"
 V="$BUILD/volux"

@@ -9,24 +9,24 @@
 #   errors.jsonl   rel_mse of sh, shaded, ao against pathtrace (SPP) on the
 #                  environment-lit bonsai and engine, 256², and montages
 #
-#   bench/sh/run.sh [VOLUX] [OUTDIR]    SHARED=../shared  REPEAT=3  SPP=256
+#   bench/sh/run.sh [VOLUX] [OUTDIR]    VOLUX_DATA=../shared/data  REPEAT=3  SPP=256
 # Sets OMP_WAIT_POLICY=passive (docs/ARCHITECTURE.md); records uptime.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 volux=${1:-$here/../../build/volux}
-out=${2:-$here/out}
-shared=${SHARED:-$(cd "$here/../../.." && pwd)/shared}
+out=${2:-${BENCH_OUT:-$here/../../out/bench}/sh}
+data=${VOLUX_DATA:-$(cd "$here/../../.." && pwd)/shared/data}   # docs/CONVENTIONS.md
 repeat=${REPEAT:-3}
 spp=${SPP:-256}
 montage=${MONTAGE:-$(dirname "$volux")/bench/bench_montage}
 export OMP_WAIT_POLICY=passive
 mkdir -p "$out"
-ov_bonsai=(--set "volume.file=\"$shared/data/volumes/bonsai_256x256x256_uint8.nhdr\""
-           --set "transfer_function=\"$shared/peers/tf/bonsai.json\""
-           --set "lights.0.file=\"$shared/data/envmaps/venice_sunset_1k.hdr\"")
-ov_engine=(--set "volume.file=\"$shared/data/volumes/engine_256x256x128_uint8.nhdr\""
-           --set "lights.0.file=\"$shared/data/envmaps/pedestrian_overpass_1k.hdr\"")
-ov_proc128=(--set "lights.0.file=\"$shared/data/envmaps/royal_esplanade_1k.hdr\"")
+ov_bonsai=(--set "volume.file=\"$data/volumes/bonsai_256x256x256_uint8.nhdr\""
+           --set "transfer_function=\"$data/../peers/tf/bonsai.json\""
+           --set "lights.0.file=\"$data/envmaps/venice_sunset_1k.hdr\"")
+ov_engine=(--set "volume.file=\"$data/volumes/engine_256x256x128_uint8.nhdr\""
+           --set "lights.0.file=\"$data/envmaps/pedestrian_overpass_1k.hdr\"")
+ov_proc128=(--set "lights.0.file=\"$data/envmaps/royal_esplanade_1k.hdr\"")
 modes=("shadows:" "scattering:--set techniques.sh.scattering=true"
        "bleeding:--set techniques.sh.scattering=true --set techniques.sh.bleeding=true")
 tag() { sed -e "s/^{/{\"case\":\"$1\",\"mode\":\"$2\",\"load\":\"$(cut -d' ' -f1 /proc/loadavg)\",/"; }

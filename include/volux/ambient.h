@@ -11,6 +11,14 @@
  * context's cache folder (volux_context_set_cache_dir). File format and
  * estimator: docs/techniques/ambient.md.
  *
+ * A table may carry an albedo axis: one (θ, σ̃t, g) block per albedo of a
+ * list, interpolated linearly in between, so that an albedo edit costs a
+ * re-sum of the radiance caches instead of a new table. The library ships
+ * one such table (volux_ambient_table_desc_builtin, 64 × 64 × 10 × 12,
+ * compiled in from src/techniques/ambient/builtin_table.vxat, built by
+ * `volux ambient-table --builtin`): the technique's default, so that no
+ * first use waits for a build.
+ *
  * DOES NOT: render, or expose the table's values (the technique reads them).
  *
  * STEP BY STEP
@@ -31,22 +39,33 @@ extern "C" {
 #endif
 
 #define VOLUX_AMBIENT_TABLE_MAX_DIM 4096
+#define VOLUX_AMBIENT_TABLE_MAX_ALBEDO 16
 
-/* Entry (it, is, ig) sits at θ = π·it/(nθ−1), σ̃t = Σ̃t·is/(nσ−1),
- * g = g_min + (g_max − g_min)·ig/(ng−1). */
+/* Entry (it, is, ig, ia) sits at θ = π·it/(nθ−1), σ̃t = Σ̃t·is/(nσ−1),
+ * g = g_min + (g_max − g_min)·ig/(ng−1), albedo[ia]. */
 typedef struct volux_ambient_table_desc {
     int n_theta, n_sigma, n_g; /* each in [2, VOLUX_AMBIENT_TABLE_MAX_DIM]  */
     double sigma_max;          /* Σ̃t: optical radius range [0, Σ̃t]        */
     double g_min, g_max;       /* within (−1, 1), g_min < g_max            */
-    double albedo;             /* [0, 1]                                   */
-    uint64_t paths;            /* random walks per (σ̃t, g) column; every
-                                  walk scores every θ entry (≥ 1)          */
+    int n_albedo;              /* [1, VOLUX_AMBIENT_TABLE_MAX_ALBEDO]       */
+    double albedo[VOLUX_AMBIENT_TABLE_MAX_ALBEDO]; /* the first n_albedo:
+                                  strictly increasing, in [0, 1]           */
+    uint64_t paths;            /* random walks per (σ̃t, g, albedo) column;
+                                  every walk scores every θ entry (≥ 1)    */
     uint64_t seed;
 } volux_ambient_table_desc;
 
-/* The paper's table: 256 × 256 × 19, Σ̃t = 20, g ∈ [−0.9, 0.9], albedo 0.9;
- * `paths` is our default budget (see docs/techniques/ambient.md). */
+/* The paper's table: 256 × 256 × 19, Σ̃t = 20, g ∈ [−0.9, 0.9], one albedo
+ * 0.9; `paths` is our default budget (see docs/techniques/ambient.md). */
 VOLUX_API void volux_ambient_table_desc_defaults(volux_ambient_table_desc *d);
+/* The albedo axis of the built-in table: 0, 0.1, …, 0.9, 0.95, 1 (denser
+ * near 1, where multiple scattering grows fastest). Sets n_albedo and
+ * albedo[] of d, nothing else. */
+VOLUX_API void volux_ambient_table_desc_albedo_set(volux_ambient_table_desc *d);
+/* The table compiled into the library: 64 × 64 × 10 (g ∈ [−0.9, 0.9]),
+ * Σ̃t = 20, the albedo set above, 4096 walks per column. A table with
+ * this description is read from the library, never built. */
+VOLUX_API void volux_ambient_table_desc_builtin(volux_ambient_table_desc *d);
 
 /* Statistics of the per-entry relative standard errors. */
 typedef struct volux_ambient_table_noise {
@@ -76,6 +95,10 @@ typedef struct volux_ambient_table_summary {
  * VOLUX_ERR_WRITE naming the file. `out` may be NULL. */
 VOLUX_API volux_status volux_ambient_table_write(volux_context *ctx, const volux_ambient_table_desc *d,
                                                  const char *path, volux_ambient_table_summary *out);
+/* Rewrites the table file `in` as `out` without its per-entry error block
+ * (half the size; the values are unchanged): how the built-in table is
+ * made small. Errors as for inspect, VOLUX_ERR_WRITE naming `out`. */
+VOLUX_API volux_status volux_ambient_table_strip(volux_context *ctx, const char *in, const char *out);
 /* Reads and verifies a table file (magic, version, sizes, ranges, values,
  * checksum) and summarises it: VOLUX_ERR_IO if unreadable, VOLUX_ERR_FORMAT
  * naming the file otherwise. */

@@ -86,12 +86,17 @@ typedef void *(*volux_alloc_fn)(void *user, void *ptr, size_t old_size, size_t n
  * May be called from any thread, but never concurrently. */
 typedef int (*volux_progress_fn)(void *user, const char *task, double fraction);
 
-/* Warning: something a call that succeeded wants its caller to know (a
- * file's trailing bytes ignored, non-finite values replaced as asked, a
- * render cut short by its time budget). The message is escaped like error
- * messages (no control characters, valid UTF-8). Called on the calling
- * thread, never concurrently for one context. */
-typedef void (*volux_warning_fn)(void *user, const char *message);
+/* Messages for the user that are not errors: a warning (e.g. a light a
+ * technique cannot use: the technique renders without it; a file's
+ * trailing bytes ignored; non-finite values replaced as asked; a render
+ * cut short by its time budget) or a note about long work (e.g. a table
+ * that is built once and where it is kept). Escaped like error messages
+ * (no control characters, valid UTF-8). One
+ * line of text, without a trailing newline, naming its source
+ * ("single: ..."). Called from the thread that runs the call that emits
+ * it. The library never prints; without a callback messages are dropped. */
+typedef enum volux_message_level { VOLUX_MESSAGE_NOTE, VOLUX_MESSAGE_WARNING } volux_message_level;
+typedef void (*volux_message_fn)(void *user, volux_message_level level, const char *text);
 
 typedef struct volux_context_desc {
     int threads;               /* worker threads; 0 = all cores             */
@@ -103,6 +108,8 @@ typedef struct volux_context_desc {
     void *progress_user;
     const char *cache_dir;     /* NULL = default, "" = no disk cache; see
                                   volux_context_set_cache_dir (copied)      */
+    volux_message_fn message;  /* NULL = messages dropped                   */
+    void *message_user;
 } volux_context_desc;
 
 #define VOLUX_DEFAULT_MAX_BYTES (8ull << 30) /* 8 GiB */
@@ -121,13 +128,18 @@ VOLUX_API void volux_context_destroy(volux_context *ctx);
 VOLUX_API const char *volux_context_error(const volux_context *ctx);
 VOLUX_API volux_status volux_context_error_status(const volux_context *ctx);
 VOLUX_API void volux_context_clear_error(volux_context *ctx);
+/* Records an error the way the library does (ignored when an error is
+ * already recorded: the first wins) and returns `status`. For callbacks
+ * the library calls that report through the context (e.g. the validate
+ * hook of volux_scene_doc_options). */
+VOLUX_API volux_status volux_context_set_error(volux_context *ctx, volux_status status, const char *fmt, ...)
+    VOLUX_PRINTF(3, 4);
 
 VOLUX_API void volux_context_set_threads(volux_context *ctx, int threads);
 /* Threads actually used (resolves 0 to the core count). */
 VOLUX_API int volux_context_threads(const volux_context *ctx);
 VOLUX_API void volux_context_set_progress(volux_context *ctx, volux_progress_fn fn, void *user);
-/* Sets the warning callback (NULL: warnings are dropped, the default). */
-VOLUX_API void volux_context_set_warning(volux_context *ctx, volux_warning_fn fn, void *user);
+VOLUX_API void volux_context_set_message(volux_context *ctx, volux_message_fn fn, void *user);
 VOLUX_API uint64_t volux_context_max_bytes(const volux_context *ctx);
 /* Bytes currently allocated through the context (for memory reports); the
  * context's own storage (itself, its cache folder name) is not counted. */

@@ -22,7 +22,7 @@ typedef enum volux_projection { VOLUX_PERSPECTIVE, VOLUX_ORTHOGRAPHIC } volux_pr
 
 typedef struct volux_camera_desc {
     volux_projection projection;
-    volux_vec3 eye, look_at, up;
+    volux_vec3 eye, look_at, up; /* up: also the orbit's axis (default +Y)  */
     float fov_y_deg;   /* perspective vertical field of view, (0,180)      */
     float height;      /* orthographic view height (world units); 0 = from
                           the orbit framing                                */
@@ -32,6 +32,12 @@ typedef struct volux_camera_desc {
 
 /* Orbit az 30, el 20, distance 1/sin(15°), fov 30: frames the volume. */
 VOLUX_API void volux_camera_desc_defaults(volux_camera_desc *d);
+
+/* The orbit's frame for an up axis: basis[1] = up normalised, basis[0]
+ * and basis[2] the images of +X and +Z under the shortest rotation taking
+ * +Y to up (for up = −Y, the half turn about X). For up = +Y it is the
+ * identity, so DESIGN §3's orbit is unchanged. */
+VOLUX_API void volux_camera_orbit_basis(volux_vec3 up, volux_vec3 basis[3]);
 
 /* A resolved camera: an orthonormal frame and projection scales. */
 typedef struct volux_camera {

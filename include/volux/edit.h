@@ -7,8 +7,9 @@
  * volux_change). Calling an edit with k = 0, 1, 2, ... alternates between
  * two states where it can (odd calls undo even ones), so repeated
  * benchmark iterations keep measuring real work and the scene stays in its
- * neighbourhood. Edits use only the public scene API, plus a mirrored copy
- * of the volume for `time_step`.
+ * neighbourhood (`time_step` on a sequence plays it forward instead, as an
+ * animation does). Edits use only the public scene API, plus a mirrored
+ * copy of the volume for `time_step` on a single volume.
  *
  * DOES NOT: update techniques (volux_technique_update / volux_render do).
  *

@@ -29,6 +29,10 @@ typedef struct volux_framebuffer volux_framebuffer;
 VOLUX_API volux_status volux_framebuffer_create(volux_context *ctx, int width, int height,
                                                 volux_framebuffer **out);
 VOLUX_API void volux_framebuffer_destroy(volux_framebuffer *fb);
+/* Samples per pixel: the complete waves. A render cancelled in the middle
+ * of a wave leaves some 16×16 tiles one sample ahead; resolve divides each
+ * pixel by its own count, and the next volux_render completes that wave
+ * first. */
 /* Drops all accumulated samples. */
 VOLUX_API void volux_framebuffer_reset(volux_framebuffer *fb);
 VOLUX_API uint32_t volux_framebuffer_spp(const volux_framebuffer *fb);
@@ -37,8 +41,14 @@ VOLUX_API int volux_framebuffer_height(const volux_framebuffer *fb);
 /* Mean radiance per pixel into `out` (allocated by this call; free with
  * volux_image_free). */
 VOLUX_API volux_status volux_framebuffer_resolve(const volux_framebuffer *fb, volux_image *out);
-/* Relative standard error of the mean: sqrt(Σ var_p/n) / (mean luminance),
- * from per-pixel sample variances of luminance; 0 with < 2 samples. */
+/* Relative standard error of the mean: sqrt(Σ var_p/n) / (mean luminance)
+ * over the n pixels whose luminance samples vary (var_p the variance of
+ * the pixel's mean). Pixels whose samples are all equal (background seen
+ * straight, empty space) are left out: they would dilute the estimate
+ * with values that have nothing left to converge. −1 (not available)
+ * below VOLUX_REL_ERROR_MIN_SPP samples, where a variance estimate is too
+ * noisy to act on; 0 when no pixel varies. */
+#define VOLUX_REL_ERROR_MIN_SPP 4
 VOLUX_API double volux_framebuffer_rel_error(const volux_framebuffer *fb);
 
 typedef struct volux_render_limits {
@@ -53,13 +63,14 @@ typedef struct volux_render_report {
     uint32_t spp;          /* samples per pixel in the framebuffer          */
     double ms;             /* wall time of this call                        */
     double cpu_ms;         /* process CPU time of this call (all threads)   */
-    double rel_error;      /* framebuffer rel. standard error               */
+    double rel_error;      /* framebuffer rel. standard error; −1: n/a      */
     uint64_t samples;      /* volume samples taken (if the technique counts)*/
     uint64_t vertices;     /* path vertices (if the technique counts)       */
     int truncated;         /* 1: the time budget ran out inside the first
-                              sample, whose paths were then cut short (the
-                              image is darker than it should be); later
-                              waves that run out are dropped instead       */
+                              sample of some tiles, whose paths were then
+                              cut short (the image is darker than it should
+                              be there); later passes that run out are
+                              dropped instead                              */
 } volux_render_report;
 
 /* Adds samples to fb until a limit is met (limits NULL = the scene's
@@ -68,9 +79,11 @@ typedef struct volux_render_report {
  * when they were rendered from another technique or an earlier state, so
  * after an edit accumulation restarts by itself. fb must have the scene's
  * image size (else VOLUX_ERR_INVALID). CANCELLED if the progress callback
- * asked to stop (fb keeps the complete waves). A wave is accumulated only
- * once all its tiles are done, so a cancelled or overrun wave leaves fb as
- * it was. report may be NULL. */
+ * asked to stop (asked per tile and after each wave; fb keeps every tile
+ * rendered, see volux_framebuffer_spp). A tile's sample is accumulated only
+ * when its pass finished: a pass cut short by the time budget is dropped
+ * (the tile keeps its count), except a tile's first sample, kept and
+ * reported as truncated. report may be NULL. */
 VOLUX_API volux_status volux_render(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
                                     const volux_render_limits *limits, volux_render_report *report);
 

@@ -30,6 +30,7 @@
 #include "base.h"
 #include "camera.h"
 #include "light.h"
+#include "sequence.h"
 #include "transfer.h"
 #include "volume.h"
 
@@ -48,14 +49,16 @@ extern "C" {
 typedef enum volux_change {
     VOLUX_CHANGE_VOLUME = 1u << 0,     /* volume / time step              */
     VOLUX_CHANGE_EXTINCTION = 1u << 1, /* opacity/extinction curve, unit  */
-    VOLUX_CHANGE_COLOR = 1u << 2,      /* colour curve, albedo, materials */
+    VOLUX_CHANGE_COLOR = 1u << 2,      /* colour curve, materials         */
     VOLUX_CHANGE_DENSITY = 1u << 3,    /* global density scale only       */
     VOLUX_CHANGE_PHASE = 1u << 4,      /* HG anisotropy                   */
     VOLUX_CHANGE_LIGHTS = 1u << 5,     /* some light: see lights bitset   */
     VOLUX_CHANGE_CAMERA = 1u << 6,
     VOLUX_CHANGE_PARAMS = 1u << 7,     /* technique parameters            */
     VOLUX_CHANGE_RENDER = 1u << 8,     /* step, size, seed, max_depth, background */
-    VOLUX_CHANGE_ALL = 0x1ffu
+    VOLUX_CHANGE_ALBEDO = 1u << 9,     /* scattering albedo only (σs/σt; emission–
+                                          absorption images do not depend on it) */
+    VOLUX_CHANGE_ALL = 0x3ffu
 } volux_change;
 
 typedef struct volux_change_set {
@@ -78,7 +81,7 @@ static inline volux_change_set volux_change_all(void) {
 /* The versions a consumer saw (opaque contents, copyable). */
 typedef struct volux_scene_stamp {
     uint64_t scene_id;
-    uint32_t aspect[9];
+    uint32_t aspect[10];
     uint32_t light[VOLUX_MAX_LIGHTS];
 } volux_scene_stamp;
 
@@ -104,9 +107,27 @@ VOLUX_API volux_status volux_scene_create(volux_context *ctx, volux_scene **out)
 VOLUX_API void volux_scene_destroy(volux_scene *s);
 VOLUX_API volux_context *volux_scene_context(const volux_scene *s);
 
-/* Retains v and releases the previous volume. Bumps VOLUME. */
+/* Retains v and releases the previous volume (and sequence: v is a single
+ * volume, time step 0 of 1). Bumps VOLUME. */
 VOLUX_API volux_status volux_scene_set_volume(volux_scene *s, volux_volume *v);
 VOLUX_API volux_volume *volux_scene_volume(const volux_scene *s); /* borrowed */
+
+/* Time-varying volumes (volux/sequence.h). set_sequence KEEPS q on
+ * success (the scene destroys it, and any earlier sequence or volume is
+ * replaced) and selects `step`; on failure the caller still owns q and the
+ * scene is unchanged. set_time_step makes step `step` the volume (loaded
+ * through the sequence's cache, LUT baked) and bumps VOLUME when the step
+ * changes; a single volume has the one step 0. VOLUX_ERR_INVALID for a step
+ * out of range, VOLUX_ERR_FORMAT for a step whose shape differs, the
+ * loader's status otherwise; on failure the scene is unchanged. */
+VOLUX_API volux_status volux_scene_set_sequence(volux_scene *s, volux_sequence *q, int step);
+VOLUX_API volux_status volux_scene_set_time_step(volux_scene *s, int step);
+VOLUX_API int volux_scene_time_step(const volux_scene *s);  /* 0 for a single volume */
+VOLUX_API int volux_scene_time_steps(const volux_scene *s); /* 1 for a single volume */
+/* The scene's sequence (owned by the scene), NULL for a single volume.
+ * Techniques that read other steps than the current one acquire them here
+ * from update code (acquiring may load and changes the cache). */
+VOLUX_API volux_sequence *volux_scene_sequence(const volux_scene *s);
 /* Copies d (and its points). Compares with the current TF and bumps only
  * what changed: EXTINCTION (opacity/extinction curve, unit distance),
  * DENSITY, COLOR (colour curve, albedo, Blinn–Phong material, material
@@ -134,6 +155,12 @@ VOLUX_API const volux_light_desc *volux_scene_light(const volux_scene *s, int sl
 /* One past the highest occupied slot. */
 VOLUX_API int volux_scene_light_slots(const volux_scene *s);
 
+/* Notes the loader left for the user (e.g. "no transfer_function: using
+ * the default ..."), one per line; "" when none. The library never prints
+ * them; the CLI does. */
+VOLUX_API const char *volux_scene_notes(const volux_scene *s);
+VOLUX_API void volux_scene_add_note(volux_scene *s, const char *note);
+
 VOLUX_API void volux_scene_set_background(volux_scene *s, volux_vec3 rgb);
 VOLUX_API volux_vec3 volux_scene_background(const volux_scene *s);
 VOLUX_API volux_status volux_scene_set_render(volux_scene *s, const volux_render_settings *r);
@@ -144,6 +171,10 @@ VOLUX_API const volux_render_settings *volux_scene_render(const volux_scene *s);
  * volux_technique_validate_params(). Bumps PARAMS. */
 VOLUX_API volux_status volux_scene_set_param(volux_scene *s, const char *technique, const char *name,
                                              double number, const char *string /* NULL: number */);
+/* Removes a parameter (the technique then uses its default); bumps PARAMS
+ * if it was set, does nothing otherwise. Never fails today (a status for
+ * symmetry with the setters). */
+VOLUX_API volux_status volux_scene_remove_param(volux_scene *s, const char *technique, const char *name);
 /* Number value, or `fallback` when unset. */
 VOLUX_API double volux_scene_param(const volux_scene *s, const char *technique, const char *name,
                                    double fallback);
@@ -162,6 +193,18 @@ VOLUX_API volux_vec3 volux_scene_escape_radiance(const volux_scene *s, volux_vec
 VOLUX_API void volux_scene_bounds_sphere(const volux_scene *s, volux_vec3 *center, float *radius);
 /* Ray-march step in world units (render.step × smallest spacing). */
 VOLUX_API float volux_scene_step_world(const volux_scene *s);
+
+/* Makes dst describe what src describes, aspect by aspect, through the
+ * setters above, so only what really differs is bumped (an edit applied to
+ * a copy of a scene — e.g. a reloaded JSON with one --set path changed —
+ * then costs the techniques exactly that edit). Volume (unless keep_volume;
+ * dst retains src's volume), transfer function, camera, every light slot
+ * (set, replaced or removed), background, render settings, and every
+ * technique parameter of src (parameters only dst has are kept). Both
+ * scenes must come from contexts used by this thread. On failure dst holds
+ * the aspects assigned so far (each one consistent) and the error is in
+ * dst's context. */
+VOLUX_API volux_status volux_scene_assign(volux_scene *dst, const volux_scene *src, int keep_volume);
 
 VOLUX_API volux_scene_stamp volux_scene_stamp_now(const volux_scene *s);
 /* What changed since `seen`. A stamp from another scene (or zeroed) yields

@@ -114,7 +114,9 @@ VOLUX_API void volux_tf_eval_color(const volux_tf_color_point *p, int n, float s
 
 /* A baked transfer function: tables of `n` entries over [s_min, s_max].
  * Entries are node samples: entry i is at s_min + i·(s_max−s_min)/(n−1).
- * Read-only after baking; safe to share between threads. */
+ * Read-only after baking; safe to share between threads.
+ * (The scene's internal representation, public for techniques and tests:
+ * its layout may change in any 0.x MINOR release, docs/API.md.) */
 typedef struct volux_transfer_lut {
     int n;
     float s_min, s_max;
@@ -138,6 +140,32 @@ VOLUX_API void volux_transfer_lut_free(volux_context *ctx, volux_transfer_lut *l
 /* Largest σt over the scalar interval [s0, s1] (for majorants); exact for
  * the piecewise-linear table (it looks at every entry and both ends). */
 VOLUX_API float volux_transfer_lut_max_sigma(const volux_transfer_lut *lut, float s0, float s1);
+
+/* ---- The quick-look transfer function (core/transfer_auto.c) ----
+ * What `volux render VOLUME` and a scene without a transfer function use:
+ * opacity 0 up to the end of the histogram's background peak (a narrow
+ * peak holding ≥ 20 % of the voxels; see the file), then a linear ramp to α = 0.5
+ * (per smallest spacing) at the 99.5th percentile of the values above it;
+ * colours from ParaView's default "Cool to Warm" (Moreland 2009) over the
+ * ramp, as linear RGB. */
+#define VOLUX_TF_AUTO_COLORS 33
+
+typedef struct volux_transfer_auto {
+    volux_tf_color_point color[VOLUX_TF_AUTO_COLORS];
+    int n_color;
+    volux_tf_scalar_point opacity[2];
+    int n_opacity;
+    double ramp_start, ramp_end; /* file units                            */
+    int has_background;          /* 1: a background peak was found       */
+} volux_transfer_auto;
+
+struct volux_volume;
+VOLUX_API volux_status volux_transfer_auto_from_volume(volux_context *ctx, const struct volux_volume *v,
+                                                       volux_transfer_auto *out);
+/* Defaults (volux_transfer_desc_defaults) plus a's points; d borrows a. */
+VOLUX_API void volux_transfer_auto_desc(const volux_transfer_auto *a, volux_transfer_desc *d);
+/* The Cool to Warm map sampled at VOLUX_TF_AUTO_COLORS points over [s0, s1]. */
+VOLUX_API void volux_transfer_auto_colors(double s0, double s1, volux_tf_color_point out[VOLUX_TF_AUTO_COLORS]);
 
 #ifdef __cplusplus
 }

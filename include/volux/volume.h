@@ -15,6 +15,10 @@
  *                            .type = VOLUX_UINT8, .data = bytes};
  *     volux_volume *v;
  *     volux_volume_create(ctx, &d, &v);        // copies bytes
+ *     // or without a copy, from a caller's (numpy, simulation) buffer:
+ *     // volux_volume_from_memory(ctx, &(volux_volume_memory_desc){
+ *     //     .dims = {64,64,64}, .type = VOLUX_FLOAT32, .data = field,
+ *     //     .mode = VOLUX_MEMORY_BORROW}, &v);
  *     float s = volux_volume_sample(v, (volux_vec3){0,0,0});
  *     volux_volume_release(v);
  */
@@ -70,6 +74,54 @@ typedef struct volux_volume volux_volume;
  * the context's max_bytes, or values spanning more than FLT_MAX). The new volume has one reference. */
 VOLUX_API volux_status volux_volume_create(volux_context *ctx, const volux_volume_desc *desc,
                                            volux_volume **out);
+
+/* How volux_volume_from_memory treats the caller's buffer. */
+typedef enum volux_memory_mode {
+    VOLUX_MEMORY_COPY = 0,  /* copy (and convert) now; the buffer may go      */
+    VOLUX_MEMORY_BORROW = 1 /* read the buffer in place for the volume's life */
+} volux_memory_mode;
+
+/* A volume in the caller's memory, e.g. a numpy array or a simulation's
+ * field. Element (i,j,k) is at (const char *)data + i·strides[0] +
+ * j·strides[1] + k·strides[2] (bytes; may be negative, as for a flipped
+ * numpy view); strides all 0 = packed, x fastest (C order of a [z][y][x]
+ * array). Native byte order. */
+typedef struct volux_volume_memory_desc {
+    int dims[3];              /* nodes per axis, each in [1, VOLUX_MAX_DIM]  */
+    volux_scalar_type type;
+    double spacing[3];        /* world units between nodes, > 0 (0 = 1.0)   */
+    double origin[3];         /* world position of node (0,0,0)...          */
+    int use_origin;           /* ...used only if nonzero; else centred      */
+    const void *data;         /* required                                   */
+    int64_t strides[3];       /* bytes; all 0 = packed                      */
+    volux_memory_mode mode;
+    /* BORROW only: called once when the volume stops reading `data` (its
+     * last reference is released), so the owner may free or reuse it. May
+     * be NULL. Not called when the create call fails. */
+    void (*release)(void *user);
+    void *release_user;
+} volux_volume_memory_desc;
+
+/* Creates a volume from the caller's buffer.
+ * COPY: any type and strides; the data is copied and converted as by
+ *   volux_volume_create, except that NaN/inf become the lowest value
+ *   with a warning (volux_volume_create refuses them unless
+ *   allow_nonfinite). Counts against max_bytes.
+ * BORROW: no copy of the grid. The buffer must stay valid and unchanged
+ *   until `release` is called (volumes are immutable: writing into it
+ *   afterwards gives undefined images, never a crash). Only the storage
+ *   types are accepted as is — uint8, uint16, float32 — packed (strides 0
+ *   or exactly packed), aligned to the element size, and float32 values
+ *   must be finite; anything else is VOLUX_ERR_UNSUPPORTED naming the
+ *   reason (copy instead). Techniques may still build derived copies (the
+ *   bricked grid) through the context's allocator.
+ * Errors: VOLUX_ERR_INVALID (NULL data, bad mode/type/spacing/strides),
+ * VOLUX_ERR_LIMIT (dims), VOLUX_ERR_UNSUPPORTED, VOLUX_ERR_NOMEM. On error
+ * nothing is kept and `release` is not called. Thread-safe for distinct
+ * contexts; the new volume has one reference. */
+VOLUX_API volux_status volux_volume_from_memory(volux_context *ctx, const volux_volume_memory_desc *desc,
+                                                volux_volume **out);
+
 VOLUX_API void volux_volume_retain(volux_volume *v);
 /* Drops one reference; the last one frees. NULL is ignored. */
 VOLUX_API void volux_volume_release(volux_volume *v);
@@ -79,6 +131,12 @@ VOLUX_API void volux_volume_spacing(const volux_volume *v, double spacing[3]);
 VOLUX_API volux_vec3 volux_volume_origin(const volux_volume *v);
 VOLUX_API volux_scalar_type volux_volume_type(const volux_volume *v);
 VOLUX_API volux_storage volux_volume_storage_kind(const volux_volume *v);
+/* The direction of anatomical superior (the patient's head) in world
+ * coordinates, as the file's orientation gives it (NIfTI qform/sform,
+ * NRRD "space" + "space directions"; the grid's axes are the world's, so
+ * this is where "up" is for medical data). Returns 0 and leaves *dir
+ * alone when the file has no anatomical orientation. */
+VOLUX_API int volux_volume_superior(const volux_volume *v, volux_vec3 *dir);
 /* Smallest and largest value (file units). */
 VOLUX_API void volux_volume_range(const volux_volume *v, double *min, double *max);
 /* World-space bounding box corners. */

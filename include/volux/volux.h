@@ -3,6 +3,7 @@
 #define VOLUX_VOLUX_H
 
 #include "base.h"
+#include "version.h"
 #include "ambient.h"
 #include "camera.h"
 #include "edit.h"
@@ -11,10 +12,9 @@
 #include "light.h"
 #include "render.h"
 #include "scene.h"
+#include "sequence.h"
 #include "technique.h"
 #include "transfer.h"
 #include "volume.h"
-
-#define VOLUX_VERSION "0.1.0"
 
 #endif

@@ -17,21 +17,49 @@ void volux_camera_desc_defaults(volux_camera_desc *d) {
     d->up = v3(0, 1, 0);
 }
 
+void volux_camera_orbit_basis(volux_vec3 up, volux_vec3 basis[3]) {
+    float len = v3_length(up);
+    volux_vec3 u = len > 0.0f && isfinite(len) ? v3_scale(up, 1.0f / len) : v3(0, 1, 0);
+    if (u.x == 0.0f && u.y == 1.0f && u.z == 0.0f) { /* DESIGN §3's frame, exactly */
+        basis[0] = v3(1, 0, 0), basis[1] = v3(0, 1, 0), basis[2] = v3(0, 0, 1);
+        return;
+    }
+    if (u.y < -0.9999f) { /* +Y → −Y: the half turn about X */
+        basis[0] = v3(1, 0, 0), basis[1] = u, basis[2] = v3(0, 0, -1);
+        return;
+    }
+    /* The rotation taking +Y to u along the shortest arc (Rodrigues):
+     * R·v = v + k×v + k×(k×v)/(1 + cos θ), k = Y×u, cos θ = u.y. */
+    volux_vec3 k = v3(u.z, 0.0f, -u.x);
+    float f = 1.0f / (1.0f + u.y);
+    volux_vec3 ex = v3(1, 0, 0), ez = v3(0, 0, 1);
+    basis[0] = v3_normalize(v3_add(v3_add(ex, v3_cross(k, ex)), v3_scale(v3_cross(k, v3_cross(k, ex)), f)));
+    basis[1] = u;
+    basis[2] = v3_normalize(v3_add(v3_add(ez, v3_cross(k, ez)), v3_scale(v3_cross(k, v3_cross(k, ez)), f)));
+}
+
 volux_status volux_camera_resolve(volux_context *ctx, const volux_camera_desc *d, volux_vec3 center, float radius,
                                   int width, int height, volux_camera *out) {
     if (width < 1 || height < 1) return volux_error(ctx, VOLUX_ERR_INVALID, "camera: image size %dx%d", width, height);
     if (!(d->fov_y_deg > 0.0f && d->fov_y_deg < 180.0f))
         return volux_error(ctx, VOLUX_ERR_INVALID, "camera.fov_y: must be in (0, 180), got %g", d->fov_y_deg);
     volux_vec3 eye = d->eye, at = d->look_at, up = d->up;
+    if (!v3_finite(up) || v3_length(up) <= 0.0f)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "camera.up: must be a non-zero finite vector");
+    volux_vec3 basis[3];
+    volux_camera_orbit_basis(up, basis);
     if (d->use_orbit) {
         if (!(d->distance > 0.0f) || !isfinite(d->distance))
             return volux_error(ctx, VOLUX_ERR_INVALID, "camera.orbit.distance: must be > 0, got %g", d->distance);
         float az = d->azimuth_deg * VOLUX_PI / 180.0f, el = d->elevation_deg * VOLUX_PI / 180.0f;
         float r = d->distance * radius;
-        /* DESIGN §3: eye = C + distance·R·(cos el·sin az, sin el, cos el·cos az) */
-        eye = v3_add(center, v3(r * cosf(el) * sinf(az), r * sinf(el), r * cosf(el) * cosf(az)));
+        /* DESIGN §3: eye = C + distance·R·(cos el·sin az, sin el, cos el·cos az)
+         * in the orbit's frame (x, up, z): the identity for up = +Y. */
+        volux_vec3 off = v3_add(v3_add(v3_scale(basis[0], r * cosf(el) * sinf(az)), v3_scale(basis[1], r * sinf(el))),
+                                v3_scale(basis[2], r * cosf(el) * cosf(az)));
+        eye = v3_add(center, off);
         at = center;
-        up = v3(0, 1, 0);
+        up = basis[1];
     }
     if (!v3_finite(eye) || !v3_finite(at) || !v3_finite(up))
         return volux_error(ctx, VOLUX_ERR_INVALID, "camera: eye, look_at and up must be finite");
@@ -43,7 +71,7 @@ volux_status volux_camera_resolve(volux_context *ctx, const volux_camera_desc *d
         /* Looking straight up or down an orbit: pick a stable right vector
          * instead of failing, so el = ±90 works. */
         if (!d->use_orbit) return volux_error(ctx, VOLUX_ERR_INVALID, "camera: up is parallel to the view direction");
-        right = v3_cross(fwd, v3(0, 0, -1));
+        right = v3_cross(fwd, v3_scale(basis[2], -1.0f));
     }
     right = v3_normalize(right);
     out->projection = d->projection;

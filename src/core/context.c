@@ -77,6 +77,8 @@ volux_status volux_context_create(const volux_context_desc *desc, volux_context 
     ctx->max_bytes = desc && desc->max_bytes ? desc->max_bytes : VOLUX_DEFAULT_MAX_BYTES;
     ctx->progress = desc ? desc->progress : NULL;
     ctx->progress_user = desc ? desc->progress_user : NULL;
+    ctx->message = desc ? desc->message : NULL;
+    ctx->message_user = desc ? desc->message_user : NULL;
     if (!copy_cache_dir(ctx, desc ? desc->cache_dir : NULL, &ctx->cache_dir)) {
         alloc(user, ctx, sizeof *ctx, 0);
         return VOLUX_ERR_NOMEM;
@@ -114,6 +116,10 @@ int volux_context_threads(const volux_context *ctx) {
 void volux_context_set_progress(volux_context *ctx, volux_progress_fn fn, void *user) {
     ctx->progress = fn;
     ctx->progress_user = user;
+}
+void volux_context_set_message(volux_context *ctx, volux_message_fn fn, void *user) {
+    ctx->message = fn;
+    ctx->message_user = user;
 }
 uint64_t volux_context_max_bytes(const volux_context *ctx) { return ctx->max_bytes; }
 uint64_t volux_context_bytes_in_use(const volux_context *ctx) {
@@ -278,20 +284,15 @@ volux_status volux_error(volux_context *ctx, volux_status status, const char *fm
     return status;
 }
 
-void volux_warn(volux_context *ctx, const char *fmt, ...) {
-    if (!ctx->warning) return;
-    char msg[VOLUX_ERROR_MAX];
+volux_status volux_context_set_error(volux_context *ctx, volux_status status, const char *fmt, ...) {
+    if (ctx->error_status != VOLUX_OK || status == VOLUX_OK) return status;
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(msg, sizeof msg, fmt, ap);
+    vsnprintf(ctx->error, sizeof ctx->error, fmt, ap);
     va_end(ap);
-    sanitize_message(msg, sizeof msg);
-    ctx->warning(ctx->warning_user, msg);
-}
-
-void volux_context_set_warning(volux_context *ctx, volux_warning_fn fn, void *user) {
-    ctx->warning = fn;
-    ctx->warning_user = user;
+    sanitize_message(ctx->error, sizeof ctx->error);
+    ctx->error_status = status;
+    return status;
 }
 
 void volux_error_prefix(volux_context *ctx, const char *fmt, ...) {
@@ -309,6 +310,29 @@ void volux_error_prefix(volux_context *ctx, const char *fmt, ...) {
     memcpy(ctx->error + n, old, m);
     ctx->error[n + m] = 0;
     sanitize_message(ctx->error, sizeof ctx->error);
+}
+
+static void emit_message(volux_context *ctx, volux_message_level level, const char *fmt, va_list ap) {
+    char text[VOLUX_ERROR_MAX];
+    vsnprintf(text, sizeof text, fmt, ap);
+    sanitize_message(text, sizeof text);
+    ctx->message(ctx->message_user, level, text);
+}
+
+void volux_message(volux_context *ctx, volux_message_level level, const char *fmt, ...) {
+    if (!ctx->message) return;
+    va_list ap;
+    va_start(ap, fmt);
+    emit_message(ctx, level, fmt, ap);
+    va_end(ap);
+}
+
+void volux_warn(volux_context *ctx, const char *fmt, ...) {
+    if (!ctx->message) return;
+    va_list ap;
+    va_start(ap, fmt);
+    emit_message(ctx, VOLUX_MESSAGE_WARNING, fmt, ap);
+    va_end(ap);
 }
 
 int volux_progress(volux_context *ctx, const char *task, double fraction) {

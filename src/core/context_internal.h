@@ -22,8 +22,8 @@ struct volux_context {
     void *alloc_user;
     volux_progress_fn progress;
     void *progress_user;
-    volux_warning_fn warning;
-    void *warning_user;
+    volux_message_fn message;
+    void *message_user;
     volux_status error_status;
     char error[VOLUX_ERROR_MAX];
     uint64_t bytes_in_use; /* updated atomically */
@@ -55,8 +55,7 @@ volux_status volux_error(volux_context *ctx, volux_status status, const char *fm
 /* Prepends "prefix" to the recorded message (keeps the status). */
 void volux_error_prefix(volux_context *ctx, const char *fmt, ...) VOLUX_PRINTF(2, 3);
 /* Reports something the caller should know about a call that succeeded
- * (data repaired or ignored) through the context's warning callback, if
- * any. Escaped like error messages. */
+ * (data repaired or ignored): volux_message at VOLUX_MESSAGE_WARNING. */
 void volux_warn(volux_context *ctx, const char *fmt, ...) VOLUX_PRINTF(2, 3);
 
 /* Length of the valid UTF-8 sequence at p (n bytes available), 0 if the
@@ -67,6 +66,9 @@ size_t volux_utf8_sequence(const unsigned char *p, size_t n);
 
 /* Reports progress; returns nonzero if the caller asked to cancel. */
 int volux_progress(volux_context *ctx, const char *task, double fraction);
+/* Passes a warning or note to the caller's message callback (none: dropped),
+ * escaped like error messages (\\xHH for control bytes and invalid UTF-8). */
+void volux_message(volux_context *ctx, volux_message_level level, const char *fmt, ...) VOLUX_PRINTF(3, 4);
 
 /* Checked size arithmetic: return 0 on overflow. */
 static inline int volux_mul_size(size_t a, size_t b, size_t *out) {

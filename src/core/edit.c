@@ -8,7 +8,7 @@
 
 /* ------------------------------------------------------------------ transfer function */
 
-enum { TF_OPACITY, TF_COLOR, TF_DENSITY, TF_PHASE };
+enum { TF_OPACITY, TF_COLOR, TF_DENSITY, TF_PHASE, TF_ALBEDO };
 
 static volux_status edit_transfer(volux_scene *s, int k, int what) {
     const volux_transfer_desc *cur = volux_scene_transfer(s);
@@ -36,13 +36,23 @@ static volux_status edit_transfer(volux_scene *s, int k, int what) {
             op[i].v = d.extinction ? v : fminf(v, 1.0f);
         }
         break;
-    case TF_COLOR: /* swap red and blue of every colour point (white TF: scale the albedo) */
+    case TF_COLOR: /* swap red and blue of every colour point (white TF: tint it, and back) */
         for (int i = 0; i < d.n_color; i++) {
             float r = col[i].r;
             col[i].r = col[i].b;
             col[i].b = r;
         }
-        if (!d.n_color) d.albedo = (k & 1) ? d.albedo * 0.9f : d.albedo / 0.9f > 1 ? 1 : d.albedo / 0.9f;
+        if (!cur->n_color) {
+            col[0] = (volux_tf_color_point){0.0f, 1.0f, 0.85f, 0.7f};
+            d.color = col;
+            d.n_color = 1;
+        } else if (cur->n_color == 1 && col[0].r == 0.7f && col[0].g == 0.85f && col[0].b == 1.0f) {
+            d.color = NULL; /* the tint of a white TF swapped back: white again */
+            d.n_color = 0;
+        }
+        break;
+    case TF_ALBEDO: /* 0.9 ↔ 0.6 (an albedo near 0 scales up, so the pair still alternates) */
+        d.albedo = d.albedo >= 0.75f ? d.albedo - 0.3f : d.albedo + 0.3f;
         break;
     case TF_DENSITY: d.density_scale *= f; break;
     case TF_PHASE:
@@ -61,6 +71,7 @@ static volux_status edit_tf(volux_scene *s, int k) { return edit_transfer(s, k, 
 static volux_status edit_tf_color(volux_scene *s, int k) { return edit_transfer(s, k, TF_COLOR); }
 static volux_status edit_density(volux_scene *s, int k) { return edit_transfer(s, k, TF_DENSITY); }
 static volux_status edit_phase(volux_scene *s, int k) { return edit_transfer(s, k, TF_PHASE); }
+static volux_status edit_albedo(volux_scene *s, int k) { return edit_transfer(s, k, TF_ALBEDO); }
 
 /* ------------------------------------------------------------------ lights */
 
@@ -227,8 +238,13 @@ static volux_status mirrored(const volux_volume *v, volux_volume **out) {
     return VOLUX_OK;
 }
 
+/* The next time step of a sequence (wrapping: the k-th call plays the
+ * sequence forward, as an animation does); a single volume is replaced by
+ * its mirror image, a new volume of the same shape. */
 static volux_status edit_time_step(volux_scene *s, int k) {
     (void)k;
+    int n = volux_scene_time_steps(s);
+    if (n > 1) return volux_scene_set_time_step(s, (volux_scene_time_step(s) + 1) % n);
     const volux_volume *v = volux_scene_volume(s);
     if (!v) return VOLUX_ERR_UNSUPPORTED;
     volux_volume *next;
@@ -258,6 +274,7 @@ static const volux_edit edits[] = {
     {"tf_color", "swap red and blue of the colour curve", VOLUX_CHANGE_COLOR, NULL, 1, edit_tf_color},
     {"density", "scale density_scale", VOLUX_CHANGE_DENSITY, NULL, 1, edit_density},
     {"phase", "change the HG anisotropy by 0.2", VOLUX_CHANGE_PHASE, NULL, 1, edit_phase},
+    {"albedo", "change the scattering albedo by 0.3 (0.9 <-> 0.6)", VOLUX_CHANGE_ALBEDO, NULL, 1, edit_albedo},
     {"light", "rotate the first light by 10 degrees about +Y", VOLUX_CHANGE_LIGHTS, NULL, 1, edit_light},
     {"light_last", "rotate the last light by 10 degrees about +Y", VOLUX_CHANGE_LIGHTS, NULL, 1, edit_light_last},
     {"light_intensity", "scale the first light's irradiance/intensity/radiance by 1.25", VOLUX_CHANGE_LIGHTS, NULL,
@@ -275,7 +292,7 @@ static const volux_edit edits[] = {
     {"camera", "orbit the camera by 5 degrees", VOLUX_CHANGE_CAMERA, NULL, 1, edit_camera},
     {"background", "change the background colour", VOLUX_CHANGE_RENDER, NULL, 1, edit_background},
     {"step", "scale the ray-march step (render.step)", VOLUX_CHANGE_RENDER, NULL, 0, edit_step},
-    {"time_step", "replace the volume by a new one (mirrored along x)", VOLUX_CHANGE_VOLUME, NULL, 1, edit_time_step},
+    {"time_step", "the next step of a sequence (a single volume: replaced by its mirror image)", VOLUX_CHANGE_VOLUME, NULL, 1, edit_time_step},
     {"full_sequential", "entire light update, one light per propagation pass", VOLUX_CHANGE_PARAMS, "lightvol",
      0, edit_full_sequential},
     {"full_coherent", "entire light update, lights grouped by propagation direction", VOLUX_CHANGE_PARAMS,

@@ -7,8 +7,9 @@
 #include "vecmath.h"
 #include "volume_internal.h"
 #include "volux/scene.h"
+#include "volux/sequence.h"
 
-enum { A_VOLUME, A_EXTINCTION, A_COLOR, A_DENSITY, A_PHASE, A_LIGHTS, A_CAMERA, A_PARAMS, A_RENDER, A_COUNT };
+enum { A_VOLUME, A_EXTINCTION, A_COLOR, A_DENSITY, A_PHASE, A_LIGHTS, A_CAMERA, A_PARAMS, A_RENDER, A_ALBEDO, A_COUNT };
 
 typedef struct light_slot {
     int present;
@@ -27,6 +28,8 @@ struct volux_scene {
     volux_context *ctx;
     uint64_t id;
     volux_volume *volume;
+    volux_sequence *seq; /* NULL: a single volume; else `volume` is step `time_step` */
+    int time_step;
     volux_transfer_desc tf;
     volux_tf_color_point *color;
     volux_tf_scalar_point *opacity;
@@ -41,6 +44,7 @@ struct volux_scene {
     int n_params;
     uint32_t aspect[A_COUNT];
     uint32_t light_version[VOLUX_MAX_LIGHTS];
+    char notes[1024];
 };
 
 static uint64_t next_scene_id = 1;
@@ -93,6 +97,7 @@ void volux_scene_destroy(volux_scene *s) {
     if (!s) return;
     volux_context *ctx = s->ctx;
     volux_volume_release(s->volume);
+    volux_sequence_destroy(s->seq);
     free_tf_arrays(s);
     volux_transfer_lut_free(ctx, &s->lut);
     for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) volux_image_free(ctx, &s->lights[i].map);
@@ -123,8 +128,8 @@ static void replace_lut(volux_scene *s, volux_transfer_lut *lut) {
     s->lut = *lut;
 }
 
-volux_status volux_scene_set_volume(volux_scene *s, volux_volume *v) {
-    if (!v) return volux_error(s->ctx, VOLUX_ERR_INVALID, "scene: volume is NULL");
+/* Makes v (retained) the volume after baking its LUT; bumps VOLUME. */
+static volux_status replace_volume(volux_scene *s, volux_volume *v) {
     volux_transfer_lut lut;
     volux_status st = bake(s, v, &s->tf, &lut);
     if (st) return st;
@@ -136,7 +141,52 @@ volux_status volux_scene_set_volume(volux_scene *s, volux_volume *v) {
     return VOLUX_OK;
 }
 
+volux_status volux_scene_set_volume(volux_scene *s, volux_volume *v) {
+    if (!v) return volux_error(s->ctx, VOLUX_ERR_INVALID, "scene: volume is NULL");
+    volux_status st = replace_volume(s, v);
+    if (st) return st;
+    volux_sequence_destroy(s->seq);
+    s->seq = NULL;
+    s->time_step = 0;
+    return VOLUX_OK;
+}
+
 volux_volume *volux_scene_volume(const volux_scene *s) { return s->volume; }
+
+volux_status volux_scene_set_sequence(volux_scene *s, volux_sequence *q, int step) {
+    if (!q) return volux_error(s->ctx, VOLUX_ERR_INVALID, "scene: sequence is NULL");
+    if (q == s->seq) return volux_scene_set_time_step(s, step);
+    volux_volume *v;
+    volux_status st = volux_sequence_acquire(q, step, &v);
+    if (st) return st;
+    st = replace_volume(s, v);
+    volux_volume_release(v);
+    if (st) return st;
+    volux_sequence_destroy(s->seq);
+    s->seq = q;
+    s->time_step = step;
+    return VOLUX_OK;
+}
+
+volux_status volux_scene_set_time_step(volux_scene *s, int step) {
+    int n = volux_scene_time_steps(s);
+    if (step < 0 || step >= n)
+        return volux_error(s->ctx, VOLUX_ERR_INVALID, "time step %d is outside [0, %d) (the volume has %d time step%s)",
+                           step, n, n, n == 1 ? "" : "s");
+    if (step == s->time_step) return VOLUX_OK;
+    volux_volume *v;
+    volux_status st = volux_sequence_acquire(s->seq, step, &v);
+    if (st) return st;
+    st = replace_volume(s, v);
+    volux_volume_release(v);
+    if (st) return st;
+    s->time_step = step;
+    return VOLUX_OK;
+}
+
+int volux_scene_time_step(const volux_scene *s) { return s->time_step; }
+int volux_scene_time_steps(const volux_scene *s) { return s->seq ? volux_sequence_steps(s->seq) : 1; }
+volux_sequence *volux_scene_sequence(const volux_scene *s) { return s->seq; }
 
 static int same_scalar_points(const volux_tf_scalar_point *a, int na, const volux_tf_scalar_point *b, int nb) {
     return na == nb && (na == 0 || memcmp(a, b, sizeof *a * (size_t)na) == 0);
@@ -176,8 +226,8 @@ volux_status volux_scene_set_transfer(volux_scene *s, const volux_transfer_desc 
                      o->extinction != d->extinction || o->opacity_unit_distance != d->opacity_unit_distance;
     int density = first || o->density_scale != d->density_scale;
     int colors = first || !same_color_points(o->color, o->n_color, d->color, d->n_color);
-    int appearance = colors || o->albedo != d->albedo ||
-                     memcmp(&o->material, &d->material, sizeof o->material) != 0 ||
+    int albedo = first || o->albedo != d->albedo;
+    int appearance = colors || memcmp(&o->material, &d->material, sizeof o->material) != 0 ||
                      !same_materials(o->materials, o->n_materials, d->materials, d->n_materials);
     int phase = first || o->anisotropy != d->anisotropy;
     /* The LUT holds σt and the colour curve (not albedo, material or g). */
@@ -194,6 +244,7 @@ volux_status volux_scene_set_transfer(volux_scene *s, const volux_transfer_desc 
     if (extinction) bump(s, A_EXTINCTION);
     if (density) bump(s, A_DENSITY);
     if (appearance) bump(s, A_COLOR);
+    if (albedo) bump(s, A_ALBEDO);
     if (phase) bump(s, A_PHASE);
 
     free_tf_arrays(s);
@@ -323,6 +374,14 @@ const volux_light_desc *volux_scene_light(const volux_scene *s, int slot) {
 
 int volux_scene_light_slots(const volux_scene *s) { return s->light_slots; }
 
+const char *volux_scene_notes(const volux_scene *s) { return s->notes; }
+
+void volux_scene_add_note(volux_scene *s, const char *note) {
+    size_t n = strlen(s->notes);
+    if (n + 2 >= sizeof s->notes) return;
+    snprintf(s->notes + n, sizeof s->notes - n, "%s%s", n ? "\n" : "", note);
+}
+
 void volux_scene_set_background(volux_scene *s, volux_vec3 rgb) {
     if (memcmp(&rgb, &s->background, sizeof rgb) == 0) return;
     s->background = rgb;
@@ -395,6 +454,19 @@ volux_status volux_scene_set_param(volux_scene *s, const char *technique, const 
     return VOLUX_OK;
 }
 
+volux_status volux_scene_remove_param(volux_scene *s, const char *technique, const char *name) {
+    param_entry *p = find_param(s, technique, name);
+    if (!p) return VOLUX_OK;
+    volux_strfree(s->ctx, p->string);
+    /* Keep the order of the others: volux_scene_param_at enumerates them. */
+    size_t i = (size_t)(p - s->params);
+    memmove(p, p + 1, sizeof *p * ((size_t)s->n_params - i - 1));
+    s->n_params--;
+    memset(&s->params[s->n_params], 0, sizeof s->params[0]);
+    bump(s, A_PARAMS);
+    return VOLUX_OK;
+}
+
 double volux_scene_param(const volux_scene *s, const char *technique, const char *name, double fallback) {
     const param_entry *p = find_param(s, technique, name);
     return p && !p->string ? p->number : fallback;
@@ -453,4 +525,40 @@ volux_vec3 volux_scene_escape_radiance(const volux_scene *s, volux_vec3 dir) {
         sum = v3_add(sum, volux_environment_radiance(&l->desc, dir));
     }
     return any ? sum : s->background;
+}
+
+/* Light descriptions equal, maps compared by content (each scene owns its copy). */
+static int light_equal(const volux_light_desc *a, const volux_light_desc *b) {
+    volux_light_desc x = *a, y = *b;
+    x.map = y.map = NULL;
+    if (memcmp(&x, &y, sizeof x) != 0) return 0;
+    if (!a->map || !b->map) return a->map == b->map;
+    return a->map->width == b->map->width && a->map->height == b->map->height &&
+           memcmp(a->map->rgb, b->map->rgb, sizeof(float) * 3 * (size_t)a->map->width * (size_t)a->map->height) == 0;
+}
+
+volux_status volux_scene_assign(volux_scene *dst, const volux_scene *src, int keep_volume) {
+    volux_status st;
+    if (!keep_volume && src->volume && src->volume != dst->volume &&
+        (st = volux_scene_set_volume(dst, src->volume)))
+        return st;
+    if ((st = volux_scene_set_transfer(dst, &src->tf))) return st;
+    if (memcmp(&dst->camera, &src->camera, sizeof src->camera) != 0 && (st = volux_scene_set_camera(dst, &src->camera)))
+        return st;
+    int slots = dst->light_slots > src->light_slots ? dst->light_slots : src->light_slots;
+    for (int i = 0; i < slots; i++) {
+        const light_slot *a = &dst->lights[i], *b = &src->lights[i];
+        if (b->present && (!a->present || !light_equal(&a->desc, &b->desc))) {
+            if ((st = volux_scene_set_light(dst, i, &b->desc))) return st;
+        } else if (!b->present && a->present && (st = volux_scene_remove_light(dst, i)))
+            return st;
+    }
+    volux_scene_set_background(dst, src->background);
+    if ((st = volux_scene_set_render(dst, &src->render))) return st;
+    for (int i = 0; i < src->n_params; i++) {
+        const param_entry *p = &src->params[i], *q = find_param(dst, p->technique, p->name);
+        int same = q && (p->string ? q->string && !strcmp(p->string, q->string) : !q->string && q->number == p->number);
+        if (!same && (st = volux_scene_set_param(dst, p->technique, p->name, p->number, p->string))) return st;
+    }
+    return VOLUX_OK;
 }

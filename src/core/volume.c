@@ -1,5 +1,6 @@
 /* core/volume.c — scalar grid: creation, conversion, sampling, macrocells. */
 #include <float.h>
+#include <math.h>
 #include <string.h>
 
 #include "vecmath.h"
@@ -75,8 +76,11 @@ size_t volux_volume_storage_bytes(const int dims[3], volux_scalar_type type) {
     return n;
 }
 
-volux_status volux_volume_create_storage(volux_context *ctx, const int dims[3], const double spacing[3],
-                                         volux_scalar_type type, volux_volume **out) {
+/* A volume header with owned storage, or (borrow) none yet: the caller sets
+ * v->data. A borrowed grid is not allocated, so the memory cap does not
+ * apply to it. */
+static volux_status volume_new(volux_context *ctx, const int dims[3], const double spacing[3],
+                               volux_scalar_type type, int borrow, volux_volume **out) {
     uint64_t voxels = 1;
     for (int a = 0; a < 3; a++) {
         if (dims[a] < 1 || dims[a] > VOLUX_MAX_DIM)
@@ -90,18 +94,19 @@ volux_status volux_volume_create_storage(volux_context *ctx, const int dims[3], 
         return volux_error(ctx, VOLUX_ERR_LIMIT, "%llu voxels exceed the limit of %llu",
                            (unsigned long long)voxels, (unsigned long long)VOLUX_MAX_VOXELS);
     size_t bytes = volux_volume_storage_bytes(dims, type);
-    if (bytes == 0 || (uint64_t)bytes > ctx->max_bytes)
+    if (bytes == 0 || (!borrow && (uint64_t)bytes > ctx->max_bytes))
         return volux_error(ctx, VOLUX_ERR_LIMIT,
                            "volume of %dx%dx%d %s needs %llu bytes, over the memory cap of %llu bytes", dims[0],
                            dims[1], dims[2], volux_scalar_type_name(type), (unsigned long long)bytes,
                            (unsigned long long)ctx->max_bytes);
     volux_volume *v = volux_calloc(ctx, 1, sizeof *v);
     if (!v) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for a volume");
-    v->data = volux_alloc_aligned(ctx, bytes);
-    if (!v->data) {
+    v->data = borrow ? NULL : volux_alloc_aligned(ctx, bytes);
+    if (!borrow && !v->data) {
         volux_free(ctx, v, sizeof *v);
         return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory (%zu bytes) for volume data", bytes);
     }
+    v->borrowed = borrow;
     v->ctx = ctx;
     v->refcount = 1;
     v->id = __atomic_fetch_add(&next_volume_id, 1, __ATOMIC_RELAXED);
@@ -116,6 +121,11 @@ volux_status volux_volume_create_storage(volux_context *ctx, const int dims[3], 
     }
     *out = v;
     return VOLUX_OK;
+}
+
+volux_status volux_volume_create_storage(volux_context *ctx, const int dims[3], const double spacing[3],
+                                         volux_scalar_type type, volux_volume **out) {
+    return volume_new(ctx, dims, spacing, type, 0, out);
 }
 
 static void build_macrocells(volux_volume *v) {
@@ -149,6 +159,24 @@ static void build_macrocells(volux_volume *v) {
             }
         }
     }
+}
+
+/* The bricked layout's shape, fixed at creation so that concurrent
+ * builders agree on it without writing it (see volux_volume_build_bricks). */
+static void brick_shape(volux_volume *v) {
+    size_t count = 1;
+    for (int a = 0; a < 3; a++) {
+        int nb = (v->dims[a] - 1 + VOLUX_BRICK_CELLS - 1) / VOLUX_BRICK_CELLS;
+        v->brick_counts[a] = nb < 1 ? 1 : nb;
+        count *= (size_t)v->brick_counts[a];
+    }
+    size_t elem = v->storage == VOLUX_STORE_U8 ? 1 : v->storage == VOLUX_STORE_U16 ? 2 : 4, bytes;
+    /* SIMD gathers read whole 32-bit words, i.e. up to 3 bytes past the last
+     * node they need: a zeroed tail keeps them inside the allocation. */
+    v->brick_bytes = volux_mul_size(count, (size_t)VOLUX_BRICK_VOXELS * elem, &bytes) &&
+                             volux_add_size(bytes, VOLUX_BRICK_TAIL, &bytes)
+                         ? bytes
+                         : SIZE_MAX;
 }
 
 volux_status volux_volume_finalize(volux_volume *v, const double *origin) {
@@ -203,6 +231,7 @@ volux_status volux_volume_finalize(volux_volume *v, const double *origin) {
     v->cell_max = volux_malloc(ctx, v->cell_bytes);
     if (!v->cell_min || !v->cell_max) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for macrocells");
     build_macrocells(v);
+    brick_shape(v);
     return VOLUX_OK;
 }
 
@@ -277,21 +306,139 @@ volux_status volux_volume_create(volux_context *ctx, const volux_volume_desc *de
     return VOLUX_OK;
 }
 
-volux_status volux_volume_build_bricks(volux_volume *v) {
-    if (v->bricks) return VOLUX_OK;
-    int nb[3];
-    size_t count = 1;
-    for (int a = 0; a < 3; a++) {
-        nb[a] = (v->dims[a] - 1 + VOLUX_BRICK_CELLS - 1) / VOLUX_BRICK_CELLS;
-        if (nb[a] < 1) nb[a] = 1;
-        count *= (size_t)nb[a];
+/* One element of `type` at p, in storage units (what convert_into stores). */
+static void store_element(volux_volume *v, size_t idx, const unsigned char *p) {
+    switch (v->type) {
+    case VOLUX_UINT8: ((uint8_t *)v->data)[idx] = *p; break;
+    case VOLUX_INT8: {
+        int8_t x;
+        memcpy(&x, p, 1);
+        ((uint8_t *)v->data)[idx] = (uint8_t)(x + 128);
+        break;
     }
-    size_t elem = v->storage == VOLUX_STORE_U8 ? 1 : v->storage == VOLUX_STORE_U16 ? 2 : 4, bytes;
-    if (!volux_mul_size(count, (size_t)VOLUX_BRICK_VOXELS * elem, &bytes) || bytes > v->ctx->max_bytes)
+    case VOLUX_UINT16: memcpy((uint16_t *)v->data + idx, p, 2); break;
+    case VOLUX_INT16: {
+        int16_t x;
+        memcpy(&x, p, 2);
+        ((uint16_t *)v->data)[idx] = (uint16_t)(x + 32768);
+        break;
+    }
+    case VOLUX_FLOAT32: memcpy((float *)v->data + idx, p, 4); break;
+    case VOLUX_FLOAT64: {
+        double x;
+        memcpy(&x, p, 8);
+        ((float *)v->data)[idx] = (float)x;
+        break;
+    }
+    }
+}
+
+volux_status volux_volume_from_memory(volux_context *ctx, const volux_volume_memory_desc *desc,
+                                      volux_volume **out) {
+    if (!desc->data) return volux_error(ctx, VOLUX_ERR_INVALID, "volume from memory: data is NULL");
+    if ((unsigned)desc->type > VOLUX_FLOAT64)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "volume from memory: unknown scalar type %d", (int)desc->type);
+    if (desc->mode != VOLUX_MEMORY_COPY && desc->mode != VOLUX_MEMORY_BORROW)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "volume from memory: mode %d is neither COPY nor BORROW",
+                           (int)desc->mode);
+    for (int a = 0; a < 3; a++)
+        if (desc->dims[a] < 1 || desc->dims[a] > VOLUX_MAX_DIM)
+            return volux_error(ctx, VOLUX_ERR_LIMIT, "volume from memory: dims[%d] = %d is outside [1, %d]", a,
+                               desc->dims[a], VOLUX_MAX_DIM);
+    size_t elem = volux_scalar_type_size(desc->type);
+    int64_t packed[3] = {(int64_t)elem, (int64_t)elem * desc->dims[0],
+                         (int64_t)elem * desc->dims[0] * desc->dims[1]};
+    int64_t strides[3];
+    int all_zero = desc->strides[0] == 0 && desc->strides[1] == 0 && desc->strides[2] == 0;
+    for (int a = 0; a < 3; a++) {
+        strides[a] = all_zero ? packed[a] : desc->strides[a];
+        /* A zero stride on an axis of more than one node would repeat one
+         * plane: allowed only where the axis has a single node. */
+        if (strides[a] == 0 && desc->dims[a] > 1)
+            return volux_error(ctx, VOLUX_ERR_INVALID,
+                               "volume from memory: strides[%d] is 0 but dims[%d] = %d (all three 0 = packed)", a,
+                               a, desc->dims[a]);
+        if (strides[a] > (INT64_C(1) << 46) || strides[a] < -(INT64_C(1) << 46))
+            return volux_error(ctx, VOLUX_ERR_INVALID, "volume from memory: strides[%d] = %lld is implausible", a,
+                               (long long)strides[a]);
+    }
+    int borrow = desc->mode == VOLUX_MEMORY_BORROW;
+    if (borrow) {
+        const char *why = NULL;
+        if (desc->type != VOLUX_UINT8 && desc->type != VOLUX_UINT16 && desc->type != VOLUX_FLOAT32)
+            why = "only uint8, uint16 and float32 are stored as given";
+        else
+            for (int a = 0; a < 3; a++)
+                if (strides[a] != packed[a] && desc->dims[a] > 1) why = "the data is not packed (x fastest)";
+        if (!why && ((uintptr_t)desc->data % elem) != 0) why = "the data is not aligned to its element size";
+        if (why)
+            return volux_error(ctx, VOLUX_ERR_UNSUPPORTED, "volume from memory: cannot borrow %s data: %s; copy it",
+                               volux_scalar_type_name(desc->type), why);
+    }
+    double spacing[3];
+    for (int a = 0; a < 3; a++) spacing[a] = desc->spacing[a] == 0.0 ? 1.0 : desc->spacing[a];
+    volux_volume *v;
+    volux_status st = volume_new(ctx, desc->dims, spacing, desc->type, borrow, &v);
+    if (st) return st;
+    if (borrow) {
+        if (desc->type == VOLUX_FLOAT32) {
+            /* finalize() would overwrite NaN/inf: not in a buffer we borrow. */
+            const float *f = desc->data;
+            size_t n = (size_t)desc->dims[0] * (size_t)desc->dims[1] * (size_t)desc->dims[2];
+            for (size_t i = 0; i < n; i++)
+                if (!isfinite(f[i])) {
+                    size_t nx = (size_t)desc->dims[0], nxy = nx * (size_t)desc->dims[1];
+                    volux_free(ctx, v, sizeof *v);
+                    return volux_error(ctx, VOLUX_ERR_UNSUPPORTED,
+                                       "volume from memory: cannot borrow float32 data with a non-finite value "
+                                       "at (%zu, %zu, %zu); copy it (non-finite values become the lowest value)",
+                                       i % nx, i / nx % (size_t)desc->dims[1], i / nxy);
+                }
+        }
+        v->data = (void *)desc->data; /* never written: volumes are immutable */
+    } else if (all_zero || (strides[0] == packed[0] && strides[1] == packed[1] && strides[2] == packed[2])) {
+        convert_into(v, desc->data);
+    } else {
+        const unsigned char *base = desc->data;
+        size_t idx = 0;
+        for (int k = 0; k < desc->dims[2]; k++)
+            for (int j = 0; j < desc->dims[1]; j++)
+                for (int i = 0; i < desc->dims[0]; i++, idx++)
+                    store_element(v, idx, base + (int64_t)i * strides[0] + (int64_t)j * strides[1] +
+                                              (int64_t)k * strides[2]);
+    }
+    /* A copy is ours to repair (finalize maps NaN/Inf to the lowest value);
+     * the caller hears about it. */
+    size_t first = 0, bad = borrow ? 0 : volux_volume_count_nonfinite(v, &first);
+    if (bad) {
+        size_t nx = (size_t)desc->dims[0], nxy = nx * (size_t)desc->dims[1];
+        volux_warn(ctx,
+                   "volume from memory: %zu non-finite values (NaN/Inf), the first at (%zu, %zu, %zu), mapped to "
+                   "the lowest value",
+                   bad, first % nx, first / nx % (size_t)desc->dims[1], first / nxy);
+    }
+    st = volux_volume_finalize(v, desc->use_origin ? desc->origin : NULL);
+    if (st) {
+        v->release_data = NULL; /* a failed create keeps nothing and calls nothing */
+        volux_volume_release(v);
+        return st;
+    }
+    v->release_data = borrow ? desc->release : NULL;
+    v->release_user = desc->release_user;
+    *out = v;
+    return VOLUX_OK;
+}
+
+/* Thread-safe: a volume is immutable and may be shared by scenes that set up
+ * techniques in different threads at once, so each builder fills its own
+ * copy and publishes it with one compare-and-swap; a loser frees its copy. */
+volux_status volux_volume_build_bricks(volux_volume *v) {
+    if (__atomic_load_n(&v->bricks, __ATOMIC_ACQUIRE)) return VOLUX_OK;
+    const int *nb = v->brick_counts;
+    size_t elem = v->storage == VOLUX_STORE_U8 ? 1 : v->storage == VOLUX_STORE_U16 ? 2 : 4;
+    size_t bytes = v->brick_bytes;
+    if (bytes == SIZE_MAX || bytes - VOLUX_BRICK_TAIL > v->ctx->max_bytes)
         return volux_error(v->ctx, VOLUX_ERR_LIMIT, "bricked volume copy exceeds the memory cap");
-    /* SIMD gathers read whole 32-bit words, i.e. up to 3 bytes past the last
-     * node they need: a zeroed tail keeps them inside the allocation. */
-    bytes += VOLUX_BRICK_TAIL;
     unsigned char *dst = volux_alloc_aligned(v->ctx, bytes);
     if (!dst) return volux_error(v->ctx, VOLUX_ERR_NOMEM, "out of memory (%zu bytes) for the bricked volume", bytes);
     /* Node (8b + l) of each axis, replicated at the far border. */
@@ -316,9 +463,9 @@ volux_status volux_volume_build_bricks(volux_volume *v) {
                     }
                 }
             }
-    v->bricks = dst;
-    v->brick_bytes = bytes;
-    memcpy(v->brick_counts, nb, sizeof nb);
+    void *expected = NULL;
+    if (!__atomic_compare_exchange_n(&v->bricks, &expected, dst, 0, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE))
+        volux_free_aligned(v->ctx, dst, bytes); /* another thread published the same bricks first */
     return VOLUX_OK;
 }
 
@@ -328,7 +475,8 @@ void volux_volume_release(volux_volume *v) {
     if (!v) return;
     if (__atomic_sub_fetch(&v->refcount, 1, __ATOMIC_ACQ_REL) != 0) return;
     volux_context *ctx = v->ctx;
-    volux_free_aligned(ctx, v->data, v->data_bytes);
+    if (!v->borrowed) volux_free_aligned(ctx, v->data, v->data_bytes);
+    else if (v->release_data) v->release_data(v->release_user);
     if (v->bricks) volux_free_aligned(ctx, v->bricks, v->brick_bytes);
     volux_free(ctx, v->cell_min, v->cell_bytes);
     volux_free(ctx, v->cell_max, v->cell_bytes);
@@ -338,6 +486,20 @@ void volux_volume_release(volux_volume *v) {
 void volux_volume_dims(const volux_volume *v, int dims[3]) { memcpy(dims, v->dims, sizeof v->dims); }
 void volux_volume_spacing(const volux_volume *v, double spacing[3]) { memcpy(spacing, v->spacing, sizeof v->spacing); }
 volux_vec3 volux_volume_origin(const volux_volume *v) { return v->origin; }
+void volux_volume_set_superior(volux_volume *v, const double dir[3]) {
+    v->has_superior = 0;
+    if (!dir) return;
+    double len = sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+    if (!(len > 0.0) || !isfinite(len)) return;
+    v->superior = (volux_vec3){(float)(dir[0] / len), (float)(dir[1] / len), (float)(dir[2] / len)};
+    v->has_superior = 1;
+}
+
+int volux_volume_superior(const volux_volume *v, volux_vec3 *dir) {
+    if (!v->has_superior) return 0;
+    *dir = v->superior;
+    return 1;
+}
 volux_scalar_type volux_volume_type(const volux_volume *v) { return v->type; }
 volux_storage volux_volume_storage_kind(const volux_volume *v) { return v->storage; }
 void volux_volume_range(const volux_volume *v, double *min, double *max) {
@@ -351,7 +513,7 @@ void volux_volume_bounds(const volux_volume *v, volux_vec3 *lo, volux_vec3 *hi) 
              v->origin.z + (float)((v->dims[2] - 1) * v->spacing[2]));
 }
 size_t volux_volume_memory_bytes(const volux_volume *v) {
-    return v->data_bytes + v->brick_bytes + 2 * v->cell_bytes + sizeof *v;
+    return (v->borrowed ? 0 : v->data_bytes) + (v->bricks ? v->brick_bytes : 0) + 2 * v->cell_bytes + sizeof *v;
 }
 
 float volux_volume_value_at(const volux_volume *v, int i, int j, int k) {

@@ -30,8 +30,16 @@ struct volux_volume {
     volux_storage storage;
     float value_offset;
     void *data;
-    size_t data_bytes;
+    size_t data_bytes;      /* bytes of `data`; owned unless `borrowed`    */
+    int borrowed;           /* data is the caller's (volux_volume_from_memory) */
+    void (*release_data)(void *user);
+    void *release_user;
     double vmin, vmax;
+    /* Unit direction of anatomical superior (head) in the volume's world,
+     * from the file's orientation (NIfTI qform/sform, NRRD space); used to
+     * pick the camera's up. has_superior 0: the file says nothing. */
+    volux_vec3 superior;
+    int has_superior;
     int cells[3];
     float *cell_min, *cell_max; /* file units, cells[0]·cells[1]·cells[2] */
     size_t cell_bytes;
@@ -53,6 +61,10 @@ struct volux_volume {
 /* Builds the bricked copy if missing (not thread-safe: call from setup code,
  * never from render_tile). Fails only on memory. */
 volux_status volux_volume_build_bricks(volux_volume *v);
+
+/* Records the superior direction (normalised; NULL, zero or non-finite:
+ * unknown). */
+void volux_volume_set_superior(volux_volume *v, const double dir[3]);
 
 /* Allocates a volume whose storage the caller fills (io readers), after
  * validating dims/spacing and the byte size against the context's cap. */

@@ -48,9 +48,26 @@ void volux_ambient_table_desc_defaults(volux_ambient_table_desc *d) {
     d->sigma_max = 20.0;
     d->g_min = -0.9;
     d->g_max = 0.9;
-    d->albedo = 0.9;
+    d->n_albedo = 1;
+    d->albedo[0] = 0.9;
     d->paths = 16384;
     d->seed = 1;
+}
+
+void volux_ambient_table_desc_albedo_set(volux_ambient_table_desc *d) {
+    static const double set[] = {0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 1.0};
+    memset(d->albedo, 0, sizeof d->albedo);
+    d->n_albedo = (int)(sizeof set / sizeof set[0]);
+    memcpy(d->albedo, set, sizeof set);
+}
+
+void volux_ambient_table_desc_builtin(volux_ambient_table_desc *d) {
+    volux_ambient_table_desc_defaults(d);
+    d->n_theta = 64;
+    d->n_sigma = 64;
+    d->n_g = 10;
+    d->paths = 4096; /* median relative error per entry ~2 % (the paper's size at 16384: ~1 %) */
+    volux_ambient_table_desc_albedo_set(d);
 }
 
 static volux_status check_desc(const volux_ambient_table_desc *d, why_buf *why) {
@@ -66,8 +83,16 @@ static volux_status check_desc(const volux_ambient_table_desc *d, why_buf *why) 
     if (!(d->g_min > -1.0) || !(d->g_max < 1.0) || !(d->g_min < d->g_max))
         return fail(why, VOLUX_ERR_INVALID, "%s: g range: need -1 < g_min < g_max < 1, got [%g, %g]", P, d->g_min,
                     d->g_max);
-    if (!(d->albedo >= 0.0) || !(d->albedo <= 1.0))
-        return fail(why, VOLUX_ERR_INVALID, "%s: albedo: must be in [0, 1], got %g", P, d->albedo);
+    if (d->n_albedo < 1 || d->n_albedo > VOLUX_AMBIENT_TABLE_MAX_ALBEDO)
+        return fail(why, VOLUX_ERR_INVALID, "%s: n_albedo: must be in [1, %d], got %d", P,
+                    VOLUX_AMBIENT_TABLE_MAX_ALBEDO, d->n_albedo);
+    for (int i = 0; i < d->n_albedo; i++) {
+        if (!(d->albedo[i] >= 0.0) || !(d->albedo[i] <= 1.0))
+            return fail(why, VOLUX_ERR_INVALID, "%s: albedo[%d]: must be in [0, 1], got %g", P, i, d->albedo[i]);
+        if (i > 0 && !(d->albedo[i] > d->albedo[i - 1]))
+            return fail(why, VOLUX_ERR_INVALID, "%s: albedo[%d]: albedos must increase, got %g after %g", P, i,
+                        d->albedo[i], d->albedo[i - 1]);
+    }
     if (d->paths < 1 || d->paths > (1ull << 40))
         return fail(why, VOLUX_ERR_INVALID, "%s: paths: must be in [1, 2^40], got %llu", P,
                     (unsigned long long)d->paths);
@@ -80,10 +105,14 @@ volux_status volux_ambient_table_desc_validate(volux_context *ctx, const volux_a
     return st ? volux_error(ctx, st, "%s", why.text) : VOLUX_OK;
 }
 
-static int same_desc(const volux_ambient_table_desc *a, const volux_ambient_table_desc *b) {
-    return a->n_theta == b->n_theta && a->n_sigma == b->n_sigma && a->n_g == b->n_g &&
-           a->sigma_max == b->sigma_max && a->g_min == b->g_min && a->g_max == b->g_max && a->albedo == b->albedo &&
-           a->paths == b->paths && a->seed == b->seed;
+int volux_ambient_table_desc_equal(const volux_ambient_table_desc *a, const volux_ambient_table_desc *b) {
+    if (!(a->n_theta == b->n_theta && a->n_sigma == b->n_sigma && a->n_g == b->n_g && a->sigma_max == b->sigma_max &&
+          a->g_min == b->g_min && a->g_max == b->g_max && a->n_albedo == b->n_albedo && a->paths == b->paths &&
+          a->seed == b->seed))
+        return 0;
+    for (int i = 0; i < a->n_albedo; i++)
+        if (a->albedo[i] != b->albedo[i]) return 0;
+    return 1;
 }
 
 /* ------------------------------------------------------------------ storage */
@@ -151,11 +180,16 @@ static double get_f64(const unsigned char *p) {
 
 /* ------------------------------------------------------------------ write */
 
+static int file_version(const volux_ambient_table_desc *d) {
+    return d->n_albedo > 1 ? VOLUX_AMBIENT_TABLE_VERSION_ALBEDO : VOLUX_AMBIENT_TABLE_VERSION;
+}
+
 static void encode_header(const volux_ambient_table *t, unsigned char h[TABLE_HEADER_BYTES]) {
     const volux_ambient_table_desc *d = &t->desc;
+    int v2 = file_version(d) == VOLUX_AMBIENT_TABLE_VERSION_ALBEDO;
     memset(h, 0, TABLE_HEADER_BYTES);
     memcpy(h, TABLE_MAGIC, 8);
-    put_u32(h + 8, VOLUX_AMBIENT_TABLE_VERSION);
+    put_u32(h + 8, (uint32_t)file_version(d));
     put_u32(h + 12, TABLE_HEADER_BYTES);
     put_u32(h + 16, (uint32_t)d->n_theta);
     put_u32(h + 20, (uint32_t)d->n_sigma);
@@ -167,10 +201,11 @@ static void encode_header(const volux_ambient_table *t, unsigned char h[TABLE_HE
     put_f64(h + 56, d->sigma_max);
     put_f64(h + 64, d->g_min);
     put_f64(h + 72, d->g_max);
-    put_f64(h + 80, d->albedo);
+    put_f64(h + 80, v2 ? 0.0 : d->albedo[0]);
     put_u64(h + 88, d->paths);
     put_u64(h + 96, d->seed);
     put_u32(h + 104, VOLUX_AMBIENT_TABLE_ESTIMATOR);
+    put_u32(h + 108, v2 ? (uint32_t)d->n_albedo : 0u);
     put_f64(h + 120, t->build_ms);
 }
 
@@ -202,7 +237,15 @@ static volux_status write_table(const volux_ambient_table *t, const char *path, 
     encode_header(t, h);
     uint64_t sum = fnv1a(FNV_OFFSET, h, sizeof h);
     size_t n = volux_ambient_table_values(&t->desc);
-    int ok = fwrite(h, 1, sizeof h, f) == sizeof h && write_floats(f, t->data, n, &sum) &&
+    int ok = fwrite(h, 1, sizeof h, f) == sizeof h;
+    if (file_version(&t->desc) == VOLUX_AMBIENT_TABLE_VERSION_ALBEDO) {
+        unsigned char a[8 * VOLUX_AMBIENT_TABLE_MAX_ALBEDO];
+        size_t na = 8 * (size_t)t->desc.n_albedo;
+        for (int i = 0; i < t->desc.n_albedo; i++) put_f64(a + 8 * i, t->desc.albedo[i]);
+        sum = fnv1a(sum, a, na);
+        ok = ok && fwrite(a, 1, na, f) == na;
+    }
+    ok = ok && write_floats(f, t->data, n, &sum) &&
              (!t->rel_error || write_floats(f, t->rel_error, n, &sum));
     unsigned char tail[8];
     put_u64(tail, sum);
@@ -246,8 +289,10 @@ static volux_status decode_header(const unsigned char h[TABLE_HEADER_BYTES], con
                                   volux_ambient_table_desc *d, uint32_t *flags, why_buf *why) {
     if (memcmp(h, TABLE_MAGIC, 8) != 0)
         return fail(why, VOLUX_ERR_FORMAT, "%s: not an ambient table (bad magic)", path);
-    if (get_u32(h + 8) != VOLUX_AMBIENT_TABLE_VERSION || get_u32(h + 12) != TABLE_HEADER_BYTES)
-        return fail(why, VOLUX_ERR_FORMAT, "%s: unsupported ambient table version %u", path, get_u32(h + 8));
+    uint32_t version = get_u32(h + 8);
+    if ((version != VOLUX_AMBIENT_TABLE_VERSION && version != VOLUX_AMBIENT_TABLE_VERSION_ALBEDO) ||
+        get_u32(h + 12) != TABLE_HEADER_BYTES)
+        return fail(why, VOLUX_ERR_FORMAT, "%s: unsupported ambient table version %u", path, version);
     memset(d, 0, sizeof *d);
     uint32_t dims[3] = {get_u32(h + 16), get_u32(h + 20), get_u32(h + 24)};
     for (int a = 0; a < 3; a++)
@@ -260,20 +305,31 @@ static volux_status decode_header(const unsigned char h[TABLE_HEADER_BYTES], con
     d->sigma_max = get_f64(h + 56);
     d->g_min = get_f64(h + 64);
     d->g_max = get_f64(h + 72);
-    d->albedo = get_f64(h + 80);
     d->paths = get_u64(h + 88);
     d->seed = get_u64(h + 96);
+    uint32_t n_albedo = get_u32(h + 108);
     if ((*flags & ~TABLE_FLAG_ERRORS) || th0 != 0.0 || fabs(th1 - PI) > 1e-12 || s0 != 0.0 ||
-        get_u32(h + 104) != VOLUX_AMBIENT_TABLE_ESTIMATOR)
+        get_u32(h + 104) != VOLUX_AMBIENT_TABLE_ESTIMATOR ||
+        (version == VOLUX_AMBIENT_TABLE_VERSION ? n_albedo != 0 : (n_albedo < 2 || get_f64(h + 80) != 0.0)))
         return fail(why, VOLUX_ERR_FORMAT, "%s: unsupported ambient table layout", path);
+    if (n_albedo > VOLUX_AMBIENT_TABLE_MAX_ALBEDO)
+        return fail(why, VOLUX_ERR_FORMAT, "%s: %u albedos (at most %d)", path, n_albedo,
+                    VOLUX_AMBIENT_TABLE_MAX_ALBEDO);
+    /* v2: the albedos follow the header (read and checked by the caller) */
+    d->n_albedo = version == VOLUX_AMBIENT_TABLE_VERSION ? 1 : (int)n_albedo;
+    d->albedo[0] = version == VOLUX_AMBIENT_TABLE_VERSION ? get_f64(h + 80) : 0.0;
+    return VOLUX_OK;
+}
+
+static volux_status check_header_desc(const volux_ambient_table_desc *d, const char *path, why_buf *why) {
     why_buf bad;
     if (check_desc(d, &bad)) return fail(why, VOLUX_ERR_FORMAT, "%s: invalid header: %s", path, bad.text);
     return VOLUX_OK;
 }
 
-static volux_status read_table(volux_context *ctx, const char *path, volux_ambient_table *out, why_buf *why) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return fail(why, VOLUX_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+/* Reads a table from the stream f (closed here); `path` names it. */
+static volux_status read_stream(volux_context *ctx, FILE *f, const char *path, volux_ambient_table *out,
+                                why_buf *why) {
     unsigned char h[TABLE_HEADER_BYTES];
     volux_status st = VOLUX_OK;
     volux_ambient_table t;
@@ -286,13 +342,24 @@ static volux_status read_table(volux_context *ctx, const char *path, volux_ambie
         goto done;
     }
     if ((st = decode_header(h, path, &d, &flags, why))) goto done;
+    uint64_t sum = fnv1a(FNV_OFFSET, h, sizeof h);
+    if (d.n_albedo > 1) {
+        unsigned char a[8 * VOLUX_AMBIENT_TABLE_MAX_ALBEDO];
+        size_t na = 8 * (size_t)d.n_albedo;
+        if (fread(a, 1, na, f) != na) {
+            st = fail(why, VOLUX_ERR_FORMAT, "%s: truncated ambient table (albedo list)", path);
+            goto done;
+        }
+        sum = fnv1a(sum, a, na);
+        for (int i = 0; i < d.n_albedo; i++) d.albedo[i] = get_f64(a + 8 * i);
+    }
+    if ((st = check_header_desc(&d, path, why))) goto done;
     if (!volux_ambient_table_alloc(ctx, &d, (flags & TABLE_FLAG_ERRORS) != 0, &t)) {
         st = fail(why, VOLUX_ERR_NOMEM, "%s: out of memory for the ambient table (%zu values)", path,
                   volux_ambient_table_values(&d));
         goto done;
     }
     t.build_ms = get_f64(h + 120);
-    uint64_t sum = fnv1a(FNV_OFFSET, h, sizeof h);
     size_t n = volux_ambient_table_values(&d);
     if (!read_floats(f, t.data, n, &sum) || (t.rel_error && !read_floats(f, t.rel_error, n, &sum))) {
         st = fail(why, VOLUX_ERR_FORMAT, "%s: truncated ambient table", path);
@@ -326,21 +393,45 @@ done:
     return VOLUX_OK;
 }
 
+static volux_status read_table(volux_context *ctx, const char *path, volux_ambient_table *out, why_buf *why) {
+    FILE *f = fopen(path, "rb");
+    if (!f) return fail(why, VOLUX_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    return read_stream(ctx, f, path, out, why);
+}
+
 volux_status volux_ambient_table_load(volux_context *ctx, const char *path, volux_ambient_table *out) {
     why_buf why;
     volux_status st = read_table(ctx, path, out, &why);
     return st ? volux_error(ctx, st, "%s", why.text) : VOLUX_OK;
 }
 
+volux_status volux_ambient_table_load_memory(volux_context *ctx, const void *bytes, size_t size, const char *name,
+                                             volux_ambient_table *out) {
+    why_buf why;
+    /* fmemopen needs a non-empty buffer; an empty one is a file without a header */
+    FILE *f = size ? fmemopen((void *)bytes, size, "rb") : NULL;
+    volux_status st = f ? read_stream(ctx, f, name, out, &why)
+                        : size ? fail(&why, VOLUX_ERR_NOMEM, "%s: cannot open the table in memory", name)
+                               : fail(&why, VOLUX_ERR_FORMAT, "%s: not an ambient table (bad magic)", name);
+    return st ? volux_error(ctx, st, "%s", why.text) : VOLUX_OK;
+}
+
+int volux_ambient_table_builtin_load(volux_context *ctx, const void *bytes, size_t size, volux_ambient_table *out) {
+    why_buf ignored;
+    FILE *f = size ? fmemopen((void *)bytes, size, "rb") : NULL;
+    return f && read_stream(ctx, f, "built-in ambient table", out, &ignored) == VOLUX_OK;
+}
+
 /* ------------------------------------------------------------------ cache */
 
 int volux_ambient_table_cache_path(const volux_context *ctx, const volux_ambient_table_desc *d, char *buf,
                                    size_t size) {
-    char name[512];
-    int n = snprintf(name, sizeof name, "ambient-v%d-e%u-t%d-s%d-g%d-S%.9g-G%.9g_%.9g-a%.9g-p%llu-r%llu.vxat",
-                     VOLUX_AMBIENT_TABLE_VERSION, VOLUX_AMBIENT_TABLE_ESTIMATOR, d->n_theta, d->n_sigma, d->n_g,
-                     d->sigma_max, d->g_min, d->g_max, d->albedo, (unsigned long long)d->paths,
-                     (unsigned long long)d->seed);
+    char name[1024], albedos[16 * VOLUX_AMBIENT_TABLE_MAX_ALBEDO + 1] = "";
+    for (int i = 0, at = 0; i < d->n_albedo && i < VOLUX_AMBIENT_TABLE_MAX_ALBEDO; i++)
+        at += snprintf(albedos + at, sizeof albedos - (size_t)at, "%s%.9g", i ? "_" : "", d->albedo[i]);
+    int n = snprintf(name, sizeof name, "ambient-v%d-e%u-t%d-s%d-g%d-S%.9g-G%.9g_%.9g-a%s-p%llu-r%llu.vxat",
+                     file_version(d), VOLUX_AMBIENT_TABLE_ESTIMATOR, d->n_theta, d->n_sigma, d->n_g, d->sigma_max,
+                     d->g_min, d->g_max, albedos, (unsigned long long)d->paths, (unsigned long long)d->seed);
     return n > 0 && (size_t)n < sizeof name && volux_cache_file_path(ctx, name, buf, size);
 }
 
@@ -350,7 +441,7 @@ int volux_ambient_table_cache_load(volux_context *ctx, const volux_ambient_table
     why_buf ignored; /* missing, corrupt or unreadable: the caller builds it */
     volux_ambient_table t;
     if (read_table(ctx, path, &t, &ignored) != VOLUX_OK) return 0;
-    if (!same_desc(&t.desc, d)) { /* a stale entry: rebuilt and overwritten */
+    if (!volux_ambient_table_desc_equal(&t.desc, d)) { /* a stale entry: rebuilt and overwritten */
         volux_ambient_table_free(ctx, &t);
         return 0;
     }

@@ -28,6 +28,7 @@ typedef struct exr_job {
     FILE *f; /* write sink */
     int64_t pos;
     int write_errno;
+    volux_image_meta *meta; /* attributes, when asked */
 } exr_job;
 
 static _Thread_local exr_job *current_job;
@@ -297,6 +298,34 @@ static volux_status decode_chunks(exr_job *job, exr_context_t exr, const layout 
     return st;
 }
 
+/* Part 0's own attributes as text: the format's required and standard
+ * ones (channels, compression, windows, ...) are the reader's business;
+ * strings and numbers a writer added are metadata. */
+static void read_meta(exr_context_t exr, volux_image_meta *meta) {
+    static const char *const skip[] = {"channels", "compression", "dataWindow", "displayWindow", "lineOrder",
+                                       "pixelAspectRatio", "screenWindowCenter", "screenWindowWidth", "tiles",
+                                       "type", "name", "version", "chunkCount", NULL};
+    int32_t count = 0;
+    if (exr_get_attribute_count(exr, 0, &count) != EXR_ERR_SUCCESS) return;
+    for (int32_t i = 0; i < count; i++) {
+        const exr_attribute_t *a = NULL;
+        if (exr_get_attribute_by_index(exr, 0, EXR_ATTR_LIST_FILE_ORDER, i, &a) != EXR_ERR_SUCCESS || !a || !a->name)
+            continue;
+        int standard = 0;
+        for (const char *const *s = skip; *s && !standard; s++) standard = !strcmp(a->name, *s);
+        if (standard) continue;
+        char value[256];
+        if (a->type == EXR_ATTR_STRING && a->string && a->string->str)
+            snprintf(value, sizeof value, "%.*s", (int)(a->string->length > 255 ? 255 : a->string->length),
+                     a->string->str);
+        else if (a->type == EXR_ATTR_INT) snprintf(value, sizeof value, "%d", (int)a->i);
+        else if (a->type == EXR_ATTR_FLOAT) snprintf(value, sizeof value, "%.9g", (double)a->f);
+        else if (a->type == EXR_ATTR_DOUBLE) snprintf(value, sizeof value, "%.17g", a->d);
+        else continue;
+        volux_image_meta_set(meta, a->name, value);
+    }
+}
+
 static volux_status read_image(exr_job *job, exr_context_t exr, volux_image *out) {
     layout lay;
     memset(&lay, 0, sizeof lay);
@@ -377,6 +406,11 @@ static volux_status check_attributes(volux_context *ctx, const char *name, const
 
 volux_status volux_exr_read_memory(volux_context *ctx, const char *name, const void *data, size_t size,
                                    volux_image *out) {
+    return volux_exr_read_memory_meta(ctx, name, data, size, out, NULL);
+}
+
+volux_status volux_exr_read_memory_meta(volux_context *ctx, const char *name, const void *data, size_t size,
+                                        volux_image *out, volux_image_meta *meta) {
     static const unsigned char magic[4] = {0x76, 0x2f, 0x31, 0x01};
     if (size < 8 || memcmp(data, magic, 4) != 0)
         return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: " EXR ": not an OpenEXR file (bad magic number)", name);
@@ -400,6 +434,7 @@ volux_status volux_exr_read_memory(volux_context *ctx, const char *name, const v
     exr_context_t exr = NULL;
     exr_result_t rv = exr_start_read(&exr, name, &init);
     volux_status st = rv ? read_error(&job, rv, "header") : read_image(&job, exr, out);
+    if (!st && meta) read_meta(exr, meta);
     exr_finish(&exr);
     current_job = outer;
     return st;
@@ -473,7 +508,8 @@ static exr_result_t write_chunks(exr_context_t exr, int part, const volux_image 
     return rv;
 }
 
-volux_status volux_exr_write_stream(volux_context *ctx, const char *name, FILE *f, const volux_image *img) {
+volux_status volux_exr_write_stream(volux_context *ctx, const char *name, FILE *f, const volux_image *img,
+                                    const volux_image_meta *meta) {
     exr_job job;
     memset(&job, 0, sizeof job);
     job.ctx = ctx;
@@ -492,6 +528,7 @@ volux_status volux_exr_write_stream(volux_context *ctx, const char *name, FILE *
     for (int k = 0; k < 3 && !rv; k++)
         rv = exr_add_channel(exr, part, (const char *[]){"R", "G", "B"}[k], EXR_PIXEL_FLOAT,
                              EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
+    for (int i = 0; meta && i < meta->count && !rv; i++) rv = exr_attr_set_string(exr, part, meta->key[i], meta->value[i]);
     if (!rv) rv = exr_write_header(exr);
     if (!rv) rv = write_chunks(exr, part, img);
     /* exr_finish writes the chunk offset table, so its result matters too. */

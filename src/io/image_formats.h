@@ -27,6 +27,7 @@
 #include <stdio.h>
 
 #include "volux/image.h"
+#include "volux/io.h"
 
 /* PNG (libpng): 1/2/4/8/16-bit gray, gray+alpha, RGB, RGBA, palette;
  * interlaced or not. Samples are decoded as sRGB (whatever gAMA/iCCP say,
@@ -53,16 +54,30 @@ volux_status volux_exr_read_memory(volux_context *ctx, const char *name, const v
 volux_status volux_hdr_read_memory(volux_context *ctx, const char *name, const void *data, size_t size,
                                    volux_image *out);
 
+/* 8-bit sRGB code of a linear value (after exposure): exactly
+ * volux_srgb8_reference (sRGB curve, clamp, ×255 + 0.5, truncate; NaN and
+ * negatives → 0), by a threshold search. volux_srgb8_init() must have run
+ * (it is idempotent and thread-safe). */
+void volux_srgb8_init(void);
+unsigned char volux_srgb8(float v);
+unsigned char volux_srgb8_reference(float v);
+
 /* Writers. `f` is an open binary stream positioned at 0; `name` labels
  * messages. They report VOLUX_ERR_WRITE for stream failures and leave
  * closing, syncing and renaming to the caller. */
 /* 8-bit RGB, tone-mapped: ×2^exposure, sRGB transfer function, clamp. */
 volux_status volux_png_write_stream(volux_context *ctx, const char *name, FILE *f, const volux_image *img,
-                                    float exposure);
+                                    float exposure, const volux_image_meta *meta);
 /* "PF", little-endian (scale −1), rows bottom-to-top as the format wants. */
 volux_status volux_pfm_write_stream(volux_context *ctx, const char *name, FILE *f, const volux_image *img);
 /* Scanline, channels B,G,R as 32-bit float (exact round trip), ZIP. */
-volux_status volux_exr_write_stream(volux_context *ctx, const char *name, FILE *f, const volux_image *img);
+volux_status volux_exr_write_stream(volux_context *ctx, const char *name, FILE *f, const volux_image *img,
+                                    const volux_image_meta *meta);
+/* The readers above with metadata (meta may be NULL; see io.h). */
+volux_status volux_png_read_memory_meta(volux_context *ctx, const char *name, const void *data, size_t size,
+                                        volux_image *out, volux_image_meta *meta);
+volux_status volux_exr_read_memory_meta(volux_context *ctx, const char *name, const void *data, size_t size,
+                                        volux_image *out, volux_image_meta *meta);
 
 /* ---- shared helpers (image_io.c / lib_alloc.c) ---- */
 

@@ -4,6 +4,7 @@
 #include <fcntl.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <strings.h>
 #include <sys/stat.h>
@@ -147,17 +148,79 @@ static int create_temp(char *tmp, size_t tmp_size, const char *path) {
 }
 
 static volux_status write_format(volux_context *ctx, image_format fmt, const char *path, FILE *f,
-                                 const volux_image *img, float exposure) {
+                                 const volux_image *img, float exposure, const volux_image_meta *meta) {
     switch (fmt) {
-    case FORMAT_PNG: return volux_png_write_stream(ctx, path, f, img, exposure);
+    case FORMAT_PNG: return volux_png_write_stream(ctx, path, f, img, exposure, meta);
     case FORMAT_PFM: return volux_pfm_write_stream(ctx, path, f, img);
-    case FORMAT_EXR: return volux_exr_write_stream(ctx, path, f, img);
+    case FORMAT_EXR: return volux_exr_write_stream(ctx, path, f, img, meta);
     default: break;
     }
     return volux_error(ctx, VOLUX_ERR_INTERNAL, "'%s': no writer for this format", path);
 }
 
 volux_status volux_image_save(volux_context *ctx, const char *path, const volux_image *img, float exposure) {
+    return volux_image_save_meta(ctx, path, img, exposure, NULL);
+}
+
+void volux_image_meta_set(volux_image_meta *m, const char *key, const char *value) {
+    if (!key || !value || !*key || strlen(key) >= sizeof m->key[0]) return;
+    int i = 0;
+    while (i < m->count && strcmp(m->key[i], key)) i++;
+    if (i == m->count) {
+        if (m->count >= VOLUX_IMAGE_MAX_META) return;
+        m->count++;
+        snprintf(m->key[i], sizeof m->key[i], "%s", key);
+    }
+    snprintf(m->value[i], sizeof m->value[i], "%s", value);
+}
+
+const char *volux_image_meta_get(const volux_image_meta *m, const char *key) {
+    for (int i = 0; i < m->count; i++)
+        if (!strcmp(m->key[i], key)) return m->value[i];
+    return NULL;
+}
+
+volux_status volux_image_load_meta(volux_context *ctx, const char *path, volux_image *out, volux_image_meta *meta) {
+    memset(meta, 0, sizeof *meta);
+    image_format fmt = format_of(path);
+    if (fmt != FORMAT_PNG && fmt != FORMAT_EXR) return volux_image_load(ctx, path, out);
+    unsigned char *data = NULL;
+    size_t size = 0, alloc = 0;
+    volux_status st = read_file(ctx, path, &data, &size, &alloc);
+    if (st) return st;
+    st = fmt == FORMAT_PNG ? volux_png_read_memory_meta(ctx, path, data, size, out, meta)
+                           : volux_exr_read_memory_meta(ctx, path, data, size, out, meta);
+    volux_free(ctx, data, alloc);
+    return st;
+}
+
+volux_status volux_image_check_output(volux_context *ctx, const char *path) {
+    image_format fmt = format_of(path);
+    if (fmt == FORMAT_UNKNOWN || fmt == FORMAT_HDR)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "'%s': cannot write this extension (supported: " WRITE_EXTENSIONS ")",
+                           path);
+    struct stat sb;
+    if (stat(path, &sb) == 0 && S_ISDIR(sb.st_mode))
+        return volux_error(ctx, VOLUX_ERR_IO, "cannot write '%s': it is a folder", path);
+    const char *slash = strrchr(path, '/');
+    char dir[4096];
+    if (!slash) snprintf(dir, sizeof dir, ".");
+    else if (slash == path) snprintf(dir, sizeof dir, "/");
+    else if ((size_t)(slash - path) < sizeof dir) snprintf(dir, sizeof dir, "%.*s", (int)(slash - path), path);
+    else return volux_error(ctx, VOLUX_ERR_IO, "cannot write '%s': path too long", path);
+    if (stat(dir, &sb) != 0)
+        return volux_error(ctx, VOLUX_ERR_IO, "cannot write '%s': folder '%s': %s", path, dir, strerror(errno));
+    if (!S_ISDIR(sb.st_mode))
+        return volux_error(ctx, VOLUX_ERR_IO, "cannot write '%s': '%s' is not a folder", path, dir);
+    /* The file is created as a temporary beside the target: the folder
+     * needs write and search permission. */
+    if (access(dir, W_OK | X_OK) != 0)
+        return volux_error(ctx, VOLUX_ERR_IO, "cannot write '%s': folder '%s': %s", path, dir, strerror(errno));
+    return VOLUX_OK;
+}
+
+volux_status volux_image_save_meta(volux_context *ctx, const char *path, const volux_image *img, float exposure,
+                                   const volux_image_meta *meta) {
     image_format fmt = format_of(path);
     if (fmt == FORMAT_UNKNOWN || fmt == FORMAT_HDR)
         return volux_error(ctx, VOLUX_ERR_INVALID, "'%s': cannot write this extension (supported: " WRITE_EXTENSIONS ")",
@@ -184,7 +247,7 @@ volux_status volux_image_save(volux_context *ctx, const char *path, const volux_
         unlink(tmp);
         goto done;
     }
-    st = write_format(ctx, fmt, path, f, img, exposure);
+    st = write_format(ctx, fmt, path, f, img, exposure, meta);
     /* Flush and sync before the rename, so the name never points at a file
      * whose data is still only in a cache that a crash could lose. */
     if (!st && (fflush(f) != 0 || fsync(fileno(f)) != 0))
@@ -196,4 +259,47 @@ volux_status volux_image_save(volux_context *ctx, const char *path, const volux_
 done:
     volux_free(ctx, tmp, tmp_size);
     return st;
+}
+
+/* ---- in memory ---- */
+
+volux_status volux_image_encode(volux_context *ctx, const volux_image *img, const char *format, float exposure,
+                                unsigned char **out, size_t *size) {
+    image_format fmt = FORMAT_UNKNOWN;
+    if (format && !strcasecmp(format, "png")) fmt = FORMAT_PNG;
+    else if (format && !strcasecmp(format, "pfm")) fmt = FORMAT_PFM;
+    else if (format && !strcasecmp(format, "exr")) fmt = FORMAT_EXR;
+    if (fmt == FORMAT_UNKNOWN)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "image encoding '%s': expected png, pfm or exr",
+                           format ? format : "(null)");
+    if (!img || !img->rgb || img->width < 1 || img->height < 1 || img->width > VOLUX_MAX_IMAGE_DIM ||
+        img->height > VOLUX_MAX_IMAGE_DIM)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "image encoding: no image");
+    if (fmt == FORMAT_PNG && !isfinite(exposure))
+        return volux_error(ctx, VOLUX_ERR_INVALID, "image encoding: exposure must be finite");
+    /* The writers stream into a FILE; a memory stream reuses them as they
+     * are, so the bytes are those of the file volux_image_save writes. */
+    char *buf = NULL;
+    size_t len = 0;
+    FILE *f = open_memstream(&buf, &len);
+    if (!f) return volux_error(ctx, VOLUX_ERR_NOMEM, "image encoding: out of memory");
+    char name[16];
+    snprintf(name, sizeof name, "(%s)", format);
+    volux_status st = write_format(ctx, fmt, name, f, img, exposure, NULL);
+    if (fclose(f) != 0 && !st) st = volux_error(ctx, VOLUX_ERR_NOMEM, "image encoding: out of memory");
+    if (!st) {
+        unsigned char *copy = volux_alloc_or_error(ctx, len ? len : 1, "an encoded image");
+        if (!copy) st = VOLUX_ERR_NOMEM;
+        else {
+            memcpy(copy, buf, len);
+            *out = copy;
+            *size = len;
+        }
+    }
+    free(buf);
+    return st;
+}
+
+void volux_encoded_free(volux_context *ctx, unsigned char *data, size_t size) {
+    if (data) volux_free(ctx, data, size ? size : 1);
 }

@@ -11,7 +11,9 @@
  * scl_slope/scl_inter (applied unless slope is 0 or the pair is (1, 0)),
  * and an origin from the qform offset (else the sform translation).
  * Orientation (quaternion, sform rotation) is not representable in a volux
- * volume and is dropped. Extensions after the header are skipped through
+ * volume (its grid axes are the world's) and is dropped, except for one
+ * fact: where superior (+z of the scanner's RAS space) points in the grid,
+ * which tells the default camera which way is up. Extensions after the header are skipped through
  * vox_offset.
  */
 #include <math.h>
@@ -52,6 +54,7 @@ enum {
     O_SCL_INTER = 116,
     O_QFORM_CODE = 252,
     O_SFORM_CODE = 254,
+    O_QUATERN_B = 256, /* then c, d */
     O_QOFFSET = 268,
     O_SROW = 280,
     O_MAGIC = 344
@@ -288,6 +291,31 @@ volux_status volux_nifti_parse_header(volux_context *ctx, const unsigned char *b
                 return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: origin component %d is not finite", name, a);
         }
         h.has_origin = 1;
+    }
+    /* Superior in the grid: the z (superior) component of each axis' unit
+     * direction. qform: row 3 of the quaternion's rotation matrix
+     * (nifti1.h), its third column times qfac = pixdim[0] (−1 or 1); sform:
+     * srow_z over each column's length. */
+    double up[3] = {0, 0, 0};
+    if (i16(&r, O_QFORM_CODE) > 0) {
+        double b = f32(&r, O_QUATERN_B), c = f32(&r, O_QUATERN_B + 4), d = f32(&r, O_QUATERN_B + 8);
+        double a2 = 1.0 - (b * b + c * c + d * d);
+        double a = a2 > 0.0 ? sqrt(a2) : 0.0;
+        double qfac = f32(&r, O_PIXDIM) < 0.0 ? -1.0 : 1.0;
+        up[0] = 2.0 * (b * d - a * c);
+        up[1] = 2.0 * (c * d + a * b);
+        up[2] = qfac * (a * a + d * d - b * b - c * c);
+    } else if (i16(&r, O_SFORM_CODE) > 0) {
+        for (int col = 0; col < 3; col++) {
+            double x = f32(&r, O_SROW + 4 * (size_t)col), y = f32(&r, O_SROW + 16 + 4 * (size_t)col),
+                   z = f32(&r, O_SROW + 32 + 4 * (size_t)col);
+            double len = sqrt(x * x + y * y + z * z);
+            up[col] = len > 0.0 ? z / len : 0.0;
+        }
+    }
+    if (isfinite(up[0]) && isfinite(up[1]) && isfinite(up[2]) && up[0] * up[0] + up[1] * up[1] + up[2] * up[2] > 1e-12) {
+        memcpy(h.superior, up, sizeof up);
+        h.has_superior = 1;
     }
     if ((st = volux_volume_header_check(ctx, name, &h))) return st;
     *out = h;

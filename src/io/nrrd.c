@@ -31,6 +31,7 @@ enum field {
     F_BYTE_SKIP,
     F_LINE_SKIP,
     F_DATA_FILE,
+    F_SPACE,
     F_COUNT,
     F_IGNORED = F_COUNT
 };
@@ -74,7 +75,7 @@ static const struct {
     {"labels", F_IGNORED},
     {"units", F_IGNORED},
     {"kinds", F_IGNORED},
-    {"space", F_IGNORED},
+    {"space", F_SPACE},
     {"space dimension", F_IGNORED},
     {"space units", F_IGNORED},
     {"measurement frame", F_IGNORED},
@@ -212,9 +213,24 @@ static volux_status parse_encoding(parser *p, volux_volume_header *h) {
     return VOLUX_OK;
 }
 
-/* Spacing per spatial axis from "spacings" or "space directions". */
+/* The anatomical spaces (NRRD format 5, "space"): all three have +z =
+ * superior, the direction "up" means for medical data. Other spaces
+ * (scanner-xyz, 3D-right-handed, ...) say nothing about up. */
+static int anatomical_space(volux_text v) {
+    static const char *const names[] = {"right-anterior-superior", "left-anterior-superior", "left-posterior-superior",
+                                        "right-anterior-superior-time", "left-anterior-superior-time",
+                                        "left-posterior-superior-time", "RAS", "LAS", "LPS", "RAST", "LAST", "LPST"};
+    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++)
+        if (volux_text_eq(volux_text_trim(v), names[i])) return 1;
+    return 0;
+}
+
+/* Spacing per spatial axis from "spacings" or "space directions"; the
+ * superior direction when the space is anatomical. */
 static volux_status parse_spacing(parser *p, int ndim, const int axes[3], volux_volume_header *h) {
     char q[80];
+    int anatomical = p->present[F_SPACE] && anatomical_space(p->value[F_SPACE]);
+    double up[3] = {0.0, 0.0, 1.0}; /* no directions: the grid is the space */
     if (p->present[F_SPACINGS] && p->present[F_SPACE_DIRECTIONS])
         return volux_error(p->ctx, VOLUX_ERR_FORMAT, "%s: spacings: not allowed together with space directions",
                            p->name);
@@ -275,6 +291,9 @@ static volux_status parse_spacing(parser *p, int ndim, const int axes[3], volux_
                                            "%s: space directions: axis %d has a zero or non-finite vector", p->name, i);
                     h->spacing[a] = len;
                     memcpy(dir[a], v, sizeof v);
+                    /* Superior's component along this grid axis: the
+                     * axis' unit direction · +z of the space. */
+                    up[a] = n >= 3 ? v[2] / len : 0.0;
                 }
         }
         if (volux_text_token(&rest, &tok))
@@ -295,6 +314,10 @@ static volux_status parse_spacing(parser *p, int ndim, const int axes[3], volux_
                                "%s: space directions: the vectors of axes %d, %d, %d are parallel or coplanar "
                                "(they must span the space)",
                                p->name, axes[0], axes[1], axes[2]);
+    }
+    if (anatomical && up[0] * up[0] + up[1] * up[1] + up[2] * up[2] > 1e-12) {
+        memcpy(h->superior, up, sizeof up);
+        h->has_superior = 1;
     }
     if (p->present[F_SPACE_ORIGIN]) {
         volux_text rest = p->value[F_SPACE_ORIGIN], tok;

@@ -33,6 +33,7 @@ typedef struct png_job {
     unsigned char *rows;   /* row buffer(s) */
     size_t rows_bytes;
     volux_image image;     /* output being decoded */
+    volux_image_meta *meta; /* text chunks, when asked */
 } png_job;
 
 static void on_error(png_structp png, png_const_charp msg) {
@@ -137,6 +138,12 @@ static volux_status decode(png_job *job, png_structp png, png_infop info) {
     png_set_chunk_cache_max(png, 128);
     png_set_chunk_malloc_max(png, 4u << 20);
     png_read_info(png, info);
+    if (job->meta) {
+        png_textp text = NULL;
+        int n = png_get_text(png, info, &text, NULL);
+        for (int i = 0; i < n; i++)
+            if (text[i].key && text[i].text) volux_image_meta_set(job->meta, text[i].key, text[i].text);
+    }
 
     png_uint_32 w, h;
     int depth, color, interlace;
@@ -184,9 +191,15 @@ static volux_status decode(png_job *job, png_structp png, png_infop info) {
 
 volux_status volux_png_read_memory(volux_context *ctx, const char *name, const void *data, size_t size,
                                    volux_image *out) {
+    return volux_png_read_memory_meta(ctx, name, data, size, out, NULL);
+}
+
+volux_status volux_png_read_memory_meta(volux_context *ctx, const char *name, const void *data, size_t size,
+                                        volux_image *out, volux_image_meta *meta) {
     volux_status st = precheck(ctx, name, data, size);
     if (st) return st;
     png_job job = {0};
+    job.meta = meta;
     job.ctx = ctx;
     job.name = name;
     job.data = data;
@@ -211,24 +224,33 @@ volux_status volux_png_read_memory(volux_context *ctx, const char *name, const v
 }
 
 /* The libpng part of writing; job->rows holds one 8-bit RGB row. */
-static volux_status encode(png_job *job, png_structp png, png_infop info, const volux_image *img, float exposure) {
+static volux_status encode(png_job *job, png_structp png, png_infop info, const volux_image *img, float exposure,
+                           const volux_image_meta *meta) {
     if (setjmp(png_jmpbuf(png))) return job_error(job, 1);
     png_set_write_fn(png, job, write_stream, flush_stream);
     png_set_IHDR(png, info, (png_uint_32)img->width, (png_uint_32)img->height, 8, PNG_COLOR_TYPE_RGB,
                  PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     /* Tag the pixels as sRGB so viewers do not apply another curve. */
     png_set_sRGB_gAMA_and_cHRM(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
+    /* Text before the pixels, where readers that stop at IDAT see it. */
+    png_text text[VOLUX_IMAGE_MAX_META];
+    int n_text = 0;
+    for (int i = 0; meta && i < meta->count && i < VOLUX_IMAGE_MAX_META; i++) {
+        memset(&text[n_text], 0, sizeof text[n_text]);
+        text[n_text].compression = PNG_TEXT_COMPRESSION_NONE;
+        text[n_text].key = (png_charp)meta->key[i];
+        text[n_text].text = (png_charp)meta->value[i];
+        text[n_text].text_length = strlen(meta->value[i]);
+        n_text++;
+    }
+    if (n_text) png_set_text(png, info, text, n_text);
     png_write_info(png, info);
     float scale = exp2f(exposure);
     size_t n_values = (size_t)img->width * 3;
+    volux_srgb8_init();
     for (int y = 0; y < img->height; y++) {
         const float *src = img->rgb + (size_t)y * n_values;
-        for (size_t i = 0; i < n_values; i++) {
-            float v = src[i] * scale;
-            float s = v > 0.0f ? volux_srgb_encode(v) : 0.0f; /* NaN and negatives → black */
-            if (s > 1.0f) s = 1.0f;
-            job->rows[i] = (unsigned char)(s * 255.0f + 0.5f);
-        }
+        for (size_t i = 0; i < n_values; i++) job->rows[i] = volux_srgb8(src[i] * scale);
         png_write_row(png, job->rows);
     }
     png_write_end(png, info);
@@ -236,7 +258,7 @@ static volux_status encode(png_job *job, png_structp png, png_infop info, const 
 }
 
 volux_status volux_png_write_stream(volux_context *ctx, const char *name, FILE *f, const volux_image *img,
-                                    float exposure) {
+                                    float exposure, const volux_image_meta *meta) {
     png_job job = {0};
     job.ctx = ctx;
     job.name = name;
@@ -249,7 +271,7 @@ volux_status volux_png_write_stream(volux_context *ctx, const char *name, FILE *
                                                 on_free);
     png_infop info = png ? png_create_info_struct(png) : NULL;
     if (info)
-        st = encode(&job, png, info, img, exposure);
+        st = encode(&job, png, info, img, exposure, meta);
     else
         volux_error(ctx, st, "%s: " PNG ": out of memory", name);
     png_destroy_write_struct(&png, info ? &info : NULL);

@@ -121,16 +121,41 @@ static double value_noise(uint64_t key, double x, double y, double z) {
     return c0 + (c1 - c0) * w;
 }
 
+/* What the field functions read: the seed, and the time of the animated
+ * cloud. */
+typedef struct field_params {
+    uint64_t seed;
+    double time;
+} field_params;
+
 /* Five octaves from 4 lattice cells across the box; a threshold below the
  * mean leaves empty gaps between puffs, and a soft spherical envelope keeps
- * the cloud off the box faces. */
+ * the cloud off the box faces.
+ *
+ * Animation: at time t octave o is advected by t·(0.6 + 0.4·o) lattice
+ * cells of its own frequency along a fixed direction u_o (a hash of the
+ * seed and o). The octaves drift at different speeds and in different
+ * directions, so the puffs change shape instead of only moving, smoothly
+ * in t; the envelope stays put, so the cloud never leaves the box. At t = 0
+ * the field is exactly the static cloud. */
 static double cloud(double x, double y, double z, double vox, const void *user) {
     (void)vox;
-    uint64_t seed = *(const uint64_t *)user;
+    const field_params *fp = user;
     double sum = 0.0, amp = 1.0, norm = 0.0, freq = 2.0;
     for (int o = 0; o < 5; o++) {
-        uint64_t key = volux_mix64(seed * 0x9e3779b97f4a7c15ull + (uint64_t)o + 1);
-        sum += amp * value_noise(key, (x + 1.0) * freq, (y + 1.0) * freq, (z + 1.0) * freq);
+        uint64_t key = volux_mix64(fp->seed * 0x9e3779b97f4a7c15ull + (uint64_t)o + 1);
+        double px = (x + 1.0) * freq, py = (y + 1.0) * freq, pz = (z + 1.0) * freq;
+        if (fp->time != 0.0) {
+            /* u_o: uniform on the sphere from two hashed numbers */
+            uint64_t h = volux_mix64(key ^ 0x5bd1e995ull);
+            double uz = 1.0 - 2.0 * (double)(h >> 40) / 16777216.0;
+            double phi = 2.0 * PI * (double)(h & 0xffffffull) / 16777216.0, ur = sqrt(fmax(0.0, 1.0 - uz * uz));
+            double shift = fp->time * (0.6 + 0.4 * o);
+            px += shift * ur * cos(phi);
+            py += shift * ur * sin(phi);
+            pz += shift * uz;
+        }
+        sum += amp * value_noise(key, px, py, pz);
         norm += amp;
         amp *= 0.5;
         freq *= 2.0;
@@ -151,6 +176,9 @@ static const struct {
 } fields[] = {
     {"sphere", sphere}, {"marschner_lobb", marschner_lobb}, {"cloud", cloud}, {"phantom", phantom}, {"constant", NULL},
 };
+
+/* The fields that change with time (the others ignore it). */
+static int animated(field_fn fn) { return fn == cloud; }
 
 const char *volux_procedural_names(void) { return "sphere, marschner_lobb, cloud, phantom, constant"; }
 
@@ -178,8 +206,8 @@ static void fill_u8(volux_volume *v, field_fn fn, const void *user) {
     }
 }
 
-volux_status volux_volume_procedural(volux_context *ctx, const char *name, const int dims[3], uint64_t seed,
-                                     volux_volume **out) {
+volux_status volux_volume_procedural_at(volux_context *ctx, const char *name, const int dims[3], uint64_t seed,
+                                        double time, volux_volume **out) {
     int which = -1;
     for (size_t i = 0; name && i < sizeof fields / sizeof fields[0]; i++)
         if (strcmp(name, fields[i].name) == 0) which = (int)i;
@@ -187,6 +215,10 @@ volux_status volux_volume_procedural(volux_context *ctx, const char *name, const
         return volux_error(ctx, VOLUX_ERR_INVALID, "procedural: unknown volume '%s' (known: %s)", name ? name : "(null)",
                            volux_procedural_names());
     field_fn fn = fields[which].fn;
+    if (!isfinite(time) || fabs(time) > 1e6)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "procedural:%s: time %g is outside [-1e6, 1e6]", name, time);
+    if (time != 0.0 && !animated(fn))
+        return volux_error(ctx, VOLUX_ERR_INVALID, "procedural:%s: not animated (only cloud has a time)", name);
     volux_volume *v;
     volux_status st = volux_volume_create_storage(ctx, dims, NULL, fn ? VOLUX_UINT8 : VOLUX_FLOAT32, &v);
     if (st) {
@@ -194,7 +226,8 @@ volux_status volux_volume_procedural(volux_context *ctx, const char *name, const
         return st;
     }
     if (fn) {
-        fill_u8(v, fn, &seed);
+        field_params fp = {seed, time};
+        fill_u8(v, fn, &fp);
     } else {
         size_t count = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2];
         float *f = v->data;
@@ -207,4 +240,15 @@ volux_status volux_volume_procedural(volux_context *ctx, const char *name, const
     }
     *out = v;
     return VOLUX_OK;
+}
+
+volux_status volux_volume_procedural(volux_context *ctx, const char *name, const int dims[3], uint64_t seed,
+                                     volux_volume **out) {
+    return volux_volume_procedural_at(ctx, name, dims, seed, 0.0, out);
+}
+
+int volux_procedural_is_animated(const char *name) {
+    for (size_t i = 0; name && i < sizeof fields / sizeof fields[0]; i++)
+        if (strcmp(name, fields[i].name) == 0) return animated(fields[i].fn);
+    return 0;
 }

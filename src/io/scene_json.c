@@ -5,9 +5,13 @@
  * read it strictly into a fresh scene (unknown keys are errors naming their
  * path). Relative file names resolve against the scene file's folder.
  */
+#include <errno.h>
 #include <limits.h>
 #include <math.h>
+#include <stdarg.h>
+#include <stdlib.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "json_reader.h"
@@ -26,19 +30,65 @@ typedef struct scene_reader {
     const char *base_dir;
     volux_scene *scene;
     unsigned flags; /* VOLUX_SCENE_* */
+    const volux_scene_load_options *opt; /* data folder, preloaded volume (may be NULL) */
+    /* A transfer function given as a file name that --set reached into:
+     * the file was read into the tree, and its relative names still
+     * resolve against its own folder ("" when none). */
+    char tf_file[4096];
+    volux_volume *supplied; /* the caller's volume: "volume" is not read */
+    const volux_scene_files *files; /* NULL: names are used as given */
+    int untrusted_volume;           /* set by resolve_path for volume.file */
 } scene_reader;
+
+#define DATA_PREFIX "$VOLUX_DATA/"
 
 /* dir + "/" + name unless name is absolute. `key` is the scene path of the
  * name, for messages. Every file the scene names passes through here, so
  * this is where VOLUX_SCENE_NO_FILES stops them. */
+/* The folder "$VOLUX_DATA/" names: the caller's, else the environment's. */
+static const char *data_dir(const scene_reader *sr) {
+    if (sr->opt && sr->opt->data_dir && *sr->opt->data_dir) return sr->opt->data_dir;
+    const char *env = getenv("VOLUX_DATA");
+    return env && *env ? env : NULL;
+}
+
 static volux_status resolve_path(scene_reader *sr, const char *base_dir, const char *name, const char *key,
                                  char *out, size_t n) {
     if (sr->flags & VOLUX_SCENE_NO_FILES)
         return volux_json_error(&sr->json, VOLUX_ERR_UNSUPPORTED, key, "file references are disabled here");
     if (!*name) return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "empty file name");
-    int w = name[0] == '/' || !base_dir || !*base_dir ? snprintf(out, n, "%s", name)
+    int w;
+    if (!strncmp(name, DATA_PREFIX, strlen(DATA_PREFIX))) {
+        /* The shared data (docs/CONVENTIONS.md): one root for every scene. */
+        const char *root = data_dir(sr);
+        if (!root)
+            return volux_json_error(&sr->json, VOLUX_ERR_IO, key,
+                                    "%.200s: VOLUX_DATA is not set (the folder holding volumes/ and envmaps/; the "
+                                    "volux command defaults it to ../shared/data beside the repository)",
+                                    name);
+        w = snprintf(out, n, "%s/%s", root, name + strlen(DATA_PREFIX));
+    } else {
+        w = name[0] == '/' || !base_dir || !*base_dir ? snprintf(out, n, "%s", name)
                                                       : snprintf(out, n, "%s/%s", base_dir, name);
+    }
     if (w < 0 || (size_t)w >= n) return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "path too long");
+    const volux_scene_files *f = sr->files;
+    if (!f || (!f->record && !f->root)) return VOLUX_OK;
+    char real[PATH_MAX];
+    if (!realpath(out, real)) {
+        if (!f->root) return VOLUX_OK; /* recording: the loader reports it */
+        return volux_json_error(&sr->json, VOLUX_ERR_IO, key, "%s: cannot open: %s", out, strerror(errno));
+    }
+    if (f->record && volux_path_list_add(sr->json.ctx, f->record, real))
+        return volux_json_error(&sr->json, VOLUX_ERR_NOMEM, key, "out of memory");
+    if (!f->root) return VOLUX_OK;
+    int trusted = f->trusted && volux_path_list_has(f->trusted, real);
+    if (!trusted && !volux_path_inside(real, f->root))
+        return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "'%s' is outside the data root %s", name, f->root);
+    if (!strcmp(key, "volume.file")) sr->untrusted_volume = !trusted;
+    /* Open the name that was checked (no symlink left to swap). */
+    if (strlen(real) >= n) return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "path too long");
+    strcpy(out, real);
     return VOLUX_OK;
 }
 
@@ -51,30 +101,110 @@ static void dir_of(const char *path, char *out, size_t n) {
 
 /* ------------------------------------------------------------------ volume */
 
+/* The files of a file-based volume, resolved against the scene's folder:
+ * one "file" or a "files" list (allocated through ctx; *n of them). */
+typedef struct frame_list {
+    char **paths;
+    int n, cap;
+} frame_list;
+
+static void free_frame_list(volux_context *ctx, frame_list *f) {
+    for (int i = 0; i < f->n; i++) volux_strfree(ctx, f->paths[i]);
+    volux_free(ctx, f->paths, sizeof *f->paths * (size_t)f->cap);
+    f->paths = NULL;
+    f->n = f->cap = 0;
+}
+
+static volux_status add_frame(scene_reader *sr, frame_list *f, const char *name, const char *key) {
+    char path[4096];
+    volux_status st = resolve_path(sr, sr->base_dir, name, key, path, sizeof path);
+    if (st) return st;
+    if (!(f->paths[f->n] = volux_strdup(sr->json.ctx, path)))
+        return volux_json_error(&sr->json, VOLUX_ERR_NOMEM, key, "out of memory");
+    f->n++;
+    return VOLUX_OK;
+}
+
+static volux_status read_frames(scene_reader *sr, const cJSON *obj, frame_list *f) {
+    volux_json_reader *r = &sr->json;
+    const cJSON *files = cJSON_GetObjectItemCaseSensitive(obj, "files");
+    const char *file = NULL;
+    volux_status st = volux_json_string(r, obj, "volume", "file", &file);
+    if (st) return st;
+    int n = 1;
+    if (files) {
+        if (!cJSON_IsArray(files) || cJSON_GetArraySize(files) < 1)
+            return volux_json_error(r, VOLUX_ERR_INVALID, "volume.files", "expected a non-empty array of file names");
+        n = cJSON_GetArraySize(files);
+        if (n > VOLUX_MAX_STEPS)
+            return volux_json_error(r, VOLUX_ERR_LIMIT, "volume.files", "more than %d files", VOLUX_MAX_STEPS);
+    }
+    f->paths = volux_calloc(r->ctx, (size_t)n, sizeof *f->paths);
+    if (!f->paths) return volux_json_error(r, VOLUX_ERR_NOMEM, "volume", "out of memory");
+    f->cap = n;
+    if (!files) return add_frame(sr, f, file, "volume.file");
+    int i = 0;
+    for (const cJSON *c = files->child; c; c = c->next, i++) {
+        char p[48];
+        snprintf(p, sizeof p, "volume.files[%d]", i);
+        if (!cJSON_IsString(c)) return volux_json_error(r, VOLUX_ERR_INVALID, p, "expected a file name");
+        if ((st = add_frame(sr, f, c->valuestring, p))) return st;
+    }
+    return VOLUX_OK;
+}
+
+/* "pattern" + "range": [first, last] or [first, last, step]. */
+static volux_status read_range(scene_reader *sr, const cJSON *obj, int range[3]) {
+    volux_json_reader *r = &sr->json;
+    const cJSON *jr = cJSON_GetObjectItemCaseSensitive(obj, "range");
+    if (!jr || !cJSON_IsArray(jr) || (cJSON_GetArraySize(jr) != 2 && cJSON_GetArraySize(jr) != 3))
+        return volux_json_error(r, VOLUX_ERR_INVALID, "volume.range",
+                                "a pattern needs \"range\": [first, last] or [first, last, step]");
+    range[2] = 1;
+    int i = 0;
+    for (const cJSON *c = jr->child; c; c = c->next, i++) {
+        if (!cJSON_IsNumber(c) || c->valuedouble != floor(c->valuedouble) || fabs(c->valuedouble) > 1e9) {
+            char p[32];
+            snprintf(p, sizeof p, "volume.range[%d]", i);
+            return volux_json_error(r, VOLUX_ERR_INVALID, p, "expected an integer in [-1e9, 1e9]");
+        }
+        range[i] = (int)c->valuedouble;
+    }
+    if (range[1] < range[0] || range[2] < 1)
+        return volux_json_error(r, VOLUX_ERR_INVALID, "volume.range",
+                                "[%d, %d] step %d is empty (need first <= last, step >= 1)", range[0], range[1],
+                                range[2]);
+    return VOLUX_OK;
+}
+
 static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
     volux_json_reader *r = &sr->json;
     /* Keys per kind: a raw-file key on a procedural volume (or a seed on a
      * file) would otherwise be silently ignored. */
-    static const char *const file_keys[] = {"file",      "dims",           "type",   "endian",
-                                            "spacing",   "byte_skip",      "use_file_origin",
-                                            "allow_outside_dir", "allow_nonfinite", "comment", NULL};
-    static const char *const proc_keys[] = {"procedural", "dims", "seed", "comment", NULL};
+    static const char *const file_keys[] = {"file",      "files",          "pattern", "range", "dims",
+                                            "type",      "endian",         "spacing", "byte_skip",
+                                            "use_file_origin", "allow_outside_dir", "allow_nonfinite", "cache_mb",
+                                            "comment", NULL};
+    static const char *const proc_keys[] = {"procedural", "dims", "seed", "time", "steps", "time_per_step",
+                                            "cache_mb", "comment", NULL};
     volux_status st;
     if (!obj) return volux_json_error(r, VOLUX_ERR_INVALID, "volume", "missing (a file or a procedural volume)");
     if (!cJSON_IsObject(obj)) return volux_json_error(r, VOLUX_ERR_INVALID, "volume", "expected an object");
-    int has_file = cJSON_GetObjectItemCaseSensitive(obj, "file") != NULL;
-    if (has_file == (cJSON_GetObjectItemCaseSensitive(obj, "procedural") != NULL))
-        return volux_json_error(r, VOLUX_ERR_INVALID, "volume", "give exactly one of file, procedural");
+    static const char *const kinds[] = {"file", "files", "pattern", "procedural"};
+    int n_kinds = 0;
+    for (int i = 0; i < 4; i++) n_kinds += cJSON_GetObjectItemCaseSensitive(obj, kinds[i]) != NULL;
+    if (n_kinds != 1)
+        return volux_json_error(r, VOLUX_ERR_INVALID, "volume", "give exactly one of file, files, pattern, procedural");
+    int has_file = cJSON_GetObjectItemCaseSensitive(obj, "procedural") == NULL;
     if ((st = volux_json_check_keys(r, obj, "volume", has_file ? file_keys : proc_keys))) return st;
-    const char *file = NULL, *proc = NULL, *type = NULL, *endian = NULL;
-    if ((st = volux_json_string(r, obj, "volume", "file", &file)) ||
-        (st = volux_json_string(r, obj, "volume", "procedural", &proc)) ||
+    const char *proc = NULL, *type = NULL, *endian = NULL;
+    if ((st = volux_json_string(r, obj, "volume", "procedural", &proc)) ||
         (st = volux_json_string(r, obj, "volume", "type", &type)) ||
         (st = volux_json_string(r, obj, "volume", "endian", &endian)))
         return st;
-    int dims[3] = {0, 0, 0}, use_file_origin = 0, allow_outside = 0, allow_nonfinite = 0;
+    int dims[3] = {0, 0, 0}, use_file_origin = 0, allow_outside = 0, allow_nonfinite = 0, steps = 1;
     float spacing[3] = {1, 1, 1};
-    double seed = 1, byte_skip = 0;
+    double seed = 1, byte_skip = 0, time0 = 0, time_per_step = 0.05, cache_mb = 0;
     const cJSON *jd = cJSON_GetObjectItemCaseSensitive(obj, "dims");
     if (jd) {
         if (!cJSON_IsArray(jd) || cJSON_GetArraySize(jd) != 3)
@@ -95,16 +225,32 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
         (st = volux_json_number(r, obj, "volume", "byte_skip", 0, 9007199254740992.0, &byte_skip)) ||
         (st = volux_json_bool(r, obj, "volume", "use_file_origin", &use_file_origin)) ||
         (st = volux_json_bool(r, obj, "volume", "allow_outside_dir", &allow_outside)) ||
-        (st = volux_json_bool(r, obj, "volume", "allow_nonfinite", &allow_nonfinite)))
+        (st = volux_json_bool(r, obj, "volume", "allow_nonfinite", &allow_nonfinite)) ||
+        (st = volux_json_number(r, obj, "volume", "time", -1e6, 1e6, &time0)) ||
+        (st = volux_json_number(r, obj, "volume", "time_per_step", -1e3, 1e3, &time_per_step)) ||
+        (st = volux_json_int(r, obj, "volume", "steps", 1, VOLUX_MAX_STEPS, &steps)) ||
+        (st = volux_json_number(r, obj, "volume", "cache_mb", 1, 1e9, &cache_mb)))
         return st;
     if (seed != floor(seed)) return volux_json_error(r, VOLUX_ERR_INVALID, "volume.seed", "expected an integer");
     if (byte_skip != floor(byte_skip))
         return volux_json_error(r, VOLUX_ERR_INVALID, "volume.byte_skip", "expected an integer");
+    uint64_t cache_bytes = (uint64_t)(cache_mb * 1048576.0);
 
     volux_volume *vol = NULL;
+    volux_sequence *seq = NULL;
     if (proc) {
         if (!jd) dims[0] = dims[1] = dims[2] = 64;
-        st = volux_volume_procedural(r->ctx, proc, dims, (uint64_t)seed, &vol);
+        int animated = volux_procedural_is_animated(proc);
+        if (!animated && (cJSON_GetObjectItemCaseSensitive(obj, "time") || steps > 1 ||
+                          cJSON_GetObjectItemCaseSensitive(obj, "time_per_step")))
+            return volux_json_error(r, VOLUX_ERR_INVALID, "volume", "procedural '%.32s' is not animated (time, steps "
+                                    "and time_per_step are for \"cloud\")", proc);
+        if (steps == 1 && (cJSON_GetObjectItemCaseSensitive(obj, "time_per_step") ||
+                           cJSON_GetObjectItemCaseSensitive(obj, "cache_mb")))
+            return volux_json_error(r, VOLUX_ERR_INVALID, "volume", "time_per_step and cache_mb need steps > 1");
+        st = steps > 1 ? volux_sequence_procedural(r->ctx, proc, dims, (uint64_t)seed, time0, time_per_step, steps,
+                                                   cache_bytes, &seq)
+                       : volux_volume_procedural_at(r->ctx, proc, dims, (uint64_t)seed, time0, &vol);
         if (st) {
             volux_error_prefix(r->ctx, "%s: volume.procedural: ", r->file);
             return st;
@@ -141,15 +287,72 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
             raw.byte_skip = (uint64_t)byte_skip;
             opt.raw = &raw;
         }
+        int single = cJSON_GetObjectItemCaseSensitive(obj, "file") != NULL;
+        const char *pattern = NULL;
+        if ((st = volux_json_string(r, obj, "volume", "pattern", &pattern))) return st;
+        if (single && cJSON_GetObjectItemCaseSensitive(obj, "cache_mb"))
+            return volux_json_error(r, VOLUX_ERR_INVALID, "volume.cache_mb", "only for files or a pattern");
+        if (!pattern && cJSON_GetObjectItemCaseSensitive(obj, "range"))
+            return volux_json_error(r, VOLUX_ERR_INVALID, "volume.range", "only with a pattern");
         /* The layout is checked first: its errors do not depend on the file. */
-        char path[4096];
-        if ((st = resolve_path(sr, sr->base_dir, file, "volume.file", path, sizeof path))) return st;
-        st = volux_volume_load(r->ctx, path, &opt, &vol);
-        if (st) {
-            /* The loader's message names the file; add where it came from. */
-            volux_error_prefix(r->ctx, "%s: volume.file: ", r->file);
-            return st;
+        if (pattern) {
+            int range[3];
+            char resolved[4096], dir[4096];
+            /* The scene's folder goes in front of the pattern, so any % in
+             * it must become a literal %%. */
+            size_t o = 0;
+            for (const char *c = sr->base_dir; *c && o + 2 < sizeof dir; c++) {
+                if (*c == '%') dir[o++] = '%';
+                dir[o++] = *c;
+            }
+            dir[o] = 0;
+            if ((st = read_range(sr, obj, range)) ||
+                (st = resolve_path(sr, dir, pattern, "volume.pattern", resolved, sizeof resolved)))
+                return st;
+            st = volux_sequence_load_pattern(r->ctx, resolved, range[0], range[1], range[2], &opt, cache_bytes, &seq);
+            if (st) volux_error_prefix(r->ctx, "%s: volume.pattern: ", r->file);
+        } else {
+            frame_list frames = {NULL, 0, 0};
+            st = read_frames(sr, obj, &frames);
+            const volux_scene_load_options *o = sr->opt;
+            const cJSON *file_item = cJSON_GetObjectItemCaseSensitive(obj, "file");
+            if (!st && single && o && o->volume && o->volume_file && cJSON_IsString(file_item) &&
+                !strcmp(file_item->valuestring, o->volume_file) && !opt.raw && !use_file_origin && !allow_outside &&
+                !allow_nonfinite) {
+                /* The caller already loaded this file the same way (a quick
+                 * look at a volume: the default scene names it). */
+                free_frame_list(r->ctx, &frames);
+                return volux_scene_set_volume(sr->scene, o->volume);
+            }
+            if (!st && single && sr->untrusted_volume) {
+                /* A header the loaded document did not name: its detached
+                 * data must stay in the data root too. */
+                if (allow_outside)
+                    st = volux_json_error(r, VOLUX_ERR_INVALID, "volume.allow_outside_dir",
+                                          "not allowed for a file outside the loaded scene (data root %s)",
+                                          sr->files->root);
+                else opt.data_root = sr->files->root;
+            }
+            if (!st && single) {
+                st = volux_volume_load(r->ctx, frames.paths[0], &opt, &vol);
+                if (st) volux_error_prefix(r->ctx, "%s: volume.file: ", r->file); /* the loader names the file */
+            } else if (!st) {
+                st = volux_sequence_load_files(r->ctx, (const char *const *)frames.paths, frames.n, &opt, cache_bytes,
+                                               &seq);
+                if (st) volux_error_prefix(r->ctx, "%s: volume.files: ", r->file);
+            }
+            free_frame_list(r->ctx, &frames);
         }
+        if (st) return st;
+    }
+    if (seq) {
+        /* Step 0 for now; render.time_step is applied after the volume. */
+        st = volux_scene_set_sequence(sr->scene, seq, 0);
+        if (st) {
+            volux_sequence_destroy(seq);
+            volux_error_prefix(r->ctx, "%s: volume: ", r->file);
+        }
+        return st;
     }
     st = volux_scene_set_volume(sr->scene, vol);
     volux_volume_release(vol);
@@ -160,33 +363,71 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
 
 static volux_status read_tf_object(scene_reader *sr, const cJSON *obj, const char *tf_dir);
 
-static volux_status read_transfer(scene_reader *sr, const cJSON *obj) {
+/* Reads the JSON file `name` (a scene key's value, e.g. a transfer function
+ * file) into a tree; *path gets its resolved name. Messages name the scene,
+ * the key and the file. */
+static volux_status load_tree(scene_reader *sr, const char *name, const char *key, char *path, size_t n,
+                              cJSON **tree) {
     volux_json_reader *r = &sr->json;
-    if (!obj) return volux_json_error(r, VOLUX_ERR_INVALID, "transfer_function", "missing");
-    if (cJSON_IsString(obj)) {
-        /* "transfer_function": "tf.json" — the same TF file the peers read. */
+    volux_status st = resolve_path(sr, sr->base_dir, name, key, path, n);
+    if (st) return st;
+    char *text;
+    size_t len;
+    if ((st = volux_json_read_file(r->ctx, path, &text, &len))) {
+        volux_error_prefix(r->ctx, "%s: %s: ", r->file, key);
+        return st;
+    }
+    volux_json_reader sub = {r->ctx, path};
+    st = volux_json_parse(&sub, text, len, tree);
+    volux_free(r->ctx, text, len + 1);
+    if (st) volux_error_prefix(r->ctx, "%s: %s: ", r->file, key);
+    return st;
+}
+
+static volux_status read_transfer(scene_reader *sr, cJSON *root) {
+    volux_json_reader *r = &sr->json;
+    cJSON *obj = cJSON_GetObjectItemCaseSensitive(root, "transfer_function");
+    if (!obj) {
+        /* No TF: the quick-look default from the volume's histogram, put
+         * into the tree so a dump of the scene shows exactly what is used. */
+        volux_status st = VOLUX_OK;
+        cJSON *tf = volux_auto_tf_json(r->ctx, volux_scene_volume(sr->scene), &st);
+        if (!tf) return st ? st : volux_json_error(r, VOLUX_ERR_NOMEM, "transfer_function", "out of memory");
+        if (!cJSON_AddItemToObject(root, "transfer_function", tf)) {
+            cJSON_Delete(tf);
+            return volux_json_error(r, VOLUX_ERR_NOMEM, "transfer_function", "out of memory");
+        }
+        const cJSON *op = cJSON_GetObjectItemCaseSensitive(tf, "opacity");
+        double s0 = cJSON_GetArrayItem(cJSON_GetArrayItem(op, 0), 0)->valuedouble;
+        double s1 = cJSON_GetArrayItem(cJSON_GetArrayItem(op, 1), 0)->valuedouble;
+        char note[320];
+        snprintf(note, sizeof note,
+                 "%s: no transfer_function: using the default (opacity ramp over %g..%g from the histogram, "
+                 "Cool to Warm colours; --dump-scene writes it out)",
+                 r->file, s0, s1);
+        volux_scene_add_note(sr->scene, note);
+        obj = tf;
+    }
+    if (cJSON_IsString(obj) || sr->tf_file[0]) {
+        /* "transfer_function": "tf.json" — the same TF file the peers read
+         * (or such a file that --set reached into, already in the tree). */
         char path[4096];
-        volux_status st = resolve_path(sr, sr->base_dir, obj->valuestring, "transfer_function", path, sizeof path);
-        if (st) return st;
-        char *text;
-        size_t n;
-        if ((st = volux_json_read_file(r->ctx, path, &text, &n))) {
-            volux_error_prefix(r->ctx, "%s: transfer_function: ", r->file);
-            return st;
+        cJSON *tree = NULL;
+        volux_status st = VOLUX_OK;
+        if (cJSON_IsString(obj)) {
+            if ((st = load_tree(sr, obj->valuestring, "transfer_function", path, sizeof path, &tree))) return st;
+        } else {
+            snprintf(path, sizeof path, "%s", sr->tf_file);
         }
         /* Messages from inside the TF file name that file (keys are read
          * under the same "transfer_function." paths), after the scene. */
         volux_json_reader sub = {r->ctx, path};
-        cJSON *tree = NULL;
-        st = volux_json_parse(&sub, text, n, &tree);
-        volux_free(r->ctx, text, n + 1);
-        if (!st) {
-            char dir[4096];
-            dir_of(path, dir, sizeof dir);
-            scene_reader sub_sr = {sub, sr->base_dir, sr->scene, sr->flags};
-            st = read_tf_object(&sub_sr, tree, dir);
-            cJSON_Delete(tree);
-        }
+        char dir[4096];
+        dir_of(path, dir, sizeof dir);
+        scene_reader sub_sr = *sr;
+        sub_sr.json = sub;
+        st = read_tf_object(&sub_sr, tree ? tree : obj, dir);
+        cJSON_Delete(tree);
         if (st) volux_error_prefix(r->ctx, "%s: transfer_function: ", r->file);
         return st;
     }
@@ -361,6 +602,15 @@ static volux_status read_tf_object(scene_reader *sr, const cJSON *obj, const cha
     } else if (preset.n_opacity) { /* the preset's opacity ("Points") */
         d.opacity = preset.opacity;
         d.n_opacity = preset.n_opacity;
+        if (preset.n_sharp) {
+            char note[512];
+            snprintf(note, sizeof note,
+                     "%s: transfer_function.preset: %d opacity segment%s of '%.200s' %s a sharpness > 0; drawn "
+                     "piecewise-linear through the midpoint (give \"opacity\" points to shape the curve)",
+                     r->file, preset.n_sharp, preset.n_sharp == 1 ? "" : "s", preset_file,
+                     preset.n_sharp == 1 ? "has" : "have");
+            volux_scene_add_note(sr->scene, note);
+        }
     } else {
         st = volux_json_error(r, VOLUX_ERR_INVALID, P, "needs opacity or extinction points");
         goto done;
@@ -395,7 +645,7 @@ static volux_status read_camera(scene_reader *sr, const cJSON *obj) {
     volux_camera_desc d;
     volux_camera_desc_defaults(&d);
     if (!obj) return volux_scene_set_camera(sr->scene, &d);
-    static const char *const keys[] = {"type", "eye", "look_at", "up", "fov_y", "height", "orbit", "comment", NULL};
+    static const char *const keys[] = {"type", "eye", "look_at", "up", "z_up", "fov_y", "height", "orbit", "comment", NULL};
     static const char *const orbit_keys[] = {"azimuth", "elevation", "distance", NULL};
     volux_status st = volux_json_check_keys(r, obj, "camera", keys);
     if (st) return st;
@@ -412,19 +662,32 @@ static volux_status read_camera(scene_reader *sr, const cJSON *obj) {
     if ((st = volux_json_float(r, obj, "camera", "fov_y", 1e-3, 179.999, &d.fov_y_deg)) ||
         (st = volux_json_float(r, obj, "camera", "height", 1e-9, BIG, &d.height)))
         return st;
+    /* up: the view's up for eye/look_at, the orbit's axis for an orbit
+     * (default +Y); "z_up": true is the shortcut for [0, 0, 1] (medical
+     * data, whose slices stack along z). */
+    float up[3] = {0, 1, 0};
+    int z_up = 0;
+    if ((st = volux_json_vec3(r, obj, "camera", "up", -COORD, COORD, up)) ||
+        (st = volux_json_bool(r, obj, "camera", "z_up", &z_up)))
+        return st;
+    if (cJSON_GetObjectItemCaseSensitive(obj, "z_up") && cJSON_GetObjectItemCaseSensitive(obj, "up"))
+        return volux_json_error(r, VOLUX_ERR_INVALID, "camera", "give up or z_up, not both");
+    if (z_up) up[0] = 0, up[1] = 0, up[2] = 1;
+    if (!(up[0] * up[0] + up[1] * up[1] + up[2] * up[2] > 0.0f))
+        return volux_json_error(r, VOLUX_ERR_INVALID, "camera.up", "must not be the zero vector");
+    d.up = (volux_vec3){up[0], up[1], up[2]};
     if (eye) {
-        float e[3], at[3] = {0, 0, 0}, up[3] = {0, 1, 0};
+        float e[3], at[3] = {0, 0, 0};
         d.use_orbit = 0;
         if ((st = volux_json_vec3(r, obj, "camera", "eye", -COORD, COORD, e)) ||
-            (st = volux_json_vec3(r, obj, "camera", "look_at", -COORD, COORD, at)) ||
-            (st = volux_json_vec3(r, obj, "camera", "up", -COORD, COORD, up)))
+            (st = volux_json_vec3(r, obj, "camera", "look_at", -COORD, COORD, at)))
             return st;
         d.eye = (volux_vec3){e[0], e[1], e[2]};
         d.look_at = (volux_vec3){at[0], at[1], at[2]};
-        d.up = (volux_vec3){up[0], up[1], up[2]};
     } else {
-        if (cJSON_GetObjectItemCaseSensitive(obj, "look_at") || cJSON_GetObjectItemCaseSensitive(obj, "up"))
-            return volux_json_error(r, VOLUX_ERR_INVALID, "camera", "look_at/up need an eye");
+        if (cJSON_GetObjectItemCaseSensitive(obj, "look_at"))
+            return volux_json_error(r, VOLUX_ERR_INVALID, "camera.look_at",
+                                    "needs an eye (an orbit always looks at the volume's centre)");
         /* DESIGN §3: the default distance fits the bounding sphere for this
          * fov_y (also without an "orbit" object, where the defaults'
          * distance would only fit their own 30°). */
@@ -562,7 +825,7 @@ static volux_status read_render(scene_reader *sr, const cJSON *obj) {
     if (obj) {
         static const char *const keys[] = {"technique", "width",   "height",  "spp",       "step",
                                            "seed",      "max_depth", "exposure", "threads", "time_ms",
-                                           "target_error", "comment", NULL};
+                                           "target_error", "time_step", "comment", NULL};
         const char *P = "render";
         volux_status st = volux_json_check_keys(r, obj, P, keys);
         if (st) return st;
@@ -590,6 +853,18 @@ static volux_status read_render(scene_reader *sr, const cJSON *obj) {
     }
     volux_status st = volux_scene_set_render(sr->scene, &rs);
     if (st) volux_error_prefix(r->ctx, "%s: ", r->file);
+    return st;
+}
+
+/* render.time_step: selects the step of a sequence (after the volume is
+ * read; a single volume has only step 0). */
+static volux_status read_time_step(scene_reader *sr, const cJSON *render) {
+    volux_json_reader *r = &sr->json;
+    int step = 0;
+    if (!render || !cJSON_GetObjectItemCaseSensitive(render, "time_step")) return VOLUX_OK;
+    volux_status st = volux_json_int(r, render, "render", "time_step", 0, VOLUX_MAX_STEPS - 1, &step);
+    if (st) return st;
+    if ((st = volux_scene_set_time_step(sr->scene, step))) volux_error_prefix(r->ctx, "%s: render.time_step: ", r->file);
     return st;
 }
 
@@ -630,7 +905,7 @@ static volux_status read_techniques(scene_reader *sr, const cJSON *obj) {
 
 /* ------------------------------------------------------------------ entry points */
 
-static volux_status read_scene(scene_reader *sr, const cJSON *root) {
+static volux_status read_scene(scene_reader *sr, cJSON *root) {
     volux_json_reader *r = &sr->json;
     static const char *const keys[] = {"volume", "transfer_function", "camera", "lights", "background",
                                        "render", "techniques", "comment", NULL};
@@ -638,10 +913,14 @@ static volux_status read_scene(scene_reader *sr, const cJSON *root) {
     if (st) return st;
     float bg[3] = {0, 0, 0};
     if ((st = volux_json_vec3(r, root, "", "background", 0, BIG, bg))) return st;
-    /* Order matters: the TF preset is rescaled to the volume's range. */
+    /* Order matters: the TF preset is rescaled to the volume's range (of
+     * time step 0, so every step of a sequence gets the same TF), and a
+     * missing TF is made from the volume's histogram. */
     if ((st = read_render(sr, cJSON_GetObjectItemCaseSensitive(root, "render"))) ||
-        (st = read_volume(sr, cJSON_GetObjectItemCaseSensitive(root, "volume"))) ||
-        (st = read_transfer(sr, cJSON_GetObjectItemCaseSensitive(root, "transfer_function"))) ||
+        (st = sr->supplied ? volux_scene_set_volume(sr->scene, sr->supplied)
+                           : read_volume(sr, cJSON_GetObjectItemCaseSensitive(root, "volume"))) ||
+        (st = read_transfer(sr, root)) ||
+        (st = read_time_step(sr, cJSON_GetObjectItemCaseSensitive(root, "render"))) ||
         (st = read_camera(sr, cJSON_GetObjectItemCaseSensitive(root, "camera"))) ||
         (st = read_lights(sr, cJSON_GetObjectItemCaseSensitive(root, "lights"))) ||
         (st = read_techniques(sr, cJSON_GetObjectItemCaseSensitive(root, "techniques"))))
@@ -650,10 +929,351 @@ static volux_status read_scene(scene_reader *sr, const cJSON *root) {
     return VOLUX_OK;
 }
 
-volux_status volux_scene_parse(volux_context *ctx, const char *text, size_t n, const char *base_dir,
-                               const char *name, const char *const *overrides, int n_overrides, unsigned flags,
+/* An override that reaches into a key whose value is a file name (today
+ * only transfer_function, the one object a scene may give by reference):
+ * the file is read into the tree first, so "--set
+ * transfer_function.albedo=0.8" edits the referenced TF like an inline one
+ * (its relative names keep resolving against its own folder). */
+static volux_status inline_referenced(scene_reader *sr, cJSON *root, const char *assignment) {
+    static const char *const by_reference[] = {"transfer_function"};
+    for (size_t k = 0; k < sizeof by_reference / sizeof by_reference[0]; k++) {
+        size_t len = strlen(by_reference[k]);
+        if (strncmp(assignment, by_reference[k], len) || assignment[len] != '.') continue;
+        cJSON *node = cJSON_GetObjectItemCaseSensitive(root, by_reference[k]);
+        if (!cJSON_IsString(node)) continue;
+        char path[4096];
+        cJSON *tree = NULL;
+        volux_status st = load_tree(sr, node->valuestring, by_reference[k], path, sizeof path, &tree);
+        if (st) return st;
+        if (!cJSON_IsObject(tree)) {
+            cJSON_Delete(tree);
+            volux_json_reader sub = {sr->json.ctx, path};
+            st = volux_json_error(&sub, VOLUX_ERR_INVALID, NULL, "expected a JSON object");
+            volux_error_prefix(sr->json.ctx, "%s: %s: ", sr->json.file, by_reference[k]);
+            return st;
+        }
+        if (!cJSON_ReplaceItemInObjectCaseSensitive(root, by_reference[k], tree)) {
+            cJSON_Delete(tree);
+            return volux_json_error(&sr->json, VOLUX_ERR_NOMEM, by_reference[k], "out of memory");
+        }
+        snprintf(sr->tf_file, sizeof sr->tf_file, "%s", path);
+    }
+    return VOLUX_OK;
+}
+
+/* ---- the effective scene as JSON (--dump-scene) ---- */
+
+/* "a/b/../c" style normalisation is left to realpath(); this only makes
+ * `target` (absolute, normalised) relative to the folder `from` (same). */
+static void relative_to(const char *from, const char *target, char *out, size_t n) {
+    size_t common = 0, i = 0;
+    /* The longest common prefix that ends at a folder boundary. */
+    while (from[i] && target[i] && from[i] == target[i]) {
+        i++;
+        if ((from[i] == '/' || from[i] == 0) && (target[i] == '/' || target[i] == 0)) common = i;
+    }
+    if (from[0] == '/' && from[1] == 0) common = 0; /* from the root */
+    size_t w = 0;
+    out[0] = 0;
+    for (const char *p = from + common; *p; p++)
+        if (*p == '/' && w + 4 < n) w += (size_t)snprintf(out + w, n - w, "../");
+    const char *rest = target + common;
+    if (*rest == '/') rest++;
+    snprintf(out + w, n - w, "%s", rest);
+}
+
+/* Rewrites the file name in node (relative to from_dir) for a scene file in
+ * to_dir: "$VOLUX_DATA/..." when it lies under the data root (`data_root`,
+ * resolved; NULL: none), so the scene works on any machine; else relative
+ * when both resolve, else absolute. "$VOLUX_DATA/" names and names that
+ * cannot be resolved are kept. */
+static void rebase_name(cJSON *node, const char *from_dir, const char *to_dir, const char *data_root) {
+    if (!cJSON_IsString(node) || !node->valuestring[0]) return;
+    const char *name = node->valuestring;
+    if (!strncmp(name, DATA_PREFIX, strlen(DATA_PREFIX))) return;
+    char joined[4096];
+    int w = name[0] == '/' ? snprintf(joined, sizeof joined, "%s", name)
+                           : snprintf(joined, sizeof joined, "%s/%s", from_dir, name);
+    if (w < 0 || (size_t)w >= sizeof joined) return;
+    char *target = realpath(joined, NULL);
+    if (!target) return;
+    char *dir = to_dir ? realpath(to_dir, NULL) : NULL;
+    char out[4096];
+    size_t root_len = data_root ? strlen(data_root) : 0;
+    if (root_len > 1 && !strncmp(target, data_root, root_len) && target[root_len] == '/')
+        snprintf(out, sizeof out, DATA_PREFIX "%s", target + root_len + 1);
+    else if (dir) relative_to(dir, target, out, sizeof out);
+    else snprintf(out, sizeof out, "%s", target);
+    free(dir);
+    free(target);
+    cJSON_SetValuestring(node, out);
+}
+
+static void rebase_names(cJSON *root, const char *base_dir, const char *tf_file, const char *to_dir,
+                         const char *data_root) {
+    rebase_name(cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(root, "volume"), "file"), base_dir,
+                to_dir, data_root);
+    cJSON *tf = cJSON_GetObjectItemCaseSensitive(root, "transfer_function");
+    if (cJSON_IsString(tf)) rebase_name(tf, base_dir, to_dir, data_root);
+    else if (cJSON_IsObject(tf)) {
+        char tf_dir[4096];
+        if (tf_file && *tf_file) dir_of(tf_file, tf_dir, sizeof tf_dir);
+        else snprintf(tf_dir, sizeof tf_dir, "%s", base_dir);
+        rebase_name(cJSON_GetObjectItemCaseSensitive(tf, "preset"), tf_dir, to_dir, data_root);
+        cJSON *m;
+        cJSON_ArrayForEach(m, cJSON_GetObjectItemCaseSensitive(tf, "materials"))
+        rebase_name(cJSON_GetObjectItemCaseSensitive(m, "file"), tf_dir, to_dir, data_root);
+    }
+    cJSON *l;
+    cJSON_ArrayForEach(l, cJSON_GetObjectItemCaseSensitive(root, "lights"))
+    rebase_name(cJSON_GetObjectItemCaseSensitive(l, "file"), base_dir, to_dir, data_root);
+}
+
+/* A growable text buffer in context memory. */
+typedef struct text_buf {
+    volux_context *ctx;
+    char *p;
+    size_t n, cap;
+    int failed;
+} text_buf;
+
+static void put(text_buf *b, const char *fmt, ...) VOLUX_PRINTF(2, 3);
+static void put(text_buf *b, const char *fmt, ...) {
+    if (b->failed) return;
+    va_list ap;
+    va_start(ap, fmt);
+    char tmp[512];
+    int w = vsnprintf(tmp, sizeof tmp, fmt, ap);
+    va_end(ap);
+    if (w < 0) return;
+    const char *src = tmp;
+    char *big = NULL;
+    if ((size_t)w >= sizeof tmp) { /* a long string value */
+        big = volux_malloc(b->ctx, (size_t)w + 1);
+        if (!big) {
+            b->failed = 1;
+            return;
+        }
+        va_start(ap, fmt);
+        vsnprintf(big, (size_t)w + 1, fmt, ap);
+        va_end(ap);
+        src = big;
+    }
+    if (b->n + (size_t)w + 1 > b->cap) {
+        size_t cap = b->cap ? b->cap : 4096;
+        while (cap < b->n + (size_t)w + 1) cap *= 2;
+        char *q = volux_malloc(b->ctx, cap);
+        if (!q) {
+            b->failed = 1;
+            if (big) volux_free(b->ctx, big, (size_t)w + 1);
+            return;
+        }
+        if (b->p) {
+            memcpy(q, b->p, b->n);
+            volux_free(b->ctx, b->p, b->cap);
+        }
+        b->p = q;
+        b->cap = cap;
+    }
+    memcpy(b->p + b->n, src, (size_t)w + 1);
+    b->n += (size_t)w;
+    if (big) volux_free(b->ctx, big, (size_t)w + 1);
+}
+
+static void put_string(text_buf *b, const char *s) {
+    put(b, "\"");
+    for (; *s; s++) {
+        unsigned char c = (unsigned char)*s;
+        if (c == '"' || c == '\\') put(b, "\\%c", c);
+        else if (c < 0x20) put(b, "\\u%04x", c);
+        else put(b, "%c", c);
+    }
+    put(b, "\"");
+}
+
+static int is_scalar(const cJSON *v) { return !cJSON_IsArray(v) && !cJSON_IsObject(v); }
+
+static void put_value(text_buf *b, const cJSON *v, int indent);
+
+/* Arrays of scalars (vectors, TF rows) stay on one line; arrays of rows
+ * get one row per line; objects one key per line. */
+static void put_value(text_buf *b, const cJSON *v, int indent) {
+    if (cJSON_IsNumber(v)) {
+        double d = v->valuedouble;
+        if (d == floor(d) && fabs(d) < 1e15) put(b, "%.0f", d);
+        else put(b, "%.15g", d);
+    } else if (cJSON_IsString(v)) put_string(b, v->valuestring);
+    else if (cJSON_IsTrue(v)) put(b, "true");
+    else if (cJSON_IsFalse(v)) put(b, "false");
+    else if (cJSON_IsNull(v)) put(b, "null");
+    else if (cJSON_IsArray(v)) {
+        int flat = 1, rows = 1;
+        const cJSON *c;
+        cJSON_ArrayForEach(c, v) {
+            if (!is_scalar(c)) flat = 0;
+            if (!cJSON_IsArray(c)) rows = 0;
+            else {
+                const cJSON *e;
+                cJSON_ArrayForEach(e, c) if (!is_scalar(e)) rows = 0;
+            }
+        }
+        put(b, "[");
+        int first = 1;
+        cJSON_ArrayForEach(c, v) {
+            if (!first) put(b, flat ? ", " : ",");
+            if (!flat) put(b, "\n%*s", indent + 2, "");
+            put_value(b, c, indent + 2);
+            first = 0;
+        }
+        if (!flat && !first) put(b, "\n%*s", indent, "");
+        put(b, "]");
+        (void)rows;
+    } else if (cJSON_IsObject(v)) {
+        put(b, "{");
+        int first = 1;
+        const cJSON *c;
+        cJSON_ArrayForEach(c, v) {
+            put(b, "%s\n%*s", first ? "" : ",", indent + 2, "");
+            put_string(b, c->string ? c->string : "");
+            put(b, ": ");
+            put_value(b, c, indent + 2);
+            first = 0;
+        }
+        if (first) put(b, "}");
+        else put(b, "\n%*s}", indent, "");
+    }
+}
+
+volux_status volux_json_print(volux_context *ctx, const cJSON *root, char **out) {
+    text_buf b = {ctx, NULL, 0, 0, 0};
+    put_value(&b, root, 0);
+    put(&b, "\n");
+    if (b.failed || !b.p) {
+        if (b.p) volux_free(ctx, b.p, b.cap);
+        return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory writing the scene as JSON");
+    }
+    /* Hand out an exact-size block so volux_scene_json_free needs no size. */
+    char *s = volux_malloc(ctx, b.n + 1);
+    if (!s) {
+        volux_free(ctx, b.p, b.cap);
+        return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory writing the scene as JSON");
+    }
+    memcpy(s, b.p, b.n + 1);
+    volux_free(ctx, b.p, b.cap);
+    *out = s;
+    return VOLUX_OK;
+}
+
+void volux_scene_json_free(volux_context *ctx, char *json) {
+    if (json) volux_free(ctx, json, strlen(json) + 1);
+}
+
+volux_status volux_scene_read_tree(volux_context *ctx, const cJSON *root, const char *base_dir, const char *name,
+                                   const volux_scene_files *files, volux_scene *out) {
+    scene_reader sr;
+    memset(&sr, 0, sizeof sr);
+    sr.json = (volux_json_reader){ctx, name ? name : "scene"};
+    sr.base_dir = base_dir ? base_dir : ".";
+    sr.scene = out;
+    sr.files = files;
+    if (!cJSON_IsObject(root))
+        return volux_json_error(&sr.json, VOLUX_ERR_INVALID, NULL, "the scene must be a JSON object");
+    /* read_scene may add the default transfer function to a tree without
+     * one (so the document shows what is rendered). */
+    return read_scene(&sr, (cJSON *)root);
+}
+
+/* Exact structural equality (cJSON_Compare treats numbers within a
+ * relative epsilon as equal, which would let a tiny edit go unapplied). */
+static int json_same(const cJSON *a, const cJSON *b) {
+    if (!a || !b) return a == b;
+    if ((a->type & 0xff) != (b->type & 0xff)) return 0;
+    if (cJSON_IsNumber(a)) return a->valuedouble == b->valuedouble;
+    if (cJSON_IsString(a)) return !strcmp(a->valuestring, b->valuestring);
+    if (cJSON_IsArray(a) || cJSON_IsObject(a)) {
+        const cJSON *x = a->child, *y = b->child;
+        for (; x && y; x = x->next, y = y->next) {
+            if (cJSON_IsObject(a) && strcmp(x->string, y->string)) return 0;
+            if (!json_same(x, y)) return 0;
+        }
+        return !x && !y;
+    }
+    return 1; /* true, false, null */
+}
+
+static const cJSON *item(const cJSON *obj, const char *key) {
+    return obj ? cJSON_GetObjectItemCaseSensitive(obj, key) : NULL;
+}
+
+volux_status volux_scene_read_edit(volux_context *ctx, const cJSON *root, const cJSON *old_root,
+                                   const volux_scene *live, const char *base_dir, const char *name,
+                                   const volux_scene_files *files, volux_scene *candidate,
+                                   volux_scene_edit_plan *plan) {
+    scene_reader sr;
+    memset(&sr, 0, sizeof sr);
+    sr.json = (volux_json_reader){ctx, name ? name : "scene"};
+    sr.base_dir = base_dir ? base_dir : ".";
+    sr.scene = candidate;
+    sr.files = files;
+    volux_json_reader *r = &sr.json;
+    memset(plan, 0, sizeof *plan);
+    if (!cJSON_IsObject(root)) return volux_json_error(r, VOLUX_ERR_INVALID, NULL, "the scene must be a JSON object");
+    static const char *const keys[] = {"volume", "transfer_function", "camera", "lights", "background",
+                                       "render", "techniques", "comment", NULL};
+    volux_status st = volux_json_check_keys(r, root, "", keys);
+    if (st) return st;
+    float bg[3] = {0, 0, 0};
+    if ((st = volux_json_vec3(r, root, "", "background", 0, BIG, bg))) return st;
+    if ((st = read_render(&sr, item(root, "render")))) return st;
+    /* The volume: read again only when its section changed (a file load
+     * or a procedural build is the expensive part of a scene). */
+    plan->volume = !json_same(item(old_root, "volume"), item(root, "volume"));
+    if (plan->volume) st = read_volume(&sr, item(root, "volume"));
+    else st = volux_scene_set_volume(candidate, volux_scene_volume(live));
+    if (st) return st;
+    /* A new volume changes what the TF (preset rescaling) and the camera
+     * (orbit radius, finite view) read from it. */
+    plan->transfer = plan->volume || !json_same(item(old_root, "transfer_function"), item(root, "transfer_function"));
+    if (plan->transfer) st = read_transfer(&sr, (cJSON *)root); /* as in volux_scene_read_tree */
+    else st = volux_scene_set_transfer(candidate, volux_scene_transfer(live));
+    if (st) return st;
+    plan->camera = plan->volume || !json_same(item(old_root, "camera"), item(root, "camera"));
+    if (plan->camera) st = read_camera(&sr, item(root, "camera"));
+    else st = volux_scene_set_camera(candidate, volux_scene_camera_desc(live));
+    if (st) return st;
+    const cJSON *lights = item(root, "lights"), *old_lights = item(old_root, "lights");
+    if (lights) {
+        if (!cJSON_IsArray(lights)) return volux_json_error(r, VOLUX_ERR_INVALID, "lights", "expected an array");
+        int n = cJSON_GetArraySize(lights);
+        if (n > VOLUX_MAX_LIGHTS)
+            return volux_json_error(r, VOLUX_ERR_LIMIT, "lights", "at most %d lights, got %d", VOLUX_MAX_LIGHTS, n);
+        plan->n_lights = n;
+        const cJSON *old = cJSON_IsArray(old_lights) ? old_lights->child : NULL;
+        int i = 0;
+        for (const cJSON *l = lights->child; l; l = l->next, i++) {
+            const volux_light_desc *kept = volux_scene_light(live, i);
+            plan->light[i] = !kept || !json_same(old, l);
+            if (plan->light[i]) st = read_light(&sr, l, i);
+            else st = volux_scene_set_light(candidate, i, kept); /* copies its map: no file read */
+            if (st) return st;
+            if (old) old = old->next;
+        }
+    }
+    if ((st = read_techniques(&sr, item(root, "techniques")))) return st;
+    volux_scene_set_background(candidate, (volux_vec3){bg[0], bg[1], bg[2]});
+    return VOLUX_OK;
+}
+
+static volux_status parse_with(volux_context *ctx, const char *text, size_t n, const volux_scene_load_options *o,
+                               const char *base_dir, const char *name, unsigned flags, volux_volume *supplied,
                                volux_scene **out) {
-    scene_reader sr = {{ctx, name ? name : "scene"}, base_dir ? base_dir : ".", NULL, flags};
+    scene_reader sr;
+    memset(&sr, 0, sizeof sr);
+    sr.json = (volux_json_reader){ctx, name ? name : "scene"};
+    sr.base_dir = base_dir ? base_dir : ".";
+    sr.flags = flags;
+    sr.opt = o;
+    sr.supplied = supplied;
     cJSON *root = NULL;
     volux_status st = volux_json_parse(&sr.json, text, n, &root);
     if (st) return st;
@@ -661,8 +1281,9 @@ volux_status volux_scene_parse(volux_context *ctx, const char *text, size_t n, c
         cJSON_Delete(root);
         return volux_json_error(&sr.json, VOLUX_ERR_INVALID, NULL, "the scene must be a JSON object");
     }
-    for (int i = 0; i < n_overrides; i++)
-        if ((st = volux_json_apply_override(&sr.json, root, overrides[i]))) {
+    for (int i = 0; o && i < o->n_overrides; i++)
+        if ((st = inline_referenced(&sr, root, o->overrides[i])) ||
+            (st = volux_json_apply_override(&sr.json, root, o->overrides[i]))) {
             cJSON_Delete(root);
             return st;
         }
@@ -671,6 +1292,13 @@ volux_status volux_scene_parse(volux_context *ctx, const char *text, size_t n, c
         return st;
     }
     st = read_scene(&sr, root);
+    if (!st && o && o->effective_json) {
+        const char *root_dir = data_dir(&sr);
+        char *data_root = root_dir ? realpath(root_dir, NULL) : NULL;
+        rebase_names(root, sr.base_dir, sr.tf_file, o->effective_dir, data_root);
+        free(data_root);
+        st = volux_json_print(ctx, root, o->effective_json);
+    }
     cJSON_Delete(root);
     if (st) {
         volux_scene_destroy(sr.scene);
@@ -680,21 +1308,61 @@ volux_status volux_scene_parse(volux_context *ctx, const char *text, size_t n, c
     return VOLUX_OK;
 }
 
+volux_status volux_scene_parse(volux_context *ctx, const char *text, size_t n, const char *base_dir,
+                               const char *name, const char *const *overrides, int n_overrides, unsigned flags,
+                               volux_scene **out) {
+    volux_scene_load_options o;
+    memset(&o, 0, sizeof o);
+    o.overrides = overrides;
+    o.n_overrides = n_overrides;
+    return parse_with(ctx, text, n, &o, base_dir, name, flags, NULL, out);
+}
+
 volux_status volux_scene_load_string(volux_context *ctx, const char *json, const char *base_dir, const char *name,
                                      const char *const *overrides, int n_overrides, volux_scene **out) {
     return volux_scene_parse(ctx, json, strlen(json), base_dir, name, overrides, n_overrides, 0, out);
 }
 
-volux_status volux_scene_load(volux_context *ctx, const char *path, const char *const *overrides, int n_overrides,
-                              volux_scene **out) {
+volux_status volux_scene_parse_with_volume(volux_context *ctx, const char *text, size_t n, const char *base_dir,
+                                           const char *name, const char *const *overrides, int n_overrides,
+                                           unsigned flags, volux_volume *volume, volux_scene **out) {
+    volux_scene_load_options o;
+    memset(&o, 0, sizeof o);
+    o.overrides = overrides;
+    o.n_overrides = n_overrides;
+    return parse_with(ctx, text, n, &o, base_dir, name, flags, volume, out);
+}
+
+volux_status volux_scene_load_string_with_volume(volux_context *ctx, const char *json, const char *base_dir,
+                                                 const char *name, const char *const *overrides, int n_overrides,
+                                                 volux_volume *volume, volux_scene **out) {
+    return volux_scene_parse_with_volume(ctx, json, strlen(json), base_dir, name, overrides, n_overrides, 0, volume,
+                                         out);
+}
+
+volux_status volux_scene_load_ex(volux_context *ctx, const volux_scene_load_options *o, volux_scene **out) {
+    if (o->effective_json) *o->effective_json = NULL;
+    if (!o->path == !o->json)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "volux_scene_load_ex: give exactly one of path and json");
+    if (o->json) return parse_with(ctx, o->json, strlen(o->json), o, o->base_dir, o->name, 0, NULL, out);
     char *text;
     size_t n;
-    volux_status st = volux_json_read_file(ctx, path, &text, &n);
+    volux_status st = volux_json_read_file(ctx, o->path, &text, &n);
     if (st) return st;
     char dir[4096];
-    dir_of(path, dir, sizeof dir);
+    dir_of(o->path, dir, sizeof dir);
     /* The parser rejects NUL bytes with their line and column. */
-    st = volux_scene_parse(ctx, text, n, dir, path, overrides, n_overrides, 0, out);
+    st = parse_with(ctx, text, n, o, dir, o->path, 0, NULL, out);
     volux_free(ctx, text, n + 1);
     return st;
+}
+
+volux_status volux_scene_load(volux_context *ctx, const char *path, const char *const *overrides, int n_overrides,
+                              volux_scene **out) {
+    volux_scene_load_options o;
+    memset(&o, 0, sizeof o);
+    o.path = path;
+    o.overrides = overrides;
+    o.n_overrides = n_overrides;
+    return volux_scene_load_ex(ctx, &o, out);
 }

@@ -4,7 +4,11 @@
  * with "Name", "RGBPoints": [x, r, g, b, ...] and optionally "Points":
  * [x, opacity, midpoint, sharpness, ...]. ParaView applies a preset over the
  * data range, so we map the preset's [x_first, x_last] onto [s_min, s_max].
- * Midpoint/sharpness are not modelled (piecewise-linear only); documented.
+ * Opacity segments honour ParaView's midpoint, the fraction of the segment
+ * at which the opacity reaches the mean of its two ends (an extra point
+ * there; exact for sharpness 0, ParaView's default). Sharpness > 0 bends
+ * the segment into a curve that is not modelled: such segments are counted
+ * (n_sharp) so the scene loader can say so.
  * Other keys (ColorSpace, NanColor, ...) are ParaView's business and are
  * ignored, but the ones we read must not repeat.
  */
@@ -118,8 +122,9 @@ volux_status volux_tf_preset_parse(volux_context *ctx, const char *text, size_t 
         double x = (i < nc ? cv[4 * i] : ov[4 * (i - nc)]) * scale + shift;
         if (!(fabs(x) <= 1e30)) {
             st = volux_json_error(&r, VOLUX_ERR_FORMAT, i < nc ? "RGBPoints" : "Points",
-                                  "point %d does not map to a finite value on [%g, %g]", i < nc ? i : i - nc, s_min,
-                                  s_max);
+                                  "point %d does not map to a finite value on [%g, %g] (\"preset_rescale\": false "
+                                  "keeps the preset's own values)",
+                                  i < nc ? i : i - nc, s_min, s_max);
             goto done;
         }
     }
@@ -133,14 +138,33 @@ volux_status volux_tf_preset_parse(volux_context *ctx, const char *text, size_t 
         p.color[i] = (volux_tf_color_point){(float)(cv[4 * i] * scale + shift), (float)cv[4 * i + 1],
                                             (float)cv[4 * i + 2], (float)cv[4 * i + 3]};
     if (no) {
-        p.opacity = volux_malloc(ctx, sizeof *p.opacity * (size_t)no);
+        /* Point i's midpoint and sharpness shape the segment to point i+1. */
+        int extra = 0;
+        for (int i = 0; i + 1 < no; i++) extra += ov[4 * i + 2] != 0.5 && ov[4 * (i + 1)] > ov[4 * i];
+        if (no + extra > VOLUX_TF_MAX_POINTS) {
+            st = volux_json_error(&r, VOLUX_ERR_FORMAT, "Points", "%d points with their midpoints exceed %d", no + extra,
+                                  VOLUX_TF_MAX_POINTS);
+            goto done;
+        }
+        p.opacity = volux_malloc(ctx, sizeof *p.opacity * (size_t)(no + extra));
         if (!p.opacity) {
             st = volux_json_error(&r, VOLUX_ERR_NOMEM, NULL, "out of memory");
             goto done;
         }
-        p.n_opacity = no;
-        for (int i = 0; i < no; i++)
-            p.opacity[i] = (volux_tf_scalar_point){(float)(ov[4 * i] * scale + shift), (float)ov[4 * i + 1]};
+        int k = 0;
+        for (int i = 0; i < no; i++) {
+            double x = ov[4 * i], o = ov[4 * i + 1];
+            p.opacity[k++] = (volux_tf_scalar_point){(float)(x * scale + shift), (float)o};
+            if (i + 1 == no) break;
+            double xn = ov[4 * (i + 1)], o1 = ov[4 * (i + 1) + 1], mid = ov[4 * i + 2], sharp = ov[4 * i + 3];
+            if (sharp > 0.0 && o1 != o) p.n_sharp++;
+            if (mid != 0.5 && xn > x) {
+                /* Midpoint 0 or 1 puts the mean at an end: a step there. */
+                double xm = x + mid * (xn - x);
+                p.opacity[k++] = (volux_tf_scalar_point){(float)(xm * scale + shift), (float)(0.5 * (o + o1))};
+            }
+        }
+        p.n_opacity = k;
     }
 done:
     volux_free(ctx, cv, sizeof(double) * 4 * (size_t)nc);

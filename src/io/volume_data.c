@@ -578,6 +578,7 @@ volux_status volux_volume_read_parts(volux_context *ctx, const volux_volume_head
         volux_error_prefix(ctx, "%s: ", name);
         goto fail;
     }
+    volux_volume_set_superior(v, h->has_superior ? h->superior : NULL);
     *out = v;
     return VOLUX_OK;
 

@@ -54,6 +54,10 @@ typedef struct volux_volume_header {
     double spacing[3]; /* > 0, finite                                  */
     double origin[3];  /* world position of node (0,0,0)...            */
     int has_origin;    /* ...if the header gives one                   */
+    /* Anatomical superior in the grid's axes (unit-free; the loader
+     * normalises), if the header gives an anatomical orientation. */
+    double superior[3];
+    int has_superior;
     /* Linear value map (NIfTI scl_slope/scl_inter): when set, a value is
      * slope·stored + inter and the volume is stored as float32. */
     int apply_scale;
@@ -204,6 +208,19 @@ volux_status volux_volume_read_parts(volux_context *ctx, const volux_volume_head
                                      volux_volume **out);
 volux_status volux_volume_read_data(volux_context *ctx, const volux_volume_header *h, volux_source *src,
                                     const volux_volume_load_options *options, volux_volume **out);
+
+/* What a volume file holds, from its header alone. */
+typedef struct volux_volume_shape {
+    int dims[3];
+    volux_scalar_type type; /* as loaded (float32 when the file scales values) */
+    double spacing[3];
+} volux_volume_shape;
+
+/* Reads only the header of `path` (the same checks as volux_volume_load,
+ * none of the data): for checking that the frames of a sequence agree
+ * before any of them is loaded. */
+volux_status volux_volume_probe(volux_context *ctx, const char *path, const volux_volume_load_options *options,
+                                volux_volume_shape *out);
 
 /* ------------------------------------------------------------------ */
 /* Whole-file loading from memory (fuzzing, tests)                     */

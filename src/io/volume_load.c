@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "header_text.h"
+#include "scene_formats.h"
 #include "volume_formats.h"
 
 #define MAX_PATH_BYTES 4096
@@ -89,14 +90,16 @@ static volux_status resolve_data_path(volux_context *ctx, const char *header_pat
     if (!allow_outside) {
         if (data_file[0] == '/')
             return volux_error(ctx, VOLUX_ERR_FORMAT,
-                               "%s: data file: absolute path '%s' is outside the header's folder (not allowed)",
+                               "%s: data file: absolute path '%s' is outside the header's folder (not allowed unless "
+                               "the scene's volume says \"allow_outside_dir\": true)",
                                header_path, data_file);
         for (const char *p = data_file; *p;) {
             const char *slash = strchr(p, '/');
             size_t len = slash ? (size_t)(slash - p) : strlen(p);
             if (len == 2 && p[0] == '.' && p[1] == '.')
                 return volux_error(ctx, VOLUX_ERR_FORMAT,
-                                   "%s: data file: '%s' leads outside the header's folder ('..' is not allowed)",
+                                   "%s: data file: '%s' leads outside the header's folder ('..' is not allowed unless "
+                                   "the scene's volume says \"allow_outside_dir\": true)",
                                    header_path, data_file);
             p += len + (slash ? 1 : 0);
         }
@@ -141,11 +144,29 @@ static volux_status check_containment(volux_context *ctx, const char *header_pat
 /* A volume split over h->file_count data files. Names are made (pattern)
  * or found (LIST lines, indexed once) when a part is opened; each is
  * resolved and contained like a single data file. */
+/* With a data root (volux_volume_load_options.data_root), the data file
+ * must lie inside it once symbolic links are resolved: the textual checks
+ * cannot see a link that leaves the folder, the resolved name can. On
+ * success `path` holds the resolved name. */
+static volux_status check_data_root(volux_context *ctx, const char *header, const char *data_file, const char *root,
+                                    char *path, size_t cap) {
+    char real[PATH_MAX];
+    if (!realpath(path, real))
+        return volux_error(ctx, VOLUX_ERR_IO, "%s: data file: %s: cannot open: %s", header, path, strerror(errno));
+    if (!volux_path_inside(real, root))
+        return volux_error(ctx, VOLUX_ERR_INVALID, "%s: data file: '%s' is outside the data root %s", header,
+                           data_file, root);
+    if (strlen(real) >= cap) return volux_error(ctx, VOLUX_ERR_LIMIT, "%s: data file: path is too long", header);
+    strcpy(path, real);
+    return VOLUX_OK;
+}
+
 typedef struct split_files {
     volux_context *ctx;
     const volux_volume_header *h;
     const char *header;
     int allow_outside;
+    const char *data_root; /* NULL: none */
     const char *list;    /* LIST: the header file's bytes after the LIST line */
     size_t *line_start;  /* LIST: where entry i starts / its length */
     size_t *line_len;
@@ -173,6 +194,7 @@ static volux_status split_open(void *user, int k, volux_source *out) {
             return volux_error(ctx, VOLUX_ERR_LIMIT, "%s: data file: name %d is too long", f->header, k + 1);
     }
     volux_status st = resolve_data_path(ctx, f->header, name, f->allow_outside, f->path, sizeof f->path);
+    if (!st && f->data_root) st = check_data_root(ctx, f->header, name, f->data_root, f->path, sizeof f->path);
     if (!st && !f->allow_outside) st = check_containment(ctx, f->header, name, f->path);
     if (!st && (st = volux_source_open(ctx, f->path, out)))
         volux_error_prefix(ctx, "%s: data file %d of %d: ", f->header, k + 1, f->h->file_count);
@@ -193,6 +215,7 @@ static volux_status load_files(volux_context *ctx, const volux_volume_header *h,
     f.h = h;
     f.header = src->name;
     f.allow_outside = options && options->allow_outside_dir;
+    f.data_root = options ? options->data_root : NULL;
     char *list = NULL;
     size_t list_cap = 0, list_n = 0;
     volux_status st = VOLUX_OK;
@@ -266,6 +289,9 @@ static volux_status load_from(volux_context *ctx, kind k, volux_source *src, int
     int allow_outside = options && options->allow_outside_dir;
     st = resolve_data_path(ctx, src->name, h.data_file, allow_outside, path, sizeof path);
     if (st) return st;
+    if (options && options->data_root && !from_memory &&
+        (st = check_data_root(ctx, src->name, h.data_file, options->data_root, path, sizeof path)))
+        return st;
     if (from_memory)
         return volux_error(ctx, VOLUX_ERR_IO, "%s: data file: '%s' cannot be read when loading from memory",
                            src->name, h.data_file);
@@ -280,28 +306,20 @@ static volux_status load_from(volux_context *ctx, kind k, volux_source *src, int
     return st;
 }
 
-volux_status volux_volume_load(volux_context *ctx, const char *path, const volux_volume_load_options *options,
-                               volux_volume **out) {
+/* Opens `path` and decides its format (by extension, else by its first
+ * bytes). On success the caller closes *src. */
+static volux_status open_volume(volux_context *ctx, const char *path, volux_source *src, kind *k_out) {
     if (!path || !*path) return volux_error(ctx, VOLUX_ERR_INVALID, "volume path is empty");
-    volux_source src;
-    volux_status st;
     kind k = kind_from_extension(path);
-    if (options && options->raw) {
-        volux_volume_header h;
-        if ((st = volux_raw_header_from_desc(ctx, options->raw, path, &h))) return st;
-        if ((st = volux_source_open(ctx, path, &src))) return st;
-        st = volux_volume_read_data(ctx, &h, &src, options, out);
-        volux_source_close(&src);
-        return st;
-    }
     if (k == K_RAW)
         return volux_error(ctx, VOLUX_ERR_INVALID,
                            "%s: a .raw file needs a description of its layout (dims, type, byte order)", path);
-    if ((st = volux_source_open(ctx, path, &src))) return st;
+    volux_status st = volux_source_open(ctx, path, src);
+    if (st) return st;
     if (k == K_UNKNOWN) {
         unsigned char b[16];
         size_t got;
-        if (!(st = volux_source_read(ctx, &src, 0, b, sizeof b, &got))) {
+        if (!(st = volux_source_read(ctx, src, 0, b, sizeof b, &got))) {
             k = kind_from_bytes(b, got);
             if (k == K_UNKNOWN)
                 st = volux_error(ctx, VOLUX_ERR_UNSUPPORTED,
@@ -310,9 +328,56 @@ volux_status volux_volume_load(volux_context *ctx, const char *path, const volux
                                  path);
         }
     }
-    if (!st) st = load_from(ctx, k, &src, 0, options, out);
+    if (st) {
+        volux_source_close(src);
+        return st;
+    }
+    *k_out = k;
+    return VOLUX_OK;
+}
+
+volux_status volux_volume_load(volux_context *ctx, const char *path, const volux_volume_load_options *options,
+                               volux_volume **out) {
+    if (!path || !*path) return volux_error(ctx, VOLUX_ERR_INVALID, "volume path is empty");
+    volux_source src;
+    volux_status st;
+    if (options && options->raw) {
+        volux_volume_header h;
+        if ((st = volux_raw_header_from_desc(ctx, options->raw, path, &h))) return st;
+        if ((st = volux_source_open(ctx, path, &src))) return st;
+        st = volux_volume_read_data(ctx, &h, &src, options, out);
+        volux_source_close(&src);
+        return st;
+    }
+    kind k;
+    if ((st = open_volume(ctx, path, &src, &k))) return st;
+    st = load_from(ctx, k, &src, 0, options, out);
     volux_source_close(&src);
     return st;
+}
+
+volux_status volux_volume_probe(volux_context *ctx, const char *path, const volux_volume_load_options *options,
+                                volux_volume_shape *out) {
+    volux_volume_header h;
+    volux_status st;
+    if (options && options->raw) {
+        if ((st = volux_raw_header_from_desc(ctx, options->raw, path, &h))) return st;
+        /* the file must exist and be readable like every other frame */
+        volux_source src;
+        if ((st = volux_source_open(ctx, path, &src))) return st;
+        volux_source_close(&src);
+    } else {
+        volux_source src;
+        kind k;
+        if ((st = open_volume(ctx, path, &src, &k))) return st;
+        st = parse_header(ctx, k, &src, &h);
+        volux_source_close(&src);
+        if (st) return st;
+    }
+    memcpy(out->dims, h.dims, sizeof out->dims);
+    memcpy(out->spacing, h.spacing, sizeof out->spacing);
+    out->type = h.apply_scale ? VOLUX_FLOAT32 : h.type;
+    return VOLUX_OK;
 }
 
 volux_status volux_volume_load_memory(volux_context *ctx, const void *bytes, size_t n, const char *name,

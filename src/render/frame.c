@@ -19,11 +19,22 @@
 struct volux_framebuffer {
     volux_context *ctx;
     int width, height;
-    uint32_t spp;
+    uint32_t spp;   /* complete waves: every tile has at least this many */
     double *sum;    /* 3 per pixel: Σ radiance               */
     double *sum_sq; /* 1 per pixel: Σ luminance²             */
+    /* Samples per tile: a wave cancelled half-way leaves some tiles one
+     * sample ahead; each pixel's mean divides by its own tile's count, so
+     * the image so far is consistent, and the next render fills in the
+     * missing tiles first. */
+    uint32_t *tile_spp;
+    int tiles_x, tiles;
     uint64_t generation; /* technique generation the samples came from (0: none) */
 };
+
+static uint32_t pixel_spp(const volux_framebuffer *fb, size_t p) {
+    size_t x = p % (size_t)fb->width, y = p / (size_t)fb->width;
+    return fb->tile_spp[(y / VOLUX_TILE_SIZE) * (size_t)fb->tiles_x + x / VOLUX_TILE_SIZE];
+}
 
 volux_status volux_framebuffer_create(volux_context *ctx, int width, int height, volux_framebuffer **out) {
     if (width < 1 || height < 1 || width > VOLUX_MAX_IMAGE_DIM || height > VOLUX_MAX_IMAGE_DIM)
@@ -35,9 +46,12 @@ volux_status volux_framebuffer_create(volux_context *ctx, int width, int height,
     fb->ctx = ctx;
     fb->width = width;
     fb->height = height;
+    fb->tiles_x = (width + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE;
+    fb->tiles = fb->tiles_x * ((height + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE);
     fb->sum = volux_calloc(ctx, 3 * n, sizeof(double));
     fb->sum_sq = volux_calloc(ctx, n, sizeof(double));
-    if (!fb->sum || !fb->sum_sq) {
+    fb->tile_spp = volux_calloc(ctx, (size_t)fb->tiles, sizeof(uint32_t));
+    if (!fb->sum || !fb->sum_sq || !fb->tile_spp) {
         volux_framebuffer_destroy(fb);
         return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for a %dx%d framebuffer", width, height);
     }
@@ -50,6 +64,7 @@ void volux_framebuffer_destroy(volux_framebuffer *fb) {
     size_t n = (size_t)fb->width * (size_t)fb->height;
     volux_free(fb->ctx, fb->sum, 3 * n * sizeof(double));
     volux_free(fb->ctx, fb->sum_sq, n * sizeof(double));
+    volux_free(fb->ctx, fb->tile_spp, (size_t)fb->tiles * sizeof(uint32_t));
     volux_free(fb->ctx, fb, sizeof *fb);
 }
 
@@ -57,6 +72,7 @@ void volux_framebuffer_reset(volux_framebuffer *fb) {
     size_t n = (size_t)fb->width * (size_t)fb->height;
     memset(fb->sum, 0, 3 * n * sizeof(double));
     memset(fb->sum_sq, 0, n * sizeof(double));
+    memset(fb->tile_spp, 0, (size_t)fb->tiles * sizeof(uint32_t));
     fb->spp = 0;
     fb->generation = 0;
 }
@@ -68,28 +84,41 @@ int volux_framebuffer_height(const volux_framebuffer *fb) { return fb->height; }
 volux_status volux_framebuffer_resolve(const volux_framebuffer *fb, volux_image *out) {
     volux_status st = volux_image_create(fb->ctx, fb->width, fb->height, out);
     if (st) return st;
-    size_t n = 3 * (size_t)fb->width * (size_t)fb->height;
-    double inv = fb->spp ? 1.0 / fb->spp : 0.0;
-    for (size_t i = 0; i < n; i++) out->rgb[i] = (float)(fb->sum[i] * inv);
+    size_t n = (size_t)fb->width * (size_t)fb->height;
+    for (size_t p = 0; p < n; p++) {
+        uint32_t k = pixel_spp(fb, p);
+        double inv = k ? 1.0 / k : 0.0;
+        for (int c = 0; c < 3; c++) out->rgb[3 * p + (size_t)c] = (float)(fb->sum[3 * p + (size_t)c] * inv);
+    }
     return VOLUX_OK;
 }
 
 static double luminance(const double *c) { return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]; }
 
 double volux_framebuffer_rel_error(const volux_framebuffer *fb) {
-    if (fb->spp < 2) return 0.0;
-    size_t n = (size_t)fb->width * (size_t)fb->height;
-    double k = fb->spp, var_sum = 0.0, mean_sum = 0.0;
+    if (fb->spp < VOLUX_REL_ERROR_MIN_SPP) return -1.0;
+    size_t n = (size_t)fb->width * (size_t)fb->height, noisy = 0;
+    double var_sum = 0.0, mean_sum = 0.0;
     for (size_t i = 0; i < n; i++) {
+        double k = pixel_spp(fb, i);
+        if (k < 2.0) continue; /* a tile this process did not render (volux_render_tiles) */
         double mean = luminance(&fb->sum[3 * i]) / k;
         double var = (fb->sum_sq[i] / k - mean * mean) * k / (k - 1.0); /* sample variance */
-        if (var < 0.0) var = 0.0;
+        /* A pixel whose samples agree (background seen straight, empty
+         * space) has nothing left to converge: counting its value in the
+         * mean would dilute the error of the pixels that do. "Agree" is
+         * one 8-bit level: a per-sample standard deviation under 1/256 of
+         * the pixel's value, invisible even at 1 spp. It also absorbs the
+         * rounding of the sums and the tiny spread of an environment map
+         * seen through a jittered pixel, which is not noise anyone sees. */
+        if (!(var > mean * mean * (1.0 / (256.0 * 256.0)))) continue;
         var_sum += var / k; /* variance of the pixel mean */
         mean_sum += mean;
+        noisy++;
     }
-    if (mean_sum <= 0.0) return 0.0;
-    /* RMS standard error over pixels relative to the mean pixel value. */
-    return sqrt(var_sum / (double)n) / (mean_sum / (double)n);
+    if (noisy == 0 || mean_sum <= 0.0) return 0.0;
+    /* RMS standard error over the noisy pixels relative to their mean value. */
+    return sqrt(var_sum / (double)noisy) / (mean_sum / (double)noisy);
 }
 
 typedef struct wave_job {
@@ -105,9 +134,8 @@ typedef struct wave_job {
     int *progress_busy;
     int *cancelled;
     double progress_base, progress_span;
-    float *wave;              /* 3 floats per pixel: this wave's samples   */
     volux_deadline *deadline; /* NULL: no time budget                      */
-    int first_wave;           /* fb has no samples: an overrun is kept     */
+    int *truncated;           /* set when a tile's first sample was cut short */
 } wave_job;
 
 int volux_tile_expired(const volux_tile *t) {
@@ -121,36 +149,52 @@ int volux_tile_expired(const volux_tile *t) {
     return 1;
 }
 
-/* The pixel rectangle of tile `index` as a volux_tile. */
-static void wave_tile(const volux_framebuffer *fb, int tiles_x, int64_t index, volux_tile *tile) {
-    tile->x0 = (int)(index % tiles_x) * VOLUX_TILE_SIZE;
-    tile->y0 = (int)(index / tiles_x) * VOLUX_TILE_SIZE;
-    tile->w = fb->width - tile->x0 < VOLUX_TILE_SIZE ? fb->width - tile->x0 : VOLUX_TILE_SIZE;
-    tile->h = fb->height - tile->y0 < VOLUX_TILE_SIZE ? fb->height - tile->y0 : VOLUX_TILE_SIZE;
-}
+static int deadline_expired(const volux_deadline *d) { return d && __atomic_load_n(&d->expired, __ATOMIC_RELAXED); }
 
 static void render_one_tile(void *user, int64_t slot, int thread) {
     (void)thread;
     wave_job *job = user;
     if (__atomic_load_n(job->cancelled, __ATOMIC_RELAXED)) return;
-    /* A wave that overran the budget is dropped (unless it is the first),
-     * so its remaining tiles need not be rendered. */
-    if (job->deadline && !job->first_wave && __atomic_load_n(&job->deadline->expired, __ATOMIC_RELAXED)) return;
     volux_framebuffer *fb = job->fb;
     int64_t index = job->tile_first + slot;
+    /* Already has this sample (from a wave that was cancelled or cut short
+     * half-way). */
+    if (fb->tile_spp[index] > job->sample_index) return;
+    /* After the time budget ran out only tiles without any sample are
+     * still rendered (their paths end at once: the image then covers the
+     * whole frame, darker where the budget ran out). */
+    if (fb->tile_spp[index] > 0 && deadline_expired(job->deadline)) return;
     volux_tile tile;
-    wave_tile(fb, job->tiles_x, index, &tile);
+    tile.x0 = (int)(index % job->tiles_x) * VOLUX_TILE_SIZE;
+    tile.y0 = (int)(index / job->tiles_x) * VOLUX_TILE_SIZE;
+    tile.w = fb->width - tile.x0 < VOLUX_TILE_SIZE ? fb->width - tile.x0 : VOLUX_TILE_SIZE;
+    tile.h = fb->height - tile.y0 < VOLUX_TILE_SIZE ? fb->height - tile.y0 : VOLUX_TILE_SIZE;
     tile.sample_index = job->sample_index;
     tile.deadline = job->deadline;
     float rgb[VOLUX_TILE_SIZE * VOLUX_TILE_SIZE * 3];
     memset(rgb, 0, sizeof rgb);
     volux_tile_stats *stats = &job->stats[slot];
     job->cls->render_tile(job->state, job->scene, &tile, rgb, stats);
-    /* Kept apart until the whole wave is done: a wave cut short by the
-     * time budget or cancelled leaves fb as it was. */
+    /* A pass is accumulated only when it finished: paths see the deadline
+     * (volux_tile_expired, which sets the flag) and end early, so once it
+     * has expired this tile's pass may be cut short and biased dark. It is
+     * dropped — the tile keeps its count and sums, consistent — unless it
+     * is the tile's first sample, kept (and reported) so there is an image. */
+    if (deadline_expired(job->deadline)) {
+        if (fb->tile_spp[index] > 0) return;
+        __atomic_store_n(job->truncated, 1, __ATOMIC_RELAXED);
+    }
     for (int y = 0; y < tile.h; y++)
-        memcpy(&job->wave[3 * ((size_t)(tile.y0 + y) * (size_t)fb->width + (size_t)tile.x0)], &rgb[3 * y * tile.w],
-               3 * sizeof(float) * (size_t)tile.w);
+        for (int x = 0; x < tile.w; x++) {
+            size_t p = (size_t)(tile.y0 + y) * (size_t)fb->width + (size_t)(tile.x0 + x);
+            const float *c = &rgb[3 * (y * tile.w + x)];
+            double lum = 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+            fb->sum[3 * p + 0] += c[0];
+            fb->sum[3 * p + 1] += c[1];
+            fb->sum[3 * p + 2] += c[2];
+            fb->sum_sq[p] += lum * lum;
+        }
+    fb->tile_spp[index] = job->sample_index + 1;
     int done = __atomic_add_fetch(job->done_tiles, 1, __ATOMIC_RELAXED);
     /* Progress from whichever thread gets the flag; never concurrently. */
     if (job->ctx->progress && !__atomic_exchange_n(job->progress_busy, 1, __ATOMIC_ACQUIRE)) {
@@ -196,26 +240,19 @@ static volux_status render_waves(volux_technique *t, const volux_scene *scene, v
     const volux_render_settings *rs = volux_scene_render(scene);
     const volux_technique_class *cls = volux_technique_class_of(t);
     int tiles_x = (fb->width + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE;
-    size_t pixels = (size_t)fb->width * (size_t)fb->height;
     volux_tile_stats *stats = volux_calloc(ctx, (size_t)tile_count, sizeof *stats);
-    float *wave = volux_malloc(ctx, 3 * pixels * sizeof(float));
-    if (!stats || !wave) {
-        volux_free(ctx, stats, (size_t)tile_count * sizeof *stats);
-        volux_free(ctx, wave, 3 * pixels * sizeof(float));
-        return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for a %dx%d sample wave", fb->width, fb->height);
-    }
+    if (!stats) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for tile statistics");
     int threads = rs->threads > 0 ? rs->threads : volux_context_threads(ctx);
     int done = 0, busy = 0, cancelled = 0, truncated = 0;
     double start = now_ms(), cpu_start = clock_ms(CLOCK_PROCESS_CPUTIME_ID);
     volux_deadline deadline = {start + lim.time_ms, 0};
-    wave_job job = {cls,   volux_technique_state(t), scene, fb,         ctx, tiles_x, tile_first, tile_count, 0,
-                    stats, &done,                    &busy, &cancelled, 0.0, 1.0, wave,
-                    lim.time_ms > 0.0 ? &deadline : NULL, 0};
+    wave_job job = {cls,   volux_technique_state(t), scene,      fb,  ctx, tiles_x, tile_first, tile_count, 0,
+                    stats, &done,                    &busy,      &cancelled, 0.0, 1.0,
+                    lim.time_ms > 0.0 ? &deadline : NULL,        &truncated};
     volux_status st = VOLUX_OK;
     uint32_t start_spp = fb->spp;
     uint64_t samples = 0, vertices = 0;
     while (fb->spp < lim.spp) {
-        job.first_wave = fb->spp == 0;
         job.sample_index = fb->spp;
         done = 0;
         uint32_t waves = lim.spp - start_spp;
@@ -231,25 +268,25 @@ static volux_status render_waves(volux_technique *t, const volux_scene *scene, v
             samples += stats[i].samples;
             vertices += stats[i].vertices;
         }
-        if (deadline.expired && !job.first_wave) break; /* an incomplete wave: dropped */
-        truncated = deadline.expired;
-        for (int i = tile_first; i < tile_first + tile_count; i++) {
-            volux_tile tile;
-            wave_tile(fb, tiles_x, i, &tile);
-            for (int y = tile.y0; y < tile.y0 + tile.h; y++)
-                for (int x = tile.x0; x < tile.x0 + tile.w; x++) {
-                    size_t p = (size_t)y * (size_t)fb->width + (size_t)x;
-                    const float *c = &wave[3 * p];
-                    double lum = 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
-                    fb->sum[3 * p + 0] += c[0];
-                    fb->sum[3 * p + 1] += c[1];
-                    fb->sum[3 * p + 2] += c[2];
-                    fb->sum_sq[p] += lum * lum;
-                }
-        }
+        /* The wave is complete when every tile has its sample; a wave the
+         * budget cut short leaves some tiles a sample ahead (as a cancel
+         * does) and ends the render. */
+        int complete = 1;
+        for (int i = tile_first; i < tile_first + tile_count; i++)
+            if (fb->tile_spp[i] <= job.sample_index) complete = 0;
+        if (!complete) break;
         fb->spp++;
         if (lim.time_ms > 0.0 && now_ms() - start >= lim.time_ms) break;
-        if (lim.target_error > 0.0 && fb->spp >= 4 && volux_framebuffer_rel_error(fb) <= lim.target_error) break;
+        if (lim.target_error > 0.0 && fb->spp >= VOLUX_REL_ERROR_MIN_SPP) {
+            double e = volux_framebuffer_rel_error(fb);
+            if (e >= 0.0 && e <= lim.target_error) break;
+        }
+        /* A cancel asked for between waves (nothing left to skip in the
+         * wave that just ended) still stops here. */
+        if (ctx->progress && volux_progress(ctx, "render", fmin(0.999, waves ? (double)(fb->spp - start_spp) / waves : 0.0))) {
+            st = volux_error(ctx, VOLUX_ERR_CANCELLED, "render cancelled");
+            break;
+        }
     }
     volux_progress(ctx, "render", 1.0);
     if (truncated)
@@ -258,7 +295,6 @@ static volux_status render_waves(volux_technique *t, const volux_scene *scene, v
                    "(the image is darker than it should be)",
                    lim.time_ms);
     volux_free(ctx, stats, (size_t)tile_count * sizeof *stats);
-    volux_free(ctx, wave, 3 * pixels * sizeof(float));
     if (report) {
         report->truncated = truncated;
         report->spp = fb->spp;
@@ -351,6 +387,7 @@ volux_status volux_render_tiles(volux_technique *t, const volux_scene *scene, vo
             memset(&fb->sum[3 * p], 0, 3 * (size_t)w * sizeof(double));
             memset(&fb->sum_sq[p], 0, (size_t)w * sizeof(double));
         }
+        fb->tile_spp[i] = 0;
     }
     fb->spp = 0;
     volux_render_limits lim = {spp ? spp : 1, 0.0, 0.0};
@@ -370,5 +407,7 @@ size_t volux_framebuffer_read_tiles(const volux_framebuffer *fb, int first, int 
 size_t volux_framebuffer_write_tiles(volux_framebuffer *fb, int first, int count, const double *in, uint32_t spp) {
     if (!tile_range_ok(fb, first, count)) return 0;
     fb->spp = spp;
+    /* Those tiles now hold spp samples (another process rendered them). */
+    for (int i = first; i < first + count; i++) fb->tile_spp[i] = spp;
     return copy_tiles(fb, first, count, (double *)in, 0);
 }

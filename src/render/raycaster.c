@@ -1,5 +1,6 @@
 /* render/raycaster.c — see raycaster.h. */
 #include <math.h>
+#include <string.h>
 
 #include "core/context_internal.h"
 #include "raycaster.h"
@@ -33,7 +34,7 @@ volux_status volux_raycaster_update(volux_raycaster *rc, const volux_scene *scen
         rc->seed = rs->seed;
         rc->max_depth = rs->max_depth;
     }
-    if (w & (VOLUX_CHANGE_COLOR | VOLUX_CHANGE_PHASE | VOLUX_CHANGE_VOLUME)) {
+    if (w & (VOLUX_CHANGE_COLOR | VOLUX_CHANGE_ALBEDO | VOLUX_CHANGE_PHASE | VOLUX_CHANGE_VOLUME)) {
         const volux_transfer_desc *tf = volux_scene_transfer(scene);
         rc->albedo = tf->albedo;
         rc->g = tf->anisotropy;
@@ -41,6 +42,21 @@ volux_status volux_raycaster_update(volux_raycaster *rc, const volux_scene *scen
     }
     if (w & VOLUX_CHANGE_LIGHTS) volux_light_list_prepare(scene, &rc->lights);
     return VOLUX_OK;
+}
+
+void volux_raycaster_warn_unused_lights(volux_raycaster *rc, unsigned types, const char *why) {
+    const volux_light_list *ls = &rc->lights;
+    uint64_t now[(VOLUX_MAX_LIGHTS + 63) / 64] = {0};
+    for (int i = 0; i < ls->n_all; i++) {
+        const volux_prepared_light *l = &ls->all[i];
+        if (!(types & (1u << l->type))) continue;
+        uint64_t bit = 1ull << (l->slot % 64);
+        now[l->slot / 64] |= bit;
+        if (!(rc->warned_unused[l->slot / 64] & bit))
+            volux_message(rc->ctx, VOLUX_MESSAGE_WARNING, "%s: ignores lights[%d] (%s): %s", rc->cls->info.name,
+                          l->slot, volux_light_type_name(l->type), why);
+    }
+    memcpy(rc->warned_unused, now, sizeof now);
 }
 
 void volux_raycaster_release(volux_raycaster *rc) {

@@ -57,6 +57,7 @@ typedef struct volux_raycaster {
     float albedo, g;               /* scattering albedo, HG anisotropy         */
     volux_material material;
     volux_light_list lights;
+    uint64_t warned_unused[(VOLUX_MAX_LIGHTS + 63) / 64]; /* slots already reported as ignored */
 } volux_raycaster;
 
 /* Parameters most ray casters share (same names, ranges and meaning). */
@@ -85,6 +86,13 @@ static inline float volux_raycaster_gradient_ref(const volux_raycaster *rc, doub
 /* Brings the base up to date for change set c (see the table above). */
 volux_status volux_raycaster_update(volux_raycaster *rc, const volux_scene *scene, const volux_change_set *c);
 void volux_raycaster_release(volux_raycaster *rc);
+/* Tells the user (a context warning, see volux_message_fn) about every
+ * enabled light of a type in `types` (bits 1u << volux_light_type) that the
+ * technique renders without, and why. Call it when the lights changed
+ * (VOLUX_CHANGE_LIGHTS): the image then differs from the scene's lighting
+ * by design, never silently. A light is reported once while it stays
+ * ignored (an edit of another light does not repeat the warning). */
+void volux_raycaster_warn_unused_lights(volux_raycaster *rc, unsigned types, const char *why);
 size_t volux_raycaster_memory_bytes(const volux_raycaster *rc);
 
 /* Integrates one clipped ray: returns the radiance gathered inside the

@@ -2,6 +2,7 @@
  * by the class's state size, stamp-based update, parameter lookup. Names
  * are resolved one layer up (techniques/registry.c). */
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "core/context_internal.h"
@@ -32,11 +33,51 @@ static const volux_param_info *find_param(const volux_technique_info *info, cons
     return NULL;
 }
 
+/* Levenshtein distance (capped at 99 for long names), for "did you mean". */
+static int edit_distance(const char *a, const char *b) {
+    size_t n = strlen(a), m = strlen(b);
+    if (n > 63 || m > 63) return 99;
+    int row[64];
+    for (size_t j = 0; j <= m; j++) row[j] = (int)j;
+    for (size_t i = 1; i <= n; i++) {
+        int diag = row[0];
+        row[0] = (int)i;
+        for (size_t j = 1; j <= m; j++) {
+            int above = row[j], best = diag + (a[i - 1] != b[j - 1]);
+            if (above + 1 < best) best = above + 1;
+            if (row[j - 1] + 1 < best) best = row[j - 1] + 1;
+            row[j] = best;
+            diag = above;
+        }
+    }
+    return row[m];
+}
+
+/* The message for a parameter name the technique does not have: the
+ * nearest name when one is close (a typo), and every valid name. */
+static volux_status unknown_param(volux_context *ctx, const volux_technique_info *info, const char *name) {
+    char list[1024] = "", guess[96] = "";
+    const char *best = NULL;
+    int best_d = 99, len = (int)strlen(name);
+    for (const volux_param_info *p = info->params; p && p->name; p++) {
+        size_t w = strlen(list);
+        snprintf(list + w, sizeof list - w, "%s%s", w ? ", " : "", p->name);
+        int d = edit_distance(name, p->name);
+        if (d < best_d) best_d = d, best = p->name;
+    }
+    if (best && best_d <= (len < 6 ? 2 : len / 3 + 1)) snprintf(guess, sizeof guess, "did you mean '%s'? ", best);
+    if (!*list)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.%s.%s: unknown parameter (%s has none)", info->name,
+                           name, info->name);
+    return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.%s.%s: unknown parameter (%sparameters of %s: %s)",
+                       info->name, name, guess, info->name, list);
+}
+
 volux_status volux_technique_check_param(volux_context *ctx, const volux_technique_info *info, const char *name,
                                          double number, const char *string) {
     const char *tech = info->name;
     const volux_param_info *p = find_param(info, name);
-    if (!p) return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.%s.%s: unknown parameter", tech, name);
+    if (!p) return unknown_param(ctx, info, name);
     if ((p->kind == VOLUX_PARAM_STRING) != (string != NULL))
         return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.%s.%s: expected a %s", tech, name,
                            p->kind == VOLUX_PARAM_STRING ? "string" : "number");

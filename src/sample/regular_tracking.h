@@ -13,7 +13,8 @@
  *     under ulp(t)/2, which at t ≈ 100 is σ̄ ≳ 1.3e5).
  *
  * When either happens (volux_track_needs_regular before an interval, or a
- * step that does not move t), the rest of the interval is integrated by
+ * step that does not move t while the mean step is below an ulp of t:
+ * volux_track_stalled), the rest of the interval is integrated by
  * *regular tracking*: fixed sub-steps of at most 1/16 of the smallest voxel
  * spacing (and at least VOLUX_TRACK_MIN_ULPS ulps of t, so every step
  * advances), σt taken at each sub-step's midpoint, optical depth in closed
@@ -48,6 +49,16 @@
  * more than VOLUX_TRACK_MAX_EVENTS steps on average. */
 static inline int volux_track_needs_regular(float sigma_max, float t0, float t1) {
     return sigma_max * (t1 - t0) > VOLUX_TRACK_MAX_EVENTS;
+}
+
+/* 1 if a tentative step that did not move t (tn == t) means the tracker is
+ * stalled: the mean step 1/σ̄ is below one ulp of t, so most steps cannot
+ * move it. A step that did not move t with a larger mean step is only a
+ * short draw (u near 0): the next one moves t, and the tracker goes on
+ * exactly as before (no random number changes for ordinary media). */
+static inline int volux_track_stalled(float t, float inv_sigma_max) {
+    float at = fabsf(t);
+    return !(inv_sigma_max >= nextafterf(at, INFINITY) - at);
 }
 
 /* Regular tracking over [t0, t1]: the sub-steps. */

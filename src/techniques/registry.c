@@ -15,11 +15,13 @@ extern const volux_technique_class volux_ambient_class;
 extern const volux_technique_class volux_lightvol_class;
 extern const volux_technique_class volux_sh_class;
 extern const volux_technique_class volux_manylights_class;
+extern const volux_technique_class volux_guided_class;
 
 static const volux_technique_class *const classes[] = {
     &volux_ea_class,     &volux_shaded_class,  &volux_pathtrace_class, &volux_single_class,
     &volux_ao_class,     &volux_ambient_class, &volux_lightvol_class,  &volux_sh_class,
     &volux_manylights_class,
+    &volux_guided_class,
 };
 
 const volux_technique_class *volux_technique_class_find(const char *name) {

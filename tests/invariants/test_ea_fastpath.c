@@ -1,5 +1,6 @@
-/* The SIMD kernel (dvr_avx2.c) of `ea` and `shaded` against the scalar
- * reference (dvr.c):
+/* The SIMD kernel (dvr_simd_impl.h: 16 lanes in dvr_avx512.c, 8 in
+ * dvr_avx2.c) of `ea` and `shaded` against the scalar reference (dvr.c),
+ * and the two widths against each other (bit for bit):
  * same image within a stated float tolerance on every storage type, with
  * and without pre-integration, skipping and early termination, for
  * perspective and orthographic cameras; thread-count independence;
@@ -240,6 +241,45 @@ static void test_simd_skipping_is_exact(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* The 16-lane AVX-512 packets (dvr_avx512.c) against the 8-lane AVX2 ones
+ * (dvr_avx2.c): the same code over two lane vocabularies whose operations
+ * are the same IEEE operations lane by lane, so every pixel must have the
+ * same bits, on every storage type and setting, ea and shaded. */
+static void test_widths_are_bit_identical(void **state) {
+    (void)state;
+    if (!simd_or_skip()) skip();
+    if (!volux_dvr_avx512_available()) {
+        fprintf(stderr, "(no AVX-512 on this CPU: only the 8-lane kernel runs, nothing to compare)\n");
+        skip();
+    }
+    static const char *techs[] = {"ea", "shaded"};
+    volux_context *ctx = tu_context(2);
+    int compared = 0;
+    for (size_t t = 0; t < sizeof storages / sizeof storages[0]; t++) {
+        const char *file = write_volume(&storages[t]);
+        for (int tech = 0; tech < 2; tech++)
+            for (int ortho = 0; ortho < 2; ortho++)
+                for (int preint = 0; preint < 2; preint++)
+                    for (int skip_empty = 0; skip_empty < 2; skip_empty++) {
+                        double early = skip_empty ? 0.002 : 0.0;
+                        volux_scene *s =
+                            make_scene_t(ctx, techs[tech], &storages[t], file, ortho, preint, skip_empty, early);
+                        volux_image a = render_kernel_t(ctx, s, techs[tech], "simd");
+                        volux_image b = render_kernel_t(ctx, s, techs[tech], "avx2");
+                        if (memcmp(a.rgb, b.rgb, sizeof(float) * 3 * W * H))
+                            fail_msg("%s %s %s preint=%d skip=%d: AVX-512 and AVX2 images differ (max %g)",
+                                     techs[tech], storages[t].type, ortho ? "ortho" : "persp", preint, skip_empty,
+                                     tu_max_abs_diff(&a, &b));
+                        compared++;
+                        volux_image_free(ctx, &a);
+                        volux_image_free(ctx, &b);
+                        volux_scene_destroy(s);
+                    }
+    }
+    assert_int_equal(compared, 4 * 2 * 2 * 2 * 2);
+    volux_context_destroy(ctx);
+}
+
 static void test_kernel_parameter_is_validated(void **state) {
     (void)state;
     volux_context *ctx = tu_context(1);
@@ -257,6 +297,16 @@ static void test_kernel_parameter_is_validated(void **state) {
     assert_int_equal(volux_scene_set_param(s, "ea", "kernel", 0, volux_dvr_simd_available() ? "simd" : "auto"),
                      VOLUX_OK);
     assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    /* "avx2" (the 8-lane packets) exists where the SIMD kernel does, and is
+     * refused with the CPU named where it does not */
+    assert_int_equal(volux_scene_set_param(s, "ea", "kernel", 0, "avx2"), VOLUX_OK);
+    volux_context_clear_error(ctx);
+    if (volux_dvr_simd_available()) {
+        assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    } else {
+        assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_ERR_UNSUPPORTED);
+        assert_non_null(strstr(volux_context_error(ctx), "AVX2"));
+    }
     volux_technique_destroy(t);
     volux_scene_destroy(s);
     volux_context_destroy(ctx);
@@ -269,6 +319,7 @@ int main(void) {
         cmocka_unit_test(test_shaded_with_point_light_uses_scalar),
         cmocka_unit_test(test_simd_is_thread_count_independent),
         cmocka_unit_test(test_simd_skipping_is_exact),
+        cmocka_unit_test(test_widths_are_bit_identical),
         cmocka_unit_test(test_kernel_parameter_is_validated),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

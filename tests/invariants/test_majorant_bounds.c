@@ -18,7 +18,7 @@
 #include "core/vecmath.h"
 #include "pt_util.h"
 #include "sample/march.h"
-#include "techniques/pathtrace/medium.h"
+#include "sample/medium.h"
 
 static volux_volume *random_volume(volux_context *ctx, volux_scalar_type type, const int dims[3], uint64_t seed) {
     size_t n = (size_t)dims[0] * dims[1] * dims[2];
@@ -90,7 +90,7 @@ static void check_volume(volux_context *ctx, volux_volume *v, uint64_t seed) {
                                 float a0 = (float)(8 * cc[a]), a1 = fminf((float)(8 * cc[a] + 8), (float)(v->dims[a] - 1));
                                 q[a] = a0 + (a1 - a0) * volux_rng_float(&rng);
                             }
-                            float sigma = pt_medium_eval(v, &lut, pre, v3(q[0], q[1], q[2]), NULL);
+                            float sigma = volux_medium_eval(v, &lut, pre, v3(q[0], q[1], q[2]), NULL);
                             if (sigma > m * (1.0f + 1e-5f) + 1e-7f)
                                 fail_msg("cell (%d,%d,%d) %s: sigma %.7g > majorant %.7g at (%g,%g,%g)", cx, cy, cz,
                                          pre ? "pre" : "post", sigma, m, q[0], q[1], q[2]);
@@ -121,7 +121,7 @@ static void check_volume(volux_context *ctx, volux_volume *v, uint64_t seed) {
                     covered = iv.t1;
                     for (int s = 0; s < 8; s++) {
                         float t = iv.t0 + (iv.t1 - iv.t0) * volux_rng_float(&rng);
-                        float sigma = pt_medium_eval(v, &lut, pre, v3_madd(ray.q0, ray.dq, t), NULL);
+                        float sigma = volux_medium_eval(v, &lut, pre, v3_madd(ray.q0, ray.dq, t), NULL);
                         if (sigma > iv.sigma_max * (1.0f + 1e-5f) + 1e-7f)
                             fail_msg("ray %d %s: sigma %.7g > interval majorant %.7g at t %.7g in [%.7g, %.7g]", r,
                                      pre ? "pre" : "post", sigma, iv.sigma_max, t, iv.t0, iv.t1);

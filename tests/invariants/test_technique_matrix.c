@@ -63,7 +63,8 @@ static const char *scene_json =
     "                                \"table_paths\": 64, \"table_albedo\": 0.8},"
     "                  \"lightvol\": {\"forward_scattering\": 0.5},"
     "                  \"manylights\": {\"vl_count\": 24, \"avsm_resolution\": 3, \"avsm_nodes\": 4,"
-    "                                   \"samples\": 2, \"update_budget\": 7}}}";
+    "                                   \"samples\": 2, \"update_budget\": 7},"
+    "                  \"guided\": {\"env_resolution\": 16}}}";
 
 static volux_scene *load(volux_context *ctx, const char *technique) {
     char override[96];

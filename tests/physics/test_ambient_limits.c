@@ -45,12 +45,15 @@ static void test_small_radius_tends_to_single_scattering(void **state) {
     assert_int_equal(volux_image_compare(ctx, &a, &b, &err), VOLUX_OK);
     print_message("ambient (r = 0.5 voxel) vs single: rel_mse %.4g\n", err.rel_mse);
     assert_true(err.rel_mse < 0.01);
-    /* A larger radius scatters more light around: the images part. */
+    double small = err.rel_mse;
+    /* A larger radius scatters more light around: the images part (by
+     * 0.033 with the adaptive x_o, 50x the small radius's 0.00066; by 0.05
+     * with the paper's constant one, which over-counts dense parts). */
     assert_int_equal(volux_scene_set_param(s, "ambient", "radius", 6, NULL), VOLUX_OK);
     volux_image c = render(ctx, s, "ambient");
     assert_int_equal(volux_image_compare(ctx, &c, &b, &err), VOLUX_OK);
     print_message("ambient (r = 6 voxels) vs single: rel_mse %.4g\n", err.rel_mse);
-    assert_true(err.rel_mse > 0.01);
+    assert_true(err.rel_mse > 5.0 * small && err.rel_mse > 0.003);
     volux_image_free(ctx, &a);
     volux_image_free(ctx, &b);
     volux_image_free(ctx, &c);

@@ -63,7 +63,7 @@ static void test_black_medium_is_uncollided_term(void **state) {
     (void)state;
     volux_context *ctx = tu_context(2);
     volux_ambient_table_desc d = small_desc();
-    d.albedo = 0.0;
+    d.albedo[0] = 0.0;
     volux_ambient_table t = build(ctx, &d);
     for (int ig = 0; ig < d.n_g; ig++)
         for (int is = 0; is < d.n_sigma; is++)
@@ -99,7 +99,7 @@ static void test_energy_bounds(void **state) {
     volux_ambient_table_desc d = small_desc();
     d.n_theta = 257; /* fine enough for the g = 0.9 lobe quadrature */
     d.n_sigma = 5;
-    d.albedo = 1.0;  /* the hardest case: nothing absorbed */
+    d.albedo[0] = 1.0;  /* the hardest case: nothing absorbed */
     d.paths = 6000;  /* g = 0.9 near σ̃t = 1 sits at 0.997: keep the noise below the 3 % margin */
     volux_ambient_table t = build(ctx, &d);
     for (int ig = 0; ig < d.n_g; ig++) {
@@ -137,7 +137,7 @@ static void test_fast_estimator_matches_paper_estimator(void **state) {
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
         int it = cases[c][0], is = cases[c][1], ig = cases[c][2];
         double se_ref;
-        double ref = volux_ambient_reference_entry(theta_at(&d, it), sigma_at(&d, is), g_at(&d, ig), d.albedo, 40000,
+        double ref = volux_ambient_reference_entry(theta_at(&d, it), sigma_at(&d, is), g_at(&d, ig), d.albedo[0], 40000,
                                                    7, &se_ref);
         double v = at(&t, it, is, ig), se = v * t.rel_error[volux_ambient_table_index(&d, it, is, ig)];
         double tol = 4.5 * sqrt(se * se + se_ref * se_ref) + 1e-9;
@@ -197,7 +197,7 @@ static void test_file_roundtrip_and_corruption(void **state) {
     assert_int_equal(volux_ambient_table_load(ctx, path, &u), VOLUX_OK);
     assert_memory_equal(t.data, u.data, n * sizeof(float));
     assert_int_equal(u.desc.n_theta, d.n_theta);
-    assert_true(u.desc.albedo == d.albedo && u.desc.paths == d.paths && u.desc.sigma_max == d.sigma_max);
+    assert_true(u.desc.albedo[0] == d.albedo[0] && u.desc.n_albedo == 1 && u.desc.paths == d.paths && u.desc.sigma_max == d.sigma_max);
     volux_ambient_table_free(ctx, &u);
     /* A flipped data byte fails the checksum. */
     flip_byte(path, 128 + 40);
@@ -240,7 +240,7 @@ static void test_file_layout_is_version_1(void **state) {
     (void)state;
     volux_context *ctx = tu_context(1);
     volux_ambient_table_desc d = small_desc();
-    d.n_theta = 5, d.n_sigma = 3, d.n_g = 2, d.paths = 7, d.seed = 0x1234567890ull, d.albedo = 0.625;
+    d.n_theta = 5, d.n_sigma = 3, d.n_g = 2, d.paths = 7, d.seed = 0x1234567890ull, d.albedo[0] = 0.625;
     d.g_min = -0.5, d.g_max = 0.25;
     volux_ambient_table t = build(ctx, &d);
     const char *path = tu_temp_path("layout.vxat");
@@ -308,7 +308,7 @@ static void test_cache_builds_once(void **state) {
     volux_ambient_table_free(ctx, &a);
     volux_ambient_table_free(ctx, &b);
     /* Another albedo is another table. */
-    d.albedo = 0.5;
+    d.albedo[0] = 0.5;
     a = get(ctx, &d, 1);
     volux_ambient_table_free(ctx, &a);
     volux_context_destroy(ctx);
@@ -456,7 +456,7 @@ static void test_public_write_and_inspect(void **state) {
     assert_true(r.build_ms == w.build_ms && r.has_noise == 1);
     assert_memory_equal(&r.noise, &w.noise, sizeof nz);
     /* bad input: named, and nothing written */
-    d.albedo = -1;
+    d.albedo[0] = -1;
     const char *bad = tu_temp_path("bad.vxat");
     assert_int_equal(volux_ambient_table_write(ctx, &d, bad, NULL), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "albedo"));
@@ -482,7 +482,7 @@ static void test_bad_descriptions_name_the_field(void **state) {
     assert_int_equal(volux_ambient_table_build(ctx, &d, &t), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "n_theta"));
     d = small_desc();
-    d.albedo = 1.5;
+    d.albedo[0] = 1.5;
     volux_context_clear_error(ctx);
     assert_int_equal(volux_ambient_table_build(ctx, &d, &t), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "albedo"));
@@ -495,6 +495,85 @@ static void test_bad_descriptions_name_the_field(void **state) {
 }
 
 /* The CLI builds a table file that loads back. */
+/* The built-in table: compiled in, read without a build even with the disk
+ * cache off, described exactly as volux_ambient_table_desc_builtin says,
+ * and physical: its albedo-0 block is the analytic uncollided term (the
+ * estimator scores it exactly), its σ̃t = 0 column p_g for every albedo,
+ * and more albedo never gives less light (monotone within the noise). */
+static void test_builtin_table(void **state) {
+    (void)state;
+    volux_context_desc cd = {0};
+    cd.threads = 2;
+    cd.cache_dir = ""; /* no disk cache: only the built-in bytes can avoid a build */
+    volux_context *ctx = NULL;
+    assert_int_equal(volux_context_create(&cd, &ctx), VOLUX_OK);
+    size_t size = 0;
+    assert_non_null(volux_ambient_builtin_table(&size));
+    assert_true(size > 128);
+    volux_ambient_table_desc d;
+    volux_ambient_table_desc_builtin(&d);
+    assert_int_equal(d.n_albedo, 12);
+    volux_ambient_table t = get(ctx, &d, 0);
+    assert_true(volux_ambient_table_desc_equal(&t.desc, &d));
+    for (int ig = 0; ig < d.n_g; ig++)
+        for (int is = 0; is < d.n_sigma; is += 7)
+            for (int it = 0; it < d.n_theta; it += 5) {
+                double want = volux_ambient_uncollided(theta_at(&d, it), sigma_at(&d, is), g_at(&d, ig));
+                assert_near(t.data[volux_ambient_table_index4(&d, it, is, ig, 0)], want, 1e-5 * want + 1e-30);
+                for (int ia = 0; ia < d.n_albedo; ia++) {
+                    double p = scatter_hg_d(g_at(&d, ig), cos(theta_at(&d, it)));
+                    assert_near(t.data[volux_ambient_table_index4(&d, it, 0, ig, ia)], p, 1e-5 * p);
+                }
+            }
+    /* Energy over θ grows with the albedo (g = 0 column, σ̃t = 10). */
+    int ig0 = (d.n_g - 1) / 2, is10 = (d.n_sigma - 1) / 2;
+    double prev = -1.0;
+    for (int ia = 0; ia < d.n_albedo; ia++) {
+        double e = 0.0;
+        for (int it = 0; it < d.n_theta; it++)
+            e += t.data[volux_ambient_table_index4(&d, it, is10, ig0, ia)] * sin(theta_at(&d, it));
+        assert_true(e > prev);
+        prev = e;
+    }
+    /* The lookup is linear in the albedo between nodes. */
+    double a = volux_ambient_table_eval(&t, 1.0, 5.0, 0.3, 0.9), b = volux_ambient_table_eval(&t, 1.0, 5.0, 0.3, 0.95);
+    assert_near(volux_ambient_table_eval(&t, 1.0, 5.0, 0.3, 0.925), 0.5 * (a + b), 1e-9 * (a + b));
+    volux_ambient_table_free(ctx, &t);
+    /* The technique's default parameters describe it: no build, no note. */
+    volux_context_destroy(ctx);
+}
+
+/* A table that has to be built says so (a note through the context's
+ * message callback naming its size and where it is kept). */
+typedef struct notes {
+    int n;
+    char last[512];
+} notes;
+static void note(void *user, volux_message_level level, const char *text) {
+    notes *n = user;
+    assert_int_equal(level, VOLUX_MESSAGE_NOTE);
+    n->n++;
+    snprintf(n->last, sizeof n->last, "%s", text);
+}
+static void test_a_build_is_announced(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(2);
+    notes seen = {0, ""};
+    volux_context_set_message(ctx, note, &seen);
+    volux_ambient_table_desc d = small_desc();
+    d.paths = 16;
+    d.seed = 77;
+    volux_ambient_table t = get(ctx, &d, 1);
+    assert_int_equal(seen.n, 2); /* "building ..." and "built in ..., kept in ..." */
+    assert_non_null(strstr(seen.last, "kept in"));
+    assert_non_null(strstr(seen.last, ".vxat"));
+    volux_ambient_table_free(ctx, &t);
+    t = get(ctx, &d, 0); /* from the cache: silent */
+    assert_int_equal(seen.n, 2);
+    volux_ambient_table_free(ctx, &t);
+    volux_context_destroy(ctx);
+}
+
 static void test_cli_builds_a_table(void **state) {
     (void)state;
     const char *path = tu_temp_path("cli.vxat"), *err;
@@ -505,7 +584,7 @@ static void test_cli_builds_a_table(void **state) {
     volux_ambient_table t;
     assert_int_equal(volux_ambient_table_load(ctx, path, &t), VOLUX_OK);
     assert_int_equal(t.desc.n_theta, 8);
-    assert_true(t.desc.albedo == 0.7);
+    assert_true(t.desc.albedo[0] == 0.7 && t.desc.n_albedo == 1);
     volux_ambient_table_free(ctx, &t);
     volux_context_destroy(ctx);
     assert_int_equal(tu_run_cli("ambient-table -o x.vxat --albedo 2", &err), 2);
@@ -530,6 +609,8 @@ int main(void) {
         cmocka_unit_test(test_public_write_and_inspect),
         cmocka_unit_test(test_bad_descriptions_name_the_field),
         cmocka_unit_test(test_cli_builds_a_table),
+        cmocka_unit_test(test_builtin_table),
+        cmocka_unit_test(test_a_build_is_announced),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

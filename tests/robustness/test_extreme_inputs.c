@@ -201,10 +201,11 @@ CASE(6)
 CASE(7)
 CASE(8)
 
-static void collect_warning(void *user, const char *message) {
+/* Counts warnings (notes are only printed). */
+static void collect_warning(void *user, volux_message_level level, const char *message) {
     int *n = user;
-    (*n)++;
-    printf("  warning: %s\n", message);
+    if (level == VOLUX_MESSAGE_WARNING) (*n)++;
+    printf("  %s: %s\n", level == VOLUX_MESSAGE_WARNING ? "warning" : "note", message);
 }
 
 /* --time-ms is honoured inside a path: a white (albedo 1), dense medium
@@ -216,7 +217,7 @@ static void test_time_budget_ends_long_paths(void **state) {
     (void)state;
     volux_context *ctx = tu_context(2);
     int warnings = 0;
-    volux_context_set_warning(ctx, collect_warning, &warnings);
+    volux_context_set_message(ctx, collect_warning, &warnings);
     volux_scene *s = tu_scene(ctx, "{\"volume\": {\"procedural\": \"constant\", \"dims\": [32, 32, 32]},"
                                    " \"transfer_function\": {\"extinction\": [[0, 20], [2, 20]], \"albedo\": 1},"
                                    " \"lights\": [{\"type\": \"environment\", \"radiance\": 1}],"

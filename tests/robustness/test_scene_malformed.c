@@ -81,7 +81,7 @@ static const malformed CASES[] = {
     /* volume */
     {"{" TF "}", VOLUX_ERR_INVALID, "volume: missing"},
     {SCENE_VOL("[]"), VOLUX_ERR_INVALID, "volume: expected an object"},
-    {SCENE_VOL("{}"), VOLUX_ERR_INVALID, "volume: give exactly one of file, procedural"},
+    {SCENE_VOL("{}"), VOLUX_ERR_INVALID, "volume: give exactly one of file, files, pattern, procedural"},
     {SCENE_VOL("{\"procedural\": \"sphere\", \"file\": \"a.nrrd\"}"), VOLUX_ERR_INVALID, "give exactly one"},
     {SCENE_VOL("{\"procedural\": 3}"), VOLUX_ERR_INVALID, "volume.procedural: expected a string"},
     {SCENE_VOL("{\"procedural\": \"torus\"}"), VOLUX_ERR_INVALID, "volume.procedural: procedural: unknown volume"},
@@ -108,7 +108,6 @@ static const malformed CASES[] = {
     {SCENE_VOL("{\"procedural\": \"cloud\", \"seed\": 1.5}"), VOLUX_ERR_INVALID, "volume.seed: expected an integer"},
     {SCENE_VOL("{\"procedural\": \"cloud\", \"seed\": -1}"), VOLUX_ERR_INVALID, "volume.seed: -1 is outside"},
     /* transfer function */
-    {"{" VOL "}", VOLUX_ERR_INVALID, "transfer_function: missing"},
     {SCENE_TF("3"), VOLUX_ERR_INVALID, "transfer_function: expected an object"},
     {SCENE_TF("{}"), VOLUX_ERR_INVALID, "transfer_function: needs opacity or extinction points"},
     {SCENE_TF("{\"opacity\": []}"), VOLUX_ERR_INVALID, "transfer_function.opacity: needs 1..65536 rows, got 0"},
@@ -154,7 +153,10 @@ static const malformed CASES[] = {
     {SCENE(", \"camera\": {\"type\": \"fisheye\"}"), VOLUX_ERR_INVALID, "camera.type: expected"},
     {SCENE(", \"camera\": {\"height\": 2}"), VOLUX_ERR_INVALID, "camera.height: only for"},
     {SCENE(", \"camera\": {\"eye\": [0, 0, 5], \"orbit\": {}}"), VOLUX_ERR_INVALID, "camera: give eye/look_at or orbit"},
-    {SCENE(", \"camera\": {\"look_at\": [0, 0, 5]}"), VOLUX_ERR_INVALID, "camera: look_at/up need an eye"},
+    {SCENE(", \"camera\": {\"look_at\": [0, 0, 5]}"), VOLUX_ERR_INVALID, "camera.look_at: needs an eye"},
+    {SCENE(", \"camera\": {\"up\": [0, 0, 0]}"), VOLUX_ERR_INVALID, "camera.up: must not be the zero vector"},
+    {SCENE(", \"camera\": {\"up\": [0, 0, 1], \"z_up\": true}"), VOLUX_ERR_INVALID, "camera: give up or z_up, not both"},
+    {SCENE(", \"camera\": {\"z_up\": 1}"), VOLUX_ERR_INVALID, "camera.z_up: expected true or false"},
     {SCENE(", \"camera\": {\"eye\": [0, 0, 0]}"), VOLUX_ERR_INVALID, "camera: eye and look_at coincide"},
     {SCENE(", \"camera\": {\"eye\": [0, 5, 0], \"up\": [0, 2, 0]}"), VOLUX_ERR_INVALID, "camera: up is parallel"},
     {SCENE(", \"camera\": {\"eye\": [0, 5]}"), VOLUX_ERR_INVALID, "camera.eye: expected an array of 3 numbers"},

@@ -1,5 +1,6 @@
 /* Cameras: orbit convention, pixel convention, framing, orthographic. */
 #include <math.h>
+#include <string.h>
 
 #include "core/vecmath.h"
 #include "test_util.h"
@@ -97,8 +98,68 @@ static void test_degenerate_cameras_are_rejected(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* An orbit around another up axis: the DESIGN §3 formula in the basis
+ * that takes +Y to up; up = +Y gives exactly the old camera. */
+static void test_orbit_up_axis(void **state) {
+    (void)state;
+    volux_camera_desc d;
+    volux_camera_desc_defaults(&d);
+    d.azimuth_deg = 0;
+    d.elevation_deg = 0;
+    d.distance = 3;
+    d.up = v3(0, 0, 1); /* z-up (medical): az = el = 0 is the front, −Y */
+    volux_camera c = resolve(&d, 64, 64);
+    assert_near(c.eye.x, 1, 1e-4);
+    assert_near(c.eye.y, 2 - 30, 1e-4);
+    assert_near(c.eye.z, 3, 1e-4);
+    assert_near(c.forward.y, 1, 1e-6);
+    assert_near(c.up.z, 1, 1e-6);
+    assert_near(c.right.x, 1, 1e-6);
+    d.elevation_deg = 90; /* straight above: eye on +Z, still a valid frame */
+    c = resolve(&d, 64, 64);
+    assert_near(c.eye.z, 3 + 30, 1e-3);
+    assert_near(c.forward.z, -1, 1e-6);
+    assert_near(fabsf(c.right.x) + fabsf(c.right.y), 1, 1e-5);
+    d.elevation_deg = 20;
+    d.azimuth_deg = 35;
+    d.up = v3(0, -2, 0); /* upside down: eye mirrored in y and z */
+    volux_camera_desc y = d;
+    y.up = v3(0, 1, 0);
+    volux_camera a = resolve(&d, 64, 64), b = resolve(&y, 64, 64);
+    assert_near(a.eye.x - 1, b.eye.x - 1, 1e-4);
+    assert_near(a.eye.y - 2, -(b.eye.y - 2), 1e-4);
+    assert_near(a.eye.z - 3, -(b.eye.z - 3), 1e-4);
+    assert_near(a.up.y, -b.up.y, 1e-5);
+    /* An arbitrary axis: the eye's elevation is measured from it. */
+    d.up = v3(1, 1, 0);
+    c = resolve(&d, 64, 64);
+    volux_vec3 off = v3_sub(c.eye, v3(1, 2, 3));
+    assert_near(v3_dot(v3_normalize(off), v3_normalize(d.up)), sinf(20 * VOLUX_PI / 180), 1e-5);
+    /* +Y is bit-identical to the formula (existing images do not move). */
+    d.up = v3(0, 1, 0);
+    c = resolve(&d, 64, 64);
+    float az = 35 * VOLUX_PI / 180.0f, el = 20 * VOLUX_PI / 180.0f, r = 30.0f;
+    assert_true(c.eye.x == 1 + r * cosf(el) * sinf(az));
+    assert_true(c.eye.y == 2 + r * sinf(el));
+    assert_true(c.eye.z == 3 + r * cosf(el) * cosf(az));
+}
+
+static void test_zero_up_is_rejected(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(1);
+    volux_camera_desc d;
+    volux_camera_desc_defaults(&d);
+    d.up = v3(0, 0, 0);
+    volux_camera cam;
+    assert_int_equal(volux_camera_resolve(ctx, &d, v3(0, 0, 0), 1.0f, 8, 8, &cam), VOLUX_ERR_INVALID);
+    assert_non_null(strstr(volux_context_error(ctx), "camera.up"));
+    volux_context_destroy(ctx);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_orbit_up_axis),
+        cmocka_unit_test(test_zero_up_is_rejected),
         cmocka_unit_test(test_orbit_eye_follows_the_contract),
         cmocka_unit_test(test_pixel_origin_is_top_left),
         cmocka_unit_test(test_default_distance_fits_the_bounding_sphere),

@@ -401,6 +401,7 @@ static void test_raw_layout_keys_and_nrrd_origin(void **state) {
     snprintf(json, sizeof json, base, "");
     load_fails(ctx, json, NULL, 0, VOLUX_ERR_FORMAT, "volume.file: ");
     assert_contains(volux_context_error(ctx), "outside the header's folder");
+    assert_contains(volux_context_error(ctx), "\"allow_outside_dir\": true"); /* the message names the way out */
     snprintf(json, sizeof json, base, ", \"allow_outside_dir\": true");
     s = load_ok(ctx, json, NULL, 0);
     volux_vec3 o = volux_volume_origin(volux_scene_volume(s));
@@ -500,6 +501,34 @@ static void test_paraview_preset_named_rescaled_with_opacity_points(void **state
     assert_contains(volux_context_error(ctx), "transfer_function.preset");
     snprintf(json, sizeof json, base, ", \"color\": [[0, 1, 1, 1]], \"opacity\": [[0, 1]]");
     load_fails(ctx, json, NULL, 0, VOLUX_ERR_INVALID, "color points or a preset, not both");
+    assert_int_equal(volux_context_bytes_in_use(ctx), 0);
+    volux_context_destroy(ctx);
+}
+
+/* ParaView's midpoint: where a segment reaches the mean of its ends (an
+ * extra point); a sharpness > 0 is not modelled and the loader says so. */
+static void test_preset_midpoint_and_sharpness(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(1);
+    const char *text = "{\"Name\": \"M\", \"RGBPoints\": [0, 1, 1, 1, 100, 1, 1, 1],"
+                       " \"Points\": [0, 0, 0.25, 0,  100, 0.8, 0.5, 0]}";
+    volux_tf_preset p = {0};
+    assert_int_equal(volux_tf_preset_parse(ctx, text, strlen(text), "m.json", NULL, 0, 0, &p), VOLUX_OK);
+    assert_int_equal(p.n_opacity, 3);
+    assert_near(p.opacity[1].s, 25, 0);
+    assert_near(p.opacity[1].v, 0.4, 1e-6);
+    assert_int_equal(p.n_sharp, 0);
+    volux_tf_preset_free(ctx, &p);
+
+    const char *sharp = "{\"Name\": \"S\", \"RGBPoints\": [0, 1, 1, 1, 1, 1, 1, 1],"
+                        " \"Points\": [0, 0, 0.5, 0.7,  1, 0.8, 0.5, 0]}";
+    tu_write_file("sharp.json", sharp, strlen(sharp));
+    const char *json = "{\"volume\": {\"procedural\": \"sphere\", \"dims\": [8, 8, 8]},"
+                       " \"transfer_function\": {\"preset\": \"sharp.json\"}}";
+    volux_scene *s = load_ok(ctx, json, NULL, 0);
+    assert_int_equal(volux_scene_transfer(s)->n_opacity, 2); /* midpoint 0.5: no extra point */
+    assert_contains(volux_scene_notes(s), "1 opacity segment of 'sharp.json' has a sharpness > 0");
+    volux_scene_destroy(s);
     assert_int_equal(volux_context_bytes_in_use(ctx), 0);
     volux_context_destroy(ctx);
 }
@@ -660,7 +689,7 @@ static void test_override_errors_name_the_assignment(void **state) {
         {"lights.1.intensity=-1", VOLUX_ERR_INVALID, "lights[1].intensity: -1 is outside"},
         {"transfer_function.opacity.1.1=2", VOLUX_ERR_INVALID, "transfer_function.opacity[1]: 2 is outside [0, 1]"},
         {"volume.dims.2=0", VOLUX_ERR_INVALID, "volume.dims[2]: must be an integer"},
-        {"volume.file=x.nrrd", VOLUX_ERR_INVALID, "give exactly one of file, procedural"},
+        {"volume.file=x.nrrd", VOLUX_ERR_INVALID, "give exactly one of file, files, pattern, procedural"},
         {"techniques.ea=3", VOLUX_ERR_INVALID, "techniques.ea: expected an object of parameters"},
         {"techniques.ea.mode=[1]", VOLUX_ERR_INVALID, "techniques.ea.mode: expected a number, boolean or string"},
         {long_path, VOLUX_ERR_INVALID, "path longer than 511"},
@@ -717,6 +746,7 @@ int main(void) {
         cmocka_unit_test(test_tf_file_errors_name_scene_and_tf_file),
         cmocka_unit_test(test_paraview_preset_named_rescaled_with_opacity_points),
         cmocka_unit_test(test_preset_parse_from_memory),
+        cmocka_unit_test(test_preset_midpoint_and_sharpness),
         cmocka_unit_test(test_overrides_set_numbers_strings_and_bare_words),
         cmocka_unit_test(test_overrides_replace_append_and_create_arrays),
         cmocka_unit_test(test_override_errors_name_the_assignment),

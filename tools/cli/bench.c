@@ -4,7 +4,8 @@
  *
  * Metrics (DESIGN §4): prepare_ms (technique creation = building every
  * cache), render_ms (median), samples_per_s / vertices_per_s, memory_bytes,
- * update_ms.<edit> (median time of volux_technique_update after the edit;
+ * warnings (how many the technique's creation gave, with their text:
+ * lights it ignores), update_ms.<edit> (median time of volux_technique_update after the edit;
  * for a progressive technique its first state), refine_ms.<edit> (the
  * work it deferred, when there was any), refine_steps.<edit> (how many
  * refinement steps, i.e. frames, that took) and refine_step_ms.<edit> (the
@@ -44,14 +45,38 @@ static void emit(const bench_out *o, const char *metric, double value, const cha
     fflush(stdout);
 }
 
-static int cmp_double(const void *a, const void *b) {
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
+/* Warnings from the library (e.g. a light the technique cannot use): shown
+ * on stderr as they come and listed in the output ("warnings" metric), so
+ * that a benchmark table never compares a technique that dropped a light
+ * without saying so. */
+#define MAX_WARNINGS 16
+typedef struct bench_messages {
+    int n;
+    char text[MAX_WARNINGS][256];
+} bench_messages;
+
+static void collect_message(void *user, volux_message_level level, const char *text) {
+    bench_messages *m = user;
+    cli_eprintf("volux: %s: %s\n", level == VOLUX_MESSAGE_WARNING ? "warning" : "note", text);
+    if (level != VOLUX_MESSAGE_WARNING) return;
+    if (m->n < MAX_WARNINGS) snprintf(m->text[m->n], sizeof m->text[0], "%s", text);
+    m->n++;
 }
 
-static double median(double *v, int n) {
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+static void emit_warnings(const bench_out *o, const bench_messages *m) {
+    char list[MAX_WARNINGS * 300 + 32];
+    size_t at = (size_t)snprintf(list, sizeof list, "\"messages\":[");
+    for (int i = 0; i < m->n && i < MAX_WARNINGS; i++) {
+        if (i) list[at++] = ',';
+        list[at++] = '"';
+        for (const char *c = m->text[i]; *c && at + 8 < sizeof list; c++) {
+            if (*c == '"' || *c == '\\') list[at++] = '\\';
+            list[at++] = (unsigned char)*c < 0x20 ? ' ' : *c;
+        }
+        list[at++] = '"';
+    }
+    snprintf(list + at, sizeof list - at, "]");
+    emit(o, "warnings", m->n, "count", list);
 }
 
 static void usage(FILE *f) {
@@ -95,9 +120,10 @@ static volux_status convergence(volux_context *ctx, volux_technique *t, volux_sc
         st = volux_image_compare(ctx, &img, ref, &err);
         volux_image_free(ctx, &img);
         if (st) return st;
-        char extra[160];
-        snprintf(extra, sizeof extra, "\"spp\":%u,\"ms\":%.3f,\"mse\":%.6g,\"rel_error\":%.6g", spp, total_ms,
-                 err.rmse * err.rmse, rep.rel_error);
+        char extra[160], rel[32] = "null"; /* null: not available below 4 spp */
+        if (rep.rel_error >= 0.0) snprintf(rel, sizeof rel, "%.6g", rep.rel_error);
+        snprintf(extra, sizeof extra, "\"spp\":%u,\"ms\":%.3f,\"mse\":%.6g,\"rel_error\":%s", spp, total_ms,
+                 err.rmse * err.rmse, rel);
         emit(o, "convergence.rel_mse", err.rel_mse, "", extra);
         if (spp == target) break;
     }
@@ -170,6 +196,8 @@ int cli_bench(int argc, char **argv) {
     }
     volux_context *ctx = cli_context(0);
     if (!ctx) return CLI_FAIL;
+    static bench_messages messages;
+    volux_context_set_message(ctx, collect_message, &messages);
     volux_scene *scene = NULL;
     volux_technique *tech = NULL;
     volux_framebuffer *fb = NULL;
@@ -191,11 +219,13 @@ int cli_bench(int argc, char **argv) {
     for (int k = 0; k < repeat; k++) {
         volux_technique_destroy(tech);
         tech = NULL;
+        messages.n = 0; /* each creation warns again: keep one's */
         double t0 = cli_now_ms();
         if ((st = volux_technique_create(ctx, rs->technique, scene, &tech))) goto fail;
         times[k] = cli_now_ms() - t0;
     }
-    emit(&o, "prepare_ms", median(times, repeat), "ms", NULL);
+    emit(&o, "prepare_ms", cli_median(times, repeat), "ms", NULL);
+    emit_warnings(&o, &messages);
     /* A progressive technique renders its refined state below. */
     for (int more = 1; more;)
         if ((st = volux_technique_refine(tech, scene, NULL, &more))) goto fail;
@@ -220,21 +250,21 @@ int cli_bench(int argc, char **argv) {
     }
     char extra[96];
     snprintf(extra, sizeof extra, "\"spp\":%u", rep.spp);
-    emit(&o, "render_ms", median(times, repeat), "ms", extra);
-    emit(&o, "render_cpu_ms", median(cpu, repeat), "ms", NULL);
-    double sps = median(samples_rate, repeat), vps = median(vertex_rate, repeat);
+    emit(&o, "render_ms", cli_median(times, repeat), "ms", extra);
+    emit(&o, "render_cpu_ms", cli_median(cpu, repeat), "ms", NULL);
+    double sps = cli_median(samples_rate, repeat), vps = cli_median(vertex_rate, repeat);
     if (sps > 0) {
         emit(&o, "samples_per_s", sps, "1/s", NULL);
         emit(&o, "samples_per_s_per_thread", sps / o.threads, "1/s", NULL);
-        emit(&o, "samples_per_cpu_s", median(cpu_rate, repeat), "1/s", NULL);
+        emit(&o, "samples_per_cpu_s", cli_median(cpu_rate, repeat), "1/s", NULL);
     }
     if (vps > 0) {
         emit(&o, "vertices_per_s", vps, "1/s", NULL);
-        emit(&o, "vertices_per_cpu_s", median(vertex_cpu_rate, repeat), "1/s", NULL);
+        emit(&o, "vertices_per_cpu_s", cli_median(vertex_cpu_rate, repeat), "1/s", NULL);
     }
     /* pixel samples (camera paths for a path tracer) per second */
     emit(&o, "pixel_samples_per_s",
-         (double)rs->width * rs->height * rep.spp / (median(times, repeat) * 1e-3), "1/s", NULL);
+         (double)rs->width * rs->height * rep.spp / (cli_median(times, repeat) * 1e-3), "1/s", NULL);
     emit(&o, "memory_bytes", (double)(volux_technique_memory_bytes(tech)), "bytes", NULL);
 
     /* Convergence before the edits: they leave the scene changed. */
@@ -298,14 +328,14 @@ int cli_bench(int argc, char **argv) {
         if (!ok) continue;
         char metric[64];
         snprintf(metric, sizeof metric, "update_ms.%s", edits[e]->name);
-        emit(&o, metric, median(times, repeat), "ms", NULL);
+        emit(&o, metric, cli_median(times, repeat), "ms", NULL);
         if (deferred) {
             snprintf(metric, sizeof metric, "refine_ms.%s", edits[e]->name);
-            emit(&o, metric, median(refine, repeat), "ms", NULL);
+            emit(&o, metric, cli_median(refine, repeat), "ms", NULL);
             snprintf(metric, sizeof metric, "refine_steps.%s", edits[e]->name);
-            emit(&o, metric, median(frames, repeat), "steps", NULL);
+            emit(&o, metric, cli_median(frames, repeat), "steps", NULL);
             snprintf(metric, sizeof metric, "refine_step_ms.%s", edits[e]->name);
-            emit(&o, metric, median(steps, (int)n_steps), "ms", NULL);
+            emit(&o, metric, cli_median(steps, (int)n_steps), "ms", NULL);
         }
     }
     goto edits_done;

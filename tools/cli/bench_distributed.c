@@ -21,16 +21,6 @@
 
 #define MAX_REPEAT 1000
 
-static int cmp_double(const void *a, const void *b) {
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
-static double median(double *v, int n) {
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 typedef struct line_out {
     int json, threads, width, height, ranks;
     const char *scene, *technique;
@@ -128,12 +118,12 @@ int cli_bench_distributed(int argc, char **argv, int distribute_mode) {
     }
     if ((rc = dist_agree("bench", ctx, st))) goto done;
     /* Every rank's medians and tile counts to rank 0. */
-    double stats[2] = {median(mine, repeat), (double)tiles};
+    double stats[2] = {cli_median(mine, repeat), (double)tiles};
     double *gathered = rank == 0 ? all : NULL;
     dist_gather2(stats, gathered);
     if (rank == 0) {
         emit(&o, "prepare_ms", prepare_max, "ms");
-        double render = median(frame, repeat), comp = median(composite, repeat);
+        double render = cli_median(frame, repeat), comp = cli_median(composite, repeat);
         emit(&o, "render_ms", render, "ms");
         emit(&o, "composite_ms", comp, "ms");
         emit(&o, "composite_fraction", render > 0 ? comp / render : 0.0, "");

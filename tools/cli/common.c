@@ -1,9 +1,11 @@
 /* tools/cli/common.c — exit codes, context with progress bar, option parsing. */
 #include <errno.h>
+#include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -30,58 +32,120 @@ int cli_fail(const char *cmd, volux_context *ctx, volux_status st) {
     return cli_exit_status(st);
 }
 
-/* A one-line progress bar on stderr, redrawn at most every 1/10 of the way
- * (or on task change); cleared when the task finishes. */
+/* Progress on stderr. On a terminal: a one-line bar with the time left,
+ * redrawn at most every 1/40 of the way (or on task change), cleared when
+ * the task finishes. Elsewhere (a log): one line per 10 % for tasks that
+ * have run for more than 5 s, so short renders stay quiet. */
 typedef struct progress_state {
     char task[64];
-    int last_tenth;
+    int last_step;
+    int tty;
+    int quiet; /* draw nothing (interrupts still stop the library) */
+    double start_ms;
 } progress_state;
+
+static volatile sig_atomic_t stop_signal;
+
+static void on_interrupt(int sig) {
+    if (stop_signal) _exit(128 + sig); /* the second one: at once */
+    stop_signal = sig;
+    static const char msg[] = "\nvolux: stopping; an image in progress is written with what it has "
+                              "(press Ctrl-C again to abort at once)\n";
+    ssize_t w = write(STDERR_FILENO, msg, sizeof msg - 1);
+    (void)w;
+}
+
+void cli_catch_interrupts(void) {
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_interrupt;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+}
+
+int cli_interrupted(void) { return (int)stop_signal; }
+
+void cli_hold_interrupts(int hold) {
+    sigset_t set;
+    sigemptyset(&set);
+    sigaddset(&set, SIGINT);
+    sigaddset(&set, SIGTERM);
+    sigprocmask(hold ? SIG_BLOCK : SIG_UNBLOCK, &set, NULL);
+}
+
+static void format_left(double ms, char *buf, size_t size) {
+    long s = (long)(ms * 1e-3 + 0.5);
+    if (s >= 3600) snprintf(buf, size, "%ld:%02ld:%02ld left", s / 3600, s / 60 % 60, s % 60);
+    else snprintf(buf, size, "%ld:%02ld left", s / 60, s % 60);
+}
 
 static int progress_bar(void *user, const char *task, double fraction) {
     progress_state *p = user;
-    int tenth = (int)(fraction * 40.0);
-    if (tenth == p->last_tenth && !strcmp(p->task, task)) return 0;
-    p->last_tenth = tenth;
+    if (stop_signal) return 1; /* asks the library to stop */
+    if (p->quiet) return 0;
+    int steps = p->tty ? 40 : 10, step = (int)(fraction * steps);
+    int new_task = strcmp(p->task, task) != 0;
+    if (step == p->last_step && !new_task) return 0;
+    if (new_task) p->start_ms = cli_now_ms();
+    p->last_step = step;
     snprintf(p->task, sizeof p->task, "%s", task);
+    double elapsed = cli_now_ms() - p->start_ms;
+    char left[32] = "";
+    if (fraction > 0.02 && fraction < 1.0 && elapsed > 1000.0)
+        format_left(elapsed * (1.0 - fraction) / fraction, left, sizeof left);
+    if (!p->tty) {
+        if (elapsed > 5000.0 && fraction < 1.0)
+            fprintf(stderr, "volux: %s: %d%% %s\n", task, (int)(fraction * 100.0), left);
+        return 0;
+    }
     if (fraction >= 1.0) {
         fprintf(stderr, "\r\033[K");
         return 0;
     }
     char bar[41];
-    for (int i = 0; i < 40; i++) bar[i] = i < tenth ? '#' : '.';
+    for (int i = 0; i < 40; i++) bar[i] = i < step ? '#' : '.';
     bar[40] = 0;
-    fprintf(stderr, "\r%-20.20s [%s] %3d%%", task, bar, (int)(fraction * 100.0));
+    fprintf(stderr, "\r%-20.20s [%s] %3d%% %s\033[K", task, bar, (int)(fraction * 100.0), left);
     fflush(stderr);
     return 0;
 }
 
-/* Library warnings (trailing bytes ignored, non-finite values mapped, a
- * render cut short) go to stderr; the library escapes them. */
-static void print_warning(void *user, const char *message) {
-    (void)user;
-    cli_eprintf("volux: warning: %s\n", message);
-}
+static progress_state bar_state = {"", -1, 0, 0, 0.0};
 
-static progress_state bar_state = {"", -1};
+void cli_quiet_progress(void) { bar_state.quiet = 1; }
 
 void cli_progress(const char *task, double fraction) {
-    if (isatty(STDERR_FILENO)) progress_bar(&bar_state, task, fraction);
+    if (isatty(STDERR_FILENO)) {
+        bar_state.tty = 1;
+        progress_bar(&bar_state, task, fraction);
+    }
+}
+
+/* Warnings and notes from the library, one line each on stderr (a progress
+ * bar in the way is cleared first). */
+static void print_message(void *user, volux_message_level level, const char *text) {
+    progress_state *p = user;
+    if (p->tty && p->last_step >= 0) fprintf(stderr, "\r\033[K");
+    cli_eprintf("volux: %s: %s\n", level == VOLUX_MESSAGE_WARNING ? "warning" : "note", text);
+    p->last_step = -1; /* redraw the bar */
 }
 
 volux_context *cli_context(int threads) {
     progress_state *state = &bar_state;
     volux_context_desc d = {0};
     d.threads = threads;
-    if (isatty(STDERR_FILENO)) {
-        d.progress = progress_bar;
-        d.progress_user = state;
-    }
+    state->tty = isatty(STDERR_FILENO);
+    /* Always installed: it is also how an interrupt reaches the library. */
+    d.progress = progress_bar;
+    d.progress_user = state;
+    d.message = print_message;
+    d.message_user = state;
     volux_context *ctx = NULL;
     if (volux_context_create(&d, &ctx) != VOLUX_OK) {
         cli_eprintf("volux: out of memory\n");
         return NULL;
     }
-    volux_context_set_warning(ctx, print_warning, NULL);
     return ctx;
 }
 
@@ -110,8 +174,77 @@ int cli_parse_double(const char *cmd, const char *opt, const char *s, double *ou
     return 1;
 }
 
+static int cmp_double(const void *a, const void *b) {
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+double cli_median(double *v, int n) {
+    qsort(v, (size_t)n, sizeof *v, cmp_double);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
 double cli_now_ms(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
+}
+
+const char *cli_data_dir(void) {
+    const char *env = getenv("VOLUX_DATA");
+    if (env && *env) return env;
+#ifdef VOLUX_DEFAULT_DATA_DIR
+    return VOLUX_DEFAULT_DATA_DIR;
+#else
+    return NULL;
+#endif
+}
+
+int cli_is_procedural(const char *spec) { return !strncmp(spec, "procedural:", strlen("procedural:")); }
+
+int cli_procedural_size_ok(const char *spec) {
+    const char *colon = strchr(spec + strlen("procedural:"), ':');
+    if (!colon) return 1;
+    char *end = NULL;
+    errno = 0;
+    long n = strtol(colon + 1, &end, 10);
+    return !errno && end != colon + 1 && !*end && n >= 1 && n <= VOLUX_MAX_DIM;
+}
+
+volux_status cli_procedural(volux_context *ctx, const char *cmd, const char *spec, uint64_t seed, volux_volume **out,
+                            char *json, size_t json_size) {
+    char name[64];
+    const char *rest = spec + strlen("procedural:");
+    const char *colon = strchr(rest, ':');
+    size_t len = colon ? (size_t)(colon - rest) : strlen(rest);
+    if (len >= sizeof name) len = sizeof name - 1;
+    memcpy(name, rest, len);
+    name[len] = 0;
+    long n = 64;
+    if (colon && !cli_parse_int(cmd, spec, colon + 1, 1, VOLUX_MAX_DIM, &n)) return VOLUX_ERR_INVALID;
+    int dims[3] = {(int)n, (int)n, (int)n};
+    volux_status st = volux_volume_procedural(ctx, name, dims, seed, out);
+    if (!st && json)
+        snprintf(json, json_size, "{\"procedural\": \"%s\", \"dims\": [%ld, %ld, %ld], \"seed\": %llu}", name, n, n, n,
+                 (unsigned long long)seed);
+    return st;
+}
+
+int cli_check_writable(const char *option, const char *path, char *msg, size_t msg_size) {
+    struct stat sb;
+    if (stat(path, &sb) == 0 && S_ISDIR(sb.st_mode)) {
+        snprintf(msg, msg_size, "%s %s: is a folder", option, path);
+        return 0;
+    }
+    const char *slash = strrchr(path, '/');
+    char dir[4096];
+    if (!slash) snprintf(dir, sizeof dir, ".");
+    else if (slash == path) snprintf(dir, sizeof dir, "/");
+    else snprintf(dir, sizeof dir, "%.*s", (int)(slash - path) < 4000 ? (int)(slash - path) : 4000, path);
+    if (stat(dir, &sb) != 0 || !S_ISDIR(sb.st_mode) || access(dir, W_OK | X_OK) != 0) {
+        snprintf(msg, msg_size, "%s %s: folder '%s' %s", option, path, dir,
+                 stat(dir, &sb) != 0 ? "does not exist" : !S_ISDIR(sb.st_mode) ? "is not a folder" : "is not writable");
+        return 0;
+    }
+    return 1;
 }

@@ -2,9 +2,11 @@
  * value range, memory and a text histogram of a volume file or of a
  * procedural volume ("procedural:NAME[:N]"). */
 #include <limits.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include "cli.h"
 
@@ -15,6 +17,7 @@ static void usage(FILE *f) {
     fprintf(f,
             "usage: volux info FILE [options]\n"
             "  FILE                 .nrrd .nhdr .mhd .mha .nii .nii.gz .hdr, a raw file with --raw-*,\n"
+            "                       an image (.png .pfm .exr, Radiance .hdr: size, range, metadata)\n"
             "                       or procedural:NAME[:N] (NAME: %s; N³ voxels, default 64)\n"
             "  --raw-dims X Y Z     read FILE as raw data of these dims (needs --raw-type)\n"
             "  --raw-type T         uint8 int8 uint16 int16 float32 float64\n"
@@ -103,19 +106,43 @@ static int parse_args(int argc, char **argv, options *o) {
     return CLI_OK;
 }
 
-/* "procedural:NAME[:N]" → a procedural volume. */
-static volux_status load_procedural(volux_context *ctx, const char *spec, uint64_t seed, volux_volume **out) {
-    char name[64];
-    const char *rest = spec + strlen("procedural:");
-    const char *colon = strchr(rest, ':');
-    size_t len = colon ? (size_t)(colon - rest) : strlen(rest);
-    if (len >= sizeof name) len = sizeof name - 1;
-    memcpy(name, rest, len);
-    name[len] = 0;
-    long n = 64;
-    if (colon && !cli_parse_int(CMD, spec, colon + 1, 1, VOLUX_MAX_DIM, &n)) return VOLUX_ERR_INVALID;
-    int dims[3] = {(int)n, (int)n, (int)n};
-    return volux_volume_procedural(ctx, name, dims, seed, out);
+/* Images: a Radiance .hdr starts with "#?" (a NIfTI-1 .hdr with the
+ * binary number 348); .png .pfm .exr are images by name. */
+static int is_image(const char *path) {
+    const char *dot = strrchr(path, '.');
+    if (!dot) return 0;
+    if (!strcasecmp(dot, ".png") || !strcasecmp(dot, ".pfm") || !strcasecmp(dot, ".exr")) return 1;
+    if (strcasecmp(dot, ".hdr")) return 0;
+    FILE *f = fopen(path, "rb");
+    if (!f) return 0;
+    char magic[2] = {0, 0};
+    size_t got = fread(magic, 1, 2, f);
+    fclose(f);
+    return got == 2 && magic[0] == '#' && magic[1] == '?';
+}
+
+static int print_image_info(volux_context *ctx, const char *file) {
+    volux_image img = {0};
+    volux_image_meta meta;
+    volux_status st = volux_image_load_meta(ctx, file, &img, &meta);
+    if (st) return cli_fail(CMD, ctx, st);
+    size_t n = (size_t)img.width * (size_t)img.height;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY}, sum[3] = {0, 0, 0};
+    for (size_t i = 0; i < n; i++)
+        for (int c = 0; c < 3; c++) {
+            double v = img.rgb[3 * i + (size_t)c];
+            if (v < lo[c]) lo[c] = v;
+            if (v > hi[c]) hi[c] = v;
+            sum[c] += v;
+        }
+    const char *dot = strrchr(file, '.');
+    printf("file      %s\n", file);
+    printf("image     %d x %d, %s, linear RGB\n", img.width, img.height, dot ? dot + 1 : "?");
+    for (int c = 0; c < 3; c++)
+        printf("%c         min %g, max %g, mean %g\n", "RGB"[c], lo[c], hi[c], sum[c] / (double)n);
+    for (int i = 0; i < meta.count; i++) printf("meta      %s = %s\n", meta.key[i], meta.value[i]);
+    volux_image_free(ctx, &img);
+    return CLI_OK;
 }
 
 static void print_size(double bytes) {
@@ -154,6 +181,10 @@ static int print_info(const char *file, volux_volume *v, int bins) {
            storage_name(volux_volume_storage_kind(v)));
     printf("spacing   %g %g %g\n", s[0], s[1], s[2]);
     printf("origin    %g %g %g\n", o.x, o.y, o.z);
+    volux_vec3 up;
+    if (volux_volume_superior(v, &up))
+        printf("superior  %.3g %.3g %.3g  (the file's anatomical orientation: the default camera's up)\n", up.x, up.y,
+               up.z);
     printf("bounds    [%g, %g] x [%g, %g] x [%g, %g]\n", blo.x, bhi.x, blo.y, bhi.y, blo.z, bhi.z);
     printf("range     %g .. %g\n", lo, hi);
     printf("memory    ");
@@ -186,10 +217,15 @@ int cli_info(int argc, char **argv) {
     if (rc != CLI_OK) return rc;
     volux_context *ctx = cli_context(0);
     if (!ctx) return CLI_FAIL;
+    if (!o.has_raw && is_image(o.file)) {
+        rc = print_image_info(ctx, o.file);
+        volux_context_destroy(ctx);
+        return rc;
+    }
     volux_volume *v = NULL;
     volux_status st;
     if (!strncmp(o.file, "procedural:", strlen("procedural:"))) {
-        st = load_procedural(ctx, o.file, (uint64_t)o.seed, &v);
+        st = cli_procedural(ctx, CMD, o.file, (uint64_t)o.seed, &v, NULL, 0);
         if (st == VOLUX_ERR_INVALID && !*volux_context_error(ctx)) {
             volux_context_destroy(ctx);
             return CLI_USAGE; /* cli_parse_int already said why */

@@ -12,6 +12,8 @@ static const cli_command commands[] = {
     {"bench", "timings of a technique on a scene (one JSON object per line)", cli_bench},
     {"techniques", "list techniques and their parameters", cli_techniques},
     {"ambient-table", "build or inspect the ambient-scattering preintegration table", cli_ambient_table},
+    {"serve", "interactive web viewer of a scene (HTTP on 127.0.0.1)", cli_serve},
+    {"view", "a volume's quick look (or a scene) in the web viewer", cli_view},
 };
 
 static void usage(FILE *f) {

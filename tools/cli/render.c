@@ -1,34 +1,84 @@
-/* tools/cli/render.c — `volux render SCENE.json -o OUT.(png|pfm|exr) [...]`. */
+/* tools/cli/render.c — `volux render SCENE.json|VOLUME -o OUT.(png|pfm|exr) [...]`. */
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
-#include <strings.h>
 
 #include "tools/mpi/distribute.h"
 #include "scene_args.h"
 
 static void usage(FILE *f) {
     fprintf(f,
-            "usage: volux render SCENE.json -o OUT.(png|pfm|exr) [--technique T] [--spp N]\n"
+            "usage: volux render SCENE.json|VOLUME -o OUT.(png|pfm|exr) [--technique T] [--spp N]\n"
             "                    [--width W] [--height H] [--threads N] [--seed S] [--step S]\n"
             "                    [--time-ms MS] [--target-error E] [--max-depth D] [--exposure EV]\n"
-            "                    [--set dotted.path=JSON-value]... [--quiet]\n"
+            "                    [--time-step N | --all-steps] [--set dotted.path=JSON-value]...\n"
+            "                    [--dump-scene OUT.json] [--quiet]\n"
             "                    [--distribute image]   (under mpirun; the default there)\n"
             "Renders until the scene's spp, time budget or target relative error is reached and\n"
             "writes the image (PNG tone-mapped with render.exposure; PFM/EXR linear).\n"
+            "VOLUME (.nrrd .nhdr .mhd .mha .nii .nii.gz, or procedural:NAME[:N]) renders its quick-look\n"
+            "scene: a transfer function from the histogram, an orbit camera, one key light, `shaded`.\n"
+            "--dump-scene writes the scene as read (after --set and defaults) as JSON; without -o it\n"
+            "only writes that.\n"
+            "Non-progressive techniques (ea, shaded, ...) give the same image for every sample: spp > 1\n"
+            "renders that many jittered passes (anti-aliasing). Ctrl-C (or SIGTERM) stops a render and\n"
+            "writes the samples so far (spp in the message and in PNG/EXR metadata), exit 130 (143);\n"
+            "a second Ctrl-C aborts at once.\n"
+            "--time-step N renders step N of a time-varying volume (render.time_step).\n"
+            "--all-steps renders every step into numbered files: OUT_0000.png, OUT_0001.png, ...,\n"
+            "or OUT's own printf number (-o frame%%03d.png); one technique instance is updated\n"
+            "from step to step, as in an animation.\n"
             "Under mpirun the ranks share the frame's tiles and render.spp samples are taken\n"
             "(time and error limits apply to a single process only); rank 0 writes the image,\n"
-            "bit-identical to a single-process render.\n");
+            "bit-identical to a single-process render. There Ctrl-C ends the job as mpirun does.\n");
 }
 
-static int supported_output(const char *path) {
-    const char *dot = strrchr(path, '.');
-    return dot && (!strcasecmp(dot, ".png") || !strcasecmp(dot, ".pfm") || !strcasecmp(dot, ".exr"));
+static void format_error(double e, char *out, size_t n) {
+    if (e < 0.0) snprintf(out, n, "n/a");
+    else snprintf(out, n, "%.3g", e);
+}
+
+/* 1 if `path` holds one %d / %Nd / %0Nd conversion (and otherwise only
+ * "%%"), 0 if it holds no '%' at all, −1 if it is malformed. */
+static int numbered_pattern(const char *path) {
+    int conversions = 0;
+    for (const char *p = path; *p; p++) {
+        if (*p != '%') continue;
+        if (p[1] == '%') {
+            p++;
+            continue;
+        }
+        const char *q = p + 1;
+        if (*q == '0') q++;
+        if (*q >= '1' && *q <= '9') q++;
+        if (*q != 'd') return -1;
+        conversions++;
+        p = q;
+    }
+    return conversions > 1 ? -1 : conversions;
+}
+
+/* The output file of step `step`: OUT's printf number, or _%04d before the
+ * extension. 0 if the name does not fit. */
+static int step_path(const char *out, int has_pattern, int step, char *buf, size_t n) {
+    int w;
+    if (has_pattern) {
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wformat-nonliteral"
+        w = snprintf(buf, n, out, step); /* checked by numbered_pattern */
+#pragma GCC diagnostic pop
+    } else {
+        const char *dot = strrchr(out, '.');
+        w = snprintf(buf, n, "%.*s_%04d%s", (int)(dot - out), out, step, dot);
+    }
+    return w >= 0 && (size_t)w < n;
 }
 
 int cli_render(int argc, char **argv) {
-    cli_scene_args args = {0};
+    cli_scene_args args;
+    memset(&args, 0, sizeof args);
     const char *out_path = NULL;
-    int quiet = 0;
+    int all_steps = 0, one_step = 0;
     dist_mode distribute = DIST_NONE;
     dist_quiet_followers();
     for (int i = 1; i < argc; i++) {
@@ -49,9 +99,14 @@ int cli_render(int argc, char **argv) {
             continue;
         }
         if (!strcmp(argv[i], "--quiet")) {
-            quiet = 1;
+            args.quiet = 1;
             continue;
         }
+        if (!strcmp(argv[i], "--all-steps")) {
+            all_steps = 1;
+            continue;
+        }
+        if (!strcmp(argv[i], "--time-step")) one_step = 1;
         int r = cli_scene_arg("render", &args, argc, argv, &i);
         if (r < 0) return CLI_USAGE;
         if (r == 0) {
@@ -60,13 +115,21 @@ int cli_render(int argc, char **argv) {
             return CLI_USAGE;
         }
     }
-    if (!args.scene_path || !out_path) {
-        cli_eprintf("volux render: %s\n", !args.scene_path ? "missing SCENE.json" : "missing -o OUT.png|pfm|exr");
+    if (!args.scene_path || (!out_path && !args.dump_path)) {
+        cli_eprintf("volux render: %s\n",
+                !args.scene_path ? "missing SCENE.json (or a volume)" : "missing -o OUT.png|pfm|exr");
         usage(stderr);
         return CLI_USAGE;
     }
-    if (!supported_output(out_path)) {
-        cli_eprintf("volux render: -o %s: unsupported image type (use .png, .pfm or .exr)\n", out_path);
+    if (all_steps && one_step) {
+        cli_eprintf("volux render: give --time-step or --all-steps, not both\n");
+        return CLI_USAGE;
+    }
+    int pattern = out_path ? numbered_pattern(out_path) : 0;
+    if (pattern < 0 || (pattern && !all_steps)) {
+        cli_eprintf("volux render: -o %s: %s\n", out_path,
+                pattern < 0 ? "a numbered output holds one %d, %Nd or %0Nd (%% for a literal %)"
+                            : "a numbered output (%d) needs --all-steps");
         return CLI_USAGE;
     }
     int mode = dist_begin("render", distribute);
@@ -81,40 +144,127 @@ int cli_render(int argc, char **argv) {
         dist_end();
         return CLI_FAIL;
     }
+    /* --quiet silences progress, not warnings and notes; other ranks repeat
+     * rank 0's messages, so only rank 0 prints them */
+    if (args.quiet) cli_quiet_progress();
     if (dist_rank() > 0) volux_context_set_progress(ctx, NULL, NULL);
+    if (dist_rank() > 0) volux_context_set_message(ctx, NULL, NULL);
     volux_scene *scene = NULL;
     volux_technique *tech = NULL;
     volux_framebuffer *fb = NULL;
     volux_image img = {0};
     char msg[1024] = "";
-    int rc = cli_load_scene_quiet("render", ctx, &args, &scene, msg, sizeof msg);
+    /* Everything about the outputs is checked before any work (every rank
+     * checks; one message). */
+    volux_status st = out_path ? volux_image_check_output(ctx, out_path) : VOLUX_OK;
+    int rc = dist_agree("render", ctx, st);
+    if (rc) goto done;
+    rc = args.dump_path && !cli_check_writable("--dump-scene", args.dump_path, msg, sizeof msg) ? CLI_USAGE : CLI_OK;
     if ((rc = dist_agree_msg("render", rc, msg))) goto done;
+    /* One process: Ctrl-C keeps the image so far. Under mpirun the ranks
+     * would have to agree on where to stop; the job ends as mpirun ends it. */
+    if (dist_size() == 1) cli_catch_interrupts();
+    rc = cli_load_scene_quiet("render", ctx, &args, &scene, msg, sizeof msg);
+    if (rc && cli_interrupted()) rc = 128 + cli_interrupted();
+    if ((rc = dist_agree_msg("render", rc, msg))) goto done;
+    if (dist_rank() == 0 && !args.quiet) cli_print_notes("render", scene);
+    if (!out_path) goto done; /* --dump-scene only */
     const volux_render_settings *rs = volux_scene_render(scene);
-    double t0 = cli_now_ms();
-    volux_status st = volux_technique_create(ctx, rs->technique, scene, &tech);
-    /* A progressive technique's deferred work is finished: an image file
-     * is the final result, not the first frame of an interactive session. */
-    for (int more = 1; !st && more;) st = volux_technique_refine(tech, scene, NULL, &more);
-    double prepare_ms = cli_now_ms() - t0;
-    if (!st) st = volux_framebuffer_create(ctx, rs->width, rs->height, &fb);
-    if ((rc = dist_agree("render", ctx, st))) goto done;
-    dist_timing timing;
-    st = dist_render_image(tech, scene, fb, &timing);
-    if ((rc = dist_agree("render", ctx, st))) goto done;
-    if (dist_rank() == 0) {
-        st = volux_framebuffer_resolve(fb, &img);
-        if (!st) st = volux_image_save(ctx, out_path, &img, rs->exposure);
-        rc = st ? cli_fail("render", ctx, st) : CLI_OK;
-        if (!rc && !quiet) {
-            cli_eprintf("volux render: %s: %s %dx%d, %u spp, prepare %.1f ms, render %.1f ms", args.scene_path,
-                    rs->technique, rs->width, rs->height, volux_framebuffer_spp(fb), prepare_ms, timing.render_ms);
-            if (dist_size() > 1)
-                cli_eprintf(" (%d ranks, %.1f-%.1f ms each, composite %.1f ms)", dist_size(),
-                        timing.rank_render_ms_min, timing.rank_render_ms_max, timing.composite_ms);
-            cli_eprintf(", rel. error %.3g -> %s\n", volux_framebuffer_rel_error(fb), out_path);
+    const volux_technique_info *info = volux_technique_info_find(rs->technique);
+    int first = volux_scene_time_step(scene), last = all_steps ? volux_scene_time_steps(scene) - 1 : first;
+    if (all_steps) first = 0;
+    for (int step = first; step <= last && !rc; step++) {
+        char path[4096];
+        const char *out = out_path;
+        if (all_steps) {
+            if (!step_path(out_path, pattern, step, path, sizeof path)) {
+                if (dist_rank() == 0) cli_eprintf("volux render: -o %s: output name too long\n", out_path);
+                rc = CLI_USAGE;
+                goto done;
+            }
+            out = path;
         }
+        /* The first step creates the technique; later steps are edits it
+         * updates (the accumulation restarts). */
+        double t0 = cli_now_ms();
+        st = volux_scene_set_time_step(scene, step);
+        if (!st) {
+            if (!tech) st = volux_technique_create(ctx, rs->technique, scene, &tech);
+            else st = volux_technique_update(tech, scene, NULL);
+        }
+        /* A progressive technique's deferred work is finished: an image file
+         * is the final result, not the first frame of an interactive session. */
+        for (int more = 1; !st && more;) st = volux_technique_refine(tech, scene, NULL, &more);
+        double prepare_ms = cli_now_ms() - t0;
+        if (!st && !fb) st = volux_framebuffer_create(ctx, rs->width, rs->height, &fb);
+        else if (!st) volux_framebuffer_reset(fb);
+        if (st == VOLUX_ERR_CANCELLED && cli_interrupted()) {
+            cli_eprintf("volux render: interrupted while preparing; nothing written\n");
+            rc = 128 + cli_interrupted();
+            goto done;
+        }
+        if ((rc = dist_agree("render", ctx, st))) goto done;
+        dist_timing timing;
+        st = dist_render_image(tech, scene, fb, &timing);
+        int stopped = st == VOLUX_ERR_CANCELLED && cli_interrupted();
+        if (stopped && volux_framebuffer_spp(fb) == 0) {
+            cli_eprintf("volux render: interrupted before the first sample of every pixel; nothing written\n");
+            rc = 128 + cli_interrupted();
+            goto done;
+        }
+        if (stopped) st = VOLUX_OK; /* the samples so far are the image */
+        if ((rc = dist_agree("render", ctx, st))) goto done;
+        if (dist_rank() == 0) {
+            double rel_error = volux_framebuffer_rel_error(fb);
+            st = volux_framebuffer_resolve(fb, &img);
+            if (!st) {
+                /* How the image was made, in the file (PNG text, EXR attributes). */
+                volux_image_meta meta;
+                memset(&meta, 0, sizeof meta);
+                char v[64];
+                volux_image_meta_set(&meta, "Software", "volux " VOLUX_VERSION);
+                volux_image_meta_set(&meta, "volux.scene", args.scene_path);
+                volux_image_meta_set(&meta, "volux.technique", rs->technique);
+                snprintf(v, sizeof v, "%u", volux_framebuffer_spp(fb));
+                volux_image_meta_set(&meta, "volux.spp", v);
+                snprintf(v, sizeof v, "%d", rs->spp);
+                volux_image_meta_set(&meta, "volux.spp_target", v);
+                format_error(rel_error, v, sizeof v);
+                volux_image_meta_set(&meta, "volux.rel_error", v);
+                volux_image_meta_set(&meta, "volux.interrupted", stopped ? "true" : "false");
+                snprintf(v, sizeof v, "%d", step);
+                if (volux_scene_time_steps(scene) > 1) volux_image_meta_set(&meta, "volux.time_step", v);
+                /* A second Ctrl-C while the file is written waits for the
+                 * rename, so it never leaves a temporary file behind. */
+                cli_hold_interrupts(1);
+                st = volux_image_save_meta(ctx, out, &img, rs->exposure, &meta);
+                cli_hold_interrupts(0);
+            }
+            volux_image_free(ctx, &img);
+            rc = st ? cli_fail("render", ctx, st) : CLI_OK;
+            char err[32];
+            format_error(rel_error, err, sizeof err);
+            if (!rc && stopped) {
+                cli_eprintf("volux render: interrupted at %u of %d spp (rel. error %s): wrote %s\n",
+                        volux_framebuffer_spp(fb), rs->spp, err, out);
+                rc = 128 + cli_interrupted();
+            } else if (!rc && !args.quiet) {
+                /* A technique that is not progressive gives the same image for
+                 * every sample index but the pixel jitter: say what spp > 1 did. */
+                uint32_t spp = volux_framebuffer_spp(fb);
+                const char *what = info && !info->progressive && spp > 1 ? " (anti-aliasing passes)" : "";
+                cli_eprintf("volux render: %s: ", args.scene_path);
+                if (all_steps) cli_eprintf("step %d/%d: ", step, last + 1);
+                cli_eprintf("%s %dx%d, %u spp%s, %s %.1f ms, render %.1f ms", rs->technique, rs->width,
+                        rs->height, spp, what, step == first ? "prepare" : "update", prepare_ms, timing.render_ms);
+                if (dist_size() > 1)
+                    cli_eprintf(" (%d ranks, %.1f-%.1f ms each, composite %.1f ms)", dist_size(),
+                            timing.rank_render_ms_min, timing.rank_render_ms_max, timing.composite_ms);
+                cli_eprintf(", rel. error %s -> %s\n", err, out);
+            }
+        }
+        rc = dist_share_exit(rc);
     }
-    rc = dist_share_exit(rc);
 done:
     volux_image_free(ctx, &img);
     volux_framebuffer_destroy(fb);

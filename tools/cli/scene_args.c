@@ -1,6 +1,11 @@
 /* tools/cli/scene_args.c — see scene_args.h. */
+#include <errno.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include "scene_args.h"
 
@@ -35,9 +40,18 @@ int cli_scene_arg(const char *cmd, cli_scene_args *a, int argc, char **argv, int
         {"--threads", "render.threads=%s"},         {"--seed", "render.seed=%s"},
         {"--step", "render.step=%s"},               {"--exposure", "render.exposure=%s"},
         {"--time-ms", "render.time_ms=%s"},         {"--target-error", "render.target_error=%s"},
-        {"--max-depth", "render.max_depth=%s"},     {"--set", "%s"},
+        {"--max-depth", "render.max_depth=%s"},     {"--time-step", "render.time_step=%s"},
+        {"--set", "%s"},
     };
     const char *arg = argv[*i];
+    if (!strcmp(arg, "--dump-scene")) {
+        if (*i + 1 >= argc) {
+            cli_eprintf("volux %s: --dump-scene needs a file name\n", cmd);
+            return -1;
+        }
+        a->dump_path = argv[++*i];
+        return 1;
+    }
     for (size_t k = 0; k < sizeof map / sizeof map[0]; k++) {
         if (strcmp(arg, map[k].opt)) continue;
         if (*i + 1 >= argc) {
@@ -63,28 +77,227 @@ int cli_scene_arg(const char *cmd, cli_scene_args *a, int argc, char **argv, int
     return 0;
 }
 
+/* ---- scene or volume? ---- */
+
+static int ends_with_ci(const char *s, const char *suffix) {
+    size_t n = strlen(s), m = strlen(suffix);
+    return n >= m && !strcasecmp(s + n - m, suffix);
+}
+
+enum { INPUT_SCENE, INPUT_VOLUME, INPUT_UNKNOWN };
+
+#define VOLUME_EXTENSIONS ".nrrd .nhdr .mhd .mha .nii .nii.gz .hdr"
+
+static int input_kind(const char *path) {
+    if (cli_is_procedural(path)) return INPUT_VOLUME;
+    if (ends_with_ci(path, ".json")) return INPUT_SCENE;
+    static const char *const volume_ext[] = {".nrrd", ".nhdr", ".mhd", ".mha", ".nii", ".nii.gz", ".hdr"};
+    for (size_t i = 0; i < sizeof volume_ext / sizeof volume_ext[0]; i++)
+        if (ends_with_ci(path, volume_ext[i])) return INPUT_VOLUME;
+    /* Another name: a scene if it starts like a JSON object. A file that
+     * cannot be opened goes to the scene loader, which says why. */
+    struct stat sb;
+    if (stat(path, &sb) != 0 || !S_ISREG(sb.st_mode)) return INPUT_SCENE;
+    FILE *f = fopen(path, "rb");
+    if (!f) return INPUT_SCENE;
+    int c;
+    do c = fgetc(f);
+    while (c == ' ' || c == '\t' || c == '\n' || c == '\r');
+    fclose(f);
+    return c == '{' ? INPUT_SCENE : INPUT_UNKNOWN;
+}
+
+/* A JSON string literal of s (quotes, backslashes, control characters). */
+static int json_string(const char *s, char *out, size_t n) {
+    size_t w = 0;
+    if (n < 3) return 0;
+    out[w++] = '"';
+    for (; *s; s++) {
+        unsigned char c = (unsigned char)*s;
+        if (w + 8 >= n) return 0;
+        if (c == '"' || c == '\\') w += (size_t)snprintf(out + w, n - w, "\\%c", c);
+        else if (c < 0x20) w += (size_t)snprintf(out + w, n - w, "\\u%04x", c);
+        else out[w++] = (char)c;
+    }
+    out[w++] = '"';
+    out[w] = 0;
+    return 1;
+}
+
+static void dir_of(const char *path, char *out, size_t n) {
+    const char *slash = strrchr(path, '/');
+    if (!slash) snprintf(out, n, ".");
+    else if (slash == path) snprintf(out, n, "/");
+    else snprintf(out, n, "%.*s", (int)(slash - path), path);
+}
+
+/* Writes text to path through a temporary file and a rename; on failure
+ * the reason goes to msg. */
+static int write_text(const char *path, const char *text, char *msg, size_t msg_size) {
+    char tmp[4200];
+    snprintf(tmp, sizeof tmp, "%s.tmp-%ld", path, (long)getpid());
+    FILE *f = fopen(tmp, "w");
+    int ok = f && fputs(text, f) >= 0;
+    int err = ok ? 0 : errno;
+    if (f && (fflush(f) != 0 || fsync(fileno(f)) != 0) && ok) ok = 0, err = errno;
+    if (f && fclose(f) != 0 && ok) ok = 0, err = errno;
+    if (ok && rename(tmp, path) != 0) ok = 0, err = errno;
+    if (!ok) {
+        unlink(tmp);
+        snprintf(msg, msg_size, "--dump-scene %s: cannot write: %s", path, strerror(err));
+    }
+    return ok;
+}
+
+/* The context's message (or the status name) into msg; the exit status. */
+static int context_failure(volux_context *ctx, volux_status st, char *msg, size_t msg_size) {
+    const char *e = volux_context_error(ctx);
+    snprintf(msg, msg_size, "%s", e && *e ? e : volux_status_name(st));
+    return cli_exit_status(st);
+}
+
+/* Levenshtein distance, for "did you mean". */
+static int edit_distance(const char *a, const char *b) {
+    size_t n = strlen(a), m = strlen(b);
+    if (n > 63 || m > 63) return 99;
+    int row[64];
+    for (size_t j = 0; j <= m; j++) row[j] = (int)j;
+    for (size_t i = 1; i <= n; i++) {
+        int diag = row[0];
+        row[0] = (int)i;
+        for (size_t j = 1; j <= m; j++) {
+            int up = row[j];
+            int best = diag + (a[i - 1] != b[j - 1]);
+            if (up + 1 < best) best = up + 1;
+            if (row[j - 1] + 1 < best) best = row[j - 1] + 1;
+            row[j] = best;
+            diag = up;
+        }
+    }
+    return row[m];
+}
+
+const char *cli_closest_technique(const char *name) {
+    const char *best = NULL;
+    int best_d = 99;
+    for (int i = 0; i < volux_technique_count(); i++) {
+        const char *cand = volux_technique_info_at(i)->name;
+        int d = edit_distance(name, cand);
+        /* A prefix also counts ("path" → "pathtrace"). */
+        if (!strncmp(cand, name, strlen(name)) && strlen(name) >= 2) d = 1;
+        if (d < best_d) best_d = d, best = cand;
+    }
+    int len = (int)strlen(name);
+    return best && best_d <= (len < 6 ? 2 : len / 3 + 1) ? best : NULL;
+}
+
+void cli_technique_names(char *out, size_t n) {
+    out[0] = 0;
+    for (int i = 0; i < volux_technique_count(); i++) {
+        size_t w = strlen(out);
+        snprintf(out + w, n - w, "%s%s", i ? ", " : "", volux_technique_info_at(i)->name);
+    }
+}
+
 int cli_load_scene_quiet(const char *cmd, volux_context *ctx, const cli_scene_args *a, volux_scene **out,
                          char *msg, size_t msg_size) {
+    msg[0] = 0;
     if (!a->scene_path) {
-        snprintf(msg, msg_size, "missing SCENE.json");
+        snprintf(msg, msg_size, "missing SCENE.json (or a volume)");
         return CLI_USAGE;
     }
-    volux_scene *scene = NULL;
-    volux_status st = volux_scene_load(ctx, a->scene_path, a->overrides, a->n_overrides, &scene);
-    if (st) {
-        const char *e = volux_context_error(ctx);
-        snprintf(msg, msg_size, "%s", e && *e ? e : volux_status_name(st));
-        return cli_exit_status(st);
+    const char *in = a->scene_path;
+    int kind = input_kind(in);
+    if (kind == INPUT_VOLUME && ends_with_ci(in, ".hdr")) {
+        /* .hdr is also Radiance's image format ("#?RADIANCE"): say what it
+         * is instead of letting the NIfTI reader blame its header size. */
+        FILE *f = fopen(in, "rb");
+        char magic[2] = {0, 0};
+        if (f) {
+            size_t got = fread(magic, 1, 2, f);
+            fclose(f);
+            if (got == 2 && magic[0] == '#' && magic[1] == '?') {
+                snprintf(msg, msg_size,
+                         "%s: a Radiance HDR image, not a volume (use it as an environment light: "
+                         "\"lights\": [{\"type\": \"environment\", \"file\": ...}])",
+                         in);
+                return CLI_USAGE;
+            }
+        }
     }
+    if (kind == INPUT_UNKNOWN) {
+        snprintf(msg, msg_size,
+                 "%s: neither a scene (a JSON object) nor a volume (" VOLUME_EXTENSIONS ", procedural:NAME[:N])", in);
+        return CLI_USAGE;
+    }
+    volux_scene_load_options o;
+    memset(&o, 0, sizeof o);
+    o.overrides = a->overrides;
+    o.n_overrides = a->n_overrides;
+    o.data_dir = cli_data_dir();
+    char *dump = NULL, dump_dir[4096];
+    if (a->dump_path) {
+        dir_of(a->dump_path, dump_dir, sizeof dump_dir);
+        o.effective_json = &dump;
+        o.effective_dir = dump_dir;
+    }
+    volux_volume *vol = NULL;
+    char *json = NULL;
+    volux_status st = VOLUX_OK;
+    if (kind == INPUT_VOLUME) {
+        /* A quick look: the default scene of the volume, loaded once. */
+        char vjson[4200];
+        if (cli_is_procedural(in)) {
+            if (!cli_procedural_size_ok(in)) {
+                snprintf(msg, msg_size, "%s: the size must be an integer in [1, %d]", in, VOLUX_MAX_DIM);
+                return CLI_USAGE;
+            }
+            st = cli_procedural(ctx, cmd, in, 1, &vol, vjson, sizeof vjson);
+        } else {
+            char quoted[4096];
+            if (!json_string(in, quoted, sizeof quoted)) {
+                snprintf(msg, msg_size, "%s: path too long", in);
+                return CLI_USAGE;
+            }
+            snprintf(vjson, sizeof vjson, "{\"file\": %s}", quoted);
+            st = volux_volume_load(ctx, in, NULL, &vol);
+        }
+        if (!st) st = volux_scene_default_json(ctx, vjson, vol, &json);
+        if (st) {
+            volux_volume_release(vol);
+            return context_failure(ctx, st, msg, msg_size);
+        }
+        o.json = json;
+        o.base_dir = ".";
+        o.name = in;
+        o.volume = vol;
+        o.volume_file = cli_is_procedural(in) ? NULL : in;
+    } else {
+        o.path = in;
+    }
+    volux_scene *scene = NULL;
+    st = volux_scene_load_ex(ctx, &o, &scene);
+    volux_scene_json_free(ctx, json);
+    volux_volume_release(vol);
+    if (st) return context_failure(ctx, st, msg, msg_size);
+    if (dump && !write_text(a->dump_path, dump, msg, msg_size)) {
+        volux_scene_json_free(ctx, dump);
+        volux_scene_destroy(scene);
+        return CLI_FAIL;
+    }
+    volux_scene_json_free(ctx, dump);
     const char *tech = volux_scene_render(scene)->technique;
     if (!volux_technique_info_find(tech)) {
-        snprintf(msg, msg_size, "%s: render.technique: unknown technique '%s' (see `volux techniques`)", a->scene_path,
-                 tech);
+        char names[256];
+        cli_technique_names(names, sizeof names);
+        const char *guess = cli_closest_technique(tech);
+        snprintf(msg, msg_size, "%s: render.technique: unknown technique '%s'%s%s%s (techniques: %s)", in, tech,
+                 guess ? "; did you mean '" : "", guess ? guess : "", guess ? "'?" : "", names);
         volux_scene_destroy(scene);
         return CLI_USAGE;
     }
     if ((st = volux_technique_validate_params(ctx, scene))) {
-        snprintf(msg, msg_size, "%s: %s", a->scene_path, volux_context_error(ctx));
+        snprintf(msg, msg_size, "%s: %s", in, volux_context_error(ctx));
         volux_scene_destroy(scene);
         return cli_exit_status(st);
     }
@@ -93,9 +306,20 @@ int cli_load_scene_quiet(const char *cmd, volux_context *ctx, const cli_scene_ar
     return CLI_OK;
 }
 
+void cli_print_notes(const char *cmd, const volux_scene *scene) {
+    /* One "volux CMD: note:" line per note. */
+    for (const char *p = volux_scene_notes(scene); *p;) {
+        const char *nl = strchr(p, '\n');
+        int len = nl ? (int)(nl - p) : (int)strlen(p);
+        cli_eprintf("volux %s: note: %.*s\n", cmd, len, p);
+        p += len + (nl ? 1 : 0);
+    }
+}
+
 int cli_load_scene(const char *cmd, volux_context *ctx, const cli_scene_args *a, volux_scene **out) {
     char msg[1024];
     int rc = cli_load_scene_quiet(cmd, ctx, a, out, msg, sizeof msg);
     if (rc) cli_eprintf("volux %s: %s\n", cmd, msg);
+    else if (!a->quiet) cli_print_notes(cmd, *out);
     return rc;
 }

@@ -1,7 +1,8 @@
 /*
  * tools/cli/scene_args.h — the scene options `render` and `bench` share:
  * SCENE.json plus --technique/--spp/--width/--height/--threads/--seed/
- * --set, turned into --set overrides so there is one path into the scene.
+ * --time-step/--set, turned into --set overrides so there is one path into
+ * the scene.
  */
 #ifndef VOLUX_CLI_SCENE_ARGS_H
 #define VOLUX_CLI_SCENE_ARGS_H
@@ -17,6 +18,8 @@ typedef struct cli_scene_args {
     const char *overrides[CLI_MAX_OVERRIDES];
     char storage[CLI_MAX_OVERRIDES][160];
     int n_overrides;
+    const char *dump_path; /* --dump-scene: the scene as read, as JSON */
+    int quiet;             /* no notes on stderr */
 } cli_scene_args;
 
 /* If argv[*i] is a scene option, consumes it (and its value), returns 1;
@@ -24,11 +27,21 @@ typedef struct cli_scene_args {
 int cli_scene_arg(const char *cmd, cli_scene_args *a, int argc, char **argv, int *i);
 
 /* Loads the scene with the overrides and checks technique parameters.
- * On error prints the message and returns the exit status (nonzero). */
+ * The input may also be a volume file or procedural:NAME[:N]: its quick-
+ * look scene (volux_scene_default_json). With --dump-scene, writes the
+ * scene as read. On error prints the message and returns the exit status
+ * (nonzero); on success prints the scene's notes unless quiet. */
 int cli_load_scene(const char *cmd, volux_context *ctx, const cli_scene_args *a, volux_scene **out);
 /* The same without printing: the message goes to msg (for front ends that
- * print one message for many processes). */
+ * print one message for many processes); notes are left to the caller. */
 int cli_load_scene_quiet(const char *cmd, volux_context *ctx, const cli_scene_args *a, volux_scene **out,
                          char *msg, size_t msg_size);
+/* The scene's notes, one "volux CMD: note: ..." line each, on stderr. */
+void cli_print_notes(const char *cmd, const volux_scene *scene);
+
+/* The registered technique nearest to `name` (edit distance or prefix),
+ * or NULL when none is close; all names, comma-separated. */
+const char *cli_closest_technique(const char *name);
+void cli_technique_names(char *out, size_t n);
 
 #endif

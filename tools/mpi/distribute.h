@@ -78,4 +78,9 @@ typedef struct dist_timing {
 volux_status dist_render_image(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
                                dist_timing *timing);
 
+/* One process: volux_render with the scene's limits, timings filled in
+ * (mode.c; both front ends use it). */
+volux_status dist_render_local(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
+                               dist_timing *timing);
+
 #endif

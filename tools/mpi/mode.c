@@ -19,3 +19,13 @@ int dist_parse_mode(const char *cmd, const char *value, dist_mode *out) {
 /* mpirun (Open MPI, or any PMI/PMIx launcher) leaves these in the
  * environment of every process it starts. */
 int dist_launched(void) { return getenv("OMPI_COMM_WORLD_SIZE") || getenv("PMIX_RANK") || getenv("PMI_RANK"); }
+
+volux_status dist_render_local(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
+                               dist_timing *timing) {
+    memset(timing, 0, sizeof *timing);
+    volux_render_report rep = {0};
+    volux_status st = volux_render(t, scene, fb, NULL, &rep);
+    timing->render_ms = timing->rank_render_ms_min = timing->rank_render_ms_max = rep.ms;
+    timing->tiles = volux_framebuffer_tile_count(fb);
+    return st;
+}

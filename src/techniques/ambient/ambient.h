@@ -13,6 +13,8 @@
 
 extern const volux_technique_class volux_ambient_class;
 
+#define AMBIENT_ALBEDO_LUT 257
+
 typedef struct ambient_stats {
     uint64_t sat_builds, rho_builds, rho_c_builds, occ_builds, table_loads, slice_builds;
     uint64_t cache_builds[VOLUX_MAX_LIGHTS];
@@ -25,11 +27,15 @@ typedef struct ambient_state {
     float radius;                 /* r, world units                          */
     float cache_scale;
     int specular;
-    float offset;                 /* x_o = x + offset·r·ω (Eq. 20: 1)        */
+    float offset;                 /* x_o = x + offset·lag·ω (Eq. 20: 1)      */
+    float offset_mfp;             /* adaptive lag ≤ offset_mfp/σt (0: lag r)  */
     float grad_ref;               /* |∇s| (per world unit) of full specular  */
     float ao, ao_radius;          /* AO term weight, radius (world)          */
     int ao_shells;
     volux_ambient_table_desc want; /* table the parameters ask for          */
+    int albedo_axis;              /* want has the albedo set                 */
+    int tinted;                   /* per-channel lookups at albedo·c         */
+    double albedo;                /* albedo the slice is read at             */
     char table_file[1024];
     /* the table and its slice at the current g */
     volux_ambient_table table;
@@ -37,10 +43,14 @@ typedef struct ambient_state {
     char loaded_file[1024];
     float *slice;                 /* [n_sigma][n_theta]                      */
     float *kappa;                 /* [n_sigma] −ln of the normalised θ = 0 column */
-    double **ln_col;              /* [n_g] ln of the table's g columns, each
-                                     [n_sigma][n_theta], computed on first use */
+    double **ln_col;              /* [n_albedo·n_g] ln of the table's (albedo,
+                                     g) blocks, each [n_sigma][n_theta],
+                                     computed on first use                   */
     int ln_n;                     /* entries of ln_col                       */
     size_t slice_bytes, kappa_bytes;
+    float *slab;                  /* tinted: [n_albedo][n_sigma][n_theta] at g */
+    size_t slab_bytes;
+    float albedo_lut[AMBIENT_ALBEDO_LUT]; /* albedo i/(N−1) → fractional node */
     float u_theta, u_sigma;       /* (n−1)/π and (n−1)/Σ̃t                   */
     /* caches */
     scatter_sat sat;

@@ -178,8 +178,11 @@ static void build_column(void *user, int64_t index, int thread) {
     if (__atomic_load_n(&job->cancelled, __ATOMIC_RELAXED)) return;
     const volux_ambient_table_desc *d = job->d;
     const int nt = d->n_theta;
-    const int is = (int)(index % d->n_sigma), ig = (int)(index / d->n_sigma);
-    const double sigma = table_sigma(d, is), g = table_g(d, ig), albedo = d->albedo;
+    const int is = (int)(index % d->n_sigma), ig = (int)(index / d->n_sigma % d->n_g);
+    /* high albedos first (their walks are the longest), so that the short
+     * columns fill the end of the parallel loop */
+    const int ia = d->n_albedo - 1 - (int)(index / ((int64_t)d->n_sigma * d->n_g));
+    const double sigma = table_sigma(d, is), g = table_g(d, ig), albedo = d->albedo[ia];
     const float a = (float)(1.0 + g * g), b = (float)(2.0 * g);
     const double hg_const = (1.0 - g * g) * SCATTER_INV_4PI_D;
     const int mis = fabs(g) >= MIS_MIN_G - 1e-9;
@@ -250,13 +253,13 @@ static void build_column(void *user, int64_t index, int thread) {
             }
             se = sqrt(sq / ((double)BATCHES * (BATCHES - 1)));
         }
-        size_t at = volux_ambient_table_index(d, i, is, ig);
+        size_t at = volux_ambient_table_index4(d, i, is, ig, ia);
         job->data[at] = (float)value;
         job->rel_error[at] = value > 0.0 ? (float)(se / value) : 0.0f;
     }
     int done = __atomic_add_fetch(&job->done, 1, __ATOMIC_RELAXED);
     if (job->ctx->progress && !__atomic_exchange_n(&job->busy, 1, __ATOMIC_ACQUIRE)) {
-        double f = (double)done / ((double)d->n_sigma * (double)d->n_g);
+        double f = (double)done / ((double)d->n_sigma * (double)d->n_g * (double)d->n_albedo);
         if (volux_progress(job->ctx, "ambient table", f < 1.0 ? f : 0.999))
             __atomic_store_n(&job->cancelled, 1, __ATOMIC_RELAXED);
         __atomic_store_n(&job->busy, 0, __ATOMIC_RELEASE);
@@ -296,7 +299,7 @@ volux_status volux_ambient_table_build(volux_context *ctx, const volux_ambient_t
         trig[nt + i] = (float)sin(table_theta(d, i));
     }
     build_job job = {ctx, d, t.data, t.rel_error, trig, trig + nt, scratch, scratch_bytes, 0, 0, 0};
-    volux_parallel_for(threads, (int64_t)d->n_sigma * d->n_g, build_column, &job);
+    volux_parallel_for(threads, (int64_t)d->n_sigma * d->n_g * d->n_albedo, build_column, &job);
     volux_free(ctx, scratch, scratch_bytes * (size_t)threads);
     volux_free(ctx, trig, trig_bytes);
     if (job.cancelled) {
@@ -311,7 +314,37 @@ volux_status volux_ambient_table_build(volux_context *ctx, const volux_ambient_t
 
 /* ------------------------------------------------------------------ lookup */
 
-double volux_ambient_table_eval(const volux_ambient_table *t, double theta, double sigma, double g) {
+/* Bilinear in (θ, σ̃t), log-linear in g, at albedo block ia. */
+static double eval_block(const volux_ambient_table *t, const int i0[3], const double f[3], int ia) {
+    const volux_ambient_table_desc *d = &t->desc;
+    double lg[2];
+    for (int k = 0; k < 2; k++) {
+        int ig = i0[2] + k;
+        double v00 = t->data[volux_ambient_table_index4(d, i0[0], i0[1], ig, ia)];
+        double v10 = t->data[volux_ambient_table_index4(d, i0[0] + 1, i0[1], ig, ia)];
+        double v01 = t->data[volux_ambient_table_index4(d, i0[0], i0[1] + 1, ig, ia)];
+        double v11 = t->data[volux_ambient_table_index4(d, i0[0] + 1, i0[1] + 1, ig, ia)];
+        lg[k] = (v00 * (1 - f[0]) + v10 * f[0]) * (1 - f[1]) + (v01 * (1 - f[0]) + v11 * f[0]) * f[1];
+    }
+    if (lg[0] > 0.0 && lg[1] > 0.0) return exp(log(lg[0]) * (1 - f[2]) + log(lg[1]) * f[2]);
+    return lg[0] * (1 - f[2]) + lg[1] * f[2];
+}
+
+int volux_ambient_table_albedo_bracket(const volux_ambient_table_desc *d, double albedo, double *frac) {
+    if (d->n_albedo == 1 || albedo <= d->albedo[0]) {
+        *frac = 0.0;
+        return 0;
+    }
+    for (int i = 0; i + 1 < d->n_albedo; i++)
+        if (albedo <= d->albedo[i + 1]) {
+            *frac = (albedo - d->albedo[i]) / (d->albedo[i + 1] - d->albedo[i]);
+            return i;
+        }
+    *frac = 1.0;
+    return d->n_albedo - 2;
+}
+
+double volux_ambient_table_eval(const volux_ambient_table *t, double theta, double sigma, double g, double albedo) {
     const volux_ambient_table_desc *d = &t->desc;
     double u[3] = {theta / 3.14159265358979323846 * (d->n_theta - 1), sigma / d->sigma_max * (d->n_sigma - 1),
                    (g - d->g_min) / (d->g_max - d->g_min) * (d->n_g - 1)};
@@ -324,18 +357,11 @@ double volux_ambient_table_eval(const volux_ambient_table *t, double theta, doub
         i0[a] = i;
         f[a] = x - i;
     }
-    double lg[2];
-    for (int k = 0; k < 2; k++) {
-        int ig = i0[2] + k;
-        double v00 = t->data[volux_ambient_table_index(d, i0[0], i0[1], ig)];
-        double v10 = t->data[volux_ambient_table_index(d, i0[0] + 1, i0[1], ig)];
-        double v01 = t->data[volux_ambient_table_index(d, i0[0], i0[1] + 1, ig)];
-        double v11 = t->data[volux_ambient_table_index(d, i0[0] + 1, i0[1] + 1, ig)];
-        double v = (v00 * (1 - f[0]) + v10 * f[0]) * (1 - f[1]) + (v01 * (1 - f[0]) + v11 * f[0]) * f[1];
-        lg[k] = v;
-    }
-    if (lg[0] > 0.0 && lg[1] > 0.0) return exp(log(lg[0]) * (1 - f[2]) + log(lg[1]) * f[2]);
-    return lg[0] * (1 - f[2]) + lg[1] * f[2];
+    double fa;
+    int ia = volux_ambient_table_albedo_bracket(d, albedo, &fa);
+    double v = eval_block(t, i0, f, ia);
+    if (d->n_albedo > 1) v = v * (1.0 - fa) + eval_block(t, i0, f, ia + 1) * fa;
+    return v;
 }
 
 static int cmp_float(const void *a, const void *b) {
@@ -375,13 +401,38 @@ volux_status volux_ambient_table_get(volux_context *ctx, const volux_ambient_tab
                                      int *built) {
     volux_status st = volux_ambient_table_desc_validate(ctx, d);
     if (st) return st;
+    volux_ambient_table_desc builtin;
+    volux_ambient_table_desc_builtin(&builtin);
+    if (volux_ambient_table_desc_equal(d, &builtin)) {
+        size_t size;
+        const unsigned char *bytes = volux_ambient_builtin_table(&size);
+        if (bytes && volux_ambient_table_builtin_load(ctx, bytes, size, out)) {
+            if (volux_ambient_table_desc_equal(&out->desc, d)) {
+                if (built) *built = 0;
+                return VOLUX_OK;
+            }
+            volux_ambient_table_free(ctx, out);
+        }
+    }
     if (volux_ambient_table_cache_load(ctx, d, out)) {
         if (built) *built = 0;
         return VOLUX_OK;
     }
+    char path[4400];
+    int have_path = volux_ambient_table_cache_path(ctx, d, path, sizeof path);
+    volux_message(ctx, VOLUX_MESSAGE_NOTE,
+                  "ambient: building the preintegration table once: %d x %d x %d entries x %d albed%s, %llu walks "
+                  "per column (the built-in table is 64 x 64 x 10 x 12; the paper's size takes minutes)%s%s",
+                  d->n_theta, d->n_sigma, d->n_g, d->n_albedo, d->n_albedo > 1 ? "os" : "o",
+                  (unsigned long long)d->paths, have_path ? "; it will be kept in " : "; the disk cache is off, so it "
+                  "lives in memory only", have_path ? path : "");
     volux_ambient_table t;
     if ((st = volux_ambient_table_build(ctx, d, &t))) return st;
-    volux_ambient_table_cache_store(ctx, &t); /* failing only means the table lives in memory */
+    /* failing to store only means the table lives in memory */
+    int stored = volux_ambient_table_cache_store(ctx, &t);
+    volux_message(ctx, VOLUX_MESSAGE_NOTE, "ambient: table built in %.1f s%s%s", t.build_ms * 1e-3,
+                  stored ? ", kept in " : have_path ? ", but the cache folder cannot be written: " : "",
+                  stored || have_path ? path : "");
     if (built) *built = 1;
     *out = t;
     return VOLUX_OK;
@@ -402,6 +453,17 @@ volux_status volux_ambient_table_write(volux_context *ctx, const volux_ambient_t
     volux_status st = volux_ambient_table_build(ctx, d, &t);
     if (st) return st;
     if (!(st = volux_ambient_table_save(ctx, &t, path)) && out) summarise(ctx, &t, out);
+    volux_ambient_table_free(ctx, &t);
+    return st;
+}
+
+volux_status volux_ambient_table_strip(volux_context *ctx, const char *in, const char *out) {
+    volux_ambient_table t;
+    volux_status st = volux_ambient_table_load(ctx, in, &t);
+    if (st) return st;
+    if (t.rel_error) volux_free(ctx, t.rel_error, volux_ambient_table_values(&t.desc) * sizeof(float));
+    t.rel_error = NULL;
+    st = volux_ambient_table_save(ctx, &t, out);
     volux_ambient_table_free(ctx, &t);
     return st;
 }

@@ -15,17 +15,27 @@
 volux_status volux_ambient_table_build(volux_context *ctx, const volux_ambient_table_desc *d,
                                        volux_ambient_table *out);
 
-/* Loads the table for d from the context's cache folder, or builds it and
- * tries to store it there (a stale or corrupt entry is rebuilt; a folder
+/* The bytes of the table built into the library (a table file; NULL and
+ * *size = 0 in a build without it). builtin.c. */
+const unsigned char *volux_ambient_builtin_table(size_t *size);
+
+/* The table for d: the built-in one if d describes it, else from the
+ * context's cache folder, else built (with a note through the context's
+ * message callback saying what is built, how large, and where it will be
+ * kept) and stored there (a stale or corrupt entry is rebuilt; a folder
  * that cannot be written, or the disk cache turned off, only means the
  * table lives in memory; neither records an error). *built (may be NULL)
- * tells which happened. */
+ * tells whether it was built. */
 volux_status volux_ambient_table_get(volux_context *ctx, const volux_ambient_table_desc *d, volux_ambient_table *out,
                                      int *built);
 
-/* Trilinear lookup at (θ radians, σ̃t, g), clamped to the ranges; linear in
- * θ and σ̃t, log-linear in g. */
-double volux_ambient_table_eval(const volux_ambient_table *t, double theta, double sigma, double g);
+/* Lookup at (θ radians, σ̃t, g, albedo), clamped to the ranges; linear in
+ * θ, σ̃t and albedo, log-linear in g. A table of one albedo ignores it. */
+double volux_ambient_table_eval(const volux_ambient_table *t, double theta, double sigma, double g, double albedo);
+/* The albedo block ia ≤ n_albedo − 2 whose interval holds `albedo` (clamped
+ * to the axis) and the weight *frac of block ia + 1; 0 and 0 for a table
+ * of one albedo. */
+int volux_ambient_table_albedo_bracket(const volux_ambient_table_desc *d, double albedo, double *frac);
 
 /* Summary of the per-entry relative standard errors (entries whose value is
  * at most `floor` are skipped). Returns 0 if the table has none. */

@@ -82,7 +82,7 @@ static inline __attribute__((always_inline)) void inscatter(const void *tech, co
     *Ls = v3_scale(L, A);
 }
 
-SCATTER_RENDER_TILE(ao_render_tile, ao_state, 0.0f, inscatter)
+SCATTER_RENDER_TILE(ao_render_tile, ao_state, 0.0f, NULL, inscatter)
 
 const volux_technique_class volux_ao_class = {
     {"ao", "SAT ambient occlusion (Schlegel et al. 2011) lighting single scattering (Ament 2013 baseline)",

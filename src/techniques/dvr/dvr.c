@@ -17,9 +17,10 @@ static volux_status read_params(dvr_state *st, const volux_scene *scene) {
     if (!strcmp(kernel, "auto")) st->kernel = DVR_KERNEL_AUTO;
     else if (!strcmp(kernel, "scalar")) st->kernel = DVR_KERNEL_SCALAR;
     else if (!strcmp(kernel, "simd")) st->kernel = DVR_KERNEL_SIMD;
+    else if (!strcmp(kernel, "avx2")) st->kernel = DVR_KERNEL_AVX2;
     else
         return volux_error(st->rc.ctx, VOLUX_ERR_INVALID,
-                           "techniques.%s.kernel: expected \"auto\", \"scalar\" or \"simd\", got \"%s\"",
+                           "techniques.%s.kernel: expected \"auto\", \"scalar\", \"simd\" or \"avx2\", got \"%s\"",
                            cls->info.name, kernel);
     if (st->shaded)
         st->grad_ref = volux_raycaster_gradient_ref(&st->rc, volux_technique_param(scene, cls, "gradient_threshold"));
@@ -212,12 +213,15 @@ static volux_status resolve_kernel(dvr_state *st) {
     int directional_only = ls->n_direct <= DVR_SIMD_MAX_LIGHTS;
     for (int i = 0; i < ls->n_direct; i++) directional_only &= !ls->direct[i].positional;
     int ok = volux_dvr_simd_available() && (!st->shaded || directional_only);
-    if (st->kernel == DVR_KERNEL_SIMD && !ok)
-        return volux_error(st->rc.ctx, VOLUX_ERR_UNSUPPORTED, "techniques.%s.kernel: \"simd\" needs %s",
-                           st->rc.cls->info.name,
+    if ((st->kernel == DVR_KERNEL_SIMD || st->kernel == DVR_KERNEL_AVX2) && !ok)
+        return volux_error(st->rc.ctx, VOLUX_ERR_UNSUPPORTED, "techniques.%s.kernel: \"%s\" needs %s",
+                           st->rc.cls->info.name, st->kernel == DVR_KERNEL_AVX2 ? "avx2" : "simd",
                            volux_dvr_simd_available() ? "at most 4 lights, all directional (shaded)"
                                                       : "a CPU with AVX2 and FMA");
     st->use_simd = st->kernel != DVR_KERNEL_SCALAR && ok;
+    /* the widest packets the CPU has, unless the 8-lane ones are asked for
+     * (same image: the per-CPU benchmarks compare them) */
+    st->simd_lanes = st->kernel != DVR_KERNEL_AVX2 && volux_dvr_avx512_available() ? 16 : 8;
     return VOLUX_OK;
 }
 
@@ -341,7 +345,8 @@ static inline __attribute__((always_inline)) void tile_as(const dvr_state *st, c
 void volux_dvr_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
                            volux_tile_stats *stats) {
     const dvr_state *st = state;
-    if (st->use_simd) volux_dvr_render_tile_avx2(st, scene, tile, rgb, stats);
+    if (st->use_simd && st->simd_lanes == 16) volux_dvr_render_tile_avx512(st, scene, tile, rgb, stats);
+    else if (st->use_simd) volux_dvr_render_tile_avx2(st, scene, tile, rgb, stats);
     else if (st->shaded && st->preintegrate) tile_as(st, scene, tile, rgb, stats, 1, 1);
     else if (st->shaded) tile_as(st, scene, tile, rgb, stats, 1, 0);
     else if (st->preintegrate) tile_as(st, scene, tile, rgb, stats, 0, 1);

@@ -13,10 +13,12 @@
  * Colour/albedo/material edits re-read the scene's LUT only.
  *
  * Two kernels compute the same image: the scalar one in dvr.c (portable,
- * the reference) and 8-ray AVX2+FMA packets in dvr_avx2.c (chosen at run
- * time when the CPU has AVX2 and FMA; parameter `kernel`). They share the
- * segment positions, the pre-integration model and the skipping rule; they
- * differ by float rounding (the SIMD kernel's integral tables are float).
+ * the reference) and the packet kernel of dvr_simd_impl.h, as 16-ray
+ * AVX-512 packets (dvr_avx512.c) or 8-ray AVX2+FMA packets (dvr_avx2.c),
+ * chosen at run time from the CPU and the parameter `kernel`. The two
+ * widths give bit-identical images; against the scalar kernel they share
+ * the segment positions, the pre-integration model and the skipping rule
+ * and differ by float rounding (the SIMD integral tables are float).
  */
 #ifndef VOLUX_DVR_H
 #define VOLUX_DVR_H
@@ -27,7 +29,7 @@
 #define DVR_SIMD_MAX_LIGHTS 4 /* directional lights the SIMD shading takes */
 #define DVR_SKIP_CELL 4       /* SIMD skip cells: 4³ voxels (macrocells are 8³) */
 
-typedef enum dvr_kernel { DVR_KERNEL_AUTO, DVR_KERNEL_SCALAR, DVR_KERNEL_SIMD } dvr_kernel;
+typedef enum dvr_kernel { DVR_KERNEL_AUTO, DVR_KERNEL_SCALAR, DVR_KERNEL_SIMD, DVR_KERNEL_AVX2 } dvr_kernel;
 
 extern const volux_technique_class volux_ea_class;
 extern const volux_technique_class volux_shaded_class;
@@ -40,6 +42,7 @@ typedef struct dvr_state {
     int preintegrate, skip_empty;
     dvr_kernel kernel;             /* `kernel` parameter                   */
     int use_simd;                  /* resolved: parameter, CPU, lights     */
+    int simd_lanes;                /* 16 (AVX-512) or 8 (AVX2) when use_simd */
     float t_min;                   /* early termination when T < t_min   */
     /* shading */
     volux_gradient_cache grad;     /* shared helper (sample/gradient.h)  */
@@ -63,10 +66,14 @@ typedef struct dvr_state {
 
 /* 1 if this CPU can run the AVX2+FMA kernel (and it was compiled in). */
 int volux_dvr_simd_available(void);
+/* 1 if it can also run the AVX-512 (F, BW, DQ, VL) kernel. */
+int volux_dvr_avx512_available(void);
 /* The SIMD kernel for one tile (same contract as render_tile; `shaded`
  * only with directional lights, see resolve_kernel in dvr.c). */
 void volux_dvr_render_tile_avx2(const dvr_state *st, const volux_scene *scene, const volux_tile *tile, float *rgb,
                                 volux_tile_stats *stats);
+void volux_dvr_render_tile_avx512(const dvr_state *st, const volux_scene *scene, const volux_tile *tile, float *rgb,
+                                  volux_tile_stats *stats);
 
 /* The class hooks both `ea` and `shaded` use (ea.c holds the classes). */
 void volux_dvr_init(void *state);

@@ -5,15 +5,17 @@
 #define DVR_COMMON_PARAMS                                                                                        \
     VOLUX_PARAM_PREINTEGRATE, VOLUX_PARAM_EARLY_TERMINATION, VOLUX_PARAM_SKIP_EMPTY,                             \
         {"kernel", VOLUX_PARAM_STRING, 0, 0, 0, "auto",                                                          \
-         "\"auto\" (SIMD when the CPU has AVX2+FMA; shaded: with at most 4 lights, all directional), "         \
-         "\"scalar\" (portable reference) or \"simd\" (error if unavailable); same image up to float rounding"}
+         "\"auto\" (SIMD when the CPU has AVX2+FMA, 16-lane AVX-512 packets where it has those too; shaded: with " \
+         "at most 4 lights, all directional), \"scalar\" (portable reference), \"simd\" (as auto; error if "     \
+         "unavailable) or \"avx2\" (8-lane packets only, the same image); same image up to float rounding"}
 
 static const volux_param_info ea_params[] = {DVR_COMMON_PARAMS, {NULL, 0, 0, 0, 0, NULL, NULL}};
 
-/* Lights and the phase function never reach an emission–absorption image. */
+/* Lights, the phase function and the scattering albedo never reach an
+ * emission–absorption image. */
 const volux_technique_class volux_ea_class = {
     {"ea", "emission-absorption ray casting (no lighting)", ea_params, 0},
-    sizeof(dvr_state), VOLUX_CHANGE_LIGHTS | VOLUX_CHANGE_PHASE, 0,
+    sizeof(dvr_state), VOLUX_CHANGE_LIGHTS | VOLUX_CHANGE_PHASE | VOLUX_CHANGE_ALBEDO, 0,
     volux_dvr_init, volux_dvr_update, volux_dvr_render_tile, volux_dvr_memory_bytes, volux_dvr_release,
     NULL, NULL, NULL, /* no refine, pending work or statistics */
 };
@@ -25,10 +27,10 @@ static const volux_param_info shaded_params[] = {
     VOLUX_PARAM_GRADIENT_THRESHOLD("shading is"),
     {NULL, 0, 0, 0, 0, NULL, NULL}};
 
-/* Blinn–Phong has no phase function. */
+/* Blinn–Phong has no phase function and no scattering albedo. */
 const volux_technique_class volux_shaded_class = {
     {"shaded", "emission-absorption plus gradient Blinn-Phong from all non-ambient lights", shaded_params, 0},
-    sizeof(dvr_state), VOLUX_CHANGE_PHASE, 0,
+    sizeof(dvr_state), VOLUX_CHANGE_PHASE | VOLUX_CHANGE_ALBEDO, 0,
     volux_dvr_init, volux_dvr_update, volux_dvr_render_tile, volux_dvr_memory_bytes, volux_dvr_release,
     NULL, NULL, NULL, /* no refine, pending work or statistics */
 };

@@ -138,7 +138,12 @@ static volux_status lightvol_update(void *state, const volux_scene *scene, const
         reason = "volume changed";
         volux_gradient_cache_free(ctx, &st->grad);
     }
-    if (w & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY | VOLUX_CHANGE_COLOR)) medium = 1;
+    if (w & VOLUX_CHANGE_LIGHTS) /* no sweep direction to propagate an environment along (docs) */
+        volux_raycaster_warn_unused_lights(rc, 1u << VOLUX_LIGHT_ENVIRONMENT,
+                                           "environment lights are not propagated through the illumination volume");
+    if (w & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY | VOLUX_CHANGE_COLOR |
+             VOLUX_CHANGE_ALBEDO))
+        medium = 1;
     if (w & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY)) {
         full = 1;
         if (!reason) reason = "transfer function changed";
@@ -171,9 +176,9 @@ static volux_status lightvol_update(void *state, const volux_scene *scene, const
     if (medium) {
         if ((s = volux_lightvol_build_medium(st))) return s;
         /* σs enters propagation only through forward scattering */
-        if ((w & VOLUX_CHANGE_COLOR) && st->p.forward > 0.0f) {
+        if ((w & (VOLUX_CHANGE_COLOR | VOLUX_CHANGE_ALBEDO)) && st->p.forward > 0.0f) {
             full = 1;
-            if (!reason) reason = "colour changed (forward scattering)";
+            if (!reason) reason = "colour or albedo changed (forward scattering)";
         }
     }
     if (full || !st->valid) return volux_lightvol_update_lights(st, scene, c, 1, reason);

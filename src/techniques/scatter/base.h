@@ -45,6 +45,8 @@ typedef struct scatter_sample {
     volux_vec3 q;      /* volume index-space position         */
     volux_vec3 to_eye; /* unit direction towards the camera   */
     float s;           /* scalar value                        */
+    float sigma_t;     /* extinction at the sample (1/world unit) */
+    float rgb[3];      /* colour c at the sample                  */
 } scatter_sample;
 
 /* Sets *scattered (radiance scattered towards the camera per unit σs: it
@@ -52,22 +54,48 @@ typedef struct scatter_sample {
  * highlights); both start at 0. */
 typedef void (*scatter_inscatter_fn)(const void *tech, const scatter_sample *smp, volux_vec3 *scattered,
                                      volux_vec3 *extra);
+/* The camera-transmittance lag of a sample, in [0, max_lag] (world units;
+ * x_o = x + lag·ω). Called only for samples that scatter. */
+typedef float (*scatter_lag_fn)(const void *tech, const scatter_sample *smp);
 
 /* Past segments of the ray, for T(x_o) at a lag behind the current point:
  * (t0, t1, T before, T after); T is linear within a segment (one march
- * step). When full, the oldest is folded into the base (T(x_o) is then
- * taken slightly too close to x: conservative). */
+ * step). Records end more than max_lag behind the current sample are
+ * folded into the base; when the ring is full the oldest is folded too
+ * (T(x_o) is then taken slightly too close to x: conservative). */
 #define SCATTER_LAG_RECORDS 2048
+
+/* T at ray parameter tq from the records [tail, head) (sorted by t; gaps
+ * between them are empty, T constant) and T_base before the first. The
+ * first record that ends after tq is found by bisection: lags vary per
+ * sample, so the records cannot simply be consumed in order. */
+static inline __attribute__((always_inline)) float scatter_lag_T(const float (*rec)[4], int tail, int head,
+                                                                 float T_base, float T_now, float tq) {
+    if (tail == head || rec[(head - 1) % SCATTER_LAG_RECORDS][1] <= tq) return T_now;
+    int lo = tail, hi = head - 1; /* rec[hi] ends after tq */
+    while (lo < hi) {
+        int mid = lo + (hi - lo) / 2;
+        if (rec[mid % SCATTER_LAG_RECORDS][1] <= tq) lo = mid + 1;
+        else hi = mid;
+    }
+    const float *r0 = rec[lo % SCATTER_LAG_RECORDS];
+    if (tq > r0[0]) return r0[2] + (r0[3] - r0[2]) * (tq - r0[0]) / (r0[1] - r0[0]);
+    return lo == tail ? T_base : rec[(lo - 1) % SCATTER_LAG_RECORDS][3];
+}
 
 /* Integrates one view ray (the per-ray half of Eqs. 18–20; the pixel loop
  * is volux_raycaster_tile): segments of sample/segment.h, each adding
- * T(x_o)·(1 − e^{−τ})·albedo·c·L_s + emission, with x_o `lag` behind. */
+ * T(x_o)·(1 − e^{−τ})·albedo·c·L_s + emission, with x_o = x + lag·ω, the
+ * lag given per sample by `lag_fn` (NULL: 0) and at most `max_lag`. Early
+ * termination tests T at max_lag behind the sample: no later sample can
+ * need a larger T(x_o). */
 static inline __attribute__((always_inline)) volux_vec3
 scatter_march(const scatter_base *b, const void *tech, const volux_ray *ray, float jitter, float *T_out,
-              uint64_t *samples, float lag, scatter_inscatter_fn inscatter) {
+              uint64_t *samples, float max_lag, scatter_lag_fn lag_fn, scatter_inscatter_fn inscatter) {
     const volux_volume *v = b->rc.volume;
     const volux_transfer_lut *lut = b->rc.lut;
     const float h = b->rc.step, albedo = b->rc.albedo, emission = b->emission;
+    const int lagged = lag_fn != NULL && max_lag > 0.0f;
     uint64_t count = 0;
     float rec[SCATTER_LAG_RECORDS][4];
     scatter_sample smp;
@@ -90,24 +118,21 @@ scatter_march(const scatter_base *b, const void *tech, const volux_ray *ray, flo
         float tau = rgba[3] * len;
         if (tau <= 0.0f) continue;
         float alpha = 1.0f - volux_exp_nonpos_t6(-tau);
-        /* T(x_o), x_o = x + lag·ω: the transmittance at t = e − lag,
-         * linear within the recorded segment that contains it. */
-        float T_o = T;
-        if (lag > 0.0f) {
-            float tq = e - lag;
-            while (tail != head && rec[tail % SCATTER_LAG_RECORDS][1] <= tq) {
-                T_base = rec[tail % SCATTER_LAG_RECORDS][3];
-                tail++;
-            }
-            T_o = T_base;
-            if (tail != head) {
-                const float *r0 = rec[tail % SCATTER_LAG_RECORDS];
-                if (tq > r0[0]) T_o = r0[2] + (r0[3] - r0[2]) * (tq - r0[0]) / (r0[1] - r0[0]);
-            }
-        }
+        if (lagged) /* records that no sample can reach any more */
+            while (tail != head && rec[tail % SCATTER_LAG_RECORDS][1] <= e - max_lag)
+                T_base = rec[tail++ % SCATTER_LAG_RECORDS][3];
         float ac = albedo * alpha;
         if (ac > 0.0f && (rgba[0] > 0.0f || rgba[1] > 0.0f || rgba[2] > 0.0f)) {
+            /* T(x_o), x_o = x + lag·ω: the transmittance at t = e − lag,
+             * linear within the recorded segment that contains it. */
+            float T_o = T;
+            smp.sigma_t = rgba[3];
+            smp.rgb[0] = rgba[0], smp.rgb[1] = rgba[1], smp.rgb[2] = rgba[2];
             smp.p = v3_madd(ray->o, ray->d, e);
+            if (lagged) {
+                float lag = lag_fn(tech, &smp);
+                if (lag > 0.0f) T_o = scatter_lag_T((const float(*)[4])rec, tail, head, T_base, T, e - lag);
+            }
             volux_vec3 Ls = v3(0, 0, 0), Lx = v3(0, 0, 0);
             inscatter(tech, &smp, &Ls, &Lx);
             float w = T_o * ac, wx = T_o * alpha;
@@ -119,13 +144,15 @@ scatter_march(const scatter_base *b, const void *tech, const volux_ray *ray, flo
             float w = T * alpha * emission;
             for (int ch = 0; ch < 3; ch++) C[ch] += w * (1.0f - albedo * rgba[ch]) * rgba[ch];
         }
-        if (lag > 0.0f) {
+        float T_far = T; /* T at max_lag behind this sample (before it) */
+        if (lagged) {
+            T_far = scatter_lag_T((const float(*)[4])rec, tail, head, T_base, T, e - max_lag);
             if (head - tail == SCATTER_LAG_RECORDS) T_base = rec[tail++ % SCATTER_LAG_RECORDS][3];
             float *r = rec[head++ % SCATTER_LAG_RECORDS];
             r[0] = a, r[1] = e, r[2] = T, r[3] = T * (1.0f - alpha);
         }
         T *= 1.0f - alpha;
-        if ((lag > 0.0f ? T_o : T) < b->t_min) break;
+        if ((lagged ? T_far : T) < b->t_min) break;
     }
     *samples += count;
     *T_out = T;
@@ -135,14 +162,15 @@ scatter_march(const scatter_base *b, const void *tech, const volux_ray *ray, flo
 /* Defines `static void NAME(state, scene, tile, rgb, stats)`, the tile
  * renderer of a scattering technique whose state type STATE starts with a
  * scatter_base `b`: the shared pixel loop around scatter_march with the
- * technique's in-scattering hook INSCATTER and camera-transmittance lag LAG
- * (an expression of `st`, the state), both inlined into the loop. */
-#define SCATTER_RENDER_TILE(NAME, STATE, LAG, INSCATTER)                                                        \
+ * technique's in-scattering hook INSCATTER, its lag hook LAG_FN (NULL: T
+ * at the sample) and the largest lag MAX_LAG (an expression of `st`, the
+ * state), all inlined into the loop. */
+#define SCATTER_RENDER_TILE(NAME, STATE, MAX_LAG, LAG_FN, INSCATTER)                                             \
     static inline __attribute__((always_inline)) volux_vec3 NAME##_ray(                                         \
         const void *tech, const volux_ray *ray, float jitter, float *T, uint64_t *samples, int variant) {       \
         (void)variant;                                                                                           \
         const STATE *st = tech;                                                                                  \
-        return scatter_march(&st->b, tech, ray, jitter, T, samples, (LAG), INSCATTER);                          \
+        return scatter_march(&st->b, tech, ray, jitter, T, samples, (MAX_LAG), LAG_FN, INSCATTER);              \
     }                                                                                                            \
     static void NAME(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,           \
                      volux_tile_stats *stats) {                                                                  \

@@ -10,6 +10,8 @@
 
 extern const volux_technique_class volux_single_class;
 
+#define SINGLE_MAX_ENV_DIRS 256
+
 typedef struct single_state {
     scatter_base b;
     int use_cache;
@@ -17,6 +19,14 @@ typedef struct single_state {
     float shadow_step;                      /* world units */
     scatter_grid cache[VOLUX_MAX_LIGHTS];   /* per scene slot */
     uint64_t cache_builds[VOLUX_MAX_LIGHTS];
+    /* environment lights: n_env_dirs directions, each a shadowed directional
+     * light carrying the environments' radiance over its cell (single.c) */
+    int n_env_dirs;                         /* env_directions parameter    */
+    int env_active;                         /* n_env_dirs > 0 and an environment is on */
+    volux_vec3 env_travel[SINGLE_MAX_ENV_DIRS]; /* unit travel direction   */
+    volux_vec3 env_E[SINGLE_MAX_ENV_DIRS];  /* irradiance of the cell     */
+    scatter_grid env_cache[SINGLE_MAX_ENV_DIRS];
+    uint64_t env_cache_builds;
 } single_state;
 
 #endif

@@ -1,7 +1,7 @@
 /*
- * techniques/pathtrace/medium.h — the medium the reference path tracer sees:
- * extinction σt(x) and colour c(x) at an index-space point, for the two
- * classification orders.
+ * sample/medium.h — the medium the Monte-Carlo techniques (pathtrace,
+ * guided) see: extinction σt(x) and colour c(x) at an index-space point,
+ * for the two classification orders.
  *
  *   post (DESIGN §2, default): s(x) is the trilinear interpolation of the
  *        node values and σt(x) = TF(s(x)), c(x) = TF_c(s(x)). This is what
@@ -22,15 +22,15 @@
  * Scattering: σs = albedo·c(x)·σt(x) per channel (DESIGN §2), so the
  * single-scattering albedo is ρ(x) = albedo·c(x) ∈ [0,1]³.
  */
-#ifndef VOLUX_PT_MEDIUM_H
-#define VOLUX_PT_MEDIUM_H
+#ifndef VOLUX_SAMPLE_MEDIUM_H
+#define VOLUX_SAMPLE_MEDIUM_H
 
 #include "core/volume_internal.h"
-#include "sample/march.h"
+#include "march.h"
 
 /* Clamps an index-space point into the node box (rays are clipped to the
  * box, but t·dq rounding can leave it by an ulp). */
-static inline volux_vec3 pt_clamp_index(const volux_volume *v, volux_vec3 q) {
+static inline volux_vec3 volux_medium_clamp_index(const volux_volume *v, volux_vec3 q) {
     float mx = (float)(v->dims[0] - 1), my = (float)(v->dims[1] - 1), mz = (float)(v->dims[2] - 1);
     q.x = q.x < 0.0f ? 0.0f : (q.x > mx ? mx : q.x);
     q.y = q.y < 0.0f ? 0.0f : (q.y > my ? my : q.y);
@@ -39,7 +39,7 @@ static inline volux_vec3 pt_clamp_index(const volux_volume *v, volux_vec3 q) {
 }
 
 /* Pre-classified σt (and colour into rgb when non-NULL) at index-space q. */
-static inline float pt_sigma_pre(const volux_volume *v, const volux_transfer_lut *lut, volux_vec3 q, float *rgb) {
+static inline float volux_medium_sigma_pre(const volux_volume *v, const volux_transfer_lut *lut, volux_vec3 q, float *rgb) {
     volux_cell cell = volux_volume_cell(v, q.x, q.y, q.z);
     float fx = cell.fx, fy = cell.fy, fz = cell.fz;
     size_t b = cell.base, sx = cell.sx, sy = cell.sy, sz = cell.sz;
@@ -66,10 +66,10 @@ static inline float pt_sigma_pre(const volux_volume *v, const volux_transfer_lut
 }
 
 /* σt at index-space q (and colour into rgb when non-NULL). */
-static inline float pt_medium_eval(const volux_volume *v, const volux_transfer_lut *lut, int pre, volux_vec3 q,
+static inline float volux_medium_eval(const volux_volume *v, const volux_transfer_lut *lut, int pre, volux_vec3 q,
                                    float *rgb) {
-    q = pt_clamp_index(v, q);
-    if (pre) return pt_sigma_pre(v, lut, q, rgb);
+    q = volux_medium_clamp_index(v, q);
+    if (pre) return volux_medium_sigma_pre(v, lut, q, rgb);
     float s = volux_volume_sample_index(v, q.x, q.y, q.z);
     if (!rgb) return volux_lut_sigma(lut, s);
     float rgba[4];

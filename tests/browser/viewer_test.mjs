@@ -1,0 +1,194 @@
+// tests/browser/viewer_test.mjs — the viewer page in a real browser: Debian's
+// chromium driven by playwright-core (no browser download). Loads the page,
+// drags a transfer-function point and checks the image changed, toggles a
+// light, switches the technique, saves the scene and the image through the
+// page's buttons and checks that `volux render` of the saved scene gives the
+// saved image bit for bit. Screenshots go to the artefact folder; the
+// page-measured edit → frame latencies are printed.
+//
+// Usage: node viewer_test.mjs VOLUX ARTEFACT_DIR
+// Exit status 77 (ctest: skipped) when chromium or playwright-core is absent.
+import { spawn, execFileSync } from 'node:child_process';
+import { existsSync, mkdirSync, mkdtempSync, writeFileSync, readFileSync, rmSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join, dirname } from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { createRequire } from 'node:module';
+
+const [volux, artefacts] = process.argv.slice(2);
+const here = dirname(fileURLToPath(import.meta.url));
+const CHROMIUM = process.env.VOLUX_CHROMIUM || '/usr/bin/chromium';
+if (!existsSync(CHROMIUM)) { console.log(`skipped: no ${CHROMIUM}`); process.exit(77); }
+let chromium;
+try {
+  ({ chromium } = createRequire(join(here, 'package.json'))('playwright-core'));
+} catch (e) {
+  console.log('skipped: playwright-core is not installed (make test-deps, or npm ci in tests/browser)');
+  process.exit(77);
+}
+mkdirSync(artefacts, { recursive: true });
+const work = mkdtempSync(join(tmpdir(), 'volux-browser-'));
+
+const scene = {
+  volume: { procedural: 'phantom', dims: [64, 64, 64] },
+  transfer_function: {
+    color: [[0, 0.2, 0.3, 0.6], [60, 0.9, 0.5, 0.3], [140, 0.95, 0.9, 0.8], [255, 1, 1, 1]],
+    opacity: [[0, 0], [30, 0], [60, 0.05], [140, 0.3], [255, 0.9]],
+  },
+  camera: { orbit: { azimuth: 30, elevation: 20 }, fov_y: 30 },
+  lights: [
+    { type: 'directional', direction: [-0.5, -0.7, -0.5], irradiance: 1.2 },
+    { type: 'point', position: [60, 30, 80], color: [0.4, 0.5, 1], intensity: 3000 },
+  ],
+  background: [0.02, 0.02, 0.03],
+  render: { technique: 'ea', width: 160, height: 120, spp: 2 },
+};
+const scenePath = join(work, 'scene.json');
+writeFileSync(scenePath, JSON.stringify(scene, null, 1));
+
+let failures = 0;
+function check(cond, what) {
+  console.log(`${cond ? 'ok  ' : 'FAIL'} ${what}`);
+  if (!cond) failures++;
+}
+
+// ---------------------------------------------------------------- server
+const server = spawn(volux, ['serve', scenePath, '--port', '0', '--quiet', '--idle-ms', '50'], { stdio: ['ignore', 'pipe', 'inherit'] });
+const url = await new Promise((resolve, reject) => {
+  let out = '';
+  const t = setTimeout(() => reject(new Error('server did not start')), 60000);
+  server.stdout.on('data', (d) => {
+    out += d;
+    const m = out.match(/(http:\/\/127\.0\.0\.1:\d+\/)/);
+    if (m) { clearTimeout(t); resolve(m[1]); }
+  });
+  server.on('exit', (code) => reject(new Error('server exited with ' + code)));
+});
+
+const profile = mkdtempSync(join(tmpdir(), 'volux-chromium-'));
+const context = await chromium.launchPersistentContext(profile, {
+  executablePath: CHROMIUM,
+  headless: true,
+  acceptDownloads: true,
+  viewport: { width: 1200, height: 780 },
+  args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-background-networking',
+    '--disable-component-update', '--disable-sync', '--no-first-run'],
+});
+const page = await context.newPage();
+page.on('pageerror', (e) => { console.log('page error: ' + e.message); failures++; });
+
+async function frameBytes() {
+  return page.evaluate(async () => {
+    const r = await fetch('/api/frame?wait=final&format=png&timeout=60000');
+    return Array.from(new Uint8Array(await r.arrayBuffer()));
+  });
+}
+// The final frame of the edit the page sent last.
+async function waitFinal(after) {
+  await page.waitForFunction((v) => {
+    const f = window.volux.lastFrame;
+    return f && f.kind === 'final' && f.version >= v;
+  }, after, { timeout: 120000 });
+}
+const version = () => page.evaluate(() => window.volux.version);
+const same = (a, b) => a.length === b.length && a.every((x, i) => x === b[i]);
+
+try {
+  await page.goto(url);
+  await page.waitForFunction(() => window.volux && window.volux.ready, null, { timeout: 60000 });
+  await waitFinal(0);
+  await page.screenshot({ path: join(artefacts, 'viewer_loaded.png') });
+  const first = await frameBytes();
+  check(first.length > 100, 'page loaded and shows the final frame');
+
+  // Drag the 4th opacity point (s = 140) upwards.
+  const box = await page.locator('#tf').boundingBox();
+  const st = await page.evaluate(() => window.volux.state());
+  const [lo, hi] = st.volume.range;
+  const px = (s, v) => [box.x + (6 + (s - lo) / (hi - lo) * (320 - 12)) * box.width / 320,
+    box.y + (150 - 6 - v * (150 - 12)) * box.height / 150];
+  const [x0, y0] = px(140, 0.3);
+  await page.mouse.move(x0, y0);
+  await page.mouse.down();
+  for (let k = 1; k <= 8; k++) await page.mouse.move(x0, y0 - k * 6, { steps: 2 });
+  await page.mouse.up();
+  await page.waitForFunction(() => window.volux.version > 0, null, { timeout: 30000 });
+  await page.waitForTimeout(300);
+  const v1 = await version();
+  await waitFinal(v1);
+  const afterTF = await frameBytes();
+  const tfNow = await page.evaluate(async () => (await (await fetch('/api/scene')).json()).transfer_function.opacity);
+  check(tfNow[3][1] > 0.35, `TF point dragged (opacity at s=140: 0.3 → ${tfNow[3][1]})`);
+  check(!same(first, afterTF), 'the image changed after the TF drag');
+  await page.screenshot({ path: join(artefacts, 'viewer_tf_drag.png') });
+
+  // Switch the technique.
+  await page.selectOption('#technique', 'shaded');
+  await page.waitForFunction(() => window.volux.state().resolved.render.technique === 'shaded', null, { timeout: 30000 });
+  await waitFinal(await version());
+  const afterShaded = await frameBytes();
+  check(!same(afterTF, afterShaded), 'the image changed after switching to shaded');
+  const stats = await page.evaluate(async () => (await fetch('/api/stats')).json());
+  check(stats.technique === 'shaded', `technique switched (stats say ${stats.technique})`);
+  const params = await page.locator('#params input').count();
+  check(params >= 3, `parameter form generated from the table (${params} inputs)`);
+  // Toggle the first light off (shaded reads the lights; ea does not).
+  await page.locator('.light[data-index="0"] .toggle').click();
+  await page.waitForFunction(() => window.volux.state().scene.lights[0].enabled === false, null, { timeout: 30000 });
+  await waitFinal(await version());
+  const afterLight = await frameBytes();
+  check(!same(afterShaded, afterLight), 'the image changed after switching light 0 off');
+
+  // A parameter edit through the generated form.
+  await page.locator('#params input[data-param="gradient_threshold"]').fill('0.05');
+  await page.locator('#params input[data-param="gradient_threshold"]').dispatchEvent('change');
+  await page.waitForFunction(() => (window.volux.state().scene.techniques || {}).shaded, null, { timeout: 30000 });
+  await waitFinal(await version());
+  await page.screenshot({ path: join(artefacts, 'viewer_shaded.png') });
+
+  // Orbit the camera by dragging on the image.
+  const stage = await page.locator('#stage').boundingBox();
+  await page.mouse.move(stage.x + stage.width / 2, stage.y + stage.height / 2);
+  await page.mouse.down();
+  await page.mouse.move(stage.x + stage.width / 2 + 80, stage.y + stage.height / 2 + 20, { steps: 6 });
+  await page.mouse.up();
+  await page.waitForFunction(() => {
+    const o = (window.volux.state().scene.camera || {}).orbit;
+    return o && Math.abs(o.azimuth - 30) > 5;
+  }, null, { timeout: 30000 });
+  await waitFinal(await version());
+
+  // Save the scene and the image with the page's buttons.
+  const [sceneDl] = await Promise.all([page.waitForEvent('download'), page.click('#save-scene')]);
+  const savedScene = join(work, 'saved.json');
+  await sceneDl.saveAs(savedScene);
+  const [imageDl] = await Promise.all([page.waitForEvent('download', { timeout: 120000 }), page.click('#save-image')]);
+  const savedImage = join(artefacts, 'viewer_saved.png');
+  await imageDl.saveAs(savedImage);
+  const cliImage = join(work, 'cli.png');
+  execFileSync(volux, ['render', savedScene, '-o', cliImage, '--quiet']);
+  const cmp = execFileSync(volux, ['compare', savedImage, cliImage, '--json']).toString();
+  const err = JSON.parse(cmp);
+  check(err.max_abs === 0, `volux render of the saved scene = the saved image (max_abs ${err.max_abs})`);
+  check(JSON.parse(readFileSync(savedScene)).lights[0].enabled === false, 'the saved scene has the light switched off');
+
+  const lat = await page.evaluate(() => window.volux.latencies);
+  const sorted = [...lat].sort((a, b) => a - b);
+  console.log(`page-measured edit → frame latency over ${lat.length} edits: median ${sorted[Math.floor((sorted.length - 1) / 2)]?.toFixed(1)} ms, max ${sorted[sorted.length - 1]?.toFixed(1)} ms`);
+  const errors = await page.evaluate(() => window.volux.errors);
+  check(errors.length === 0, `no error shown (${errors.join('; ')})`);
+  await page.screenshot({ path: join(artefacts, 'viewer_final.png') });
+} catch (e) {
+  console.log('FAIL ' + e.stack);
+  failures++;
+  await page.screenshot({ path: join(artefacts, 'viewer_failure.png') }).catch(() => {});
+} finally {
+  await context.close();
+  server.kill('SIGTERM');
+  const code = await new Promise((r) => server.on('exit', r));
+  check(code === 0, `server stopped cleanly (exit ${code})`);
+  rmSync(profile, { recursive: true, force: true });
+  rmSync(work, { recursive: true, force: true });
+}
+console.log(`${failures ? 'FAILED' : 'passed'}: ${failures} failure(s)`);
+process.exit(failures ? 1 : 0);

@@ -1,0 +1,468 @@
+/*
+ * tests/robustness/test_viewer_http.c — `volux serve` over real loopback
+ * sockets: the JSON API does what docs/VIEWER.md says (edits change the
+ * scene, the final frame equals `volux render` of the saved scene bit for
+ * bit), and bad requests never change the scene nor stop the server:
+ * malformed JSON, unknown paths and out-of-range values are 4xx with the
+ * CLI's message; oversized headers/bodies, wrong methods, foreign Host or
+ * Origin, missing tokens, files outside the data root are refused; a slow
+ * client is cut off; concurrent editors are serialised; the server exits
+ * cleanly on SIGTERM (under ASan: without leaks).
+ */
+#include <pthread.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/time.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "http_client.h"
+#include "test_util.h"
+
+#define assert_contains(hay, needle)                                                                   \
+    do {                                                                                               \
+        const char *h_ = (hay), *n_ = (needle);                                                        \
+        if (!h_ || !strstr(h_, n_)) fail_msg("expected \"%s\" in \"%s\"", n_, h_ ? h_ : "(null)");     \
+    } while (0)
+
+static const char *SCENE =
+    "{\"volume\": {\"procedural\": \"phantom\", \"dims\": [40, 40, 40]},\n"
+    " \"transfer_function\": {\"color\": [[0, 0.2, 0.3, 0.6], [255, 1, 1, 1]],\n"
+    "                       \"opacity\": [[0, 0], [60, 0.05], [255, 0.8]]},\n"
+    " \"camera\": {\"orbit\": {\"azimuth\": 30, \"elevation\": 20}},\n"
+    " \"lights\": [{\"type\": \"directional\", \"direction\": [-1, -1, -1], \"irradiance\": 1.5}],\n"
+    " \"render\": {\"technique\": \"shaded\", \"width\": 72, \"height\": 48, \"spp\": 2}}\n";
+
+static char scene_path[1024];
+static tu_server server;
+
+static int setup(void **state) {
+    (void)state;
+    char dir[600];
+    snprintf(dir, sizeof dir, "%s", tu_temp_path("viewer"));
+    mkdir(dir, 0755);
+    snprintf(scene_path, sizeof scene_path, "%s/scene.json", dir);
+    FILE *f = fopen(scene_path, "w");
+    if (!f) return -1;
+    fputs(SCENE, f);
+    fclose(f);
+    char args[1400];
+    snprintf(args, sizeof args, "'%s' --quiet --timeout 2 --idle-ms 0 --preview 32", scene_path);
+    return tu_server_start(&server, args) ? 0 : -1;
+}
+
+static int teardown(void **state) {
+    (void)state;
+    int rc = tu_server_stop(&server);
+    if (rc != 0) fprintf(stderr, "volux serve exited with %d\n", rc);
+    return rc == 0 ? 0 : -1;
+}
+
+static tu_reply get(const char *path) {
+    tu_reply r;
+    assert_true(tu_http(server.port, "GET", path, NULL, NULL, &r));
+    return r;
+}
+
+static tu_reply post(const char *body) {
+    tu_reply r;
+    assert_true(tu_http(server.port, "POST", "/api/edit", NULL, body, &r));
+    return r;
+}
+
+static char *scene_json(void) {
+    tu_reply r = get("/api/scene");
+    assert_int_equal(r.status, 200);
+    char *s = strdup(r.body);
+    tu_reply_free(&r);
+    return s;
+}
+
+/* The final frame of the current scene as a PNG file. */
+static void final_frame(const char *file) {
+    tu_reply r = get("/api/frame?wait=final&format=png&timeout=60000");
+    assert_int_equal(r.status, 200);
+    assert_string_equal(tu_reply_header(&r, "X-Volux-Kind"), "final");
+    FILE *f = fopen(file, "wb");
+    fwrite(r.body, 1, r.body_len, f);
+    fclose(f);
+    tu_reply_free(&r);
+}
+
+/* ------------------------------------------------------------------ API */
+
+static void test_api_basics(void **state) {
+    (void)state;
+    tu_reply r = get("/api/techniques");
+    assert_int_equal(r.status, 200);
+    assert_contains(r.body, "\"name\":\"ea\"");
+    assert_contains(r.body, "\"params\"");
+    tu_reply_free(&r);
+    r = get("/api/state");
+    assert_int_equal(r.status, 200);
+    assert_contains(r.body, "\"histogram\"");
+    assert_contains(r.body, "\"resolved\"");
+    tu_reply_free(&r);
+    r = get("/");
+    assert_int_equal(r.status, 200);
+    assert_contains(tu_reply_header(&r, "Content-Type"), "text/html");
+    assert_contains(tu_reply_header(&r, "Content-Security-Policy"), "default-src 'self'");
+    assert_contains(r.body, "viewer.js");
+    tu_reply_free(&r);
+    r = get("/viewer.js");
+    assert_int_equal(r.status, 200);
+    assert_contains(r.body, "/api/edit");
+    tu_reply_free(&r);
+    r = get("/api/stats");
+    assert_int_equal(r.status, 200);
+    assert_contains(r.body, "\"technique\"");
+    tu_reply_free(&r);
+}
+
+/* An edit, then the final frame equals `volux render` of the saved scene. */
+static void test_edit_and_save_reproduce(void **state) {
+    (void)state;
+    tu_reply r = post("[{\"path\": \"lights.0.irradiance\", \"value\": 2.5},"
+                      " {\"path\": \"camera.orbit.azimuth\", \"value\": 70}]");
+    assert_int_equal(r.status, 200);
+    assert_contains(r.body, "\"changed\":[\"camera\",\"lights\"]");
+    tu_reply_free(&r);
+    char *json = scene_json();
+    assert_contains(json, "\"irradiance\":2.5");
+    free(json);
+    r = get("/api/scene?paths=absolute");
+    char saved[1100];
+    snprintf(saved, sizeof saved, "%s", tu_temp_path("viewer_saved.json"));
+    FILE *f = fopen(saved, "w");
+    fwrite(r.body, 1, r.body_len, f);
+    fclose(f);
+    tu_reply_free(&r);
+    char served[1100], cli[1100], args[3000];
+    snprintf(served, sizeof served, "%s", tu_temp_path("viewer_final.png"));
+    snprintf(cli, sizeof cli, "%s", tu_temp_path("viewer_cli.png"));
+    final_frame(served);
+    snprintf(args, sizeof args, "render '%s' -o '%s' --quiet", saved, cli);
+    const char *err;
+    assert_int_equal(tu_run_cli(args, &err), 0);
+    volux_context *ctx = tu_context(1);
+    volux_image a, b;
+    assert_int_equal(volux_image_load(ctx, served, &a), VOLUX_OK);
+    assert_int_equal(volux_image_load(ctx, cli, &b), VOLUX_OK);
+    assert_int_equal(a.width, 72);
+    assert_near(tu_max_abs_diff(&a, &b), 0, 0);
+    /* and the frame is not what the unedited scene gives */
+    snprintf(args, sizeof args, "render '%s' -o '%s' --quiet", scene_path, cli);
+    assert_int_equal(tu_run_cli(args, &err), 0);
+    volux_image c;
+    assert_int_equal(volux_image_load(ctx, cli, &c), VOLUX_OK);
+    assert_true(tu_max_abs_diff(&a, &c) > 0.01);
+    volux_image_free(ctx, &a);
+    volux_image_free(ctx, &b);
+    volux_image_free(ctx, &c);
+    volux_context_destroy(ctx);
+    /* other encodings of the same frame */
+    r = get("/api/frame?format=pfm");
+    assert_int_equal(r.status, 200);
+    assert_true(r.body_len > 72 * 48 * 12);
+    assert_memory_equal(r.body, "PF", 2);
+    tu_reply_free(&r);
+    r = get("/api/frame?format=jpeg");
+    assert_int_equal(r.status, 200);
+    assert_memory_equal(r.body, "\xff\xd8", 2);
+    tu_reply_free(&r);
+}
+
+/* ------------------------------------------------------------------ bad input */
+
+/* Each bad edit: 4xx, the CLI's message for the same --set, scene unchanged. */
+static void test_bad_edits(void **state) {
+    (void)state;
+    char *before = scene_json();
+    static const struct {
+        const char *body;
+        int status;
+        const char *set; /* the same edit as --set, NULL if it has none */
+        const char *part;
+    } bad[] = {
+        {"[{\"path\": \"lights.0.irradiance\", \"value\": -1}]", 400, "lights.0.irradiance=-1", "lights[0].irradiance"},
+        {"[{\"path\": \"lights.5.irradiance\", \"value\": 1}]", 400, "lights.5.irradiance=1", "not an index"},
+        {"[{\"path\": \"camera.orbit.elevation\", \"value\": 91}]", 400, "camera.orbit.elevation=91", "elevation"},
+        {"[{\"path\": \"transfer_function.bogus\", \"value\": 1}]", 400, "transfer_function.bogus=1", "bogus"},
+        {"[{\"path\": \"render.technique\", \"value\": \"nope\"}]", 400, "render.technique=nope", "unknown technique"},
+        {"[{\"path\": \"techniques.ea.preintegrate\", \"value\": 7}]", 400, "techniques.ea.preintegrate=7",
+         "preintegrate"},
+        {"[{\"path\": \"render.width\", \"value\": 100000}]", 400, "render.width=100000", "render.width"},
+        {"[{\"path\": \"render.width\", \"value\": 5000}]", 413, NULL, "--max-image"},
+        {"[{\"path\": \"volume\", \"value\": {\"file\": \"/etc/passwd\"}}]", 400, NULL, "outside the data root"},
+        {"[{\"path\": \"volume.procedural\", \"value\": \"cube\"}]", 400, "volume.procedural=cube", "procedural"},
+        {"[{\"path\": \"lights.0.irradiance\", \"value\": 1}", 400, NULL, "invalid JSON"},
+        {"{\"path\": \"lights.0.irradiance\", \"value\": 1}", 400, NULL, "expected an array"},
+        {"[{\"path\": \"lights.0.irradiance\"}]", 400, NULL, "missing value"},
+        {"", 400, NULL, "invalid JSON"},
+        {"[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]"
+         "]]]]]]]]]]]]]]]]]]]]]]]]]]]]",
+         413, NULL, "nesting"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        tu_reply r = post(bad[i].body);
+        if (r.status != bad[i].status) fail_msg("%s: status %d (%s)", bad[i].body, r.status, r.body);
+        assert_contains(r.body, bad[i].part);
+        if (bad[i].set) {
+            /* "volux render: MSG" on stderr; the API says MSG */
+            char args[1400];
+            snprintf(args, sizeof args, "render '%s' -o /dev/null.png --set '%s'", scene_path, bad[i].set);
+            const char *err;
+            assert_int_equal(tu_run_cli(args, &err), 2);
+            const char *msg = strstr(err, "volux render: ");
+            assert_non_null(msg);
+            char want[1200];
+            snprintf(want, sizeof want, "\"error\":\"%.*s\"", (int)strcspn(msg + 14, "\n"), msg + 14);
+            assert_contains(r.body, want);
+        }
+        tu_reply_free(&r);
+        char *after = scene_json();
+        assert_string_equal(before, after);
+        free(after);
+    }
+    free(before);
+    assert_true(tu_server_alive(&server));
+}
+
+static void test_bad_requests(void **state) {
+    (void)state;
+    tu_reply r;
+    assert_true(tu_http(server.port, "DELETE", "/api/scene", NULL, NULL, &r));
+    assert_int_equal(r.status, 405);
+    tu_reply_free(&r);
+    r = get("/api/edit");
+    assert_int_equal(r.status, 405);
+    tu_reply_free(&r);
+    r = get("/api/nothing");
+    assert_int_equal(r.status, 404);
+    tu_reply_free(&r);
+    r = get("/../../etc/passwd");
+    assert_int_equal(r.status, 404);
+    tu_reply_free(&r);
+    r = get("/api/frame?format=gif");
+    assert_int_equal(r.status, 400);
+    tu_reply_free(&r);
+    r = get("/api/scene?paths=weird");
+    assert_int_equal(r.status, 400);
+    tu_reply_free(&r);
+    /* edits must be JSON (a foreign page cannot send that without a preflight) */
+    assert_true(tu_http(server.port, "POST", "/api/edit", "Content-Type: text/plain\r\n", "[]", &r));
+    assert_int_equal(r.status, 415);
+    tu_reply_free(&r);
+    assert_true(tu_http(server.port, "POST", "/api/edit", "Origin: http://evil.example\r\n", "[]", &r));
+    assert_int_equal(r.status, 403);
+    tu_reply_free(&r);
+    /* DNS rebinding: a loopback server answers loopback names only */
+    const char *rebind = "GET /api/scene HTTP/1.1\r\nHost: evil.example\r\nConnection: close\r\n\r\n";
+    assert_true(tu_http_raw(server.port, rebind, strlen(rebind), 10000, &r));
+    assert_int_equal(r.status, 403);
+    tu_reply_free(&r);
+    /* a declared body over the limit is refused before it is read */
+    const char *big = "POST /api/edit HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\n"
+                      "Content-Length: 999999999\r\nConnection: close\r\n\r\n[";
+    assert_true(tu_http_raw(server.port, big, strlen(big), 10000, &r));
+    assert_int_equal(r.status, 413);
+    tu_reply_free(&r);
+    /* a chunked body that grows over the limit */
+    size_t n = (5u << 20) + 4096;
+    char *chunked = malloc(n + 512);
+    int h = snprintf(chunked, 512,
+                     "POST /api/edit HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\n"
+                     "Transfer-Encoding: chunked\r\nConnection: close\r\n\r\n%zx\r\n",
+                     n);
+    memset(chunked + h, ' ', n);
+    memcpy(chunked + h + n, "\r\n0\r\n\r\n", 7);
+    assert_true(tu_http_raw(server.port, chunked, (size_t)h + n + 7, 20000, &r));
+    /* 413, or the connection is reset under the sender before it reads it */
+    assert_true(r.status == 413 || r.status == 0);
+    tu_reply_free(&r);
+    free(chunked);
+    /* headers over the connection's memory limit */
+    size_t hn = 200 * 1024;
+    char *huge = malloc(hn + 256);
+    int k = snprintf(huge, 256, "GET /api/scene HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Big: ");
+    memset(huge + k, 'a', hn);
+    memcpy(huge + k + hn, "\r\nConnection: close\r\n\r\n", 24);
+    assert_true(tu_http_raw(server.port, huge, (size_t)k + hn + 23, 20000, &r));
+    assert_true(r.status == 431 || r.status == 413 || r.status == 0);
+    tu_reply_free(&r);
+    free(huge);
+    /* garbage */
+    const char *junk = "\x16\x03\x01\x02\x00\x01\x00\x01\xfc\x03\x03 not http at all\r\n\r\n";
+    assert_true(tu_http_raw(server.port, junk, strlen(junk), 10000, &r));
+    assert_true(r.status == 0 || r.status == 400);
+    tu_reply_free(&r);
+    assert_true(tu_server_alive(&server));
+    r = get("/api/stats");
+    assert_int_equal(r.status, 200);
+    tu_reply_free(&r);
+}
+
+/* A client that sends half a request and waits is cut off (--timeout 2). */
+static void test_slow_client_times_out(void **state) {
+    (void)state;
+    int fd = tu_connect(server.port);
+    assert_true(fd >= 0);
+    const char *part = "GET /api/scene HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: ";
+    assert_true(send(fd, part, strlen(part), MSG_NOSIGNAL) > 0);
+    char c;
+    struct timeval tv = {10, 0};
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    double t0 = 0;
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    t0 = (double)ts.tv_sec + ts.tv_nsec * 1e-9;
+    ssize_t got = recv(fd, &c, 1, 0); /* 0: the server closed the connection */
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    double waited = (double)ts.tv_sec + ts.tv_nsec * 1e-9 - t0;
+    close(fd);
+    assert_true(got <= 0);
+    assert_true(waited < 9.0);
+    tu_reply r = get("/api/stats");
+    assert_int_equal(r.status, 200);
+    tu_reply_free(&r);
+}
+
+/* ------------------------------------------------------------------ events, concurrency */
+
+static void test_event_stream(void **state) {
+    (void)state;
+    int fd = tu_connect(server.port);
+    assert_true(fd >= 0);
+    const char *req = "GET /api/events HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n";
+    assert_true(send(fd, req, strlen(req), MSG_NOSIGNAL) > 0);
+    struct timeval tv = {20, 0};
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    size_t cap = 1 << 20, len = 0;
+    char *buf = malloc(cap + 1);
+    int saw_frame = 0, saw_scene = 0;
+    while (len < cap && !(saw_frame && saw_scene)) {
+        ssize_t got = recv(fd, buf + len, cap - len, 0);
+        if (got <= 0) break;
+        len += (size_t)got;
+        buf[len] = 0;
+        saw_frame = strstr(buf, "event: frame") != NULL && strstr(buf, "\"data\":\"") != NULL;
+        saw_scene = strstr(buf, "event: scene") != NULL;
+    }
+    close(fd);
+    assert_contains(buf, "text/event-stream");
+    assert_true(saw_frame && saw_scene);
+    free(buf);
+}
+
+typedef struct editor {
+    int id, n, ok;
+} editor;
+
+static void *edit_loop(void *arg) {
+    editor *e = arg;
+    for (int i = 0; i < e->n; i++) {
+        char body[160];
+        snprintf(body, sizeof body, "[{\"path\": \"lights.0.color\", \"value\": [1, %.3f, %.3f]}]", (e->id + 1) / 8.0,
+                 i / (double)e->n);
+        tu_reply r;
+        if (tu_http(server.port, "POST", "/api/edit", NULL, body, &r) && r.status == 200) e->ok++;
+        tu_reply_free(&r);
+    }
+    return NULL;
+}
+
+/* Four editors at once: every edit is applied (one after the other). */
+static void test_concurrent_edits(void **state) {
+    (void)state;
+    tu_reply r = get("/api/state");
+    const char *v = strstr(r.body, "\"version\":");
+    assert_non_null(v);
+    long v0 = atol(v + 10);
+    tu_reply_free(&r);
+    pthread_t t[4];
+    editor e[4];
+    for (int i = 0; i < 4; i++) {
+        e[i] = (editor){i, 12, 0};
+        pthread_create(&t[i], NULL, edit_loop, &e[i]);
+    }
+    for (int i = 0; i < 4; i++) pthread_join(t[i], NULL);
+    for (int i = 0; i < 4; i++) assert_int_equal(e[i].ok, 12);
+    r = get("/api/state");
+    v = strstr(r.body, "\"version\":");
+    assert_int_equal(atol(v + 10), v0 + 48);
+    tu_reply_free(&r);
+}
+
+/* ------------------------------------------------------------------ token */
+
+static void test_token(void **state) {
+    (void)state;
+    tu_server s2;
+    char args[1400];
+    snprintf(args, sizeof args, "'%s' --quiet --token s3cret", scene_path);
+    assert_true(tu_server_start(&s2, args));
+    tu_reply r;
+    assert_true(tu_http(s2.port, "GET", "/api/scene", NULL, NULL, &r));
+    assert_int_equal(r.status, 401);
+    tu_reply_free(&r);
+    assert_true(tu_http(s2.port, "GET", "/api/scene", "Authorization: Bearer wrong\r\n", NULL, &r));
+    assert_int_equal(r.status, 401);
+    tu_reply_free(&r);
+    assert_true(tu_http(s2.port, "GET", "/api/scene", "Authorization: Bearer s3cret\r\n", NULL, &r));
+    assert_int_equal(r.status, 200);
+    tu_reply_free(&r);
+    assert_true(tu_http(s2.port, "GET", "/api/scene?token=s3cret", NULL, NULL, &r));
+    assert_int_equal(r.status, 200);
+    tu_reply_free(&r);
+    /* the page sets a cookie that its own requests carry */
+    assert_true(tu_http(s2.port, "GET", "/?token=s3cret", NULL, NULL, &r));
+    assert_int_equal(r.status, 200);
+    assert_contains(tu_reply_header(&r, "Set-Cookie"), "volux_token=s3cret");
+    assert_contains(tu_reply_header(&r, "Set-Cookie"), "SameSite=Strict");
+    tu_reply_free(&r);
+    assert_true(tu_http(s2.port, "POST", "/api/edit", "Cookie: volux_token=s3cret\r\n",
+                        "[{\"path\":\"render.spp\",\"value\":1}]", &r));
+    assert_int_equal(r.status, 200);
+    tu_reply_free(&r);
+    assert_true(tu_http(s2.port, "POST", "/api/edit", NULL, "[{\"path\":\"render.spp\",\"value\":3}]", &r));
+    assert_int_equal(r.status, 401);
+    tu_reply_free(&r);
+    assert_int_equal(tu_server_stop(&s2), 0);
+}
+
+/* Bad command lines: status 2 and a message, no server. */
+static void test_bad_command_lines(void **state) {
+    (void)state;
+    const char *err;
+    char args[1400];
+    assert_int_equal(tu_run_cli("serve", &err), 2);
+    assert_contains(err, "missing SCENE.json");
+    assert_int_equal(tu_run_cli("serve /nonexistent/scene.json --port 0", &err), 2);
+    assert_contains(err, "/nonexistent/scene.json");
+    snprintf(args, sizeof args, "serve '%s' --port 70000", scene_path);
+    assert_int_equal(tu_run_cli(args, &err), 2);
+    snprintf(args, sizeof args, "serve '%s' --port 0 --data-root /nonexistent/dir", scene_path);
+    assert_int_equal(tu_run_cli(args, &err), 2);
+    assert_contains(err, "data root");
+    snprintf(args, sizeof args, "serve '%s' --port 0 --bind not-an-address", scene_path);
+    assert_int_equal(tu_run_cli(args, &err), 2);
+    assert_contains(err, "--bind");
+    snprintf(args, sizeof args, "serve '%s' --port 0 --set render.technique=nope", scene_path);
+    assert_int_equal(tu_run_cli(args, &err), 2);
+    assert_contains(err, "unknown technique 'nope'");
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_api_basics),        cmocka_unit_test(test_edit_and_save_reproduce),
+        cmocka_unit_test(test_bad_edits),         cmocka_unit_test(test_bad_requests),
+        cmocka_unit_test(test_slow_client_times_out), cmocka_unit_test(test_event_stream),
+        cmocka_unit_test(test_concurrent_edits),  cmocka_unit_test(test_token),
+        cmocka_unit_test(test_bad_command_lines),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}

@@ -1,0 +1,251 @@
+/*
+ * tools/viewer/serve.c — `volux serve SCENE.json [...]`: loads the scene as
+ * a document (volux_scene_doc), starts the render thread and the HTTP
+ * server, prints the URL and runs until SIGINT/SIGTERM.
+ */
+#include <cjson/cJSON.h>
+#include <arpa/inet.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "tools/cli/scene_args.h"
+#include "viewer.h"
+
+static void usage(FILE *f) {
+    fprintf(f,
+            "usage: volux serve SCENE.json [--port P] [--bind ADDR] [--token T] [--data-root DIR]\n"
+            "                   [--preview N] [--idle-ms MS] [--max-image N] [--jpeg-quality Q] [--preview-png]\n"
+            "                   [--max-connections N] [--timeout S] [--max-mb MB] [--quiet]\n"
+            "                   [--technique T] [--spp N] [--width W] [--height H] [--threads N]\n"
+            "                   [--set dotted.path=JSON-value]...\n"
+            "Serves an interactive viewer of the scene at http://ADDR:P/ (default 127.0.0.1:8080):\n"
+            "progressive frames, live edits (the JSON API under /api/, docs/VIEWER.md).\n"
+            "  --bind ADDR        listen address (default 127.0.0.1; others warn: no authentication\n"
+            "                     unless --token is given)\n"
+            "  --token T          every request needs the token (or set VOLUX_SERVE_TOKEN)\n"
+            "  --data-root DIR    files an edit names must lie in DIR (default: the scene's folder)\n"
+            "  --preview N        longest side of the preview shown while editing (default 256)\n"
+            "  --idle-ms MS       quiet time before refinement starts (default 100)\n"
+            "  --max-image N      largest render.width/height an edit may set (default 4096)\n"
+            "  --port 0           any free port (the URL printed says which)\n");
+}
+
+/* The checks io cannot make (it cannot see the technique registry): the
+ * messages are those `volux render` prints for the same scene. */
+static volux_status validate(void *user, volux_context *ctx, const volux_scene *cand) {
+    viewer *v = user;
+    const volux_render_settings *rs = volux_scene_render(cand);
+    if (!volux_technique_info_find(rs->technique)) {
+        char names[256];
+        cli_technique_names(names, sizeof names);
+        const char *guess = cli_closest_technique(rs->technique);
+        return volux_context_set_error(ctx, VOLUX_ERR_INVALID,
+                                       "render.technique: unknown technique '%s'%s%s%s (techniques: %s)",
+                                       rs->technique, guess ? "; did you mean '" : "", guess ? guess : "",
+                                       guess ? "'?" : "", names);
+    }
+    volux_status st = volux_technique_validate_params(ctx, cand);
+    if (st) return st;
+    if (rs->width > v->opt.max_image || rs->height > v->opt.max_image)
+        return volux_context_set_error(ctx, VOLUX_ERR_LIMIT,
+                                       "render.width/height: %dx%d is larger than this viewer allows (--max-image %d)",
+                                       rs->width, rs->height, v->opt.max_image);
+    return VOLUX_OK;
+}
+
+static int loopback(const char *addr) {
+    return !strncmp(addr, "127.", 4) || !strcmp(addr, "::1") || !strcmp(addr, "localhost");
+}
+
+int cli_serve(int argc, char **argv) {
+    cli_scene_args args = {0};
+    viewer *v = calloc(1, sizeof *v);
+    if (!v) return CLI_FAIL;
+    viewer_options *o = &v->opt;
+    o->bind = "127.0.0.1";
+    o->port = 8080;
+    o->preview_max = 256;
+    o->idle_ms = 100;
+    o->max_image = 4096;
+    o->jpeg_quality = 85;
+    o->max_connections = 64;
+    o->timeout_s = 10;
+    o->token = getenv("VOLUX_SERVE_TOKEN");
+    if (o->token && !*o->token) o->token = NULL;
+    long max_mb = 2048;
+    int rc = CLI_USAGE;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        long n;
+        double d;
+        if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
+            usage(stdout);
+            free(v);
+            return CLI_OK;
+        }
+        if (!strcmp(a, "--quiet")) {
+            o->quiet = 1;
+            continue;
+        }
+        if (!strcmp(a, "--preview-png")) {
+            o->preview_png = 1;
+            continue;
+        }
+        static const char *const valued[] = {"--port",    "--bind",        "--token",           "--data-root",
+                                             "--preview", "--idle-ms",     "--max-image",       "--jpeg-quality",
+                                             "--timeout", "--max-mb",      "--max-connections", NULL};
+        int is_valued = 0;
+        for (int k = 0; valued[k]; k++) is_valued |= !strcmp(a, valued[k]);
+        if (is_valued) {
+            if (i + 1 >= argc) {
+                fprintf(stderr, "volux serve: %s needs a value\n", a);
+                goto out;
+            }
+            const char *val = argv[++i];
+            if (!strcmp(a, "--port")) {
+                if (!cli_parse_int("serve", a, val, 0, 65535, &n)) goto out;
+                o->port = (int)n;
+            } else if (!strcmp(a, "--bind")) {
+                unsigned char probe[16];
+                if (strcmp(val, "localhost") && inet_pton(AF_INET, val, probe) != 1 &&
+                    inet_pton(AF_INET6, val, probe) != 1) {
+                    fprintf(stderr, "volux serve: --bind %s: expected an IPv4 or IPv6 address\n", val);
+                    goto out;
+                }
+                o->bind = val;
+            } else if (!strcmp(a, "--token")) {
+                if (!*val) {
+                    fprintf(stderr, "volux serve: --token: empty token\n");
+                    goto out;
+                }
+                o->token = val;
+            } else if (!strcmp(a, "--data-root")) {
+                o->data_root = val;
+            } else if (!strcmp(a, "--preview")) {
+                if (!cli_parse_int("serve", a, val, 16, 4096, &n)) goto out;
+                o->preview_max = (int)n;
+            } else if (!strcmp(a, "--idle-ms")) {
+                if (!cli_parse_double("serve", a, val, &d)) goto out;
+                if (!(d >= 0 && d <= 60000)) {
+                    fprintf(stderr, "volux serve: --idle-ms: expected 0..60000, got %s\n", val);
+                    goto out;
+                }
+                o->idle_ms = d;
+            } else if (!strcmp(a, "--max-image")) {
+                if (!cli_parse_int("serve", a, val, 16, VOLUX_MAX_IMAGE_DIM, &n)) goto out;
+                o->max_image = (int)n;
+            } else if (!strcmp(a, "--jpeg-quality")) {
+                if (!cli_parse_int("serve", a, val, 1, 100, &n)) goto out;
+                o->jpeg_quality = (int)n;
+            } else if (!strcmp(a, "--timeout")) {
+                if (!cli_parse_int("serve", a, val, 1, 3600, &n)) goto out;
+                o->timeout_s = (int)n;
+            } else if (!strcmp(a, "--max-mb")) {
+                if (!cli_parse_int("serve", a, val, 1, 1 << 20, &max_mb)) goto out;
+            } else if (!strcmp(a, "--max-connections")) {
+                if (!cli_parse_int("serve", a, val, 4, 1024, &n)) goto out;
+                o->max_connections = (int)n;
+            }
+            continue;
+        }
+        int r = cli_scene_arg("serve", &args, argc, argv, &i);
+        if (r < 0) goto out;
+        if (r == 0) {
+            fprintf(stderr, "volux serve: unknown option '%s'\n", a);
+            usage(stderr);
+            goto out;
+        }
+    }
+    if (!args.scene_path) {
+        fprintf(stderr, "volux serve: missing SCENE.json\n");
+        usage(stderr);
+        goto out;
+    }
+    o->scene_path = args.scene_path;
+    o->overrides = args.overrides;
+    o->n_overrides = args.n_overrides;
+
+    /* Signals: every thread inherits the mask; main waits for them. A
+     * client that disconnects must never kill the server (SIGPIPE). */
+    signal(SIGPIPE, SIG_IGN);
+    sigset_t stop;
+    sigemptyset(&stop);
+    sigaddset(&stop, SIGINT);
+    sigaddset(&stop, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &stop, NULL);
+
+    volux_context_desc cd = {0};
+    cd.max_bytes = (uint64_t)max_mb << 20;
+    if (volux_context_create(&cd, &v->ctx) || volux_context_create(&cd, &v->enc_ctx)) {
+        fprintf(stderr, "volux serve: out of memory\n");
+        rc = CLI_FAIL;
+        goto out;
+    }
+    pthread_mutex_init(&v->lock, NULL);
+    pthread_mutex_init(&v->snap_lock, NULL);
+    pthread_mutex_init(&v->frame_lock, NULL);
+    pthread_cond_init(&v->work, NULL);
+    pthread_cond_init(&v->turn, NULL);
+    pthread_cond_init(&v->frame_cv, NULL);
+    volux_scene_doc_options dopt = {o->data_root, validate, v};
+    volux_status st = volux_scene_doc_load(v->ctx, o->scene_path, o->overrides, o->n_overrides, &dopt, &v->doc);
+    if (st) {
+        rc = cli_fail("serve", v->ctx, st);
+        goto out;
+    }
+    const volux_render_settings *rs = volux_scene_render(volux_scene_doc_scene(v->doc));
+    if (rs->threads > 0) volux_context_set_threads(v->ctx, rs->threads);
+    if (!viewer_snapshot(v)) {
+        fprintf(stderr, "volux serve: out of memory\n");
+        rc = CLI_FAIL;
+        goto out;
+    }
+    if (!viewer_render_start(v)) {
+        fprintf(stderr, "volux serve: cannot start the render thread\n");
+        rc = CLI_FAIL;
+        goto out_doc;
+    }
+    if (!viewer_http_start(v)) {
+        rc = CLI_FAIL;
+        goto out_render;
+    }
+    if (!loopback(o->bind))
+        fprintf(stderr,
+                o->token ? "volux serve: listening on %s: every request needs the token\n"
+                         : "volux serve: WARNING: listening on %s without authentication: anyone who can reach "
+                           "this address can view the scene and make this process read files in %s; give "
+                           "--token to require one\n",
+                o->bind, volux_scene_doc_data_root(v->doc));
+    const char *host = strchr(o->bind, ':') ? NULL : o->bind;
+    if (host) printf("volux serve: http://%s:%d/%s%s\n", host, v->port, o->token ? "?token=" : "",
+                     o->token ? o->token : "");
+    else printf("volux serve: http://[%s]:%d/%s%s\n", o->bind, v->port, o->token ? "?token=" : "",
+                o->token ? o->token : "");
+    if (!o->quiet)
+        fprintf(stderr, "volux serve: %s (%s, %dx%d, %d threads); data root %s; Ctrl-C stops\n", o->scene_path,
+                rs->technique, rs->width, rs->height, volux_context_threads(v->ctx),
+                volux_scene_doc_data_root(v->doc));
+    fflush(stdout);
+    int sig = 0;
+    sigwait(&stop, &sig);
+    if (!o->quiet) fprintf(stderr, "volux serve: stopping (%s)\n", sig == SIGINT ? "SIGINT" : "SIGTERM");
+    rc = CLI_OK;
+    viewer_http_stop(v);
+out_render:
+    viewer_render_stop(v);
+out_doc:
+out:
+    if (v->doc) volux_scene_doc_destroy(v->doc);
+    cJSON_Delete(v->vol_info);
+    free(v->scene_json);
+    free(v->scene_json_abs);
+    free(v->state_json);
+    free(v->frame.data);
+    if (v->ctx) volux_image_free(v->ctx, &v->frame.image);
+    volux_context_destroy(v->enc_ctx);
+    volux_context_destroy(v->ctx);
+    free(v);
+    return rc;
+}

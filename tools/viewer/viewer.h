@@ -1,0 +1,165 @@
+/*
+ * tools/viewer/viewer.h — `volux serve`: one scene, one render thread, an
+ * HTTP server (libmicrohttpd) with a page and a JSON API.
+ *
+ * Threads and locks:
+ *   - `lock` guards the scene document (and the live scene in it), the
+ *     technique instances, the framebuffers and the main context `ctx`.
+ *     The render thread holds it while it updates and renders; an edit
+ *     (POST /api/edit) takes it to apply the edit. An editor announces
+ *     itself in `edit_waiters` first: the frame loop's progress callback
+ *     then cancels a refinement frame in flight (previews are short and
+ *     run to the end, so dragging shows every other state), and the
+ *     render thread yields the lock to every waiter (`waiters`, `turn`).
+ *   - `snap_lock` guards the snapshot clients read without waiting for a
+ *     frame: the scene JSON, the resolved TF, the volume's histogram.
+ *   - `frame_lock` guards the latest frame and the statistics; `frame_cv`
+ *     wakes the event streams when a frame is published. Encoding uses its
+ *     own context `enc_ctx` under this lock.
+ *
+ * DOES NOT: render anything itself (the library does), touch the scene
+ * outside the document API, or trust a request: every size is bounded and
+ * every file an edit names stays in the data root (volux/io.h).
+ */
+#ifndef VOLUX_VIEWER_H
+#define VOLUX_VIEWER_H
+
+#include <pthread.h>
+#include <stdatomic.h>
+
+#include "volux/volux.h"
+
+#define VIEWER_HISTOGRAM_BINS 256
+
+typedef enum frame_kind { FRAME_PREVIEW, FRAME_REFINE, FRAME_FINAL } frame_kind;
+
+/* One published frame. `data` is the image encoded for the event stream
+ * (JPEG or PNG); `image` keeps the linear pixels for other encodings. */
+typedef struct viewer_frame {
+    uint64_t id;       /* increases by one per published frame          */
+    uint64_t version;  /* document version the frame shows              */
+    frame_kind kind;
+    uint32_t spp;
+    int width, height;
+    const char *format; /* "jpeg" or "png"                              */
+    unsigned char *data;
+    size_t size;
+    volux_image image;
+    float exposure;
+    double render_ms, update_ms, encode_ms;
+    double latency_ms; /* edit received → this frame published (first frame after an edit) */
+    double cpu_ms;     /* CPU time the process spent meanwhile (all threads): a
+                          figure a loaded machine inflates far less than latency_ms */
+} viewer_frame;
+
+typedef struct viewer_options {
+    const char *scene_path;
+    const char *const *overrides;
+    int n_overrides;
+    const char *bind;      /* address; default 127.0.0.1                */
+    int port;              /* 0 = any free port                         */
+    const char *token;     /* NULL = no authentication                  */
+    const char *data_root; /* NULL = the scene's folder                 */
+    int preview_max;       /* longest side of a preview, pixels         */
+    double idle_ms;        /* quiet time before refinement starts       */
+    int max_image;         /* largest render.width/height an edit may set */
+    int jpeg_quality;
+    int preview_png;       /* 1: previews as PNG instead of JPEG         */
+    int max_connections;
+    int timeout_s;         /* idle connection timeout (slow clients)    */
+    int quiet;
+} viewer_options;
+
+typedef struct viewer_stats {
+    uint64_t edits, edits_rejected, frames, requests, requests_rejected, cancelled;
+    double last_latency_ms;       /* edit → first preview published    */
+    double last_latency_cpu_ms;   /* process CPU time over that interval */
+    double last_final_ms;         /* edit → final frame published      */
+    double last_update_ms, last_render_ms, last_encode_ms, last_refine_ms;
+    uint32_t last_changes;        /* volux_change bits of the last update */
+    int last_lights_changed;      /* light slots in the last update     */
+    char technique[32];
+    size_t technique_bytes;
+    char error[512];              /* last render failure, "" if none    */
+} viewer_stats;
+
+typedef struct viewer {
+    viewer_options opt;
+    volux_context *ctx;
+    volux_context *enc_ctx;
+    volux_scene_doc *doc;
+
+    pthread_mutex_t lock;
+    pthread_cond_t work; /* an edit happened / quit                   */
+    pthread_cond_t turn; /* waiters went away                         */
+    atomic_int waiters, edit_waiters, quit, cancellable;
+    double last_edit_ms;    /* when the oldest edit not yet shown arrived */
+    double last_edit_cpu_ms; /* process CPU time then                   */
+    double last_change_ms;  /* when the latest edit arrived (idle time) */
+    uint64_t edit_version;  /* document version of the last edit     */
+    int need_latency;       /* the next preview reports latency      */
+    int need_final_latency; /* the next final frame reports latency  */
+
+    /* render thread state (under `lock`) */
+    volux_technique *tech, *spare; /* current and previous instance   */
+    volux_framebuffer *fb_preview, *fb_full;
+    uint64_t shown_version;  /* version of the last preview          */
+    int refined;             /* final frame of shown_version published */
+    int refine_steps_done;   /* deferred technique work finished     */
+
+    pthread_mutex_t snap_lock;
+    char *scene_json, *scene_json_abs; /* malloc'ed                    */
+    char *state_json;                  /* malloc'ed: /api/state        */
+    uint64_t snap_version;
+    struct cJSON *vol_info;       /* dims, range, histogram (under `lock`) */
+    volux_scene_stamp vol_seen;   /* the scene when vol_info was made     */
+
+    pthread_mutex_t frame_lock;
+    pthread_cond_t frame_cv;
+    viewer_frame frame;
+    viewer_stats stats;
+    uint64_t start_rss_kb;
+
+    pthread_t render_thread;
+    struct MHD_Daemon *daemon;
+    int port;
+} viewer;
+
+/* Milliseconds on the monotonic clock; CPU milliseconds of the process. */
+double viewer_now_ms(void);
+double viewer_cpu_ms(void);
+
+/* renderer.c: the render thread. */
+int viewer_render_start(viewer *v);
+void viewer_render_stop(viewer *v);
+/* Takes `lock` as an editor (cancels a refinement in flight) or as a
+ * reader (waits for the current unit of work), and gives it back. */
+void viewer_lock_edit(viewer *v);
+void viewer_lock_read(viewer *v);
+void viewer_unlock(viewer *v, int edited);
+
+/* state.c: snapshots and JSON documents (cJSON, malloc'ed strings). */
+int viewer_snapshot(viewer *v); /* under `lock`; 0 on NOMEM */
+char *viewer_techniques_json(void);
+char *viewer_stats_json(viewer *v);
+/* Base64 of `n` bytes (malloc'ed, NUL-terminated). */
+char *viewer_base64(const unsigned char *data, size_t n, size_t *out_len);
+/* Names of the change bits ("volume, extinction, lights"...). */
+void viewer_change_names(uint32_t bits, char *out, size_t n);
+
+/* http.c: the server. */
+int viewer_http_start(viewer *v);
+void viewer_http_stop(viewer *v);
+
+/* encode.c: JPEG of a linear image (tone-mapped like PNG output). */
+int viewer_encode_jpeg(const volux_image *img, float exposure, int quality, unsigned char **out, size_t *size);
+
+/* assets.c (generated from web/): the page. */
+typedef struct viewer_asset {
+    const char *path, *type;
+    const unsigned char *data;
+    size_t size;
+} viewer_asset;
+const viewer_asset *viewer_asset_find(const char *path);
+
+#endif

@@ -1,0 +1,876 @@
+// volux viewer — the page of `volux serve` (served from the binary).
+//
+// Every control turns into edits in the --set form, [{"path", "value"}],
+// POSTed to /api/edit; the server applies them to the live scene (the
+// technique then does its incremental update) and pushes frames on the
+// event stream /api/events: a preview right after an edit, refinement
+// frames, and the final frame (what `volux render` writes). At most one
+// edit is in flight; edits made meanwhile are merged by path, so dragging
+// sends the latest state as fast as the server answers.
+'use strict';
+
+const $ = (id) => document.getElementById(id);
+const token = new URLSearchParams(location.search).get('token');
+const auth = token ? { 'X-Volux-Token': token } : {};
+
+let state = null;        // /api/state
+let techniques = [];     // /api/techniques
+let dragging = 0;        // controls being dragged: server state must not overwrite them
+const pending = new Map();
+let inflight = false;
+const editT0 = [];       // [version, t0] of edits whose frame has not been seen
+const latencies = [];    // edit → first frame on screen, ms (page-measured)
+// window.volux: what tests and benchmarks read (and `edit`, the controls'
+// own path to the server, so a script's edit is timed like a drag).
+window.volux = { latencies, frames: [], lastFrame: null, state: () => state, errors: [] };
+
+async function api(path, opts = {}) {
+  const r = await fetch(path, { ...opts, headers: { ...auth, ...(opts.headers || {}) } });
+  return r;
+}
+
+function showError(msg) {
+  const e = $('error');
+  e.textContent = msg;
+  e.hidden = !msg;
+  if (msg) window.volux.errors.push(msg);
+  clearTimeout(showError.timer);
+  if (msg) showError.timer = setTimeout(() => { e.hidden = true; }, 8000);
+}
+
+// ---------------------------------------------------------------- edits
+
+function edit(list) {
+  for (const { path, value } of list) {
+    // A later value of a path (or of an ancestor) replaces queued edits
+    // under it; re-inserting keeps the order of application.
+    for (const p of [...pending.keys()])
+      if (p === path || p.startsWith(path + '.')) pending.delete(p);
+    pending.set(path, value);
+  }
+  if (!edit.t0) edit.t0 = performance.now();
+  pump();
+}
+
+async function pump() {
+  if (inflight || pending.size === 0) return;
+  const list = [...pending].map(([path, value]) => ({ path, value }));
+  pending.clear();
+  const t0 = edit.t0;
+  edit.t0 = 0;
+  inflight = true;
+  try {
+    const r = await api('/api/edit', {
+      method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(list),
+    });
+    const j = await r.json();
+    if (!r.ok) {
+      showError(j.error || r.statusText);
+      await loadState(); // the controls go back to what the scene holds
+    } else {
+      editT0.push([j.version, t0]);
+      showError('');
+    }
+  } catch (e) {
+    showError('edit failed: ' + e);
+  }
+  inflight = false;
+  pump();
+}
+
+// ---------------------------------------------------------------- frames
+
+function connect() {
+  const es = new EventSource('/api/events' + (token ? '?token=' + encodeURIComponent(token) : ''));
+  es.addEventListener('frame', async (ev) => {
+    const f = JSON.parse(ev.data);
+    const img = new Image();
+    img.src = 'data:image/' + f.format + ';base64,' + f.data;
+    try { await img.decode(); } catch (e) { return; }
+    const frame = $('frame');
+    frame.src = img.src;
+    const now = performance.now();
+    // The first frame that shows an edit closes its latency.
+    while (editT0.length && editT0[0][0] <= f.version) {
+      const [, t0] = editT0.shift();
+      latencies.push(now - t0);
+      $('st-latency').textContent = `edit → frame ${(now - t0).toFixed(0)} ms (median ${median(latencies).toFixed(0)})`;
+    }
+    delete f.data;
+    f.shown = now;
+    window.volux.lastFrame = f;
+    window.volux.frames.push(f);
+    if (window.volux.frames.length > 200) window.volux.frames.shift();
+    $('st-kind').textContent = `${f.kind} ${f.width}×${f.height}, ${f.spp} spp, frame ${f.id}`;
+    $('st-server').textContent = `render ${f.render_ms.toFixed(0)} ms, encode ${f.encode_ms.toFixed(1)} ms (${f.format}, ${(f.bytes / 1024).toFixed(0)} KiB)`;
+  });
+  es.addEventListener('scene', (ev) => {
+    const v = JSON.parse(ev.data).version;
+    if (!state || v !== state.version) loadState();
+  });
+  es.addEventListener('failure', (ev) => showError(JSON.parse(ev.data).error));
+  es.onerror = () => { $('st-kind').textContent = 'reconnecting…'; };
+}
+
+function median(a) {
+  const s = [...a].sort((x, y) => x - y);
+  return s.length ? s[Math.floor((s.length - 1) / 2)] : 0;
+}
+
+// ---------------------------------------------------------------- state
+
+async function loadState() {
+  const r = await api('/api/state');
+  if (!r.ok) { showError('cannot read the scene: ' + r.status); return; }
+  const s = await r.json();
+  if (state && s.version < state.version) return;
+  state = s;
+  window.volux.version = s.version;
+  if (!dragging) refresh();
+}
+
+function sceneTF() { return state.scene.transfer_function; }
+function resolvedTF() { return state.resolved.transfer_function; }
+function tfKey() { return resolvedTF().extinction ? 'extinction' : 'opacity'; }
+
+// Edits of the TF: by path when the scene holds an inline TF without a
+// preset; otherwise the whole TF object (a file name or a preset cannot be
+// edited point by point), rebuilt from what the scene resolved.
+function tfEdit(changes) {
+  const tf = sceneTF();
+  if (tf && typeof tf === 'object' && !('preset' in tf)) {
+    edit(Object.entries(changes).map(([k, v]) => ({ path: 'transfer_function.' + k, value: v })));
+    return;
+  }
+  const r = resolvedTF();
+  const obj = typeof tf === 'object' ? { ...tf } : {};
+  delete obj.preset; delete obj.preset_name; delete obj.preset_rescale;
+  obj.color = r.color;
+  obj[tfKey()] = r[tfKey()];
+  for (const k of ['albedo', 'anisotropy', 'density_scale']) obj[k] = r[k];
+  if (!r.extinction && r.opacity_unit_distance > 0) obj.opacity_unit_distance = r.opacity_unit_distance;
+  Object.assign(obj, changes);
+  edit([{ path: 'transfer_function', value: obj }]);
+  // the resolved copy follows at once, so the next drag step sees it
+  Object.assign(r, changes);
+}
+
+function refresh() {
+  $('scene-name').textContent = state.scene_path;
+  refreshTechnique();
+  refreshMaterial();
+  drawTF();
+  refreshLights();
+  refreshRender();
+  cam.fromState();
+}
+
+// ---------------------------------------------------------------- technique
+
+function refreshTechnique() {
+  const sel = $('technique');
+  if (!sel.options.length)
+    for (const t of techniques) sel.add(new Option(t.name, t.name));
+  const name = state.resolved.render.technique;
+  sel.value = name;
+  const info = techniques.find((t) => t.name === name);
+  $('technique-summary').textContent = info ? info.summary : '';
+  const box = $('params');
+  box.replaceChildren();
+  if (!info) return;
+  const given = (state.scene.techniques || {})[name] || {};
+  // One control per entry of the technique's parameter table.
+  for (const p of info.params) {
+    const label = document.createElement('label');
+    label.title = p.doc;
+    const span = document.createElement('span');
+    span.textContent = p.name;
+    label.append(span);
+    const value = p.name in given ? given[p.name] : p.default;
+    let input;
+    if (p.kind === 'bool') {
+      input = document.createElement('input');
+      input.type = 'checkbox';
+      input.checked = !!value;
+      input.onchange = () => edit([{ path: `techniques.${name}.${p.name}`, value: input.checked }]);
+    } else if (p.kind === 'string') {
+      input = document.createElement('input');
+      input.type = 'text';
+      input.value = value;
+      input.onchange = () => edit([{ path: `techniques.${name}.${p.name}`, value: input.value }]);
+    } else {
+      input = document.createElement('input');
+      input.type = 'number';
+      input.min = p.min; input.max = p.max;
+      input.step = p.kind === 'int' ? 1 : 'any';
+      input.value = value;
+      input.onchange = () => {
+        const v = Number(input.value);
+        if (input.value !== '' && Number.isFinite(v)) edit([{ path: `techniques.${name}.${p.name}`, value: v }]);
+      };
+    }
+    input.dataset.param = p.name;
+    label.append(input);
+    if (p.name in given) {
+      const reset = document.createElement('button');
+      reset.textContent = '↺';
+      reset.title = 'back to the default';
+      reset.onclick = () => {
+        const rest = { ...given };
+        delete rest[p.name];
+        edit([{ path: `techniques.${name}`, value: rest }]);
+      };
+      label.append(reset);
+    }
+    box.append(label);
+  }
+}
+
+$('technique').onchange = () => edit([{ path: 'render.technique', value: $('technique').value }]);
+
+// ---------------------------------------------------------------- material
+
+function slider(id, toValue, fromValue, onInput) {
+  const el = $(id), out = $(id + '-v');
+  el.oninput = () => { out.textContent = fmt(toValue(Number(el.value))); onInput(toValue(Number(el.value))); };
+  el.onpointerdown = () => dragging++;
+  el.onpointerup = el.onpointercancel = () => { dragging = Math.max(0, dragging - 1); };
+  return (v) => { el.value = fromValue(v); out.textContent = fmt(v); };
+}
+const fmt = (v) => (Math.abs(v) >= 100 ? v.toFixed(0) : Math.abs(v) >= 1 ? v.toFixed(2) : v.toPrecision(2));
+
+const setAlbedo = slider('albedo', (x) => x, (v) => v, (v) => tfEdit({ albedo: v }));
+const setG = slider('anisotropy', (x) => x, (v) => v, (v) => tfEdit({ anisotropy: v }));
+const setDensity = slider('density', (x) => 10 ** x, (v) => Math.log10(Math.max(v, 1e-3)), (v) => tfEdit({ density_scale: Number(v.toPrecision(4)) }));
+
+function refreshMaterial() {
+  const r = resolvedTF();
+  setAlbedo(r.albedo);
+  setG(r.anisotropy);
+  setDensity(r.density_scale);
+}
+
+// ---------------------------------------------------------------- transfer function
+
+// Colour maps as sRGB stops (the published values of these maps, sampled);
+// the TF holds linear colours, so the stops are decoded.
+const PRESETS = {
+  grayscale: ['#000000', '#ffffff'],
+  viridis: ['#440154', '#472c7a', '#3b518b', '#2c718e', '#21908d', '#27ad81', '#5cc863', '#aadc32', '#fde725'],
+  magma: ['#000004', '#1c1044', '#4f127b', '#812581', '#b5367a', '#e55964', '#fb8761', '#fec287', '#fcfdbf'],
+  inferno: ['#000004', '#1f0c48', '#550f6d', '#88226a', '#ba3655', '#e35933', '#f98c0a', '#f9c932', '#fcffa4'],
+  'cool to warm': ['#3b4cc0', '#6f92f3', '#aac7fd', '#dddcdc', '#f7b89c', '#e7755b', '#b40426'],
+  bone: ['#000000', '#545474', '#a7c7c7', '#ffffff'],
+  'black body': ['#000000', '#e62020', '#e6b020', '#ffffff'],
+  'ct skin/bone': ['#3d1a0c', '#c9775a', '#f0c8a0', '#fff8ee'],
+};
+const srgbToLinear = (c) => (c <= 0.04045 ? c / 12.92 : ((c + 0.055) / 1.055) ** 2.4);
+const linearToSrgb = (c) => (c <= 0.0031308 ? 12.92 * c : 1.055 * c ** (1 / 2.4) - 0.055);
+const hexToLinear = (h) => [1, 3, 5].map((i) => Number(srgbToLinear(parseInt(h.substr(i, 2), 16) / 255).toFixed(4)));
+const linearToHex = (rgb) => '#' + rgb.map((c) => Math.round(Math.min(1, Math.max(0, linearToSrgb(c))) * 255).toString(16).padStart(2, '0')).join('');
+
+{
+  const sel = $('preset');
+  sel.add(new Option('colour map…', ''));
+  for (const name of Object.keys(PRESETS)) sel.add(new Option(name, name));
+  sel.onchange = () => {
+    const stops = PRESETS[sel.value];
+    sel.value = '';
+    if (!stops) return;
+    const [lo, hi] = tfRange();
+    const color = stops.map((h, i) => [Number((lo + (hi - lo) * i / (stops.length - 1)).toPrecision(6)), ...hexToLinear(h)]);
+    resolvedTF().color = color;
+    tfEdit({ color });
+    drawTF();
+  };
+}
+
+function tfRange() {
+  let [lo, hi] = state.volume.range;
+  if (!(hi > lo)) hi = lo + 1;
+  return [lo, hi];
+}
+
+const tf = { sel: -1, csel: -1, drag: null };
+const TF_PAD = 6;
+
+function tfScaleY() {
+  const pts = resolvedTF()[tfKey()];
+  if (!resolvedTF().extinction) return 1;
+  return Math.max(1e-6, ...pts.map((p) => p[1])) * 1.25;
+}
+
+function tfToCanvas(s, v, c, ymax) {
+  const [lo, hi] = tfRange();
+  return [TF_PAD + (s - lo) / (hi - lo) * (c.width - 2 * TF_PAD), c.height - TF_PAD - v / ymax * (c.height - 2 * TF_PAD)];
+}
+
+function tfFromCanvas(x, y, c, ymax) {
+  const [lo, hi] = tfRange();
+  const s = lo + (x - TF_PAD) / (c.width - 2 * TF_PAD) * (hi - lo);
+  const v = (c.height - TF_PAD - y) / (c.height - 2 * TF_PAD) * ymax;
+  return [Math.min(hi, Math.max(lo, s)), Math.min(ymax, Math.max(0, v))];
+}
+
+function colorAt(pts, s) {
+  if (!pts.length) return [1, 1, 1];
+  if (s <= pts[0][0]) return pts[0].slice(1);
+  for (let i = 1; i < pts.length; i++)
+    if (s <= pts[i][0]) {
+      const a = pts[i - 1], b = pts[i], t = (s - a[0]) / Math.max(1e-12, b[0] - a[0]);
+      return [1, 2, 3].map((k) => a[k] + t * (b[k] - a[k]));
+    }
+  return pts[pts.length - 1].slice(1);
+}
+
+function drawTF() {
+  if (!state) return;
+  const c = $('tf'), g = c.getContext('2d');
+  const r = resolvedTF(), pts = r[tfKey()], ymax = tfScaleY();
+  g.clearRect(0, 0, c.width, c.height);
+  // histogram, log scale
+  const h = state.volume.histogram, hmax = Math.log1p(Math.max(...h));
+  g.fillStyle = '#3a3f47';
+  const w = (c.width - 2 * TF_PAD) / h.length;
+  h.forEach((n, i) => {
+    const bh = Math.log1p(n) / hmax * (c.height - 2 * TF_PAD);
+    g.fillRect(TF_PAD + i * w, c.height - TF_PAD - bh, Math.ceil(w), bh);
+  });
+  // opacity curve, filled with the colour map
+  const grad = g.createLinearGradient(TF_PAD, 0, c.width - TF_PAD, 0);
+  const [lo, hi] = tfRange();
+  for (let i = 0; i <= 16; i++) {
+    const s = lo + (hi - lo) * i / 16;
+    grad.addColorStop(i / 16, linearToHex(colorAt(r.color, s)) + '90');
+  }
+  g.beginPath();
+  const first = tfToCanvas(pts[0][0], pts[0][1], c, ymax);
+  g.moveTo(TF_PAD, c.height - TF_PAD);
+  g.lineTo(TF_PAD, first[1]);
+  for (const p of pts) g.lineTo(...tfToCanvas(p[0], p[1], c, ymax));
+  const last = tfToCanvas(pts[pts.length - 1][0], pts[pts.length - 1][1], c, ymax);
+  g.lineTo(c.width - TF_PAD, last[1]);
+  g.lineTo(c.width - TF_PAD, c.height - TF_PAD);
+  g.closePath();
+  g.fillStyle = grad;
+  g.fill();
+  g.strokeStyle = '#e8e8e8';
+  g.lineWidth = 1.5;
+  g.beginPath();
+  pts.forEach((p, i) => { const [x, y] = tfToCanvas(p[0], p[1], c, ymax); i ? g.lineTo(x, y) : g.moveTo(x, y); });
+  g.stroke();
+  pts.forEach((p, i) => {
+    const [x, y] = tfToCanvas(p[0], p[1], c, ymax);
+    g.fillStyle = i === tf.sel ? '#e0a030' : '#ffffff';
+    g.beginPath(); g.arc(x, y, 4.5, 0, 7); g.fill();
+  });
+  $('tf-unit').textContent = r.extinction ? `extinction σt (1/world unit), ${lo}…${hi}`
+    : `opacity per ${r.opacity_unit_distance > 0 ? r.opacity_unit_distance : 'voxel spacing'}, ${lo}…${hi}`;
+  // colour bar with its points
+  const cb = $('tf-color'), cg = cb.getContext('2d');
+  cg.clearRect(0, 0, cb.width, cb.height);
+  for (let x = TF_PAD; x < cb.width - TF_PAD; x++) {
+    const s = lo + (x - TF_PAD) / (cb.width - 2 * TF_PAD) * (hi - lo);
+    cg.fillStyle = linearToHex(colorAt(r.color, s));
+    cg.fillRect(x, 0, 1, cb.height - 8);
+  }
+  r.color.forEach((p, i) => {
+    const x = tfToCanvas(p[0], 0, c, 1)[0];
+    cg.fillStyle = i === tf.csel ? '#e0a030' : '#ffffff';
+    cg.beginPath(); cg.moveTo(x, cb.height - 9); cg.lineTo(x - 5, cb.height); cg.lineTo(x + 5, cb.height); cg.fill();
+  });
+}
+
+function canvasPos(c, ev) {
+  const b = c.getBoundingClientRect();
+  return [(ev.clientX - b.left) * c.width / b.width, (ev.clientY - b.top) * c.height / b.height];
+}
+
+function nearest(pts, xy, toXY, radius) {
+  let best = -1, bd = radius * radius;
+  pts.forEach((p, i) => {
+    const [x, y] = toXY(p);
+    const d = (x - xy[0]) ** 2 + (y - xy[1]) ** 2;
+    if (d <= bd) { bd = d; best = i; }
+  });
+  return best;
+}
+
+function sendOpacity() {
+  const key = tfKey(), pts = resolvedTF()[key].map((p) => [Number(p[0].toPrecision(6)), Number(p[1].toPrecision(5))]);
+  tfEdit({ [key]: pts });
+}
+
+{
+  const c = $('tf');
+  const toXY = (p) => tfToCanvas(p[0], p[1], c, tfScaleY());
+  c.addEventListener('pointerdown', (ev) => {
+    if (!state || ev.button !== 0) return;
+    const i = nearest(resolvedTF()[tfKey()], canvasPos(c, ev), toXY, 9);
+    tf.sel = i;
+    if (i >= 0) { tf.drag = { i, ymax: tfScaleY() }; dragging++; c.setPointerCapture(ev.pointerId); }
+    drawTF();
+  });
+  c.addEventListener('pointermove', (ev) => {
+    if (!tf.drag) return;
+    const pts = resolvedTF()[tfKey()], i = tf.drag.i;
+    let [s, v] = tfFromCanvas(...canvasPos(c, ev), c, tf.drag.ymax);
+    // points stay sorted: a point moves between its neighbours
+    if (i > 0) s = Math.max(s, pts[i - 1][0]);
+    if (i < pts.length - 1) s = Math.min(s, pts[i + 1][0]);
+    pts[i] = [s, v];
+    drawTF();
+    sendOpacity();
+  });
+  const end = () => { if (tf.drag) { tf.drag = null; dragging = Math.max(0, dragging - 1); } };
+  c.addEventListener('pointerup', end);
+  c.addEventListener('pointercancel', end);
+  c.addEventListener('dblclick', (ev) => {
+    const pts = resolvedTF()[tfKey()];
+    const [s, v] = tfFromCanvas(...canvasPos(c, ev), c, tfScaleY());
+    let k = pts.findIndex((p) => p[0] > s);
+    if (k < 0) k = pts.length;
+    pts.splice(k, 0, [s, v]);
+    tf.sel = k;
+    drawTF();
+    sendOpacity();
+  });
+  c.addEventListener('contextmenu', (ev) => {
+    ev.preventDefault();
+    const pts = resolvedTF()[tfKey()];
+    const i = nearest(pts, canvasPos(c, ev), toXY, 9);
+    if (i < 0 || pts.length <= 1) return;
+    pts.splice(i, 1);
+    tf.sel = -1;
+    drawTF();
+    sendOpacity();
+  });
+  window.addEventListener('keydown', (ev) => {
+    if ((ev.key === 'Delete' || ev.key === 'Backspace') && tf.sel >= 0 && document.activeElement === document.body) {
+      const pts = resolvedTF()[tfKey()];
+      if (pts.length > 1) { pts.splice(tf.sel, 1); tf.sel = -1; drawTF(); sendOpacity(); }
+    }
+  });
+}
+
+function sendColor() {
+  const color = resolvedTF().color.map((p) => [Number(p[0].toPrecision(6)), ...p.slice(1).map((x) => Number(x.toFixed(4)))]);
+  tfEdit({ color });
+}
+
+{
+  const c = $('tf-color'), picker = $('tf-picker');
+  const xOf = (p) => tfToCanvas(p[0], 0, $('tf'), 1)[0];
+  let moved = false;
+  c.addEventListener('pointerdown', (ev) => {
+    if (!state || ev.button !== 0) return;
+    const [x] = canvasPos(c, ev);
+    tf.csel = nearest(resolvedTF().color, [x, 0], (p) => [xOf(p), 0], 7);
+    moved = false;
+    if (tf.csel >= 0) { tf.cdrag = true; dragging++; c.setPointerCapture(ev.pointerId); }
+    drawTF();
+  });
+  c.addEventListener('pointermove', (ev) => {
+    if (!tf.cdrag) return;
+    const pts = resolvedTF().color, i = tf.csel;
+    let [s] = tfFromCanvas(canvasPos(c, ev)[0], 0, $('tf'), 1);
+    if (i > 0) s = Math.max(s, pts[i - 1][0]);
+    if (i < pts.length - 1) s = Math.min(s, pts[i + 1][0]);
+    pts[i][0] = s;
+    moved = true;
+    drawTF();
+    sendColor();
+  });
+  c.addEventListener('pointerup', () => {
+    if (!tf.cdrag) return;
+    tf.cdrag = false;
+    dragging = Math.max(0, dragging - 1);
+    if (!moved && tf.csel >= 0) { // a click: choose the colour
+      picker.value = linearToHex(resolvedTF().color[tf.csel].slice(1));
+      picker.click();
+    }
+  });
+  picker.addEventListener('input', () => {
+    if (tf.csel < 0) return;
+    resolvedTF().color[tf.csel].splice(1, 3, ...hexToLinear(picker.value));
+    drawTF();
+    sendColor();
+  });
+  c.addEventListener('dblclick', (ev) => {
+    const pts = resolvedTF().color;
+    const [s] = tfFromCanvas(canvasPos(c, ev)[0], 0, $('tf'), 1);
+    let k = pts.findIndex((p) => p[0] > s);
+    if (k < 0) k = pts.length;
+    pts.splice(k, 0, [s, ...colorAt(pts, s)]);
+    tf.csel = k;
+    drawTF();
+    sendColor();
+  });
+  c.addEventListener('contextmenu', (ev) => {
+    ev.preventDefault();
+    const pts = resolvedTF().color;
+    const i = nearest(pts, [canvasPos(c, ev)[0], 0], (p) => [xOf(p), 0], 7);
+    if (i < 0 || pts.length <= 1) return;
+    pts.splice(i, 1);
+    tf.csel = -1;
+    drawTF();
+    sendColor();
+  });
+}
+
+// ---------------------------------------------------------------- camera
+
+// The page's camera: orbit about a target (the volume's centre unless
+// panned), distance in units of the bounding radius R as in the scene
+// format. Unpanned it is sent as an orbit, panned as eye/look_at.
+const cam = {
+  az: 30, el: 20, dist: 3, target: [0, 0, 0], fov: 30,
+  fromState() {
+    const c = state.resolved.camera, C = state.volume.center, R = state.volume.radius;
+    this.fov = c.fov_y;
+    if (c.orbit) {
+      this.az = c.azimuth; this.el = c.elevation; this.dist = c.distance; this.target = [...C];
+    } else {
+      const d = [0, 1, 2].map((k) => c.eye[k] - c.look_at[k]), n = Math.hypot(...d) || 1;
+      this.dist = n / R;
+      this.el = Math.asin(Math.max(-1, Math.min(1, d[1] / n))) * 180 / Math.PI;
+      this.az = Math.atan2(d[0], d[2]) * 180 / Math.PI;
+      this.target = [...c.look_at];
+    }
+    $('r-fov').value = this.fov;
+    $('r-fov-v').textContent = this.fov.toFixed(0) + '°';
+  },
+  dir() { // unit vector from the target to the eye
+    const a = this.az * Math.PI / 180, e = this.el * Math.PI / 180;
+    return [Math.cos(e) * Math.sin(a), Math.sin(e), Math.cos(e) * Math.cos(a)];
+  },
+  basis() { // right, up, back (towards the viewer)
+    const b = this.dir();
+    let r = [b[2], 0, -b[0]];
+    const n = Math.hypot(...r) || 1;
+    r = r.map((x) => x / n);
+    const u = [b[1] * r[2] - b[2] * r[1], b[2] * r[0] - b[0] * r[2], b[0] * r[1] - b[1] * r[0]];
+    return [r, u, b];
+  },
+  send() {
+    const C = state.volume.center, R = state.volume.radius;
+    const json = state.scene.camera || {};
+    const out = {};
+    if (json.type) out.type = json.type;
+    if (json.height !== undefined && json.type === 'orthographic') out.height = json.height;
+    out.fov_y = Number(this.fov.toFixed(3));
+    const round = (x) => Number(x.toPrecision(7));
+    if (this.target.every((x, k) => Math.abs(x - C[k]) < 1e-6 * R)) {
+      out.orbit = { azimuth: round(this.az), elevation: round(this.el), distance: round(this.dist) };
+    } else {
+      const d = this.dir();
+      out.eye = d.map((x, k) => round(this.target[k] + x * this.dist * R));
+      out.look_at = this.target.map(round);
+      out.up = [0, 1, 0];
+    }
+    edit([{ path: 'camera', value: out }]);
+  },
+};
+
+{
+  const stage = $('stage');
+  let last = null, mode = '';
+  stage.addEventListener('pointerdown', (ev) => {
+    if (!state) return;
+    last = [ev.clientX, ev.clientY];
+    mode = ev.button === 2 || ev.shiftKey ? 'pan' : 'orbit';
+    stage.setPointerCapture(ev.pointerId);
+    stage.classList.add('dragging');
+    dragging++;
+  });
+  stage.addEventListener('pointermove', (ev) => {
+    if (!last) return;
+    const dx = ev.clientX - last[0], dy = ev.clientY - last[1];
+    last = [ev.clientX, ev.clientY];
+    if (mode === 'orbit') {
+      cam.az -= dx * 0.4;
+      cam.el = Math.max(-89.5, Math.min(89.5, cam.el + dy * 0.4));
+    } else {
+      const [r, u] = cam.basis(), R = state.volume.radius;
+      const k = cam.dist * R * Math.tan(cam.fov * Math.PI / 360) * 2 / stage.clientHeight;
+      cam.target = cam.target.map((x, i) => x - (dx * r[i] - dy * u[i]) * k);
+    }
+    cam.send();
+  });
+  const end = () => {
+    if (!last) return;
+    last = null;
+    stage.classList.remove('dragging');
+    dragging = Math.max(0, dragging - 1);
+  };
+  stage.addEventListener('pointerup', end);
+  stage.addEventListener('pointercancel', end);
+  stage.addEventListener('contextmenu', (ev) => ev.preventDefault());
+  stage.addEventListener('wheel', (ev) => {
+    if (!state) return;
+    ev.preventDefault();
+    cam.dist = Math.max(0.05, Math.min(1e4, cam.dist * Math.exp(ev.deltaY * 0.0015)));
+    cam.send();
+  }, { passive: false });
+  stage.addEventListener('dblclick', () => {
+    cam.target = [...state.volume.center];
+    cam.dist = 1 / Math.sin(cam.fov * Math.PI / 360);
+    cam.send();
+  });
+  $('r-fov').oninput = () => {
+    cam.fov = Number($('r-fov').value);
+    $('r-fov-v').textContent = cam.fov.toFixed(0) + '°';
+    cam.send();
+  };
+}
+
+// ---------------------------------------------------------------- lights
+
+const STRENGTH = { directional: 'irradiance', point: 'intensity', spot: 'intensity', sphere: 'radiance' };
+const strengthKey = (l) => (l.type === 'environment' ? (l.file ? 'intensity' : 'radiance') : STRENGTH[l.type]);
+
+function lightsJSON() { return state.scene.lights || []; }
+
+function refreshLights() {
+  const box = $('lights');
+  box.replaceChildren();
+  lightsJSON().forEach((l, i) => box.append(lightCard(l, i)));
+}
+
+function lightCard(l, i) {
+  const card = document.createElement('div');
+  card.className = 'light' + (l.enabled === false ? ' off' : '');
+  card.dataset.index = i;
+  const head = document.createElement('div');
+  head.className = 'head';
+  const on = document.createElement('input');
+  on.type = 'checkbox';
+  on.checked = l.enabled !== false;
+  on.title = 'on/off';
+  on.className = 'toggle';
+  on.onchange = () => edit([{ path: `lights.${i}.enabled`, value: on.checked }]);
+  const name = document.createElement('span');
+  name.className = 'name';
+  name.textContent = `${i}: ${l.type}${l.file ? ' (' + l.file + ')' : ''}`;
+  const color = document.createElement('input');
+  color.type = 'color';
+  color.value = linearToHex(l.color || [1, 1, 1]);
+  color.oninput = () => edit([{ path: `lights.${i}.color`, value: hexToLinear(color.value) }]);
+  const del = document.createElement('button');
+  del.textContent = '✕';
+  del.title = 'remove';
+  del.className = 'remove';
+  del.onclick = () => edit([{ path: 'lights', value: lightsJSON().filter((_, k) => k !== i) }]);
+  head.append(on, name, color, del);
+  card.append(head);
+  // strength: a log slider around the current value
+  const key = strengthKey(l), val = l[key] !== undefined ? l[key] : 1;
+  const lab = document.createElement('label');
+  const s = document.createElement('input');
+  s.type = 'range'; s.min = -3; s.max = 6; s.step = 0.01;
+  s.value = Math.log10(Math.max(val, 1e-3));
+  const out = document.createElement('output');
+  out.textContent = fmt(val);
+  s.onpointerdown = () => dragging++;
+  s.onpointerup = s.onpointercancel = () => { dragging = Math.max(0, dragging - 1); };
+  s.oninput = () => {
+    const v = Number((10 ** Number(s.value)).toPrecision(4));
+    out.textContent = fmt(v);
+    edit([{ path: `lights.${i}.${key}`, value: v }]);
+  };
+  lab.append(key, s, out);
+  card.append(lab);
+  if (l.type === 'spot') {
+    for (const [k, lo, hi, d] of [['cone_angle', 1, 90, 30], ['falloff_angle', 0, 90, 24]]) {
+      const a = document.createElement('label');
+      const r = document.createElement('input');
+      r.type = 'range'; r.min = lo; r.max = hi; r.step = 0.5; r.value = l[k] !== undefined ? l[k] : d;
+      r.oninput = () => edit([{ path: `lights.${i}.${k}`, value: Number(r.value) }]);
+      a.append(k.replace('_angle', ''), r);
+      card.append(a);
+    }
+  }
+  if (l.type === 'sphere') {
+    const a = document.createElement('label');
+    const r = document.createElement('input');
+    r.type = 'number'; r.min = 1e-6; r.step = 'any'; r.value = l.radius !== undefined ? l.radius : 1;
+    r.onchange = () => edit([{ path: `lights.${i}.radius`, value: Number(r.value) }]);
+    a.append('radius', r);
+    card.append(a);
+  }
+  if (l.type === 'environment') {
+    const a = document.createElement('label');
+    const r = document.createElement('input');
+    r.type = 'range'; r.min = -180; r.max = 180; r.step = 1; r.value = l.rotation_y || 0;
+    r.oninput = () => edit([{ path: `lights.${i}.rotation_y`, value: Number(r.value) }]);
+    a.append('rotate', r);
+    card.append(a);
+  } else {
+    card.append(gizmo(l, i));
+  }
+  return card;
+}
+
+// Where the light comes from, in view space: a sphere seen from the camera;
+// dragging on it moves the light (front half; shift: back half).
+function gizmo(l, i) {
+  const c = document.createElement('canvas');
+  c.width = c.height = 84;
+  c.className = 'gizmo';
+  c.title = 'drag: where the light comes from (shift: from behind)';
+  const C = state.volume.center, R = state.volume.radius;
+  const fromWorld = () => {
+    if (l.type === 'directional') return (l.direction || [0, 0, -1]).map((x) => -x);
+    const p = l.position || [0, 0, 0];
+    return p.map((x, k) => x - C[k]);
+  };
+  const draw = () => {
+    const g = c.getContext('2d'), [r, u, b] = cam.basis();
+    let f = fromWorld();
+    const n = Math.hypot(...f) || 1;
+    f = f.map((x) => x / n);
+    const x = f[0] * r[0] + f[1] * r[1] + f[2] * r[2], y = f[0] * u[0] + f[1] * u[1] + f[2] * u[2];
+    const z = f[0] * b[0] + f[1] * b[1] + f[2] * b[2];
+    g.clearRect(0, 0, 84, 84);
+    const grad = g.createRadialGradient(42 + x * 30, 42 - y * 30, 2, 42, 42, 38);
+    grad.addColorStop(0, z >= 0 ? '#fff4d0' : '#6a6a6a');
+    grad.addColorStop(1, '#23272d');
+    g.fillStyle = grad;
+    g.beginPath(); g.arc(42, 42, 38, 0, 7); g.fill();
+    g.strokeStyle = '#555'; g.stroke();
+    g.fillStyle = z >= 0 ? '#e0a030' : '#806030';
+    g.beginPath(); g.arc(42 + x * 38, 42 - y * 38, 5, 0, 7); g.fill();
+  };
+  const set = (ev) => {
+    const [px, py] = canvasPos(c, ev);
+    let x = (px - 42) / 38, y = (42 - py) / 38;
+    const n2 = x * x + y * y;
+    if (n2 > 1) { const n = Math.sqrt(n2); x /= n; y /= n; }
+    const z = Math.sqrt(Math.max(0, 1 - x * x - y * y)) * (ev.shiftKey ? -1 : 1);
+    const [r, u, b] = cam.basis();
+    const f = [0, 1, 2].map((k) => x * r[k] + y * u[k] + z * b[k]);
+    const round = (v) => Number(v.toPrecision(6));
+    if (l.type === 'directional') {
+      l.direction = f.map((v) => round(-v));
+      edit([{ path: `lights.${i}.direction`, value: l.direction }]);
+    } else {
+      const d = Math.hypot(...fromWorld()) || 2 * R;
+      l.position = f.map((v, k) => round(C[k] + v * d));
+      const list = [{ path: `lights.${i}.position`, value: l.position }];
+      if (l.type === 'spot') { l.direction = f.map((v) => round(-v)); list.push({ path: `lights.${i}.direction`, value: l.direction }); }
+      edit(list);
+    }
+    draw();
+  };
+  let active = false;
+  c.addEventListener('pointerdown', (ev) => { active = true; dragging++; c.setPointerCapture(ev.pointerId); set(ev); });
+  c.addEventListener('pointermove', (ev) => { if (active) set(ev); });
+  const end = () => { if (active) { active = false; dragging = Math.max(0, dragging - 1); } };
+  c.addEventListener('pointerup', end);
+  c.addEventListener('pointercancel', end);
+  draw();
+  return c;
+}
+
+$('light-add').onclick = () => {
+  const type = $('light-type').value, C = state.volume.center, R = state.volume.radius;
+  const [r, u, b] = cam.basis();
+  // from the upper right of the current view
+  const f = [0, 1, 2].map((k) => 0.5 * r[k] + 0.5 * u[k] + 0.7 * b[k]);
+  const round = (v) => Number(v.toPrecision(6));
+  const pos = f.map((v, k) => round(C[k] + 2.5 * R * v));
+  const light = {
+    directional: { type, direction: f.map((v) => round(-v)), irradiance: 1 },
+    point: { type, position: pos, intensity: round(6 * R * R) },
+    spot: { type, position: pos, direction: f.map((v) => round(-v)), intensity: round(6 * R * R), cone_angle: 25 },
+    sphere: { type, position: pos, radius: round(0.15 * R), radiance: 10 },
+    environment: { type, radiance: 0.3 },
+  }[type];
+  edit([{ path: `lights.${lightsJSON().length}`, value: light }]);
+};
+
+// ---------------------------------------------------------------- render, time
+
+function refreshRender() {
+  const r = state.resolved.render;
+  for (const [id, v] of [['r-width', r.width], ['r-height', r.height], ['r-spp', r.spp], ['r-step', r.step]])
+    if (document.activeElement !== $(id)) $(id).value = v;
+  $('r-width').max = $('r-height').max = state.limits.max_image;
+  $('r-exposure').value = r.exposure;
+  $('r-exposure-v').textContent = Number(r.exposure).toFixed(1);
+  const seq = state.sequence;
+  $('sec-time').hidden = !seq;
+  if (seq) {
+    $('time-step').max = seq.steps - 1;
+    $('time-step').value = seq.step;
+    $('time-step-v').textContent = seq.step;
+  }
+}
+
+for (const [id, key, int] of [['r-width', 'width', 1], ['r-height', 'height', 1], ['r-spp', 'spp', 1], ['r-step', 'step', 0]])
+  $(id).onchange = () => {
+    const v = Number($(id).value);
+    if ($(id).value !== '' && Number.isFinite(v)) edit([{ path: 'render.' + key, value: int ? Math.round(v) : v }]);
+  };
+$('r-exposure').oninput = () => {
+  $('r-exposure-v').textContent = Number($('r-exposure').value).toFixed(1);
+  edit([{ path: 'render.exposure', value: Number($('r-exposure').value) }]);
+};
+$('time-step').oninput = () => {
+  $('time-step-v').textContent = $('time-step').value;
+  edit([{ path: 'render.time_step', value: Number($('time-step').value) }]);
+};
+
+// ---------------------------------------------------------------- save
+
+async function download(path, name) {
+  const r = await api(path);
+  if (!r.ok) {
+    let msg = r.statusText;
+    try { msg = (await r.json()).error; } catch (e) { /* not JSON */ }
+    showError(`${name}: ${msg}`);
+    return;
+  }
+  const url = URL.createObjectURL(await r.blob());
+  const a = document.createElement('a');
+  a.href = url;
+  a.download = name;
+  document.body.append(a);
+  a.click();
+  a.remove();
+  setTimeout(() => URL.revokeObjectURL(url), 10000);
+}
+
+// Absolute file names: the saved scene renders the same from any folder.
+$('save-scene').onclick = () => download('/api/scene?paths=absolute', 'scene.json');
+// The final frame of the current scene (waits for refinement to finish).
+$('save-image').onclick = () => download('/api/frame?wait=final&format=png&timeout=120000', 'volux.png');
+
+// ---------------------------------------------------------------- stats
+
+async function pollStats() {
+  if ($('sec-stats').open) {
+    try {
+      const r = await api('/api/stats');
+      if (r.ok) {
+        const s = await r.json();
+        s.page_edit_to_frame_ms_median = Number(median(latencies).toFixed(1));
+        s.page_edits_measured = latencies.length;
+        $('stats').textContent = JSON.stringify(s, null, 1);
+      }
+    } catch (e) { /* the stream shows the connection state */ }
+  }
+  setTimeout(pollStats, 1000);
+}
+
+// ---------------------------------------------------------------- start
+
+(async () => {
+  const r = await api('/api/techniques');
+  techniques = r.ok ? await r.json() : [];
+  await loadState();
+  connect();
+  pollStats();
+  window.volux.edit = edit;
+  window.volux.ready = true;
+})();
