@@ -138,16 +138,7 @@ typedef struct wave_job {
     int *truncated;           /* set when a tile's first sample was cut short */
 } wave_job;
 
-int volux_tile_expired(const volux_tile *t) {
-    volux_deadline *d = t->deadline;
-    if (!d) return 0;
-    if (__atomic_load_n(&d->expired, __ATOMIC_RELAXED)) return 1;
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    if ((double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6 < d->at_ms) return 0;
-    __atomic_store_n(&d->expired, 1, __ATOMIC_RELAXED);
-    return 1;
-}
+int volux_tile_expired(const volux_tile *t) { return volux_deadline_expired(t->deadline); }
 
 static int deadline_expired(const volux_deadline *d) { return d && __atomic_load_n(&d->expired, __ATOMIC_RELAXED); }
 

@@ -17,11 +17,8 @@
 #include "volux/technique.h"
 
 /* The time budget of a render (render.time_ms), shared by every tile of
- * a wave. */
-typedef struct volux_deadline {
-    double at_ms; /* CLOCK_MONOTONIC, milliseconds                  */
-    int expired;  /* set (atomically) once at_ms has passed          */
-} volux_deadline;
+ * a wave: core/deadline.h. */
+#include "core/deadline.h"
 
 /* A rectangle of pixels for one sample index. */
 typedef struct volux_tile {

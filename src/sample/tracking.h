@@ -20,7 +20,7 @@
  * the mean step is below an ulp of t, is finished by regular tracking
  * (sample/regular_tracking.h).
  * Both honour the render's time budget: every VOLUX_TRACK_CLOCK_EVERY + 1
- * volume lookups the tracker asks volux_tile_expired, and once it has
+ * volume lookups the tracker asks its deadline (core/deadline.h), and once it has
  * expired `stopped` is set, the trackers return at once (no collision,
  * transmittance 0) and the caller ends its path. Neither changes a single
  * random number for ordinary media, so images stay bit-identical.
@@ -40,7 +40,7 @@
 #include "core/vecmath.h"
 #include "medium.h"
 #include "regular_tracking.h"
-#include "render/technique_class.h"
+#include "core/deadline.h"
 
 /* Ratio tracking: below this running weight, Russian roulette with survival
  * probability T/VOLUX_RATIO_RR, and T = VOLUX_RATIO_RR on survival (E[T]
@@ -66,7 +66,7 @@ typedef struct volux_tracker {
     const volux_medium *m;
     volux_rng rng;
     uint64_t samples;        /* volume lookups */
-    const volux_tile *tile;  /* its deadline (NULL: no time budget)      */
+    volux_deadline *deadline; /* the render's (NULL: no time budget)     */
     int stopped;             /* the time budget ran out: end the path    */
 } volux_tracker;
 
@@ -112,7 +112,7 @@ static inline int volux_track_iter_next(volux_track_iter *i, volux_interval *iv)
 static inline float volux_tracker_sigma(volux_tracker *p, const volux_ray *r, float t, float *rgb) {
     const volux_medium *m = p->m;
     /* Long paths honour the render's time budget (--time-ms). */
-    if ((++p->samples & VOLUX_TRACK_CLOCK_EVERY) == 0 && p->tile && volux_tile_expired(p->tile)) p->stopped = 1;
+    if ((++p->samples & VOLUX_TRACK_CLOCK_EVERY) == 0 && volux_deadline_expired(p->deadline)) p->stopped = 1;
     return volux_medium_eval(m->volume, m->lut, m->pre, v3_madd(r->q0, r->dq, t), rgb);
 }
 

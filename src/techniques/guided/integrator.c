@@ -242,7 +242,7 @@ void guided_render_tile(const void *state, const volux_scene *scene, const volux
     const guided_state *st = state;
     const volux_camera *cam = &st->rc.camera;
     const volux_medium medium = {st->rc.volume, st->rc.lut, &st->rc.grid, 0, 0, st->rc.min_spacing};
-    gd_path p = {st, {&medium, {0, 0}, 0, tile, 0}, 0, 0};
+    gd_path p = {st, {&medium, {0, 0}, 0, tile->deadline, 0}, 0, 0};
     p.n_area = st->rc.lights.n_sphere + (st->env.present && st->mis ? 1 : 0);
     guided_event ev;
     ev.kind = st->strategy;
