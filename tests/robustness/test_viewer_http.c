@@ -455,6 +455,15 @@ static void test_bad_command_lines(void **state) {
     snprintf(args, sizeof args, "serve '%s' --port 0 --set render.technique=nope", scene_path);
     assert_int_equal(tu_run_cli(args, &err), 2);
     assert_contains(err, "unknown technique 'nope'");
+    /* An argument holding an escape sequence reaches the terminal escaped (as the CLI's messages). */
+    snprintf(args, sizeof args, "serve '%s' --port 0 --idle-ms \"$(printf '1\\033[2J')\"", scene_path);
+    assert_int_equal(tu_run_cli(args, &err), 2);
+    assert_null(strchr(err, 0x1b));
+    assert_contains(err, "1\\x1b[2J");
+    snprintf(args, sizeof args, "serve '%s' --port 0 --bind \"$(printf 'x\\033[2J')\"", scene_path);
+    assert_int_equal(tu_run_cli(args, &err), 2);
+    assert_null(strchr(err, 0x1b));
+    assert_contains(err, "--bind x\\x1b[2J");
 }
 
 /* The preview budget: with a budget no render can meet, the first frame

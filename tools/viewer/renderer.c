@@ -19,6 +19,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "tools/cli/cli.h"
 #include "viewer.h"
 
 #define PUBLISH_EVERY_MS 200.0
@@ -76,7 +77,7 @@ static void render_failed(viewer *v, const char *what, volux_status st) {
     v->frame.id++; /* wakes the streams, which then report the error */
     pthread_cond_broadcast(&v->frame_cv);
     pthread_mutex_unlock(&v->frame_lock);
-    if (!v->opt.quiet) fprintf(stderr, "volux serve: %s\n", msg);
+    if (!v->opt.quiet) cli_eprintf("volux serve: %s\n", msg); /* may quote a file name an edit gave */
 }
 
 /* What a published frame is, for the statistics. */

@@ -106,7 +106,7 @@ int cli_serve(int argc, char **argv) {
         for (int k = 0; valued[k]; k++) is_valued |= !strcmp(a, valued[k]);
         if (is_valued) {
             if (i + 1 >= argc) {
-                fprintf(stderr, "volux serve: %s needs a value\n", a);
+                cli_eprintf("volux serve: %s needs a value\n", a);
                 goto out;
             }
             const char *val = argv[++i];
@@ -117,7 +117,7 @@ int cli_serve(int argc, char **argv) {
                 unsigned char probe[16];
                 if (strcmp(val, "localhost") && inet_pton(AF_INET, val, probe) != 1 &&
                     inet_pton(AF_INET6, val, probe) != 1) {
-                    fprintf(stderr, "volux serve: --bind %s: expected an IPv4 or IPv6 address\n", val);
+                    cli_eprintf("volux serve: --bind %s: expected an IPv4 or IPv6 address\n", val);
                     goto out;
                 }
                 o->bind = val;
@@ -135,14 +135,14 @@ int cli_serve(int argc, char **argv) {
             } else if (!strcmp(a, "--idle-ms")) {
                 if (!cli_parse_double("serve", a, val, &d)) goto out;
                 if (!(d >= 0 && d <= 60000)) {
-                    fprintf(stderr, "volux serve: --idle-ms: expected 0..60000, got %s\n", val);
+                    cli_eprintf("volux serve: --idle-ms: expected 0..60000, got %s\n", val);
                     goto out;
                 }
                 o->idle_ms = d;
             } else if (!strcmp(a, "--preview-budget")) {
                 if (!cli_parse_double("serve", a, val, &d)) goto out;
                 if (!(d >= 0 && d <= 60000)) {
-                    fprintf(stderr, "volux serve: --preview-budget: expected 0..60000, got %s\n", val);
+                    cli_eprintf("volux serve: --preview-budget: expected 0..60000, got %s\n", val);
                     goto out;
                 }
                 o->preview_budget_ms = d;
@@ -166,7 +166,7 @@ int cli_serve(int argc, char **argv) {
         int r = cli_scene_arg("serve", &args, argc, argv, &i);
         if (r < 0) goto out;
         if (r == 0) {
-            fprintf(stderr, "volux serve: unknown option '%s'\n", a);
+            cli_eprintf("volux serve: unknown option '%s'\n", a);
             usage(stderr);
             goto out;
         }
@@ -225,8 +225,7 @@ int cli_serve(int argc, char **argv) {
         goto out_render;
     }
     if (!loopback(o->bind))
-        fprintf(stderr,
-                o->token ? "volux serve: listening on %s: every request needs the token\n"
+        cli_eprintf(o->token ? "volux serve: listening on %s: every request needs the token\n"
                          : "volux serve: WARNING: listening on %s without authentication: anyone who can reach "
                            "this address can view the scene and make this process read files in %s; give "
                            "--token to require one\n",
@@ -237,7 +236,7 @@ int cli_serve(int argc, char **argv) {
     else printf("volux serve: http://[%s]:%d/%s%s\n", o->bind, v->port, o->token ? "?token=" : "",
                 o->token ? o->token : "");
     if (!o->quiet)
-        fprintf(stderr, "volux serve: %s (%s, %dx%d, %d threads); data root %s; Ctrl-C stops\n", o->scene_path,
+        cli_eprintf("volux serve: %s (%s, %dx%d, %d threads); data root %s; Ctrl-C stops\n", o->scene_path,
                 rs->technique, rs->width, rs->height, volux_context_threads(v->ctx),
                 volux_scene_doc_data_root(v->doc));
     fflush(stdout);
