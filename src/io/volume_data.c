@@ -261,7 +261,7 @@ volux_status volux_source_inflate_prefix(volux_context *ctx, volux_source *src, 
 /* Conversion of decoded chunks into storage                            */
 /* ------------------------------------------------------------------ */
 
-static int host_big_endian(void) {
+int volux_host_big_endian(void) {
     uint16_t one = 1;
     unsigned char b;
     memcpy(&b, &one, 1);
@@ -341,6 +341,24 @@ static void convert_chunk(const volux_volume_header *h, volux_volume *v, size_t 
         break;
     }
     }
+}
+
+void volux_volume_store_elements(const volux_volume_header *h, volux_volume *v, size_t first, unsigned char *bytes,
+                                 size_t count) {
+    size_t esize = volux_scalar_type_size(h->type);
+    if (esize > 1 && h->big_endian != volux_host_big_endian()) swap_bytes(bytes, count, esize);
+    convert_chunk(h, v, first, bytes, count);
+}
+
+volux_status volux_volume_read_finish(volux_context *ctx, const volux_volume_header *h, const char *name,
+                                      int use_file_origin, volux_volume *v) {
+    volux_status st = volux_volume_finalize(v, use_file_origin && h->has_origin ? h->origin : NULL);
+    if (st) {
+        volux_error_prefix(ctx, "%s: ", name);
+        return st;
+    }
+    volux_volume_set_superior(v, h->has_superior ? h->superior : NULL);
+    return VOLUX_OK;
 }
 
 /* ------------------------------------------------------------------ */
@@ -470,7 +488,7 @@ volux_status volux_volume_read_data(volux_context *ctx, const volux_volume_heade
     if ((st = stream_open(ctx, src, begin, zlib, &s))) goto fail;
     if (zlib && h->byte_skip > 0 && (st = discard(&s, buf, (uint64_t)h->byte_skip))) goto fail;
 
-    int swap = esize > 1 && (h->big_endian != host_big_endian());
+    int swap = esize > 1 && (h->big_endian != volux_host_big_endian());
     size_t per_chunk = CHUNK / esize, done = 0;
     while (done < count) {
         size_t n = count - done < per_chunk ? count - done : per_chunk, got;
@@ -504,12 +522,7 @@ volux_status volux_volume_read_data(volux_context *ctx, const volux_volume_heade
     stream_close(&s);
     volux_free(ctx, buf, CHUNK);
     buf = NULL;
-    st = volux_volume_finalize(v, use_file_origin && h->has_origin ? h->origin : NULL);
-    if (st) {
-        volux_error_prefix(ctx, "%s: ", name);
-        goto fail;
-    }
-    volux_volume_set_superior(v, h->has_superior ? h->superior : NULL);
+    if ((st = volux_volume_read_finish(ctx, h, name, use_file_origin, v))) goto fail;
     *out = v;
     return VOLUX_OK;
 
