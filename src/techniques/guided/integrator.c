@@ -75,15 +75,28 @@ void guided_event_build(const guided_state *st, volux_vec3 x, guided_event *ev) 
         f[a] = f[a] < 0.0f ? 0.0f : f[a] > 1.0f ? 1.0f : f[a];
     }
     int D = g->dirs;
+    /* The 8 corners are 4 runs of 2·D values (i0 and i1 are neighbours in
+     * x) scattered over a grid of tens of MB: a miss each. Ask for all of
+     * them before reading any, so the misses overlap instead of following
+     * one another (the gather was ~40 % of this function under perf). */
+    const uint16_t *rows[8];
+    float wts[8];
+    for (int corner = 0; corner < 8; corner++) {
+        int ci = corner & 1 ? i1[0] : i0[0], cj = corner & 2 ? i1[1] : i0[1], ck = corner & 4 ? i1[2] : i0[2];
+        wts[corner] = (corner & 1 ? f[0] : 1.0f - f[0]) * (corner & 2 ? f[1] : 1.0f - f[1]) *
+                      (corner & 4 ? f[2] : 1.0f - f[2]);
+        rows[corner] =
+            g->v + (((size_t)ck * (size_t)g->cells[1] + (size_t)cj) * (size_t)g->cells[0] + (size_t)ci) * (size_t)D;
+        if (wts[corner] > 0.0f)
+            for (size_t b = 0; b < sizeof(uint16_t) * (size_t)D; b += 64)
+                __builtin_prefetch((const char *)rows[corner] + b);
+    }
     float acc[1024];
     memset(acc, 0, sizeof(float) * (size_t)D);
     for (int corner = 0; corner < 8; corner++) {
-        int ci = corner & 1 ? i1[0] : i0[0], cj = corner & 2 ? i1[1] : i0[1], ck = corner & 4 ? i1[2] : i0[2];
-        float w = (corner & 1 ? f[0] : 1.0f - f[0]) * (corner & 2 ? f[1] : 1.0f - f[1]) *
-                  (corner & 4 ? f[2] : 1.0f - f[2]);
+        float w = wts[corner];
         if (!(w > 0.0f)) continue;
-        const uint16_t *row =
-            g->v + (((size_t)ck * (size_t)g->cells[1] + (size_t)cj) * (size_t)g->cells[0] + (size_t)ci) * (size_t)D;
+        const uint16_t *row = rows[corner];
         for (int d = 0; d < D; d++) acc[d] += w * (float)row[d];
     }
     float *leaves = ev->nodes + volux_qt_offset(L);
