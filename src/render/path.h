@@ -57,6 +57,7 @@ volux_path_trace(volux_tracker *tr, const volux_raycaster *rc, const volux_scene
         volux_ray r;
         float t_hit = INFINITY;
         int collided = volux_ray_clip(rc->volume, o, d, &r) && volux_delta_track(tr, &r, r.t0, r.t1, &t_hit);
+        if (tr->stopped) break; /* out of time: the path ends here */
         if (depth == 0) {
             if (!collided) {
                 /* Unscattered camera ray: T·L_escape, T estimated by the

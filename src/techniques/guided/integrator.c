@@ -218,9 +218,9 @@ void guided_render_tile(const void *state, const volux_scene *scene, const volux
                         volux_tile_stats *stats) {
     const guided_state *st = state;
     const volux_camera *cam = &st->rc.camera;
-    const volux_medium medium = {st->rc.volume, st->rc.lut, &st->rc.grid, 0, 0};
+    const volux_medium medium = {st->rc.volume, st->rc.lut, &st->rc.grid, 0, 0, st->rc.min_spacing};
     guided_event ev;
-    gd_path p = {st, {&medium, {0, 0}, 0}, 0, 0, &ev};
+    gd_path p = {st, {&medium, {0, 0}, 0, tile->deadline, 0}, 0, 0, &ev};
     p.n_area = st->rc.lights.n_sphere + (st->env.present && st->mis ? 1 : 0);
     ev.kind = st->strategy;
     for (int y = 0; y < tile->h; y++)

@@ -134,8 +134,9 @@ void volux_pathtrace_render_tile(const void *state, const volux_scene *scene, co
                                  volux_tile_stats *stats) {
     const pt_state *st = state;
     const volux_camera *cam = &st->rc.camera;
-    const volux_medium medium = {st->rc.volume, st->rc.lut, &st->rc.grid, st->pre, st->global_majorant};
-    pt_path p = {st, {&medium, {0, 0}, 0}, 0};
+    const volux_medium medium = {st->rc.volume,  st->rc.lut, &st->rc.grid, st->pre, st->global_majorant,
+                                 st->rc.min_spacing};
+    pt_path p = {st, {&medium, {0, 0}, 0, tile->deadline, 0}, 0};
     for (int y = 0; y < tile->h; y++)
         for (int x = 0; x < tile->w; x++) {
             int px = tile->x0 + x, py = tile->y0 + y;
