@@ -136,9 +136,12 @@ DI void gather_gradient_rows(const uint32_t *grad, vi b, vi w0[4], vi w1[4]) {
     }
 }
 
-/* Skip distances of the lanes in `need` (0 elsewhere). */
-DI vi gather_i32_masked(const int32_t *p, vi idx, vm need) {
-    return _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), (const int *)p, idx, _mm256_castps_si256(need), 4);
+/* Signed bytes p[idx] of the lanes in `need` (0 elsewhere): a 32-bit gather
+ * at the byte (the array has 3 bytes of padding), low byte sign-extended. */
+DI vi gather_i8_masked(const int8_t *p, vi idx, vm need) {
+    vi w = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), (const int *)(const void *)p, idx,
+                                       _mm256_castps_si256(need), 1);
+    return _mm256_srai_epi32(_mm256_slli_epi32(w, 24), 24);
 }
 
 /* Rows of 8 floats at base + offs[l] (one per lane), transposed: o[e] holds

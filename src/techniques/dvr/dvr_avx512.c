@@ -147,9 +147,12 @@ DI void gather_gradient_rows(const uint32_t *grad, vi b, vi w0[4], vi w1[4]) {
     }
 }
 
-/* Skip distances of the lanes in `need` (0 elsewhere). */
-DI vi gather_i32_masked(const int32_t *p, vi idx, vm need) {
-    return _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), need, idx, (const void *)p, 4);
+/* Signed bytes p[idx] of the lanes in `need` (0 elsewhere): a 32-bit
+ * gather at the byte (the array has 3 bytes of padding), the low byte
+ * sign-extended. */
+DI vi gather_i8_masked(const int8_t *p, vi idx, vm need) {
+    vi w = _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), need, idx, (const void *)p, 1);
+    return _mm512_srai_epi32(_mm512_slli_epi32(w, 24), 24);
 }
 
 /* Rows of 8 floats at base + offs[l] (one per lane), transposed: o[e] holds

@@ -166,7 +166,7 @@ typedef struct skipv {
  * skip to *m, the last segment index whose start is ≤ *t_exit (with a
  * margin of 10⁻³ h, so rounding never skips into a non-empty cell); lanes
  * in a non-empty cube need not check again before *t_exit. */
-DI vm check_cells(const int32_t *dist, const skipv *sk, const vf q0[3], const vf dq[3], vf t0, vf jit, vf inv_h,
+DI vm check_cells(const int8_t *dist, const skipv *sk, const vf q0[3], const vf dq[3], vf t0, vf jit, vf inv_h,
                   vf t, vm need, vf *t_exit, vf *m) {
     const vi zero_i = i_zero(), one_i = i_set(1);
     vf q[3];
@@ -177,7 +177,7 @@ DI vm check_cells(const int32_t *dist, const skipv *sk, const vf q0[3], const vf
         c[ax] = i_max(i_min(c[ax], sk->cells_max[ax]), zero_i);
     }
     vi cell = i_add(i_mullo(i_add(i_mullo(c[2], sk->ncy), c[1]), sk->ncx), c[0]);
-    vi d = gather_i32_masked(dist, cell, need);
+    vi d = gather_i8_masked(dist, cell, need);
     vi r = i_max(i_sub(i_abs(d), one_i), zero_i);
     vf tmin = f_set(INFINITY);
     for (int ax = 0; ax < 3; ax++) {
