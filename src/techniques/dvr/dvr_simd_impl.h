@@ -265,10 +265,12 @@ DI vf log_pos(vf x) {
 
 /* Interpolated gradient (world units) from the bricked 10-bit cache at the
  * sample's cell: the same corner order and arithmetic as
- * volux_gradient_cache_sample. */
-DI void gradient_v(const dvr_state *st, const cellv *cell, vf g[3]) {
+ * volux_gradient_cache_sample. Only the lanes of m read the cache (the
+ * others get 0): lanes that composite nothing would otherwise fetch cache
+ * lines of a 4-byte-per-node array for nothing. */
+DI void gradient_v(const dvr_state *st, const cellv *cell, vm m, vf g[3]) {
     vi w0[4], w1[4]; /* node x and x+1 of each corner row */
-    gather_gradient_rows(st->grad.grad, cell->b, w0, w1);
+    gather_gradient_rows(st->grad.grad, cell->b, m, w0, w1);
     const vf scale = f_set(st->grad.scale);
     for (int a = 0; a < 3; a++) {
         const int up = 22 - 10 * a;
@@ -677,7 +679,7 @@ DI void march_tile(const march_consts *mc, const ray_list *rl, float *rgb, uint6
                 vm lit = m_andnot(ps->warm, m_and(seg[p], f_gt(tau, zero)));
                 if (shaded && m_bits(lit)) {
                     vf g[3], c3[3] = {cr, cg, cb};
-                    gradient_v(st, &cells[p], g);
+                    gradient_v(st, &cells[p], lit, g);
                     shade_v(st, g, ps->d, (const vf(*)[3])ps->hn, c3);
                     cr = c3[0], cg = c3[1], cb = c3[2];
                 }
