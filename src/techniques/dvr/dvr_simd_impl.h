@@ -92,9 +92,6 @@ typedef struct cellv {
     vf fx, fy, fz;
 } cellv;
 
-/* Trilinear samples at index-space (x, y, z) from the bricked copy; same
- * clamping and arithmetic as volux_volume_sample_bricked. Every lane gets
- * a valid address (indices are clamped), so no masks are needed. */
 /* Brick offset (in nodes) of the cell holding (i, j, k). */
 DI vi brick_offset(const vol_consts *vc, vi i, vi j, vi k) {
     const vi seven = i_set(7);
@@ -105,6 +102,9 @@ DI vi brick_offset(const vol_consts *vc, vi i, vi j, vi k) {
     return i_add(brick, i_add(i_and(i, seven), i_madd16(jk, i_set((81 << 16) | 9))));
 }
 
+/* Trilinear samples at index-space (x, y, z) from the bricked copy; same
+ * clamping and arithmetic as volux_volume_sample_bricked. Every lane gets
+ * a valid address (indices are clamped), so no masks are needed. */
 DI vf sample_v(const vol_consts *vc, vf x, vf y, vf z, volux_storage storage, cellv *cell) {
     const vi zero = i_zero();
     vi i = i_max(i_min(i_trunc(x), vc->imax[0]), zero);
