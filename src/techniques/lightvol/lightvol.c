@@ -35,6 +35,11 @@ static const volux_param_info lightvol_params[] = {
      "(rule 1: at most half of the lights changed), work (rule 2 with each pass weighted by the lights it carries, "
      "point/spot lights costing ~3x (AVX2 kernels) or ~13x (portable) a directional one; ties by rule 1), selective, "
      "full"},
+    {"positional_grouping", VOLUX_PARAM_STRING, 0, 0, 0, "voxel",
+     "propagation groups of point/spot lights: voxel (the two closest faces of each voxel's own direction to the "
+     "light, per-voxel Eq. 5 factors, up to six groups) or center (Sec. 4: the two closest faces of the "
+     "light-to-volume-centre direction, constant factors, at most two groups; a light inside the box, or beside it "
+     "within both groups' slabs, falls back to voxel)"},
     {"max_lights_per_pass", VOLUX_PARAM_INT, 32, 1, 256, NULL,
      "lights propagated together in one sweep; larger groups are split (bounds slice-buffer memory)"},
     {"forward_scattering", VOLUX_PARAM_NUMBER, 0, 0, 1, NULL,
@@ -105,6 +110,13 @@ static volux_status read_params(lightvol_state *st, const volux_scene *scene, lv
                            kernel);
     if ((p->kernel == LV_KERNEL_SIMD || p->kernel == LV_KERNEL_AVX2) && !volux_lightvol_simd_available())
         return volux_error(ctx, VOLUX_ERR_UNSUPPORTED, "techniques.lightvol.kernel: \"simd\" needs a CPU with AVX2 and FMA");
+    const char *grouping = volux_technique_param_string(scene, cls, "positional_grouping");
+    if (!strcmp(grouping, "voxel")) p->grouping = LV_GROUP_VOXEL;
+    else if (!strcmp(grouping, "center")) p->grouping = LV_GROUP_CENTER;
+    else
+        return volux_error(ctx, VOLUX_ERR_INVALID,
+                           "techniques.lightvol.positional_grouping: expected \"voxel\" or \"center\", got \"%s\"",
+                           grouping);
     p->max_per_pass = (int)volux_technique_param(scene, cls, "max_lights_per_pass");
     p->forward = (float)volux_technique_param(scene, cls, "forward_scattering");
     p->cone_deg = (float)volux_technique_param(scene, cls, "scatter_cone");
@@ -156,7 +168,7 @@ static volux_status lightvol_update(void *state, const volux_scene *scene, const
         /* a kernel switch rebuilds, so that selective updates never mix two
          * kernels' rounding in one volume */
         if (np.forward != op->forward || np.cone_deg != op->cone_deg || np.rebuild_token != op->rebuild_token ||
-            np.kernel != op->kernel) {
+            np.kernel != op->kernel || np.grouping != op->grouping) {
             full = 1;
             if (!reason) reason = "parameters changed";
         }

@@ -136,8 +136,12 @@ typedef struct lv_source {
                                spot: unit cone axis                       */
     volux_vec3 pos;         /* positional: world position                 */
     float cos_cone, cos_fall; /* spot cone (same smoothstep as core)      */
-    float weight[LV_GROUPS];  /* directional: Eq. 5 factors               */
+    float weight[LV_GROUPS];  /* directional, and positional when `center`:
+                                 Eq. 5 factors                            */
     unsigned groups;        /* groups the light is propagated in          */
+    int center;             /* positional: grouped by the light-to-centre
+                               direction (§4; constant factors, ≤ 2
+                               groups); 0: per voxel (up to six groups)  */
 } lv_source;
 
 /* One light added (+1) or removed (−1) by an update. */
@@ -164,6 +168,8 @@ enum { LV_KERNEL_AUTO, LV_KERNEL_SCALAR, LV_KERNEL_SIMD, LV_KERNEL_AVX2 };
 
 enum { LV_RULE_WORK, LV_RULE_PASSES, LV_RULE_LIGHTS, LV_RULE_SELECTIVE, LV_RULE_FULL };
 
+enum { LV_GROUP_VOXEL, LV_GROUP_CENTER };
+
 typedef struct lv_params {
     float scale[3];         /* illumination resolution / data resolution  */
     int coherent;           /* 1 coherent groups, 0 one light per pass    */
@@ -180,6 +186,7 @@ typedef struct lv_params {
     float t_min;
     double rebuild_token;
     int kernel;             /* LV_KERNEL_*                                 */
+    int grouping;           /* LV_GROUP_*: positional lights' groups      */
 } lv_params;
 
 /* ---------------------------------------------------------------- state */

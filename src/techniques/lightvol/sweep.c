@@ -419,6 +419,16 @@ static void sweep(lightvol_state *st, int g, const lv_item *items, const int *id
             e->lidx[0] = q.x / st->spacing[0];
             e->lidx[1] = q.y / st->spacing[1];
             e->lidx[2] = q.z / st->spacing[2];
+            if (e->s->center) {
+                e->cw = e->s->weight[g];
+                for (int h = 0; h < LV_GROUPS; h++) {
+                    if (h == g || !(e->s->groups & (1u << h))) continue;
+                    int ah = h / 2; /* never J.a: the two closest faces lie on different axes */
+                    e->oax = ah == J.au ? 1 : 2;
+                    e->osg = (h & 1) ? -1 : 1;
+                    e->ol = e->lidx[ah];
+                }
+            }
         }
     }
     /* Work split: chunks of rows worth ~4k voxel·lights each; small slices

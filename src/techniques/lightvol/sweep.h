@@ -77,6 +77,13 @@ typedef struct lv_entry {
     /* positional */
     float lidx[3];      /* light position in illumination index space     */
     float f;            /* 1/dist for the current slice                   */
+    /* positional grouped by the centre direction (lv_source.center): the
+     * factor of this pass's group, and the other group's axis among the
+     * slice's (1: u, 2: v, 0: none), sign and light coordinate, so that a
+     * voxel the other group cannot reach takes the whole light here */
+    float cw;
+    int oax, osg;
+    float ol;
 } lv_entry;
 
 typedef struct lv_sweep {
@@ -205,6 +212,17 @@ static inline void lv_ray_value(const lv_source *s, volux_vec3 p, float out[3]) 
 static inline float lv_rmin2(const lightvol_state *st) {
     float h = 0.5f * fminf(st->spacing[0], fminf(st->spacing[1], st->spacing[2]));
     return h * h;
+}
+
+/* Eq. 5 factor of a centre-grouped positional light (lv_source.center) for
+ * the voxel at column u, row v of the pass: the group's constant factor
+ * where the light's other group also reaches the voxel (it lies ahead of
+ * the light along that group's axis, as the sweep's E_SKIP test decides),
+ * else 1 — the factors of a voxel's groups always sum to 1. */
+static inline float lv_center_weight(const lv_entry *e, int u, int v) {
+    if (!e->oax) return e->cw;
+    float c = e->oax == 1 ? (float)u : (float)v;
+    return (float)e->osg * (c - e->ol) > 0.0f ? e->cw : 1.0f;
 }
 
 /* ------------------------------------------------------- scratch layout
