@@ -63,6 +63,14 @@ static const volux_param_info lightvol_params[] = {
      "propagation row kernels: auto (AVX2+FMA where the CPU has them, AVX-512 steps where it has those too), "
      "scalar (portable reference), simd (as auto; error if unavailable) or avx2 (AVX2 only); same volume up to "
      "float rounding"},
+    {"budget_ms", VOLUX_PARAM_NUMBER, 0, 0, 100000, NULL,
+     "Sec. 7.3 incremental update: an update (and each volux_technique_refine step, e.g. the viewer's between "
+     "frames) propagates about this many milliseconds of light (slice steps at the measured rate), renders use the "
+     "partly updated illumination volume, and later steps finish it (bit-identical to an update at once); 0 = all "
+     "at once"},
+    {"budget_slices", VOLUX_PARAM_INT, 0, 0, 1000000, NULL,
+     "as budget_ms, counted in slice steps of the propagation sweeps (deterministic; overrides budget_ms); 0 = use "
+     "budget_ms"},
     {"rebuild_token", VOLUX_PARAM_NUMBER, 0, 0, 1e15, NULL,
      "benchmark hook: changing this value forces an entire light update"},
     {NULL, 0, 0, 0, 0, NULL, NULL}};
@@ -128,6 +136,8 @@ static volux_status read_params(lightvol_state *st, const volux_scene *scene, lv
     p->skip_empty = (int)volux_technique_param(scene, cls, "skip_empty");
     p->t_min = (float)volux_technique_param(scene, cls, "early_termination");
     p->rebuild_token = volux_technique_param(scene, cls, "rebuild_token");
+    p->budget_ms = (float)volux_technique_param(scene, cls, "budget_ms");
+    p->budget_slices = (int)volux_technique_param(scene, cls, "budget_slices");
     if (p->local_shading > 0.0f && !p->directional)
         return volux_error(ctx, VOLUX_ERR_INVALID,
                            "techniques.lightvol.local_shading: needs techniques.lightvol.directional = true (the light "
@@ -195,18 +205,33 @@ static volux_status lightvol_update(void *state, const volux_scene *scene, const
     }
     if (full || !st->valid) return volux_lightvol_update_lights(st, scene, c, 1, reason);
     if (w & VOLUX_CHANGE_LIGHTS) return volux_lightvol_update_lights(st, scene, c, 0, NULL);
+    /* any other edit also advances a propagation in progress (§7.3: so much
+     * per frame), or finishes it once the budget is switched off */
+    if (volux_lightvol_pending(st) > 0) return volux_lightvol_update_lights(st, scene, NULL, 0, NULL);
     return VOLUX_OK;
 }
+
+/* §7.3: the next budget of a propagation in progress. */
+static volux_status lightvol_refine(void *state, const volux_scene *scene, int *changed, int *more) {
+    lightvol_state *st = state;
+    volux_status s = volux_lightvol_continue(st, scene, changed);
+    *more = volux_lightvol_pending(st) > 0;
+    return s;
+}
+
+static uint64_t lightvol_pending(const void *state) { return volux_lightvol_pending(state); }
 
 static void lightvol_release(void *state) {
     lightvol_state *st = state;
     volux_lightvol_free_buffers(st);
+    volux_lightvol_drop_job(st);
     volux_gradient_cache_free(st->rc.ctx, &st->grad);
 }
 
 static size_t lightvol_memory_bytes(const void *state) {
     const lightvol_state *st = state;
-    return st->vol_bytes + st->medium_bytes + volux_lightvol_scratch_bytes(st) + st->grad.bytes;
+    return st->vol_bytes + st->medium_bytes + volux_lightvol_scratch_bytes(st) + st->grad.bytes +
+           st->job.items_bytes + st->job.passes_bytes + st->job.idx_bytes;
 }
 
 /* ---------------------------------------------------------------- kernel */
@@ -330,5 +355,5 @@ const volux_technique_class volux_lightvol_class = {
      lightvol_params, 0},
     sizeof(lightvol_state), 0, 1e-4f,
     NULL, lightvol_update, lightvol_render_tile, lightvol_memory_bytes, lightvol_release,
-    NULL, NULL, NULL, /* no refine, pending work or statistics */
+    lightvol_refine, lightvol_pending, NULL, /* §7.3 budget; no statistics */
 };

@@ -102,6 +102,8 @@ typedef struct lv_sweep {
     int chunks;         /* work items (row chunks) per slice               */
     int rows_per_item, sweep_items, class_items;
     int defer;          /* x sweeps: slices staged before a flush (0: none) */
+    int first, last;    /* the steps of this call (a budget, §7.3)         */
+    int phase0;         /* phase of the call's first step's classification */
     size_t area;
     int overwrite;
     int forward, cone;
@@ -252,9 +254,9 @@ volux_status volux_lightvol_ensure_scratch(lightvol_state *st, int entries);
 
 /* ------------------------------------------------------- pass plan (plan.c) */
 
-typedef struct lv_pass {
+struct lv_pass {
     int g, first, n; /* group, range in the index list */
-} lv_pass;
+};
 
 /* Plans the passes for `items` (coherent or one light per pass); returns
  * their number and fills passes/idx when non-NULL (idx: up to n·LV_GROUPS
@@ -280,8 +282,16 @@ double volux_lightvol_plan_work(const lv_item *items, int n, int coherent, int m
  * post-classified, and each row's range (medium.c). */
 void volux_lightvol_classify_rows(const lv_sweep *J, float *dst, int k, int v0, int v1);
 
-/* Runs the planned passes for items (sweep.c); full = the volume is rebuilt
- * from zero (the first pass overwrites it). */
-volux_status volux_lightvol_run_passes(lightvol_state *st, const lv_item *items, int n, int full);
+/* Slice steps s0 ≤ step < s1 of pass p of the job (sweep.c); the first
+ * pass of an entire update overwrites the volume. Steps of a pass may be
+ * run in any number of calls in order, with nothing else using the
+ * propagation scratch in between: the result is the same. E: scratch for
+ * the pass's entries. */
+void volux_lightvol_sweep_steps(lightvol_state *st, const lv_job *job, int p, int s0, int s1, lv_entry *E);
+/* Slice steps of pass p (the size of its sweep axis). */
+int volux_lightvol_pass_steps(const lightvol_state *st, const lv_pass *p);
+/* Modelled work of one slice step of pass p (voxels × (1 + its entries'
+ * weights)), for the budget in milliseconds. */
+double volux_lightvol_step_work(const lightvol_state *st, const lv_job *job, int p);
 
 #endif
