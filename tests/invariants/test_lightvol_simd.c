@@ -94,8 +94,9 @@ static void test_simd_matches_scalar(void **state) {
         for (size_t c = 0; c < sizeof cfg / sizeof cfg[0]; c++)
             for (int dir = 0; dir < 2; dir++) {
                 volux_scene *s = scene(ctx, data, which < 3 ? which : which - 2);
-                if (which >= 3)
-                    assert_int_equal(volux_scene_set_param(s, "lightvol", "positional_grouping", 0, "center"), VOLUX_OK);
+                assert_int_equal(
+                    volux_scene_set_param(s, "lightvol", "positional_grouping", 0, which >= 3 ? "center" : "voxel"),
+                    VOLUX_OK);
                 assert_int_equal(volux_scene_set_param(s, "lightvol", "forward_scattering", cfg[c].f, NULL), VOLUX_OK);
                 assert_int_equal(volux_scene_set_param(s, "lightvol", "scatter_cone", cfg[c].cone, NULL), VOLUX_OK);
                 assert_int_equal(volux_scene_set_param(s, "lightvol", "scale", cfg[c].scale, NULL), VOLUX_OK);

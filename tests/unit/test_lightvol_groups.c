@@ -142,6 +142,7 @@ static void test_point_light_groups_follow_local_directions(void **state) {
     volux_context *ctx = tu_context(1);
     float *data = calloc(16 * 16 * 16, sizeof(float));
     volux_scene *s = lvf_scene(ctx, 16, 16, 16, data, 0.9f, NULL);
+    assert_int_equal(volux_scene_set_param(s, "lightvol", "positional_grouping", 0, "voxel"), VOLUX_OK);
     volux_light_desc p = lvf_point(0, 1e5f, 0, 1.0f);
     assert_int_equal(volux_scene_set_light(s, 0, &p), VOLUX_OK);
     volux_technique *t = lvf_create(ctx, s);

@@ -35,11 +35,12 @@ static const volux_param_info lightvol_params[] = {
      "(rule 1: at most half of the lights changed), work (rule 2 with each pass weighted by the lights it carries, "
      "point/spot lights costing ~3x (AVX2 kernels) or ~13x (portable) a directional one; ties by rule 1), selective, "
      "full"},
-    {"positional_grouping", VOLUX_PARAM_STRING, 0, 0, 0, "voxel",
-     "propagation groups of point/spot lights: voxel (the two closest faces of each voxel's own direction to the "
-     "light, per-voxel Eq. 5 factors, up to six groups) or center (Sec. 4: the two closest faces of the "
-     "light-to-volume-centre direction, constant factors, at most two groups; a light inside the box, or beside it "
-     "within both groups' slabs, falls back to voxel)"},
+    {"positional_grouping", VOLUX_PARAM_STRING, 0, 0, 0, "center",
+     "propagation groups of point/spot lights: center (Sec. 4: the two closest faces of the light-to-volume-centre "
+     "direction, constant Eq. 5 factors, at most two groups shared with the directional lights; a light inside the "
+     "box, or beside it within both groups' slabs, falls back to voxel) or voxel (the two closest faces of each "
+     "voxel's own direction to the light, per-voxel factors, up to six groups); same error vs pathtrace, center "
+     "about half the time with point/spot lights (docs/techniques/lightvol.md)"},
     {"max_lights_per_pass", VOLUX_PARAM_INT, 32, 1, 256, NULL,
      "lights propagated together in one sweep; larger groups are split (bounds slice-buffer memory)"},
     {"forward_scattering", VOLUX_PARAM_NUMBER, 0, 0, 1, NULL,

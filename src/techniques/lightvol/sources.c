@@ -123,6 +123,11 @@ int volux_lightvol_source(const lightvol_state *st, const volux_light_desc *d, l
     }
     if (!(s->power.x > 0.0f || s->power.y > 0.0f || s->power.z > 0.0f)) return 0;
     if (s->kind == LV_DIRECTIONAL) s->groups = lv_face_weights(s->dir, s->weight);
-    else if (!(st->p.grouping == LV_GROUP_CENTER && center_groups(st, s))) s->groups = positional_groups(st, s);
+    else {
+        /* the per-voxel groups also tell whether the light reaches the box
+         * at all (a spot turned away: nothing to propagate) */
+        s->groups = positional_groups(st, s);
+        if (s->groups && st->p.grouping == LV_GROUP_CENTER) center_groups(st, s);
+    }
     return s->groups != 0;
 }
