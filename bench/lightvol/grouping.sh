@@ -29,7 +29,7 @@ for scene in $SCENES; do
     for g in voxel center; do
       "$BUILD/bench/bench_lightvol" table "$S/$scene.json" --repeat "$REPEAT" --threads "$THREADS" \
           --set "techniques.lightvol.positional_grouping=\"$g\"" --set techniques.lightvol.forward_scattering=$f |
-        sed "s/}\$/,\"grouping\":\"$g\",\"f\":$f}/" >> "$J"
+        sed -e "s|$ROOT/||" -e "s/}\$/,\"grouping\":\"$g\",\"f\":$f}/" >> "$J"
     done
   done
 done
