@@ -173,6 +173,37 @@ static void test_edits_during_propagation_are_queued(void **state) {
     check_edit("light edit then tf edit", light_then_tf, 2, "budget_slices", 4, 1);
 }
 
+/* An edit between the end of a job and the start of the plan queued behind
+ * it joins that plan (the plan then covers both edits). */
+static void test_edit_after_a_job_joins_the_queue(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(1);
+    float *data = medium();
+    volux_scene *sa = scene(ctx, data, NULL, 0), *sb = scene(ctx, data, "budget_slices", 10);
+    volux_technique *a = lvf_create(ctx, sa), *b = lvf_create(ctx, sb);
+    for (int e = 0; e < 3; e++) {
+        move_point(sa, e);
+        move_point(sb, e);
+        rotate_light(sa, e); /* slot 0 or 1 as well: the later plan has two lights */
+        rotate_light(sb, e);
+        if (e != 1) lvf_update(a, sa); /* edits 2 and 3 reach a in one update */
+        lvf_update(b, sb);
+        if (e == 1) {
+            /* finish the first job: the second waits, not started */
+            while (lvf_state(b)->job.active) assert_int_equal(volux_technique_refine(b, sb, NULL, NULL), VOLUX_OK);
+            assert_true(lvf_state(b)->job.queued > 0);
+        }
+    }
+    finish(b, sb);
+    assert_same_volume(a, b, "edit after a job, before its queued plan");
+    volux_technique_destroy(a);
+    volux_technique_destroy(b);
+    volux_scene_destroy(sa);
+    volux_scene_destroy(sb);
+    free(data);
+    volux_context_destroy(ctx);
+}
+
 /* budget_ms only changes where the steps are cut. */
 static void test_budget_ms_converges_bit_identically(void **state) {
     (void)state;
@@ -220,6 +251,7 @@ int main(void) {
         cmocka_unit_test(test_light_edit_converges_bit_identically),
         cmocka_unit_test(test_entire_update_converges_bit_identically),
         cmocka_unit_test(test_edits_during_propagation_are_queued),
+        cmocka_unit_test(test_edit_after_a_job_joins_the_queue),
         cmocka_unit_test(test_budget_ms_converges_bit_identically),
         cmocka_unit_test(test_each_step_spends_the_budget),
     };

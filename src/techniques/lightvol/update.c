@@ -366,8 +366,9 @@ volux_status volux_lightvol_update_lights(lightvol_state *st, const volux_scene 
         }
         return run_job(st, &did);
     }
-    if (st->job.active) {
-        /* light edits wait for the plan in progress; count what they need */
+    if (st->job.active || st->job.queued) {
+        /* light edits wait for the plan in progress (or the queued plan not
+         * started yet, which then covers them too); count what they need */
         if ((s = measure_queue(st, scene))) return s;
     } else if (c) {
         if ((s = start_update(st, scene, c, 0, NULL))) return s;
