@@ -207,18 +207,23 @@ static void collect_warning(void *user, volux_message_level level, const char *m
     printf("  %s: %s\n", level == VOLUX_MESSAGE_WARNING ? "warning" : "note", message);
 }
 
-/* --time-ms is honoured inside a path: a white (albedo 1), dense medium
- * with max_depth 100000 makes every path scatter 1e5 times (no roulette
- * at throughput 1), far more work than the budget. The render returns
- * with the first wave kept and reported as cut short, with a warning; the
- * ctest timeout would catch a render that ignores the budget. */
+/* --time-ms is honoured inside a path: the camera sits at the centre of a
+ * white (albedo 1), dense medium (optical depth 2000·32 to the boundary),
+ * so no path can escape and every one scatters max_depth = 1e5 times (no
+ * roulette at throughput 1): seconds of work per wave, far more than the
+ * budget on any machine. (A camera outside let most paths escape within a
+ * few hundred events: a quiet machine finished the wave in the budget.)
+ * The render returns with the first wave kept and reported as cut short,
+ * with a warning; the ctest timeout would catch a render that ignores the
+ * budget. */
 static void test_time_budget_ends_long_paths(void **state) {
     (void)state;
     volux_context *ctx = tu_context(2);
     int warnings = 0;
     volux_context_set_message(ctx, collect_warning, &warnings);
     volux_scene *s = tu_scene(ctx, "{\"volume\": {\"procedural\": \"constant\", \"dims\": [32, 32, 32]},"
-                                   " \"transfer_function\": {\"extinction\": [[0, 20], [2, 20]], \"albedo\": 1},"
+                                   " \"transfer_function\": {\"extinction\": [[0, 2000], [2, 2000]], \"albedo\": 1},"
+                                   " \"camera\": {\"eye\": [0, 0, 0], \"look_at\": [0, 0, 1]},"
                                    " \"lights\": [{\"type\": \"environment\", \"radiance\": 1}],"
                                    " \"render\": {\"technique\": \"pathtrace\", \"width\": 32, \"height\": 32,"
                                    "   \"spp\": 64, \"max_depth\": 100000, \"threads\": 2}}");
