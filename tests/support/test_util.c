@@ -1,6 +1,8 @@
 /* tests/support/test_util.c — see test_util.h. */
+#define _XOPEN_SOURCE 700 /* nftw, mkdtemp */
 #include "test_util.h"
 
+#include <ftw.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -18,14 +20,36 @@ volux_context *tu_context(int threads) {
     return ctx;
 }
 
+/* The per-process temp folder: a fresh mkdtemp folder, removed with its
+ * contents when the test process exits. (A folder named by the pid alone
+ * collided with the leftovers of earlier runs once pids wrapped: a test
+ * that makes a symbolic link failed with EEXIST.) Only the process that
+ * made it removes it, not a forked child that exits. */
+static char temp_folder[256];
+static pid_t temp_owner;
+
+static int remove_entry(const char *path, const struct stat *sb, int flag, struct FTW *ftw) {
+    (void)sb, (void)flag, (void)ftw;
+    remove(path);
+    return 0;
+}
+
+static void remove_temp_folder(void) {
+    if (getpid() == temp_owner) nftw(temp_folder, remove_entry, 16, FTW_DEPTH | FTW_PHYS);
+}
+
 static const char *temp_dir(void) {
-    static char dir[256];
-    if (!dir[0]) {
+    if (!temp_folder[0]) {
         const char *base = getenv("TMPDIR");
-        snprintf(dir, sizeof dir, "%s/volux-test-%d", base && *base ? base : "/tmp", (int)getpid());
-        mkdir(dir, 0700);
+        snprintf(temp_folder, sizeof temp_folder, "%s/volux-test-XXXXXX", base && *base ? base : "/tmp");
+        if (!mkdtemp(temp_folder)) {
+            perror("volux tests: mkdtemp");
+            abort();
+        }
+        temp_owner = getpid();
+        atexit(remove_temp_folder);
     }
-    return dir;
+    return temp_folder;
 }
 
 const char *tu_temp_path(const char *name) {
