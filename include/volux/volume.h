@@ -147,6 +147,45 @@ VOLUX_API volux_vec3 volux_volume_gradient(const volux_volume *v, volux_vec3 p_w
 /* Counts values into `bins` equal bins over [min,max]. */
 VOLUX_API void volux_volume_histogram(const volux_volume *v, int bins, uint64_t *counts);
 
+/* ---- Bricks (data-parallel rendering, docs/DISTRIBUTED.md) ------------
+ *
+ * A whole grid of dims (nx,ny,nz) nodes is split into `count` bricks by a
+ * k-d tree over its cells: the box of cells is halved (in proportion to
+ * the bricks on each side) across its longest axis, recursively; bricks
+ * [0, count/2) lie on the low side of the first split. Brick b owns the
+ * cells between nodes owned_lo and owned_hi (inclusive; neighbours share
+ * the face nodes), so the owned boxes tile the whole box exactly once.
+ * A brick volume (io.h: volux_volume_load_options.region) holds the owned
+ * nodes plus `ghost` layers on every side inside the grid, enough for the
+ * trilinear samples, the pre-integration front sample and the
+ * central-difference gradients a ray inside the owned box takes. */
+typedef struct volux_brick_info {
+    int count, index;     /* bricks of the whole grid; this one            */
+    int whole_dims[3];    /* nodes of the whole grid                        */
+    int owned_lo[3];      /* whole-grid node indices of the owned box ...   */
+    int owned_hi[3];      /* ... (inclusive)                                */
+    int stored_lo[3];     /* whole-grid index of this volume's node (0,0,0) */
+    volux_vec3 whole_lo, whole_hi; /* world box of the whole grid           */
+} volux_brick_info;
+
+/* The owned nodes [lo, hi] (inclusive) of brick `index` of `count` for a
+ * whole grid of `dims` nodes. VOLUX_ERR_INVALID when count < 1, index is
+ * out of range, or the grid has too few cells to give every brick one
+ * (a brick is at least one cell thick on every axis). Pure function. */
+VOLUX_API volux_status volux_brick_split(const int dims[3], int count, int index, int lo[3], int hi[3]);
+/* Fills *out and returns 1 when v is a brick of a larger grid; returns 0
+ * (and leaves *out alone) for an ordinary volume. */
+VOLUX_API int volux_volume_brick(const volux_volume *v, volux_brick_info *out);
+/* Declares the value range of the whole grid v is a brick of (every rank
+ * agrees on it, e.g. with an MPI reduction of the bricks' ranges), so that
+ * what depends on the range — the transfer function's table, the
+ * gradient threshold — is the whole volume's. The only change a volume
+ * accepts after creation: call it before the volume is used by a scene or
+ * a technique, or give the volume to the scene again
+ * (volux_scene_set_volume) so its table is baked anew. lo must be ≤ the
+ * volume's own minimum and hi ≥ its maximum (VOLUX_ERR_INVALID). */
+VOLUX_API volux_status volux_volume_set_value_range(volux_volume *v, double lo, double hi);
+
 #ifdef __cplusplus
 }
 #endif

@@ -236,6 +236,12 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
 
     volux_volume *vol = NULL;
     volux_sequence *seq = NULL;
+    const volux_volume_region *region = sr->opt ? sr->opt->region : NULL;
+    if (region && (steps > 1 || cJSON_GetObjectItemCaseSensitive(obj, "files") ||
+                   cJSON_GetObjectItemCaseSensitive(obj, "pattern") ||
+                   (proc && cJSON_GetObjectItemCaseSensitive(obj, "time"))))
+        return volux_json_error(r, VOLUX_ERR_UNSUPPORTED, "volume",
+                                "a data-parallel render loads one brick of one volume, not a time series");
     if (proc) {
         if (!jd) dims[0] = dims[1] = dims[2] = 64;
         int animated = volux_procedural_is_animated(proc);
@@ -248,7 +254,8 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
             return volux_json_error(r, VOLUX_ERR_INVALID, "volume", "time_per_step and cache_mb need steps > 1");
         st = steps > 1 ? volux_sequence_procedural(r->ctx, proc, dims, (uint64_t)seed, time0, time_per_step, steps,
                                                    cache_bytes, &seq)
-                       : volux_volume_procedural_at(r->ctx, proc, dims, (uint64_t)seed, time0, &vol);
+                       : region ? volux_volume_procedural_region(r->ctx, proc, dims, (uint64_t)seed, region, &vol)
+                                : volux_volume_procedural_at(r->ctx, proc, dims, (uint64_t)seed, time0, &vol);
         if (st) {
             volux_error_prefix(r->ctx, "%s: volume.procedural: ", r->file);
             return st;
@@ -269,6 +276,7 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
         volux_raw_desc raw;
         opt.use_file_origin = use_file_origin;
         opt.allow_outside_dir = allow_outside;
+        opt.region = region;
         if (jd || type) { /* an explicit layout means a raw file */
             memset(&raw, 0, sizeof raw);
             if (!jd || !type)
@@ -313,7 +321,7 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
             st = read_frames(sr, obj, &frames);
             const volux_scene_load_options *o = sr->opt;
             const cJSON *file_item = cJSON_GetObjectItemCaseSensitive(obj, "file");
-            if (!st && single && o && o->volume && o->volume_file && cJSON_IsString(file_item) &&
+            if (!st && single && o && o->volume && o->volume_file && !region && cJSON_IsString(file_item) &&
                 !strcmp(file_item->valuestring, o->volume_file) && !opt.raw && !use_file_origin && !allow_outside) {
                 /* The caller already loaded this file the same way (a quick
                  * look at a volume: the default scene names it). */

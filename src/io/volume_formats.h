@@ -167,6 +167,15 @@ volux_status volux_source_inflate_prefix(volux_context *ctx, volux_source *s, ui
 volux_status volux_volume_read_data(volux_context *ctx, const volux_volume_header *h, volux_source *src,
                                     int use_file_origin, volux_volume **out);
 
+/* volux_volume_read_data for one brick (region non-NULL; NULL: the whole
+ * volume). Only the brick's storage is allocated. */
+volux_status volux_volume_read_region(volux_context *ctx, const volux_volume_header *h, volux_source *src,
+                                      int use_file_origin, const volux_volume_region *region, volux_volume **out);
+/* The stored node box [lo, hi) of a region of a grid, or
+ * VOLUX_ERR_INVALID naming `name`. */
+volux_status volux_region_box(volux_context *ctx, const char *name, const int dims[3],
+                              const volux_volume_region *r, int lo[3], int hi[3]);
+
 /* What a volume file holds, from its header alone. */
 typedef struct volux_volume_shape {
     int dims[3];

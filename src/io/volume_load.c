@@ -117,10 +117,19 @@ static volux_status resolve_data_path(volux_context *ctx, const char *header_pat
 static volux_status load_from(volux_context *ctx, kind k, volux_source *src, int from_memory,
                               const volux_volume_load_options *options, volux_volume **out) {
     volux_volume_header h;
+    /* A brick is 1/count of the grid: the header's whole size may be up to
+     * count × the cap (the brick itself is checked against the cap). */
+    uint64_t cap = ctx->max_bytes;
+    if (options && options->region && options->region->count > 1)
+        ctx->max_bytes = cap > UINT64_MAX / (uint64_t)options->region->count
+                             ? UINT64_MAX
+                             : cap * (uint64_t)options->region->count;
     volux_status st = parse_header(ctx, k, src, &h);
+    ctx->max_bytes = cap;
     if (st) return st;
     int use_origin = options && options->use_file_origin;
-    if (!h.data_file[0]) return volux_volume_read_data(ctx, &h, src, use_origin, out);
+    const volux_volume_region *region = options ? options->region : NULL;
+    if (!h.data_file[0]) return volux_volume_read_region(ctx, &h, src, use_origin, region, out);
 
     char path[MAX_PATH_BYTES];
     st = resolve_data_path(ctx, src->name, h.data_file, options && options->allow_outside_dir, path, sizeof path);
@@ -148,7 +157,7 @@ static volux_status load_from(volux_context *ctx, kind k, volux_source *src, int
         volux_error_prefix(ctx, "%s: data file: ", src->name);
         return st;
     }
-    st = volux_volume_read_data(ctx, &h, &data, use_origin, out);
+    st = volux_volume_read_region(ctx, &h, &data, use_origin, region, out);
     volux_source_close(&data);
     return st;
 }
@@ -190,9 +199,16 @@ volux_status volux_volume_load(volux_context *ctx, const char *path, const volux
     volux_status st;
     if (options && options->raw) {
         volux_volume_header h;
-        if ((st = volux_raw_header_from_desc(ctx, options->raw, path, &h))) return st;
+        uint64_t cap = ctx->max_bytes; /* as in load_from, for a brick */
+        if (options->region && options->region->count > 1)
+            ctx->max_bytes = cap > UINT64_MAX / (uint64_t)options->region->count
+                                 ? UINT64_MAX
+                                 : cap * (uint64_t)options->region->count;
+        st = volux_raw_header_from_desc(ctx, options->raw, path, &h);
+        ctx->max_bytes = cap;
+        if (st) return st;
         if ((st = volux_source_open(ctx, path, &src))) return st;
-        st = volux_volume_read_data(ctx, &h, &src, 0, out);
+        st = volux_volume_read_region(ctx, &h, &src, 0, options->region, out);
         volux_source_close(&src);
         return st;
     }

@@ -134,10 +134,10 @@ int cli_render(int argc, char **argv) {
     }
     int mode = dist_begin("render", distribute);
     if (mode < 0) return CLI_USAGE;
+    volux_volume_region region;
     if (mode == DIST_DATA) {
-        fprintf(stderr, "volux render: --distribute data: not available yet (use image)\n");
-        dist_end();
-        return CLI_USAGE;
+        dist_region(&region);
+        args.region = &region;
     }
     volux_context *ctx = cli_context(dist_default_threads());
     if (!ctx) {
@@ -167,6 +167,7 @@ int cli_render(int argc, char **argv) {
     rc = cli_load_scene_quiet("render", ctx, &args, &scene, msg, sizeof msg);
     if (rc && cli_interrupted()) rc = 128 + cli_interrupted();
     if ((rc = dist_agree_msg("render", rc, msg))) goto done;
+    if (mode == DIST_DATA && (rc = dist_agree("render", ctx, dist_share_range(scene)))) goto done;
     if (dist_rank() == 0 && !args.quiet) cli_print_notes("render", scene);
     if (!out_path) goto done; /* --dump-scene only */
     const volux_render_settings *rs = volux_scene_render(scene);
@@ -205,7 +206,7 @@ int cli_render(int argc, char **argv) {
         }
         if ((rc = dist_agree("render", ctx, st))) goto done;
         dist_timing timing;
-        st = dist_render_image(tech, scene, fb, &timing);
+        st = mode == DIST_DATA ? dist_render_data(tech, scene, fb, &timing) : dist_render_image(tech, scene, fb, &timing);
         int stopped = st == VOLUX_ERR_CANCELLED && cli_interrupted();
         if (stopped && volux_framebuffer_spp(fb) == 0) {
             fprintf(stderr, "volux render: interrupted before the first sample of every pixel; nothing written\n");
