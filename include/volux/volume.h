@@ -176,15 +176,30 @@ VOLUX_API volux_status volux_brick_split(const int dims[3], int count, int index
 /* Fills *out and returns 1 when v is a brick of a larger grid; returns 0
  * (and leaves *out alone) for an ordinary volume. */
 VOLUX_API int volux_volume_brick(const volux_volume *v, volux_brick_info *out);
-/* Declares the value range of the whole grid v is a brick of (every rank
- * agrees on it, e.g. with an MPI reduction of the bricks' ranges), so that
- * what depends on the range — the transfer function's table, the
- * gradient threshold — is the whole volume's. The only change a volume
- * accepts after creation: call it before the volume is used by a scene or
- * a technique, or give the volume to the scene again
- * (volux_scene_set_volume) so its table is baked anew. lo must be ≤ the
- * volume's own minimum and hi ≥ its maximum (VOLUX_ERR_INVALID). */
-VOLUX_API volux_status volux_volume_set_value_range(volux_volume *v, double lo, double hi);
+/* What depends on the whole grid rather than on a brick: the value range
+ * (the transfer function's table, the gradient threshold) and the largest
+ * gradient component (the scale of the quantised gradient cache). */
+typedef struct volux_volume_stats {
+    double value_min, value_max;
+    double gradient_max; /* largest |component| of the node gradients
+                            (central differences, one-sided at the grid's
+                            border), file units per world unit */
+} volux_volume_stats;
+/* This volume's statistics: its value range, and the largest gradient
+ * component over the nodes it owns (a brick: its owned box, whose central
+ * differences its ghost layers supply; else every node). Combined over the
+ * bricks (min of value_min, max of the others) they are exactly the whole
+ * grid's. After volux_volume_set_whole_stats: the whole's. */
+VOLUX_API void volux_volume_stats_of(const volux_volume *v, volux_volume_stats *out);
+/* Declares the whole grid's statistics for a brick (every rank agrees on
+ * them, e.g. with an MPI reduction of volux_volume_stats_of), so that a
+ * brick classifies and shades as the whole volume would. The only change a
+ * volume accepts after creation: call it before the volume is used by a
+ * technique, and give the volume to its scene again
+ * (volux_scene_set_volume) so the transfer function's table is baked over
+ * the new range. VOLUX_ERR_INVALID when the range does not contain the
+ * volume's own or a value is not finite (gradient_max ≥ 0). */
+VOLUX_API volux_status volux_volume_set_whole_stats(volux_volume *v, const volux_volume_stats *whole);
 
 #ifdef __cplusplus
 }

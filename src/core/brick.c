@@ -145,14 +145,46 @@ int volux_volume_brick(const volux_volume *v, volux_brick_info *out) {
     return 1;
 }
 
-volux_status volux_volume_set_value_range(volux_volume *v, double lo, double hi) {
-    if (!v) return VOLUX_ERR_INVALID;
-    if (!(lo <= v->vmin) || !(hi >= v->vmax) || !isfinite(lo) || !isfinite(hi))
+float volux_volume_gradient_max(const volux_volume *v, const int lo[3], const int hi[3]) {
+    float gmax = 0.0f, g[3];
+    for (int k = lo[2]; k < hi[2]; k++)
+        for (int j = lo[1]; j < hi[1]; j++)
+            for (int i = lo[0]; i < hi[0]; i++) {
+                volux_volume_node_gradient(v, i, j, k, g);
+                for (int a = 0; a < 3; a++)
+                    if (fabsf(g[a]) > gmax) gmax = fabsf(g[a]);
+            }
+    return gmax;
+}
+
+void volux_volume_stats_of(const volux_volume *v, volux_volume_stats *out) {
+    out->value_min = v->vmin;
+    out->value_max = v->vmax;
+    if (v->whole_gradient_max > 0.0f) {
+        out->gradient_max = v->whole_gradient_max;
+        return;
+    }
+    int lo[3] = {0, 0, 0}, hi[3] = {v->dims[0], v->dims[1], v->dims[2]};
+    if (v->part_count) /* the owned nodes, in this volume's indices */
+        for (int a = 0; a < 3; a++) {
+            lo[a] = v->owned_lo[a] - v->stored_lo[a];
+            hi[a] = v->owned_hi[a] - v->stored_lo[a] + 1;
+        }
+    out->gradient_max = volux_volume_gradient_max(v, lo, hi);
+}
+
+volux_status volux_volume_set_whole_stats(volux_volume *v, const volux_volume_stats *w) {
+    if (!v || !w) return VOLUX_ERR_INVALID;
+    if (!(w->value_min <= v->vmin) || !(w->value_max >= v->vmax) || !isfinite(w->value_min) ||
+        !isfinite(w->value_max) || !(w->gradient_max >= 0.0) || !isfinite(w->gradient_max) ||
+        w->gradient_max > 3e38)
         return volux_error(v->ctx, VOLUX_ERR_INVALID,
-                           "volume value range [%g, %g] does not contain the volume's own range [%g, %g]", lo, hi,
-                           v->vmin, v->vmax);
-    v->vmin = lo;
-    v->vmax = hi;
+                           "whole-volume statistics: range [%g, %g] (must contain the volume's own [%g, %g]), "
+                           "gradient max %g (finite, >= 0)",
+                           w->value_min, w->value_max, v->vmin, v->vmax, w->gradient_max);
+    v->vmin = w->value_min;
+    v->vmax = w->value_max;
+    v->whole_gradient_max = (float)w->gradient_max;
     return VOLUX_OK;
 }
 

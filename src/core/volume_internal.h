@@ -54,6 +54,7 @@ struct volux_volume {
     int part_count, part_index;
     int whole_dims[3], owned_lo[3], owned_hi[3], stored_lo[3];
     volux_vec3 whole_origin; /* float, computed as a whole load would */
+    float whole_gradient_max; /* volux_volume_set_whole_stats; 0: unknown */
 };
 
 /* Bricked layout: 8³-cell bricks stored as 9³ nodes (one-node apron on the
@@ -226,6 +227,25 @@ static inline int volux_volume_inside_index(const volux_volume *v, volux_vec3 q)
     return q.x >= 0.0f && q.y >= 0.0f && q.z >= 0.0f && q.x <= (float)(v->dims[0] - 1) &&
            q.y <= (float)(v->dims[1] - 1) && q.z <= (float)(v->dims[2] - 1);
 }
+
+/* Central-difference gradient at node (i,j,k) (one-sided at the border), in
+ * file units per world unit. */
+static inline void volux_volume_node_gradient(const volux_volume *v, int i, int j, int k, float g[3]) {
+    int c[3] = {i, j, k};
+    for (int a = 0; a < 3; a++) {
+        int lo[3] = {i, j, k}, hi[3] = {i, j, k};
+        if (c[a] > 0) lo[a]--;
+        if (c[a] < v->dims[a] - 1) hi[a]++;
+        int h = hi[a] - lo[a];
+        g[a] = h ? ((volux_volume_raw_at(v, volux_volume_index(v, hi[0], hi[1], hi[2])) + v->value_offset) -
+                    (volux_volume_raw_at(v, volux_volume_index(v, lo[0], lo[1], lo[2])) + v->value_offset)) /
+                       ((float)h * (float)v->spacing[a])
+                 : 0.0f;
+    }
+}
+/* Largest |component| of volux_volume_node_gradient over the nodes [lo, hi)
+ * (the scale of the quantised gradient cache). */
+float volux_volume_gradient_max(const volux_volume *v, const int lo[3], const int hi[3]);
 
 /* Gradient at index-space q in file units per *index* unit (central
  * differences of the trilinear field, clamped at the border). */

@@ -259,15 +259,16 @@ void dist_region(volux_volume_region *out) {
 
 volux_status dist_share_range(volux_scene *scene) {
     volux_volume *v = volux_scene_volume(scene);
-    double lo, hi;
-    volux_volume_range(v, &lo, &hi);
+    volux_volume_stats w;
+    volux_volume_stats_of(v, &w);
     if (started) {
-        double mine[2] = {-lo, hi}, all[2];
-        MPI_Allreduce(mine, all, 2, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
-        lo = -all[0];
-        hi = all[1];
+        double mine[3] = {-w.value_min, w.value_max, w.gradient_max}, all[3];
+        MPI_Allreduce(mine, all, 3, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+        w.value_min = -all[0];
+        w.value_max = all[1];
+        w.gradient_max = all[2];
     }
-    volux_status st = volux_volume_set_value_range(v, lo, hi);
+    volux_status st = volux_volume_set_whole_stats(v, &w);
     /* again, so the scene bakes its table over the whole range */
     return st ? st : volux_scene_set_volume(scene, v);
 }

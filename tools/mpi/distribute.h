@@ -92,9 +92,10 @@ volux_status dist_render_image(volux_technique *t, const volux_scene *scene, vol
  * visibility order of the view (MPI applies a non-commutative operation in
  * rank order), with rank 0 as the root. */
 void dist_region(volux_volume_region *out);
-/* Collective: the whole volume's value range (min/max over the bricks)
- * given to this rank's brick, and the scene's volume set again so its
- * transfer-function table is baked over that range. */
+/* Collective: the whole volume's statistics (value range, largest
+ * gradient component: min/max over the bricks' own) given to this rank's
+ * brick, and the scene's volume set again so its transfer-function table
+ * is baked over the whole range. */
 volux_status dist_share_range(volux_scene *scene);
 /* Collective: renders render.spp samples of this rank's brick and
  * composites; afterwards rank 0's fb holds the frame (render.spp samples).
