@@ -391,6 +391,11 @@ static volux_status load_tree(scene_reader *sr, const char *name, const char *ke
 static volux_status read_transfer(scene_reader *sr, cJSON *root) {
     volux_json_reader *r = &sr->json;
     cJSON *obj = cJSON_GetObjectItemCaseSensitive(root, "transfer_function");
+    if (!obj && sr->opt && sr->opt->region)
+        /* every brick would make its own from its own histogram */
+        return volux_json_error(r, VOLUX_ERR_UNSUPPORTED, "transfer_function",
+                                "missing: a data-parallel render needs one (the quick-look default comes from the "
+                                "whole volume's histogram)");
     if (!obj) {
         /* No TF: the quick-look default from the volume's histogram, put
          * into the tree so a dump of the scene shows exactly what is used. */
@@ -572,6 +577,13 @@ static volux_status read_tf_object(scene_reader *sr, const cJSON *obj, const cha
         if ((st = resolve_path(sr, tf_dir, preset_file, "transfer_function.preset", path, sizeof path))) goto done;
         double lo = 0, hi = 0;
         volux_volume *vol = volux_scene_volume(sr->scene);
+        if (rescale && vol && sr->opt && sr->opt->region) {
+            /* the brick's range is not the whole volume's */
+            st = volux_json_error(r, VOLUX_ERR_UNSUPPORTED, "transfer_function.preset_rescale",
+                                  "a data-parallel render cannot rescale a preset to the volume's range (each rank "
+                                  "holds one brick): give \"preset_rescale\": false and the preset's own values");
+            goto done;
+        }
         if (rescale && vol) volux_volume_range(vol, &lo, &hi);
         if ((st = volux_tf_preset_load(r->ctx, path, preset_name, lo, hi, &preset))) {
             volux_error_prefix(r->ctx, "%s: transfer_function.preset: ", r->file);

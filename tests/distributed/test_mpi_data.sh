@@ -125,4 +125,7 @@ check "[ $rc = 2 ] && [ \$(grep -c 'scene file' '$T/err') = 1 ]" "quick look ref
 mpi 2 render "$T/nrrd.json" -o "$T/bad.png" --distribute data --set render.spp=2 \
   --set 'volume={"procedural": "sphere", "dims": [2, 2, 2]}' 2>"$T/err"; rc=$?
 check "[ $rc = 2 ] && [ \$(grep -c 'cannot be split' '$T/err') = 1 ]" "grid too small for the bricks: exit 2, one message"
+sed '/"transfer_function"/,/^  },/d' "$T/proc.json" >"$T/notf.json"
+mpi 2 render "$T/notf.json" -o "$T/bad.png" --distribute data 2>"$T/err"; rc=$?
+check "[ $rc = 2 ] && [ \$(grep -c 'transfer_function' '$T/err') = 1 ]" "a scene without a transfer function: exit 2, one message"
 exit $fail
