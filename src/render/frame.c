@@ -414,6 +414,22 @@ volux_status volux_render_part(volux_technique *t, const volux_scene *scene, uin
     const volux_volume *v = rc->volume;
     int pos = 0, count = v->part_count ? v->part_count : 1;
     if (v->part_count) {
+        /* The ghost layers must hold a segment's front sample, up to one
+         * step before the owned box (and its trilinear corners). */
+        int ghost = 1 << 20;
+        for (int a = 0; a < 3; a++) {
+            if (v->owned_lo[a] > 0 && v->owned_lo[a] - v->stored_lo[a] < ghost) ghost = v->owned_lo[a] - v->stored_lo[a];
+            int stored_hi = v->stored_lo[a] + v->dims[a] - 1;
+            if (v->owned_hi[a] < v->whole_dims[a] - 1 && stored_hi - v->owned_hi[a] < ghost)
+                ghost = stored_hi - v->owned_hi[a];
+        }
+        if (rc->step > (float)ghost * rc->min_spacing)
+            return volux_error(ctx, VOLUX_ERR_UNSUPPORTED,
+                               "render.step: %g world units is longer than the brick's %d ghost layers (%g); "
+                               "a data-parallel render needs a step of at most that",
+                               rc->step, ghost, ghost * rc->min_spacing);
+    }
+    if (v->part_count) {
         int *order = volux_malloc(ctx, (size_t)count * sizeof *order);
         if (!order) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for the brick order");
         double o[3] = {v->whole_origin.x, v->whole_origin.y, v->whole_origin.z};

@@ -5,7 +5,7 @@
 #  1. ea and shaded images of an NRRD volume (raw and gzip), a raw file and
 #     a procedural volume, composited from 1-4 bricks, match the
 #     single-process image (scalar kernel) within the stated tolerance
-#     (docs/DISTRIBUTED.md: measured max 3.3e-4, bound 2e-3);
+#     (docs/DISTRIBUTED.md: measured max 2.0e-4, bound 2e-3);
 #  2. each rank holds only its brick: the bytes volux bench reports per rank
 #     are the brick's nodes (owned box + 2 ghost layers), about 1/N;
 #  3. a rank that cannot read its brick (the gzip stream ends halfway
@@ -125,6 +125,9 @@ check "[ $rc = 2 ] && [ \$(grep -c 'scene file' '$T/err') = 1 ]" "quick look ref
 mpi 2 render "$T/nrrd.json" -o "$T/bad.png" --distribute data --set render.spp=2 \
   --set 'volume={"procedural": "sphere", "dims": [2, 2, 2]}' 2>"$T/err"; rc=$?
 check "[ $rc = 2 ] && [ \$(grep -c 'cannot be split' '$T/err') = 1 ]" "grid too small for the bricks: exit 2, one message"
+mpi 2 render "$T/proc.json" -o "$T/bad.png" --distribute data --step 3 2>"$T/err"; rc=$?
+check "[ $rc = 2 ] && [ \$(grep -c 'ghost layers' '$T/err') = 1 ] && [ ! -e '$T/bad.png' ]" \
+  "a step longer than the ghost layers: exit 2, one message"
 sed '/"transfer_function"/,/^  },/d' "$T/proc.json" >"$T/notf.json"
 mpi 2 render "$T/notf.json" -o "$T/bad.png" --distribute data 2>"$T/err"; rc=$?
 check "[ $rc = 2 ] && [ \$(grep -c 'transfer_function' '$T/err') = 1 ]" "a scene without a transfer function: exit 2, one message"

@@ -13,7 +13,7 @@ static void usage(FILE *f) {
             "                    [--time-ms MS] [--target-error E] [--max-depth D] [--exposure EV]\n"
             "                    [--time-step N | --all-steps] [--set dotted.path=JSON-value]...\n"
             "                    [--dump-scene OUT.json] [--quiet]\n"
-            "                    [--distribute image]   (under mpirun; the default there)\n"
+            "                    [--distribute image|data]   (under mpirun; image is the default there)\n"
             "Renders until the scene's spp, time budget or target relative error is reached and\n"
             "writes the image (PNG tone-mapped with render.exposure; PFM/EXR linear).\n"
             "VOLUME (.nrrd .nhdr .mhd .mha .nii .nii.gz, or procedural:NAME[:N]) renders its quick-look\n"
@@ -30,7 +30,11 @@ static void usage(FILE *f) {
             "from step to step, as in an animation.\n"
             "Under mpirun the ranks share the frame's tiles and render.spp samples are taken\n"
             "(time and error limits apply to a single process only); rank 0 writes the image,\n"
-            "bit-identical to a single-process render. There Ctrl-C ends the job as mpirun does.\n");
+            "bit-identical to a single-process render. There Ctrl-C ends the job as mpirun does.\n"
+            "--distribute data (ea, shaded; a scene file with its own transfer function): rank r\n"
+            "loads only brick r of the volume (a k-d split into N bricks, 2 ghost layers), renders it\n"
+            "on the whole volume's sample lattice, and the bricks are composited front to back in\n"
+            "visibility order (docs/DISTRIBUTED.md; matches one process within 2e-3).\n");
 }
 
 static void format_error(double e, char *out, size_t n) {
