@@ -1,4 +1,4 @@
-/* fuzz/fuzz_nifti.c — libFuzzer harness for the NIfTI-1 reader: the header
+/* fuzz/fuzz_nifti.c — libFuzzer harness for the NIfTI-1/NIfTI-2 reader: the header
  * parse (named .hdr, so "ni1" pair headers are parsed too) and the whole
  * load of a .nii, or of a .nii.gz when the input starts like gzip. Corpus:
  * fuzz/corpus/nifti/. */

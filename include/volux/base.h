@@ -56,6 +56,13 @@ typedef enum volux_status {
 
 /* Short stable name of a status ("invalid", "io", ...). Never NULL. */
 VOLUX_API const char *volux_status_name(volux_status s);
+/* Copies `in` into out (cap bytes, NUL-terminated, cut at a whole
+ * character) with control characters other than newline and tab, DEL and
+ * bytes that are not valid UTF-8 written as \xHH. Every error and warning
+ * message of the library has been through it; the CLI passes its own
+ * messages (which quote command-line arguments) through it too. Returns
+ * the length written. */
+VOLUX_API size_t volux_escape_text(const char *in, char *out, size_t cap);
 
 /* 1 if a status means "the input was bad" (CLI exit status 2). */
 VOLUX_API int volux_status_is_input_error(volux_status s);
@@ -80,8 +87,11 @@ typedef void *(*volux_alloc_fn)(void *user, void *ptr, size_t old_size, size_t n
 typedef int (*volux_progress_fn)(void *user, const char *task, double fraction);
 
 /* Messages for the user that are not errors: a warning (e.g. a light a
- * technique cannot use: the technique renders without it) or a note about
- * long work (e.g. a table that is built once and where it is kept). One
+ * technique cannot use: the technique renders without it; a file's
+ * trailing bytes ignored; non-finite values replaced as asked; a render
+ * cut short by its time budget) or a note about long work (e.g. a table
+ * that is built once and where it is kept). Escaped like error messages
+ * (no control characters, valid UTF-8). One
  * line of text, without a trailing newline, naming its source
  * ("single: ..."). Called from the thread that runs the call that emits
  * it. The library never prints; without a callback messages are dropped. */
@@ -110,7 +120,9 @@ VOLUX_API void volux_context_destroy(volux_context *ctx);
 
 /* The FIRST error recorded on this context since the caller last cleared
  * it ("" / VOLUX_OK if none): a failure that follows from an earlier one
- * never hides it (SQLite, VolPack). The library never clears it; call
+ * never hides it (SQLite, VolPack). Safe to print: control characters,
+ * DEL and bytes that are not UTF-8 (e.g. from a file name or header) are
+ * written as \xHH. The library never clears it; call
  * volux_context_clear_error() before an operation whose own message you
  * want. The string is valid until the next volux call on the context. */
 VOLUX_API const char *volux_context_error(const volux_context *ctx);

@@ -53,10 +53,15 @@ typedef struct volux_volume_load_options {
     const volux_raw_desc *raw; /* non-NULL: read `path` as raw with this  */
     int use_file_origin;       /* 1: origin from the header, else centred  */
     int allow_outside_dir;     /* 1: detached data may lie outside the
-                                  header's folder                          */
+                                  header's folder (else a data file must
+                                  resolve inside it, symbolic links
+                                  followed)                                 */
     const char *data_root;     /* non-NULL: detached data must also lie in
                                   this folder once symbolic links are
                                   resolved (absolute, symlink-free name)   */
+    int allow_nonfinite;       /* 1: NaN/Inf values become the lowest
+                                  value, with a warning; 0: they are
+                                  VOLUX_ERR_FORMAT (count, first voxel)     */
     /* non-NULL: load only this brick (borrowed for the call). The volume
      * holds the brick's nodes plus ghosts, placed where they lie in the
      * whole volume (the whole's origin: the file's or centred), and

@@ -53,7 +53,9 @@ VOLUX_API double volux_framebuffer_rel_error(const volux_framebuffer *fb);
 
 typedef struct volux_render_limits {
     uint32_t spp;          /* samples per pixel to reach (total); 0 = 1     */
-    double time_ms;        /* stop adding waves after this; 0 = no limit    */
+    double time_ms;        /* stop adding waves after this, and end a wave
+                              that runs past it (see report.truncated);
+                              0 = no limit                                  */
     double target_error;   /* stop at this rel. standard error; 0 = none    */
 } volux_render_limits;
 
@@ -64,6 +66,11 @@ typedef struct volux_render_report {
     double rel_error;      /* framebuffer rel. standard error; −1: n/a      */
     uint64_t samples;      /* volume samples taken (if the technique counts)*/
     uint64_t vertices;     /* path vertices (if the technique counts)       */
+    int truncated;         /* 1: the time budget ran out inside the first
+                              sample of some tiles, whose paths were then
+                              cut short (the image is darker than it should
+                              be there); later passes that run out are
+                              dropped instead                              */
 } volux_render_report;
 
 /* Adds samples to fb until a limit is met (limits NULL = the scene's
@@ -73,7 +80,10 @@ typedef struct volux_render_report {
  * after an edit accumulation restarts by itself. fb must have the scene's
  * image size (else VOLUX_ERR_INVALID). CANCELLED if the progress callback
  * asked to stop (asked per tile and after each wave; fb keeps every tile
- * rendered, see volux_framebuffer_spp). report may be NULL. */
+ * rendered, see volux_framebuffer_spp). A tile's sample is accumulated only
+ * when its pass finished: a pass cut short by the time budget is dropped
+ * (the tile keeps its count), except a tile's first sample, kept and
+ * reported as truncated. report may be NULL. */
 VOLUX_API volux_status volux_render(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
                                     const volux_render_limits *limits, volux_render_report *report);
 

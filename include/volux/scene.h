@@ -39,6 +39,10 @@ extern "C" {
 #endif
 
 #define VOLUX_MAX_LIGHTS 256
+/* Largest environment-map texel value kept (larger ones are clamped with a
+ * warning; NaN/Inf are refused): sums over a map and radiance × intensity
+ * stay finite in float. */
+#define VOLUX_ENV_TEXEL_MAX 1e30f
 #define VOLUX_MAX_PARAMS 64
 
 /* What an edit touched (bits of volux_change_set.what). */

@@ -24,7 +24,12 @@
 extern "C" {
 #endif
 
-#define VOLUX_TF_MAX_POINTS 4096
+#define VOLUX_TF_MAX_POINTS 65536
+/* Largest extinction a baked table holds (1/world unit): σt·density_scale
+ * is clamped to it, so optical depths, their running integrals and every
+ * product with a length stay finite (a free path of 1e-30 units is opaque
+ * at any scale a volume has). */
+#define VOLUX_SIGMA_T_MAX 1e30f
 
 typedef struct volux_tf_color_point {
     float s, r, g, b;

@@ -62,13 +62,16 @@ typedef struct volux_volume_desc {
     volux_scalar_type type; /* type of data                                 */
     const void *data;       /* borrowed; native byte order, x fastest;
                                NULL = all zeros                             */
+    int allow_nonfinite;    /* 0: NaN/Inf in float data is VOLUX_ERR_INVALID;
+                               1: they become the lowest finite value       */
 } volux_volume_desc;
 
 typedef struct volux_volume volux_volume;
 
 /* Creates a volume, copying and converting desc->data. Fails with
- * VOLUX_ERR_INVALID (bad dims/spacing) or VOLUX_ERR_LIMIT (over the
- * context's max_bytes). The new volume has one reference. */
+ * VOLUX_ERR_INVALID (bad dims/spacing, NaN/Inf values unless allowed; the
+ * message gives their count and the first voxel) or VOLUX_ERR_LIMIT (over
+ * the context's max_bytes, or values spanning more than FLT_MAX). The new volume has one reference. */
 VOLUX_API volux_status volux_volume_create(volux_context *ctx, const volux_volume_desc *desc,
                                            volux_volume **out);
 
@@ -101,7 +104,9 @@ typedef struct volux_volume_memory_desc {
 
 /* Creates a volume from the caller's buffer.
  * COPY: any type and strides; the data is copied and converted as by
- *   volux_volume_create (NaN/inf become 0). Counts against max_bytes.
+ *   volux_volume_create, except that NaN/inf become the lowest value
+ *   with a warning (volux_volume_create refuses them unless
+ *   allow_nonfinite). Counts against max_bytes.
  * BORROW: no copy of the grid. The buffer must stay valid and unchanged
  *   until `release` is called (volumes are immutable: writing into it
  *   afterwards gives undefined images, never a crash). Only the storage

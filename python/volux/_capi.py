@@ -23,7 +23,8 @@ RELEASE_FN = ctypes.CFUNCTYPE(None, c_void_p)
 
 class ContextDesc(ctypes.Structure):
     _fields_ = [("threads", c_int), ("max_bytes", c_uint64), ("alloc", ALLOC_FN), ("alloc_user", c_void_p),
-                ("progress", PROGRESS_FN), ("progress_user", c_void_p), ("cache_dir", c_char_p)]
+                ("progress", PROGRESS_FN), ("progress_user", c_void_p), ("cache_dir", c_char_p),
+                ("message", c_void_p), ("message_user", c_void_p)]  # no message callback: NULL
 
 
 class VolumeMemoryDesc(ctypes.Structure):
@@ -44,7 +45,7 @@ class RenderLimits(ctypes.Structure):
 
 class RenderReport(ctypes.Structure):
     _fields_ = [("spp", c_uint32), ("ms", c_double), ("cpu_ms", c_double), ("rel_error", c_double),
-                ("samples", c_uint64), ("vertices", c_uint64)]
+                ("samples", c_uint64), ("vertices", c_uint64), ("truncated", c_int)]
 
 
 class Image(ctypes.Structure):

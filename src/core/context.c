@@ -212,6 +212,65 @@ void volux_free_aligned(volux_context *ctx, void *p, size_t n) {
     volux_free(ctx, q - offset, n + ALIGN + sizeof(size_t));
 }
 
+/* Length of the valid UTF-8 sequence at p (at most n bytes), 0 if none:
+ * no overlong forms, no UTF-16 surrogates, nothing above U+10FFFF
+ * (RFC 3629 §4). */
+size_t volux_utf8_sequence(const unsigned char *p, size_t n) {
+    if (n == 0) return 0;
+    unsigned c = p[0];
+    if (c < 0x80) return 1;
+    size_t len;
+    unsigned lo = 0x80, hi = 0xbf; /* range of the second byte */
+    if (c >= 0xc2 && c <= 0xdf) len = 2;
+    else if (c == 0xe0) len = 3, lo = 0xa0;
+    else if (c >= 0xe1 && c <= 0xec) len = 3;
+    else if (c == 0xed) len = 3, hi = 0x9f; /* no surrogates */
+    else if (c >= 0xee && c <= 0xef) len = 3;
+    else if (c == 0xf0) len = 4, lo = 0x90;
+    else if (c >= 0xf1 && c <= 0xf3) len = 4;
+    else if (c == 0xf4) len = 4, hi = 0x8f; /* ≤ U+10FFFF */
+    else return 0;
+    if (n < len || p[1] < lo || p[1] > hi) return 0;
+    for (size_t i = 2; i < len; i++)
+        if (p[i] < 0x80 || p[i] > 0xbf) return 0;
+    return len;
+}
+
+size_t volux_escape_text(const char *in, char *out, size_t cap) {
+    static const char hex[] = "0123456789abcdef";
+    const unsigned char *p = (const unsigned char *)in;
+    size_t n = strlen(in), o = 0;
+    if (cap == 0) return 0;
+    for (size_t i = 0; i < n;) {
+        int plain = (p[i] >= 0x20 && p[i] != 0x7f) || p[i] == '\n' || p[i] == '\t';
+        size_t len = plain ? volux_utf8_sequence(p + i, n - i) : 0;
+        if (len) {
+            if (o + len >= cap) break;
+            memcpy(out + o, p + i, len);
+            o += len;
+            i += len;
+        } else {
+            if (o + 4 >= cap) break;
+            out[o++] = '\\';
+            out[o++] = 'x';
+            out[o++] = hex[p[i] >> 4];
+            out[o++] = hex[p[i] & 15];
+            i++;
+        }
+    }
+    out[o] = 0;
+    return o;
+}
+
+/* Messages quote file names and header contents from untrusted files: a
+ * terminal escape sequence or invalid UTF-8 in them must not reach the
+ * caller's terminal or logs as is. Idempotent. */
+static void sanitize_message(char *msg, size_t cap) {
+    char tmp[VOLUX_ERROR_MAX];
+    volux_escape_text(msg, tmp, sizeof tmp < cap ? sizeof tmp : cap);
+    memcpy(msg, tmp, strlen(tmp) + 1);
+}
+
 volux_status volux_error(volux_context *ctx, volux_status status, const char *fmt, ...) {
     /* The first error wins (VolPack, SQLite): a later failure caused by the
      * first one must not hide it. The caller clears. */
@@ -220,6 +279,7 @@ volux_status volux_error(volux_context *ctx, volux_status status, const char *fm
     va_start(ap, fmt);
     vsnprintf(ctx->error, sizeof ctx->error, fmt, ap);
     va_end(ap);
+    sanitize_message(ctx->error, sizeof ctx->error);
     ctx->error_status = status;
     return status;
 }
@@ -230,6 +290,7 @@ volux_status volux_context_set_error(volux_context *ctx, volux_status status, co
     va_start(ap, fmt);
     vsnprintf(ctx->error, sizeof ctx->error, fmt, ap);
     va_end(ap);
+    sanitize_message(ctx->error, sizeof ctx->error);
     ctx->error_status = status;
     return status;
 }
@@ -248,16 +309,30 @@ void volux_error_prefix(volux_context *ctx, const char *fmt, ...) {
     if (m > sizeof ctx->error - 1 - n) m = sizeof ctx->error - 1 - n;
     memcpy(ctx->error + n, old, m);
     ctx->error[n + m] = 0;
+    sanitize_message(ctx->error, sizeof ctx->error);
+}
+
+static void emit_message(volux_context *ctx, volux_message_level level, const char *fmt, va_list ap) {
+    char text[VOLUX_ERROR_MAX];
+    vsnprintf(text, sizeof text, fmt, ap);
+    sanitize_message(text, sizeof text);
+    ctx->message(ctx->message_user, level, text);
 }
 
 void volux_message(volux_context *ctx, volux_message_level level, const char *fmt, ...) {
     if (!ctx->message) return;
-    char text[VOLUX_ERROR_MAX];
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(text, sizeof text, fmt, ap);
+    emit_message(ctx, level, fmt, ap);
     va_end(ap);
-    ctx->message(ctx->message_user, level, text);
+}
+
+void volux_warn(volux_context *ctx, const char *fmt, ...) {
+    if (!ctx->message) return;
+    va_list ap;
+    va_start(ap, fmt);
+    emit_message(ctx, VOLUX_MESSAGE_WARNING, fmt, ap);
+    va_end(ap);
 }
 
 int volux_progress(volux_context *ctx, const char *task, double fraction) {

@@ -54,10 +54,20 @@ void volux_free_aligned(volux_context *ctx, void *p, size_t n);
 volux_status volux_error(volux_context *ctx, volux_status status, const char *fmt, ...) VOLUX_PRINTF(3, 4);
 /* Prepends "prefix" to the recorded message (keeps the status). */
 void volux_error_prefix(volux_context *ctx, const char *fmt, ...) VOLUX_PRINTF(2, 3);
+/* Reports something the caller should know about a call that succeeded
+ * (data repaired or ignored): volux_message at VOLUX_MESSAGE_WARNING. */
+void volux_warn(volux_context *ctx, const char *fmt, ...) VOLUX_PRINTF(2, 3);
+
+/* Length of the valid UTF-8 sequence at p (n bytes available), 0 if the
+ * bytes there are not one (RFC 3629: no overlongs, surrogates or values
+ * above U+10FFFF). */
+size_t volux_utf8_sequence(const unsigned char *p, size_t n);
+/* volux_escape_text: volux/base.h. */
 
 /* Reports progress; returns nonzero if the caller asked to cancel. */
 int volux_progress(volux_context *ctx, const char *task, double fraction);
-/* Passes a warning or note to the caller's message callback (none: dropped). */
+/* Passes a warning or note to the caller's message callback (none: dropped),
+ * escaped like error messages (\\xHH for control bytes and invalid UTF-8). */
 void volux_message(volux_context *ctx, volux_message_level level, const char *fmt, ...) VOLUX_PRINTF(3, 4);
 
 /* Checked size arithmetic: return 0 on overflow. */

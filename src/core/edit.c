@@ -13,10 +13,19 @@ enum { TF_OPACITY, TF_COLOR, TF_DENSITY, TF_PHASE, TF_ALBEDO };
 static volux_status edit_transfer(volux_scene *s, int k, int what) {
     const volux_transfer_desc *cur = volux_scene_transfer(s);
     volux_transfer_desc d = *cur;
-    volux_tf_scalar_point op[VOLUX_TF_MAX_POINTS];
-    volux_tf_color_point col[VOLUX_TF_MAX_POINTS];
-    memcpy(op, cur->opacity, sizeof *op * (size_t)cur->n_opacity);
-    if (cur->n_color) memcpy(col, cur->color, sizeof *col * (size_t)cur->n_color);
+    /* On the heap: a TF may have VOLUX_TF_MAX_POINTS (65 536) points. */
+    volux_context *ctx = volux_scene_context(s);
+    size_t op_bytes = sizeof(volux_tf_scalar_point) * (size_t)cur->n_opacity;
+    size_t col_bytes = sizeof(volux_tf_color_point) * (size_t)cur->n_color;
+    volux_tf_scalar_point *op = volux_malloc(ctx, op_bytes);
+    volux_tf_color_point *col = cur->n_color ? volux_malloc(ctx, col_bytes) : NULL;
+    if (!op || (cur->n_color && !col)) {
+        volux_free(ctx, op, op_bytes);
+        volux_free(ctx, col, col_bytes);
+        return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for a transfer function edit");
+    }
+    memcpy(op, cur->opacity, op_bytes);
+    if (cur->n_color) memcpy(col, cur->color, col_bytes);
     d.opacity = op;
     d.color = cur->n_color ? col : NULL;
     float f = (k & 1) ? 0.8f : 1.25f; /* the pair multiplies back to 1 */
@@ -52,7 +61,10 @@ static volux_status edit_transfer(volux_scene *s, int k, int what) {
         d.anisotropy = (k & 1) ? d.anisotropy - 0.2f : d.anisotropy + 0.2f;
         break;
     }
-    return volux_scene_set_transfer(s, &d);
+    volux_status st = volux_scene_set_transfer(s, &d);
+    volux_free(ctx, op, op_bytes);
+    volux_free(ctx, col, col_bytes);
+    return st;
 }
 
 static volux_status edit_tf(volux_scene *s, int k) { return edit_transfer(s, k, TF_OPACITY); }

@@ -314,8 +314,30 @@ volux_status volux_scene_set_light(volux_scene *s, int slot, const volux_light_d
     if (st) return st;
     volux_image map = {0};
     if (d->type == VOLUX_LIGHT_ENVIRONMENT && d->map) {
-        st = volux_image_copy(s->ctx, d->map, &map);
+        /* Texels: NaN/Inf are refused (they would reach every pixel that
+         * sees the sky); values above VOLUX_ENV_TEXEL_MAX are clamped with
+         * a warning, so sums over the map, its sampling table and
+         * radiance × intensity × throughput stay finite (an RGBE exponent
+         * of 255 gives 1.7e38). Negative values are kept (filters leave
+         * tiny ones; lookups clamp at 0). */
+        const volux_image *m = d->map;
+        size_t n = 3 * (size_t)m->width * (size_t)m->height, bad = 0, first = 0, clamped = 0;
+        for (size_t i = 0; i < n; i++)
+            if (!isfinite(m->rgb[i]) && !bad++) first = i / 3;
+        if (bad)
+            return volux_error(s->ctx, VOLUX_ERR_INVALID,
+                               "%s.file: %zu non-finite texel values (NaN/Inf), the first at texel (%zu, %zu)", path,
+                               bad, first % (size_t)m->width, first / (size_t)m->width);
+        st = volux_image_copy(s->ctx, m, &map);
         if (st) return st;
+        for (size_t i = 0; i < n; i++)
+            if (fabsf(map.rgb[i]) > VOLUX_ENV_TEXEL_MAX) {
+                map.rgb[i] = map.rgb[i] > 0.0f ? VOLUX_ENV_TEXEL_MAX : -VOLUX_ENV_TEXEL_MAX;
+                clamped++;
+            }
+        if (clamped)
+            volux_warn(s->ctx, "%s.file: %zu texel values above %g clamped to it", path, clamped,
+                       (double)VOLUX_ENV_TEXEL_MAX);
     }
     light_slot *l = &s->lights[slot];
     volux_image_free(s->ctx, &l->map);
@@ -378,8 +400,8 @@ volux_status volux_scene_set_render(volux_scene *s, const volux_render_settings 
         return volux_error(ctx, VOLUX_ERR_INVALID, "render.spp: must be in [1, 2^24], got %d", r->spp);
     if (!(r->step > 0.0f) || !(r->step <= 64.0f))
         return volux_error(ctx, VOLUX_ERR_INVALID, "render.step: must be in (0, 64], got %g", r->step);
-    if (r->max_depth < 1 || r->max_depth > 100000)
-        return volux_error(ctx, VOLUX_ERR_INVALID, "render.max_depth: must be in [1, 100000], got %d", r->max_depth);
+    if (r->max_depth < 0 || r->max_depth > 100000)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "render.max_depth: must be in [0, 100000] (0: no scattering), got %d", r->max_depth);
     if (!isfinite(r->exposure) || fabsf(r->exposure) > 64.0f)
         return volux_error(ctx, VOLUX_ERR_INVALID, "render.exposure: must be in [-64, 64], got %g", r->exposure);
     if (r->threads < 0 || r->threads > 1024)

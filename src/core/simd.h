@@ -58,7 +58,10 @@ static inline int volux_cpu_has_avx512f(void) { return VOLUX_CPU_HAS("avx512f");
  * techniques (`single`, `ao`, `ambient`: segment opacity, cache reads) and
  * the ambient table's estimator. */
 static inline float volux_exp_nonpos_t6(float x) {
-    x = 0.5f * (x - 87.0f + fabsf(x + 87.0f)); /* max(x, −87) */
+    /* max(x, −87), branch-free (maxss); also −87 for −inf and NaN. The
+     * former 0.5·(x − 87 + |x + 87|) lost the 87 for |x| ≳ 1e9 and gave
+     * e^0 = 1 for an optical depth of 1e30 (issue 16). */
+    x = x > -87.0f ? x : -87.0f;
     float t = x * 1.44269504f;
     int n = (int)(t - 0.5f); /* round to nearest for t ≤ 0 */
     float r = x - (float)n * 0.693145752f - (float)n * 1.42860677e-6f;

@@ -152,8 +152,8 @@ static float sigma_from_opacity(float alpha, float unit) {
 
 static float sigma_at(const volux_transfer_desc *d, float s, float unit) {
     float v = volux_tf_eval_scalar(d->opacity, d->n_opacity, s);
-    float sigma = d->extinction ? v : sigma_from_opacity(v, unit);
-    return sigma * d->density_scale;
+    float sigma = (d->extinction ? v : sigma_from_opacity(v, unit)) * d->density_scale;
+    return sigma < VOLUX_SIGMA_T_MAX ? sigma : VOLUX_SIGMA_T_MAX; /* also 1e30 × 1e30 = inf */
 }
 
 void volux_transfer_lut_free(volux_context *ctx, volux_transfer_lut *lut) {

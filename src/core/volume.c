@@ -190,12 +190,26 @@ volux_status volux_volume_finalize(volux_volume *v, const double *origin) {
     double lo = DBL_MAX, hi = -DBL_MAX;
     if (v->storage == VOLUX_STORE_F32) {
         float *f = v->data;
+        size_t bad = 0;
         for (size_t i = 0; i < n; i++) {
-            if (!isfinite(f[i])) f[i] = 0.0f; /* NaN/inf would poison every sum downstream
-                                                  (borrowed data was checked finite) */
+            if (!isfinite(f[i])) {
+                bad++;
+                continue;
+            }
             if (f[i] < lo) lo = f[i];
             if (f[i] > hi) hi = f[i];
         }
+        if (lo > hi) lo = hi = 0.0; /* nothing finite */
+        /* NaN/inf would poison every sum downstream; they take the lowest
+         * value, where the TF's table starts. */
+        for (size_t i = 0; bad && i < n; i++)
+            if (!isfinite(f[i])) f[i] = (float)lo;
+        /* Every table lookup computes (s − s_min)·(n−1)/(s_max − s_min) in
+         * float: a wider span overflows to inf·0 = NaN there. */
+        if (hi - lo > FLT_MAX)
+            return volux_error(ctx, VOLUX_ERR_LIMIT,
+                               "values span [%g, %g], wider than float arithmetic holds (%g); rescale the data", lo,
+                               hi, (double)FLT_MAX);
     } else {
         for (size_t i = 0; i < n; i++) {
             double s = volux_volume_raw_at(v, i);
@@ -248,6 +262,15 @@ static void convert_into(volux_volume *v, const void *src) {
     }
 }
 
+size_t volux_volume_count_nonfinite(const volux_volume *v, size_t *first) {
+    if (v->storage != VOLUX_STORE_F32) return 0;
+    size_t n = (size_t)v->dims[0] * (size_t)v->dims[1] * (size_t)v->dims[2], bad = 0;
+    const float *f = v->data;
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(f[i]) && !bad++ && first) *first = i;
+    return bad;
+}
+
 volux_status volux_volume_create(volux_context *ctx, const volux_volume_desc *desc, volux_volume **out) {
     double spacing[3];
     for (int a = 0; a < 3; a++) spacing[a] = desc->spacing[a] == 0.0 ? 1.0 : desc->spacing[a];
@@ -263,6 +286,16 @@ volux_status volux_volume_create(volux_context *ctx, const volux_volume_desc *de
         if (desc->type == VOLUX_INT8) memset(v->data, 128, n);
         else
             for (size_t i = 0; i < n; i++) ((uint16_t *)v->data)[i] = 32768;
+    }
+    size_t first = 0, bad = volux_volume_count_nonfinite(v, &first);
+    if (bad && !desc->allow_nonfinite) {
+        int d0 = v->dims[0], d1 = v->dims[1];
+        volux_volume_release(v);
+        return volux_error(ctx, VOLUX_ERR_INVALID,
+                           "volume data: %zu non-finite values (NaN/Inf), the first at index %zu = voxel (%zu, %zu, "
+                           "%zu); allow_nonfinite maps them to the lowest value",
+                           bad, first, first % (size_t)d0, first / (size_t)d0 % (size_t)d1,
+                           first / ((size_t)d0 * (size_t)d1));
     }
     st = volux_volume_finalize(v, desc->use_origin ? desc->origin : NULL);
     if (st) {
@@ -349,7 +382,7 @@ volux_status volux_volume_from_memory(volux_context *ctx, const volux_volume_mem
     if (st) return st;
     if (borrow) {
         if (desc->type == VOLUX_FLOAT32) {
-            /* finalize() would overwrite NaN/inf with 0: not in a buffer we borrow. */
+            /* finalize() would overwrite NaN/inf: not in a buffer we borrow. */
             const float *f = desc->data;
             size_t n = (size_t)desc->dims[0] * (size_t)desc->dims[1] * (size_t)desc->dims[2];
             for (size_t i = 0; i < n; i++)
@@ -358,7 +391,7 @@ volux_status volux_volume_from_memory(volux_context *ctx, const volux_volume_mem
                     volux_free(ctx, v, sizeof *v);
                     return volux_error(ctx, VOLUX_ERR_UNSUPPORTED,
                                        "volume from memory: cannot borrow float32 data with a non-finite value "
-                                       "at (%zu, %zu, %zu); copy it (non-finite values become 0)",
+                                       "at (%zu, %zu, %zu); copy it (non-finite values become the lowest value)",
                                        i % nx, i / nx % (size_t)desc->dims[1], i / nxy);
                 }
         }
@@ -373,6 +406,16 @@ volux_status volux_volume_from_memory(volux_context *ctx, const volux_volume_mem
                 for (int i = 0; i < desc->dims[0]; i++, idx++)
                     store_element(v, idx, base + (int64_t)i * strides[0] + (int64_t)j * strides[1] +
                                               (int64_t)k * strides[2]);
+    }
+    /* A copy is ours to repair (finalize maps NaN/Inf to the lowest value);
+     * the caller hears about it. */
+    size_t first = 0, bad = borrow ? 0 : volux_volume_count_nonfinite(v, &first);
+    if (bad) {
+        size_t nx = (size_t)desc->dims[0], nxy = nx * (size_t)desc->dims[1];
+        volux_warn(ctx,
+                   "volume from memory: %zu non-finite values (NaN/Inf), the first at (%zu, %zu, %zu), mapped to "
+                   "the lowest value",
+                   bad, first % nx, first / nx % (size_t)desc->dims[1], first / nxy);
     }
     st = volux_volume_finalize(v, desc->use_origin ? desc->origin : NULL);
     if (st) {

@@ -111,8 +111,14 @@ volux_status volux_volume_create_storage(volux_context *ctx, const int dims[3], 
 /* Storage byte size a volume of this shape/type would need (0 on overflow). */
 size_t volux_volume_storage_bytes(const int dims[3], volux_scalar_type type);
 /* Centres the volume (or sets an explicit origin), computes the value range
- * and the macrocells. Call once after filling storage. */
+ * and the macrocells. Call once after filling storage. Non-finite float
+ * values are replaced by the lowest finite value (callers that must refuse
+ * them count them first: volux_volume_count_nonfinite); a value range wider
+ * than float arithmetic holds (max − min > FLT_MAX) is VOLUX_ERR_LIMIT. */
 volux_status volux_volume_finalize(volux_volume *v, const double *origin /* NULL: centred */);
+/* Number of NaN/±Inf values in float storage (0 for integer storage) and
+ * the index of the first (x fastest). */
+size_t volux_volume_count_nonfinite(const volux_volume *v, size_t *first);
 
 static inline size_t volux_volume_index(const volux_volume *v, int i, int j, int k) {
     return ((size_t)k * (size_t)v->dims[1] + (size_t)j) * (size_t)v->dims[0] + (size_t)i;

@@ -270,6 +270,22 @@ static volux_status decode_chunks(exr_job *job, exr_context_t exr, const layout 
             ch->user_data_type = EXR_PIXEL_FLOAT;
         }
         if (st) break;
+        /* The chunk's bytes must be what its rectangle holds: the library
+         * decodes a short uncompressed chunk into garbage (issue 16). */
+        uint64_t expect = 0;
+        for (int c = 0; c < dec.channel_count; c++)
+            expect += (uint64_t)(dec.channels[c].width > 0 ? dec.channels[c].width : 0) *
+                      (uint64_t)(dec.channels[c].height > 0 ? dec.channels[c].height : 0) *
+                      (uint64_t)dec.channels[c].bytes_per_element;
+        if (ci.unpacked_size != expect ||
+            (ci.compression == EXR_COMPRESSION_NONE && ci.packed_size != ci.unpacked_size)) {
+            st = volux_error(job->ctx, VOLUX_ERR_FORMAT,
+                             "%s: " EXR ": chunk %lld holds %llu bytes, but its %dx%d pixels need %llu%s", job->name,
+                             (long long)i, (unsigned long long)ci.packed_size, ci.width, ci.height,
+                             (unsigned long long)expect,
+                             ci.compression == EXR_COMPRESSION_NONE ? " (uncompressed)" : "");
+            break;
+        }
         rv = exr_decoding_choose_default_routines(exr, 0, &dec);
         if (!rv) rv = exr_decoding_run(exr, 0, &dec);
         if (rv) st = read_error(job, rv, "pixel data");
@@ -335,6 +351,59 @@ static volux_status read_image(exr_job *job, exr_context_t exr, volux_image *out
     return VOLUX_OK;
 }
 
+/* Our own walk over the header attributes before the library parses them
+ * (OpenEXR file layout: name\0 type\0 int32 size, then size bytes; a
+ * header ends with an empty name; multi-part files have one header per
+ * part and an empty header after the last). The library accepts a
+ * negative size (issue 16); here every size must be ≥ 0 and end inside
+ * the file, names at most 255 bytes (31 without the long-names flag). */
+static volux_status check_attributes(volux_context *ctx, const char *name, const unsigned char *d, size_t size) {
+    uint32_t version = (uint32_t)d[4] | (uint32_t)d[5] << 8 | (uint32_t)d[6] << 16 | (uint32_t)d[7] << 24;
+    int multipart = (version & 0x1000) != 0;
+    size_t max_name = (version & 0x400) ? 255 : 31, at = 8;
+    for (int header = 0;; header++) {
+        int attrs = 0;
+        for (;;) {
+            if (at >= size)
+                return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: " EXR ": truncated header (attribute list never ends)",
+                                   name);
+            if (d[at] == 0) {
+                at++;
+                break;
+            }
+            const char *fields[2];
+            size_t lens[2];
+            for (int k = 0; k < 2; k++) {
+                fields[k] = (const char *)d + at;
+                const unsigned char *z = memchr(d + at, 0, size - at);
+                if (!z) return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: " EXR ": truncated attribute name", name);
+                lens[k] = (size_t)(z - (d + at));
+                if (lens[k] == 0 || lens[k] > max_name)
+                    return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: " EXR ": attribute %s of %zu bytes (1..%zu allowed)",
+                                       name, k ? "type name" : "name", lens[k], max_name);
+                at += lens[k] + 1;
+            }
+            if (size - at < 4)
+                return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: " EXR ": attribute '%.*s': truncated size", name,
+                                   (int)lens[0], fields[0]);
+            int32_t n = (int32_t)((uint32_t)d[at] | (uint32_t)d[at + 1] << 8 | (uint32_t)d[at + 2] << 16 |
+                                  (uint32_t)d[at + 3] << 24);
+            at += 4;
+            if (n < 0)
+                return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: " EXR ": attribute '%.*s': negative size %d", name,
+                                   (int)lens[0], fields[0], (int)n);
+            if ((size_t)n > size - at)
+                return volux_error(ctx, VOLUX_ERR_FORMAT,
+                                   "%s: " EXR ": attribute '%.*s': size %d runs past the end of the file", name,
+                                   (int)lens[0], fields[0], (int)n);
+            at += (size_t)n;
+            attrs++;
+        }
+        if (!multipart || attrs == 0) return VOLUX_OK;
+        if (header > 1024) return VOLUX_OK; /* the library's part limits take over */
+    }
+}
+
 volux_status volux_exr_read_memory(volux_context *ctx, const char *name, const void *data, size_t size,
                                    volux_image *out) {
     return volux_exr_read_memory_meta(ctx, name, data, size, out, NULL);
@@ -345,6 +414,8 @@ volux_status volux_exr_read_memory_meta(volux_context *ctx, const char *name, co
     static const unsigned char magic[4] = {0x76, 0x2f, 0x31, 0x01};
     if (size < 8 || memcmp(data, magic, 4) != 0)
         return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: " EXR ": not an OpenEXR file (bad magic number)", name);
+    volux_status checked = check_attributes(ctx, name, data, size);
+    if (checked) return checked;
     exr_job job;
     memset(&job, 0, sizeof job);
     job.ctx = ctx;

@@ -1,5 +1,6 @@
 /* io/header_fields.c — field interpretations shared by the NRRD and
  * MetaImage parsers (see volume_formats.h). */
+#include <math.h>
 #include <string.h>
 
 #include "header_text.h"
@@ -105,4 +106,13 @@ volux_status volux_header_data_file(volux_context *ctx, const char *name, const 
     h->data_file[value.n] = 0;
     h->data_offset = 0;
     return VOLUX_OK;
+}
+
+int volux_header_axes_degenerate(const double a[3], const double b[3], const double c[3]) {
+    double la = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]), lb = sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]),
+           lc = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+    if (!(la > 0.0) || !(lb > 0.0) || !(lc > 0.0) || !isfinite(la * lb * lc)) return 1;
+    double det = a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
+                 a[2] * (b[0] * c[1] - b[1] * c[0]);
+    return !(fabs(det) > 1e-6 * la * lb * lc);
 }

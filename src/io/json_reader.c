@@ -6,6 +6,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "core/context_internal.h"
 #include "json_reader.h"
 
 #define JSON_MAX_BYTES (16u << 20) /* cJSON needs ~30× the text for arrays of numbers */
@@ -63,23 +64,99 @@ static volux_status error_at(volux_json_reader *r, volux_status st, const char *
     return volux_json_error(r, st, NULL, "%s at line %d, column %d", what, line, col);
 }
 
-/* One pass over the text before cJSON sees it. cJSON would stop at a NUL
- * byte and turns "\u0000" into one, silently truncating a key or a file
- * name ("vol.raw\u0000.png" would open vol.raw); and it recurses once per
- * nesting level, so nesting is capped here, far below cJSON's own limit,
- * with a message that says what is wrong. */
+static int hex_digit(char c) {
+    return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f') || (c >= 'A' && c <= 'F');
+}
+
+static unsigned hex4(const char *p) {
+    unsigned v = 0;
+    for (int k = 0; k < 4; k++) {
+        char c = p[k];
+        v = v * 16 + (unsigned)(c <= '9' ? c - '0' : (c | 0x20) - 'a' + 10);
+    }
+    return v;
+}
+
+/* Length of the JSON number at text[i] (RFC 8259 §6:
+ * -?(0|[1-9][0-9]*)(.[0-9]+)?([eE][+-]?[0-9]+)?), 0 if the characters
+ * there (up to the next delimiter) are not one. */
+static size_t number_length(const char *text, size_t n, size_t i) {
+    size_t j = i;
+    if (j < n && text[j] == '-') j++;
+    if (j >= n || text[j] < '0' || text[j] > '9') return 0;
+    if (text[j] == '0') j++;
+    else
+        while (j < n && text[j] >= '0' && text[j] <= '9') j++;
+    if (j < n && text[j] == '.') {
+        size_t d = ++j;
+        while (j < n && text[j] >= '0' && text[j] <= '9') j++;
+        if (j == d) return 0;
+    }
+    if (j < n && (text[j] == 'e' || text[j] == 'E')) {
+        j++;
+        if (j < n && (text[j] == '+' || text[j] == '-')) j++;
+        size_t d = j;
+        while (j < n && text[j] >= '0' && text[j] <= '9') j++;
+        if (j == d) return 0;
+    }
+    /* a number ends at a delimiter: "064" or "1.5.2" or "12abc" are not numbers */
+    if (j < n && !strchr(" \t\r\n,]}:", text[j])) return 0;
+    return j - i;
+}
+
+/* One pass over the text before cJSON sees it, enforcing what RFC 8259
+ * requires and cJSON lets through (issue 16): numbers by the grammar (no
+ * leading zeros "064", no "+1", ".5", "1.", "0x10"), string escapes
+ * from the RFC's set only, \u with four hex digits and UTF-16 surrogates
+ * in pairs, no raw control characters in strings, and UTF-8 that is valid
+ * (RFC 3629: no overlongs, surrogates or values above U+10FFFF). cJSON
+ * would also stop at a NUL byte and turn "\u0000" into one, silently
+ * truncating a key or a file name ("vol.raw\u0000.png" would open
+ * vol.raw); and it recurses once per nesting level, so nesting is capped
+ * here, far below cJSON's own limit, with a message that says what is
+ * wrong. The structure itself (brackets, commas, literals) is cJSON's. */
 static volux_status prescan(volux_json_reader *r, const char *text, size_t n) {
-    int depth = 0, in_string = 0, escaped = 0;
-    for (size_t i = 0; i < n; i++) {
-        char c = text[i];
+    const unsigned char *u = (const unsigned char *)text;
+    int depth = 0, in_string = 0;
+    for (size_t i = 0; i < n;) {
+        unsigned char c = u[i];
         if (c == 0) return error_at(r, VOLUX_ERR_FORMAT, text, i, "NUL byte");
+        if (c >= 0x80) {
+            size_t len = volux_utf8_sequence(u + i, n - i);
+            if (!len) return error_at(r, VOLUX_ERR_FORMAT, text, i, "invalid UTF-8");
+            if (!in_string) return error_at(r, VOLUX_ERR_FORMAT, text, i, "unexpected character outside a string");
+            i += len;
+            continue;
+        }
         if (in_string) {
-            if (escaped) escaped = 0;
-            else if (c == '\\') {
-                escaped = 1;
-                if (n - i > 5 && !memcmp(text + i + 1, "u0000", 5))
-                    return error_at(r, VOLUX_ERR_FORMAT, text, i, "\\u0000 (NUL) in a string");
-            } else if (c == '"') in_string = 0;
+            if (c < 0x20) return error_at(r, VOLUX_ERR_FORMAT, text, i, "control character in a string (escape it)");
+            if (c == '"') in_string = 0;
+            if (c != '\\') {
+                i++;
+                continue;
+            }
+            char e = i + 1 < n ? text[i + 1] : 0;
+            if (e && strchr("\"\\/bfnrt", e)) {
+                i += 2;
+                continue;
+            }
+            if (e != 'u') return error_at(r, VOLUX_ERR_FORMAT, text, i, "invalid escape in a string");
+            if (n - i < 6 || !hex_digit(text[i + 2]) || !hex_digit(text[i + 3]) || !hex_digit(text[i + 4]) ||
+                !hex_digit(text[i + 5]))
+                return error_at(r, VOLUX_ERR_FORMAT, text, i, "\\u needs four hex digits");
+            unsigned cp = hex4(text + i + 2);
+            if (cp == 0) return error_at(r, VOLUX_ERR_FORMAT, text, i, "\\u0000 (NUL) in a string");
+            if (cp >= 0xdc00 && cp <= 0xdfff)
+                return error_at(r, VOLUX_ERR_FORMAT, text, i, "lone UTF-16 low surrogate in a string");
+            if (cp >= 0xd800 && cp <= 0xdbff) {
+                if (n - i < 12 || text[i + 6] != '\\' || text[i + 7] != 'u' || !hex_digit(text[i + 8]) ||
+                    !hex_digit(text[i + 9]) || !hex_digit(text[i + 10]) || !hex_digit(text[i + 11]) ||
+                    hex4(text + i + 8) < 0xdc00 || hex4(text + i + 8) > 0xdfff)
+                    return error_at(r, VOLUX_ERR_FORMAT, text, i, "lone UTF-16 high surrogate in a string");
+                i += 12;
+            } else {
+                i += 6;
+            }
             continue;
         }
         if (c == '"') in_string = 1;
@@ -87,6 +164,13 @@ static volux_status prescan(volux_json_reader *r, const char *text, size_t n) {
             if (++depth > VOLUX_JSON_MAX_DEPTH)
                 return error_at(r, VOLUX_ERR_LIMIT, text, i, "nesting deeper than " STR(VOLUX_JSON_MAX_DEPTH) " levels");
         } else if ((c == ']' || c == '}') && depth > 0) depth--;
+        else if (c == '-' || c == '+' || c == '.' || (c >= '0' && c <= '9')) {
+            size_t len = number_length(text, n, i);
+            if (!len) return error_at(r, VOLUX_ERR_FORMAT, text, i, "invalid number");
+            i += len;
+            continue;
+        }
+        i++;
     }
     return VOLUX_OK;
 }

@@ -33,6 +33,8 @@ enum key {
     K_CHANNELS,
     K_BINARY,
     K_DATA_FILE,
+    K_TRANSFORM,
+    K_COMPRESSED_SIZE,
     K_COUNT
 };
 
@@ -56,6 +58,10 @@ static const struct {
     {"ElementNumberOfChannels", K_CHANNELS},
     {"BinaryData", K_BINARY},
     {"ElementDataFile", K_DATA_FILE},
+    {"TransformMatrix", K_TRANSFORM},
+    {"Rotation", K_TRANSFORM},
+    {"Orientation", K_TRANSFORM},
+    {"CompressedDataSize", K_COMPRESSED_SIZE},
 };
 
 static const struct {
@@ -167,6 +173,23 @@ static volux_status parse_geometry(parser *p, int ndim, const int axes[3], volux
             h->spacing[a] = s;
         }
     }
+    if (p->present[K_TRANSFORM]) {
+        /* The direction cosines (NDims × NDims, row-major). volux renders
+         * axis-aligned, but a matrix that is not finite or is singular
+         * (all zero, two parallel axes) says the header is broken: a
+         * silent identity would hide it. */
+        double m[MAX_AXES * MAX_AXES];
+        volux_status st = volux_header_numbers(p->ctx, p->name, "TransformMatrix", p->value[K_TRANSFORM],
+                                               ndim * ndim, m);
+        if (st) return st;
+        for (int i = 0; i < ndim * ndim; i++)
+            if (!isfinite(m[i]))
+                return volux_error(p->ctx, VOLUX_ERR_FORMAT, "%s: TransformMatrix: entry %d is not finite", p->name, i);
+        if (ndim == 3 && volux_header_axes_degenerate(m, m + 3, m + 6))
+            return volux_error(p->ctx, VOLUX_ERR_FORMAT,
+                               "%s: TransformMatrix: singular (a zero row or parallel axes), not a direction matrix",
+                               p->name);
+    }
     if (p->present[K_OFFSET]) {
         volux_status st = volux_header_numbers(p->ctx, p->name, "Offset", p->value[K_OFFSET], ndim, v);
         if (st) return st;
@@ -231,6 +254,17 @@ volux_status volux_metaimage_parse_header(volux_context *ctx, const char *bytes,
     if (p.present[K_COMPRESSED]) {
         if ((st = parse_bool(&p, K_COMPRESSED, &flag))) return st;
         h.encoding = flag ? VOLUX_ENCODING_ZLIB : VOLUX_ENCODING_RAW;
+    }
+
+    if (p.present[K_COMPRESSED_SIZE]) {
+        int64_t cs;
+        if (!volux_text_to_i64(p.value[K_COMPRESSED_SIZE], &cs) || cs < 1)
+            return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: CompressedDataSize: expected a positive integer, got '%s'",
+                               name, volux_text_quote(p.value[K_COMPRESSED_SIZE], q, sizeof q));
+        if (h.encoding != VOLUX_ENCODING_ZLIB)
+            return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: CompressedDataSize: given, but CompressedData is not True",
+                               name);
+        h.compressed_size = (uint64_t)cs;
     }
 
     volux_text file = p.value[K_DATA_FILE];

@@ -171,7 +171,7 @@ static volux_status scan_lines(parser *p, const char *bytes, size_t n, uint64_t 
         p->value[id] = value;
         volux_text rest = value, first;
         if (id == F_DATA_FILE && volux_text_token(&rest, &first) && volux_text_eq(first, "LIST"))
-            break; /* the remaining lines are file names; reported as unsupported */
+            break; /* the remaining lines are the data files' names */
     }
     if (!*ended && n >= VOLUX_MAX_HEADER_BYTES)
         return volux_error(p->ctx, VOLUX_ERR_LIMIT, "%s: header is longer than the limit of %u bytes", p->name,
@@ -258,6 +258,7 @@ static volux_status parse_spacing(parser *p, int ndim, const int axes[3], volux_
     if (p->present[F_SPACE_DIRECTIONS]) {
         volux_text rest = p->value[F_SPACE_DIRECTIONS], tok;
         int space = -1;
+        double dir[3][MAX_SPACE];
         for (int i = 0; i < ndim; i++) {
             volux_text t = volux_text_trim(rest);
             if (t.n >= 4 && memcmp(t.p, "none", 4) == 0) {
@@ -289,6 +290,7 @@ static volux_status parse_spacing(parser *p, int ndim, const int axes[3], volux_
                         return volux_error(p->ctx, VOLUX_ERR_FORMAT,
                                            "%s: space directions: axis %d has a zero or non-finite vector", p->name, i);
                     h->spacing[a] = len;
+                    memcpy(dir[a], v, sizeof v);
                     /* Superior's component along this grid axis: the
                      * axis' unit direction · +z of the space. */
                     up[a] = n >= 3 ? v[2] / len : 0.0;
@@ -296,6 +298,22 @@ static volux_status parse_spacing(parser *p, int ndim, const int axes[3], volux_
         }
         if (volux_text_token(&rest, &tok))
             return volux_error(p->ctx, VOLUX_ERR_FORMAT, "%s: space directions: more than %d entries", p->name, ndim);
+        /* The three spatial axes must span space: parallel (or coplanar)
+         * directions are a broken header, not a volume (Gram determinant,
+         * relative to the lengths; works for any space dimension). */
+        double g[3][3];
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++) {
+                g[i][j] = 0.0;
+                for (int c = 0; c < space; c++) g[i][j] += dir[i][c] * dir[j][c];
+            }
+        double det = g[0][0] * (g[1][1] * g[2][2] - g[1][2] * g[2][1]) - g[0][1] * (g[1][0] * g[2][2] - g[1][2] * g[2][0]) +
+                     g[0][2] * (g[1][0] * g[2][1] - g[1][1] * g[2][0]);
+        if (!(det > 1e-12 * g[0][0] * g[1][1] * g[2][2]))
+            return volux_error(p->ctx, VOLUX_ERR_FORMAT,
+                               "%s: space directions: the vectors of axes %d, %d, %d are parallel or coplanar "
+                               "(they must span the space)",
+                               p->name, axes[0], axes[1], axes[2]);
     }
     if (anatomical && up[0] * up[0] + up[1] * up[1] + up[2] * up[2] > 1e-12) {
         memcpy(h->superior, up, sizeof up);
@@ -347,6 +365,99 @@ static volux_status parse_skips(parser *p, volux_volume_header *h) {
     return VOLUX_OK;
 }
 
+/* "LIST [subdim]" or "FORMAT MIN MAX STEP [subdim]" (NRRD0004 §data file). */
+static int is_multi_file(volux_text value) {
+    volux_text rest = value, tok;
+    int tokens = 0, numeric = 0;
+    int64_t ignored;
+    while (volux_text_token(&rest, &tok)) {
+        if (tokens == 0 && volux_text_eq(tok, "LIST")) return 1;
+        if (tokens > 0) numeric += volux_text_to_i64(tok, &ignored);
+        tokens++;
+    }
+    return (tokens == 4 || tokens == 5) && numeric == tokens - 1;
+}
+
+/* A printf format with exactly one integer conversion (%d %i %u %x %X
+ * %o with flags and width, no precision/length) and no other '%' but
+ * "%%": what the slice numbers are formatted with. */
+static int valid_number_format(const char *f) {
+    int conversions = 0;
+    for (const char *c = f; *c; c++) {
+        if (*c != '%') continue;
+        if (c[1] == '%') {
+            c++;
+            continue;
+        }
+        c++;
+        while (*c && strchr("-+ 0#", *c)) c++;
+        for (int digits = 0; *c >= '0' && *c <= '9'; c++)
+            if (++digits > 3) return 0;
+        if (!*c || !strchr("diuxXo", *c)) return 0;
+        conversions++;
+    }
+    return conversions == 1;
+}
+
+static volux_status parse_multi_file(parser *p, int ndim, const int64_t *sizes, uint64_t list_offset,
+                                     volux_volume_header *h) {
+    char q[80];
+    volux_text rest = p->value[F_DATA_FILE], tok[5];
+    int n = 0;
+    while (n < 5 && volux_text_token(&rest, &tok[n])) n++;
+    int list = volux_text_eq(tok[0], "LIST");
+    if (volux_text_token(&rest, &tok[0]) || (list && n > 2))
+        return volux_error(p->ctx, VOLUX_ERR_FORMAT, "%s: data file: too many words in '%s'", p->name,
+                           volux_text_quote(p->value[F_DATA_FILE], q, sizeof q));
+    /* subdim: the dimension of each file's data (default: all but the
+     * slowest axis, i.e. one file per slice). */
+    int64_t subdim = ndim - 1;
+    int has_sub = list ? n == 2 : n == 5;
+    if (has_sub && (!volux_text_to_i64(tok[n - 1], &subdim) || subdim < 1 || subdim > ndim))
+        return volux_error(p->ctx, VOLUX_ERR_FORMAT, "%s: data file: subdim must be in [1, %d], got '%s'", p->name,
+                           ndim, volux_text_quote(tok[n - 1], q, sizeof q));
+    int64_t files = 1;
+    for (int a = (int)subdim; a < ndim && files <= VOLUX_MAX_DATA_FILES; a++) files *= sizes[a]; /* ≤ 2^14 · 2^14 */
+    if (files > VOLUX_MAX_DATA_FILES || files < 1)
+        return volux_error(p->ctx, VOLUX_ERR_LIMIT, "%s: data file: %lld files (subdim %lld) is over the limit of %d",
+                           p->name, (long long)files, (long long)subdim, VOLUX_MAX_DATA_FILES);
+    h->file_count = (int)files;
+    h->data_offset = 0;
+    if (list) {
+        h->file_list = 1;
+        h->list_offset = list_offset;
+        return VOLUX_OK;
+    }
+    int64_t lo, hi, step;
+    volux_text_to_i64(tok[1], &lo);
+    volux_text_to_i64(tok[2], &hi);
+    volux_text_to_i64(tok[3], &step);
+    if (step == 0 || (step > 0 ? hi < lo : hi > lo))
+        return volux_error(p->ctx, VOLUX_ERR_FORMAT, "%s: data file: step %lld never goes from %lld to %lld", p->name,
+                           (long long)step, (long long)lo, (long long)hi);
+    /* |hi − lo| fits: both are int64 parsed from text, but their difference
+     * may not; compare in unsigned arithmetic. */
+    uint64_t span = step > 0 ? (uint64_t)hi - (uint64_t)lo : (uint64_t)lo - (uint64_t)hi;
+    uint64_t mag = step > 0 ? (uint64_t)step : 0 - (uint64_t)step;
+    if (span / mag + 1 != (uint64_t)files)
+        return volux_error(p->ctx, VOLUX_ERR_FORMAT,
+                           "%s: data file: %lld..%lld step %lld names %llu files, the sizes need %lld", p->name,
+                           (long long)lo, (long long)hi, (long long)step, (unsigned long long)(span / mag + 1),
+                           (long long)files);
+    if (tok[0].n > VOLUX_MAX_DATA_NAME - 24)
+        return volux_error(p->ctx, VOLUX_ERR_LIMIT, "%s: data file: format of %zu characters is too long", p->name,
+                           tok[0].n);
+    memcpy(h->data_file, tok[0].p, tok[0].n);
+    h->data_file[tok[0].n] = 0;
+    if (!valid_number_format(h->data_file))
+        return volux_error(p->ctx, VOLUX_ERR_FORMAT,
+                           "%s: data file: '%s' must hold exactly one integer conversion such as %%03d", p->name,
+                           volux_text_quote(tok[0], q, sizeof q));
+    h->file_first = lo;
+    h->file_step = step;
+    return VOLUX_OK;
+}
+
 volux_status volux_nrrd_parse_header(volux_context *ctx, const char *bytes, size_t n, const char *name,
                                      volux_volume_header *out) {
     char q[80];
@@ -389,8 +500,12 @@ volux_status volux_nrrd_parse_header(volux_context *ctx, const char *bytes, size
     }
     if ((st = parse_spacing(&p, (int)ndim, axes, &h))) return st;
     if ((st = parse_skips(&p, &h))) return st;
+    /* Teem reads raw data followed by more bytes, with a warning. */
+    h.trailing_ok = h.encoding == VOLUX_ENCODING_RAW;
 
-    if (p.present[F_DATA_FILE]) {
+    if (p.present[F_DATA_FILE] && is_multi_file(p.value[F_DATA_FILE])) {
+        if ((st = parse_multi_file(&p, (int)ndim, sizes, header_end, &h))) return st;
+    } else if (p.present[F_DATA_FILE]) {
         if ((st = volux_header_data_file(ctx, name, "data file", p.value[F_DATA_FILE], &h))) return st;
     } else if (!ended) {
         return volux_error(ctx, VOLUX_ERR_FORMAT,

@@ -183,7 +183,8 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
      * file) would otherwise be silently ignored. */
     static const char *const file_keys[] = {"file",      "files",          "pattern", "range", "dims",
                                             "type",      "endian",         "spacing", "byte_skip",
-                                            "use_file_origin", "allow_outside_dir", "cache_mb", "comment", NULL};
+                                            "use_file_origin", "allow_outside_dir", "allow_nonfinite", "cache_mb",
+                                            "comment", NULL};
     static const char *const proc_keys[] = {"procedural", "dims", "seed", "time", "steps", "time_per_step",
                                             "cache_mb", "comment", NULL};
     volux_status st;
@@ -201,7 +202,7 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
         (st = volux_json_string(r, obj, "volume", "type", &type)) ||
         (st = volux_json_string(r, obj, "volume", "endian", &endian)))
         return st;
-    int dims[3] = {0, 0, 0}, use_file_origin = 0, allow_outside = 0, steps = 1;
+    int dims[3] = {0, 0, 0}, use_file_origin = 0, allow_outside = 0, allow_nonfinite = 0, steps = 1;
     float spacing[3] = {1, 1, 1};
     double seed = 1, byte_skip = 0, time0 = 0, time_per_step = 0.05, cache_mb = 0;
     const cJSON *jd = cJSON_GetObjectItemCaseSensitive(obj, "dims");
@@ -224,6 +225,7 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
         (st = volux_json_number(r, obj, "volume", "byte_skip", 0, 9007199254740992.0, &byte_skip)) ||
         (st = volux_json_bool(r, obj, "volume", "use_file_origin", &use_file_origin)) ||
         (st = volux_json_bool(r, obj, "volume", "allow_outside_dir", &allow_outside)) ||
+        (st = volux_json_bool(r, obj, "volume", "allow_nonfinite", &allow_nonfinite)) ||
         (st = volux_json_number(r, obj, "volume", "time", -1e6, 1e6, &time0)) ||
         (st = volux_json_number(r, obj, "volume", "time_per_step", -1e3, 1e3, &time_per_step)) ||
         (st = volux_json_int(r, obj, "volume", "steps", 1, VOLUX_MAX_STEPS, &steps)) ||
@@ -276,6 +278,7 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
         volux_raw_desc raw;
         opt.use_file_origin = use_file_origin;
         opt.allow_outside_dir = allow_outside;
+        opt.allow_nonfinite = allow_nonfinite;
         opt.region = region;
         if (jd || type) { /* an explicit layout means a raw file */
             memset(&raw, 0, sizeof raw);
@@ -322,7 +325,8 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
             const volux_scene_load_options *o = sr->opt;
             const cJSON *file_item = cJSON_GetObjectItemCaseSensitive(obj, "file");
             if (!st && single && o && o->volume && o->volume_file && !region && cJSON_IsString(file_item) &&
-                !strcmp(file_item->valuestring, o->volume_file) && !opt.raw && !use_file_origin && !allow_outside) {
+                !strcmp(file_item->valuestring, o->volume_file) && !opt.raw && !use_file_origin && !allow_outside &&
+                !allow_nonfinite) {
                 /* The caller already loaded this file the same way (a quick
                  * look at a volume: the default scene names it). */
                 free_frame_list(r->ctx, &frames);
@@ -853,7 +857,7 @@ static volux_status read_render(scene_reader *sr, const cJSON *obj) {
             (st = volux_json_int(r, obj, P, "spp", 1, 1 << 24, &rs.spp)) ||
             (st = volux_json_float(r, obj, P, "step", 1e-3, 64, &rs.step)) ||
             (st = volux_json_number(r, obj, P, "seed", 0, 9007199254740992.0, &seed)) ||
-            (st = volux_json_int(r, obj, P, "max_depth", 1, 100000, &rs.max_depth)) ||
+            (st = volux_json_int(r, obj, P, "max_depth", 0, 100000, &rs.max_depth)) ||
             (st = volux_json_float(r, obj, P, "exposure", -64, 64, &rs.exposure)) ||
             (st = volux_json_int(r, obj, P, "threads", 0, 1024, &rs.threads)) ||
             (st = volux_json_number(r, obj, P, "time_ms", 0, 1e12, &rs.time_ms)) ||

@@ -370,10 +370,8 @@ static volux_status skip_lines(volux_context *ctx, volux_source *src, uint64_t o
 /* Start offset of raw data, after checking that exactly `need` bytes are
  * present from there to the end of the source. */
 static volux_status raw_start(volux_context *ctx, const volux_volume_header *h, volux_source *src, uint64_t begin,
-                              uint64_t need, uint64_t *start) {
+                              uint64_t need, const char *dims, uint64_t *start) {
     const char *name = src->name;
-    char dims[96];
-    snprintf(dims, sizeof dims, "%dx%dx%d %s", h->dims[0], h->dims[1], h->dims[2], volux_scalar_type_name(h->type));
     if (begin > src->size)
         return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: data offset %llu is past the end of the file (%llu bytes)",
                            name, (unsigned long long)begin, (unsigned long long)src->size);
@@ -394,7 +392,11 @@ static volux_status raw_start(volux_context *ctx, const volux_volume_header *h, 
         return volux_error(ctx, VOLUX_ERR_FORMAT,
                            "%s: data is truncated: %s needs %llu bytes, only %llu are present", name, dims,
                            (unsigned long long)need, (unsigned long long)avail);
-    if (avail > need)
+    if (avail > need && h->trailing_ok) {
+        /* Teem reads such a file and warns; so do we. */
+        volux_warn(ctx, "%s: %llu bytes after the %llu bytes of %s data are ignored", name,
+                   (unsigned long long)(avail - need), (unsigned long long)need, dims);
+    } else if (avail > need)
         return volux_error(ctx, VOLUX_ERR_FORMAT,
                            "%s: size mismatch: %s needs %llu bytes, but %llu are present (byte skip -1 reads "
                            "the data at the end of the file)",
@@ -416,94 +418,164 @@ static volux_status discard(stream *s, unsigned char *buf, uint64_t n) {
     return VOLUX_OK;
 }
 
-volux_status volux_volume_read_data(volux_context *ctx, const volux_volume_header *h, volux_source *src,
-                                    int use_file_origin, volux_volume **out) {
+/* NaN/Inf in float data: refused with their count and the first voxel,
+ * or (allowed) replaced by the lowest value with a warning. */
+static volux_status check_nonfinite(volux_context *ctx, const char *name, const volux_volume *v, int allow) {
+    size_t first = 0, bad = volux_volume_count_nonfinite(v, &first);
+    if (!bad) return VOLUX_OK;
+    size_t nx = (size_t)v->dims[0], ny = (size_t)v->dims[1];
+    size_t x = first % nx, y = first / nx % ny, z = first / (nx * ny);
+    if (!allow)
+        return volux_error(ctx, VOLUX_ERR_FORMAT,
+                           "%s: %zu non-finite values (NaN/Inf) in the data, the first at voxel (%zu, %zu, %zu); "
+                           "\"allow_nonfinite\": true maps them to the lowest value",
+                           name, bad, x, y, z);
+    volux_warn(ctx, "%s: %zu non-finite values (NaN/Inf), the first at voxel (%zu, %zu, %zu), mapped to the lowest value",
+               name, bad, x, y, z);
+    return VOLUX_OK;
+}
+
+/* Where part `k` of `parts` starts in its source, checking its size (raw:
+ * exactly `need` bytes; compressed: enough to hold them) before anything
+ * is allocated. */
+static volux_status locate_part(volux_context *ctx, const volux_volume_header *h, volux_source *src, int k, int parts,
+                                uint64_t need, unsigned char *buf, uint64_t *start) {
     const char *name = src->name;
-    volux_status st = volux_volume_header_check(ctx, name, h);
-    if (st) return st;
+    int zlib = h->encoding == VOLUX_ENCODING_ZLIB;
+    char dims[128];
+    if (parts == 1)
+        snprintf(dims, sizeof dims, "%dx%dx%d %s", h->dims[0], h->dims[1], h->dims[2], volux_scalar_type_name(h->type));
+    else
+        snprintf(dims, sizeof dims, "data file %d of %d (1/%d of %dx%dx%d %s)", k + 1, parts, parts, h->dims[0],
+                 h->dims[1], h->dims[2], volux_scalar_type_name(h->type));
+    uint64_t begin = h->data_offset;
+    if (begin > src->size)
+        return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: data offset %llu is past the end of the file (%llu bytes)", name,
+                           (unsigned long long)begin, (unsigned long long)src->size);
+    volux_status st;
+    if (h->line_skip && (st = skip_lines(ctx, src, begin, h->line_skip, buf, &begin))) return st;
+    if (!zlib) return raw_start(ctx, h, src, begin, need, dims, start);
+    if (begin >= src->size)
+        return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: compressed data is missing (file ends at byte %llu)", name,
+                           (unsigned long long)src->size);
+    if (h->compressed_size && h->compressed_size > src->size - begin)
+        return volux_error(ctx, VOLUX_ERR_FORMAT,
+                           "%s: CompressedDataSize: %llu bytes declared, but only %llu follow the header", name,
+                           (unsigned long long)h->compressed_size, (unsigned long long)(src->size - begin));
+    /* Deflate expands at most 1032:1 (zlib's technical notes), so a short
+     * stream cannot hold a big volume: refuse before allocating what the
+     * header claims rather than after inflating. The slack covers stored
+     * blocks and member headers of tiny streams. */
+    uint64_t packed = src->size - begin, decoded = need + (uint64_t)(h->byte_skip > 0 ? h->byte_skip : 0);
+    if (packed < (UINT64_MAX - 4096) / 1032 && decoded > packed * 1032 + 4096)
+        return volux_error(ctx, VOLUX_ERR_FORMAT,
+                           "%s: data is truncated: %llu bytes of compressed data cannot hold the %llu bytes of %s",
+                           name, (unsigned long long)packed, (unsigned long long)need, dims);
+    *start = begin;
+    return VOLUX_OK;
+}
+
+/* Decodes part `k` (voxels [first, first + count)) from src into v. */
+static volux_status read_part(volux_context *ctx, const volux_volume_header *h, volux_source *src, uint64_t begin,
+                              volux_volume *v, size_t first, size_t count, size_t total, unsigned char *buf) {
+    const char *name = src->name;
     size_t esize = volux_scalar_type_size(h->type);
-    size_t count = (size_t)h->dims[0] * (size_t)h->dims[1] * (size_t)h->dims[2]; /* checked above */
     uint64_t need = (uint64_t)count * esize;
     int zlib = h->encoding == VOLUX_ENCODING_ZLIB;
-
-    unsigned char *buf = volux_malloc(ctx, CHUNK);
-    if (!buf) return volux_error(ctx, VOLUX_ERR_NOMEM, "%s: out of memory for a read buffer", name);
-    volux_volume *v = NULL;
     stream s;
     memset(&s, 0, sizeof s);
-
-    /* Locate the data and, for raw data, check its size before allocating. */
-    uint64_t begin = h->data_offset;
-    if (begin > src->size) {
-        st = volux_error(ctx, VOLUX_ERR_FORMAT, "%s: data offset %llu is past the end of the file (%llu bytes)", name,
-                         (unsigned long long)begin, (unsigned long long)src->size);
-        goto fail;
-    }
-    if (h->line_skip && (st = skip_lines(ctx, src, begin, h->line_skip, buf, &begin))) goto fail;
-    if (!zlib && (st = raw_start(ctx, h, src, begin, need, &begin))) goto fail;
-    if (zlib && begin >= src->size) {
-        st = volux_error(ctx, VOLUX_ERR_FORMAT, "%s: compressed data is missing (file ends at byte %llu)", name,
-                         (unsigned long long)src->size);
-        goto fail;
-    }
-    if (zlib) {
-        /* Deflate expands at most 1032:1 (zlib's technical notes), so a
-         * short stream cannot hold a big volume: refuse before allocating
-         * what the header claims rather than after inflating. The slack
-         * covers stored blocks and member headers of tiny streams. */
-        uint64_t packed = src->size - begin, decoded = need + (uint64_t)(h->byte_skip > 0 ? h->byte_skip : 0);
-        if (packed < (UINT64_MAX - 4096) / 1032 && decoded > packed * 1032 + 4096) {
-            st = volux_error(ctx, VOLUX_ERR_FORMAT,
-                             "%s: data is truncated: %llu bytes of compressed data cannot hold the %llu bytes of "
-                             "%dx%dx%d %s",
-                             name, (unsigned long long)packed, (unsigned long long)need, h->dims[0], h->dims[1],
-                             h->dims[2], volux_scalar_type_name(h->type));
-            goto fail;
-        }
-    }
-
-    st = volux_volume_create_storage(ctx, h->dims, h->spacing, stored_type(h), &v);
-    if (st) {
-        volux_error_prefix(ctx, "%s: ", name);
-        goto fail;
-    }
-    if ((st = stream_open(ctx, src, begin, zlib, &s))) goto fail;
-    if (zlib && h->byte_skip > 0 && (st = discard(&s, buf, (uint64_t)h->byte_skip))) goto fail;
-
+    volux_status st = stream_open(ctx, src, begin, zlib, &s);
+    if (st) return st;
+    if (zlib && h->byte_skip > 0 && (st = discard(&s, buf, (uint64_t)h->byte_skip))) goto done;
     int swap = esize > 1 && (h->big_endian != host_big_endian());
     size_t per_chunk = CHUNK / esize, done = 0;
     while (done < count) {
         size_t n = count - done < per_chunk ? count - done : per_chunk, got;
-        if ((st = stream_read(&s, buf, n * esize, &got))) goto fail;
+        if ((st = stream_read(&s, buf, n * esize, &got))) goto done;
         if (got < n * esize) {
             st = volux_error(ctx, VOLUX_ERR_FORMAT, "%s: data is truncated: got %llu of the %llu bytes needed", name,
                              (unsigned long long)(done * esize + got), (unsigned long long)need);
-            goto fail;
+            goto done;
         }
         if (swap) swap_bytes(buf, n, esize);
-        convert_chunk(h, v, done, buf, n);
+        convert_chunk(h, v, first + done, buf, n);
         done += n;
-        if (volux_progress(ctx, "load volume", (double)done / (double)count)) {
+        if (volux_progress(ctx, "load volume", (double)(first + done) / (double)total)) {
             st = volux_error(ctx, VOLUX_ERR_CANCELLED, "%s: loading cancelled", name);
-            goto fail;
+            goto done;
         }
     }
     if (zlib) {
         /* The header's size must be the whole stream: one more byte means
          * the header and the data disagree. */
         size_t got;
-        if ((st = stream_read(&s, buf, 1, &got))) goto fail;
-        if (got) {
+        if ((st = stream_read(&s, buf, 1, &got))) goto done;
+        if (got)
             st = volux_error(ctx, VOLUX_ERR_FORMAT,
-                             "%s: size mismatch: data decompresses to more than the %llu bytes of %dx%dx%d %s", name,
-                             (unsigned long long)need, h->dims[0], h->dims[1], h->dims[2],
-                             volux_scalar_type_name(h->type));
-            goto fail;
-        }
+                             "%s: size mismatch: data decompresses to more than the %llu bytes expected", name,
+                             (unsigned long long)need);
     }
+done:
     stream_close(&s);
+    return st;
+}
+
+volux_status volux_volume_read_parts(volux_context *ctx, const volux_volume_header *h, int parts,
+                                     const volux_part_source *ps, const volux_volume_load_options *options,
+                                     volux_volume **out) {
+    int use_file_origin = options && options->use_file_origin;
+    const char *name = ps->name;
+    if (options && options->region && parts > 1)
+        return volux_error(ctx, VOLUX_ERR_UNSUPPORTED, "%s: region: one brick of data split over %d files", name,
+                           parts);
+    volux_status st = volux_volume_header_check(ctx, name, h);
+    if (st) return st;
+    size_t esize = volux_scalar_type_size(h->type);
+    size_t count = (size_t)h->dims[0] * (size_t)h->dims[1] * (size_t)h->dims[2]; /* checked above */
+    if (parts < 1 || count % (size_t)parts)
+        return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: %d data files do not split %zu values evenly", name, parts, count);
+    size_t per = count / (size_t)parts;
+    uint64_t need = (uint64_t)per * esize;
+
+    unsigned char *buf = volux_malloc(ctx, CHUNK);
+    uint64_t *begin = volux_malloc(ctx, sizeof *begin * (size_t)parts);
+    volux_volume *v = NULL;
+    volux_source src;
+    int open = 0;
+    if (!buf || !begin) {
+        st = volux_error(ctx, VOLUX_ERR_NOMEM, "%s: out of memory for a read buffer", name);
+        goto fail;
+    }
+    /* Every part's size is checked before the volume is allocated; one
+     * file is open at a time (a stack may have thousands). */
+    for (int k = 0; k < parts; k++) {
+        if ((st = ps->open(ps->user, k, &src))) goto fail;
+        open = 1;
+        st = locate_part(ctx, h, &src, k, parts, need, buf, &begin[k]);
+        ps->close(ps->user, &src);
+        open = 0;
+        if (st && parts > 1) volux_error_prefix(ctx, "%s: data file %d of %d: ", name, k + 1, parts);
+        if (st) goto fail;
+    }
+    st = volux_volume_create_storage(ctx, h->dims, h->spacing, stored_type(h), &v);
+    if (st) {
+        volux_error_prefix(ctx, "%s: ", name);
+        goto fail;
+    }
+    for (int k = 0; k < parts; k++) {
+        if ((st = ps->open(ps->user, k, &src))) goto fail;
+        open = 1;
+        st = read_part(ctx, h, &src, begin[k], v, (size_t)k * per, per, count, buf);
+        ps->close(ps->user, &src);
+        open = 0;
+        if (st && parts > 1) volux_error_prefix(ctx, "%s: data file %d of %d: ", name, k + 1, parts);
+        if (st) goto fail;
+    }
     volux_free(ctx, buf, CHUNK);
+    volux_free(ctx, begin, sizeof *begin * (size_t)parts);
     buf = NULL;
+    begin = NULL;
+    if ((st = check_nonfinite(ctx, name, v, options && options->allow_nonfinite))) goto fail;
     st = volux_volume_finalize(v, use_file_origin && h->has_origin ? h->origin : NULL);
     if (st) {
         volux_error_prefix(ctx, "%s: ", name);
@@ -514,10 +586,32 @@ volux_status volux_volume_read_data(volux_context *ctx, const volux_volume_heade
     return VOLUX_OK;
 
 fail:
-    stream_close(&s);
-    if (buf) volux_free(ctx, buf, CHUNK);
+    if (open) ps->close(ps->user, &src);
+    volux_free(ctx, buf, CHUNK);
+    volux_free(ctx, begin, sizeof *begin * (size_t)parts);
     volux_volume_release(v);
     return st;
+}
+
+static volux_status read_region(volux_context *ctx, const volux_volume_header *h, volux_source *src,
+                                const volux_volume_load_options *options, volux_volume **out);
+
+/* The caller's one source, neither reopened nor closed. */
+static volux_status single_open(void *user, int k, volux_source *out) {
+    (void)k;
+    *out = *(volux_source *)user;
+    return VOLUX_OK;
+}
+static void single_close(void *user, volux_source *s) {
+    (void)user;
+    (void)s;
+}
+
+volux_status volux_volume_read_data(volux_context *ctx, const volux_volume_header *h, volux_source *src,
+                                    const volux_volume_load_options *options, volux_volume **out) {
+    if (options && options->region) return read_region(ctx, h, src, options, out);
+    volux_part_source ps = {single_open, single_close, src, src->name};
+    return volux_volume_read_parts(ctx, h, 1, &ps, options, out);
 }
 
 /* ------------------------------------------------------------------ */
@@ -550,9 +644,10 @@ static volux_status read_rows(const volux_volume_header *h, stream *s, unsigned 
     return VOLUX_OK;
 }
 
-volux_status volux_volume_read_region(volux_context *ctx, const volux_volume_header *h, volux_source *src,
-                                      int use_file_origin, const volux_volume_region *region, volux_volume **out) {
-    if (!region) return volux_volume_read_data(ctx, h, src, use_file_origin, out);
+static volux_status read_region(volux_context *ctx, const volux_volume_header *h, volux_source *src,
+                                const volux_volume_load_options *options, volux_volume **out) {
+    const volux_volume_region *region = options->region;
+    int use_file_origin = options->use_file_origin;
     const char *name = src->name;
     uint64_t cap = ctx->max_bytes; /* the whole may be count × the cap */
     if (region->count > 1)
@@ -574,20 +669,9 @@ volux_status volux_volume_read_region(volux_context *ctx, const volux_volume_hea
     volux_volume *v = NULL;
     stream s;
     memset(&s, 0, sizeof s);
-    uint64_t begin = h->data_offset;
-    if (begin > src->size) {
-        st = volux_error(ctx, VOLUX_ERR_FORMAT, "%s: data offset %llu is past the end of the file (%llu bytes)", name,
-                         (unsigned long long)begin, (unsigned long long)src->size);
-        goto fail;
-    }
-    if (h->line_skip && (st = skip_lines(ctx, src, begin, h->line_skip, buf, &begin))) goto fail;
-    /* raw: the whole file's size is checked, as for a whole load */
-    if (!zlib && (st = raw_start(ctx, h, src, begin, need, &begin))) goto fail;
-    if (zlib && begin >= src->size) {
-        st = volux_error(ctx, VOLUX_ERR_FORMAT, "%s: compressed data is missing (file ends at byte %llu)", name,
-                         (unsigned long long)src->size);
-        goto fail;
-    }
+    uint64_t begin;
+    /* the whole file's size is checked, as for a whole load */
+    if ((st = locate_part(ctx, h, src, 0, 1, need, buf, &begin))) goto fail;
     /* Only the brick's storage is allocated (and checked against the cap). */
     st = volux_volume_create_storage(ctx, sub, h->spacing, stored_type(h), &v);
     if (st) {
@@ -637,6 +721,7 @@ volux_status volux_volume_read_region(volux_context *ctx, const volux_volume_hea
     stream_close(&s);
     volux_free(ctx, buf, CHUNK);
     buf = NULL;
+    if ((st = check_nonfinite(ctx, name, v, options->allow_nonfinite))) goto fail;
     double whole_origin[3], part_origin[3];
     volux_brick_origin(h->dims, h->spacing, use_file_origin && h->has_origin ? h->origin : NULL, lo, whole_origin,
                        part_origin);

@@ -36,6 +36,9 @@
 #define VOLUX_MAX_HEADER_BYTES (1u << 20)
 /* Longest detached data file name; Teem 1.12 aborts on long ones (§5). */
 #define VOLUX_MAX_DATA_NAME 1024
+/* Most data files one volume may be split into (one per slice of the
+ * largest axis). */
+#define VOLUX_MAX_DATA_FILES VOLUX_MAX_DIM
 
 typedef enum volux_encoding {
     VOLUX_ENCODING_RAW,
@@ -66,6 +69,21 @@ typedef struct volux_volume_header {
     int64_t byte_skip;    /* ...bytes skipped: raw: file bytes, -1 = the
                              data ends at the end of the file; zlib: bytes
                              of the decoded stream                          */
+    int trailing_ok;      /* raw data may be followed by more bytes (NRRD,
+                             as Teem: ignored with a warning)               */
+    /* Data split over several files (NRRD "data file: FMT MIN MAX STEP" or
+     * "data file: LIST"): file_count > 0 files, each holding an equal,
+     * consecutive share of the values (x fastest). Pattern form: data_file
+     * is a printf format with one integer conversion, file i's number is
+     * file_first + i·file_step. LIST form (file_list): the names are the
+     * lines of the header file from byte list_offset on. Skips apply to
+     * every file. */
+    int file_count;
+    int file_list;
+    int64_t file_first, file_step;
+    uint64_t list_offset;
+    uint64_t compressed_size; /* bytes of compressed data the header declares
+                                 (MetaImage CompressedDataSize); 0 = not given */
 } volux_volume_header;
 
 /* Sets the defaults every parser starts from: spacing 1, little endian,
@@ -90,6 +108,11 @@ struct volux_text;
 volux_status volux_header_sizes(volux_context *ctx, const char *name, const char *field, struct volux_text value,
                                 int count, int64_t *sizes);
 /* Parses exactly `count` numbers (nan/inf allowed: callers judge). */
+/* 1 if three axis vectors do not span 3-D space: one is zero (or not
+ * finite) or they are (nearly) coplanar — |det| ≤ 1e-6·|a|·|b|·|c|, i.e.
+ * the parallelepiped they span is flatter than about 1e-4 degrees. */
+int volux_header_axes_degenerate(const double a[3], const double b[3], const double c[3]);
+
 volux_status volux_header_numbers(volux_context *ctx, const char *name, const char *field, struct volux_text value,
                                   int count, double *out);
 /* Chooses the three spatial axes of an ndim-axis array: ndim 3, or 4 with
@@ -122,10 +145,13 @@ volux_status volux_nrrd_parse_header(volux_context *ctx, const char *bytes, size
 volux_status volux_metaimage_parse_header(volux_context *ctx, const char *bytes, size_t n, const char *name,
                                           volux_volume_header *out);
 
-/* NIfTI-1: the 348-byte header (either byte order). `name` decides nothing
- * but the messages, except for a "ni1" header (a .hdr/.img pair), whose
- * data_file is the basename of `name` with .hdr replaced by .img. */
+/* NIfTI-1 (the 348-byte header) or NIfTI-2 (540 bytes), either byte
+ * order; n is what the file holds (a NIfTI-1 file may be shorter than 540).
+ * `name` decides nothing but the messages, except for a "ni1"/"ni2" header
+ * (a .hdr/.img pair), whose data_file is the basename of `name` with .hdr
+ * replaced by .img. */
 #define VOLUX_NIFTI_HEADER_BYTES 348
+#define VOLUX_NIFTI2_HEADER_BYTES 540
 volux_status volux_nifti_parse_header(volux_context *ctx, const unsigned char *bytes, size_t n,
                                       const char *name, volux_volume_header *out);
 
@@ -161,16 +187,31 @@ volux_status volux_source_inflate_prefix(volux_context *ctx, volux_source *s, ui
                                          size_t n, size_t *got);
 
 /* Reads the data a checked header describes from `src`, fills a new volume
- * and finalizes it (origin from the header when use_file_origin and the
- * header has one, else centred). Rejects data shorter or longer than
- * dims × type size with VOLUX_ERR_FORMAT. Caller releases *out. */
+ * and finalizes it (origin from the header when options->use_file_origin
+ * and the header has one, else centred). Rejects data shorter or longer
+ * than dims × type size with VOLUX_ERR_FORMAT (longer raw data with
+ * h->trailing_ok: a warning), and NaN/Inf values unless
+ * options->allow_nonfinite (then a warning). options may be NULL. Caller
+ * releases *out. */
+/* The same for a volume split over `parts` sources (each holds 1/parts of
+ * the values, in order), all sizes checked before allocating. The parts
+ * are opened one at a time through ps (twice: sizes, then data); `name`
+ * (the header) prefixes messages. */
+typedef struct volux_part_source {
+    volux_status (*open)(void *user, int k, volux_source *out);
+    void (*close)(void *user, volux_source *s);
+    void *user;
+    const char *name;
+} volux_part_source;
+volux_status volux_volume_read_parts(volux_context *ctx, const volux_volume_header *h, int parts,
+                                     const volux_part_source *ps, const volux_volume_load_options *options,
+                                     volux_volume **out);
 volux_status volux_volume_read_data(volux_context *ctx, const volux_volume_header *h, volux_source *src,
-                                    int use_file_origin, volux_volume **out);
+                                    const volux_volume_load_options *options, volux_volume **out);
 
-/* volux_volume_read_data for one brick (region non-NULL; NULL: the whole
- * volume). Only the brick's storage is allocated. */
-volux_status volux_volume_read_region(volux_context *ctx, const volux_volume_header *h, volux_source *src,
-                                      int use_file_origin, const volux_volume_region *region, volux_volume **out);
+/* volux_volume_read_data reads only one brick when options->region is set
+ * (only the brick's storage is allocated; not for data split over
+ * several files: VOLUX_ERR_UNSUPPORTED). */
 /* The stored node box [lo, hi) of a region of a grid, or
  * VOLUX_ERR_INVALID naming `name`. */
 volux_status volux_region_box(volux_context *ctx, const char *name, const int dims[3],

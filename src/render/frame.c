@@ -135,7 +135,13 @@ typedef struct wave_job {
     int *progress_busy;
     int *cancelled;
     double progress_base, progress_span;
+    volux_deadline *deadline; /* NULL: no time budget                      */
+    int *truncated;           /* set when a tile's first sample was cut short */
 } wave_job;
+
+int volux_tile_expired(const volux_tile *t) { return volux_deadline_expired(t->deadline); }
+
+static int deadline_expired(const volux_deadline *d) { return d && __atomic_load_n(&d->expired, __ATOMIC_RELAXED); }
 
 static void render_one_tile(void *user, int64_t slot, int thread) {
     (void)thread;
@@ -143,18 +149,33 @@ static void render_one_tile(void *user, int64_t slot, int thread) {
     if (__atomic_load_n(job->cancelled, __ATOMIC_RELAXED)) return;
     volux_framebuffer *fb = job->fb;
     int64_t index = job->tile_first + slot;
-    /* Already has this sample (from a wave that was cancelled half-way). */
+    /* Already has this sample (from a wave that was cancelled or cut short
+     * half-way). */
     if (fb->tile_spp[index] > job->sample_index) return;
+    /* After the time budget ran out only tiles without any sample are
+     * still rendered (their paths end at once: the image then covers the
+     * whole frame, darker where the budget ran out). */
+    if (fb->tile_spp[index] > 0 && deadline_expired(job->deadline)) return;
     volux_tile tile;
     tile.x0 = (int)(index % job->tiles_x) * VOLUX_TILE_SIZE;
     tile.y0 = (int)(index / job->tiles_x) * VOLUX_TILE_SIZE;
     tile.w = fb->width - tile.x0 < VOLUX_TILE_SIZE ? fb->width - tile.x0 : VOLUX_TILE_SIZE;
     tile.h = fb->height - tile.y0 < VOLUX_TILE_SIZE ? fb->height - tile.y0 : VOLUX_TILE_SIZE;
     tile.sample_index = job->sample_index;
+    tile.deadline = job->deadline;
     float rgb[VOLUX_TILE_SIZE * VOLUX_TILE_SIZE * 3];
     memset(rgb, 0, sizeof rgb);
     volux_tile_stats *stats = &job->stats[slot];
     job->cls->render_tile(job->state, job->scene, &tile, rgb, stats);
+    /* A pass is accumulated only when it finished: paths see the deadline
+     * (volux_tile_expired, which sets the flag) and end early, so once it
+     * has expired this tile's pass may be cut short and biased dark. It is
+     * dropped — the tile keeps its count and sums, consistent — unless it
+     * is the tile's first sample, kept (and reported) so there is an image. */
+    if (deadline_expired(job->deadline)) {
+        if (fb->tile_spp[index] > 0) return;
+        __atomic_store_n(job->truncated, 1, __ATOMIC_RELAXED);
+    }
     for (int y = 0; y < tile.h; y++)
         for (int x = 0; x < tile.w; x++) {
             size_t p = (size_t)(tile.y0 + y) * (size_t)fb->width + (size_t)(tile.x0 + x);
@@ -214,11 +235,13 @@ static volux_status render_waves(volux_technique *t, const volux_scene *scene, v
     volux_tile_stats *stats = volux_calloc(ctx, (size_t)tile_count, sizeof *stats);
     if (!stats) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for tile statistics");
     int threads = rs->threads > 0 ? rs->threads : volux_context_threads(ctx);
-    int done = 0, busy = 0, cancelled = 0;
-    wave_job job = {cls,   volux_technique_state(t), scene, fb,         ctx, tiles_x, tile_first, tile_count, 0,
-                    stats, &done,                    &busy, &cancelled, 0.0, 1.0};
-    volux_status st = VOLUX_OK;
+    int done = 0, busy = 0, cancelled = 0, truncated = 0;
     double start = now_ms(), cpu_start = clock_ms(CLOCK_PROCESS_CPUTIME_ID);
+    volux_deadline deadline = {start + lim.time_ms, 0};
+    wave_job job = {cls,   volux_technique_state(t), scene,      fb,  ctx, tiles_x, tile_first, tile_count, 0,
+                    stats, &done,                    &busy,      &cancelled, 0.0, 1.0,
+                    lim.time_ms > 0.0 ? &deadline : NULL,        &truncated};
+    volux_status st = VOLUX_OK;
     uint32_t start_spp = fb->spp;
     uint64_t samples = 0, vertices = 0;
     while (fb->spp < lim.spp) {
@@ -237,6 +260,13 @@ static volux_status render_waves(volux_technique *t, const volux_scene *scene, v
             samples += stats[i].samples;
             vertices += stats[i].vertices;
         }
+        /* The wave is complete when every tile has its sample; a wave the
+         * budget cut short leaves some tiles a sample ahead (as a cancel
+         * does) and ends the render. */
+        int complete = 1;
+        for (int i = tile_first; i < tile_first + tile_count; i++)
+            if (fb->tile_spp[i] <= job.sample_index) complete = 0;
+        if (!complete) break;
         fb->spp++;
         if (lim.time_ms > 0.0 && now_ms() - start >= lim.time_ms) break;
         if (lim.target_error > 0.0 && fb->spp >= VOLUX_REL_ERROR_MIN_SPP) {
@@ -251,8 +281,14 @@ static volux_status render_waves(volux_technique *t, const volux_scene *scene, v
         }
     }
     volux_progress(ctx, "render", 1.0);
+    if (truncated)
+        volux_warn(ctx,
+                   "render: the time budget of %g ms ran out inside the first sample; its paths were cut short "
+                   "(the image is darker than it should be)",
+                   lim.time_ms);
     volux_free(ctx, stats, (size_t)tile_count * sizeof *stats);
     if (report) {
+        report->truncated = truncated;
         report->spp = fb->spp;
         report->ms = now_ms() - start;
         report->cpu_ms = clock_ms(CLOCK_PROCESS_CPUTIME_ID) - cpu_start;

@@ -16,11 +16,24 @@
 
 #include "volux/technique.h"
 
+/* The time budget of a render (render.time_ms), shared by every tile of
+ * a wave: core/deadline.h. */
+#include "core/deadline.h"
+
 /* A rectangle of pixels for one sample index. */
 typedef struct volux_tile {
     int x0, y0, w, h;        /* pixel rectangle                             */
     uint32_t sample_index;   /* which sample of the pixel (0, 1, ...)       */
+    volux_deadline *deadline; /* NULL: no time budget                       */
 } volux_tile;
+
+/* 1 once the render's time budget is spent. A technique whose per-pixel
+ * work has no fixed bound (path tracing: long paths in dense, bright
+ * media) asks every few thousand volume samples and then ends its paths at
+ * once; the frame loop drops such a wave (or, for the first wave, keeps it
+ * and reports it as cut short: volux_render_report.truncated). The clock
+ * is read on each call until it has expired, so do not call it per sample. */
+int volux_tile_expired(const volux_tile *t);
 
 /* Per-tile statistics a technique may report (for benchmarks). */
 typedef struct volux_tile_stats {

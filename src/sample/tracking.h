@@ -15,6 +15,16 @@
  *   majorants for transmittance, with Russian roulette once the running
  *   weight falls below VOLUX_RATIO_RR (unbiased).
  *
+ * Both always advance or end, on media of any density: an interval that
+ * needs more than 2^16 expected steps, or a step that cannot move t while
+ * the mean step is below an ulp of t, is finished by regular tracking
+ * (sample/regular_tracking.h).
+ * Both honour the render's time budget: every VOLUX_TRACK_CLOCK_EVERY + 1
+ * volume lookups the tracker asks its deadline (core/deadline.h), and once it has
+ * expired `stopped` is set, the trackers return at once (no collision,
+ * transmittance 0) and the caller ends its path. Neither changes a single
+ * random number for ordinary media, so images stay bit-identical.
+ *
  * A tracker carries one path's counter-based random stream (core/rng.h)
  * and counts volume lookups; it lives on the caller's stack. The medium
  * may use one global majorant instead of the grid (a benchmark baseline).
@@ -29,11 +39,16 @@
 #include "core/rng.h"
 #include "core/vecmath.h"
 #include "medium.h"
+#include "regular_tracking.h"
+#include "core/deadline.h"
 
 /* Ratio tracking: below this running weight, Russian roulette with survival
  * probability T/VOLUX_RATIO_RR, and T = VOLUX_RATIO_RR on survival (E[T]
  * kept). */
 #define VOLUX_RATIO_RR 0.1f
+
+/* Volume lookups between two looks at the render's clock (a mask). */
+#define VOLUX_TRACK_CLOCK_EVERY 0x3fffu
 
 /* What a tracker samples: σt (and colour) from volume + LUT, majorants
  * from the grid (or one global majorant). */
@@ -43,12 +58,16 @@ typedef struct volux_medium {
     const volux_majorant_grid *grid;
     int pre;             /* classification: 0 post (DESIGN), 1 pre      */
     int global_majorant; /* 1: one majorant for the whole box          */
+    float min_spacing;   /* smallest voxel spacing (world units): the
+                            scale of regular tracking's sub-steps      */
 } volux_medium;
 
 typedef struct volux_tracker {
     const volux_medium *m;
     volux_rng rng;
-    uint64_t samples; /* volume lookups */
+    uint64_t samples;        /* volume lookups */
+    volux_deadline *deadline; /* the render's (NULL: no time budget)     */
+    int stopped;             /* the time budget ran out: end the path    */
 } volux_tracker;
 
 static inline float volux_tracker_rnd(volux_tracker *p) { return volux_rng_float(&p->rng); }
@@ -92,22 +111,52 @@ static inline int volux_track_iter_next(volux_track_iter *i, volux_interval *iv)
 /* σt at ray parameter t (and the colour into rgb when non-NULL). */
 static inline float volux_tracker_sigma(volux_tracker *p, const volux_ray *r, float t, float *rgb) {
     const volux_medium *m = p->m;
-    p->samples++;
+    /* Long paths honour the render's time budget (--time-ms). */
+    if ((++p->samples & VOLUX_TRACK_CLOCK_EVERY) == 0 && volux_deadline_expired(p->deadline)) p->stopped = 1;
     return volux_medium_eval(m->volume, m->lut, m->pre, v3_madd(r->q0, r->dq, t), rgb);
 }
 
+/* Regular tracking over [t, t1] (sample/regular_tracking.h), for intervals
+ * where delta tracking would take too many steps or cannot advance t: the
+ * first collision with optical depth −ln(1 − u). */
+static inline int volux_delta_track_regular(volux_tracker *p, const volux_ray *r, float t, float t1, float *t_hit) {
+    volux_track_steps steps;
+    volux_track_steps_init(&steps, t, t1, p->m->min_spacing);
+    float target = -logf(1.0f - volux_tracker_rnd(p)), a, b, mid;
+    while (volux_track_steps_next(&steps, &a, &b, &mid) && !p->stopped) {
+        float sigma = volux_tracker_sigma(p, r, mid, NULL), tau = sigma * (b - a);
+        if (tau >= target) {
+            *t_hit = volux_track_hit(a, b, sigma, target);
+            return 1;
+        }
+        target -= tau;
+    }
+    return 0;
+}
+
 /* Delta tracking over [ta, tb] of the clipped ray r: returns 1 and the
- * distance of the first real collision, or 0 if the ray gets through. */
+ * distance of the first real collision, or 0 if the ray gets through (or
+ * the time budget ended the path: p->stopped). Every loop advances t or
+ * ends: see sample/regular_tracking.h. */
 static inline int volux_delta_track(volux_tracker *p, const volux_ray *r, float ta, float tb, float *t_hit) {
     volux_track_iter it;
     volux_interval iv;
     volux_track_iter_init(&it, p->m, r, ta, tb);
-    while (volux_track_iter_next(&it, &iv)) {
+    while (volux_track_iter_next(&it, &iv) && !p->stopped) {
         if (!(iv.sigma_max > 0.0f)) continue; /* empty space: no collisions */
+        if (volux_track_needs_regular(iv.sigma_max, iv.t0, iv.t1)) {
+            if (volux_delta_track_regular(p, r, iv.t0, iv.t1, t_hit)) return 1;
+            continue;
+        }
         float inv = 1.0f / iv.sigma_max, t = iv.t0;
-        for (;;) {
-            t += volux_exp_step(p, inv);
-            if (t >= iv.t1) break; /* memoryless: restart at the next interval */
+        while (!p->stopped) {
+            float tn = t + volux_exp_step(p, inv);
+            if (tn >= iv.t1) break; /* memoryless: restart at the next interval */
+            if (!(tn > t) && volux_track_stalled(t, inv)) { /* steps below half an ulp of t */
+                if (volux_delta_track_regular(p, r, t, iv.t1, t_hit)) return 1;
+                break;
+            }
+            t = tn;
             float sigma = volux_tracker_sigma(p, r, t, NULL);
             if (volux_tracker_rnd(p) * iv.sigma_max < sigma) {
                 *t_hit = t;
@@ -118,8 +167,26 @@ static inline int volux_delta_track(volux_tracker *p, const volux_ray *r, float 
     return 0;
 }
 
+/* Ratio tracking's regular-tracking fallback over [t, t1]: multiplies *T by
+ * the closed-form transmittance of each sub-step; 0 when the path's weight
+ * was rouletted away. */
+static inline int volux_ratio_track_regular(volux_tracker *p, const volux_ray *r, float t, float t1, float *T) {
+    volux_track_steps steps;
+    volux_track_steps_init(&steps, t, t1, p->m->min_spacing);
+    float a, b, mid;
+    while (volux_track_steps_next(&steps, &a, &b, &mid) && !p->stopped) {
+        *T *= expf(-volux_tracker_sigma(p, r, mid, NULL) * (b - a));
+        if (*T < VOLUX_RATIO_RR) {
+            if (!(*T > 0.0f) || volux_tracker_rnd(p) * VOLUX_RATIO_RR >= *T) return 0;
+            *T = VOLUX_RATIO_RR;
+        }
+    }
+    return 1;
+}
+
 /* Ratio tracking estimate of the transmittance from o along unit d over
- * distance dist (INFINITY: to the volume's exit). */
+ * distance dist (INFINITY: to the volume's exit); 0 once the time budget
+ * ended the path. */
 static inline float volux_ratio_track(volux_tracker *p, volux_vec3 o, volux_vec3 d, float dist) {
     const volux_medium *m = p->m;
     volux_ray r;
@@ -130,12 +197,21 @@ static inline float volux_ratio_track(volux_tracker *p, volux_vec3 o, volux_vec3
     volux_track_iter it;
     volux_interval iv;
     volux_track_iter_init(&it, m, &r, r.t0, tb);
-    while (volux_track_iter_next(&it, &iv)) {
+    while (volux_track_iter_next(&it, &iv) && !p->stopped) {
         if (!(iv.sigma_max > 0.0f)) continue;
+        if (volux_track_needs_regular(iv.sigma_max, iv.t0, iv.t1)) {
+            if (!volux_ratio_track_regular(p, &r, iv.t0, iv.t1, &T)) return 0.0f;
+            continue;
+        }
         float inv = 1.0f / iv.sigma_max, t = iv.t0;
-        for (;;) {
-            t += volux_exp_step(p, inv);
-            if (t >= iv.t1) break;
+        while (!p->stopped) {
+            float tn = t + volux_exp_step(p, inv);
+            if (tn >= iv.t1) break;
+            if (!(tn > t) && volux_track_stalled(t, inv)) { /* steps below half an ulp of t */
+                if (!volux_ratio_track_regular(p, &r, t, iv.t1, &T)) return 0.0f;
+                break;
+            }
+            t = tn;
             T *= 1.0f - volux_tracker_sigma(p, &r, t, NULL) * inv; /* Novák et al. 2014, Eq. 6 */
             if (T < VOLUX_RATIO_RR) {
                 if (!(T > 0.0f) || volux_tracker_rnd(p) * VOLUX_RATIO_RR >= T) return 0.0f;
@@ -143,7 +219,7 @@ static inline float volux_ratio_track(volux_tracker *p, volux_vec3 o, volux_vec3
             }
         }
     }
-    return T;
+    return p->stopped ? 0.0f : T;
 }
 
 #endif

@@ -27,7 +27,7 @@ typedef struct fixture {
 static void setup(fixture *f, float rho0, float radius, float cache_scale, int aligned) {
     memset(f, 0, sizeof *f);
     f->ctx = tu_context(2);
-    volux_volume_desc d = {{33, 33, 33}, {1, 1, 1}, {0, 0, 0}, 0, VOLUX_UINT8, NULL};
+    volux_volume_desc d = {{33, 33, 33}, {1, 1, 1}, {0, 0, 0}, 0, VOLUX_UINT8, NULL, 0};
     assert_int_equal(volux_volume_create(f->ctx, &d, &f->vol), VOLUX_OK);
     /* ρ at the cache's nodes (the technique's layout: directional lights
      * take the aligned fast path) or at the volume's (generic path). */

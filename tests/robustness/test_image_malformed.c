@@ -15,6 +15,7 @@
 #include <zlib.h>
 
 #include "image_fixtures.h"
+#include "tu_volume.h"
 #include "io/image_formats.h"
 #include "test_util.h"
 
@@ -404,8 +405,112 @@ static void test_allocation_failures_while_saving(void **state) {
     }
 }
 
+/* An uncompressed scanline EXR of w×h float RGB pixels (value x + 10·y
+ * in R, G, B), written by hand after the OpenEXR file layout document:
+ * magic, version 2, the required attributes, the offset table, one chunk
+ * per line (int32 y, int32 size, B G R lines). */
+static unsigned char *exr_uncompressed(int w, int h, size_t *size) {
+    unsigned char *b = calloc(1, 4096 + (size_t)w * (size_t)h * 12 + (size_t)h * 16);
+    assert_non_null(b);
+    size_t n = 0;
+#define PUT(p, len) (memcpy(b + n, (p), (len)), n += (len))
+#define PUT_I32(v) do { int32_t v_ = (v); PUT(&v_, 4); } while (0)
+#define ATTR(name, type, len) do { PUT(name, strlen(name) + 1); PUT(type, strlen(type) + 1); PUT_I32(len); } while (0)
+    const unsigned char magic[8] = {0x76, 0x2f, 0x31, 0x01, 2, 0, 0, 0};
+    PUT(magic, 8);
+    ATTR("channels", "chlist", 3 * (2 + 16) + 1);
+    const char *ch[3] = {"B", "G", "R"};
+    for (int c = 0; c < 3; c++) {
+        PUT(ch[c], 2);
+        PUT_I32(2); /* FLOAT */
+        const unsigned char linear[4] = {0, 0, 0, 0};
+        PUT(linear, 4);
+        PUT_I32(1);
+        PUT_I32(1);
+    }
+    b[n++] = 0;
+    ATTR("compression", "compression", 1);
+    b[n++] = 0; /* NO_COMPRESSION */
+    ATTR("dataWindow", "box2i", 16);
+    PUT_I32(0); PUT_I32(0); PUT_I32(w - 1); PUT_I32(h - 1);
+    ATTR("displayWindow", "box2i", 16);
+    PUT_I32(0); PUT_I32(0); PUT_I32(w - 1); PUT_I32(h - 1);
+    ATTR("lineOrder", "lineOrder", 1);
+    b[n++] = 0;
+    float one = 1.0f, zero[2] = {0, 0};
+    ATTR("pixelAspectRatio", "float", 4);
+    PUT(&one, 4);
+    ATTR("screenWindowCenter", "v2f", 8);
+    PUT(zero, 8);
+    ATTR("screenWindowWidth", "float", 4);
+    PUT(&one, 4);
+    b[n++] = 0;
+    size_t table = n;
+    n += 8 * (size_t)h;
+    for (int y = 0; y < h; y++) {
+        uint64_t at = n;
+        memcpy(b + table + 8 * (size_t)y, &at, 8);
+        PUT_I32(y);
+        PUT_I32(w * 12);
+        for (int c = 0; c < 3; c++)
+            for (int x = 0; x < w; x++) {
+                float v = (float)(x + 10 * y);
+                PUT(&v, 4);
+            }
+    }
+#undef ATTR
+#undef PUT_I32
+#undef PUT
+    *size = n;
+    return b;
+}
+
+/* Issue 16: an uncompressed chunk smaller than its pixels, and an
+ * attribute with a negative or oversized size, are format errors naming
+ * the chunk / attribute (the library filled the rest with garbage or
+ * accepted the size). The intact file reads exactly. */
+static void test_exr_chunk_and_attribute_sizes(void **state) {
+    (void)state;
+    size_t size;
+    unsigned char *exr = exr_uncompressed(4, 3, &size);
+    volux_context *ctx = tu_context(1);
+    volux_image img;
+    assert_int_equal(volux_exr_read_memory(ctx, "ok.exr", exr, size, &img), VOLUX_OK);
+    assert_true(img.width == 4 && img.height == 3);
+    assert_true(img.rgb[3 * (2 * 4 + 3) + 0] == 23.0f && img.rgb[3 * (2 * 4 + 3) + 2] == 23.0f);
+    volux_image_free(ctx, &img);
+
+    /* The last chunk declares 12 bytes fewer (the file ends there). */
+    size_t last = size - 4 * 12 - 8;
+    int32_t shorter = 4 * 12 - 12;
+    memcpy(exr + last + 4, &shorter, 4);
+    volux_context_clear_error(ctx);
+    assert_int_equal(volux_exr_read_memory(ctx, "short.exr", exr, size - 12, &img), VOLUX_ERR_FORMAT);
+    tu_assert_error_mentions(ctx, "short.exr", "chunk 2", "36", "48", (const char *)NULL);
+    free(exr);
+
+    /* pixelAspectRatio with size -4, then with a size past the end */
+    const int32_t bad[2] = {-4, 1 << 30};
+    for (int k = 0; k < 2; k++) {
+        exr = exr_uncompressed(4, 3, &size);
+        unsigned char *a = NULL;
+        for (size_t i = 0; i + 24 < size && !a; i++)
+            if (!memcmp(exr + i, "pixelAspectRatio\0float\0", 23)) a = exr + i + 23;
+        assert_non_null(a);
+        memcpy(a, &bad[k], 4);
+        volux_context_clear_error(ctx);
+        assert_int_equal(volux_exr_read_memory(ctx, "attr.exr", exr, size, &img), VOLUX_ERR_FORMAT);
+        tu_assert_error_mentions(ctx, "attr.exr", "pixelAspectRatio", k ? "past the end" : "negative size",
+                                 (const char *)NULL);
+        free(exr);
+    }
+    assert_int_equal(volux_context_bytes_in_use(ctx), 0);
+    volux_context_destroy(ctx);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_exr_chunk_and_attribute_sizes),
         cmocka_unit_test(test_truncated_files_are_rejected_without_leaks),
         cmocka_unit_test(test_bad_headers_name_the_problem),
         cmocka_unit_test(test_huge_declared_sizes_fail_without_big_allocations),

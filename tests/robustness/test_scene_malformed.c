@@ -12,6 +12,7 @@
 
 #include "io/scene_formats.h"
 #include "test_util.h"
+#include "volux/edit.h"
 
 #define assert_contains(hay, needle)                                                                   \
     do {                                                                                               \
@@ -46,6 +47,28 @@ static const malformed CASES[] = {
     {SCENE_VOL("{\"procedural\": \"sphere\\u0000.png\"}"), VOLUX_ERR_FORMAT, "\\u0000"},
     /* a literal backslash followed by u0000 is fine text; the key is unknown */
     {"{\"a\\\\u0000\": 1}", VOLUX_ERR_INVALID, "a\\u0000: unknown key"},
+    /* what RFC 8259 forbids and cJSON accepts (issue 16) */
+    {SCENE(", \"render\": {\"width\": 064}"), VOLUX_ERR_FORMAT, "invalid number at line 1"},
+    {SCENE(", \"render\": {\"width\": +64}"), VOLUX_ERR_FORMAT, "invalid number"},
+    {SCENE(", \"render\": {\"step\": .5}"), VOLUX_ERR_FORMAT, "invalid number"},
+    {SCENE(", \"render\": {\"step\": 1.}"), VOLUX_ERR_FORMAT, "invalid number"},
+    {SCENE(", \"render\": {\"step\": 1e}"), VOLUX_ERR_FORMAT, "invalid number"},
+    {SCENE(", \"render\": {\"width\": 0x40}"), VOLUX_ERR_FORMAT, "invalid number"},
+    {SCENE(", \"render\": {\"width\": -064}"), VOLUX_ERR_FORMAT, "invalid number"},
+    {SCENE(", \"comment\": \"\\uZZ12\""), VOLUX_ERR_FORMAT, "\\u needs four hex digits"},
+    {SCENE(", \"comment\": \"\\u12\""), VOLUX_ERR_FORMAT, "\\u needs four hex digits"},
+    {SCENE(", \"comment\": \"\\q\""), VOLUX_ERR_FORMAT, "invalid escape"},
+    {SCENE(", \"comment\": \"\\ud800\""), VOLUX_ERR_FORMAT, "lone UTF-16 high surrogate"},
+    {SCENE(", \"comment\": \"\\ud800\\u0041\""), VOLUX_ERR_FORMAT, "lone UTF-16 high surrogate"},
+    {SCENE(", \"comment\": \"\\udc00\""), VOLUX_ERR_FORMAT, "lone UTF-16 low surrogate"},
+    {SCENE(", \"comment\": \"\xff\""), VOLUX_ERR_FORMAT, "invalid UTF-8 at line 1"},
+    {SCENE(", \"comment\": \"\xc0\xaf\""), VOLUX_ERR_FORMAT, "invalid UTF-8"},       /* overlong '/' */
+    {SCENE(", \"comment\": \"\xed\xa0\x80\""), VOLUX_ERR_FORMAT, "invalid UTF-8"},   /* a surrogate */
+    {SCENE(", \"comment\": \"\xf4\x90\x80\x80\""), VOLUX_ERR_FORMAT, "invalid UTF-8"}, /* > U+10FFFF */
+    {SCENE(", \"comment\": \"a\tb\""), VOLUX_ERR_FORMAT, "control character in a string"},
+    /* valid: a surrogate pair, UTF-8, 0, -0.5e-3, 1E+2 (the comment is free text) */
+    {SCENE(", \"comment\": \"\\ud83d\\ude00 \xc3\xa9 \\u00e9\", \"render\": {\"step\": 0, \"width\": 1E+2}"),
+     VOLUX_ERR_INVALID, "render.step"},
     /* unknown and duplicate keys, with their full path */
     {SCENE(", \"lihgts\": []"), VOLUX_ERR_INVALID, "lihgts: unknown key (expected one of: volume,"},
     {SCENE(", \"render\": {\"widht\": 64}"), VOLUX_ERR_INVALID, "render.widht: unknown key"},
@@ -87,7 +110,7 @@ static const malformed CASES[] = {
     /* transfer function */
     {SCENE_TF("3"), VOLUX_ERR_INVALID, "transfer_function: expected an object"},
     {SCENE_TF("{}"), VOLUX_ERR_INVALID, "transfer_function: needs opacity or extinction points"},
-    {SCENE_TF("{\"opacity\": []}"), VOLUX_ERR_INVALID, "transfer_function.opacity: needs 1..4096 rows, got 0"},
+    {SCENE_TF("{\"opacity\": []}"), VOLUX_ERR_INVALID, "transfer_function.opacity: needs 1..65536 rows, got 0"},
     {SCENE_TF("{\"opacity\": {}}"), VOLUX_ERR_INVALID, "transfer_function.opacity: expected an array"},
     {SCENE_TF("{\"opacity\": [[0, 0], [1, 0.5], [2, 7]]}"), VOLUX_ERR_INVALID,
      "transfer_function.opacity[2]: 7 is outside [0, 1]"},
@@ -179,7 +202,7 @@ static const malformed CASES[] = {
     {SCENE(", \"render\": {\"step\": 0}"), VOLUX_ERR_INVALID, "render.step"},
     {SCENE(", \"render\": {\"seed\": 0.5}"), VOLUX_ERR_INVALID, "render.seed: expected an integer"},
     {SCENE(", \"render\": {\"threads\": -1}"), VOLUX_ERR_INVALID, "render.threads"},
-    {SCENE(", \"render\": {\"max_depth\": 0}"), VOLUX_ERR_INVALID, "render.max_depth"},
+    {SCENE(", \"render\": {\"max_depth\": -1}"), VOLUX_ERR_INVALID, "render.max_depth"},
     {SCENE(", \"render\": {\"exposure\": 100}"), VOLUX_ERR_INVALID, "render.exposure"},
     {SCENE(", \"render\": {\"technique\": \"a-technique-name-longer-than-31-chars\"}"), VOLUX_ERR_INVALID,
      "render.technique: name too long"},
@@ -245,8 +268,8 @@ static void test_huge_arrays_deep_nesting_and_many_keys(void **state) {
     } cases[] = {
         {repeat("{" VOL ", " TF ", \"lights\": [", "{\"type\": \"point\"}", 100000, ",", "]}"), VOLUX_ERR_LIMIT,
          "lights: at most 256 lights, got 100000"},
-        {repeat("{" VOL ", \"transfer_function\": {\"opacity\": [", "[0, 0]", 5000, ",", "]}}"), VOLUX_ERR_INVALID,
-         "transfer_function.opacity: needs 1..4096 rows, got 5000"},
+        {repeat("{" VOL ", \"transfer_function\": {\"opacity\": [", "[0, 0]", 65537, ",", "]}}"), VOLUX_ERR_INVALID,
+         "transfer_function.opacity: needs 1..65536 rows, got 65537"},
         {repeat("{" VOL ", \"transfer_function\": {\"opacity\": [[", "0", 200000, ",", "]]}}"), VOLUX_ERR_INVALID,
          "transfer_function.opacity[0]: expected a row of 2 numbers"},
         {repeat("{\"volume\": {\"procedural\": \"sphere\", \"dims\": [", "1", 200000, ",", "]}}"), VOLUX_ERR_INVALID,
@@ -267,6 +290,24 @@ static void test_huge_arrays_deep_nesting_and_many_keys(void **state) {
                      cases[i].part);
         assert_int_equal(volux_context_bytes_in_use(ctx), 0);
         free(cases[i].json);
+    }
+    /* The cap itself is fine (issue 16: 50 000-point TFs exist): 65 536
+     * opacity and colour points load, and a TF edit copies them. */
+    {
+        char *big = malloc(65536 * 40 + 256), *p = big;
+        p += sprintf(p, "{" VOL ", \"transfer_function\": {\"opacity\": [");
+        for (int i = 0; i < 65536; i++) p += sprintf(p, "%s[%d, %g]", i ? "," : "", i, (i % 7) / 7.0);
+        p += sprintf(p, "], \"color\": [");
+        for (int i = 0; i < 65536; i++) p += sprintf(p, "%s[%d, 1, 0.5, 0]", i ? "," : "", i);
+        sprintf(p, "]}}");
+        volux_scene *s = NULL;
+        volux_context_clear_error(ctx);
+        if (volux_scene_load_string(ctx, big, NULL, "big.json", NULL, 0, &s) != VOLUX_OK)
+            fail_msg("65536 TF points: %s", volux_context_error(ctx));
+        assert_int_equal(volux_scene_transfer(s)->n_opacity, 65536);
+        assert_int_equal(volux_edit_apply(volux_edit_find("tf"), s, 0), VOLUX_OK);
+        volux_scene_destroy(s);
+        free(big);
     }
     /* 64 levels are fine as far as nesting goes (the key is then unknown). */
     char *ok = repeat("{\"comment\": ", "[", 63, "", "");

@@ -103,18 +103,26 @@ static void test_nrrd_bad_fields(void **state) {
         {HEAD "sizes: 2 2 2\nencoding: raw\nspace origin: (1,2)\n\n", 8, VOLUX_ERR_FORMAT, "space origin"},
         {HEAD "sizes: 2 2 2\nencoding: raw\nspace origin: (1,nan,2)\n\n", 8, VOLUX_ERR_FORMAT, "space origin"},
         {HEAD "sizes: 2 2 2\nencoding: raw\n", 0, VOLUX_ERR_FORMAT, "no data"},
+        /* axes that do not span space (issue 16) */
+        {HEAD "sizes: 2 2 2\nencoding: raw\nspace dimension: 3\nspace directions: (1,0,0) (2,0,0) (0,0,1)\n\n", 8,
+         VOLUX_ERR_FORMAT, "space directions: the vectors of axes 0, 1, 2 are parallel"},
+        {HEAD "sizes: 2 2 2\nencoding: raw\nspace dimension: 3\nspace directions: (1,0,0) (0,1,0) (1,1,0)\n\n", 8,
+         VOLUX_ERR_FORMAT, "coplanar"},
+        {HEAD "sizes: 2 2 2\nencoding: raw\nspace dimension: 3\nspace directions: (1,0,0) (0,0,0) (0,0,1)\n\n", 8,
+         VOLUX_ERR_FORMAT, "zero"},
         /* data size vs. header */
         {HEAD "sizes: 2 2 2\nencoding: raw\n\n", 7, VOLUX_ERR_FORMAT, "truncated"},
-        {HEAD "sizes: 2 2 2\nencoding: raw\n\n", 9, VOLUX_ERR_FORMAT, "size mismatch"},
+        /* (raw data followed by more bytes loads with a warning: test_volume_policies.c) */
         {HEAD "sizes: 2 2 2\nencoding: gzip\n\n", 0, VOLUX_ERR_FORMAT, "compressed data is missing"},
         {HEAD "sizes: 2 2 2\nencoding: gzip\n\n", 20, VOLUX_ERR_FORMAT, "corrupt compressed data"},
         /* detached data file names */
         {HEAD "sizes: 2 2 2\nencoding: raw\ndata file: ../secret.raw\n", 0, VOLUX_ERR_FORMAT, "outside"},
         {HEAD "sizes: 2 2 2\nencoding: raw\ndata file: a/../../secret.raw\n", 0, VOLUX_ERR_FORMAT, "outside"},
         {HEAD "sizes: 2 2 2\nencoding: raw\ndata file: /etc/passwd\n", 0, VOLUX_ERR_FORMAT, "absolute path"},
-        {HEAD "sizes: 2 2 2\nencoding: raw\ndata file: LIST\na.raw\nb.raw\n", 0, VOLUX_ERR_UNSUPPORTED, "LIST"},
-        {HEAD "sizes: 2 2 2\nencoding: raw\ndata file: slice%03d.raw 1 2 1\n", 0, VOLUX_ERR_UNSUPPORTED,
-         "multiple data files"},
+        /* split data (read by test_volume_policies.c): missing files name their number */
+        {HEAD "sizes: 2 2 2\nencoding: raw\ndata file: LIST\nnone-a.raw\nnone-b.raw\n", 0, VOLUX_ERR_IO,
+         "data file 1 of 2"},
+        {HEAD "sizes: 2 2 2\nencoding: raw\ndata file: none%03d.raw 1 2 1\n", 0, VOLUX_ERR_IO, "data file 1 of 2"},
         {HEAD "sizes: 2 2 2\nencoding: raw\ndata file: nothere.raw\n", 0, VOLUX_ERR_IO, "nothere.raw"},
         {HEAD "sizes: 2 2 2\nencoding: raw\ndata file:\n", 0, VOLUX_ERR_FORMAT, "empty file name"},
     };
@@ -247,6 +255,21 @@ static void test_metaimage_bad_fields(void **state) {
         {MI "ElementType = MET_UCHAR\nElementType = MET_UCHAR\nElementDataFile = LOCAL\n", 8, VOLUX_ERR_FORMAT,
          "twice"},
         {MI "ElementType = MET_UCHAR\njunk line\nElementDataFile = LOCAL\n", 8, VOLUX_ERR_FORMAT, "line 4"},
+        /* issue 16: a singular direction matrix, compressed sizes that cannot be */
+        {MI "ElementType = MET_UCHAR\nTransformMatrix = 0 0 0 0 0 0 0 0 0\nElementDataFile = LOCAL\n", 8,
+         VOLUX_ERR_FORMAT, "TransformMatrix: singular"},
+        {MI "ElementType = MET_UCHAR\nTransformMatrix = 1 0 0 1 0 0 0 0 1\nElementDataFile = LOCAL\n", 8,
+         VOLUX_ERR_FORMAT, "TransformMatrix: singular"},
+        {MI "ElementType = MET_UCHAR\nTransformMatrix = 1 0 0 0 1 0 0 0 nan\nElementDataFile = LOCAL\n", 8,
+         VOLUX_ERR_FORMAT, "TransformMatrix"},
+        {MI "ElementType = MET_UCHAR\nTransformMatrix = 1 0 0 0 1 0\nElementDataFile = LOCAL\n", 8,
+         VOLUX_ERR_FORMAT, "TransformMatrix"},
+        {MI "ElementType = MET_UCHAR\nCompressedData = True\nCompressedDataSize = -5\nElementDataFile = LOCAL\n", 30,
+         VOLUX_ERR_FORMAT, "CompressedDataSize: expected a positive integer, got '-5'"},
+        {MI "ElementType = MET_UCHAR\nCompressedData = True\nCompressedDataSize = 100000\nElementDataFile = LOCAL\n",
+         30, VOLUX_ERR_FORMAT, "CompressedDataSize: 100000 bytes declared, but only 30"},
+        {MI "ElementType = MET_UCHAR\nCompressedDataSize = 8\nElementDataFile = LOCAL\n", 8, VOLUX_ERR_FORMAT,
+         "CompressedData is not True"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         char name[32];
@@ -269,7 +292,7 @@ static void test_nifti_bad_fields(void **state) {
         const char *what;
     } cases[] = {
         {0, 1, 349, VOLUX_ERR_FORMAT, "sizeof_hdr"},
-        {0, 1, 540, VOLUX_ERR_UNSUPPORTED, "NIfTI-2"},
+        {0, 1, 540, VOLUX_ERR_FORMAT, "shorter than the 540-byte NIfTI-2 header"}, /* 360 bytes */
         {344, 3, 0, VOLUX_ERR_UNSUPPORTED, "Analyze"},
         {40, 0, 2, VOLUX_ERR_UNSUPPORTED, "2-D"},
         {40, 0, 9, VOLUX_ERR_FORMAT, "dim[0]"},
@@ -286,6 +309,11 @@ static void test_nifti_bad_fields(void **state) {
         {108, 2, -1, VOLUX_ERR_FORMAT, "vox_offset"},
         {108, 2, 4000, VOLUX_ERR_FORMAT, "past the end"},
         {108, 2, 340, VOLUX_ERR_FORMAT, "vox_offset"},
+        /* issue 16: zero pixdim without an sform, infinite scaling */
+        {84, 2, 0, VOLUX_ERR_FORMAT, "pixdim[2]: zero, and no sform"},
+        {112, 2, INFINITY, VOLUX_ERR_FORMAT, "scl_slope: infinite"},
+        {116, 4, INFINITY, VOLUX_ERR_FORMAT, "scl_inter: infinite"}, /* with scl_slope 2 */
+        {116, 4, -INFINITY, VOLUX_ERR_FORMAT, "scl_inter: infinite"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++)
         for (int big = 0; big < 2; big++) {
@@ -296,6 +324,10 @@ static void test_nifti_bad_fields(void **state) {
             case 1: tu_put_i32(h, cases[i].off, (long)cases[i].value, big); break;
             case 2: tu_put_f32(h, cases[i].off, (float)cases[i].value, big); break;
             case 3: memcpy(h + cases[i].off, "\0\0\0\0", 4); break;
+            case 4:
+                tu_put_f32(h, 112, 2.0f, big);
+                tu_put_f32(h, cases[i].off, (float)cases[i].value, big);
+                break;
             }
             if (cases[i].kind == 0 && cases[i].off == 40 && cases[i].value == 4) tu_put_i16(h, 48, 3, big);
             char name[32];
@@ -303,6 +335,23 @@ static void test_nifti_bad_fields(void **state) {
             print_message("case %zu (%s): %s\n", i, big ? "big" : "little", cases[i].what);
             expect_failure(tu_write_file(name, h, 352 + 8), NULL, cases[i].status, cases[i].what);
         }
+    /* A zero pixdim with an sform takes the voxel size from the sform's
+     * column (srow_y[1] = 2.5 here). */
+    tu_nifti_header(h, 0, dims, 2, 8);
+    memset(h + 352, 1, 8);
+    tu_put_f32(h, 84, 0.0f, 0);
+    tu_put_i16(h, 254, 1, 0);
+    tu_put_f32(h, 300, 2.5f, 0);
+    {
+        volux_context *ctx = tu_context(1);
+        volux_volume *v = NULL;
+        assert_int_equal(volux_volume_load(ctx, tu_write_file("sform.nii", h, 352 + 8), NULL, &v), VOLUX_OK);
+        double sp[3];
+        volux_volume_spacing(v, sp);
+        assert_true(sp[0] == 1.0 && sp[1] == 2.5 && sp[2] == 1.0);
+        volux_volume_release(v);
+        volux_context_destroy(ctx);
+    }
     /* too short, truncated data, trailing bytes, truncated .nii.gz */
     tu_nifti_header(h, 0, dims, 2, 8);
     expect_failure(tu_write_file("short.nii", h, 200), NULL, VOLUX_ERR_FORMAT, "shorter than the 348-byte");
@@ -376,8 +425,92 @@ static void test_allocation_failures_do_not_leak(void **state) {
     assert_true(saw_ok);
 }
 
+/* A NIfTI-2 file (nifti2.h layout) of 3×2×2 int16 values i − 5 with
+ * scl_slope 0.5, scl_inter 10, pixdim 1.5 2 2.5 and a qform origin. */
+static size_t nifti2_file(unsigned char *b, int big, int64_t vox_offset) {
+    memset(b, 0, 1024);
+    tu_put_i32(b, 0, 540, big);
+    memcpy(b + 4, "n+2\0\r\n\032\n", 8);
+    tu_put_i16(b, 12, 4, big);  /* int16 */
+    tu_put_i16(b, 14, 16, big); /* bitpix */
+    const int64_t dim[4] = {3, 3, 2, 2};
+    const double pix[4] = {1, 1.5, 2, 2.5}, origin[3] = {-7, 8.25, 1e6};
+    for (int i = 0; i < 8; i++) {
+        int64_t v = i < 4 ? dim[i] : 1;
+        for (int k = 0; k < 8; k++) b[16 + 8 * i + (big ? 7 - k : k)] = (unsigned char)((uint64_t)v >> (8 * k));
+    }
+    for (int i = 0; i < 4; i++) {
+        uint64_t u;
+        memcpy(&u, &pix[i], 8);
+        for (int k = 0; k < 8; k++) b[104 + 8 * i + (big ? 7 - k : k)] = (unsigned char)(u >> (8 * k));
+    }
+    const double slope = 0.5, inter = 10;
+    for (int k = 0; k < 8; k++) b[168 + (big ? 7 - k : k)] = (unsigned char)((uint64_t)vox_offset >> (8 * k));
+    uint64_t u;
+    memcpy(&u, &slope, 8);
+    for (int k = 0; k < 8; k++) b[176 + (big ? 7 - k : k)] = (unsigned char)(u >> (8 * k));
+    memcpy(&u, &inter, 8);
+    for (int k = 0; k < 8; k++) b[184 + (big ? 7 - k : k)] = (unsigned char)(u >> (8 * k));
+    tu_put_i32(b, 344, 1, big); /* qform_code */
+    for (int a = 0; a < 3; a++) {
+        memcpy(&u, &origin[a], 8);
+        for (int k = 0; k < 8; k++) b[376 + 8 * a + (big ? 7 - k : k)] = (unsigned char)(u >> (8 * k));
+    }
+    for (int i = 0; i < 12; i++) tu_put_i16(b, (size_t)vox_offset + 2 * (size_t)i, i - 5, big);
+    return (size_t)vox_offset + 24;
+}
+
+static void test_nifti2_reads_and_rejects(void **state) {
+    (void)state;
+    unsigned char b[1024];
+    for (int big = 0; big < 2; big++) {
+        size_t n = nifti2_file(b, big, 544);
+        volux_context *ctx = tu_context(1);
+        volux_volume *v = NULL;
+        volux_volume_load_options o;
+        memset(&o, 0, sizeof o);
+        o.use_file_origin = 1;
+        const char *path = tu_write_file(big ? "n2big.nii" : "n2.nii", b, n);
+        if (volux_volume_load(ctx, path, &o, &v)) fail_msg("%s", volux_context_error(ctx));
+        int d[3];
+        double sp[3], lo, hi;
+        volux_volume_dims(v, d);
+        volux_volume_spacing(v, sp);
+        volux_volume_range(v, &lo, &hi);
+        assert_true(d[0] == 3 && d[1] == 2 && d[2] == 2);
+        assert_true(sp[0] == 1.5 && sp[1] == 2.0 && sp[2] == 2.5);
+        assert_true(lo == 0.5 * -5 + 10 && hi == 0.5 * 6 + 10);
+        volux_volume_release(v);
+        /* gzip'd, and under an unknown extension (found by its first bytes) */
+        size_t zn;
+        unsigned char *z = tu_deflate(b, n, 1, &zn);
+        assert_int_equal(volux_volume_load(ctx, tu_write_file("n2.nii.gz", z, zn), NULL, &v), VOLUX_OK);
+        volux_volume_release(v);
+        free(z);
+        assert_int_equal(volux_volume_load(ctx, tu_write_file("n2.vol", b, n), NULL, &v), VOLUX_OK);
+        volux_volume_release(v);
+        volux_context_destroy(ctx);
+    }
+    /* broken ones name the field */
+    nifti2_file(b, 0, 544);
+    b[10] = '\n'; /* "\r\n" → "\n\n": a text-mode transfer */
+    expect_failure(tu_write_file("n2magic.nii", b, 568), NULL, VOLUX_ERR_FORMAT, "magic");
+    nifti2_file(b, 0, 500);
+    expect_failure(tu_write_file("n2vox.nii", b, 568), NULL, VOLUX_ERR_FORMAT, "inside the 540-byte header");
+    nifti2_file(b, 0, 544);
+    b[16 + 8 + 4] = 1; /* dim[1] = 3 + 2^32 */
+    expect_failure(tu_write_file("n2dim.nii", b, 568), NULL, VOLUX_ERR_LIMIT, "dim[1]");
+    nifti2_file(b, 0, 544);
+    b[168 + 7] = 0x80; /* vox_offset negative */
+    expect_failure(tu_write_file("n2neg.nii", b, 568), NULL, VOLUX_ERR_FORMAT, "vox_offset");
+    nifti2_file(b, 0, 544);
+    expect_failure(tu_write_file("n2short.nii", b, 560), NULL, VOLUX_ERR_FORMAT, "truncated");
+    expect_failure(tu_write_file("n2hdr.nii", b, 500), NULL, VOLUX_ERR_FORMAT, "540-byte");
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_nifti2_reads_and_rejects),
         cmocka_unit_test(test_nrrd_bad_fields),
         cmocka_unit_test(test_nrrd_nul_byte_and_long_name),
         cmocka_unit_test(test_memory_cap_checked_before_allocating),

@@ -25,7 +25,7 @@ static fixture make(int nx, int ny, int nz, int constant, float value_scale) {
     uint8_t *data = malloc(n);
     volux_rng r = volux_rng_make(11, 0, 0, 0);
     for (size_t i = 0; i < n; i++) data[i] = constant >= 0 ? (uint8_t)constant : (uint8_t)(volux_rng_u64(&r) >> 56);
-    volux_volume_desc d = {{nx, ny, nz}, {1, 1, 1}, {0, 0, 0}, 0, VOLUX_UINT8, data};
+    volux_volume_desc d = {{nx, ny, nz}, {1, 1, 1}, {0, 0, 0}, 0, VOLUX_UINT8, data, 0};
     assert_int_equal(volux_volume_create(f.ctx, &d, &f.vol), VOLUX_OK);
     free(data);
     volux_tf_scalar_point ext[3] = {{0, 0}, {100, 0.5f * value_scale}, {255, 2.0f * value_scale}};

@@ -29,7 +29,7 @@ static volux_status fake_load(void *user, volux_context *ctx, int step, volux_vo
     int n = step == f->bad_step ? 5 : 4;
     float data[5 * 5 * 5];
     for (int i = 0; i < n * n * n; i++) data[i] = (float)step;
-    volux_volume_desc d = {{n, n, n}, {1, 1, 1}, {0, 0, 0}, 0, VOLUX_FLOAT32, data};
+    volux_volume_desc d = {{n, n, n}, {1, 1, 1}, {0, 0, 0}, 0, VOLUX_FLOAT32, data, 0};
     return volux_volume_create(ctx, &d, out);
 }
 

@@ -6,7 +6,7 @@
 #include "test_util.h"
 
 static volux_volume *make(volux_context *ctx, int nx, int ny, int nz, volux_scalar_type type, const void *data) {
-    volux_volume_desc d = {{nx, ny, nz}, {1, 1, 1}, {0, 0, 0}, 0, type, data};
+    volux_volume_desc d = {{nx, ny, nz}, {1, 1, 1}, {0, 0, 0}, 0, type, data, 0};
     volux_volume *v = NULL;
     assert_int_equal(volux_volume_create(ctx, &d, &v), VOLUX_OK);
     return v;
@@ -46,7 +46,7 @@ static void test_trilinear_reproduces_linear_fields(void **state) {
     for (int k = 0; k < N; k++)
         for (int j = 0; j < N; j++)
             for (int i = 0; i < N; i++) data[(k * N + j) * N + i] = 2.0f * i - 3.0f * j + 0.5f * k + 7.0f;
-    volux_volume_desc d = {{N, N, N}, {2, 1, 0.5}, {0, 0, 0}, 0, VOLUX_FLOAT32, data};
+    volux_volume_desc d = {{N, N, N}, {2, 1, 0.5}, {0, 0, 0}, 0, VOLUX_FLOAT32, data, 0};
     volux_volume *v;
     assert_int_equal(volux_volume_create(ctx, &d, &v), VOLUX_OK);
     volux_vec3 o = volux_volume_origin(v);
@@ -99,7 +99,7 @@ static void test_limits_are_checked_before_allocating(void **state) {
     cd.max_bytes = 1 << 20;
     volux_context *ctx;
     assert_int_equal(volux_context_create(&cd, &ctx), VOLUX_OK);
-    volux_volume_desc d = {{1024, 1024, 1024}, {1, 1, 1}, {0, 0, 0}, 0, VOLUX_UINT8, NULL};
+    volux_volume_desc d = {{1024, 1024, 1024}, {1, 1, 1}, {0, 0, 0}, 0, VOLUX_UINT8, NULL, 0};
     volux_volume *v = NULL;
     volux_context_clear_error(ctx);
     assert_int_equal(volux_volume_create(ctx, &d, &v), VOLUX_ERR_LIMIT);

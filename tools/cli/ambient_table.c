@@ -48,7 +48,7 @@ static int parse_albedos(const char *v, volux_ambient_table_desc *d) {
     }
     char buf[512];
     if (!v || strlen(v) >= sizeof buf) {
-        fprintf(stderr, "volux ambient-table: --albedo: expected a number, a list or 'set', got '%s'\n",
+        cli_eprintf("volux ambient-table: --albedo: expected a number, a list or 'set', got '%s'\n",
                 v ? v : "(missing)");
         return 0;
     }
@@ -57,7 +57,7 @@ static int parse_albedos(const char *v, volux_ambient_table_desc *d) {
     for (char *save = NULL, *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
         double x;
         if (n == VOLUX_AMBIENT_TABLE_MAX_ALBEDO) {
-            fprintf(stderr, "volux ambient-table: --albedo: at most %d albedos\n", VOLUX_AMBIENT_TABLE_MAX_ALBEDO);
+            cli_eprintf("volux ambient-table: --albedo: at most %d albedos\n", VOLUX_AMBIENT_TABLE_MAX_ALBEDO);
             return 0;
         }
         if (!cli_parse_double("ambient-table", "--albedo", tok, &x)) return 0;
@@ -113,7 +113,7 @@ int cli_ambient_table(int argc, char **argv) {
             volux_ambient_table_desc_builtin(&d); /* options after it adjust it */
         } else if (!strcmp(a, "-o") || !strcmp(a, "--output") || !strcmp(a, "--info") || !strcmp(a, "--strip")) {
             if (!v) {
-                fprintf(stderr, "volux ambient-table: %s needs a file name\n", a);
+                cli_eprintf("volux ambient-table: %s needs a file name\n", a);
                 return CLI_USAGE;
             }
             if (!strcmp(a, "--info")) info = v;
@@ -144,14 +144,14 @@ int cli_ambient_table(int argc, char **argv) {
             else d.g_max = x;
             i++;
         } else {
-            fprintf(stderr, "volux ambient-table: unknown option '%s'\n", a);
+            cli_eprintf("volux ambient-table: unknown option '%s'\n", a);
             usage(stderr);
             return CLI_USAGE;
         }
     }
     if (strip) {
         if (!out || info) {
-            fprintf(stderr, "volux ambient-table: --strip FILE needs -o OUT (and no --info)\n");
+            cli_eprintf("volux ambient-table: --strip FILE needs -o OUT (and no --info)\n");
             return CLI_USAGE;
         }
         volux_context *ctx = cli_context((int)threads);
@@ -162,7 +162,7 @@ int cli_ambient_table(int argc, char **argv) {
         return rc;
     }
     if (!out == !info) {
-        fprintf(stderr, "volux ambient-table: give exactly one of -o FILE or --info FILE\n");
+        cli_eprintf("volux ambient-table: give exactly one of -o FILE or --info FILE\n");
         usage(stderr);
         return CLI_USAGE;
     }

@@ -57,7 +57,7 @@ typedef struct bench_messages {
 
 static void collect_message(void *user, volux_message_level level, const char *text) {
     bench_messages *m = user;
-    fprintf(stderr, "volux: %s: %s\n", level == VOLUX_MESSAGE_WARNING ? "warning" : "note", text);
+    cli_eprintf("volux: %s: %s\n", level == VOLUX_MESSAGE_WARNING ? "warning" : "note", text);
     if (level != VOLUX_MESSAGE_WARNING) return;
     if (m->n < MAX_WARNINGS) snprintf(m->text[m->n], sizeof m->text[0], "%s", text);
     m->n++;
@@ -156,13 +156,13 @@ int cli_bench(int argc, char **argv) {
             repeat = (int)v;
         } else if (!strcmp(a, "--reference")) {
             if (++i >= argc) {
-                fprintf(stderr, "volux bench: --reference needs an image\n");
+                cli_eprintf("volux bench: --reference needs an image\n");
                 return CLI_USAGE;
             }
             reference = argv[i];
         } else if (!strcmp(a, "--edit")) {
             if (++i >= argc) {
-                fprintf(stderr, "volux bench: --edit needs a kind\n");
+                cli_eprintf("volux bench: --edit needs a kind\n");
                 return CLI_USAGE;
             }
             if (!strcmp(argv[i], "all")) {
@@ -171,7 +171,7 @@ int cli_bench(int argc, char **argv) {
             }
             const volux_edit *e = volux_edit_find(argv[i]);
             if (!e) {
-                fprintf(stderr, "volux bench: --edit %s: unknown edit\n", argv[i]);
+                cli_eprintf("volux bench: --edit %s: unknown edit\n", argv[i]);
                 usage(stderr);
                 return CLI_USAGE;
             }
@@ -180,14 +180,14 @@ int cli_bench(int argc, char **argv) {
             int r = cli_scene_arg("bench", &args, argc, argv, &i);
             if (r < 0) return CLI_USAGE;
             if (r == 0) {
-                fprintf(stderr, "volux bench: unknown option '%s'\n", a);
+                cli_eprintf("volux bench: unknown option '%s'\n", a);
                 usage(stderr);
                 return CLI_USAGE;
             }
         }
     }
     if (!args.scene_path) {
-        fprintf(stderr, "volux bench: missing SCENE.json\n");
+        cli_eprintf("volux bench: missing SCENE.json\n");
         usage(stderr);
         return CLI_USAGE;
     }
@@ -289,7 +289,7 @@ int cli_bench(int argc, char **argv) {
         for (int k = 0; k < repeat && ok; k++) {
             st = volux_edit_apply(edits[e], scene, k);
             if (st) {
-                fprintf(stderr, "volux bench: skipped: %s\n", volux_context_error(ctx));
+                cli_eprintf("volux bench: skipped: %s\n", volux_context_error(ctx));
                 volux_context_clear_error(ctx);
                 st = VOLUX_OK;
                 ok = 0;

@@ -56,19 +56,19 @@ int cli_bench_distributed(int argc, char **argv, int distribute_mode) {
                 return CLI_USAGE;
             repeat = (int)v;
         } else if (!strcmp(a, "--edit") || !strcmp(a, "--reference")) {
-            fprintf(stderr, "volux bench: %s: not available in a distributed run (run one process)\n", a);
+            cli_eprintf("volux bench: %s: not available in a distributed run (run one process)\n", a);
             return CLI_USAGE;
         } else {
             int r = cli_scene_arg("bench", &args, argc, argv, &i);
             if (r < 0) return CLI_USAGE;
             if (r == 0) {
-                fprintf(stderr, "volux bench: unknown option '%s'\n", a);
+                cli_eprintf("volux bench: unknown option '%s'\n", a);
                 return CLI_USAGE;
             }
         }
     }
     if (!args.scene_path) {
-        fprintf(stderr, "volux bench: missing SCENE.json\n");
+        cli_eprintf("volux bench: missing SCENE.json\n");
         return CLI_USAGE;
     }
     int mode = dist_begin("bench", requested);

@@ -32,6 +32,10 @@ int cli_view(int argc, char **argv);  /* tools/viewer/view.c: a volume's quick l
 /* Prints "volux CMD: <context error>" and returns the exit status for st. */
 int cli_fail(const char *cmd, volux_context *ctx, volux_status st);
 /* Exit status for a library status. */
+/* fprintf(stderr, ...) with the result escaped (volux_escape_text): the
+ * arguments quoted in messages may hold terminal escape sequences or
+ * invalid UTF-8. */
+void cli_eprintf(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 int cli_exit_status(volux_status st);
 /* Creates a context with a terminal progress bar (when stderr is a tty). */
 volux_context *cli_context(int threads);

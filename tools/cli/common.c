@@ -1,6 +1,7 @@
 /* tools/cli/common.c — exit codes, context with progress bar, option parsing. */
 #include <errno.h>
 #include <signal.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -10,6 +11,16 @@
 
 #include "cli.h"
 
+void cli_eprintf(const char *fmt, ...) {
+    char msg[8192], safe[8192];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    volux_escape_text(msg, safe, sizeof safe);
+    fputs(safe, stderr);
+}
+
 int cli_exit_status(volux_status st) {
     if (st == VOLUX_OK) return CLI_OK;
     return volux_status_is_input_error(st) ? CLI_USAGE : CLI_FAIL;
@@ -17,7 +28,7 @@ int cli_exit_status(volux_status st) {
 
 int cli_fail(const char *cmd, volux_context *ctx, volux_status st) {
     const char *msg = ctx ? volux_context_error(ctx) : "";
-    fprintf(stderr, "volux %s: %s\n", cmd, msg && *msg ? msg : volux_status_name(st));
+    cli_eprintf("volux %s: %s\n", cmd, msg && *msg ? msg : volux_status_name(st));
     return cli_exit_status(st);
 }
 
@@ -116,7 +127,7 @@ void cli_progress(const char *task, double fraction) {
 static void print_message(void *user, volux_message_level level, const char *text) {
     progress_state *p = user;
     if (p->tty && p->last_step >= 0) fprintf(stderr, "\r\033[K");
-    fprintf(stderr, "volux: %s: %s\n", level == VOLUX_MESSAGE_WARNING ? "warning" : "note", text);
+    cli_eprintf("volux: %s: %s\n", level == VOLUX_MESSAGE_WARNING ? "warning" : "note", text);
     p->last_step = -1; /* redraw the bar */
 }
 
@@ -132,7 +143,7 @@ volux_context *cli_context(int threads) {
     d.message_user = state;
     volux_context *ctx = NULL;
     if (volux_context_create(&d, &ctx) != VOLUX_OK) {
-        fprintf(stderr, "volux: out of memory\n");
+        cli_eprintf("volux: out of memory\n");
         return NULL;
     }
     return ctx;
@@ -143,7 +154,7 @@ int cli_parse_int(const char *cmd, const char *opt, const char *s, long lo, long
     errno = 0;
     long v = s ? strtol(s, &end, 10) : 0;
     if (!s || errno || end == s || *end || v < lo || v > hi) {
-        fprintf(stderr, "volux %s: %s: expected an integer in [%ld, %ld], got '%s'\n", cmd, opt, lo, hi,
+        cli_eprintf("volux %s: %s: expected an integer in [%ld, %ld], got '%s'\n", cmd, opt, lo, hi,
                 s ? s : "(missing)");
         return 0;
     }
@@ -156,7 +167,7 @@ int cli_parse_double(const char *cmd, const char *opt, const char *s, double *ou
     errno = 0;
     double v = s ? strtod(s, &end) : 0;
     if (!s || errno || end == s || *end) {
-        fprintf(stderr, "volux %s: %s: expected a number, got '%s'\n", cmd, opt, s ? s : "(missing)");
+        cli_eprintf("volux %s: %s: expected a number, got '%s'\n", cmd, opt, s ? s : "(missing)");
         return 0;
     }
     *out = v;

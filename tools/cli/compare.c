@@ -105,7 +105,7 @@ int cli_compare(int argc, char **argv) {
             json = 1;
         } else if (!strcmp(a, "--diff")) {
             if (++i >= argc) {
-                fprintf(stderr, "volux " CMD ": --diff needs an output file\n");
+                cli_eprintf("volux " CMD ": --diff needs an output file\n");
                 return CLI_USAGE;
             }
             diff = argv[i];
@@ -113,21 +113,21 @@ int cli_compare(int argc, char **argv) {
             if (!cli_parse_double(CMD, "--scale", i + 1 < argc ? argv[i + 1] : NULL, &scale)) return CLI_USAGE;
             i++;
             if (!(scale > 0.0) || isinf(scale)) {
-                fprintf(stderr, "volux " CMD ": --scale: must be a positive number, got '%s'\n", argv[i]);
+                cli_eprintf("volux " CMD ": --scale: must be a positive number, got '%s'\n", argv[i]);
                 return CLI_USAGE;
             }
         } else if (a[0] == '-' && a[1] == '-') {
-            fprintf(stderr, "volux " CMD ": unknown option '%s'\n\n%s", a, usage_text);
+            cli_eprintf("volux " CMD ": unknown option '%s'\n\n%s", a, usage_text);
             return CLI_USAGE;
         } else if (n_paths < 2) {
             paths[n_paths++] = a;
         } else {
-            fprintf(stderr, "volux " CMD ": unexpected argument '%s' (give two images)\n\n%s", a, usage_text);
+            cli_eprintf("volux " CMD ": unexpected argument '%s' (give two images)\n\n%s", a, usage_text);
             return CLI_USAGE;
         }
     }
     if (n_paths != 2) {
-        fprintf(stderr, "volux " CMD ": need two images, A and the reference B\n\n%s", usage_text);
+        cli_eprintf("volux " CMD ": need two images, A and the reference B\n\n%s", usage_text);
         return CLI_USAGE;
     }
 
@@ -143,7 +143,7 @@ int cli_compare(int argc, char **argv) {
         goto done;
     }
     if (a.width != b.width || a.height != b.height) {
-        fprintf(stderr, "volux " CMD ": '%s' is %dx%d but the reference '%s' is %dx%d\n", paths[0], a.width,
+        cli_eprintf("volux " CMD ": '%s' is %dx%d but the reference '%s' is %dx%d\n", paths[0], a.width,
                 a.height, paths[1], b.width, b.height);
         rc = CLI_USAGE;
         goto done;

@@ -25,6 +25,7 @@ static void usage(FILE *f) {
             "  --raw-spacing X Y Z  voxel spacing (default 1 1 1)\n"
             "  --raw-skip N         bytes to skip at the start of the file\n"
             "  --file-origin        report the origin stored in the file instead of the centred one\n"
+            "  --allow-nonfinite    map NaN/Inf float values to the lowest value (with a warning)\n"
             "  --bins N             histogram bins (default 16)\n"
             "  --seed S             seed for procedural volumes (default 1)\n",
             volux_procedural_names());
@@ -33,7 +34,7 @@ static void usage(FILE *f) {
 typedef struct options {
     const char *file;
     volux_raw_desc raw;
-    int has_raw, has_raw_type, file_origin;
+    int has_raw, has_raw_type, file_origin, allow_nonfinite;
     long bins;
     long seed;
 } options;
@@ -61,14 +62,14 @@ static int parse_args(int argc, char **argv, options *o) {
                 if (!cli_parse_double(CMD, a, argv[++i], &o->raw.spacing[k])) return CLI_USAGE;
         } else if (!strcmp(a, "--raw-type") && left >= 1) {
             if (volux_scalar_type_parse(argv[++i], &o->raw.type) != 0) {
-                fprintf(stderr, "volux info: --raw-type: unknown type '%s'\n", argv[i]);
+                cli_eprintf("volux info: --raw-type: unknown type '%s'\n", argv[i]);
                 return CLI_USAGE;
             }
             o->has_raw_type = 1;
         } else if (!strcmp(a, "--raw-endian") && left >= 1) {
             const char *e = argv[++i];
             if (strcmp(e, "little") && strcmp(e, "big")) {
-                fprintf(stderr, "volux info: --raw-endian: expected little or big, got '%s'\n", e);
+                cli_eprintf("volux info: --raw-endian: expected little or big, got '%s'\n", e);
                 return CLI_USAGE;
             }
             o->raw.big_endian = !strcmp(e, "big");
@@ -82,11 +83,13 @@ static int parse_args(int argc, char **argv, options *o) {
             if (!cli_parse_int(CMD, a, argv[++i], 0, LONG_MAX, &o->seed)) return CLI_USAGE;
         } else if (!strcmp(a, "--file-origin")) {
             o->file_origin = 1;
+        } else if (!strcmp(a, "--allow-nonfinite")) {
+            o->allow_nonfinite = 1;
         } else if (a[0] == '-' && a[1]) {
-            fprintf(stderr, "volux info: unknown option or missing value: '%s'\n", a);
+            cli_eprintf("volux info: unknown option or missing value: '%s'\n", a);
             return CLI_USAGE;
         } else if (o->file) {
-            fprintf(stderr, "volux info: one volume at a time (got '%s' and '%s')\n", o->file, a);
+            cli_eprintf("volux info: one volume at a time (got '%s' and '%s')\n", o->file, a);
             return CLI_USAGE;
         } else {
             o->file = a;
@@ -97,7 +100,7 @@ static int parse_args(int argc, char **argv, options *o) {
         return CLI_USAGE;
     }
     if (o->has_raw != o->has_raw_type) {
-        fprintf(stderr, "volux info: %s: raw data needs both --raw-dims and --raw-type\n", o->file);
+        cli_eprintf("volux info: %s: raw data needs both --raw-dims and --raw-type\n", o->file);
         return CLI_USAGE;
     }
     return CLI_OK;
@@ -167,7 +170,7 @@ static int print_info(const char *file, volux_volume *v, int bins) {
     uint64_t voxels = (uint64_t)d[0] * (uint64_t)d[1] * (uint64_t)d[2];
     uint64_t *counts = calloc((size_t)bins, sizeof *counts);
     if (!counts) {
-        fprintf(stderr, "volux info: out of memory\n");
+        cli_eprintf("volux info: out of memory\n");
         return CLI_FAIL;
     }
     volux_volume_histogram(v, bins, counts);
@@ -231,6 +234,7 @@ int cli_info(int argc, char **argv) {
         volux_volume_load_options lo = {0};
         lo.raw = o.has_raw ? &o.raw : NULL;
         lo.use_file_origin = o.file_origin;
+        lo.allow_nonfinite = o.allow_nonfinite;
         st = volux_volume_load(ctx, o.file, &lo, &v);
     }
     if (st != VOLUX_OK) {

@@ -1,5 +1,6 @@
 /* tools/cli/main.c — `volux` entry point: dispatches to subcommands. */
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "cli.h"
@@ -22,6 +23,51 @@ static void usage(FILE *f) {
     fprintf(f, "\n`volux COMMAND --help` describes a command's options.\n");
 }
 
+/* POSIX utility syntax guideline 10: "--" ends the options; what follows
+ * is an operand even if it starts with '-'. Every subcommand gets this at
+ * once: the first "--" is dropped and each later argument that starts
+ * with '-' is passed as "./ARG" (operands are file paths, and "./-x" is
+ * the same file as "-x" without looking like an option). Returns a
+ * NULL-terminated copy of argv[0..argc). */
+static int borrowed(const char *arg, char **argv, int argc) {
+    for (int i = 0; i < argc; i++)
+        if (arg == argv[i]) return 1;
+    return 0;
+}
+
+/* Frees what end_of_options allocated (the "./ARG" copies). */
+static void free_args(char **args, char **argv, int argc) {
+    for (int k = 0; args[k]; k++)
+        if (!borrowed(args[k], argv, argc)) free(args[k]);
+    free(args);
+}
+
+static char **end_of_options(int argc, char **argv) {
+    char **out = calloc((size_t)argc + 1, sizeof *out);
+    if (!out) return NULL;
+    int n = 0, operands = 0;
+    for (int i = 0; i < argc; i++) {
+        if (!operands && i > 0 && !strcmp(argv[i], "--")) {
+            operands = 1;
+            continue;
+        }
+        if (!operands || argv[i][0] != '-') {
+            out[n++] = argv[i];
+            continue;
+        }
+        size_t len = strlen(argv[i]);
+        char *q = malloc(len + 3);
+        if (!q) {
+            free_args(out, argv, argc);
+            return NULL;
+        }
+        memcpy(q, "./", 2);
+        memcpy(q + 2, argv[i], len + 1);
+        out[n++] = q;
+    }
+    return out;
+}
+
 int main(int argc, char **argv) {
     if (argc < 2) {
         usage(stderr);
@@ -36,8 +82,19 @@ int main(int argc, char **argv) {
         return 0;
     }
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
-        if (!strcmp(argv[1], commands[i].name)) return commands[i].run(argc - 1, argv + 1);
-    fprintf(stderr, "volux: unknown command '%s'\n", argv[1]);
+        if (!strcmp(argv[1], commands[i].name)) {
+            char **args = end_of_options(argc - 1, argv + 1);
+            if (!args) {
+                cli_eprintf("volux: out of memory\n");
+                return CLI_FAIL;
+            }
+            int n = 0;
+            while (args[n]) n++;
+            int rc = commands[i].run(n, args);
+            free_args(args, argv + 1, argc - 1);
+            return rc;
+        }
+    cli_eprintf("volux: unknown command '%s'\n", argv[1]);
     usage(stderr);
     return CLI_USAGE;
 }

@@ -92,7 +92,7 @@ int cli_render(int argc, char **argv) {
         }
         if (!strcmp(argv[i], "-o") || !strcmp(argv[i], "--output")) {
             if (++i >= argc) {
-                fprintf(stderr, "volux render: -o needs a file name\n");
+                cli_eprintf("volux render: -o needs a file name\n");
                 return CLI_USAGE;
             }
             out_path = argv[i];
@@ -114,24 +114,24 @@ int cli_render(int argc, char **argv) {
         int r = cli_scene_arg("render", &args, argc, argv, &i);
         if (r < 0) return CLI_USAGE;
         if (r == 0) {
-            fprintf(stderr, "volux render: unknown option '%s'\n", argv[i]);
+            cli_eprintf("volux render: unknown option '%s'\n", argv[i]);
             usage(stderr);
             return CLI_USAGE;
         }
     }
     if (!args.scene_path || (!out_path && !args.dump_path)) {
-        fprintf(stderr, "volux render: %s\n",
+        cli_eprintf("volux render: %s\n",
                 !args.scene_path ? "missing SCENE.json (or a volume)" : "missing -o OUT.png|pfm|exr");
         usage(stderr);
         return CLI_USAGE;
     }
     if (all_steps && one_step) {
-        fprintf(stderr, "volux render: give --time-step or --all-steps, not both\n");
+        cli_eprintf("volux render: give --time-step or --all-steps, not both\n");
         return CLI_USAGE;
     }
     int pattern = out_path ? numbered_pattern(out_path) : 0;
     if (pattern < 0 || (pattern && !all_steps)) {
-        fprintf(stderr, "volux render: -o %s: %s\n", out_path,
+        cli_eprintf("volux render: -o %s: %s\n", out_path,
                 pattern < 0 ? "a numbered output holds one %d, %Nd or %0Nd (%% for a literal %)"
                             : "a numbered output (%d) needs --all-steps");
         return CLI_USAGE;
@@ -183,7 +183,7 @@ int cli_render(int argc, char **argv) {
         const char *out = out_path;
         if (all_steps) {
             if (!step_path(out_path, pattern, step, path, sizeof path)) {
-                if (dist_rank() == 0) fprintf(stderr, "volux render: -o %s: output name too long\n", out_path);
+                if (dist_rank() == 0) cli_eprintf("volux render: -o %s: output name too long\n", out_path);
                 rc = CLI_USAGE;
                 goto done;
             }
@@ -204,7 +204,7 @@ int cli_render(int argc, char **argv) {
         if (!st && !fb) st = volux_framebuffer_create(ctx, rs->width, rs->height, &fb);
         else if (!st) volux_framebuffer_reset(fb);
         if (st == VOLUX_ERR_CANCELLED && cli_interrupted()) {
-            fprintf(stderr, "volux render: interrupted while preparing; nothing written\n");
+            cli_eprintf("volux render: interrupted while preparing; nothing written\n");
             rc = 128 + cli_interrupted();
             goto done;
         }
@@ -213,7 +213,7 @@ int cli_render(int argc, char **argv) {
         st = mode == DIST_DATA ? dist_render_data(tech, scene, fb, &timing) : dist_render_image(tech, scene, fb, &timing);
         int stopped = st == VOLUX_ERR_CANCELLED && cli_interrupted();
         if (stopped && volux_framebuffer_spp(fb) == 0) {
-            fprintf(stderr, "volux render: interrupted before the first sample of every pixel; nothing written\n");
+            cli_eprintf("volux render: interrupted before the first sample of every pixel; nothing written\n");
             rc = 128 + cli_interrupted();
             goto done;
         }
@@ -250,7 +250,7 @@ int cli_render(int argc, char **argv) {
             char err[32];
             format_error(rel_error, err, sizeof err);
             if (!rc && stopped) {
-                fprintf(stderr, "volux render: interrupted at %u of %d spp (rel. error %s): wrote %s\n",
+                cli_eprintf("volux render: interrupted at %u of %d spp (rel. error %s): wrote %s\n",
                         volux_framebuffer_spp(fb), rs->spp, err, out);
                 rc = 128 + cli_interrupted();
             } else if (!rc && !args.quiet) {
@@ -258,14 +258,14 @@ int cli_render(int argc, char **argv) {
                  * every sample index but the pixel jitter: say what spp > 1 did. */
                 uint32_t spp = volux_framebuffer_spp(fb);
                 const char *what = info && !info->progressive && spp > 1 ? " (anti-aliasing passes)" : "";
-                fprintf(stderr, "volux render: %s: ", args.scene_path);
-                if (all_steps) fprintf(stderr, "step %d/%d: ", step, last + 1);
-                fprintf(stderr, "%s %dx%d, %u spp%s, %s %.1f ms, render %.1f ms", rs->technique, rs->width,
+                cli_eprintf("volux render: %s: ", args.scene_path);
+                if (all_steps) cli_eprintf("step %d/%d: ", step, last + 1);
+                cli_eprintf("%s %dx%d, %u spp%s, %s %.1f ms, render %.1f ms", rs->technique, rs->width,
                         rs->height, spp, what, step == first ? "prepare" : "update", prepare_ms, timing.render_ms);
                 if (dist_size() > 1)
-                    fprintf(stderr, " (%d ranks, %.1f-%.1f ms each, composite %.1f ms)", dist_size(),
+                    cli_eprintf(" (%d ranks, %.1f-%.1f ms each, composite %.1f ms)", dist_size(),
                             timing.rank_render_ms_min, timing.rank_render_ms_max, timing.composite_ms);
-                fprintf(stderr, ", rel. error %s -> %s\n", err, out);
+                cli_eprintf(", rel. error %s -> %s\n", err, out);
             }
         }
         rc = dist_share_exit(rc);

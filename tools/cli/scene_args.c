@@ -11,7 +11,7 @@
 
 static int add_override(const char *cmd, cli_scene_args *a, const char *fmt, const char *value) {
     if (a->n_overrides >= CLI_MAX_OVERRIDES) {
-        fprintf(stderr, "volux %s: too many overrides (max %d)\n", cmd, CLI_MAX_OVERRIDES);
+        cli_eprintf("volux %s: too many overrides (max %d)\n", cmd, CLI_MAX_OVERRIDES);
         return -1;
     }
     if (!strcmp(fmt, "%s")) {
@@ -24,7 +24,7 @@ static int add_override(const char *cmd, cli_scene_args *a, const char *fmt, con
     char *dst = a->storage[a->n_overrides];
     int n = snprintf(dst, sizeof a->storage[0], fmt, value);
     if (n < 0 || (size_t)n >= sizeof a->storage[0]) {
-        fprintf(stderr, "volux %s: option value too long: %s\n", cmd, value);
+        cli_eprintf("volux %s: option value too long: %s\n", cmd, value);
         return -1;
     }
     a->overrides[a->n_overrides++] = dst;
@@ -46,7 +46,7 @@ int cli_scene_arg(const char *cmd, cli_scene_args *a, int argc, char **argv, int
     const char *arg = argv[*i];
     if (!strcmp(arg, "--dump-scene")) {
         if (*i + 1 >= argc) {
-            fprintf(stderr, "volux %s: --dump-scene needs a file name\n", cmd);
+            cli_eprintf("volux %s: --dump-scene needs a file name\n", cmd);
             return -1;
         }
         a->dump_path = argv[++*i];
@@ -55,12 +55,12 @@ int cli_scene_arg(const char *cmd, cli_scene_args *a, int argc, char **argv, int
     for (size_t k = 0; k < sizeof map / sizeof map[0]; k++) {
         if (strcmp(arg, map[k].opt)) continue;
         if (*i + 1 >= argc) {
-            fprintf(stderr, "volux %s: %s needs a value\n", cmd, arg);
+            cli_eprintf("volux %s: %s needs a value\n", cmd, arg);
             return -1;
         }
         const char *value = argv[++*i];
         if (!strcmp(arg, "--set") && !strchr(value, '=')) {
-            fprintf(stderr, "volux %s: --set %s: expected dotted.path=value\n", cmd, value);
+            cli_eprintf("volux %s: --set %s: expected dotted.path=value\n", cmd, value);
             return -1;
         }
         if (strcmp(arg, "--set") && strcmp(arg, "--technique")) {
@@ -321,7 +321,7 @@ void cli_print_notes(const char *cmd, const volux_scene *scene) {
     for (const char *p = volux_scene_notes(scene); *p;) {
         const char *nl = strchr(p, '\n');
         int len = nl ? (int)(nl - p) : (int)strlen(p);
-        fprintf(stderr, "volux %s: note: %.*s\n", cmd, len, p);
+        cli_eprintf("volux %s: note: %.*s\n", cmd, len, p);
         p += len + (nl ? 1 : 0);
     }
 }
@@ -329,7 +329,7 @@ void cli_print_notes(const char *cmd, const volux_scene *scene) {
 int cli_load_scene(const char *cmd, volux_context *ctx, const cli_scene_args *a, volux_scene **out) {
     char msg[1024];
     int rc = cli_load_scene_quiet(cmd, ctx, a, out, msg, sizeof msg);
-    if (rc) fprintf(stderr, "volux %s: %s\n", cmd, msg);
+    if (rc) cli_eprintf("volux %s: %s\n", cmd, msg);
     else if (!a->quiet) cli_print_notes(cmd, *out);
     return rc;
 }

@@ -39,7 +39,7 @@ int cli_techniques(int argc, char **argv) {
                    "lists the techniques (or the named ones) and their parameters\n");
             return CLI_OK;
         } else if (argv[i][0] == '-') {
-            fprintf(stderr, "volux techniques: unknown option '%s' (usage: volux techniques [--brief] [NAME...])\n",
+            cli_eprintf("volux techniques: unknown option '%s' (usage: volux techniques [--brief] [NAME...])\n",
                     argv[i]);
             return CLI_USAGE;
         } else {
@@ -48,7 +48,7 @@ int cli_techniques(int argc, char **argv) {
                 char names[256];
                 cli_technique_names(names, sizeof names);
                 const char *guess = cli_closest_technique(argv[i]);
-                fprintf(stderr, "volux techniques: unknown technique '%s'%s%s%s (techniques: %s)\n", argv[i],
+                cli_eprintf("volux techniques: unknown technique '%s'%s%s%s (techniques: %s)\n", argv[i],
                         guess ? "; did you mean '" : "", guess ? guess : "", guess ? "'?" : "", names);
                 return CLI_USAGE;
             }

@@ -43,7 +43,7 @@ int dist_begin(const char *cmd, dist_mode requested) {
     int provided = 0;
     /* Threads render tiles but only the main thread calls MPI. */
     if (MPI_Init_thread(NULL, NULL, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS) {
-        fprintf(stderr, "volux %s: MPI could not start\n", cmd);
+        cli_eprintf("volux %s: MPI could not start\n", cmd);
         return -1;
     }
     started = 1;
@@ -72,7 +72,7 @@ int dist_default_threads(void) {
 
 int dist_agree_msg(const char *cmd, int rc, const char *msg) {
     if (!started) {
-        if (rc) fprintf(stderr, "volux %s: %s\n", cmd, msg);
+        if (rc) cli_eprintf("volux %s: %s\n", cmd, msg);
         return rc;
     }
     int mine = rc ? rank : size, first = size;
@@ -83,8 +83,8 @@ int dist_agree_msg(const char *cmd, int rc, const char *msg) {
     MPI_Bcast(text, (int)sizeof text, MPI_CHAR, first, MPI_COMM_WORLD);
     MPI_Bcast(&rc, 1, MPI_INT, first, MPI_COMM_WORLD);
     if (rank == 0) {
-        if (first) fprintf(stderr, "volux %s: rank %d: %s\n", cmd, first, text);
-        else fprintf(stderr, "volux %s: %s\n", cmd, text);
+        if (first) cli_eprintf("volux %s: rank %d: %s\n", cmd, first, text);
+        else cli_eprintf("volux %s: %s\n", cmd, text);
     }
     return rc;
 }

@@ -10,7 +10,7 @@ int dist_begin(const char *cmd, dist_mode requested) {
     if (!requested && !dist_launched()) return DIST_NONE;
     /* Under mpirun every process would render the whole frame and write
      * the same file: refuse instead. */
-    fprintf(stderr,
+    cli_eprintf(
             "volux %s: %s: this volux was built without MPI (install libopenmpi-dev and "
             "configure with -DVOLUX_MPI=ON)\n",
             cmd, requested ? "--distribute" : "started by mpirun");
@@ -27,7 +27,7 @@ int dist_size(void) { return 1; }
 int dist_default_threads(void) { return 0; }
 int dist_agree(const char *cmd, volux_context *ctx, volux_status st) { return st ? cli_fail(cmd, ctx, st) : 0; }
 int dist_agree_msg(const char *cmd, int rc, const char *msg) {
-    if (rc) fprintf(stderr, "volux %s: %s\n", cmd, msg);
+    if (rc) cli_eprintf("volux %s: %s\n", cmd, msg);
     return rc;
 }
 int dist_share_exit(int rc) { return rc; }

@@ -189,6 +189,7 @@ static volux_vec3 trace(gd_path *p, const volux_scene *scene, volux_vec3 o, volu
         volux_ray r;
         float t_hit = INFINITY;
         int collided = volux_ray_clip(st->rc.volume, o, d, &r) && volux_delta_track(&p->tr, &r, r.t0, r.t1, &t_hit);
+        if (p->tr.stopped) break; /* out of time: the path ends here */
         if (depth == 0) {
             if (!collided) {
                 L = v3_add(L, volux_scene_escape_radiance(scene, d));
@@ -240,8 +241,8 @@ void guided_render_tile(const void *state, const volux_scene *scene, const volux
                         volux_tile_stats *stats) {
     const guided_state *st = state;
     const volux_camera *cam = &st->rc.camera;
-    const volux_medium medium = {st->rc.volume, st->rc.lut, &st->rc.grid, 0, 0};
-    gd_path p = {st, {&medium, {0, 0}, 0}, 0, 0};
+    const volux_medium medium = {st->rc.volume, st->rc.lut, &st->rc.grid, 0, 0, st->rc.min_spacing};
+    gd_path p = {st, {&medium, {0, 0}, 0, tile->deadline, 0}, 0, 0};
     p.n_area = st->rc.lights.n_sphere + (st->env.present && st->mis ? 1 : 0);
     guided_event ev;
     ev.kind = st->strategy;

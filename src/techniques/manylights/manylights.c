@@ -550,10 +550,16 @@ static volux_status ml_update(void *state, const volux_scene *scene, const volux
         if ((s = volux_majorant_grid_build(ctx, rc->volume, &st->lut1, &st->grid1))) return s;
         if (!(w & VOLUX_CHANGE_VOLUME)) st->dirty |= ML_DIRTY_PLACE;
     }
-    if (w & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_DENSITY)) {
+    if (w & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY)) {
         if (!st->decode && !(st->decode = volux_malloc(ctx, sizeof(float) * ML_TAU_CODES)))
             return volux_error(ctx, VOLUX_ERR_NOMEM, "manylights: out of memory for the transmittance table");
         float xi = volux_scene_transfer(scene)->density_scale;
+        /* σt = ξ·σ1 stays within VOLUX_SIGMA_T_MAX like every baked table
+         * (volux/transfer.h): an extinction of 1e30 at density scale 1e30
+         * overflowed to inf (Inf pixels; delta tracking could not step).
+         * Only media opaque within far less than a voxel get a smaller ξ. */
+        float s1 = st->grid1.global_max;
+        if (s1 > 0.0f && xi > VOLUX_SIGMA_T_MAX / s1) xi = VOLUX_SIGMA_T_MAX / s1;
         if (xi != st->xi && st->place_by_xi) st->dirty |= ML_DIRTY_PLACE;
         st->xi = xi;
         ml_decode_fill(st->decode, xi); /* W13 §5.1: every AVSM rescaled at once */

@@ -40,6 +40,7 @@
 #include "core/rng.h"
 #include "manylights.h"
 #include "sample/phase.h"
+#include "sample/regular_tracking.h"
 
 #define ML_SEED_SALT 0x6d616e796c696768ull /* "manyligh" */
 
@@ -206,9 +207,29 @@ static int sample_emission(const ml_state *st, const volux_prepared_light *l, vo
 
 /* ------------------------------------------------------------------ distance (step 2) */
 
+/* Regular tracking over [t, t1] (sample/regular_tracking.h) where delta
+ * tracking would take too many steps or cannot move t: the first collision
+ * with optical depth −ln(1 − u). */
+static int track_regular(const ml_state *st, const volux_ray *r, float scale, volux_rng *rng, float t, float t1,
+                         float *t_hit) {
+    volux_track_steps steps;
+    volux_track_steps_init(&steps, t, t1, st->rc.min_spacing);
+    float target = -logf(1.0f - volux_rng_float(rng)), a, b, mid;
+    while (volux_track_steps_next(&steps, &a, &b, &mid)) {
+        float sigma = scale * sigma1_index(st, v3_madd(r->q0, r->dq, mid), NULL), tau = sigma * (b - a);
+        if (tau >= target) {
+            *t_hit = volux_track_hit(a, b, sigma, target);
+            return 1;
+        }
+        target -= tau;
+    }
+    return 0;
+}
+
 /* Delta tracking along the clipped ray r against the unscaled majorants
  * times `scale`: returns 1 and the collision distance, 0 if the particle
- * leaves the volume. */
+ * leaves the volume. Always advances or ends on media of any density (the
+ * regular-tracking fallback of sample/tracking.h). */
 static int track(const ml_state *st, const volux_ray *r, float scale, volux_rng *rng, float *t_hit) {
     volux_march_iter it;
     volux_interval iv;
@@ -216,10 +237,19 @@ static int track(const ml_state *st, const volux_ray *r, float scale, volux_rng 
     while (volux_march_next(&it, &iv)) {
         float smax = iv.sigma_max * scale;
         if (!(smax > 0.0f)) continue;
+        if (volux_track_needs_regular(smax, iv.t0, iv.t1)) {
+            if (track_regular(st, r, scale, rng, iv.t0, iv.t1, t_hit)) return 1;
+            continue;
+        }
         float inv = 1.0f / smax, t = iv.t0;
         for (;;) {
-            t += -logf(1.0f - volux_rng_float(rng)) * inv;
-            if (t >= iv.t1) break; /* memoryless: go on in the next cell */
+            float tn = t + -logf(1.0f - volux_rng_float(rng)) * inv;
+            if (tn >= iv.t1) break; /* memoryless: go on in the next cell */
+            if (!(tn > t) && volux_track_stalled(t, inv)) { /* steps below half an ulp of t */
+                if (track_regular(st, r, scale, rng, t, iv.t1, t_hit)) return 1;
+                break;
+            }
+            t = tn;
             float sigma = scale * sigma1_index(st, v3_madd(r->q0, r->dq, t), NULL);
             if (volux_rng_float(rng) * smax < sigma) {
                 *t_hit = t;

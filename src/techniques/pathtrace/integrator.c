@@ -129,6 +129,7 @@ static volux_vec3 trace(pt_path *p, const volux_scene *scene, volux_vec3 o, volu
         volux_ray r;
         float t_hit = INFINITY;
         int collided = volux_ray_clip(st->rc.volume, o, d, &r) && volux_delta_track(&p->tr, &r, r.t0, r.t1, &t_hit);
+        if (p->tr.stopped) break; /* out of time: the path ends here */
         if (depth == 0) {
             if (!collided) {
                 /* Unscattered camera ray: T·L_escape, T estimated by the
@@ -180,8 +181,9 @@ void volux_pathtrace_render_tile(const void *state, const volux_scene *scene, co
                                  volux_tile_stats *stats) {
     const pt_state *st = state;
     const volux_camera *cam = &st->rc.camera;
-    const volux_medium medium = {st->rc.volume, st->rc.lut, &st->rc.grid, st->pre, st->global_majorant};
-    pt_path p = {st, {&medium, {0, 0}, 0}, 0};
+    const volux_medium medium = {st->rc.volume,  st->rc.lut, &st->rc.grid, st->pre, st->global_majorant,
+                                 st->rc.min_spacing};
+    pt_path p = {st, {&medium, {0, 0}, 0, tile->deadline, 0}, 0};
     for (int y = 0; y < tile->h; y++)
         for (int x = 0; x < tile->w; x++) {
             int px = tile->x0 + x, py = tile->y0 + y;
