@@ -97,7 +97,7 @@ int cli_bench_distributed(int argc, char **argv, int distribute_mode) {
         snprintf(msg, sizeof msg, "out of memory");
     }
     if ((rc = dist_agree_msg("bench", rc, msg))) goto done;
-    if (mode == DIST_DATA && (rc = dist_agree("bench", ctx, dist_share_range(scene)))) goto done;
+    if (mode == DIST_DATA && (rc = dist_agree("bench", ctx, dist_share_stats(scene)))) goto done;
     const volux_render_settings *rs = volux_scene_render(scene);
     line_out o = {json, volux_context_threads(ctx), rs->width, rs->height, ranks, args.scene_path, rs->technique};
 

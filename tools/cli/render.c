@@ -171,7 +171,7 @@ int cli_render(int argc, char **argv) {
     rc = cli_load_scene_quiet("render", ctx, &args, &scene, msg, sizeof msg);
     if (rc && cli_interrupted()) rc = 128 + cli_interrupted();
     if ((rc = dist_agree_msg("render", rc, msg))) goto done;
-    if (mode == DIST_DATA && (rc = dist_agree("render", ctx, dist_share_range(scene)))) goto done;
+    if (mode == DIST_DATA && (rc = dist_agree("render", ctx, dist_share_stats(scene)))) goto done;
     if (dist_rank() == 0 && !args.quiet) cli_print_notes("render", scene);
     if (!out_path) goto done; /* --dump-scene only */
     const volux_render_settings *rs = volux_scene_render(scene);

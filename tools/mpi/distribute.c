@@ -257,7 +257,7 @@ void dist_region(volux_volume_region *out) {
     out->ghost = 0; /* VOLUX_BRICK_GHOST */
 }
 
-volux_status dist_share_range(volux_scene *scene) {
+volux_status dist_share_stats(volux_scene *scene) {
     volux_volume *v = volux_scene_volume(scene);
     volux_volume_stats w;
     volux_volume_stats_of(v, &w);

@@ -84,7 +84,7 @@ volux_status dist_render_image(volux_technique *t, const volux_scene *scene, vol
  *
  * Rank r loads brick r of the k-d split of the volume into dist_size()
  * bricks (dist_region, for cli_scene_args.region), the ranks agree on the
- * whole volume's value range (dist_share_range), and each renders its
+ * whole volume's statistics (dist_share_stats), and each renders its
  * brick with volux_render_part: premultiplied colour + transmittance
  * through its owned box, on the whole volume's sample lattice. The
  * partial images are composited with MPI_Reduce and a non-commutative
@@ -96,7 +96,7 @@ void dist_region(volux_volume_region *out);
  * gradient component: min/max over the bricks' own) given to this rank's
  * brick, and the scene's volume set again so its transfer-function table
  * is baked over the whole range. */
-volux_status dist_share_range(volux_scene *scene);
+volux_status dist_share_stats(volux_scene *scene);
 /* Collective: renders render.spp samples of this rank's brick and
  * composites; afterwards rank 0's fb holds the frame (render.spp samples).
  * Returns this rank's status (pass it to dist_agree). */

@@ -41,7 +41,7 @@ void dist_region(volux_volume_region *out) {
     memset(out, 0, sizeof *out);
     out->count = 1;
 }
-volux_status dist_share_range(volux_scene *scene) {
+volux_status dist_share_stats(volux_scene *scene) {
     (void)scene;
     return VOLUX_OK;
 }
