@@ -6,7 +6,7 @@
 #               volux.pc, the CMake package and the Python package (docs/API.md)
 # Other targets: build, asan, fuzz, bench, clean.
 
-PACKAGES := build-essential cmake pkg-config clang libpng-dev zlib1g-dev libcjson-dev \
+PACKAGES := build-essential cmake pkg-config clang libpng-dev zlib1g-dev libcjson-dev libexpat1-dev \
             libopenexr-dev libcmocka-dev libmicrohttpd-dev libjpeg-dev
 # Only the tests need these: `locales` has the de_DE sources a test compiles
 # into a temporary decimal-comma locale (header numbers must not follow it);

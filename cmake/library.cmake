@@ -48,7 +48,7 @@ add_dependencies(volux_dist_static ${VOLUX_LAYER_TARGET_LIST})
 # package's static target, so the two cannot drift apart. A library added to
 # `volux`'s link must be added here too: check_install.sh's static builds
 # fail with its undefined symbols otherwise.
-set(VOLUX_STATIC_DEP_FILES ${OpenMP_C_LIBRARIES} ${PNG_LIBRARIES} ${ZLIB_LIBRARIES} ${CJSON_LINK_LIBRARIES}
+set(VOLUX_STATIC_DEP_FILES ${OpenMP_C_LIBRARIES} ${PNG_LIBRARIES} ${ZLIB_LIBRARIES} ${CJSON_LINK_LIBRARIES} ${EXPAT_LINK_LIBRARIES}
     ${OPENEXR_CORE_LIB} ${MATH_LIB})
 list(REMOVE_DUPLICATES VOLUX_STATIC_DEP_FILES)
 set(VOLUX_PC_LIBS_PRIVATE "")

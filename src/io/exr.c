@@ -236,6 +236,11 @@ static volux_status decode_chunks(exr_job *job, exr_context_t exr, const layout 
     exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
     int initialized = 0;
     volux_status st = VOLUX_OK;
+    /* Channels we do not keep are decoded into scratch: OpenEXR 3.1's
+     * specialised unpackers write through a NULL decode_to_ptr (a crafted
+     * B/G/Y half image crashed `volux info`; found by fuzz_exr). */
+    unsigned char *scratch = NULL;
+    size_t scratch_bytes = 0;
     int64_t n = chunk_total(lay);
     for (int64_t i = 0; i < n && !st; i++) {
         exr_chunk_info_t ci;
@@ -257,7 +262,26 @@ static volux_status decode_chunks(exr_job *job, exr_context_t exr, const layout 
             int slot = -1;
             for (int k = 0; k < 3 && slot < 0; k++)
                 if (!strcmp(ch->channel_name, lay->channel[k])) slot = k;
-            if (slot < 0) continue;
+            if (slot < 0) {
+                size_t need = (size_t)(ch->width > 0 ? ch->width : 0) * (size_t)(ch->height > 0 ? ch->height : 0) *
+                              sizeof(float);
+                if (need > scratch_bytes) {
+                    volux_free(job->ctx, scratch, scratch_bytes);
+                    scratch_bytes = 0;
+                    if (!(scratch = volux_malloc(job->ctx, need))) {
+                        st = volux_error(job->ctx, VOLUX_ERR_NOMEM, "%s: " EXR ": out of memory for a chunk",
+                                         job->name);
+                        break;
+                    }
+                    scratch_bytes = need;
+                }
+                ch->decode_to_ptr = scratch;
+                ch->user_pixel_stride = sizeof(float);
+                ch->user_line_stride = (int32_t)(sizeof(float) * (size_t)(ch->width > 0 ? ch->width : 0));
+                ch->user_bytes_per_element = sizeof(float);
+                ch->user_data_type = EXR_PIXEL_FLOAT;
+                continue;
+            }
             if (ch->width != ci.width || ch->height != ci.height) {
                 st = volux_error(job->ctx, VOLUX_ERR_FORMAT, "%s: " EXR ": chunk %lld: channel size mismatch",
                                  job->name, (long long)i);
@@ -291,6 +315,7 @@ static volux_status decode_chunks(exr_job *job, exr_context_t exr, const layout 
         if (rv) st = read_error(job, rv, "pixel data");
     }
     if (initialized) exr_decoding_destroy(exr, &dec);
+    volux_free(job->ctx, scratch, scratch_bytes);
     if (!st && !strcmp(lay->channel[0], lay->channel[1])) {
         size_t pixels = (size_t)img->width * (size_t)img->height;
         for (size_t p = 0; p < pixels; p++) img->rgb[p * 3 + 1] = img->rgb[p * 3 + 2] = img->rgb[p * 3];

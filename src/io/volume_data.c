@@ -261,7 +261,7 @@ volux_status volux_source_inflate_prefix(volux_context *ctx, volux_source *src, 
 /* Conversion of decoded chunks into storage                            */
 /* ------------------------------------------------------------------ */
 
-static int host_big_endian(void) {
+int volux_host_big_endian(void) {
     uint16_t one = 1;
     unsigned char b;
     memcpy(&b, &one, 1);
@@ -342,6 +342,14 @@ static void convert_chunk(const volux_volume_header *h, volux_volume *v, size_t 
     }
     }
 }
+
+void volux_volume_store_elements(const volux_volume_header *h, volux_volume *v, size_t first, unsigned char *bytes,
+                                 size_t count) {
+    size_t esize = volux_scalar_type_size(h->type);
+    if (esize > 1 && h->big_endian != volux_host_big_endian()) swap_bytes(bytes, count, esize);
+    convert_chunk(h, v, first, bytes, count);
+}
+
 
 /* ------------------------------------------------------------------ */
 /* The data reader                                                     */
@@ -435,6 +443,19 @@ static volux_status check_nonfinite(volux_context *ctx, const char *name, const 
     return VOLUX_OK;
 }
 
+volux_status volux_volume_read_finish(volux_context *ctx, const volux_volume_header *h, const char *name,
+                                      const volux_volume_load_options *options, volux_volume *v) {
+    volux_status st = check_nonfinite(ctx, name, v, options && options->allow_nonfinite);
+    if (st) return st;
+    st = volux_volume_finalize(v, options && options->use_file_origin && h->has_origin ? h->origin : NULL);
+    if (st) {
+        volux_error_prefix(ctx, "%s: ", name);
+        return st;
+    }
+    volux_volume_set_superior(v, h->has_superior ? h->superior : NULL);
+    return VOLUX_OK;
+}
+
 /* Where part `k` of `parts` starts in its source, checking its size (raw:
  * exactly `need` bytes; compressed: enough to hold them) before anything
  * is allocated. */
@@ -487,7 +508,7 @@ static volux_status read_part(volux_context *ctx, const volux_volume_header *h, 
     volux_status st = stream_open(ctx, src, begin, zlib, &s);
     if (st) return st;
     if (zlib && h->byte_skip > 0 && (st = discard(&s, buf, (uint64_t)h->byte_skip))) goto done;
-    int swap = esize > 1 && (h->big_endian != host_big_endian());
+    int swap = esize > 1 && (h->big_endian != volux_host_big_endian());
     size_t per_chunk = CHUNK / esize, done = 0;
     while (done < count) {
         size_t n = count - done < per_chunk ? count - done : per_chunk, got;
@@ -523,7 +544,6 @@ done:
 volux_status volux_volume_read_parts(volux_context *ctx, const volux_volume_header *h, int parts,
                                      const volux_part_source *ps, const volux_volume_load_options *options,
                                      volux_volume **out) {
-    int use_file_origin = options && options->use_file_origin;
     const char *name = ps->name;
     if (options && options->region && parts > 1)
         return volux_error(ctx, VOLUX_ERR_UNSUPPORTED, "%s: region: one brick of data split over %d files", name,
@@ -575,13 +595,7 @@ volux_status volux_volume_read_parts(volux_context *ctx, const volux_volume_head
     volux_free(ctx, begin, sizeof *begin * (size_t)parts);
     buf = NULL;
     begin = NULL;
-    if ((st = check_nonfinite(ctx, name, v, options && options->allow_nonfinite))) goto fail;
-    st = volux_volume_finalize(v, use_file_origin && h->has_origin ? h->origin : NULL);
-    if (st) {
-        volux_error_prefix(ctx, "%s: ", name);
-        goto fail;
-    }
-    volux_volume_set_superior(v, h->has_superior ? h->superior : NULL);
+    if ((st = volux_volume_read_finish(ctx, h, name, options, v))) goto fail;
     *out = v;
     return VOLUX_OK;
 
@@ -678,7 +692,7 @@ static volux_status read_region(volux_context *ctx, const volux_volume_header *h
         volux_error_prefix(ctx, "%s: ", name);
         goto fail;
     }
-    int swap = esize > 1 && (h->big_endian != host_big_endian());
+    int swap = esize > 1 && (h->big_endian != volux_host_big_endian());
     size_t row_elems = (size_t)sub[0], dest = 0;
     if (!zlib) {
         /* Raw: seek to each run of rows. When the brick spans whole rows,

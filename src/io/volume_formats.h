@@ -217,6 +217,30 @@ volux_status volux_volume_read_data(volux_context *ctx, const volux_volume_heade
 volux_status volux_region_box(volux_context *ctx, const char *name, const int dims[3],
                               const volux_volume_region *r, int lo[3], int hi[3]);
 
+/* For readers with their own data framing (VTI): stores `count` elements of
+ * type h->type in byte order h->big_endian (swapped in place when that is
+ * not the host's) into v from element `first`, converted as
+ * volux_volume_read_data converts. v comes from volux_volume_create_storage
+ * with h->dims and h->type. */
+int volux_host_big_endian(void);
+void volux_volume_store_elements(const volux_volume_header *h, volux_volume *v, size_t first, unsigned char *bytes,
+                                 size_t count);
+/* The common last step of every reader: the non-finite policy (NaN/Inf
+ * refused with their count and first voxel unless options->allow_nonfinite,
+ * then mapped to the lowest value with a warning), then finalizes v (origin
+ * from the header when options->use_file_origin and it has one, else
+ * centred) and sets its anatomical orientation. options may be NULL. */
+volux_status volux_volume_read_finish(volux_context *ctx, const volux_volume_header *h, const char *name,
+                                      const volux_volume_load_options *options, volux_volume *v);
+
+/* VTK XML ImageData (.vti, vti.c). The header parse runs the XML up to
+ * the chosen point-data array (dims, type, spacing, origin); the read
+ * decodes that array (ascii, inline base64 or appended raw/base64,
+ * optionally zlib-compressed) straight into a new volume. */
+volux_status volux_vti_parse_header(volux_context *ctx, volux_source *src, volux_volume_header *out);
+volux_status volux_vti_read(volux_context *ctx, volux_source *src, const volux_volume_load_options *options,
+                            volux_volume **out);
+
 /* What a volume file holds, from its header alone. */
 typedef struct volux_volume_shape {
     int dims[3];
@@ -238,7 +262,8 @@ typedef enum volux_volume_format {
     VOLUX_FORMAT_NRRD,
     VOLUX_FORMAT_METAIMAGE,
     VOLUX_FORMAT_NIFTI,
-    VOLUX_FORMAT_NIFTI_GZ
+    VOLUX_FORMAT_NIFTI_GZ,
+    VOLUX_FORMAT_VTI
 } volux_volume_format;
 
 /* Loads an attached file held in memory, through the same code as

@@ -16,7 +16,7 @@
 
 #define MAX_PATH_BYTES 4096
 
-typedef enum kind { K_NRRD, K_METAIMAGE, K_NIFTI, K_NIFTI_GZ, K_RAW, K_UNKNOWN } kind;
+typedef enum kind { K_NRRD, K_METAIMAGE, K_NIFTI, K_NIFTI_GZ, K_VTI, K_RAW, K_UNKNOWN } kind;
 
 static kind kind_from_extension(const char *path) {
     static const struct {
@@ -24,7 +24,7 @@ static kind kind_from_extension(const char *path) {
         kind k;
     } exts[] = {
         {".nrrd", K_NRRD}, {".nhdr", K_NRRD},   {".mhd", K_METAIMAGE}, {".mha", K_METAIMAGE},
-        {".nii.gz", K_NIFTI_GZ}, {".nii", K_NIFTI}, {".hdr", K_NIFTI},  {".raw", K_RAW},
+        {".nii.gz", K_NIFTI_GZ}, {".nii", K_NIFTI}, {".hdr", K_NIFTI},  {".vti", K_VTI}, {".raw", K_RAW},
     };
     for (size_t i = 0; i < sizeof exts / sizeof exts[0]; i++)
         if (volux_text_ends_with_ci(path, exts[i].ext)) return exts[i].k;
@@ -34,6 +34,7 @@ static kind kind_from_extension(const char *path) {
 /* For unknown extensions: recognise a format by its first bytes. */
 static kind kind_from_bytes(const unsigned char *b, size_t n) {
     if (n >= 7 && memcmp(b, "NRRD000", 7) == 0) return K_NRRD;
+    if ((n >= 5 && memcmp(b, "<?xml", 5) == 0) || (n >= 8 && memcmp(b, "<VTKFile", 8) == 0)) return K_VTI;
     if (n >= 2 && b[0] == 0x1f && b[1] == 0x8b) return K_NIFTI_GZ;
     if (n >= 4 && ((b[0] == 0x5c && b[1] == 1 && !b[2] && !b[3]) || (!b[0] && !b[1] && b[2] == 1 && b[3] == 0x5c)))
         return K_NIFTI; /* sizeof_hdr 348 */
@@ -50,6 +51,7 @@ static kind kind_from_bytes(const unsigned char *b, size_t n) {
 /* Reads the header bytes and parses them with the format's entry point. */
 static volux_status parse_header(volux_context *ctx, kind k, volux_source *src, volux_volume_header *h) {
     const char *name = src->name;
+    if (k == K_VTI) return volux_vti_parse_header(ctx, src, h);
     if (k == K_NIFTI || k == K_NIFTI_GZ) {
         unsigned char b[VOLUX_NIFTI2_HEADER_BYTES]; /* a NIfTI-1 file may be shorter: got says */
         size_t got;
@@ -274,6 +276,9 @@ done:
  * detached data name the header the caller passed first. */
 static volux_status load_from(volux_context *ctx, kind k, volux_source *src, int from_memory,
                               const volux_volume_load_options *options, volux_volume **out) {
+    if (k == K_VTI && options && options->region) /* its own framing has no sub-box reader */
+        return volux_error(ctx, VOLUX_ERR_UNSUPPORTED, "%s: region: one brick of a VTK ImageData file", src->name);
+    if (k == K_VTI) return volux_vti_read(ctx, src, options, out); /* always attached, own framing */
     volux_volume_header h;
     /* A brick is 1/count of the grid: the header's whole size may be up to
      * count × the cap (the brick itself is checked against the cap). */
@@ -331,7 +336,7 @@ static volux_status open_volume(volux_context *ctx, const char *path, volux_sour
             k = kind_from_bytes(b, got);
             if (k == K_UNKNOWN)
                 st = volux_error(ctx, VOLUX_ERR_UNSUPPORTED,
-                                 "%s: unknown volume format (expected .nrrd .nhdr .mhd .mha .nii .nii.gz .hdr, or .raw "
+                                 "%s: unknown volume format (expected .nrrd .nhdr .mhd .mha .nii .nii.gz .hdr .vti, or .raw "
                                  "with a description)",
                                  path);
         }
@@ -398,7 +403,7 @@ volux_status volux_volume_probe(volux_context *ctx, const char *path, const volu
 volux_status volux_volume_load_memory(volux_context *ctx, const void *bytes, size_t n, const char *name,
                                       volux_volume_format format, const volux_volume_load_options *options,
                                       volux_volume **out) {
-    static const kind kinds[] = {K_NRRD, K_METAIMAGE, K_NIFTI, K_NIFTI_GZ};
+    static const kind kinds[] = {K_NRRD, K_METAIMAGE, K_NIFTI, K_NIFTI_GZ, K_VTI};
     volux_source src;
     volux_source_memory(bytes, n, name, &src);
     return load_from(ctx, kinds[format], &src, 1, options, out);

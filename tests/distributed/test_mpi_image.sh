@@ -30,7 +30,8 @@ cat >"$T/scene.json" <<'JSON'
   "lights": [{"type": "directional", "direction": [-0.5, -0.7, -0.5], "irradiance": 1.0}],
   "render": {"technique": "ea", "width": 72, "height": 40, "spp": 2, "threads": 1},
   "techniques": {"ambient": {"radius": 2, "table_theta": 16, "table_sigma": 16, "table_g": 3,
-                             "table_paths": 64, "table_albedo": 0.8}}
+                             "table_paths": 64, "table_albedo": 0.8},
+                 "manylights": {"vl_count": 64}}
 }
 JSON
 

@@ -86,12 +86,12 @@ static int ends_with_ci(const char *s, const char *suffix) {
 
 enum { INPUT_SCENE, INPUT_VOLUME, INPUT_UNKNOWN };
 
-#define VOLUME_EXTENSIONS ".nrrd .nhdr .mhd .mha .nii .nii.gz .hdr"
+#define VOLUME_EXTENSIONS ".nrrd .nhdr .mhd .mha .nii .nii.gz .hdr .vti"
 
 static int input_kind(const char *path) {
     if (cli_is_procedural(path)) return INPUT_VOLUME;
     if (ends_with_ci(path, ".json")) return INPUT_SCENE;
-    static const char *const volume_ext[] = {".nrrd", ".nhdr", ".mhd", ".mha", ".nii", ".nii.gz", ".hdr"};
+    static const char *const volume_ext[] = {".nrrd", ".nhdr", ".mhd", ".mha", ".nii", ".nii.gz", ".hdr", ".vti"};
     for (size_t i = 0; i < sizeof volume_ext / sizeof volume_ext[0]; i++)
         if (ends_with_ci(path, volume_ext[i])) return INPUT_VOLUME;
     /* Another name: a scene if it starts like a JSON object. A file that
