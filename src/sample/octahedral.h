@@ -126,6 +126,10 @@ static inline uint32_t volux_qt_sample(const float *nodes, int from, uint32_t no
                                        float *prob) {
     for (int l = from; l < to; l++) {
         const float *c = nodes + volux_qt_offset(l + 1) + 4 * node;
+        /* The next step reads one of c's 4 children's tiles: 16 floats,
+         * one cache line. Fetching it now overlaps its miss (the deep
+         * levels of a 512² environment are MBs) with this step's work. */
+        if (l + 2 <= to) __builtin_prefetch(nodes + volux_qt_offset(l + 2) + 16 * node);
         double left = (double)c[0] + (double)c[2], right = (double)c[1] + (double)c[3];
         if (!(left + right > 0.0)) {
             *prob = 0.0f;
@@ -156,6 +160,13 @@ static inline uint32_t volux_qt_sample(const float *nodes, int from, uint32_t no
  * level `from`) by volux_qt_sample from `node`: the product of the same
  * conditional probabilities. */
 static inline float volux_qt_prob(const float *nodes, int from, uint32_t node, int to, uint32_t leaf) {
+    /* The path is known: fetch every tile on it first, so the misses
+     * overlap (same products, same order). */
+    uint32_t n = node;
+    for (int l = from; l < to; l++) {
+        __builtin_prefetch(nodes + volux_qt_offset(l + 1) + 4 * n);
+        n = 4 * n + ((leaf >> (2 * (to - l - 1))) & 3u);
+    }
     float prob = 1.0f;
     for (int l = from; l < to; l++) {
         uint32_t j = (leaf >> (2 * (to - l - 1))) & 3u;

@@ -51,6 +51,10 @@
  * HG convention: see sample/phase.h (cos θ between light travel directions;
  * g > 0 forward).
  *
+ * The loop itself (steps 1, 2, 4, 5) is render/path.h, shared with
+ * `guided`; this file supplies the light sampling (step 3) and the MIS
+ * weight of an escaping continuation ray as its hooks.
+ *
  * Random numbers: one counter-based stream per (seed, pixel, sample index),
  * so images are bit-identical for any thread count. No allocation.
  */
@@ -62,6 +66,7 @@
 #include "core/vecmath.h"
 #include "pathtrace.h"
 #include "render/direct.h"
+#include "render/path.h"
 #include "sample/phase.h"
 #include "sample/tracking.h"
 
@@ -96,18 +101,12 @@ static volux_vec3 direct_light(pt_path *p, volux_vec3 x, volux_vec3 d) {
     return sum;
 }
 
-/* Radiance from the emitter that the phase-sampled ray (o, d) reaches before
- * distance t_end (its next real collision, or INFINITY when it escapes the
- * volume): the nearest sphere light, else — if it escaped — the
- * environments; MIS-weighted against light sampling from o. Sets *blocked
- * when a sphere light ends the path. */
-static volux_vec3 emitters_hit(const pt_state *st, volux_vec3 o, volux_vec3 d, float t_end, float pdf_phase,
-                               int escaped, int *blocked) {
+/* The environments seen by a phase-sampled ray that escaped along d,
+ * MIS-weighted against light sampling from its origin (the
+ * render/path.h `escaped` hook). */
+static volux_vec3 environment_escaped(void *self, volux_vec3 d, float pdf_phase) {
+    const pt_state *st = ((const pt_path *)self)->st;
     volux_vec3 sum = v3(0, 0, 0);
-    int nearest = volux_sphere_nearest(&st->rc.lights, o, d, t_end);
-    *blocked = nearest >= 0;
-    if (nearest >= 0) return volux_sphere_hit_radiance(&st->rc.lights.all[nearest], o, pdf_phase);
-    if (!escaped) return sum;
     for (int i = 0; i < st->rc.lights.n_all; i++) {
         const volux_prepared_light *l = &st->rc.lights.all[i];
         if (l->type != VOLUX_LIGHT_ENVIRONMENT) continue;
@@ -117,64 +116,18 @@ static volux_vec3 emitters_hit(const pt_state *st, volux_vec3 o, volux_vec3 d, f
     return sum;
 }
 
-/* One camera path: radiance arriving at the camera along -d from o. */
+/* The render/path.h `direct` hook. */
+static volux_vec3 direct_hook(void *self, volux_vec3 x, volux_vec3 d, int depth) {
+    (void)depth;
+    return direct_light(self, x, d);
+}
+
+/* One camera path: radiance arriving at the camera along -d from o (the
+ * loop shared with `guided`, render/path.h). */
 static volux_vec3 trace(pt_path *p, const volux_scene *scene, volux_vec3 o, volux_vec3 d) {
     const pt_state *st = p->st;
-    volux_vec3 L = v3(0, 0, 0), beta = v3(1, 1, 1);
-    float pdf_phase = 0.0f;
-    int depth = 0; /* scattering events so far */
-    p->vertices++; /* the camera vertex */
-    for (;;) {
-        /* Free flight to the next real collision (or out of the volume). */
-        volux_ray r;
-        float t_hit = INFINITY;
-        int collided = volux_ray_clip(st->rc.volume, o, d, &r) && volux_delta_track(&p->tr, &r, r.t0, r.t1, &t_hit);
-        if (p->tr.stopped) break; /* out of time: the path ends here */
-        if (depth == 0) {
-            if (!collided) {
-                /* Unscattered camera ray: T·L_escape, T estimated by the
-                 * tracker (this branch runs with probability T). */
-                L = v3_add(L, volux_scene_escape_radiance(scene, d));
-                break;
-            }
-        } else if (st->n_area > 0) {
-            int blocked;
-            L = v3_add(L, v3_mul(beta, emitters_hit(st, o, d, t_hit, pdf_phase, !collided, &blocked)));
-            if (blocked) break;
-        }
-        if (!collided || depth >= st->rc.max_depth) break;
-
-        /* Real collision: scatter with probability max ρ, carry ρ/max ρ. */
-        volux_vec3 x = v3_madd(o, d, t_hit);
-        float c[3];
-        volux_tracker_sigma(&p->tr, &r, t_hit, c);
-        volux_vec3 rho = v3(st->rc.albedo * c[0], st->rc.albedo * c[1], st->rc.albedo * c[2]);
-        float P = v3_max_comp(rho);
-        if (!(P > 0.0f) || (P < 1.0f && rnd(p) >= P)) break;
-        beta = v3_mul(beta, v3_scale(rho, 1.0f / P));
-        depth++;
-        p->vertices++;
-
-        /* Next-event estimation (light-sampling strategy). */
-        if (st->rc.lights.n_all > 0) L = v3_add(L, v3_mul(beta, direct_light(p, x, d)));
-
-        /* Russian roulette on the throughput. */
-        if (depth >= st->rr_depth) {
-            float q = v3_max_comp(beta);
-            if (q < 1.0f) {
-                if (rnd(p) >= q) break;
-                beta = v3_scale(beta, 1.0f / q);
-            }
-        }
-        /* After the last scattering event the continuation ray only
-         * serves MIS for sphere/environment lights. */
-        if (depth >= st->rc.max_depth && st->n_area == 0) break;
-
-        /* Phase sampling: f/pdf = 1 for HG sampled exactly. */
-        d = volux_hg_sample(st->rc.g, d, rnd(p), rnd(p), &pdf_phase);
-        o = x;
-    }
-    return L;
+    return volux_path_trace(&p->tr, &st->rc, scene, st->rr_depth, st->n_area, o, d, &p->vertices, direct_hook,
+                            environment_escaped, p);
 }
 
 void volux_pathtrace_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
