@@ -5,6 +5,8 @@
  *   bench_lightvol table   SCENE.json [--repeat R] [--threads T] [--set path=value]...
  *   bench_lightvol scaling SCENE.json [--max N] [--step S] [--repeat R]
  *                          [--threads T] [--jitter DEG] [--set path=value]...
+ *   bench_lightvol budget  SCENE.json [--repeat R] [--threads T] [--set path=value]...
+ *   bench_lightvol sequence SCENE.json --out DIR [--spp N] [--threads T] [--set path=value]...
  *
  * table (Table 1): update_ms.full_sequential (every light, one light per
  * propagation pass), update_ms.full_coherent (lights grouped), update_ms.light
@@ -15,6 +17,20 @@
  * direction of the scene's first light (each rotated by up to ±DEG about +Y
  * with --jitter, so they are coherent but not identical), sequential vs
  * coherent.
+ *
+ * budget (§7.3, techniques.lightvol.budget_ms / budget_slices; issue 17):
+ * the first light rotated ±10° about +Y, then volux_technique_refine until
+ * nothing is pending, as the viewer does between frames:
+ * update_ms.light_first (the update a preview waits for),
+ * update_ms.light_total (update + every refine step), refine_step_ms_max,
+ * and refine_steps (frames to converge).
+ *
+ * sequence (Sundén Figs. 6 and 8 on our data): the scene's lights switched
+ * on one at a time — each step a selective update of one instance — and
+ * every state rendered by lightvol and by pathtrace single scattering
+ * (max_depth 1, --spp samples): DIR/lv_K.pfm, DIR/pt_K.pfm (K = lights on),
+ * one line per step with the update's time and `volux_image_compare`'s
+ * rel_mse of lightvol against pathtrace.
  *
  * One JSON object per line in the `volux bench` contract (scene, technique,
  * metric, value = median wall ms, unit, threads, width, height) plus
@@ -163,6 +179,109 @@ static int run_table(volux_context *ctx, volux_scene *scene, const char *path, i
     return 0;
 }
 
+static int run_budget(volux_context *ctx, volux_scene *scene, const char *path, int repeat, int threads) {
+    const volux_render_settings *rs = volux_scene_render(scene);
+    int w = rs->width, h = rs->height, first = -1;
+    for (int i = 0; i < volux_scene_light_slots(scene) && first < 0; i++)
+        if (volux_scene_light(scene, i)) first = i;
+    if (first < 0) {
+        fprintf(stderr, "bench_lightvol: the scene has no light\n");
+        return 2;
+    }
+    volux_technique *tech = NULL;
+    if (volux_technique_create(ctx, "lightvol", scene, &tech)) return fail(ctx, "create");
+    timing t1 = {calloc((size_t)repeat, sizeof(double)), calloc((size_t)repeat, sizeof(double)), repeat};
+    timing tt = {calloc((size_t)repeat, sizeof(double)), calloc((size_t)repeat, sizeof(double)), repeat};
+    double *steps = calloc((size_t)repeat, sizeof(double)), *step_max = calloc((size_t)repeat, sizeof(double));
+    for (int r = 0; r < repeat; r++) {
+        if (rotate_light(scene, first, (r & 1) ? -10.0 : 10.0)) return fail(ctx, "edit");
+        double w0 = now_ms(CLOCK_MONOTONIC), c0 = now_ms(CLOCK_PROCESS_CPUTIME_ID);
+        if (volux_technique_update(tech, scene, NULL)) return fail(ctx, "update");
+        t1.ms[r] = now_ms(CLOCK_MONOTONIC) - w0;
+        t1.cpu[r] = now_ms(CLOCK_PROCESS_CPUTIME_ID) - c0;
+        int more = volux_technique_pending(tech) > 0;
+        steps[r] = step_max[r] = 0;
+        while (more) {
+            double s0 = now_ms(CLOCK_MONOTONIC);
+            if (volux_technique_refine(tech, scene, NULL, &more)) return fail(ctx, "refine");
+            double d = now_ms(CLOCK_MONOTONIC) - s0;
+            if (d > step_max[r]) step_max[r] = d;
+            steps[r] += 1;
+        }
+        tt.ms[r] = now_ms(CLOCK_MONOTONIC) - w0;
+        tt.cpu[r] = now_ms(CLOCK_PROCESS_CPUTIME_ID) - c0;
+    }
+    emit_timing(path, "update_ms.light_first", &t1, threads, w, h, NULL);
+    emit_timing(path, "update_ms.light_total", &tt, threads, w, h, NULL);
+    emit(path, "refine_steps", median(steps, repeat), "steps", threads, w, h, NULL);
+    emit(path, "refine_step_ms_max", median(step_max, repeat), "ms", threads, w, h, NULL);
+    free(t1.ms), free(t1.cpu), free(tt.ms), free(tt.cpu), free(steps), free(step_max);
+    volux_technique_destroy(tech);
+    return 0;
+}
+
+static volux_status render_to(volux_context *ctx, volux_technique *t, const volux_scene *scene, int spp,
+                               const char *path) {
+    const volux_render_settings *rs = volux_scene_render(scene);
+    volux_framebuffer *fb = NULL;
+    volux_image img = {0};
+    volux_render_limits lim = {(uint32_t)spp, 0, 0};
+    volux_status st = volux_framebuffer_create(ctx, rs->width, rs->height, &fb);
+    if (!st) st = volux_render(t, scene, fb, &lim, NULL);
+    if (!st) st = volux_framebuffer_resolve(fb, &img);
+    if (!st) st = volux_image_save(ctx, path, &img, 0.0f);
+    volux_image_free(ctx, &img);
+    volux_framebuffer_destroy(fb);
+    return st;
+}
+
+static int run_sequence(volux_context *ctx, volux_scene *scene, const char *path, const char *out, int spp,
+                        int threads) {
+    const volux_render_settings *rs0 = volux_scene_render(scene);
+    int w = rs0->width, h = rs0->height, slots[64], n = 0;
+    for (int i = 0; i < volux_scene_light_slots(scene) && n < 64; i++)
+        if (volux_scene_light(scene, i)) slots[n++] = i;
+    for (int i = 1; i < n; i++)
+        if (volux_scene_set_light_enabled(scene, slots[i], 0)) return fail(ctx, "light");
+    volux_technique *lv = NULL;
+    if (volux_technique_create(ctx, "lightvol", scene, &lv)) return fail(ctx, "create");
+    for (int k = 1; k <= n; k++) {
+        double ms = 0.0;
+        if (k > 1) {
+            if (volux_scene_set_light_enabled(scene, slots[k - 1], 1)) return fail(ctx, "light");
+            double w0 = now_ms(CLOCK_MONOTONIC);
+            if (volux_technique_update(lv, scene, NULL)) return fail(ctx, "update");
+            ms = now_ms(CLOCK_MONOTONIC) - w0;
+        }
+        char a[1024], b[1024];
+        snprintf(a, sizeof a, "%s/lv_%d.pfm", out, k);
+        snprintf(b, sizeof b, "%s/pt_%d.pfm", out, k);
+        if (render_to(ctx, lv, scene, 1, a)) return fail(ctx, a);
+        /* the reference: pathtrace single scattering of the same state */
+        volux_render_settings rs = *volux_scene_render(scene);
+        volux_render_settings pt = rs;
+        strcpy(pt.technique, "pathtrace");
+        pt.max_depth = 1;
+        volux_technique *ref = NULL;
+        if (volux_scene_set_render(scene, &pt) || volux_technique_create(ctx, "pathtrace", scene, &ref) ||
+            render_to(ctx, ref, scene, spp, b))
+            return fail(ctx, b);
+        volux_technique_destroy(ref);
+        if (volux_scene_set_render(scene, &rs)) return fail(ctx, "render settings");
+        volux_image ia = {0}, ib = {0};
+        volux_image_error m;
+        if (volux_image_load(ctx, a, &ia) || volux_image_load(ctx, b, &ib) || volux_image_compare(ctx, &ia, &ib, &m))
+            return fail(ctx, "compare");
+        char extra[128];
+        snprintf(extra, sizeof extra, "\"lights\":%d,\"rel_mse\":%.5g,\"pathtrace_spp\":%d", k, m.rel_mse, spp);
+        emit(path, "sequence.update_ms", ms, "ms", threads, w, h, extra);
+        volux_image_free(ctx, &ia);
+        volux_image_free(ctx, &ib);
+    }
+    volux_technique_destroy(lv);
+    return 0;
+}
+
 static int run_scaling(volux_context *ctx, volux_scene *scene, const char *path, int repeat, int threads,
                        int max_lights, int step, double jitter) {
     const volux_render_settings *rs = volux_scene_render(scene);
@@ -213,9 +332,11 @@ int main(int argc, char **argv) {
     const char *sets[MAX_SET + 1];
     int n_sets = 0, max_lights = 40, step = 1, repeat = 3, threads = 0;
     double jitter = 0.0;
-    int table = !strcmp(mode, "table");
-    if (!table && strcmp(mode, "scaling")) {
-        fprintf(stderr, "usage: bench_lightvol table|scaling SCENE.json [options] (see the source header)\n");
+    int table = !strcmp(mode, "table"), budget = !strcmp(mode, "budget"), sequence = !strcmp(mode, "sequence");
+    const char *out = NULL;
+    int spp = 256;
+    if (!table && !budget && !sequence && strcmp(mode, "scaling")) {
+        fprintf(stderr, "usage: bench_lightvol table|scaling|budget|sequence SCENE.json [options] (see the source header)\n");
         return 2;
     }
     for (int i = 2; i < argc; i++) {
@@ -225,12 +346,18 @@ int main(int argc, char **argv) {
         else if (!strcmp(a, "--repeat") && i + 1 < argc) repeat = atoi(argv[++i]);
         else if (!strcmp(a, "--threads") && i + 1 < argc) threads = atoi(argv[++i]);
         else if (!strcmp(a, "--jitter") && i + 1 < argc) jitter = atof(argv[++i]);
+        else if (!strcmp(a, "--out") && i + 1 < argc) out = argv[++i];
+        else if (!strcmp(a, "--spp") && i + 1 < argc) spp = atoi(argv[++i]);
         else if (!strcmp(a, "--set") && i + 1 < argc && n_sets < MAX_SET) sets[n_sets++] = argv[++i];
         else if (a[0] != '-' && !scene_path) scene_path = a;
         else {
             fprintf(stderr, "bench_lightvol: unknown or incomplete option '%s'\n", a);
             return 2;
         }
+    }
+    if (sequence && (!out || spp < 1)) {
+        fprintf(stderr, "bench_lightvol: sequence needs --out DIR (and --spp >= 1)\n");
+        return 2;
     }
     if (!scene_path || max_lights < 1 || max_lights > 200 || step < 1 || repeat < 1 || repeat > 100) {
         fprintf(stderr, "bench_lightvol: bad arguments (SCENE.json, 1 <= --max <= 200, --repeat 1..100)\n");
@@ -248,8 +375,10 @@ int main(int argc, char **argv) {
     rs.threads = threads;
     if (volux_scene_set_render(scene, &rs)) return fail(ctx, "render settings");
     int nthreads = threads > 0 ? threads : volux_context_threads(ctx);
-    int rc = table ? run_table(ctx, scene, scene_path, repeat, nthreads)
-                   : run_scaling(ctx, scene, scene_path, repeat, nthreads, max_lights, step, jitter);
+    int rc = table    ? run_table(ctx, scene, scene_path, repeat, nthreads)
+             : budget ? run_budget(ctx, scene, scene_path, repeat, nthreads)
+             : sequence ? run_sequence(ctx, scene, scene_path, out, spp, nthreads)
+                      : run_scaling(ctx, scene, scene_path, repeat, nthreads, max_lights, step, jitter);
     volux_scene_destroy(scene);
     volux_context_destroy(ctx);
     return rc;

@@ -4,7 +4,8 @@
  * same image within a stated float tolerance on every storage type, with
  * and without pre-integration, skipping and early termination, for
  * perspective and orthographic cameras; thread-count independence;
- * skipping exact; the `kernel` parameter validated.
+ * skipping exact; all of it again at coarse steps (the prefetching path);
+ * the `kernel` parameter validated.
  *
  * Tolerances (radiance in [0, 1]; the scene's pixels reach ~0.9):
  *   - without pre-integration the kernels take bit-identical samples and
@@ -79,6 +80,8 @@ static const char *write_volume(const storage_case *sc) {
     return strrchr(path, '/') + 1; /* scenes resolve it against the temp dir */
 }
 
+static double g_step = 0.45; /* render.step of the scenes below (voxels) */
+
 /* Scene JSON for storage `sc`; TF positions are fractions of its range. */
 static volux_scene *make_scene_t(volux_context *ctx, const char *tech, const storage_case *sc, const char *file,
                                  int ortho, int preint, int skip, double early) {
@@ -94,11 +97,11 @@ static volux_scene *make_scene_t(volux_context *ctx, const char *tech, const sto
              " \"lights\": [{\"type\": \"directional\", \"direction\": [-1, -0.5, -0.8], \"irradiance\": 1.5},"
              "              {\"type\": \"directional\", \"direction\": [0.6, -1, 0.2], \"irradiance\": 0.7,"
              "               \"color\": [1, 0.7, 0.4]}],"
-             " \"render\": {\"width\": %d, \"height\": %d, \"spp\": 2, \"step\": 0.45},"
+             " \"render\": {\"width\": %d, \"height\": %d, \"spp\": 2, \"step\": %g},"
              " \"techniques\": {\"%s\": {\"preintegrate\": %s, \"skip_empty\": %s, \"early_termination\": %g}}}",
              file, NX, NY, NZ, sc->type, S_(0), S_(0.3), S_(0.36), S_(0.42), S_(0.6), S_(0.8), S_(1.0), S_(0),
              S_(0.36), S_(0.7), S_(1.0), ortho ? "\"type\": \"orthographic\", " : "", ortho ? "-60" : "35",
-             ortho ? "10" : "25", W, H, tech, preint ? "true" : "false", skip ? "true" : "false", early);
+             ortho ? "10" : "25", W, H, g_step, tech, preint ? "true" : "false", skip ? "true" : "false", early);
 #undef S_
     return tu_scene(ctx, json);
 }
@@ -280,6 +283,64 @@ static void test_widths_are_bit_identical(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* Steps of 2 voxels and more switch on the SIMD kernel's software
+ * prefetch of later samples' cells (dvr_simd_impl.h, render_tile_impl:
+ * two segments ahead below 3 voxels, one from 3 on) and make skips jump
+ * over more segments: the image must still match the scalar kernel within
+ * the tolerances above, skipping must not change pixels, and the two
+ * widths must give the same bits. */
+static void test_coarse_steps(void **state) {
+    (void)state;
+    if (!simd_or_skip()) skip();
+    static const char *techs[] = {"ea", "shaded"};
+    static const double steps[] = {2.5, 4.0};
+    static const size_t kinds[] = {0, 3}; /* uint8, float32 */
+    const int wide = volux_dvr_avx512_available();
+    volux_context *ctx = tu_context(2);
+    for (int st = 0; st < 2; st++) {
+        g_step = steps[st];
+        for (int k = 0; k < 2; k++) {
+            const storage_case *sc = &storages[kinds[k]];
+            const char *file = write_volume(sc);
+            for (int tech = 0; tech < 2; tech++)
+                for (int ortho = 0; ortho < 2; ortho++)
+                    for (int preint = 0; preint < 2; preint++) {
+                        volux_scene *on = make_scene_t(ctx, techs[tech], sc, file, ortho, preint, 1, 0.002);
+                        volux_scene *off = make_scene_t(ctx, techs[tech], sc, file, ortho, preint, 0, 0.002);
+                        volux_image ref = render_kernel_t(ctx, on, techs[tech], "scalar");
+                        volux_image a = render_kernel_t(ctx, on, techs[tech], "simd");
+                        volux_image b = render_kernel_t(ctx, off, techs[tech], "simd");
+                        volux_image c = render_kernel_t(ctx, on, techs[tech], "avx2");
+                        double d = tu_max_abs_diff(&ref, &a), m = mean_abs_diff(&ref, &a);
+                        double tol = preint ? 1e-4 : 2e-6, tol_mean = preint ? 1e-6 : 5e-8;
+                        if (!(d <= tol) || !(m <= tol_mean))
+                            fail_msg("%s %s step %g %s preint=%d: SIMD vs scalar max %g (tol %g), mean %g (tol %g)",
+                                     techs[tech], sc->type, g_step, ortho ? "ortho" : "persp", preint, d, tol, m,
+                                     tol_mean);
+                        if (tu_max_abs_diff(&a, &b) > 1e-6)
+                            fail_msg("%s %s step %g preint=%d: skipping changed pixels by %g", techs[tech], sc->type,
+                                     g_step, preint, tu_max_abs_diff(&a, &b));
+                        if (wide && memcmp(a.rgb, c.rgb, sizeof(float) * 3 * W * H))
+                            fail_msg("%s %s step %g preint=%d: AVX-512 and AVX2 images differ (max %g)", techs[tech],
+                                     sc->type, g_step, preint, tu_max_abs_diff(&a, &c));
+                        /* not vacuous: the volume is visible at this step too */
+                        double sum = 0;
+                        for (int i = 0; i < W * H * 3; i++)
+                            sum += fabs(a.rgb[i] - (i % 3 == 0 ? 0.1 : i % 3 == 1 ? 0.2 : 0.3));
+                        if (sum < 1.0) fail_msg("%s step %g: the volume is not visible (sum %g)", sc->type, g_step, sum);
+                        volux_image_free(ctx, &ref);
+                        volux_image_free(ctx, &a);
+                        volux_image_free(ctx, &b);
+                        volux_image_free(ctx, &c);
+                        volux_scene_destroy(on);
+                        volux_scene_destroy(off);
+                    }
+        }
+    }
+    g_step = 0.45;
+    volux_context_destroy(ctx);
+}
+
 static void test_kernel_parameter_is_validated(void **state) {
     (void)state;
     volux_context *ctx = tu_context(1);
@@ -320,6 +381,7 @@ int main(void) {
         cmocka_unit_test(test_simd_is_thread_count_independent),
         cmocka_unit_test(test_simd_skipping_is_exact),
         cmocka_unit_test(test_widths_are_bit_identical),
+        cmocka_unit_test(test_coarse_steps),
         cmocka_unit_test(test_kernel_parameter_is_validated),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -42,7 +42,7 @@ static int simd_or_skip(void) {
 static volux_scene *scene(volux_context *ctx, const float *data, int which) {
     static const float colour[3] = {0.9f, 0.6f, 0.4f};
     volux_scene *s = lvf_scene(ctx, NX, NY, NZ, data, 0.8f, colour);
-    volux_light_desc l[4];
+    volux_light_desc l[6];
     int n = 0;
     if (which == 0 || which == 2) {
         l[n++] = lvf_directional(-0.35f, -1.0f, -0.1f, 2.0f);     /* −y, second −x */
@@ -53,6 +53,10 @@ static volux_scene *scene(volux_context *ctx, const float *data, int which) {
     if (which == 1 || which == 2) {
         l[n] = lvf_point(60.0f, 45.0f, 20.0f, 9000.0f);
         l[n++].color = (volux_vec3){1.0f, 0.7f, 0.3f};
+        /* beside the box within the y and z slabs: with the centre grouping
+         * (+x, −z) the −z group reaches only z < 8 (lv_center_weight per row
+         * in +x sweeps, per column in −z sweeps) */
+        l[n++] = lvf_point(-40.0f, 3.0f, 8.0f, 7000.0f);
         if (which == 1) {
             l[n++] = lvf_spot(-30.0f, 20.0f, -25.0f, 1.0f, -0.3f, 0.8f, 12000.0f, 30.0f, 20.0f);
             l[n++] = lvf_point(3.0f, -4.0f, 2.0f, 500.0f); /* inside the box: six groups */
@@ -85,10 +89,14 @@ static void test_simd_matches_scalar(void **state) {
         float f, cone, scale;
     } cfg[] = {{0.0f, 0.0f, 1.0f}, {0.5f, 0.0f, 1.0f}, {0.5f, 12.0f, 1.0f},
                {0.0f, 0.0f, 0.5f}, {0.7f, 12.0f, 0.5f}, {1.0f, 30.0f, 1.0f}};
-    for (int which = 0; which < 3; which++)
+    /* the positional setups also with the centre grouping (§4) */
+    for (int which = 0; which < 5; which++)
         for (size_t c = 0; c < sizeof cfg / sizeof cfg[0]; c++)
             for (int dir = 0; dir < 2; dir++) {
-                volux_scene *s = scene(ctx, data, which);
+                volux_scene *s = scene(ctx, data, which < 3 ? which : which - 2);
+                assert_int_equal(
+                    volux_scene_set_param(s, "lightvol", "positional_grouping", 0, which >= 3 ? "center" : "voxel"),
+                    VOLUX_OK);
                 assert_int_equal(volux_scene_set_param(s, "lightvol", "forward_scattering", cfg[c].f, NULL), VOLUX_OK);
                 assert_int_equal(volux_scene_set_param(s, "lightvol", "scatter_cone", cfg[c].cone, NULL), VOLUX_OK);
                 assert_int_equal(volux_scene_set_param(s, "lightvol", "scale", cfg[c].scale, NULL), VOLUX_OK);

@@ -628,7 +628,10 @@ static void test_bad_parameters_are_named(void **state) {
                {"scale", 2.0, NULL, "techniques.lightvol.scale"},
                {"forward_scattering", 1.5, NULL, "techniques.lightvol.forward_scattering"},
                {"max_lights_per_pass", 0, NULL, "techniques.lightvol.max_lights_per_pass"},
-               {"kernel", 0, "gpu", "techniques.lightvol.kernel"}};
+               {"kernel", 0, "gpu", "techniques.lightvol.kernel"},
+               {"positional_grouping", 0, "corner", "techniques.lightvol.positional_grouping"},
+               {"budget_ms", -1.0, NULL, "techniques.lightvol.budget_ms"},
+               {"budget_slices", -2, NULL, "techniques.lightvol.budget_slices"}};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         fixture g;
         fx_setup(&g, 1);

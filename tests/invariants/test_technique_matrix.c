@@ -61,7 +61,7 @@ static const char *scene_json =
     " \"render\": {\"width\": 20, \"height\": 18, \"spp\": 2, \"step\": 1, \"max_depth\": 4, \"threads\": 1},"
     " \"techniques\": {\"ambient\": {\"radius\": 2, \"table_theta\": 16, \"table_sigma\": 16, \"table_g\": 3,"
     "                                \"table_paths\": 64, \"table_albedo\": 0.8},"
-    "                  \"lightvol\": {\"forward_scattering\": 0.5},"
+    "                  \"lightvol\": {\"forward_scattering\": 0.5, \"budget_slices\": 7},"
     "                  \"manylights\": {\"vl_count\": 24, \"avsm_resolution\": 3, \"avsm_nodes\": 4,"
     "                                   \"samples\": 2, \"update_budget\": 7},"
     "                  \"guided\": {\"env_resolution\": 16}}}";

@@ -252,9 +252,14 @@ static void test_point_light_in_vacuum_falls_off_as_inverse_square(void **state)
     const int n = 16;
     float *data = filled(n * n * n, 0.0f);
     volux_scene *s = lvf_scene(ctx, n, n, n, data, 0.9f, NULL);
-    const float where[3][3] = {{-30, 4, 2}, {3, 25, -20}, {1.3f, -0.7f, 2.2f}};
-    for (int w = 0; w < 3; w++) {
-        volux_light_desc p = lvf_point(where[w][0], where[w][1], where[w][2], 1000.0f);
+    /* the last but one lies beside the box within its z slab: with the
+     * centre grouping (+x, −z) the voxels beyond z = 6 take the light from
+     * +x alone (lv_center_weight); the factors still sum to 1 everywhere */
+    const float where[4][3] = {{-30, 4, 2}, {3, 25, -20}, {-30, 2, 6}, {1.3f, -0.7f, 2.2f}};
+    for (int w = 0; w < 8; w++) {
+        const char *grouping = w < 4 ? "voxel" : "center";
+        assert_int_equal(volux_scene_set_param(s, "lightvol", "positional_grouping", 0, grouping), VOLUX_OK);
+        volux_light_desc p = lvf_point(where[w % 4][0], where[w % 4][1], where[w % 4][2], 1000.0f);
         assert_int_equal(volux_scene_set_light(s, 0, &p), VOLUX_OK);
         volux_technique *t = lvf_create(ctx, s);
         const lightvol_state *st = lvf_state(t);
@@ -263,13 +268,14 @@ static void test_point_light_in_vacuum_falls_off_as_inverse_square(void **state)
             for (int j = 0; j < n; j++)
                 for (int i = 0; i < n; i++) {
                     volux_vec3 pw = {st->lo.x + (float)i, st->lo.y + (float)j, st->lo.z + (float)k};
-                    volux_vec3 d = {pw.x - where[w][0], pw.y - where[w][1], pw.z - where[w][2]};
+                    volux_vec3 d = {pw.x - where[w % 4][0], pw.y - where[w % 4][1], pw.z - where[w % 4][2]};
                     float r2 = d.x * d.x + d.y * d.y + d.z * d.z;
                     if (r2 < r2min) continue;
                     float want = 1000.0f / r2;
                     const float *e = lvf_at(st, i, j, k);
                     if (fabsf(e[0] - want) > 2e-3f * want)
-                        fail_msg("light %d at (%d,%d,%d): E = %g, I/r^2 = %g", w, i, j, k, e[0], want);
+                        fail_msg("light %d (%s) at (%d,%d,%d): E = %g, I/r^2 = %g", w % 4, grouping, i, j, k, e[0],
+                                 want);
                 }
         volux_technique_destroy(t);
     }

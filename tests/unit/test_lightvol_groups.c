@@ -142,6 +142,7 @@ static void test_point_light_groups_follow_local_directions(void **state) {
     volux_context *ctx = tu_context(1);
     float *data = calloc(16 * 16 * 16, sizeof(float));
     volux_scene *s = lvf_scene(ctx, 16, 16, 16, data, 0.9f, NULL);
+    assert_int_equal(volux_scene_set_param(s, "lightvol", "positional_grouping", 0, "voxel"), VOLUX_OK);
     volux_light_desc p = lvf_point(0, 1e5f, 0, 1.0f);
     assert_int_equal(volux_scene_set_light(s, 0, &p), VOLUX_OK);
     volux_technique *t = lvf_create(ctx, s);
@@ -164,6 +165,62 @@ static void test_point_light_groups_follow_local_directions(void **state) {
     float f[LV_GROUPS];
     lv_face_weights(unit(60, -25, -10), f);
     assert_true(st->applied[0].src.groups & (1u << lv_group(0, 1)));
+    volux_technique_destroy(t);
+    volux_scene_destroy(s);
+    free(data);
+    volux_context_destroy(ctx);
+}
+
+/* §4's grouping (techniques.lightvol.positional_grouping = "center"): a
+ * point light outside the box joins the two closest faces of its
+ * light-to-centre direction with that direction's constant Eq. 5 factors —
+ * one pass where the per-voxel grouping needs five for a close light; a
+ * light inside the box, or beside it within both groups' slabs (the two
+ * groups cannot reach every voxel), keeps the per-voxel groups. */
+static void test_center_grouping_uses_the_main_direction(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(1);
+    float *data = calloc(16 * 16 * 16, sizeof(float));
+    volux_scene *s = lvf_scene(ctx, 16, 16, 16, data, 0.9f, NULL);
+    assert_int_equal(volux_scene_set_param(s, "lightvol", "positional_grouping", 0, "center"), VOLUX_OK);
+    volux_light_desc p = lvf_point(0, 20, 0, 1.0f); /* close above: five groups per voxel */
+    assert_int_equal(volux_scene_set_light(s, 0, &p), VOLUX_OK);
+    volux_technique *t = lvf_create(ctx, s);
+    const lightvol_state *st = lvf_state(t);
+    assert_int_equal(st->applied[0].src.groups, 1u << lv_group(1, -1));
+    assert_int_equal(st->applied[0].src.center, 1);
+    assert_true(st->applied[0].src.weight[lv_group(1, -1)] == 1.0f);
+    /* off-axis, beside the z slab: +x and −z with the centre direction's factors */
+    p.position = (volux_vec3){-30, 2, 6};
+    assert_int_equal(volux_scene_set_light(s, 0, &p), VOLUX_OK);
+    lvf_update(t, s);
+    float f[LV_GROUPS];
+    unsigned want = lv_face_weights(unit(30, -2, -6), f);
+    assert_int_equal(want, (1u << lv_group(0, 1)) | (1u << lv_group(2, -1)));
+    assert_int_equal(st->applied[0].src.groups, want);
+    assert_int_equal(st->applied[0].src.center, 1);
+    for (int g = 0; g < LV_GROUPS; g++) assert_true(fabsf(st->applied[0].src.weight[g] - f[g]) < 1e-5f);
+    assert_true(f[lv_group(2, -1)] > 0.05f); /* a real second group */
+    /* inside: the per-voxel grouping, all six (§7.3) */
+    p.position = (volux_vec3){0.5f, 0.2f, -0.3f};
+    assert_int_equal(volux_scene_set_light(s, 0, &p), VOLUX_OK);
+    lvf_update(t, s);
+    assert_int_equal(st->applied[0].src.center, 0);
+    assert_int_equal(st->applied[0].src.groups, 0x3fu);
+    volux_technique_destroy(t);
+    volux_scene_destroy(s);
+    free(data);
+    /* a flat box (16×16×4): a light above a corner within the x and y slabs
+     * has the main faces −x, −y, which cannot reach the voxels beyond it */
+    data = calloc(16 * 16 * 4, sizeof(float));
+    s = lvf_scene(ctx, 16, 16, 4, data, 0.9f, NULL);
+    assert_int_equal(volux_scene_set_param(s, "lightvol", "positional_grouping", 0, "center"), VOLUX_OK);
+    p.position = (volux_vec3){6, 6, 5};
+    assert_int_equal(volux_scene_set_light(s, 0, &p), VOLUX_OK);
+    t = lvf_create(ctx, s);
+    st = lvf_state(t);
+    assert_int_equal(st->applied[0].src.center, 0);
+    assert_true(__builtin_popcount(st->applied[0].src.groups) > 2);
     volux_technique_destroy(t);
     volux_scene_destroy(s);
     free(data);
@@ -221,6 +278,7 @@ int main(void) {
         cmocka_unit_test(test_factors_sum_to_one_on_the_closest_faces),
         cmocka_unit_test(test_factors_are_continuous_at_group_boundaries),
         cmocka_unit_test(test_point_light_groups_follow_local_directions),
+        cmocka_unit_test(test_center_grouping_uses_the_main_direction),
         cmocka_unit_test(test_volume_does_not_pop_across_group_boundaries),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -115,7 +115,7 @@ static volux_status build_skip_distance(dvr_state *st) {
     volux_context *ctx = st->rc.ctx;
     const volux_transfer_lut *lut = st->rc.lut;
     const int nx = st->skip_cells[0], ny = st->skip_cells[1], nz = st->skip_cells[2];
-    size_t n = (size_t)nx * (size_t)ny * (size_t)nz, bytes = n * sizeof(int32_t);
+    size_t n = (size_t)nx * (size_t)ny * (size_t)nz, bytes = n + 3;
     if (bytes != st->skip_bytes) {
         if (st->skip_dist) volux_free(ctx, st->skip_dist, st->skip_bytes);
         st->skip_bytes = 0;
@@ -123,6 +123,7 @@ static volux_status build_skip_distance(dvr_state *st) {
         if (!st->skip_dist) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for the skip distances");
         st->skip_bytes = bytes;
     }
+    memset(st->skip_dist + n, 0, 3); /* padding read (and discarded) by the 32-bit gathers */
     /* nonzero[i] = number of table nodes below i with σt > 0: a node range
      * [i0, i1] is empty iff nonzero[i1 + 1] == nonzero[i0] (O(1) per cell) */
     size_t nz_bytes = ((size_t)lut->n + 1) * sizeof(int32_t);
@@ -140,7 +141,7 @@ static volux_status build_skip_distance(dvr_state *st) {
         if (i0 > last) i0 = last;
         if (i1 > last) i1 = last;
         if (i1 < i0) i1 = i0;
-        st->skip_dist[c] = nonzero[i1 + 1] == nonzero[i0]; /* 1: empty, 0: not (for now) */
+        st->skip_dist[c] = (int8_t)(nonzero[i1 + 1] == nonzero[i0]); /* 1: empty, 0: not (for now) */
     }
     volux_free(ctx, nonzero, nz_bytes);
     /* Chamfer on a grid padded by one cell of CAP (never a source), so the
@@ -196,7 +197,7 @@ static volux_status build_skip_distance(dvr_state *st) {
                 for (int x = 0; x < nx; x++) {
                     size_t c = ((size_t)z * (size_t)ny + (size_t)y) * (size_t)nx + (size_t)x;
                     int32_t d = tmp[(((size_t)z + 1) * py + (size_t)y + 1) * px + (size_t)x + 1];
-                    if ((flag[c] != 0) == (kind == 0)) st->skip_dist[c] = kind == 0 ? d : -d;
+                    if ((flag[c] != 0) == (kind == 0)) st->skip_dist[c] = (int8_t)(kind == 0 ? d : -d);
                 }
     }
     volux_free(ctx, tmp, tmp_bytes);

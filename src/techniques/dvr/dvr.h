@@ -55,9 +55,12 @@ typedef struct dvr_state {
      * dvr_avx2.c). 32 bytes: one unaligned 256-bit load per lane. */
     float *pre_f;
     size_t pre_bytes;
-    /* Signed chessboard distance per macrocell to the nearest cell of the
-     * other kind (empty > 0, non-empty < 0); see build_skip_distance. */
-    int32_t *skip_dist;
+    /* Signed chessboard distance per skip cell to the nearest cell of the
+     * other kind (empty > 0, non-empty < 0, |d| ≤ 127); see
+     * build_skip_distance. One byte per cell (+3 bytes of padding, so a
+     * 32-bit gather at any cell stays inside): 256 KiB at 256³ fits the L2
+     * cache where int32 (1 MiB) did not. */
+    int8_t *skip_dist;
     size_t skip_bytes;
     float *skip_range;             /* [2·cells] min, max per skip cell     */
     size_t range_bytes;

@@ -120,15 +120,19 @@ DI void gather_corners_f32(const float *p, vi b, vf c[8]) {
     c[7] = _mm256_i32gather_ps(p + SZ_ + SY_ + 1, b, 4);
 }
 
-/* Gradient cache nodes x and x+1 of the 4 corner rows: each pair is one
- * 64-bit element (two gathers of 4 per row). */
-DI void gather_gradient_rows(const uint32_t *grad, vi b, vi w0[4], vi w1[4]) {
+/* Gradient cache nodes x and x+1 of the 4 corner rows for the lanes of m
+ * (0 elsewhere): each pair is one 64-bit element (two gathers of 4 per
+ * row). */
+DI void gather_gradient_rows(const uint32_t *grad, vi b, vm m, vi w0[4], vi w1[4]) {
     static const int rows[4] = {0, SY_, SZ_, SZ_ + SY_};
     __m128i b_lo = _mm256_castsi256_si128(b), b_hi = _mm256_extracti128_si256(b, 1);
+    const __m256i mi = _mm256_castps_si256(m), zero = _mm256_setzero_si256();
+    const __m256i m_lo = _mm256_cvtepi32_epi64(_mm256_castsi256_si128(mi));
+    const __m256i m_hi = _mm256_cvtepi32_epi64(_mm256_extracti128_si256(mi, 1));
     for (int r = 0; r < 4; r++) {
         const long long *base = (const long long *)(const void *)(grad + rows[r]);
-        __m256 lo = _mm256_castsi256_ps(_mm256_i32gather_epi64(base, b_lo, 4));
-        __m256 hi = _mm256_castsi256_ps(_mm256_i32gather_epi64(base, b_hi, 4));
+        __m256 lo = _mm256_castsi256_ps(_mm256_mask_i32gather_epi64(zero, base, b_lo, m_lo, 4));
+        __m256 hi = _mm256_castsi256_ps(_mm256_mask_i32gather_epi64(zero, base, b_hi, m_hi, 4));
         /* even dwords are node x, odd ones node x+1; the shuffle leaves the
          * lanes in order 0 1 4 5 2 3 6 7, the permute restores it */
         w0[r] = _mm256_permute4x64_epi64(_mm256_castps_si256(_mm256_shuffle_ps(lo, hi, 0x88)), 0xD8);
@@ -136,9 +140,12 @@ DI void gather_gradient_rows(const uint32_t *grad, vi b, vi w0[4], vi w1[4]) {
     }
 }
 
-/* Skip distances of the lanes in `need` (0 elsewhere). */
-DI vi gather_i32_masked(const int32_t *p, vi idx, vm need) {
-    return _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), (const int *)p, idx, _mm256_castps_si256(need), 4);
+/* Signed bytes p[idx] of the lanes in `need` (0 elsewhere): a 32-bit gather
+ * at the byte (the array has 3 bytes of padding), low byte sign-extended. */
+DI vi gather_i8_masked(const int8_t *p, vi idx, vm need) {
+    vi w = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), (const int *)(const void *)p, idx,
+                                       _mm256_castps_si256(need), 1);
+    return _mm256_srai_epi32(_mm256_slli_epi32(w, 24), 24);
 }
 
 /* Rows of 8 floats at base + offs[l] (one per lane), transposed: o[e] holds

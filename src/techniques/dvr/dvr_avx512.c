@@ -130,26 +130,30 @@ DI void gather_corners_f32(const float *p, vi b, vf c[8]) {
     c[7] = _mm512_i32gather_ps(b, p + SZ_ + SY_ + 1, 4);
 }
 
-/* Gradient cache nodes x and x+1 of the 4 corner rows: each pair is one
- * 64-bit element (two gathers of 8 per row), split into the even (node x)
- * and odd (node x+1) dwords by two-source permutes. */
-DI void gather_gradient_rows(const uint32_t *grad, vi b, vi w0[4], vi w1[4]) {
+/* Gradient cache nodes x and x+1 of the 4 corner rows for the lanes of m
+ * (0 elsewhere): each pair is one 64-bit element (two gathers of 8 per
+ * row), split into the even (node x) and odd (node x+1) dwords by
+ * two-source permutes. */
+DI void gather_gradient_rows(const uint32_t *grad, vi b, vm m, vi w0[4], vi w1[4]) {
     static const int rows[4] = {0, SY_, SZ_, SZ_ + SY_};
     const vi even = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
     const vi odd = _mm512_add_epi32(even, _mm512_set1_epi32(1));
     __m256i b_lo = _mm512_castsi512_si256(b), b_hi = _mm512_extracti64x4_epi64(b, 1);
     for (int r = 0; r < 4; r++) {
         const void *base = (const void *)(grad + rows[r]);
-        vi lo = _mm512_i32gather_epi64(b_lo, base, 4);
-        vi hi = _mm512_i32gather_epi64(b_hi, base, 4);
+        vi lo = _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), (__mmask8)(m & 0xff), b_lo, base, 4);
+        vi hi = _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), (__mmask8)(m >> 8), b_hi, base, 4);
         w0[r] = _mm512_permutex2var_epi32(lo, even, hi);
         w1[r] = _mm512_permutex2var_epi32(lo, odd, hi);
     }
 }
 
-/* Skip distances of the lanes in `need` (0 elsewhere). */
-DI vi gather_i32_masked(const int32_t *p, vi idx, vm need) {
-    return _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), need, idx, (const void *)p, 4);
+/* Signed bytes p[idx] of the lanes in `need` (0 elsewhere): a 32-bit
+ * gather at the byte (the array has 3 bytes of padding), the low byte
+ * sign-extended. */
+DI vi gather_i8_masked(const int8_t *p, vi idx, vm need) {
+    vi w = _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), need, idx, (const void *)p, 1);
+    return _mm512_srai_epi32(_mm512_slli_epi32(w, 24), 24);
 }
 
 /* Rows of 8 floats at base + offs[l] (one per lane), transposed: o[e] holds

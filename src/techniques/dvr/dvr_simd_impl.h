@@ -92,20 +92,26 @@ typedef struct cellv {
     vf fx, fy, fz;
 } cellv;
 
-/* Trilinear samples at index-space (x, y, z) from the bricked copy; same
- * clamping and arithmetic as volux_volume_sample_bricked. Every lane gets
- * a valid address (indices are clamped), so no masks are needed. */
-DI vf sample_v(const vol_consts *vc, vf x, vf y, vf z, volux_storage storage, cellv *cell) {
-    const vi zero = i_zero(), seven = i_set(7);
-    vi i = i_max(i_min(i_trunc(x), vc->imax[0]), zero);
-    vi j = i_max(i_min(i_trunc(y), vc->imax[1]), zero);
-    vi k = i_max(i_min(i_trunc(z), vc->imax[2]), zero);
-    vf fx = f_sub(x, f_from_i(i)), fy = f_sub(y, f_from_i(j)), fz = f_sub(z, f_from_i(k));
+/* Brick offset (in nodes) of the cell holding (i, j, k). */
+DI vi brick_offset(const vol_consts *vc, vi i, vi j, vi k) {
+    const vi seven = i_set(7);
     vi brick = i_add(i_mullo(i_srli(i, 3), i_set(VOLUX_BRICK_VOXELS)),
                      i_add(i_mullo(i_srli(j, 3), vc->stride_y), i_mullo(i_srli(k, 3), vc->stride_z)));
     /* 9·(j&7) + 81·(k&7) in one multiply-add of 16-bit pairs */
     vi jk = i_or(i_and(j, seven), i_slli(i_and(k, seven), 16));
-    vi b = i_add(brick, i_add(i_and(i, seven), i_madd16(jk, i_set((81 << 16) | 9))));
+    return i_add(brick, i_add(i_and(i, seven), i_madd16(jk, i_set((81 << 16) | 9))));
+}
+
+/* Trilinear samples at index-space (x, y, z) from the bricked copy; same
+ * clamping and arithmetic as volux_volume_sample_bricked. Every lane gets
+ * a valid address (indices are clamped), so no masks are needed. */
+DI vf sample_v(const vol_consts *vc, vf x, vf y, vf z, volux_storage storage, cellv *cell) {
+    const vi zero = i_zero();
+    vi i = i_max(i_min(i_trunc(x), vc->imax[0]), zero);
+    vi j = i_max(i_min(i_trunc(y), vc->imax[1]), zero);
+    vi k = i_max(i_min(i_trunc(z), vc->imax[2]), zero);
+    vf fx = f_sub(x, f_from_i(i)), fy = f_sub(y, f_from_i(j)), fz = f_sub(z, f_from_i(k));
+    vi b = brick_offset(vc, i, j, k);
     if (cell) cell->b = b, cell->fx = fx, cell->fy = fy, cell->fz = fz;
     vf c[8]; /* c000, c100, c010, c110, c001, c101, c011, c111 */
     if (storage == VOLUX_STORE_U8 || storage == VOLUX_STORE_U16) {
@@ -126,6 +132,23 @@ DI vf sample_v(const vol_consts *vc, vf x, vf y, vf z, volux_storage storage, ce
     vf c01 = lerp(c[4], c[5], fx), c11 = lerp(c[6], c[7], fx);
     vf c0 = lerp(c00, c10, fy), c1 = lerp(c01, c11, fy);
     return f_add(lerp(c0, c1, fz), vc->offset);
+}
+
+/* Software prefetch of the cells at (x, y, z) for the lanes of `m`: the
+ * z and z+1 corner rows (81 nodes apart, usually two cache lines). */
+DI void prefetch_cells(const vol_consts *vc, vf x, vf y, vf z, vm m, volux_storage storage) {
+    const vi zero = i_zero();
+    vi i = i_max(i_min(i_trunc(x), vc->imax[0]), zero);
+    vi j = i_max(i_min(i_trunc(y), vc->imax[1]), zero);
+    vi k = i_max(i_min(i_trunc(z), vc->imax[2]), zero);
+    _Alignas(64) int32_t off[DVR_W];
+    i_store(off, brick_offset(vc, i, j, k));
+    const size_t size = storage == VOLUX_STORE_U8 ? 1 : storage == VOLUX_STORE_U16 ? 2 : 4;
+    for (unsigned bits = (unsigned)m_bits(m); bits; bits &= bits - 1) {
+        const unsigned char *c = vc->bricks + size * (size_t)off[__builtin_ctz(bits)];
+        __builtin_prefetch(c);
+        __builtin_prefetch(c + size * 81);
+    }
 }
 
 /* ------------------------------------------------------ transfer function */
@@ -166,7 +189,7 @@ typedef struct skipv {
  * skip to *m, the last segment index whose start is ≤ *t_exit (with a
  * margin of 10⁻³ h, so rounding never skips into a non-empty cell); lanes
  * in a non-empty cube need not check again before *t_exit. */
-DI vm check_cells(const int32_t *dist, const skipv *sk, const vf q0[3], const vf dq[3], vf t0, vf jit, vf inv_h,
+DI vm check_cells(const int8_t *dist, const skipv *sk, const vf q0[3], const vf dq[3], vf t0, vf jit, vf inv_h,
                   vf t, vm need, vf *t_exit, vf *m) {
     const vi zero_i = i_zero(), one_i = i_set(1);
     vf q[3];
@@ -177,7 +200,7 @@ DI vm check_cells(const int32_t *dist, const skipv *sk, const vf q0[3], const vf
         c[ax] = i_max(i_min(c[ax], sk->cells_max[ax]), zero_i);
     }
     vi cell = i_add(i_mullo(i_add(i_mullo(c[2], sk->ncy), c[1]), sk->ncx), c[0]);
-    vi d = gather_i32_masked(dist, cell, need);
+    vi d = gather_i8_masked(dist, cell, need);
     vi r = i_max(i_sub(i_abs(d), one_i), zero_i);
     vf tmin = f_set(INFINITY);
     for (int ax = 0; ax < 3; ax++) {
@@ -242,10 +265,12 @@ DI vf log_pos(vf x) {
 
 /* Interpolated gradient (world units) from the bricked 10-bit cache at the
  * sample's cell: the same corner order and arithmetic as
- * volux_gradient_cache_sample. */
-DI void gradient_v(const dvr_state *st, const cellv *cell, vf g[3]) {
+ * volux_gradient_cache_sample. Only the lanes of m read the cache (the
+ * others get 0): lanes that composite nothing would otherwise fetch cache
+ * lines of a 4-byte-per-node array for nothing. */
+DI void gradient_v(const dvr_state *st, const cellv *cell, vm m, vf g[3]) {
     vi w0[4], w1[4]; /* node x and x+1 of each corner row */
-    gather_gradient_rows(st->grad.grad, cell->b, w0, w1);
+    gather_gradient_rows(st->grad.grad, cell->b, m, w0, w1);
     const vf scale = f_set(st->grad.scale);
     for (int a = 0; a < 3; a++) {
         const int up = 22 - 10 * a;
@@ -423,6 +448,8 @@ typedef struct march_consts {
     vol_consts vc;
     vf h, inv_h;
     int shaded, preint, skip;
+    int prefetch;     /* prefetch_cells of a later sample (coarse steps) */
+    float pf_ahead;   /* segments beyond the next one to prefetch       */
     volux_storage storage;
 } march_consts;
 
@@ -595,6 +622,17 @@ DI void march_tile(const march_consts *mc, const ray_list *rl, float *rgb, uint6
                 s[p] = sample_at_t(&mc->vc, &P[p], b[p], storage, shaded ? &cells[p] : NULL);
                 count += (uint64_t)__builtin_popcount((unsigned)seg_bits[p]);
             }
+        /* while the samples above are gathered: prefetch the cells of the
+         * segment end pf_ahead after the next (see render_tile_impl) */
+        if (mc->prefetch)
+            for (int p = 0; p < DVR_NP; p++)
+                if (seg_bits[p]) {
+                    const packet_state *ps = &P[p];
+                    vf tn = f_min(f_add(ps->t0, f_mul(f_add(f_add(kf_next[p], f_set(mc->pf_ahead)), ps->jit), h)), ps->t1);
+                    prefetch_cells(&mc->vc, f_add(ps->q0[0], f_mul(ps->dq[0], tn)),
+                                   f_add(ps->q0[1], f_mul(ps->dq[1], tn)), f_add(ps->q0[2], f_mul(ps->dq[2], tn)),
+                                   seg[p], storage);
+                }
         /* Phase 3: classification, pre-integration and compositing. */
         for (int p = 0; p < DVR_NP; p++) {
             packet_state *ps = &P[p];
@@ -641,7 +679,7 @@ DI void march_tile(const march_consts *mc, const ray_list *rl, float *rgb, uint6
                 vm lit = m_andnot(ps->warm, m_and(seg[p], f_gt(tau, zero)));
                 if (shaded && m_bits(lit)) {
                     vf g[3], c3[3] = {cr, cg, cb};
-                    gradient_v(st, &cells[p], g);
+                    gradient_v(st, &cells[p], lit, g);
                     shade_v(st, g, ps->d, (const vf(*)[3])ps->hn, c3);
                     cr = c3[0], cg = c3[1], cb = c3[2];
                 }
@@ -672,6 +710,18 @@ DI void render_tile_impl(const dvr_state *st, const volux_scene *scene, const vo
     mc.h = f_set(st->rc.step);
     mc.inv_h = f_set(1.0f / st->rc.step);
     mc.shaded = shaded, mc.preint = preint, mc.skip = st->skip_empty;
+    /* Software prefetch of a later sample's cells, for coarse steps only:
+     * samples ≥ 2 voxels apart share few cache lines, and the gathers of
+     * the volume then wait on L2/L3 misses (bonsai, Zen 4, 1 thread: step
+     * 4 −12 %, step 3 −7 %, step 2 −3 to −9 %; step 1 +3 %, step 0.5 +5 %,
+     * where neighbouring samples already share lines and the prefetches are
+     * only extra instructions). The target is ≈ 4 voxels ahead: the next
+     * segment end from step 3 on, the one after that below. */
+    double sp[3];
+    volux_volume_spacing(st->rc.volume, sp);
+    const float step_vox = st->rc.step / (float)fmin(sp[0], fmin(sp[1], sp[2])); /* render.step */
+    mc.prefetch = step_vox >= 2.0f;
+    mc.pf_ahead = step_vox < 3.0f ? 1.0f : 0.0f;
     mc.storage = storage;
     uint64_t samples = 0;
     march_tile(&mc, &rl, rgb, &samples);

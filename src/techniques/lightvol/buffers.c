@@ -59,6 +59,8 @@ volux_status volux_lightvol_alloc(lightvol_state *st) {
         return volux_error(st->rc.ctx, VOLUX_ERR_LIMIT,
                            "lightvol: a %dx%dx%d illumination volume exceeds the memory cap (lower techniques.lightvol.scale)",
                            m[0], m[1], m[2]);
+    volux_lightvol_drop_job(st); /* its sweep state lives in the scratch */
+    st->valid = 0;
     volux_lightvol_free_buffers(st);
     st->vol = volux_alloc_aligned(st->rc.ctx, bytes);
     if (!st->vol)

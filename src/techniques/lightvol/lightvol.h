@@ -136,8 +136,12 @@ typedef struct lv_source {
                                spot: unit cone axis                       */
     volux_vec3 pos;         /* positional: world position                 */
     float cos_cone, cos_fall; /* spot cone (same smoothstep as core)      */
-    float weight[LV_GROUPS];  /* directional: Eq. 5 factors               */
+    float weight[LV_GROUPS];  /* directional, and positional when `center`:
+                                 Eq. 5 factors                            */
     unsigned groups;        /* groups the light is propagated in          */
+    int center;             /* positional: grouped by the light-to-centre
+                               direction (§4; constant factors, ≤ 2
+                               groups); 0: per voxel (up to six groups)  */
 } lv_source;
 
 /* One light added (+1) or removed (−1) by an update. */
@@ -164,6 +168,8 @@ enum { LV_KERNEL_AUTO, LV_KERNEL_SCALAR, LV_KERNEL_SIMD, LV_KERNEL_AVX2 };
 
 enum { LV_RULE_WORK, LV_RULE_PASSES, LV_RULE_LIGHTS, LV_RULE_SELECTIVE, LV_RULE_FULL };
 
+enum { LV_GROUP_VOXEL, LV_GROUP_CENTER };
+
 typedef struct lv_params {
     float scale[3];         /* illumination resolution / data resolution  */
     int coherent;           /* 1 coherent groups, 0 one light per pass    */
@@ -180,6 +186,10 @@ typedef struct lv_params {
     float t_min;
     double rebuild_token;
     int kernel;             /* LV_KERNEL_*                                 */
+    int grouping;           /* LV_GROUP_*: positional lights' groups      */
+    float budget_ms;        /* §7.3: propagation per update / refine step
+                               (0 = all at once)                          */
+    int budget_slices;      /* ... as slice steps (deterministic; wins)   */
 } lv_params;
 
 /* ---------------------------------------------------------------- state */
@@ -197,6 +207,29 @@ typedef struct lv_stats {
     int selective_since_full;  /* selective updates since the last full   */
     uint64_t full_rebuilds, selective_updates;
 } lv_stats;
+
+/* Propagation in progress (§7.3's per-frame budget): the plan of one
+ * update — selective or entire — run slice step by slice step, possibly
+ * over several update/refine calls. Between calls the passes' slice
+ * buffers and medium slices (the scratch) hold the sweep's state, so the
+ * volume ends bit-identical to running the plan at once. `applied` is
+ * already the plan's target; light edits meanwhile wait (`queued`) until
+ * the plan is done, then the next plan takes the volume from `applied` to
+ * the scene's lights. */
+typedef struct lv_pass lv_pass;
+typedef struct lv_job {
+    int active;                /* a plan is being propagated              */
+    int full;                  /* entire update: its first pass overwrites */
+    int n, np;                 /* items, passes                            */
+    lv_item *items;
+    lv_pass *passes;
+    int *idx;
+    size_t items_bytes, passes_bytes, idx_bytes;
+    int pass, step;            /* next pass and slice step                 */
+    uint64_t left;             /* slice steps left in the plan             */
+    uint64_t queued;           /* slice steps of the plan queued behind it */
+    double ms_per_work;        /* measured rate for budget_ms (0: none yet) */
+} lv_job;
 
 typedef struct lightvol_state {
     volux_raycaster rc;            /* base: volume, LUT, grid, camera, step,
@@ -244,7 +277,9 @@ typedef struct lightvol_state {
     size_t row_stride;
 
     lv_applied applied[VOLUX_MAX_LIGHTS];
-    int valid;                     /* the volume matches `applied`          */
+    int valid;                     /* the volume matches `applied` once the
+                                      job (if any) has run                 */
+    lv_job job;
     lv_stats stats;
 } lightvol_state;
 
@@ -257,6 +292,14 @@ volux_status volux_lightvol_build_medium(lightvol_state *st);
  * updated selectively or fully per the cost rule (§5). */
 volux_status volux_lightvol_update_lights(lightvol_state *st, const volux_scene *scene, const volux_change_set *c,
                                           int force_full, const char *reason);
+/* One budget of the propagation in progress (all of it when no budget is
+ * set), starting the queued plan when the current one ends; *did is set
+ * when the volume changed. */
+volux_status volux_lightvol_continue(lightvol_state *st, const volux_scene *scene, int *did);
+/* Slice steps of propagation still to run (current and queued plan). */
+uint64_t volux_lightvol_pending(const lightvol_state *st);
+/* Drops the propagation in progress (the volume is then invalid). */
+void volux_lightvol_drop_job(lightvol_state *st);
 /* Fills src from a light; returns 0 if the light does not take part in
  * propagation (disabled, environment, zero power). */
 int volux_lightvol_source(const lightvol_state *st, const volux_light_desc *d, lv_source *src);

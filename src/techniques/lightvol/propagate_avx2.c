@@ -649,6 +649,11 @@ A2 void volux_lightvol_pos_geometry_avx2(const lv_sweep *J, const lv_entry *e, l
                  vsign = _mm256_set1_ps(sign), one = _mm256_set1_ps(1.0f);
     const __m256 absmask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
     const __m256 lane = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
+    /* centre grouping: a constant factor per row unless the other group's
+     * axis is u (then per lane, as lv_center_weight) */
+    const int center = e->s->center, center_u = center && e->oax == 1;
+    const __m256 vcw = _mm256_set1_ps(e->cw), vosg = _mm256_set1_ps((float)e->osg), vol = _mm256_set1_ps(e->ol);
+    const __m256 vcw_row = _mm256_set1_ps(center && !center_u ? lv_center_weight(e, 0, R->v) : 0.0f);
     for (size_t u = 0; u < R->ms; u += 8) {
         __m256 uf = _mm256_add_ps(_mm256_set1_ps((float)u), lane);
         __m256 du = _mm256_mul_ps(_mm256_sub_ps(uf, vlu), vsu), du2 = _mm256_mul_ps(du, du);
@@ -657,8 +662,14 @@ A2 void volux_lightvol_pos_geometry_avx2(const lv_sweep *J, const lv_entry *e, l
                     : a == 1 ? _mm256_add_ps(_mm256_add_ps(du2, vda2), vdv2)
                              : _mm256_add_ps(_mm256_add_ps(du2, vdv2), vda2);
         __m256 r = _mm256_sqrt_ps(r2), ir = _mm256_div_ps(one, r);
-        __m256 wg = axis_weight8(_mm256_mul_ps(vada, ir), _mm256_mul_ps(_mm256_and_ps(du, absmask), ir),
-                                 _mm256_mul_ps(vadv, ir), a);
+        __m256 wg;
+        if (center_u) /* lv_center_weight per lane: the other group's reach along u */
+            wg = _mm256_blendv_ps(one, vcw, _mm256_cmp_ps(_mm256_mul_ps(vosg, _mm256_sub_ps(uf, vol)),
+                                                          _mm256_setzero_ps(), _CMP_GT_OQ));
+        else if (center) wg = vcw_row;
+        else
+            wg = axis_weight8(_mm256_mul_ps(vada, ir), _mm256_mul_ps(_mm256_and_ps(du, absmask), ir),
+                              _mm256_mul_ps(vadv, ir), a);
         __m256 r2c = _mm256_blendv_ps(vrm2, r2, _mm256_cmp_ps(r2, vrm2, _CMP_GT_OQ));
         _mm256_storeu_ps(R->K + u, _mm256_div_ps(_mm256_mul_ps(vsign, wg), r2c));
         _mm256_storeu_ps(R->WA + u, _mm256_mul_ps(vda, ir));

@@ -127,7 +127,7 @@ static void pos_voxels(const lv_sweep *J, const lv_entry *e, int v, int ua, int 
         /* Eq. 5 factor of this group for the local direction; the group's
          * own component is positive here (the voxel lies ahead of the light) */
         const float mag[3] = {fabsf(w[0]), fabsf(w[1]), fabsf(w[2])};
-        float wg = lv_axis_weight(mag, a);
+        float wg = e->s->center ? lv_center_weight(e, u, v) : lv_axis_weight(mag, a);
         if (wg <= 0.0f) continue;
         float k = sign * wg / (r2 > rm2 ? r2 : rm2);
         /* (one channel: val[1], val[2] are not propagated; × gain = power) */
@@ -179,6 +179,7 @@ void volux_lightvol_pos_row(const lv_sweep *J, const lv_entry *e, int v, float *
     lv_pos_row R = {.v = v, .ms = ms, .X = X, .LEN = LEN, .K = K, .WA = WA, .WU = WU, .WV = WV, .TAU = TAU, .y = y};
     /* Phase 1: geometry, factor of this group, 1/r² (vector loops) */
     const float da2 = da * da, dv2 = dvw * dvw, ada = fabsf(da), adv = fabsf(dvw);
+    const int center = e->s->center;
     if (simd) volux_lightvol_pos_geometry_avx2(J, e, &R);
     for (int u = 0; u < mu && !simd; u++) {
         float du = ((float)u - lu) * su, du2 = du * du;
@@ -190,7 +191,7 @@ void volux_lightvol_pos_row(const lv_sweep *J, const lv_entry *e, int v, float *
         mag[a] = ada * ir;
         mag[au] = fabsf(du) * ir;
         mag[av] = adv * ir;
-        float wg = lv_axis_weight(mag, a);
+        float wg = center ? lv_center_weight(e, u, v) : lv_axis_weight(mag, a);
         K[u] = sign * wg / (r2 > rm2 ? r2 : rm2);
         WA[u] = da * ir;
         WU[u] = du * ir;

@@ -67,6 +67,39 @@ static unsigned positional_groups(const lightvol_state *st, const lv_source *s) 
     return mask;
 }
 
+/* §4's grouping of a point or spot light: by its main direction, light →
+ * volume centre, the two closest faces with that direction's Eq. 5 factors
+ * (constant over the volume; a voxel one of the two groups cannot reach —
+ * it lies behind the light along that group's axis — takes the light from
+ * the other one alone, see lv_center_weight). Returns 0 when the two groups
+ * do not reach every node of the box (the light lies inside it, or beside it
+ * within the slabs of both axes): §7.3's case that needs more groups, left
+ * to the per-voxel grouping. */
+static int center_groups(const lightvol_state *st, lv_source *s) {
+    volux_vec3 lo, hi;
+    volux_volume_bounds(st->rc.volume, &lo, &hi);
+    volux_vec3 dir = v3_sub(v3_scale(v3_add(lo, hi), 0.5f), s->pos);
+    if (!(v3_dot(dir, dir) > 0.0f)) return 0;
+    float w[LV_GROUPS];
+    unsigned mask = lv_face_weights(v3_normalize(dir), w);
+    /* light position in illumination index space, as the sweep computes it */
+    volux_vec3 q = v3_sub(s->pos, st->lo);
+    const float l[3] = {q.x / st->spacing[0], q.y / st->spacing[1], q.z / st->spacing[2]};
+    int covers = 0;
+    for (int g = 0; g < LV_GROUPS; g++) {
+        if (!(mask & (1u << g))) continue;
+        int a = g / 2, sg = (g & 1) ? -1 : 1;
+        /* every node k of axis a lies ahead: s·(k − l) > 0 for k = 0 or m − 1 */
+        float edge = sg > 0 ? 0.0f : (float)(st->dims[a] - 1);
+        covers |= (float)sg * (edge - l[a]) > 0.0f;
+    }
+    if (!covers) return 0;
+    memcpy(s->weight, w, sizeof w);
+    s->groups = mask;
+    s->center = 1;
+    return 1;
+}
+
 int volux_lightvol_source(const lightvol_state *st, const volux_light_desc *d, lv_source *s) {
     memset(s, 0, sizeof *s);
     if (!d || !d->enabled || d->type == VOLUX_LIGHT_ENVIRONMENT) return 0; /* environments: not propagated (docs) */
@@ -90,6 +123,11 @@ int volux_lightvol_source(const lightvol_state *st, const volux_light_desc *d, l
     }
     if (!(s->power.x > 0.0f || s->power.y > 0.0f || s->power.z > 0.0f)) return 0;
     if (s->kind == LV_DIRECTIONAL) s->groups = lv_face_weights(s->dir, s->weight);
-    else s->groups = positional_groups(st, s);
+    else {
+        /* the per-voxel groups also tell whether the light reaches the box
+         * at all (a spot turned away: nothing to propagate) */
+        s->groups = positional_groups(st, s);
+        if (s->groups && st->p.grouping == LV_GROUP_CENTER) center_groups(st, s);
+    }
     return s->groups != 0;
 }

@@ -117,7 +117,8 @@ static void build_stencil(lv_entry *e) {
 
 /* ------------------------------------------------------------ rows */
 
-/* Writes the last nb staged slices of row v into the volume: for each u a
+/* Writes the last nb staged slices of row v (steps J->step − nb + 1 …
+ * J->step, staged at step % defer) into the volume: for each u a
  * contiguous run of nb voxels along x (the sweep axis). */
 static void flush_row(const lv_sweep *J, int v, int nb) {
     const lightvol_state *st = J->st;
@@ -137,7 +138,8 @@ static void flush_row(const lv_sweep *J, int v, int nb) {
         for (int b = 0; b < nb; b++) {
             int step = J->step - (nb - 1 - b);
             int k = J->s > 0 ? step : J->ma - 1 - step;
-            const float *src = st->stage + ((size_t)b * plane + (size_t)v * m + (size_t)u) * (size_t)ch;
+            const size_t at = (size_t)(step % J->defer); /* where sweep_row staged it */
+            const float *src = st->stage + (at * plane + (size_t)v * m + (size_t)u) * (size_t)ch;
             float *p = st->vol + ((size_t)k * J->vs[J->a] + (size_t)v * J->vs[J->av]) * (size_t)ch + (size_t)u * su;
             if (J->overwrite)
                 for (int c = 0; c < ch; c++) p[c] = src[c];
@@ -218,7 +220,12 @@ static void sweep_row(const lv_sweep *J, int v, int thread) {
         float *restrict dst = st->stage + ((size_t)b * (size_t)J->mu * (size_t)J->mv + (size_t)v * m) * (size_t)ch;
         for (int u = 0; u < mu; u++)
             for (int c = 0; c < ch; c++) dst[(size_t)u * (size_t)ch + (size_t)c] = acc[(size_t)c * m + (size_t)u];
-        if (b == J->defer - 1 || J->step == J->ma - 1) flush_row(J, v, b + 1);
+        /* ... and at the end of the steps of this call (a budgeted
+         * update, §7.3): only the slices staged since it began */
+        if (b == J->defer - 1 || J->step == J->last) {
+            int nb = J->step - J->first + 1;
+            flush_row(J, v, nb < b + 1 ? nb : b + 1);
+        }
         return;
     }
     if (ch == 6) {
@@ -286,6 +293,7 @@ static void swap_slice_buffers(lv_entry *E, int n) {
  * media. The media rotate through three buffers. */
 static int64_t sweep_phase(void *user, int phase) {
     lv_sweep *J = user;
+    phase += J->phase0; /* a call that resumes a sweep at step s0 starts at phase s0 + 1 */
     if (phase == 0) {
         J->mn = J->med[0];
         J->kn = J->s > 0 ? 0 : J->ma - 1;
@@ -323,8 +331,21 @@ static int64_t sweep_phase(void *user, int phase) {
 
 /* ------------------------------------------------------------ passes */
 
-/* One propagation pass: group g, the lights items[idx[0..n)], entries E. */
-static void sweep(lightvol_state *st, int g, const lv_item *items, const int *idx, int n, int overwrite, lv_entry *E) {
+int volux_lightvol_pass_steps(const lightvol_state *st, const lv_pass *p) { return st->dims[p->g / 2]; }
+
+double volux_lightvol_step_work(const lightvol_state *st, const lv_job *job, int p) {
+    const lv_pass *ps = &job->passes[p];
+    const lv_work_weights w = volux_lightvol_work_weights(st);
+    double work = 1.0;
+    for (int i = 0; i < ps->n; i++) work += job->items[job->idx[ps->first + i]].src.kind == LV_DIRECTIONAL ? w.dir : w.pos;
+    int a = ps->g / 2;
+    return work * (double)st->dims[a == 0 ? 1 : 0] * (double)st->dims[a == 2 ? 1 : 2];
+}
+
+/* Steps [s0, s1) of one propagation pass: group g, the lights
+ * items[idx[0..n)], entries E. */
+static void sweep(lightvol_state *st, int g, const lv_item *items, const int *idx, int n, int overwrite, lv_entry *E,
+                  int s0, int s1) {
     lv_sweep J;
     memset(&J, 0, sizeof J);
     J.st = st;
@@ -419,6 +440,16 @@ static void sweep(lightvol_state *st, int g, const lv_item *items, const int *id
             e->lidx[0] = q.x / st->spacing[0];
             e->lidx[1] = q.y / st->spacing[1];
             e->lidx[2] = q.z / st->spacing[2];
+            if (e->s->center) {
+                e->cw = e->s->weight[g];
+                for (int h = 0; h < LV_GROUPS; h++) {
+                    if (h == g || !(e->s->groups & (1u << h))) continue;
+                    int ah = h / 2; /* never J.a: the two closest faces lie on different axes */
+                    e->oax = ah == J.au ? 1 : 2;
+                    e->osg = (h & 1) ? -1 : 1;
+                    e->ol = e->lidx[ah];
+                }
+            }
         }
     }
     /* Work split: chunks of rows worth ~4k voxel·lights each; small slices
@@ -438,54 +469,21 @@ static void sweep(lightvol_state *st, int g, const lv_item *items, const int *id
     J.med[0] = st->med;
     J.med[1] = st->med + sb;
     J.med[2] = st->med + 2 * sb;
+    /* Resuming at step s0 > 0: the medium of slices s0 − 1 and s0 is still
+     * in med[(s0 − 1) % 3] and med[s0 % 3] (the rotation is by step), and
+     * step s0 − 1 wrote each light's buffer set (s0 − 1) % 2 (step k
+     * writes set k % 2, reads the other): the phase of step s0 swaps once
+     * more, so start from the sets swapped when s0 is even. */
+    if (s0 > 0 && s0 % 2 == 0) swap_slice_buffers(E, n);
+    J.first = s0;
+    J.last = s1 - 1;
+    J.phase0 = s0 == 0 ? 0 : s0 + 1;
     /* one parallel region for the whole sweep: a fork/join per slice left the
      * second thread waiting to be woken (or spinning) at every slice */
-    volux_parallel_phases(threads, J.ma + 1, sweep_phase, step_item, &J);
-    swap_slice_buffers(E, n);
+    volux_parallel_phases(threads, s1 + 1 - J.phase0, sweep_phase, step_item, &J);
 }
 
-/* Runs the planned passes (sweep.h). */
-volux_status volux_lightvol_run_passes(lightvol_state *st, const lv_item *items, int n, int full) {
-    volux_context *ctx = st->rc.ctx;
-    int coherent = st->p.coherent, maxp = st->p.max_per_pass;
-    int np = volux_lightvol_plan(items, n, coherent, maxp, NULL, NULL);
-    st->stats.passes = np;
-    st->stats.entries = 0;
-    if (np == 0) {
-        if (full) memset(st->vol, 0, st->vol_bytes);
-        return VOLUX_OK;
-    }
-    size_t pbytes = (size_t)np * sizeof(lv_pass), ibytes = (size_t)n * LV_GROUPS * sizeof(int);
-    lv_pass *passes = volux_malloc(ctx, pbytes);
-    int *idx = volux_malloc(ctx, ibytes);
-    lv_entry *E = NULL;
-    size_t ebytes = 0;
-    volux_status s = VOLUX_OK;
-    if (!passes || !idx) {
-        s = volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for the pass plan");
-        goto done;
-    }
-    volux_lightvol_plan(items, n, coherent, maxp, passes, idx);
-    int most = 0;
-    for (int i = 0; i < np; i++)
-        if (passes[i].n > most) most = passes[i].n;
-    if ((s = volux_lightvol_ensure_scratch(st, most))) goto done;
-    ebytes = (size_t)most * sizeof(lv_entry);
-    if (!(E = volux_malloc(ctx, ebytes))) {
-        s = volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for the pass entries");
-        goto done;
-    }
-    for (int i = 0; i < np; i++) {
-        sweep(st, passes[i].g, items, idx + passes[i].first, passes[i].n, full && i == 0, E);
-        st->stats.entries += passes[i].n;
-        if (volux_progress(ctx, "lightvol", (double)(i + 1) / (double)np)) {
-            s = volux_error(ctx, VOLUX_ERR_CANCELLED, "lightvol: propagation cancelled");
-            goto done;
-        }
-    }
-done:
-    volux_free(ctx, E, ebytes);
-    volux_free(ctx, passes, pbytes);
-    volux_free(ctx, idx, ibytes);
-    return s;
+void volux_lightvol_sweep_steps(lightvol_state *st, const lv_job *job, int p, int s0, int s1, lv_entry *E) {
+    const lv_pass *ps = &job->passes[p];
+    sweep(st, ps->g, job->items, job->idx + ps->first, ps->n, job->full && p == 0, E, s0, s1);
 }

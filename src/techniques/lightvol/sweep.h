@@ -77,6 +77,13 @@ typedef struct lv_entry {
     /* positional */
     float lidx[3];      /* light position in illumination index space     */
     float f;            /* 1/dist for the current slice                   */
+    /* positional grouped by the centre direction (lv_source.center): the
+     * factor of this pass's group, and the other group's axis among the
+     * slice's (1: u, 2: v, 0: none), sign and light coordinate, so that a
+     * voxel the other group cannot reach takes the whole light here */
+    float cw;
+    int oax, osg;
+    float ol;
 } lv_entry;
 
 typedef struct lv_sweep {
@@ -95,6 +102,8 @@ typedef struct lv_sweep {
     int chunks;         /* work items (row chunks) per slice               */
     int rows_per_item, sweep_items, class_items;
     int defer;          /* x sweeps: slices staged before a flush (0: none) */
+    int first, last;    /* the steps of this call (a budget, §7.3)         */
+    int phase0;         /* phase of the call's first step's classification */
     size_t area;
     int overwrite;
     int forward, cone;
@@ -207,6 +216,17 @@ static inline float lv_rmin2(const lightvol_state *st) {
     return h * h;
 }
 
+/* Eq. 5 factor of a centre-grouped positional light (lv_source.center) for
+ * the voxel at column u, row v of the pass: the group's constant factor
+ * where the light's other group also reaches the voxel (it lies ahead of
+ * the light along that group's axis, as the sweep's E_SKIP test decides),
+ * else 1 — the factors of a voxel's groups always sum to 1. */
+static inline float lv_center_weight(const lv_entry *e, int u, int v) {
+    if (!e->oax) return e->cw;
+    float c = e->oax == 1 ? (float)u : (float)v;
+    return (float)e->osg * (c - e->ol) > 0.0f ? e->cw : 1.0f;
+}
+
 /* ------------------------------------------------------- scratch layout
  * Allocated by buffers.c (volux_lightvol_ensure_scratch), used by sweep.c
  * and the row files. */
@@ -234,9 +254,9 @@ volux_status volux_lightvol_ensure_scratch(lightvol_state *st, int entries);
 
 /* ------------------------------------------------------- pass plan (plan.c) */
 
-typedef struct lv_pass {
+struct lv_pass {
     int g, first, n; /* group, range in the index list */
-} lv_pass;
+};
 
 /* Plans the passes for `items` (coherent or one light per pass); returns
  * their number and fills passes/idx when non-NULL (idx: up to n·LV_GROUPS
@@ -262,8 +282,16 @@ double volux_lightvol_plan_work(const lv_item *items, int n, int coherent, int m
  * post-classified, and each row's range (medium.c). */
 void volux_lightvol_classify_rows(const lv_sweep *J, float *dst, int k, int v0, int v1);
 
-/* Runs the planned passes for items (sweep.c); full = the volume is rebuilt
- * from zero (the first pass overwrites it). */
-volux_status volux_lightvol_run_passes(lightvol_state *st, const lv_item *items, int n, int full);
+/* Slice steps s0 ≤ step < s1 of pass p of the job (sweep.c); the first
+ * pass of an entire update overwrites the volume. Steps of a pass may be
+ * run in any number of calls in order, with nothing else using the
+ * propagation scratch in between: the result is the same. E: scratch for
+ * the pass's entries. */
+void volux_lightvol_sweep_steps(lightvol_state *st, const lv_job *job, int p, int s0, int s1, lv_entry *E);
+/* Slice steps of pass p (the size of its sweep axis). */
+int volux_lightvol_pass_steps(const lightvol_state *st, const lv_pass *p);
+/* Modelled work of one slice step of pass p (voxels × (1 + its entries'
+ * weights)), for the budget in milliseconds. */
+double volux_lightvol_step_work(const lightvol_state *st, const lv_job *job, int p);
 
 #endif
