@@ -44,7 +44,10 @@ const plan = (process.env.VOLUX_BENCH_PLAN || 'ea:tf,camera;shaded:light,tf;ligh
 const loadavg = () => readFileSync('/proc/loadavg', 'utf8').split(' ').slice(0, 3).join(' ');
 console.log(`load before: ${loadavg()}`);
 
-// VOLUX_BENCH_SERVE_ARGS: more `volux serve` options, e.g. --preview-png
+// VOLUX_BENCH_SERVE_ARGS: more `volux serve` options, e.g. --preview-png, or
+// --preview-budget 0 (every first frame at the --preview size: the issue's
+// target as defined) — the default budget (100 ms) may shrink the first frame,
+// and the columns "edit → --preview size" give the time to the 256² preview.
 const extra = (process.env.VOLUX_BENCH_SERVE_ARGS || '').split(' ').filter(Boolean);
 const server = spawn(volux, ['serve', scenePath, '--port', '0', '--quiet', ...extra], {
   stdio: ['ignore', 'pipe', 'inherit'], env: { ...process.env, OMP_WAIT_POLICY: 'passive' },
@@ -97,6 +100,10 @@ async function measure(technique, kind, n) {
     V.edit([{ path: 'render.technique', value: technique }]);
     await waitFor(() => V.state().resolved.render.technique === technique && V.lastFrame.kind === 'final' &&
       V.lastFrame.version >= V.state().version, 600000);
+    // the --preview size (the issue's 256² preview): with a budget the first
+    // frame may be smaller and this size follows
+    const r = V.state().resolved.render, pm = V.state().limits.preview_max, longest = Math.max(r.width, r.height);
+    const full = longest <= pm ? [r.width, r.height] : [Math.round(r.width * pm / longest), Math.round(r.height * pm / longest)];
     const out = [];
     for (let i = 0; i < n; i++) {
       await sleep(60 + (i % 3) * 100);
@@ -104,6 +111,10 @@ async function measure(technique, kind, n) {
       V.edit(editOf(i));
       if (!(await waitFor(() => V.latencies.length > L, 60000))) { out.push({ error: 'no preview' }); continue; }
       const preview = V.lastFrame;
+      const fullPreview = await waitFor(() => {
+        const f = V.lastFrame;
+        return f.version >= preview.version && f.width * f.height >= full[0] * full[1] ? f : null;
+      }, 5000);
       const fin = await waitFor(() => {
         const f = V.lastFrame;
         return f.kind === 'final' && f.version >= preview.version ? f : null;
@@ -112,6 +123,7 @@ async function measure(technique, kind, n) {
         latency_ms: V.latencies[L], server_ms: preview.latency_ms, cpu_ms: preview.cpu_ms, update_ms: preview.update_ms,
         render_ms: preview.render_ms, encode_ms: preview.encode_ms, bytes: preview.bytes,
         preview: `${preview.width}x${preview.height}`, kind: preview.kind,
+        full_preview_ms: fullPreview ? fullPreview.shown - t0 : null, full_preview_cpu_ms: fullPreview ? fullPreview.cpu_ms : null,
         final_ms: fin ? fin.shown - t0 : null, final_render_ms: fin ? fin.render_ms : null,
         final_encode_ms: fin ? fin.encode_ms : null, final_bytes: fin ? fin.bytes : null, final_cpu_ms: fin ? fin.cpu_ms : null, format: preview.format,
       });
@@ -123,8 +135,8 @@ async function measure(technique, kind, n) {
 const median = (a) => { const s = [...a].sort((x, y) => x - y); return s.length ? s[Math.floor((s.length - 1) / 2)] : NaN; };
 const pct = (a, q) => { const s = [...a].sort((x, y) => x - y); return s.length ? s[Math.min(s.length - 1, Math.ceil(q * s.length) - 1)] : NaN; };
 const f1 = (x) => (Number.isFinite(x) ? x.toFixed(1) : '–');
-console.log('| technique | edit | edits | page: edit → preview median (p90) ms | server: edit → preview published | server CPU (all threads) | update | preview render | preview encode ms (KiB) | edit → final 512² median ms (seen) | final: server CPU |');
-console.log('|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|');
+console.log('| technique | edit | edits | page: edit → first preview median (p90) ms | server: edit → first preview published | server CPU (all threads) | first preview sizes | update | preview render | preview encode ms (KiB) | page: edit → --preview size | its server CPU | edit → final 512² median ms (seen) | final: server CPU |');
+console.log('|---|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|');
 for (const [technique, kinds] of plan) {
   for (const kind of kinds) {
     const rec = await measure(technique, kind, perKind);
@@ -136,6 +148,9 @@ for (const [technique, kinds] of plan) {
       server_latency_median_ms: median(ok.map((r) => r.server_ms)), server_cpu_median_ms: median(ok.map((r) => r.cpu_ms)), update_median_ms: median(ok.map((r) => r.update_ms)),
       preview_render_median_ms: median(ok.map((r) => r.render_ms)), encode_median_ms: median(ok.map((r) => r.encode_ms)),
       jpeg_kib: median(ok.map((r) => r.bytes)) / 1024, preview: ok[0] && ok[0].preview,
+      first_sizes: [...new Set(ok.map((r) => r.preview))].join(' '),
+      full_preview_page_median_ms: median(ok.map((r) => r.full_preview_ms).filter((x) => x !== null)),
+      full_preview_cpu_median_ms: median(ok.map((r) => r.full_preview_cpu_ms).filter((x) => x !== null && x >= 0)),
       final_median_ms: median(fins), finals_seen: fins.length,
       final_encode_median_ms: median(ok.map((r) => r.final_encode_ms).filter((x) => x !== null)),
       final_cpu_median_ms: median(ok.map((r) => r.final_cpu_ms).filter((x) => x !== null)),
@@ -144,8 +159,8 @@ for (const [technique, kinds] of plan) {
       threads: 2, load: loadavg(),
     };
     console.log(`| ${technique} | ${kind} | ${row.edits} | ${f1(row.page_latency_median_ms)} (${f1(row.page_latency_p90_ms)}) | ` +
-      `${f1(row.server_latency_median_ms)} | ${f1(row.server_cpu_median_ms)} | ${f1(row.update_median_ms)} | ${f1(row.preview_render_median_ms)} | ` +
-      `${f1(row.encode_median_ms)} (${f1(row.jpeg_kib)}) | ${f1(row.final_median_ms)} (${fins.length}/${ok.length}) | ${f1(row.final_cpu_median_ms)} |`);
+      `${f1(row.server_latency_median_ms)} | ${f1(row.server_cpu_median_ms)} | ${row.first_sizes} | ${f1(row.update_median_ms)} | ${f1(row.preview_render_median_ms)} | ` +
+      `${f1(row.encode_median_ms)} (${f1(row.jpeg_kib)}) | ${f1(row.full_preview_page_median_ms)} | ${f1(row.full_preview_cpu_median_ms)} | ${f1(row.final_median_ms)} (${fins.length}/${ok.length}) | ${f1(row.final_cpu_median_ms)} |`);
     if (outPath) appendFileSync(outPath, JSON.stringify(row) + '\n');
   }
 }

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "context_internal.h"
+#include "scene_internal.h"
 #include "vecmath.h"
 #include "volume_internal.h"
 #include "volux/scene.h"
@@ -168,15 +169,27 @@ volux_status volux_scene_set_sequence(volux_scene *s, volux_sequence *q, int ste
     return VOLUX_OK;
 }
 
-volux_status volux_scene_set_time_step(volux_scene *s, int step) {
+volux_status volux_scene_check_time_step(const volux_scene *s, int step) {
     int n = volux_scene_time_steps(s);
     if (step < 0 || step >= n)
         return volux_error(s->ctx, VOLUX_ERR_INVALID, "time step %d is outside [0, %d) (the volume has %d time step%s)",
                            step, n, n, n == 1 ? "" : "s");
+    return VOLUX_OK;
+}
+
+volux_sequence *volux_scene_take_sequence(volux_scene *s) {
+    volux_sequence *q = s->seq;
+    s->seq = NULL;
+    s->time_step = 0;
+    return q;
+}
+
+volux_status volux_scene_set_time_step(volux_scene *s, int step) {
+    volux_status st = volux_scene_check_time_step(s, step);
+    if (st) return st;
     if (step == s->time_step) return VOLUX_OK;
     volux_volume *v;
-    volux_status st = volux_sequence_acquire(s->seq, step, &v);
-    if (st) return st;
+    if ((st = volux_sequence_acquire(s->seq, step, &v))) return st;
     st = replace_volume(s, v);
     volux_volume_release(v);
     if (st) return st;

@@ -18,6 +18,7 @@
 
 #include "json_reader.h"
 #include "scene_formats.h"
+#include "core/scene_internal.h"
 
 #define MAX_EDITS 256
 
@@ -175,12 +176,26 @@ static int same_params(const volux_scene *a, const volux_scene *b) {
 
 /* Brings `live` to `cand` with its setters, touching only what the plan
  * says changed (and, for sections always read, only what differs). */
-static volux_status transplant(volux_scene *live, const volux_scene *cand, const volux_scene_edit_plan *plan,
+static volux_status transplant(volux_scene *live, volux_scene *cand, const volux_scene_edit_plan *plan,
                                uint32_t *changed) {
     volux_status st;
     uint32_t bits = 0;
     if (plan->volume) {
-        if ((st = volux_scene_set_volume(live, volux_scene_volume(cand)))) return st;
+        /* A sequence read by the edit moves to the live scene (the
+         * candidate, destroyed next, would take it along). */
+        volux_sequence *q = volux_scene_take_sequence(cand);
+        if (q) {
+            if ((st = volux_scene_set_sequence(live, q, plan->time_step))) {
+                volux_sequence_destroy(q);
+                return st;
+            }
+        } else if ((st = volux_scene_set_volume(live, volux_scene_volume(cand)))) {
+            return st;
+        }
+        bits |= VOLUX_DOC_VOLUME;
+    } else if (plan->time_step != volux_scene_time_step(live)) {
+        /* The sequence stays: select the step (its volume is cached). */
+        if ((st = volux_scene_set_time_step(live, plan->time_step))) return st;
         bits |= VOLUX_DOC_VOLUME;
     }
     if (plan->transfer) {

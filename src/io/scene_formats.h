@@ -77,6 +77,7 @@ volux_status volux_scene_read_tree(volux_context *ctx, const cJSON *root, const 
 /* What an edit changed, section by section (see volux_scene_read_edit). */
 typedef struct volux_scene_edit_plan {
     int volume, transfer, camera;
+    int time_step;                          /* render.time_step of the edit */
     int n_lights;                           /* size of the new "lights" array */
     unsigned char light[VOLUX_MAX_LIGHTS]; /* 1: slot i changed or is new    */
 } volux_scene_edit_plan;
@@ -85,7 +86,10 @@ typedef struct volux_scene_edit_plan {
  * only the sections that differ from `old_root` (files of unchanged
  * sections are not opened again: their state is copied from `live`).
  * Render settings, background and technique parameters are always read.
- * On success `candidate` is complete and *plan says what differs. */
+ * On success `candidate` is complete and *plan says what differs. A
+ * sequence stays with `live` when the volume section is unchanged: the
+ * candidate then holds the edit's time step as a single volume (taken from
+ * live's sequence) and plan->time_step says which step live must select. */
 volux_status volux_scene_read_edit(volux_context *ctx, const cJSON *root, const cJSON *old_root,
                                    const volux_scene *live, const char *base_dir, const char *name,
                                    const volux_scene_files *files, volux_scene *candidate,

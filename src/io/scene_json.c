@@ -17,6 +17,7 @@
 #include "json_reader.h"
 #include "merl.h"
 #include "scene_formats.h"
+#include "core/scene_internal.h"
 
 #define BIG 1e30
 /* Positions and directions: the core squares float lengths, so a
@@ -1248,15 +1249,48 @@ volux_status volux_scene_read_edit(volux_context *ctx, const cJSON *root, const 
     /* The volume: read again only when its section changed (a file load
      * or a procedural build is the expensive part of a scene). */
     plan->volume = !json_same(item(old_root, "volume"), item(root, "volume"));
+    plan->transfer = plan->volume || !json_same(item(old_root, "transfer_function"), item(root, "transfer_function"));
+    volux_sequence *kept_seq = plan->volume ? NULL : volux_scene_sequence(live);
     if (plan->volume) st = read_volume(&sr, item(root, "volume"));
-    else st = volux_scene_set_volume(candidate, volux_scene_volume(live));
+    else if (kept_seq && plan->transfer && volux_scene_time_step(live) != 0) {
+        /* A TF is read against time step 0 (read_scene's order), so the
+         * candidate starts there like a freshly loaded scene. */
+        volux_volume *first;
+        if (!(st = volux_sequence_acquire(kept_seq, 0, &first))) {
+            st = volux_scene_set_volume(candidate, first);
+            volux_volume_release(first);
+        }
+    } else st = volux_scene_set_volume(candidate, volux_scene_volume(live));
     if (st) return st;
     /* A new volume changes what the TF (preset rescaling) and the camera
      * (orbit radius, finite view) read from it. */
-    plan->transfer = plan->volume || !json_same(item(old_root, "transfer_function"), item(root, "transfer_function"));
     if (plan->transfer) st = read_transfer(&sr, (cJSON *)root); /* as in volux_scene_read_tree */
     else st = volux_scene_set_transfer(candidate, volux_scene_transfer(live));
     if (st) return st;
+    /* The time step, after the TF as in read_scene. A sequence the edit
+     * keeps stays on the live scene (it has one owner): the candidate gets
+     * the step's volume from it, and the live scene selects the step when
+     * the edit is applied (plan->time_step). */
+    if (!kept_seq) {
+        if ((st = read_time_step(&sr, item(root, "render")))) return st;
+        plan->time_step = volux_scene_time_step(candidate);
+    } else {
+        const cJSON *jr = item(root, "render");
+        int step = 0;
+        if (jr && item(jr, "time_step") &&
+            (st = volux_json_int(r, jr, "render", "time_step", 0, VOLUX_MAX_STEPS - 1, &step)))
+            return st;
+        volux_volume *v = NULL;
+        if (!(st = volux_scene_check_time_step(live, step)) && !(st = volux_sequence_acquire(kept_seq, step, &v))) {
+            st = volux_scene_set_volume(candidate, v);
+            volux_volume_release(v);
+        }
+        if (st) {
+            volux_error_prefix(ctx, "%s: render.time_step: ", r->file);
+            return st;
+        }
+        plan->time_step = step;
+    }
     plan->camera = plan->volume || !json_same(item(old_root, "camera"), item(root, "camera"));
     if (plan->camera) st = read_camera(&sr, item(root, "camera"));
     else st = volux_scene_set_camera(candidate, volux_scene_camera_desc(live));

@@ -3,8 +3,10 @@
 // drags a transfer-function point and checks the image changed, toggles a
 // light, switches the technique, saves the scene and the image through the
 // page's buttons and checks that `volux render` of the saved scene gives the
-// saved image bit for bit. Screenshots go to the artefact folder; the
-// page-measured edit → frame latencies are printed.
+// saved image bit for bit; on a time-varying volume, moves the time-step
+// slider and checks the image, the saved scene and `volux render
+// --time-step`. Screenshots go to the artefact folder; the page-measured
+// edit → frame latencies are printed.
 //
 // Usage: node viewer_test.mjs VOLUX ARTEFACT_DIR
 // Exit status 77 (ctest: skipped) when chromium or playwright-core is absent.
@@ -53,17 +55,22 @@ function check(cond, what) {
 }
 
 // ---------------------------------------------------------------- server
-const server = spawn(volux, ['serve', scenePath, '--port', '0', '--quiet', '--idle-ms', '50'], { stdio: ['ignore', 'pipe', 'inherit'] });
-const url = await new Promise((resolve, reject) => {
-  let out = '';
-  const t = setTimeout(() => reject(new Error('server did not start')), 60000);
-  server.stdout.on('data', (d) => {
-    out += d;
-    const m = out.match(/(http:\/\/127\.0\.0\.1:\d+\/)/);
-    if (m) { clearTimeout(t); resolve(m[1]); }
+const servers = [];
+async function startServer(path) {
+  const server = spawn(volux, ['serve', path, '--port', '0', '--quiet', '--idle-ms', '50'], { stdio: ['ignore', 'pipe', 'inherit'] });
+  servers.push(server);
+  return new Promise((resolve, reject) => {
+    let out = '';
+    const t = setTimeout(() => reject(new Error('server did not start')), 60000);
+    server.stdout.on('data', (d) => {
+      out += d;
+      const m = out.match(/(http:\/\/127\.0\.0\.1:\d+\/)/);
+      if (m) { clearTimeout(t); resolve(m[1]); }
+    });
+    server.on('exit', (code) => reject(new Error('server exited with ' + code)));
   });
-  server.on('exit', (code) => reject(new Error('server exited with ' + code)));
-});
+}
+const url = await startServer(scenePath);
 
 const profile = mkdtempSync(join(tmpdir(), 'volux-chromium-'));
 const context = await chromium.launchPersistentContext(profile, {
@@ -178,15 +185,61 @@ try {
   const errors = await page.evaluate(() => window.volux.errors);
   check(errors.length === 0, `no error shown (${errors.join('; ')})`);
   await page.screenshot({ path: join(artefacts, 'viewer_final.png') });
+
+  // A time-varying volume (the drifting procedural cloud): the page shows
+  // the step slider; moving it renders that step, and the saved scene
+  // renders the same with the CLI, as does `volux render --time-step`.
+  const seqScene = {
+    volume: { procedural: 'cloud', dims: [48, 48, 48], steps: 6, time_per_step: 0.2 },
+    transfer_function: { color: [[0, 0.6, 0.7, 1], [255, 1, 1, 1]], opacity: [[0, 0], [40, 0.05], [255, 0.9]] },
+    camera: { orbit: { azimuth: 20, elevation: 15 } },
+    render: { technique: 'ea', width: 160, height: 120, spp: 1 },
+  };
+  const seqPath = join(work, 'sequence.json');
+  writeFileSync(seqPath, JSON.stringify(seqScene, null, 1));
+  const seqUrl = await startServer(seqPath);
+  await page.goto(seqUrl);
+  await page.waitForFunction(() => window.volux && window.volux.ready, null, { timeout: 60000 });
+  await waitFinal(0);
+  const step0 = await frameBytes();
+  const slider = page.locator('#time-step');
+  check(await slider.isVisible(), 'the time-step slider is shown for a sequence');
+  check(await slider.getAttribute('max') === '5', `the slider spans the 6 steps (max ${await slider.getAttribute('max')})`);
+  await slider.focus();
+  for (let k = 0; k < 3; k++) await page.keyboard.press('ArrowRight');
+  await page.waitForFunction(() => (window.volux.state().sequence || {}).step === 3, null, { timeout: 30000 });
+  await waitFinal(await version());
+  const step3 = await frameBytes();
+  check(!same(step0, step3), 'the image changed after moving the slider to step 3');
+  await page.screenshot({ path: join(artefacts, 'viewer_time_step.png') });
+  const [seqDl] = await Promise.all([page.waitForEvent('download'), page.click('#save-scene')]);
+  const seqSaved = join(work, 'sequence_saved.json');
+  await seqDl.saveAs(seqSaved);
+  check(JSON.parse(readFileSync(seqSaved)).render.time_step === 3, 'the saved scene keeps time step 3');
+  const [seqImg] = await Promise.all([page.waitForEvent('download', { timeout: 120000 }), page.click('#save-image')]);
+  const seqImage = join(artefacts, 'viewer_time_step_saved.png');
+  await seqImg.saveAs(seqImage);
+  for (const [args, what] of [[[seqSaved], 'the saved scene'], [[seqPath, '--time-step', '3'], '--time-step 3']]) {
+    const out = join(work, 'sequence_cli.png');
+    execFileSync(volux, ['render', ...args, '-o', out, '--quiet']);
+    const d = JSON.parse(execFileSync(volux, ['compare', seqImage, out, '--json']).toString());
+    check(d.max_abs === 0, `volux render of ${what} = the saved image (max_abs ${d.max_abs})`);
+  }
+  const seqErrors = await page.evaluate(() => window.volux.errors);
+  check(seqErrors.length === 0, `no error shown on the sequence page (${seqErrors.join('; ')})`);
 } catch (e) {
   console.log('FAIL ' + e.stack);
   failures++;
   await page.screenshot({ path: join(artefacts, 'viewer_failure.png') }).catch(() => {});
 } finally {
   await context.close();
-  server.kill('SIGTERM');
-  const code = await new Promise((r) => server.on('exit', r));
-  check(code === 0, `server stopped cleanly (exit ${code})`);
+  for (const server of servers) {
+    const exited = server.exitCode !== null ? Promise.resolve(server.exitCode)
+      : new Promise((r) => server.on('exit', r));
+    server.kill('SIGTERM');
+    const code = await exited;
+    check(code === 0, `server stopped cleanly (exit ${code})`);
+  }
   rmSync(profile, { recursive: true, force: true });
   rmSync(work, { recursive: true, force: true });
 }

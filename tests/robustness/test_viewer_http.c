@@ -106,6 +106,7 @@ static void test_api_basics(void **state) {
     assert_int_equal(r.status, 200);
     assert_contains(r.body, "\"histogram\"");
     assert_contains(r.body, "\"resolved\"");
+    assert_null(strstr(r.body, "\"sequence\"")); /* a single volume: no step slider */
     tu_reply_free(&r);
     r = get("/");
     assert_int_equal(r.status, 200);
@@ -454,6 +455,79 @@ static void test_bad_command_lines(void **state) {
     snprintf(args, sizeof args, "serve '%s' --port 0 --set render.technique=nope", scene_path);
     assert_int_equal(tu_run_cli(args, &err), 2);
     assert_contains(err, "unknown technique 'nope'");
+    /* An argument holding an escape sequence reaches the terminal escaped (as the CLI's messages). */
+    snprintf(args, sizeof args, "serve '%s' --port 0 --idle-ms \"$(printf '1\\033[2J')\"", scene_path);
+    assert_int_equal(tu_run_cli(args, &err), 2);
+    assert_null(strchr(err, 0x1b));
+    assert_contains(err, "1\\x1b[2J");
+    snprintf(args, sizeof args, "serve '%s' --port 0 --bind \"$(printf 'x\\033[2J')\"", scene_path);
+    assert_int_equal(tu_run_cli(args, &err), 2);
+    assert_null(strchr(err, 0x1b));
+    assert_contains(err, "--bind x\\x1b[2J");
+}
+
+/* The preview budget: with a budget no render can meet, the first frame
+ * after an edit is the smallest adaptive size (64 on the longest side, the
+ * aspect kept), the --preview size follows, then the final frame, which
+ * still equals `volux render`; with --preview-budget 0 the first frame is
+ * the --preview size. */
+static void first_preview_size(int port, const char *edit, int *w, int *h, double *first_ms, double *full_ms) {
+    tu_reply r;
+    assert_true(tu_http(port, "POST", "/api/edit", NULL, edit, &r));
+    assert_int_equal(r.status, 200);
+    tu_reply_free(&r);
+    assert_true(tu_http(port, "GET", "/api/frame?wait=final&format=png&timeout=60000", NULL, NULL, &r));
+    assert_int_equal(r.status, 200);
+    tu_reply_free(&r);
+    assert_true(tu_http(port, "GET", "/api/stats", NULL, NULL, &r));
+    assert_int_equal(r.status, 200);
+    const char *p = strstr(r.body, "\"first_preview_size\":[");
+    assert_non_null(p);
+    assert_int_equal(sscanf(p, "\"first_preview_size\":[%d,%d]", w, h), 2);
+    p = strstr(r.body, "\"edit_to_preview_ms\":");
+    assert_non_null(p);
+    *first_ms = atof(p + strlen("\"edit_to_preview_ms\":"));
+    p = strstr(r.body, "\"edit_to_full_preview_ms\":");
+    assert_non_null(p);
+    *full_ms = atof(p + strlen("\"edit_to_full_preview_ms\":"));
+    tu_reply_free(&r);
+}
+
+static void test_preview_budget(void **state) {
+    (void)state;
+    static const char *const budgets[] = {"0.001", "0"};
+    for (int b = 0; b < 2; b++) {
+        tu_server own;
+        char args[1400];
+        snprintf(args, sizeof args,
+                 "'%s' --quiet --idle-ms 0 --preview 128 --preview-budget %s --set render.width=200 "
+                 "--set render.height=150",
+                 scene_path, budgets[b]);
+        assert_true(tu_server_start(&own, args));
+        int w = 0, h = 0;
+        double first_ms, full_ms;
+        /* the first edit after the start (whose frame measured the cost), then one more */
+        first_preview_size(own.port, "[{\"path\": \"lights.0.irradiance\", \"value\": 1.7}]", &w, &h, &first_ms,
+                           &full_ms);
+        first_preview_size(own.port, "[{\"path\": \"camera.orbit.azimuth\", \"value\": 55}]", &w, &h, &first_ms,
+                           &full_ms);
+        if (b == 0) {
+            assert_int_equal(w, 64);
+            assert_int_equal(h, 48);
+            assert_true(full_ms >= first_ms); /* the 128×96 preview came after the first frame */
+        } else {
+            assert_int_equal(w, 128);
+            assert_int_equal(h, 96);
+            assert_true(full_ms == first_ms); /* the first frame was the --preview size */
+        }
+        assert_true(first_ms > 0);
+        assert_int_equal(tu_server_stop(&own), 0);
+    }
+    const char *err;
+    char args[1400];
+    snprintf(args, sizeof args, "serve '%s' --port 0 --preview-budget -1", scene_path);
+    assert_int_equal(tu_run_cli(args, &err), 2);
+    assert_contains(err, "--preview-budget");
 }
 
 int main(void) {
@@ -462,7 +536,7 @@ int main(void) {
         cmocka_unit_test(test_bad_edits),         cmocka_unit_test(test_bad_requests),
         cmocka_unit_test(test_slow_client_times_out), cmocka_unit_test(test_event_stream),
         cmocka_unit_test(test_concurrent_edits),  cmocka_unit_test(test_token),
-        cmocka_unit_test(test_bad_command_lines),
+        cmocka_unit_test(test_bad_command_lines), cmocka_unit_test(test_preview_budget),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -396,6 +396,126 @@ static void test_json_reproduces_the_scene(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* ------------------------------------------------------------------ time steps */
+
+static const char *SEQ_SCENE =
+    "{\"volume\": {\"procedural\": \"cloud\", \"dims\": [12, 12, 12], \"steps\": 4},\n"
+    " \"transfer_function\": {\"color\": [[0, 1, 1, 1], [255, 1, 0.5, 0.2]],\n"
+    "                       \"opacity\": [[0, 0], [255, 0.5]]},\n"
+    " \"lights\": [{\"type\": \"directional\", \"direction\": [-1, -1, -1]}],\n"
+    " \"render\": {\"width\": 16, \"height\": 16}}\n";
+
+/* 1 if the two volumes hold the same voxels. */
+static int same_voxels(const volux_volume *a, const volux_volume *b) {
+    int da[3], db[3];
+    volux_volume_dims(a, da);
+    volux_volume_dims(b, db);
+    if (memcmp(da, db, sizeof da)) return 0;
+    for (int k = 0; k < da[2]; k++)
+        for (int j = 0; j < da[1]; j++)
+            for (int i = 0; i < da[0]; i++)
+                if (volux_volume_value_at(a, i, j, k) != volux_volume_value_at(b, i, j, k)) return 0;
+    return 1;
+}
+
+/* The scene volux_scene_load makes of `path` with one --set. */
+static volux_scene *loaded_with(volux_context *ctx, const char *path, const char *assignment) {
+    volux_scene *s = NULL;
+    if (volux_scene_load(ctx, path, &assignment, assignment ? 1 : 0, &s)) fail_msg("%s", volux_context_error(ctx));
+    return s;
+}
+
+/* render.time_step edits a kept sequence in place (the sequence is not read
+ * again; only VOLUME changes), a new volume section brings a new sequence to
+ * the live scene at the edit's step, a step out of range is rejected with
+ * the loader's message, and the document's JSON reproduces the step. */
+static void test_time_step_edits(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(1);
+    const char *path = scene_file("doc_steps", SEQ_SCENE);
+    volux_scene_doc *doc = doc_ok(ctx, path, NULL);
+    volux_scene *s = volux_scene_doc_scene(doc);
+    volux_sequence *q = volux_scene_sequence(s);
+    assert_non_null(q);
+    assert_int_equal(volux_scene_time_steps(s), 4);
+    assert_int_equal(volux_scene_time_step(s), 0);
+    uint64_t loads = volux_sequence_loads(q);
+
+    volux_scene_stamp seen = volux_scene_stamp_now(s);
+    uint32_t changed = 0;
+    edit_ok(doc, "render.time_step=2", &changed);
+    assert_int_equal(changed, VOLUX_DOC_VOLUME);
+    assert_int_equal(volux_scene_changes_since(s, &seen).what, VOLUX_CHANGE_VOLUME);
+    assert_ptr_equal(volux_scene_sequence(s), q); /* kept, not read again */
+    assert_int_equal(volux_scene_time_step(s), 2);
+    assert_int_equal(volux_sequence_loads(q), loads + 1); /* step 2 only */
+    volux_scene *ref = loaded_with(ctx, path, "render.time_step=2");
+    assert_true(same_voxels(volux_scene_volume(s), volux_scene_volume(ref)));
+    volux_scene *first = loaded_with(ctx, path, NULL);
+    assert_false(same_voxels(volux_scene_volume(s), volux_scene_volume(first))); /* the cloud moved */
+
+    /* Other edits keep the step and the sequence. */
+    seen = volux_scene_stamp_now(s);
+    edit_ok(doc, "lights.0.irradiance=3", &changed);
+    assert_int_equal(changed, VOLUX_DOC_LIGHTS);
+    assert_int_equal(volux_scene_changes_since(s, &seen).what, VOLUX_CHANGE_LIGHTS);
+    assert_int_equal(volux_scene_time_step(s), 2);
+    assert_ptr_equal(volux_scene_sequence(s), q);
+    /* A TF edit at step 2 reads the TF as the loader does (against step 0)
+     * and leaves the volume alone. */
+    seen = volux_scene_stamp_now(s);
+    edit_ok(doc, "transfer_function.opacity.1.1=0.7", &changed);
+    assert_int_equal(changed, VOLUX_DOC_TRANSFER);
+    assert_int_equal(volux_scene_changes_since(s, &seen).what, VOLUX_CHANGE_EXTINCTION);
+    assert_int_equal(volux_scene_time_step(s), 2);
+    assert_true(same_voxels(volux_scene_volume(s), volux_scene_volume(ref)));
+
+    /* Out of range: the loader's message, nothing changes. */
+    expect_rejected(ctx, doc, path, "render.time_step=4", "time step 4 is outside [0, 4)");
+    expect_rejected(ctx, doc, path, "render.time_step=-1", "render.time_step");
+    expect_rejected(ctx, doc, path, "render.time_step=\"two\"", "render.time_step");
+    assert_int_equal(volux_scene_time_step(s), 2);
+
+    /* The saved JSON loads to the same step. */
+    size_t n;
+    char *text = doc_text(doc, VOLUX_DOC_JSON_ABSOLUTE_PATHS, &n);
+    assert_contains(text, "\"time_step\":2");
+    volux_scene *again = NULL;
+    assert_int_equal(volux_scene_load_string(ctx, text, "/", "saved", NULL, 0, &again), VOLUX_OK);
+    assert_same_scene(ctx, s, again);
+    assert_int_equal(volux_scene_time_step(again), 2);
+    assert_true(same_voxels(volux_scene_volume(s), volux_scene_volume(again)));
+    volux_scene_destroy(again);
+    volux_scene_doc_json_free(doc, text, n);
+
+    /* A new volume section: a new sequence moves to the live scene, at the
+     * step of the edit. */
+    const char *two[] = {"volume.time_per_step=0.1", "render.time_step=3"};
+    assert_int_equal(volux_scene_doc_edit(doc, two, 2, &changed), VOLUX_OK);
+    assert_true(changed & VOLUX_DOC_VOLUME);
+    assert_non_null(volux_scene_sequence(s));
+    assert_int_equal(volux_scene_time_steps(s), 4);
+    assert_int_equal(volux_scene_time_step(s), 3);
+    volux_scene_destroy(ref);
+    assert_int_equal(volux_scene_load(ctx, path, two, 2, &ref), VOLUX_OK);
+    assert_true(same_voxels(volux_scene_volume(s), volux_scene_volume(ref)));
+    /* and further steps come from it */
+    edit_ok(doc, "render.time_step=1", NULL);
+    assert_int_equal(volux_scene_time_step(s), 1);
+    /* A single volume has only step 0 (the document is at step 1 now). */
+    expect_rejected(ctx, doc, NULL, "volume={\"procedural\": \"phantom\", \"dims\": [12, 12, 12]}",
+                    "time step 1 is outside [0, 1)");
+    const char *single[] = {"volume={\"procedural\": \"phantom\", \"dims\": [12, 12, 12]}", "render.time_step=0"};
+    assert_int_equal(volux_scene_doc_edit(doc, single, 2, NULL), VOLUX_OK);
+    assert_null(volux_scene_sequence(s));
+    assert_int_equal(volux_scene_time_steps(s), 1);
+    volux_scene_destroy(ref);
+    volux_scene_destroy(first);
+    volux_scene_doc_destroy(doc);
+    assert_int_equal(volux_context_bytes_in_use(ctx), 0);
+    volux_context_destroy(ctx);
+}
+
 /* ------------------------------------------------------------------ data root */
 
 static void write_text(const char *path, const char *text) {
@@ -538,6 +658,7 @@ int main(void) {
         cmocka_unit_test(test_validate_hook),
         cmocka_unit_test(test_edit_json),
         cmocka_unit_test(test_json_reproduces_the_scene),
+        cmocka_unit_test(test_time_step_edits),
         cmocka_unit_test(test_data_root_contains_files),
         cmocka_unit_test(test_srgb8_is_exact),
     };

@@ -1,15 +1,17 @@
 /*
  * tools/viewer/renderer.c — the render thread: after every edit a preview
- * (reduced resolution, one sample per pixel), then, once the scene has been
- * quiet for `idle_ms`, refinement: the technique's deferred work
- * (volux_technique_refine) and full-resolution waves of one sample each up
- * to the scene's render.spp. The last wave is the "final" frame: the image
- * `volux render` writes for the same scene.
+ * (reduced resolution, one sample per pixel; with a preview budget the first
+ * one may be smaller still, and the --preview size follows at once), then,
+ * once the scene has been quiet for `idle_ms`, refinement: the technique's
+ * deferred work (volux_technique_refine) and full-resolution waves of one
+ * sample each up to the scene's render.spp. The last wave is the "final"
+ * frame: the image `volux render` writes for the same scene.
  *
- * A refinement frame in flight is cancelled through the context's progress
- * callback as soon as an edit waits for the lock; a preview is not (it is
- * the cheap immediate answer, and cancelling it while the user drags would
- * show nothing at all).
+ * A refinement frame (or the --preview size after a reduced first frame) in
+ * flight is cancelled through the context's progress callback as soon as an
+ * edit waits for the lock; the first frame after an edit is not (it is the
+ * cheap immediate answer, and cancelling it while the user drags would show
+ * nothing at all).
  */
 #include <math.h>
 #include <stdio.h>
@@ -17,6 +19,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "tools/cli/cli.h"
 #include "viewer.h"
 
 #define PUBLISH_EVERY_MS 200.0
@@ -74,13 +77,19 @@ static void render_failed(viewer *v, const char *what, volux_status st) {
     v->frame.id++; /* wakes the streams, which then report the error */
     pthread_cond_broadcast(&v->frame_cv);
     pthread_mutex_unlock(&v->frame_lock);
-    if (!v->opt.quiet) fprintf(stderr, "volux serve: %s\n", msg);
+    if (!v->opt.quiet) cli_eprintf("volux serve: %s\n", msg); /* may quote a file name an edit gave */
 }
 
+/* What a published frame is, for the statistics. */
+enum {
+    PUB_FIRST = 1,       /* the first frame after an edit                    */
+    PUB_FULL_PREVIEW = 2 /* the first frame at the --preview size after an edit */
+};
+
 /* Encodes `img` (ownership passes to the frame) and publishes it. Runs
- * without `lock`. `since_edit_ms` < 0: no latency to report. */
+ * without `lock`. `since_edit_t0` <= 0: no latency to report. */
 static void publish(viewer *v, volux_image *img, frame_kind kind, uint64_t version, uint32_t spp, float exposure,
-                    double update_ms, double render_ms, double since_edit_t0, double since_edit_cpu) {
+                    double update_ms, double render_ms, double since_edit_t0, double since_edit_cpu, unsigned flags) {
     double t0 = viewer_now_ms();
     unsigned char *data = NULL;
     size_t size = 0;
@@ -134,9 +143,15 @@ static void publish(viewer *v, volux_image *img, frame_kind kind, uint64_t versi
     s->last_encode_ms = f->encode_ms;
     s->last_render_ms = render_ms;
     s->error[0] = 0;
-    if (kind == FRAME_PREVIEW && f->latency_ms >= 0) {
+    if ((flags & PUB_FIRST) && f->latency_ms >= 0) {
         s->last_latency_ms = f->latency_ms;
         s->last_latency_cpu_ms = f->cpu_ms;
+        s->last_first_w = f->width;
+        s->last_first_h = f->height;
+    }
+    if ((flags & PUB_FULL_PREVIEW) && f->latency_ms >= 0) {
+        s->last_full_preview_ms = f->latency_ms;
+        s->last_full_preview_cpu_ms = f->cpu_ms;
     }
     if (kind == FRAME_FINAL && f->latency_ms >= 0) s->last_final_ms = f->latency_ms;
     pthread_cond_broadcast(&v->frame_cv);
@@ -189,6 +204,56 @@ static void preview_size(const viewer *v, int w, int h, int *pw, int *ph) {
     if (*ph < 1) *ph = 1;
 }
 
+/* Smallest longest side of an adaptive first frame, and its granularity
+ * (sizes are rounded down to it so the framebuffer is not reallocated for
+ * every small change of the estimate). */
+#define MIN_FIRST_SIDE 64
+#define FIRST_SIDE_STEP 16
+/* Time kept back for the encode and the event (a 256² JPEG takes ~2 ms). */
+#define PUBLISH_MARGIN_MS 5.0
+
+/* The running cost estimate of a technique's preview render (ms/pixel;
+ * 0 until measured). */
+static double *cost_of(viewer *v, const char *technique) {
+    int n = (int)(sizeof v->cost / sizeof v->cost[0]), free_slot = -1;
+    for (int i = 0; i < n; i++) {
+        if (!strcmp(v->cost[i].technique, technique)) return &v->cost[i].ms_per_pixel;
+        if (free_slot < 0 && !v->cost[i].technique[0]) free_slot = i;
+    }
+    if (free_slot < 0) free_slot = 0; /* more techniques than slots: forget one */
+    snprintf(v->cost[free_slot].technique, sizeof v->cost[free_slot].technique, "%s", technique);
+    v->cost[free_slot].ms_per_pixel = 0;
+    return &v->cost[free_slot].ms_per_pixel;
+}
+
+/* The size of the first frame after an edit: the --preview size (pw, ph on
+ * entry) shrunk, keeping the aspect, to what the technique's measured cost
+ * per pixel says renders in `left_ms`, but not below MIN_FIRST_SIDE on the
+ * longest side. Without a budget or an estimate: unchanged. */
+static void budget_size(const viewer *v, double ms_per_pixel, double left_ms, int *pw, int *ph) {
+    if (v->opt.preview_budget_ms <= 0 || ms_per_pixel <= 0) return;
+    double pixels = (double)*pw * *ph, fits = left_ms > 0 ? left_ms / ms_per_pixel : 0;
+    if (fits >= pixels) return;
+    int longest = *pw > *ph ? *pw : *ph;
+    int side = (int)(sqrt(fits / pixels) * longest) / FIRST_SIDE_STEP * FIRST_SIDE_STEP;
+    int floor_side = longest < MIN_FIRST_SIDE ? longest : MIN_FIRST_SIDE;
+    if (side < floor_side) side = floor_side;
+    if (side >= longest) return;
+    double scale = (double)side / longest;
+    *pw = (int)lround(*pw * scale);
+    *ph = (int)lround(*ph * scale);
+    if (*pw < 1) *pw = 1;
+    if (*ph < 1) *ph = 1;
+}
+
+/* Folds one measured render into the estimate (a running mean that follows
+ * changes of the scene — TF, camera, technique parameters — within a few
+ * frames). */
+static void learn_cost(viewer *v, const char *technique, double render_ms, int w, int h) {
+    double *c = cost_of(v, technique), now = render_ms / ((double)w * h);
+    *c = *c > 0 ? 0.5 * *c + 0.5 * now : now;
+}
+
 /* The first frame after an edit. Called and returns with `lock` held. */
 static void do_preview(viewer *v, uint64_t version) {
     volux_scene *scene = volux_scene_doc_scene(v->doc);
@@ -213,14 +278,32 @@ static void do_preview(viewer *v, uint64_t version) {
     volux_render_report rep = {0};
     volux_change_set changed;
     memset(&changed, 0, sizeof changed);
-    if (!(st = ensure_fb(v, &v->fb_preview, small.width, small.height)) &&
-        !(st = volux_scene_set_render(scene, &small))) {
-        volux_framebuffer_reset(v->fb_preview);
+    volux_render_settings first = small;
+    volux_framebuffer *fb = NULL;
+    if (!(st = volux_scene_set_render(scene, &small))) {
         st = volux_technique_update(v->tech, scene, &changed);
         double t1 = viewer_now_ms();
+        /* With a budget, the first frame gets what is left of it after the
+         * update (the edit's own cost, which a smaller frame cannot save):
+         * the preview size the measured cost per pixel fits in. The render
+         * then only brings the ray-caster's camera to the new size. */
+        if (!st && v->need_latency) {
+            double left = v->opt.preview_budget_ms - (t1 - v->last_edit_ms) - PUBLISH_MARGIN_MS;
+            budget_size(v, *cost_of(v, full.technique), left, &first.width, &first.height);
+            if (first.width != small.width || first.height != small.height)
+                st = volux_scene_set_render(scene, &first);
+        }
+        int reduced = first.width != small.width || first.height != small.height;
+        volux_framebuffer **slot = reduced ? &v->fb_first : &v->fb_preview;
+        if (!st && !(st = ensure_fb(v, slot, first.width, first.height))) {
+            fb = *slot;
+            volux_framebuffer_reset(fb);
+        }
         volux_render_limits one = {1, 0, 0};
-        if (!st) st = volux_render(v->tech, scene, v->fb_preview, &one, &rep);
-        if (!st) st = volux_framebuffer_resolve(v->fb_preview, &img);
+        double t2 = viewer_now_ms();
+        if (!st) st = volux_render(v->tech, scene, fb, &one, &rep);
+        if (!st) st = volux_framebuffer_resolve(fb, &img);
+        if (!st) learn_cost(v, full.technique, viewer_now_ms() - t2, first.width, first.height);
         volux_scene_set_render(scene, &full); /* cannot fail: the settings were valid */
         pthread_mutex_lock(&v->frame_lock);
         v->stats.last_update_ms = t1 - t0;
@@ -238,16 +321,65 @@ static void do_preview(viewer *v, uint64_t version) {
             double edit_t0 = v->need_latency ? v->last_edit_ms : -1;
             v->need_latency = 0;
             v->refined = 0;
+            v->upgrade = reduced;
             if (v->fb_full) volux_framebuffer_reset(v->fb_full);
             pthread_mutex_unlock(&v->lock);
-            publish(v, &img, FRAME_PREVIEW, version, 1, full.exposure, t1 - t0, viewer_now_ms() - t1, edit_t0,
-                    v->last_edit_cpu_ms);
+            publish(v, &img, FRAME_PREVIEW, version, 1, full.exposure, t1 - t0, viewer_now_ms() - t2, edit_t0,
+                    v->last_edit_cpu_ms, PUB_FIRST | (reduced ? 0u : PUB_FULL_PREVIEW));
             pthread_mutex_lock(&v->lock);
             return;
         }
     }
     volux_image_free(v->ctx, &img);
     render_failed(v, "preview", st);
+}
+
+/* After a reduced first frame: the preview at the --preview size, at once
+ * (no idle wait) but cancellable like refinement, so a drag that goes on
+ * keeps getting first frames within the budget. Called and returns with
+ * `lock` held. */
+static void do_upgrade(viewer *v) {
+    volux_scene *scene = volux_scene_doc_scene(v->doc);
+    const volux_render_settings full = *volux_scene_render(scene);
+    volux_render_settings small = full;
+    preview_size(v, full.width, full.height, &small.width, &small.height);
+    volux_context_clear_error(v->ctx);
+    volux_status st;
+    volux_image img = {0};
+    volux_render_report rep = {0};
+    volux_render_limits one = {1, 0, 0};
+    if ((st = ensure_fb(v, &v->fb_preview, small.width, small.height)) ||
+        (st = volux_scene_set_render(scene, &small))) {
+        v->upgrade = 0;
+        render_failed(v, "preview", st);
+        return;
+    }
+    volux_framebuffer_reset(v->fb_preview);
+    double t0 = viewer_now_ms();
+    atomic_store(&v->cancellable, 1);
+    st = volux_render(v->tech, scene, v->fb_preview, &one, &rep);
+    atomic_store(&v->cancellable, 0);
+    double render_ms = viewer_now_ms() - t0;
+    if (!st) st = volux_framebuffer_resolve(v->fb_preview, &img);
+    volux_scene_set_render(scene, &full);
+    if (st == VOLUX_ERR_CANCELLED) { /* an edit came: its first frame is next */
+        pthread_mutex_lock(&v->frame_lock);
+        v->stats.cancelled++;
+        pthread_mutex_unlock(&v->frame_lock);
+        return;
+    }
+    v->upgrade = 0;
+    if (st) {
+        volux_image_free(v->ctx, &img);
+        render_failed(v, "preview", st);
+        return;
+    }
+    learn_cost(v, full.technique, render_ms, small.width, small.height);
+    uint64_t version = v->shown_version;
+    pthread_mutex_unlock(&v->lock);
+    publish(v, &img, FRAME_PREVIEW, version, 1, full.exposure, 0, render_ms, v->last_edit_ms, v->last_edit_cpu_ms,
+            PUB_FULL_PREVIEW);
+    pthread_mutex_lock(&v->lock);
 }
 
 /* One unit of refinement (a deferred technique step or one full-size
@@ -316,7 +448,7 @@ static void do_refine(viewer *v) {
     float exposure = rs->exposure;
     pthread_mutex_unlock(&v->lock);
     publish(v, &img, final ? FRAME_FINAL : FRAME_REFINE, version, spp, exposure, 0, now - t0, edit_t0,
-            v->last_edit_cpu_ms);
+            v->last_edit_cpu_ms, 0);
     pthread_mutex_lock(&v->lock);
 }
 
@@ -339,6 +471,8 @@ static void *render_main(void *arg) {
         uint64_t version = volux_scene_doc_version(v->doc);
         if (version != v->shown_version || !v->tech) {
             do_preview(v, version);
+        } else if (v->upgrade) {
+            do_upgrade(v);
         } else if (!v->refined) {
             double wait = v->last_change_ms + v->opt.idle_ms - viewer_now_ms();
             if (wait > 0) wait_ms(v, wait);
@@ -368,7 +502,8 @@ void viewer_render_stop(viewer *v) {
     volux_technique_destroy(v->tech);
     volux_technique_destroy(v->spare);
     volux_framebuffer_destroy(v->fb_preview);
+    volux_framebuffer_destroy(v->fb_first);
     volux_framebuffer_destroy(v->fb_full);
     v->tech = v->spare = NULL;
-    v->fb_preview = v->fb_full = NULL;
+    v->fb_preview = v->fb_first = v->fb_full = NULL;
 }

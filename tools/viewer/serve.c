@@ -16,7 +16,8 @@
 static void usage(FILE *f) {
     fprintf(f,
             "usage: volux serve SCENE.json [--port P] [--bind ADDR] [--token T] [--data-root DIR]\n"
-            "                   [--preview N] [--idle-ms MS] [--max-image N] [--jpeg-quality Q] [--preview-png]\n"
+            "                   [--preview N] [--preview-budget MS] [--idle-ms MS] [--max-image N]\n"
+            "                   [--jpeg-quality Q] [--preview-png]\n"
             "                   [--max-connections N] [--timeout S] [--max-mb MB] [--quiet]\n"
             "                   [--technique T] [--spp N] [--width W] [--height H] [--threads N]\n"
             "                   [--set dotted.path=JSON-value]...\n"
@@ -27,6 +28,9 @@ static void usage(FILE *f) {
             "  --token T          every request needs the token (or set VOLUX_SERVE_TOKEN)\n"
             "  --data-root DIR    files an edit names must lie in DIR (default: the scene's folder)\n"
             "  --preview N        longest side of the preview shown while editing (default 256)\n"
+            "  --preview-budget MS  the first frame after an edit is made smaller when the technique's\n"
+            "                     measured cost says the --preview size would arrive later than MS;\n"
+            "                     the --preview size follows at once (default 100; 0 = always --preview)\n"
             "  --idle-ms MS       quiet time before refinement starts (default 100)\n"
             "  --max-image N      largest render.width/height an edit may set (default 4096)\n"
             "  --port 0           any free port (the URL printed says which)\n");
@@ -68,6 +72,7 @@ int cli_serve(int argc, char **argv) {
     o->port = 8080;
     o->preview_max = 256;
     o->idle_ms = 100;
+    o->preview_budget_ms = 100;
     o->max_image = 4096;
     o->jpeg_quality = 85;
     o->max_connections = 64;
@@ -95,12 +100,13 @@ int cli_serve(int argc, char **argv) {
         }
         static const char *const valued[] = {"--port",    "--bind",        "--token",           "--data-root",
                                              "--preview", "--idle-ms",     "--max-image",       "--jpeg-quality",
-                                             "--timeout", "--max-mb",      "--max-connections", NULL};
+                                             "--timeout", "--max-mb",      "--max-connections", "--preview-budget",
+                                             NULL};
         int is_valued = 0;
         for (int k = 0; valued[k]; k++) is_valued |= !strcmp(a, valued[k]);
         if (is_valued) {
             if (i + 1 >= argc) {
-                fprintf(stderr, "volux serve: %s needs a value\n", a);
+                cli_eprintf("volux serve: %s needs a value\n", a);
                 goto out;
             }
             const char *val = argv[++i];
@@ -111,7 +117,7 @@ int cli_serve(int argc, char **argv) {
                 unsigned char probe[16];
                 if (strcmp(val, "localhost") && inet_pton(AF_INET, val, probe) != 1 &&
                     inet_pton(AF_INET6, val, probe) != 1) {
-                    fprintf(stderr, "volux serve: --bind %s: expected an IPv4 or IPv6 address\n", val);
+                    cli_eprintf("volux serve: --bind %s: expected an IPv4 or IPv6 address\n", val);
                     goto out;
                 }
                 o->bind = val;
@@ -129,10 +135,17 @@ int cli_serve(int argc, char **argv) {
             } else if (!strcmp(a, "--idle-ms")) {
                 if (!cli_parse_double("serve", a, val, &d)) goto out;
                 if (!(d >= 0 && d <= 60000)) {
-                    fprintf(stderr, "volux serve: --idle-ms: expected 0..60000, got %s\n", val);
+                    cli_eprintf("volux serve: --idle-ms: expected 0..60000, got %s\n", val);
                     goto out;
                 }
                 o->idle_ms = d;
+            } else if (!strcmp(a, "--preview-budget")) {
+                if (!cli_parse_double("serve", a, val, &d)) goto out;
+                if (!(d >= 0 && d <= 60000)) {
+                    cli_eprintf("volux serve: --preview-budget: expected 0..60000, got %s\n", val);
+                    goto out;
+                }
+                o->preview_budget_ms = d;
             } else if (!strcmp(a, "--max-image")) {
                 if (!cli_parse_int("serve", a, val, 16, VOLUX_MAX_IMAGE_DIM, &n)) goto out;
                 o->max_image = (int)n;
@@ -153,7 +166,7 @@ int cli_serve(int argc, char **argv) {
         int r = cli_scene_arg("serve", &args, argc, argv, &i);
         if (r < 0) goto out;
         if (r == 0) {
-            fprintf(stderr, "volux serve: unknown option '%s'\n", a);
+            cli_eprintf("volux serve: unknown option '%s'\n", a);
             usage(stderr);
             goto out;
         }
@@ -212,8 +225,7 @@ int cli_serve(int argc, char **argv) {
         goto out_render;
     }
     if (!loopback(o->bind))
-        fprintf(stderr,
-                o->token ? "volux serve: listening on %s: every request needs the token\n"
+        cli_eprintf(o->token ? "volux serve: listening on %s: every request needs the token\n"
                          : "volux serve: WARNING: listening on %s without authentication: anyone who can reach "
                            "this address can view the scene and make this process read files in %s; give "
                            "--token to require one\n",
@@ -224,7 +236,7 @@ int cli_serve(int argc, char **argv) {
     else printf("volux serve: http://[%s]:%d/%s%s\n", o->bind, v->port, o->token ? "?token=" : "",
                 o->token ? o->token : "");
     if (!o->quiet)
-        fprintf(stderr, "volux serve: %s (%s, %dx%d, %d threads); data root %s; Ctrl-C stops\n", o->scene_path,
+        cli_eprintf("volux serve: %s (%s, %dx%d, %d threads); data root %s; Ctrl-C stops\n", o->scene_path,
                 rs->technique, rs->width, rs->height, volux_context_threads(v->ctx),
                 volux_scene_doc_data_root(v->doc));
     fflush(stdout);

@@ -145,6 +145,11 @@ int viewer_snapshot(viewer *v) {
     cJSON_AddItemToObject(c, "type", cJSON_CreateString(cam->projection == VOLUX_ORTHOGRAPHIC ? "orthographic"
                                                                                              : "perspective"));
     cJSON_AddItemToObject(o, "volume", cJSON_Duplicate(vol_info, 1));
+    if (volux_scene_sequence(s)) { /* a time-varying volume: the page shows its step slider */
+        cJSON *q = cJSON_AddObjectToObject(o, "sequence");
+        cJSON_AddNumberToObject(q, "steps", volux_scene_time_steps(s));
+        cJSON_AddNumberToObject(q, "step", volux_scene_time_step(s));
+    }
     cJSON *lim = cJSON_AddObjectToObject(o, "limits");
     cJSON_AddNumberToObject(lim, "max_image", v->opt.max_image);
     cJSON_AddNumberToObject(lim, "preview_max", v->opt.preview_max);
@@ -229,6 +234,11 @@ char *viewer_stats_json(viewer *v) {
     cJSON_AddNumberToObject(o, "height", f.height);
     cJSON_AddNumberToObject(o, "edit_to_preview_ms", s.last_latency_ms);
     cJSON_AddNumberToObject(o, "edit_to_preview_cpu_ms", s.last_latency_cpu_ms);
+    int first[2] = {s.last_first_w, s.last_first_h};
+    cJSON_AddItemToObject(o, "first_preview_size", cJSON_CreateIntArray(first, 2));
+    cJSON_AddNumberToObject(o, "edit_to_full_preview_ms", s.last_full_preview_ms);
+    cJSON_AddNumberToObject(o, "edit_to_full_preview_cpu_ms", s.last_full_preview_cpu_ms);
+    cJSON_AddNumberToObject(o, "preview_budget_ms", v->opt.preview_budget_ms);
     cJSON_AddNumberToObject(o, "edit_to_final_ms", s.last_final_ms);
     cJSON_AddNumberToObject(o, "update_ms", s.last_update_ms);
     cJSON_AddNumberToObject(o, "render_ms", s.last_render_ms);

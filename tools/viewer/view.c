@@ -40,7 +40,7 @@ int cli_view(int argc, char **argv) {
     char dir[PATH_MAX], scene_path[PATH_MAX + 16], msg[1024];
     snprintf(dir, sizeof dir, "%s/volux-view-XXXXXX", tmp && *tmp ? tmp : "/tmp");
     if (!mkdtemp(dir)) {
-        fprintf(stderr, "volux view: cannot create a temporary folder in %s\n", tmp && *tmp ? tmp : "/tmp");
+        cli_eprintf("volux view: cannot create a temporary folder in %s\n", tmp && *tmp ? tmp : "/tmp");
         return CLI_FAIL;
     }
     snprintf(scene_path, sizeof scene_path, "%s/scene.json", dir);
@@ -59,7 +59,7 @@ int cli_view(int argc, char **argv) {
     volux_scene_destroy(scene);
     volux_context_destroy(ctx);
     if (rc) {
-        fprintf(stderr, "volux view: %s\n", msg);
+        cli_eprintf("volux view: %s\n", msg);
         unlink(scene_path);
         rmdir(dir);
         return rc;

@@ -61,6 +61,9 @@ typedef struct viewer_options {
     const char *token;     /* NULL = no authentication                  */
     const char *data_root; /* NULL = the scene's folder                 */
     int preview_max;       /* longest side of a preview, pixels         */
+    double preview_budget_ms; /* > 0: the first frame after an edit is sized to
+                                 arrive within this time (then the preview_max
+                                 size follows); 0: always preview_max      */
     double idle_ms;        /* quiet time before refinement starts       */
     int max_image;         /* largest render.width/height an edit may set */
     int jpeg_quality;
@@ -74,6 +77,9 @@ typedef struct viewer_stats {
     uint64_t edits, edits_rejected, frames, requests, requests_rejected, cancelled;
     double last_latency_ms;       /* edit → first preview published    */
     double last_latency_cpu_ms;   /* process CPU time over that interval */
+    int last_first_w, last_first_h; /* size of that first preview          */
+    double last_full_preview_ms;  /* edit → preview at the --preview size  */
+    double last_full_preview_cpu_ms;
     double last_final_ms;         /* edit → final frame published      */
     double last_update_ms, last_render_ms, last_encode_ms, last_refine_ms;
     uint32_t last_changes;        /* volux_change bits of the last update */
@@ -102,7 +108,12 @@ typedef struct viewer {
 
     /* render thread state (under `lock`) */
     volux_technique *tech, *spare; /* current and previous instance   */
-    volux_framebuffer *fb_preview, *fb_full;
+    volux_framebuffer *fb_preview, *fb_first, *fb_full; /* --preview size, adaptive first frame, full */
+    int upgrade;             /* the first preview was smaller than --preview */
+    struct {
+        char technique[32];
+        double ms_per_pixel; /* running estimate of a preview render's cost */
+    } cost[16];
     uint64_t shown_version;  /* version of the last preview          */
     int refined;             /* final frame of shown_version published */
     int refine_steps_done;   /* deferred technique work finished     */

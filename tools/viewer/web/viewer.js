@@ -802,8 +802,10 @@ function refreshRender() {
   $('sec-time').hidden = !seq;
   if (seq) {
     $('time-step').max = seq.steps - 1;
-    $('time-step').value = seq.step;
-    $('time-step-v').textContent = seq.step;
+    if (document.activeElement !== $('time-step')) {
+      $('time-step').value = seq.step;
+      $('time-step-v').textContent = seq.step;
+    }
   }
 }
 
