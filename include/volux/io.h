@@ -37,6 +37,18 @@ typedef struct volux_raw_desc {
     uint64_t byte_skip;    /* bytes to skip at the start                   */
 } volux_raw_desc;
 
+/* One brick of a volume (data-parallel rendering, docs/DISTRIBUTED.md):
+ * brick `index` of the k-d split of the file's grid into `count` bricks
+ * (volux_brick_split), with `ghost` node layers around its owned box. */
+typedef struct volux_volume_region {
+    int count;  /* ≥ 1                                                     */
+    int index;  /* [0, count)                                              */
+    int ghost;  /* 0 = VOLUX_BRICK_GHOST; enough for trilinear samples,
+                   central-difference gradients and a pre-integration front
+                   sample up to one voxel outside the owned box             */
+} volux_volume_region;
+#define VOLUX_BRICK_GHOST 2
+
 typedef struct volux_volume_load_options {
     const volux_raw_desc *raw; /* non-NULL: read `path` as raw with this  */
     int use_file_origin;       /* 1: origin from the header, else centred  */
@@ -50,6 +62,17 @@ typedef struct volux_volume_load_options {
     int allow_nonfinite;       /* 1: NaN/Inf values become the lowest
                                   value, with a warning; 0: they are
                                   VOLUX_ERR_FORMAT (count, first voxel)     */
+    /* non-NULL: load only this brick (borrowed for the call). The volume
+     * holds the brick's nodes plus ghosts, placed where they lie in the
+     * whole volume (the whole's origin: the file's or centred), and
+     * volux_volume_brick describes it. Raw data is read row by row
+     * (seeking past the rest); gzip/zlib data is decoded as a stream and
+     * the bytes outside the brick are dropped as they pass, up to the
+     * brick's last row (the rest of the stream is not read, so a size
+     * mismatch after it goes unnoticed). The brick's bytes count against
+     * the context's max_bytes; the whole grid may be up to count × that.
+     * Not for sequences. */
+    const volux_volume_region *region;
 } volux_volume_load_options;
 
 /* Loads a volume file, choosing the reader by extension (.nrrd .nhdr .mhd
@@ -64,6 +87,11 @@ VOLUX_API volux_status volux_volume_load(volux_context *ctx, const char *path,
  * (float32). Spacing 1. */
 VOLUX_API volux_status volux_volume_procedural(volux_context *ctx, const char *name, const int dims[3],
                                                uint64_t seed, volux_volume **out);
+/* One brick of a procedural volume (see volux_volume_region): the nodes
+ * the whole volume would have there, computed for the brick only. */
+VOLUX_API volux_status volux_volume_procedural_region(volux_context *ctx, const char *name, const int dims[3],
+                                                      uint64_t seed, const volux_volume_region *region,
+                                                      volux_volume **out);
 /* Comma-separated list of procedural names (for messages). */
 VOLUX_API const char *volux_procedural_names(void);
 /* The procedural volume at a time: only "cloud" is animated (its puffs
@@ -205,6 +233,9 @@ typedef struct volux_scene_load_options {
      * absolute); free with volux_scene_json_free. */
     char **effective_json;
     const char *effective_dir;
+    /* Non-NULL: load only this brick of the scene's volume (a file or a
+     * procedural volume; not a time series): data-parallel rendering. */
+    const volux_volume_region *region;
 } volux_scene_load_options;
 
 VOLUX_API volux_status volux_scene_load_ex(volux_context *ctx, const volux_scene_load_options *options,

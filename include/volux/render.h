@@ -122,6 +122,33 @@ VOLUX_API size_t volux_framebuffer_read_tiles(const volux_framebuffer *fb, int f
 VOLUX_API size_t volux_framebuffer_write_tiles(volux_framebuffer *fb, int first, int count, const double *in,
                                                uint32_t spp);
 
+/* ---- data-parallel (sort-last) rendering of one brick ----
+ *
+ * When the scene's volume is one brick of a whole grid (volux_volume_brick;
+ * io.h: volux_volume_load_options.region), renders sample `sample_index`
+ * of every pixel (the same camera ray and jitter as that sample of
+ * volux_render) through the brick's owned box only, with the camera and
+ * the sample lattice of the whole volume (each ray's samples at the whole
+ * box's t0 + (k + jitter)·step, every segment integrated by exactly one
+ * brick), into rgbt[(y·width + x)·4] (caller-owned, width·height·4 floats,
+ * rows from the top): premultiplied radiance R, G, B and the transmittance
+ * T through the brick. *position (may be NULL) is the brick's place in the
+ * visibility order of this view (0 = front; the k-d tree's cut planes
+ * ordered by the side of the eye, or by the view direction for an
+ * orthographic camera). The back brick adds the background behind it
+ * (C + T·L_bg), so compositing all bricks of one sample front to back with
+ * "over", (C1, T1) over (C2, T2) = (C1 + T1·C2, T1·T2), gives that sample
+ * of the image in R, G, B; the pixel is the mean over samples (composite
+ * per sample: "over" does not commute with the mean). An ordinary volume
+ * is one brick (position 0, the whole image). Brings t up to date like
+ * volux_render. Only techniques whose light stays on the camera ray render
+ * a brick (`ea`, `shaded`); others: VOLUX_ERR_UNSUPPORTED. Differences
+ * from volux_render: always the scalar kernel; early termination acts per
+ * brick (a brick behind an opaque one still adds its ≤ early_termination
+ * share). */
+VOLUX_API volux_status volux_render_part(volux_technique *t, const volux_scene *scene, uint32_t sample_index,
+                                         float *rgbt, int *position, volux_render_report *report);
+
 #ifdef __cplusplus
 }
 #endif

@@ -152,6 +152,60 @@ VOLUX_API volux_vec3 volux_volume_gradient(const volux_volume *v, volux_vec3 p_w
 /* Counts values into `bins` equal bins over [min,max]. */
 VOLUX_API void volux_volume_histogram(const volux_volume *v, int bins, uint64_t *counts);
 
+/* ---- Bricks (data-parallel rendering, docs/DISTRIBUTED.md) ------------
+ *
+ * A whole grid of dims (nx,ny,nz) nodes is split into `count` bricks by a
+ * k-d tree over its cells: the box of cells is halved (in proportion to
+ * the bricks on each side) across its longest axis, recursively; bricks
+ * [0, count/2) lie on the low side of the first split. Brick b owns the
+ * cells between nodes owned_lo and owned_hi (inclusive; neighbours share
+ * the face nodes), so the owned boxes tile the whole box exactly once.
+ * A brick volume (io.h: volux_volume_load_options.region) holds the owned
+ * nodes plus `ghost` layers on every side inside the grid, enough for the
+ * trilinear samples, the pre-integration front sample and the
+ * central-difference gradients a ray inside the owned box takes. */
+typedef struct volux_brick_info {
+    int count, index;     /* bricks of the whole grid; this one            */
+    int whole_dims[3];    /* nodes of the whole grid                        */
+    int owned_lo[3];      /* whole-grid node indices of the owned box ...   */
+    int owned_hi[3];      /* ... (inclusive)                                */
+    int stored_lo[3];     /* whole-grid index of this volume's node (0,0,0) */
+    volux_vec3 whole_lo, whole_hi; /* world box of the whole grid           */
+} volux_brick_info;
+
+/* The owned nodes [lo, hi] (inclusive) of brick `index` of `count` for a
+ * whole grid of `dims` nodes. VOLUX_ERR_INVALID when count < 1, index is
+ * out of range, or the grid has too few cells to give every brick one
+ * (a brick is at least one cell thick on every axis). Pure function. */
+VOLUX_API volux_status volux_brick_split(const int dims[3], int count, int index, int lo[3], int hi[3]);
+/* Fills *out and returns 1 when v is a brick of a larger grid; returns 0
+ * (and leaves *out alone) for an ordinary volume. */
+VOLUX_API int volux_volume_brick(const volux_volume *v, volux_brick_info *out);
+/* What depends on the whole grid rather than on a brick: the value range
+ * (the transfer function's table, the gradient threshold) and the largest
+ * gradient component (the scale of the quantised gradient cache). */
+typedef struct volux_volume_stats {
+    double value_min, value_max;
+    double gradient_max; /* largest |component| of the node gradients
+                            (central differences, one-sided at the grid's
+                            border), file units per world unit */
+} volux_volume_stats;
+/* This volume's statistics: its value range, and the largest gradient
+ * component over the nodes it owns (a brick: its owned box, whose central
+ * differences its ghost layers supply; else every node). Combined over the
+ * bricks (min of value_min, max of the others) they are exactly the whole
+ * grid's. After volux_volume_set_whole_stats: the whole's. */
+VOLUX_API void volux_volume_stats_of(const volux_volume *v, volux_volume_stats *out);
+/* Declares the whole grid's statistics for a brick (every rank agrees on
+ * them, e.g. with an MPI reduction of volux_volume_stats_of), so that a
+ * brick classifies and shades as the whole volume would. The only change a
+ * volume accepts after creation: call it before the volume is used by a
+ * technique, and give the volume to its scene again
+ * (volux_scene_set_volume) so the transfer function's table is baked over
+ * the new range. VOLUX_ERR_INVALID when the range does not contain the
+ * volume's own or a value is not finite (gradient_max ≥ 0). */
+VOLUX_API volux_status volux_volume_set_whole_stats(volux_volume *v, const volux_volume_stats *whole);
+
 #ifdef __cplusplus
 }
 #endif

@@ -293,7 +293,8 @@ void volux_scene_bounds_sphere(const volux_scene *s, volux_vec3 *center, float *
         return;
     }
     volux_vec3 lo, hi;
-    volux_volume_bounds(s->volume, &lo, &hi);
+    /* a brick of a whole grid frames the whole (every rank the same view) */
+    volux_volume_domain_bounds(s->volume, &lo, &hi);
     *center = v3_scale(v3_add(lo, hi), 0.5f);
     float r = 0.5f * v3_length(v3_sub(hi, lo));
     *radius = r > 0.0f ? r : 1.0f;

@@ -47,6 +47,14 @@ struct volux_volume {
     void *bricks;
     size_t brick_bytes;
     int brick_counts[3];
+    /* Data-parallel rendering: this volume is brick `part_index` of
+     * `part_count` of a whole grid (volux_brick_info; part_count 0: an
+     * ordinary volume). Named "part" because "brick" above is the
+     * sampling layout's. */
+    int part_count, part_index;
+    int whole_dims[3], owned_lo[3], owned_hi[3], stored_lo[3];
+    volux_vec3 whole_origin; /* float, computed as a whole load would */
+    float whole_gradient_max; /* volux_volume_set_whole_stats; 0: unknown */
 };
 
 /* Bricked layout: 8³-cell bricks stored as 9³ nodes (one-node apron on the
@@ -61,6 +69,36 @@ struct volux_volume {
 /* Builds the bricked copy if missing (not thread-safe: call from setup code,
  * never from render_tile). Fails only on memory. */
 volux_status volux_volume_build_bricks(volux_volume *v);
+
+/* Makes v brick `index` of `count` of a whole grid of whole_dims nodes
+ * whose node 0 lies at whole_origin (double, as volux_volume_finalize
+ * would be given for the whole): v's node 0 is the whole grid's node
+ * stored_lo. Call after volux_volume_finalize with the matching origin
+ * (volux_brick_origin). */
+void volux_volume_make_part(volux_volume *v, int count, int index, const int whole_dims[3], const int stored_lo[3],
+                            const double whole_origin[3]);
+/* The origin (world position of node 0) for volux_volume_finalize of the
+ * part of a whole grid starting at node stored_lo; whole_origin NULL: the
+ * whole grid centred (finalize's default). */
+void volux_brick_origin(const int whole_dims[3], const double spacing[3], const double *whole_origin,
+                        const int stored_lo[3], double out_whole[3], double out_part[3]);
+/* The stored nodes [lo, hi) of brick `index` of `count` with `ghost`
+ * layers (clamped to the grid), and its owned nodes. */
+volux_status volux_brick_region(const int dims[3], int count, int index, int ghost, int stored_lo[3],
+                                int stored_hi[3]);
+/* World box the scene frames (camera) and whose ray entry anchors the
+ * sample lattice: the whole grid's for a part, else the volume's own. */
+void volux_volume_domain_bounds(const volux_volume *v, volux_vec3 *lo, volux_vec3 *hi);
+/* The owned box of a part in world units (the volume's own box if not a
+ * part). */
+void volux_volume_owned_bounds(const volux_volume *v, volux_vec3 *lo, volux_vec3 *hi);
+/* Visibility order of the bricks of a k-d split seen from `eye` (world;
+ * perspective) or along `dir` (orthographic, eye ignored): order[0] is
+ * the front brick. Index space of the whole grid = (world − origin)/spacing
+ * preserves the side of every split plane. */
+void volux_brick_visibility_order(const int dims[3], int count, const double whole_origin[3],
+                                  const double spacing[3], int orthographic, volux_vec3 eye, volux_vec3 dir,
+                                  int *order);
 
 /* Records the superior direction (normalised; NULL, zero or non-finite:
  * unknown). */
@@ -195,6 +233,25 @@ static inline int volux_volume_inside_index(const volux_volume *v, volux_vec3 q)
     return q.x >= 0.0f && q.y >= 0.0f && q.z >= 0.0f && q.x <= (float)(v->dims[0] - 1) &&
            q.y <= (float)(v->dims[1] - 1) && q.z <= (float)(v->dims[2] - 1);
 }
+
+/* Central-difference gradient at node (i,j,k) (one-sided at the border), in
+ * file units per world unit. */
+static inline void volux_volume_node_gradient(const volux_volume *v, int i, int j, int k, float g[3]) {
+    int c[3] = {i, j, k};
+    for (int a = 0; a < 3; a++) {
+        int lo[3] = {i, j, k}, hi[3] = {i, j, k};
+        if (c[a] > 0) lo[a]--;
+        if (c[a] < v->dims[a] - 1) hi[a]++;
+        int h = hi[a] - lo[a];
+        g[a] = h ? ((volux_volume_raw_at(v, volux_volume_index(v, hi[0], hi[1], hi[2])) + v->value_offset) -
+                    (volux_volume_raw_at(v, volux_volume_index(v, lo[0], lo[1], lo[2])) + v->value_offset)) /
+                       ((float)h * (float)v->spacing[a])
+                 : 0.0f;
+    }
+}
+/* Largest |component| of volux_volume_node_gradient over the nodes [lo, hi)
+ * (the scale of the quantised gradient cache). */
+float volux_volume_gradient_max(const volux_volume *v, const int lo[3], const int hi[3]);
 
 /* Gradient at index-space q in file units per *index* unit (central
  * differences of the trilinear field, clamped at the border). */

@@ -182,9 +182,9 @@ static int animated(field_fn fn) { return fn == cloud; }
 
 const char *volux_procedural_names(void) { return "sphere, marschner_lobb, cloud, phantom, constant"; }
 
-/* Fills uint8 storage with round(fn) clamped to 0..255. */
-static void fill_u8(volux_volume *v, field_fn fn, const void *user) {
-    const int *n = v->dims;
+/* Fills uint8 storage with round(fn) clamped to 0..255: v holds the nodes
+ * from `lo` of a whole grid of n nodes (a brick, or the whole at 0). */
+static void fill_u8(volux_volume *v, const int n[3], const int lo[3], field_fn fn, const void *user) {
     double step[3];
     for (int a = 0; a < 3; a++) step[a] = n[a] > 1 ? 2.0 / (n[a] - 1) : 0.0;
     /* Skin widths are in voxels of the finest axis (all equal for N³). */
@@ -192,22 +192,25 @@ static void fill_u8(volux_volume *v, field_fn fn, const void *user) {
     for (int a = 0; a < 3; a++)
         if (n[a] > 1 && step[a] < vox) vox = step[a];
     uint8_t *d = v->data;
-    for (int k = 0; k < n[2]; k++) {
+    for (int kk = 0; kk < v->dims[2]; kk++) {
+        int k = lo[2] + kk;
         double z = n[2] > 1 ? -1.0 + k * step[2] : 0.0;
-        for (int j = 0; j < n[1]; j++) {
+        for (int jj = 0; jj < v->dims[1]; jj++) {
+            int j = lo[1] + jj;
             double y = n[1] > 1 ? -1.0 + j * step[1] : 0.0;
-            uint8_t *row = d + volux_volume_index(v, 0, j, k);
-            for (int i = 0; i < n[0]; i++) {
+            uint8_t *row = d + volux_volume_index(v, 0, jj, kk);
+            for (int ii = 0; ii < v->dims[0]; ii++) {
+                int i = lo[0] + ii;
                 double x = n[0] > 1 ? -1.0 + i * step[0] : 0.0;
                 long w = lround(fn(x, y, z, vox, user));
-                row[i] = (uint8_t)(w < 0 ? 0 : w > 255 ? 255 : w);
+                row[ii] = (uint8_t)(w < 0 ? 0 : w > 255 ? 255 : w);
             }
         }
     }
 }
 
-volux_status volux_volume_procedural_at(volux_context *ctx, const char *name, const int dims[3], uint64_t seed,
-                                        double time, volux_volume **out) {
+static volux_status procedural(volux_context *ctx, const char *name, const int dims[3], uint64_t seed, double time,
+                               const volux_volume_region *region, volux_volume **out) {
     int which = -1;
     for (size_t i = 0; name && i < sizeof fields / sizeof fields[0]; i++)
         if (strcmp(name, fields[i].name) == 0) which = (int)i;
@@ -219,27 +222,54 @@ volux_status volux_volume_procedural_at(volux_context *ctx, const char *name, co
         return volux_error(ctx, VOLUX_ERR_INVALID, "procedural:%s: time %g is outside [-1e6, 1e6]", name, time);
     if (time != 0.0 && !animated(fn))
         return volux_error(ctx, VOLUX_ERR_INVALID, "procedural:%s: not animated (only cloud has a time)", name);
+    int lo[3] = {0, 0, 0}, hi[3] = {dims[0], dims[1], dims[2]}, sub[3];
+    volux_status st;
+    if (region) {
+        char label[64];
+        snprintf(label, sizeof label, "procedural:%.40s", name);
+        /* the whole grid's dims are checked like a whole volume's */
+        for (int a = 0; a < 3; a++)
+            if (dims[a] < 1 || dims[a] > VOLUX_MAX_DIM)
+                return volux_error(ctx, VOLUX_ERR_LIMIT, "%s: dims[%d] = %d is outside [1, %d]", label, a, dims[a],
+                                   VOLUX_MAX_DIM);
+        if ((st = volux_region_box(ctx, label, dims, region, lo, hi))) return st;
+    }
+    for (int a = 0; a < 3; a++) sub[a] = hi[a] - lo[a];
     volux_volume *v;
-    volux_status st = volux_volume_create_storage(ctx, dims, NULL, fn ? VOLUX_UINT8 : VOLUX_FLOAT32, &v);
+    st = volux_volume_create_storage(ctx, sub, NULL, fn ? VOLUX_UINT8 : VOLUX_FLOAT32, &v);
     if (st) {
         volux_error_prefix(ctx, "procedural:%s: ", name);
         return st;
     }
     if (fn) {
         field_params fp = {seed, time};
-        fill_u8(v, fn, &fp);
+        fill_u8(v, dims, lo, fn, &fp);
     } else {
-        size_t count = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2];
+        size_t count = (size_t)sub[0] * (size_t)sub[1] * (size_t)sub[2];
         float *f = v->data;
         for (size_t i = 0; i < count; i++) f[i] = 1.0f;
     }
-    st = volux_volume_finalize(v, NULL);
+    double whole_origin[3], part_origin[3], one[3] = {1, 1, 1};
+    volux_brick_origin(dims, one, NULL, lo, whole_origin, part_origin);
+    st = volux_volume_finalize(v, region ? part_origin : NULL);
     if (st) {
         volux_volume_release(v);
         return st;
     }
+    if (region) volux_volume_make_part(v, region->count, region->index, dims, lo, whole_origin);
     *out = v;
     return VOLUX_OK;
+}
+
+volux_status volux_volume_procedural_at(volux_context *ctx, const char *name, const int dims[3], uint64_t seed,
+                                        double time, volux_volume **out) {
+    return procedural(ctx, name, dims, seed, time, NULL, out);
+}
+
+volux_status volux_volume_procedural_region(volux_context *ctx, const char *name, const int dims[3], uint64_t seed,
+                                            const volux_volume_region *region, volux_volume **out) {
+    if (!region) return volux_error(ctx, VOLUX_ERR_INVALID, "procedural: region is NULL");
+    return procedural(ctx, name, dims, seed, 0.0, region, out);
 }
 
 volux_status volux_volume_procedural(volux_context *ctx, const char *name, const int dims[3], uint64_t seed,

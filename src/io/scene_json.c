@@ -239,6 +239,12 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
 
     volux_volume *vol = NULL;
     volux_sequence *seq = NULL;
+    const volux_volume_region *region = sr->opt ? sr->opt->region : NULL;
+    if (region && (steps > 1 || cJSON_GetObjectItemCaseSensitive(obj, "files") ||
+                   cJSON_GetObjectItemCaseSensitive(obj, "pattern") ||
+                   (proc && cJSON_GetObjectItemCaseSensitive(obj, "time"))))
+        return volux_json_error(r, VOLUX_ERR_UNSUPPORTED, "volume",
+                                "a data-parallel render loads one brick of one volume, not a time series");
     if (proc) {
         if (!jd) dims[0] = dims[1] = dims[2] = 64;
         int animated = volux_procedural_is_animated(proc);
@@ -251,7 +257,8 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
             return volux_json_error(r, VOLUX_ERR_INVALID, "volume", "time_per_step and cache_mb need steps > 1");
         st = steps > 1 ? volux_sequence_procedural(r->ctx, proc, dims, (uint64_t)seed, time0, time_per_step, steps,
                                                    cache_bytes, &seq)
-                       : volux_volume_procedural_at(r->ctx, proc, dims, (uint64_t)seed, time0, &vol);
+                       : region ? volux_volume_procedural_region(r->ctx, proc, dims, (uint64_t)seed, region, &vol)
+                                : volux_volume_procedural_at(r->ctx, proc, dims, (uint64_t)seed, time0, &vol);
         if (st) {
             volux_error_prefix(r->ctx, "%s: volume.procedural: ", r->file);
             return st;
@@ -273,6 +280,7 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
         opt.use_file_origin = use_file_origin;
         opt.allow_outside_dir = allow_outside;
         opt.allow_nonfinite = allow_nonfinite;
+        opt.region = region;
         if (jd || type) { /* an explicit layout means a raw file */
             memset(&raw, 0, sizeof raw);
             if (!jd || !type)
@@ -317,7 +325,7 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
             st = read_frames(sr, obj, &frames);
             const volux_scene_load_options *o = sr->opt;
             const cJSON *file_item = cJSON_GetObjectItemCaseSensitive(obj, "file");
-            if (!st && single && o && o->volume && o->volume_file && cJSON_IsString(file_item) &&
+            if (!st && single && o && o->volume && o->volume_file && !region && cJSON_IsString(file_item) &&
                 !strcmp(file_item->valuestring, o->volume_file) && !opt.raw && !use_file_origin && !allow_outside &&
                 !allow_nonfinite) {
                 /* The caller already loaded this file the same way (a quick
@@ -388,6 +396,11 @@ static volux_status load_tree(scene_reader *sr, const char *name, const char *ke
 static volux_status read_transfer(scene_reader *sr, cJSON *root) {
     volux_json_reader *r = &sr->json;
     cJSON *obj = cJSON_GetObjectItemCaseSensitive(root, "transfer_function");
+    if (!obj && sr->opt && sr->opt->region)
+        /* every brick would make its own from its own histogram */
+        return volux_json_error(r, VOLUX_ERR_UNSUPPORTED, "transfer_function",
+                                "missing: a data-parallel render needs one (the quick-look default comes from the "
+                                "whole volume's histogram)");
     if (!obj) {
         /* No TF: the quick-look default from the volume's histogram, put
          * into the tree so a dump of the scene shows exactly what is used. */
@@ -569,6 +582,13 @@ static volux_status read_tf_object(scene_reader *sr, const cJSON *obj, const cha
         if ((st = resolve_path(sr, tf_dir, preset_file, "transfer_function.preset", path, sizeof path))) goto done;
         double lo = 0, hi = 0;
         volux_volume *vol = volux_scene_volume(sr->scene);
+        if (rescale && vol && sr->opt && sr->opt->region) {
+            /* the brick's range is not the whole volume's */
+            st = volux_json_error(r, VOLUX_ERR_UNSUPPORTED, "transfer_function.preset_rescale",
+                                  "a data-parallel render cannot rescale a preset to the volume's range (each rank "
+                                  "holds one brick): give \"preset_rescale\": false and the preset's own values");
+            goto done;
+        }
         if (rescale && vol) volux_volume_range(vol, &lo, &hi);
         if ((st = volux_tf_preset_load(r->ctx, path, preset_name, lo, hi, &preset))) {
             volux_error_prefix(r->ctx, "%s: transfer_function.preset: ", r->file);

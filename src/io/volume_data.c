@@ -545,6 +545,9 @@ volux_status volux_volume_read_parts(volux_context *ctx, const volux_volume_head
                                      const volux_part_source *ps, const volux_volume_load_options *options,
                                      volux_volume **out) {
     const char *name = ps->name;
+    if (options && options->region && parts > 1)
+        return volux_error(ctx, VOLUX_ERR_UNSUPPORTED, "%s: region: one brick of data split over %d files", name,
+                           parts);
     volux_status st = volux_volume_header_check(ctx, name, h);
     if (st) return st;
     size_t esize = volux_scalar_type_size(h->type);
@@ -604,6 +607,9 @@ fail:
     return st;
 }
 
+static volux_status read_region(volux_context *ctx, const volux_volume_header *h, volux_source *src,
+                                const volux_volume_load_options *options, volux_volume **out);
+
 /* The caller's one source, neither reopened nor closed. */
 static volux_status single_open(void *user, int k, volux_source *out) {
     (void)k;
@@ -617,6 +623,134 @@ static void single_close(void *user, volux_source *s) {
 
 volux_status volux_volume_read_data(volux_context *ctx, const volux_volume_header *h, volux_source *src,
                                     const volux_volume_load_options *options, volux_volume **out) {
+    if (options && options->region) return read_region(ctx, h, src, options, out);
     volux_part_source ps = {single_open, single_close, src, src->name};
     return volux_volume_read_parts(ctx, h, 1, &ps, options, out);
+}
+
+/* ------------------------------------------------------------------ */
+/* One brick of the grid (data-parallel rendering)                      */
+/* ------------------------------------------------------------------ */
+
+/* Validates a region against the grid: the brick's stored box. */
+volux_status volux_region_box(volux_context *ctx, const char *name, const int dims[3],
+                              const volux_volume_region *r, int lo[3], int hi[3]) {
+    if (r->count < 1 || r->index < 0 || r->index >= r->count || r->ghost < 0)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "%s: region: brick %d of %d (ghost %d) is not a brick", name,
+                           r->index, r->count, r->ghost);
+    int ghost = r->ghost ? r->ghost : VOLUX_BRICK_GHOST;
+    if (volux_brick_region(dims, r->count, r->index, ghost, lo, hi))
+        return volux_error(ctx, VOLUX_ERR_INVALID,
+                           "%s: region: the %dx%dx%d grid cannot be split into %d bricks of at least one cell each",
+                           name, dims[0], dims[1], dims[2], r->count);
+    return VOLUX_OK;
+}
+
+static volux_status read_rows(const volux_volume_header *h, stream *s, unsigned char *buf, volux_volume *v,
+                              size_t first, size_t rows, size_t row_elems, int swap) {
+    size_t esize = volux_scalar_type_size(h->type), got;
+    volux_status st = stream_read(s, buf, rows * row_elems * esize, &got);
+    if (st) return st;
+    if (got < rows * row_elems * esize)
+        return volux_error(s->ctx, VOLUX_ERR_FORMAT, "%s: data is truncated (in the rows of the brick)", s->src->name);
+    if (swap) swap_bytes(buf, rows * row_elems, esize);
+    convert_chunk(h, v, first, buf, rows * row_elems);
+    return VOLUX_OK;
+}
+
+static volux_status read_region(volux_context *ctx, const volux_volume_header *h, volux_source *src,
+                                const volux_volume_load_options *options, volux_volume **out) {
+    const volux_volume_region *region = options->region;
+    int use_file_origin = options->use_file_origin;
+    const char *name = src->name;
+    uint64_t cap = ctx->max_bytes; /* the whole may be count × the cap */
+    if (region->count > 1)
+        ctx->max_bytes = cap > UINT64_MAX / (uint64_t)region->count ? UINT64_MAX : cap * (uint64_t)region->count;
+    volux_status st = volux_volume_header_check(ctx, name, h);
+    ctx->max_bytes = cap;
+    if (st) return st;
+    int lo[3], hi[3], sub[3];
+    if ((st = volux_region_box(ctx, name, h->dims, region, lo, hi))) return st;
+    for (int a = 0; a < 3; a++) sub[a] = hi[a] - lo[a];
+    size_t esize = volux_scalar_type_size(h->type);
+    const size_t nx = (size_t)h->dims[0], ny = (size_t)h->dims[1];
+    size_t count = nx * ny * (size_t)h->dims[2]; /* checked above */
+    uint64_t need = (uint64_t)count * esize;
+    int zlib = h->encoding == VOLUX_ENCODING_ZLIB;
+    /* a whole row must fit the buffer: 16384 × 8 bytes ≤ CHUNK */
+    unsigned char *buf = volux_malloc(ctx, CHUNK);
+    if (!buf) return volux_error(ctx, VOLUX_ERR_NOMEM, "%s: out of memory for a read buffer", name);
+    volux_volume *v = NULL;
+    stream s;
+    memset(&s, 0, sizeof s);
+    uint64_t begin;
+    /* the whole file's size is checked, as for a whole load */
+    if ((st = locate_part(ctx, h, src, 0, 1, need, buf, &begin))) goto fail;
+    /* Only the brick's storage is allocated (and checked against the cap). */
+    st = volux_volume_create_storage(ctx, sub, h->spacing, stored_type(h), &v);
+    if (st) {
+        volux_error_prefix(ctx, "%s: ", name);
+        goto fail;
+    }
+    int swap = esize > 1 && (h->big_endian != volux_host_big_endian());
+    size_t row_elems = (size_t)sub[0], dest = 0;
+    if (!zlib) {
+        /* Raw: seek to each run of rows. When the brick spans whole rows,
+         * consecutive rows of a slab are one read. */
+        size_t per_read = sub[0] == h->dims[0] ? CHUNK / (nx * esize) : 1;
+        if (per_read < 1) per_read = 1;
+        for (int k = lo[2]; k < hi[2]; k++)
+            for (int j = lo[1]; j < hi[1];) {
+                size_t rows = (size_t)(hi[1] - j) < per_read ? (size_t)(hi[1] - j) : per_read;
+                uint64_t at = begin + (((uint64_t)k * ny + (uint64_t)j) * nx + (uint64_t)lo[0]) * esize;
+                if ((st = stream_open(ctx, src, at, 0, &s)) ||
+                    (st = read_rows(h, &s, buf, v, dest, rows, row_elems, swap)))
+                    goto fail;
+                dest += rows * row_elems;
+                j += (int)rows;
+            }
+    } else {
+        /* Compressed: one pass over the stream up to the brick's last row,
+         * dropping what lies outside. */
+        if ((st = stream_open(ctx, src, begin, 1, &s))) goto fail;
+        uint64_t skip = (uint64_t)(h->byte_skip > 0 ? h->byte_skip : 0) + (uint64_t)lo[2] * ny * nx * esize;
+        if ((st = discard(&s, buf, skip))) goto fail;
+        for (int k = lo[2]; k < hi[2]; k++) {
+            if ((st = discard(&s, buf, (uint64_t)lo[1] * nx * esize))) goto fail;
+            for (int j = lo[1]; j < hi[1]; j++) {
+                size_t got;
+                if ((st = stream_read(&s, buf, nx * esize, &got))) goto fail;
+                if (got < nx * esize) {
+                    st = volux_error(ctx, VOLUX_ERR_FORMAT, "%s: data is truncated (in the rows of the brick)", name);
+                    goto fail;
+                }
+                unsigned char *part = buf + (size_t)lo[0] * esize;
+                if (swap) swap_bytes(part, row_elems, esize);
+                convert_chunk(h, v, dest, part, row_elems);
+                dest += row_elems;
+            }
+            if (k + 1 < hi[2] && (st = discard(&s, buf, (uint64_t)(h->dims[1] - hi[1]) * nx * esize))) goto fail;
+        }
+    }
+    stream_close(&s);
+    volux_free(ctx, buf, CHUNK);
+    buf = NULL;
+    if ((st = check_nonfinite(ctx, name, v, options->allow_nonfinite))) goto fail;
+    double whole_origin[3], part_origin[3];
+    volux_brick_origin(h->dims, h->spacing, use_file_origin && h->has_origin ? h->origin : NULL, lo, whole_origin,
+                       part_origin);
+    if ((st = volux_volume_finalize(v, part_origin))) {
+        volux_error_prefix(ctx, "%s: ", name);
+        goto fail;
+    }
+    volux_volume_make_part(v, region->count, region->index, h->dims, lo, whole_origin);
+    volux_volume_set_superior(v, h->has_superior ? h->superior : NULL);
+    *out = v;
+    return VOLUX_OK;
+
+fail:
+    stream_close(&s);
+    if (buf) volux_free(ctx, buf, CHUNK);
+    volux_volume_release(v);
+    return st;
 }

@@ -209,6 +209,14 @@ volux_status volux_volume_read_parts(volux_context *ctx, const volux_volume_head
 volux_status volux_volume_read_data(volux_context *ctx, const volux_volume_header *h, volux_source *src,
                                     const volux_volume_load_options *options, volux_volume **out);
 
+/* volux_volume_read_data reads only one brick when options->region is set
+ * (only the brick's storage is allocated; not for data split over
+ * several files: VOLUX_ERR_UNSUPPORTED). */
+/* The stored node box [lo, hi) of a region of a grid, or
+ * VOLUX_ERR_INVALID naming `name`. */
+volux_status volux_region_box(volux_context *ctx, const char *name, const int dims[3],
+                              const volux_volume_region *r, int lo[3], int hi[3]);
+
 /* For readers with their own data framing (VTI): stores `count` elements of
  * type h->type in byte order h->big_endian (swapped in place when that is
  * not the host's) into v from element `first`, converted as

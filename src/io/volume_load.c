@@ -276,9 +276,19 @@ done:
  * detached data name the header the caller passed first. */
 static volux_status load_from(volux_context *ctx, kind k, volux_source *src, int from_memory,
                               const volux_volume_load_options *options, volux_volume **out) {
+    if (k == K_VTI && options && options->region) /* its own framing has no sub-box reader */
+        return volux_error(ctx, VOLUX_ERR_UNSUPPORTED, "%s: region: one brick of a VTK ImageData file", src->name);
     if (k == K_VTI) return volux_vti_read(ctx, src, options, out); /* always attached, own framing */
     volux_volume_header h;
+    /* A brick is 1/count of the grid: the header's whole size may be up to
+     * count × the cap (the brick itself is checked against the cap). */
+    uint64_t cap = ctx->max_bytes;
+    if (options && options->region && options->region->count > 1)
+        ctx->max_bytes = cap > UINT64_MAX / (uint64_t)options->region->count
+                             ? UINT64_MAX
+                             : cap * (uint64_t)options->region->count;
     volux_status st = parse_header(ctx, k, src, &h);
+    ctx->max_bytes = cap;
     if (st) return st;
     if (h.file_count > 0) {
         if (from_memory)
@@ -346,7 +356,14 @@ volux_status volux_volume_load(volux_context *ctx, const char *path, const volux
     volux_status st;
     if (options && options->raw) {
         volux_volume_header h;
-        if ((st = volux_raw_header_from_desc(ctx, options->raw, path, &h))) return st;
+        uint64_t cap = ctx->max_bytes; /* as in load_from, for a brick */
+        if (options->region && options->region->count > 1)
+            ctx->max_bytes = cap > UINT64_MAX / (uint64_t)options->region->count
+                                 ? UINT64_MAX
+                                 : cap * (uint64_t)options->region->count;
+        st = volux_raw_header_from_desc(ctx, options->raw, path, &h);
+        ctx->max_bytes = cap;
+        if (st) return st;
         if ((st = volux_source_open(ctx, path, &src))) return st;
         st = volux_volume_read_data(ctx, &h, &src, options, out);
         volux_source_close(&src);

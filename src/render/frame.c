@@ -13,6 +13,7 @@
 
 #include "core/context_internal.h"
 #include "core/parallel.h"
+#include "raycaster.h"
 #include "technique_class.h"
 #include "volux/render.h"
 
@@ -401,4 +402,101 @@ size_t volux_framebuffer_write_tiles(volux_framebuffer *fb, int first, int count
     /* Those tiles now hold spp samples (another process rendered them). */
     for (int i = first; i < first + count; i++) fb->tile_spp[i] = spp;
     return copy_tiles(fb, first, count, (double *)in, 0);
+}
+
+/* ------------------------------------------------------------ bricks */
+
+typedef struct part_job {
+    const volux_technique_class *cls;
+    const void *state;
+    const volux_scene *scene;
+    int width, height, tiles_x, background;
+    uint32_t sample_index;
+    float *rgbt;
+    volux_tile_stats *stats; /* per tile */
+} part_job;
+
+/* One sample of one tile. */
+static void render_part_tile(void *user, int64_t index, int thread) {
+    (void)thread;
+    part_job *job = user;
+    volux_tile tile;
+    tile.x0 = (int)(index % job->tiles_x) * VOLUX_TILE_SIZE;
+    tile.y0 = (int)(index / job->tiles_x) * VOLUX_TILE_SIZE;
+    tile.w = job->width - tile.x0 < VOLUX_TILE_SIZE ? job->width - tile.x0 : VOLUX_TILE_SIZE;
+    tile.h = job->height - tile.y0 < VOLUX_TILE_SIZE ? job->height - tile.y0 : VOLUX_TILE_SIZE;
+    tile.sample_index = job->sample_index;
+    float one[VOLUX_TILE_SIZE * VOLUX_TILE_SIZE * 4];
+    job->cls->render_tile_part(job->state, job->scene, &tile, job->background, one, &job->stats[index]);
+    for (int y = 0; y < tile.h; y++)
+        memcpy(job->rgbt + 4 * ((size_t)(tile.y0 + y) * (size_t)job->width + (size_t)tile.x0), one + 4 * y * tile.w,
+               4 * (size_t)tile.w * sizeof(float));
+}
+
+volux_status volux_render_part(volux_technique *t, const volux_scene *scene, uint32_t sample_index, float *rgbt,
+                               int *position, volux_render_report *report) {
+    const volux_technique_class *cls = volux_technique_class_of(t);
+    const volux_raycaster *rc = volux_technique_state(t);
+    volux_context *ctx = rc->ctx;
+    if (!rgbt) return volux_error(ctx, VOLUX_ERR_INVALID, "render_part: the output buffer is NULL");
+    if (!cls->render_tile_part)
+        return volux_error(ctx, VOLUX_ERR_UNSUPPORTED,
+                           "technique '%s' cannot render one brick of a volume (its light leaves the camera ray); "
+                           "data-parallel rendering supports ea and shaded",
+                           cls->info.name);
+    volux_status st = volux_technique_update(t, scene, NULL);
+    if (st) return st;
+    const volux_render_settings *rs = volux_scene_render(scene);
+    const volux_volume *v = rc->volume;
+    int pos = 0, count = v->part_count ? v->part_count : 1;
+    if (v->part_count) {
+        /* The ghost layers must hold a segment's front sample, up to one
+         * step before the owned box (and its trilinear corners). */
+        int ghost = 1 << 20;
+        for (int a = 0; a < 3; a++) {
+            if (v->owned_lo[a] > 0 && v->owned_lo[a] - v->stored_lo[a] < ghost) ghost = v->owned_lo[a] - v->stored_lo[a];
+            int stored_hi = v->stored_lo[a] + v->dims[a] - 1;
+            if (v->owned_hi[a] < v->whole_dims[a] - 1 && stored_hi - v->owned_hi[a] < ghost)
+                ghost = stored_hi - v->owned_hi[a];
+        }
+        if (rc->step > (float)ghost * rc->min_spacing)
+            return volux_error(ctx, VOLUX_ERR_UNSUPPORTED,
+                               "render.step: %g world units is longer than the brick's %d ghost layers (%g); "
+                               "a data-parallel render needs a step of at most that",
+                               rc->step, ghost, ghost * rc->min_spacing);
+    }
+    if (v->part_count) {
+        int *order = volux_malloc(ctx, (size_t)count * sizeof *order);
+        if (!order) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for the brick order");
+        double o[3] = {v->whole_origin.x, v->whole_origin.y, v->whole_origin.z};
+        volux_brick_visibility_order(v->whole_dims, count, o, v->spacing,
+                                     rc->camera.projection == VOLUX_ORTHOGRAPHIC, rc->camera.eye,
+                                     rc->camera.forward, order);
+        for (int i = 0; i < count; i++)
+            if (order[i] == v->part_index) pos = i;
+        volux_free(ctx, order, (size_t)count * sizeof *order);
+    }
+    int tiles_x = (rs->width + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE;
+    int tiles_y = (rs->height + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE;
+    int64_t tiles = (int64_t)tiles_x * tiles_y;
+    volux_tile_stats *stats = volux_calloc(ctx, (size_t)tiles, sizeof *stats);
+    if (!stats) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for tile statistics");
+    part_job job = {cls,      volux_technique_state(t), scene, rs->width, rs->height, tiles_x, pos == count - 1,
+                    sample_index, rgbt, stats};
+    int threads = rs->threads > 0 ? rs->threads : volux_context_threads(ctx);
+    double start = now_ms(), cpu_start = clock_ms(CLOCK_PROCESS_CPUTIME_ID);
+    volux_parallel_for(threads, tiles, render_part_tile, &job);
+    uint64_t samples = 0;
+    for (int64_t i = 0; i < tiles; i++) samples += stats[i].samples;
+    volux_free(ctx, stats, (size_t)tiles * sizeof *stats);
+    if (position) *position = pos;
+    if (report) {
+        memset(report, 0, sizeof *report);
+        report->spp = 1;
+        report->ms = now_ms() - start;
+        report->cpu_ms = clock_ms(CLOCK_PROCESS_CPUTIME_ID) - cpu_start;
+        report->rel_error = -1.0;
+        report->samples = samples;
+    }
+    return VOLUX_OK;
 }

@@ -124,6 +124,32 @@ volux_raycaster_tile(const volux_raycaster *rc, const void *tech, const volux_sc
     stats->samples += samples;
 }
 
+/* The pixel loop of a brick (render_tile_part): rays from the scene's
+ * camera clipped to the brick's owned box on the whole box's sample
+ * lattice (volux_ray_clip_part); writes premultiplied C and T per pixel,
+ * C + T·L_escape when `background`. */
+static inline __attribute__((always_inline)) void
+volux_raycaster_tile_part(const volux_raycaster *rc, const void *tech, const volux_scene *scene,
+                          const volux_tile *tile, int background, float *rgbt, volux_tile_stats *stats,
+                          volux_ray_integrate_fn integrate, int variant) {
+    uint64_t samples = 0;
+    for (int y = 0; y < tile->h; y++)
+        for (int x = 0; x < tile->w; x++) {
+            volux_primary pr = volux_primary_ray(&rc->camera, rc->seed, tile->x0 + x, tile->y0 + y, tile->sample_index);
+            volux_vec3 bg = background ? volux_scene_escape_radiance(scene, pr.d) : v3(0, 0, 0);
+            float *out = &rgbt[4 * (y * tile->w + x)];
+            volux_ray ray;
+            float T = 1.0f;
+            volux_vec3 c = v3(0, 0, 0);
+            if (volux_ray_clip_part(rc->volume, pr.o, pr.d, &ray)) c = integrate(tech, &ray, pr.jitter, &T, &samples, variant);
+            out[0] = c.x + T * bg.x;
+            out[1] = c.y + T * bg.y;
+            out[2] = c.z + T * bg.z;
+            out[3] = T;
+        }
+    stats->samples += samples;
+}
+
 /* Scalar value at ray parameter t. */
 typedef float (*volux_ea_sample_fn)(const void *tech, const volux_ray *ray, float t, int variant);
 /* Turns the TF colour c of the segment ending at ray parameter t into the

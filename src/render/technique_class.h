@@ -87,6 +87,15 @@ typedef struct volux_technique_class {
     uint64_t (*pending)(const void *state);
     /* Optional statistics for benchmarks (volux_technique_stats). */
     int (*stats)(const void *state, volux_technique_stat *out, int max);
+    /* Optional (data-parallel rendering, volux_render_part): the radiance
+     * gathered inside the scene volume's owned box (a brick,
+     * volux_ray_clip_part) and the transmittance through it, for every
+     * pixel of `tile`, into rgbt[(y·w + x)·4] (R, G, B premultiplied, T);
+     * with `background` the escape radiance is added behind (C + T·L_bg).
+     * Same purity rules as render_tile. NULL: the technique's light does
+     * not stay inside a brick (scattering), so it cannot render one. */
+    void (*render_tile_part)(const void *state, const volux_scene *scene, const volux_tile *tile, int background,
+                             float *rgbt, volux_tile_stats *stats);
 } volux_technique_class;
 
 /* Creates an instance of `cls` for the scene (registry.c resolves names). */

@@ -3,27 +3,6 @@
 
 #include "gradient.h"
 
-/* File value at node (i,j,k), inlined (the build reads every node 6 times
- * per pass). */
-static inline float node_value(const volux_volume *v, int i, int j, int k) {
-    return volux_volume_raw_at(v, volux_volume_index(v, i, j, k)) + v->value_offset;
-}
-
-/* Central-difference gradient at node (i,j,k) (one-sided at the border), in
- * file units per world unit. */
-static inline void node_gradient(const volux_volume *v, int i, int j, int k, float g[3]) {
-    int c[3] = {i, j, k};
-    for (int a = 0; a < 3; a++) {
-        int lo[3] = {i, j, k}, hi[3] = {i, j, k};
-        if (c[a] > 0) lo[a]--;
-        if (c[a] < v->dims[a] - 1) hi[a]++;
-        int h = hi[a] - lo[a];
-        g[a] = h ? (node_value(v, hi[0], hi[1], hi[2]) - node_value(v, lo[0], lo[1], lo[2])) /
-                       ((float)h * (float)v->spacing[a])
-                 : 0.0f;
-    }
-}
-
 volux_status volux_gradient_cache_build(volux_context *ctx, const volux_volume *v, volux_gradient_cache *gc,
                                         const char *who) {
     int n[3];
@@ -40,15 +19,14 @@ volux_status volux_gradient_cache_build(volux_context *ctx, const volux_volume *
     gc->grad = volux_alloc_aligned(ctx, bytes);
     if (!gc->grad) return volux_error(ctx, VOLUX_ERR_NOMEM, "%s: out of memory for the gradient cache", who);
     gc->bytes = bytes;
-    /* Pass 1: the largest component sets the scale. */
-    float gmax = 0.0f, g[3];
-    for (int k = 0; k < v->dims[2]; k++)
-        for (int j = 0; j < v->dims[1]; j++)
-            for (int i = 0; i < v->dims[0]; i++) {
-                node_gradient(v, i, j, k, g);
-                for (int a = 0; a < 3; a++)
-                    if (fabsf(g[a]) > gmax) gmax = fabsf(g[a]);
-            }
+    /* Pass 1: the largest component sets the scale — the whole grid's for
+     * a brick (volux_volume_set_whole_stats), so every brick quantises as
+     * the whole volume would. */
+    float gmax = v->whole_gradient_max, g[3];
+    if (!(gmax > 0.0f)) {
+        int lo[3] = {0, 0, 0};
+        gmax = volux_volume_gradient_max(v, lo, v->dims);
+    }
     float q = gmax > 0.0f ? (float)VOLUX_GRAD_MAX / gmax : 0.0f;
     /* Pass 2: quantise into bricks (node 8b + l, replicated at the far border). */
     for (int bz = 0; bz < n[2]; bz++)
@@ -61,11 +39,16 @@ volux_status volux_gradient_cache_build(volux_context *ctx, const volux_volume *
                         for (int lx = 0; lx < VOLUX_BRICK_NODES; lx++) {
                             int i = bx * VOLUX_BRICK_CELLS + lx, j = by * VOLUX_BRICK_CELLS + ly,
                                 k = bz * VOLUX_BRICK_CELLS + lz;
-                            node_gradient(v, i < v->dims[0] ? i : v->dims[0] - 1, j < v->dims[1] ? j : v->dims[1] - 1,
+                            volux_volume_node_gradient(v, i < v->dims[0] ? i : v->dims[0] - 1, j < v->dims[1] ? j : v->dims[1] - 1,
                                           k < v->dims[2] ? k : v->dims[2] - 1, g);
                             uint32_t w = 0;
-                            for (int a = 0; a < 3; a++)
-                                w |= ((uint32_t)(int32_t)lrintf(g[a] * q) & 0x3ffu) << (10 * a);
+                            for (int a = 0; a < 3; a++) {
+                                /* a brick's one-sided ghost border may exceed the whole's scale */
+                                long f = lrintf(g[a] * q);
+                                if (f > VOLUX_GRAD_MAX) f = VOLUX_GRAD_MAX;
+                                if (f < -VOLUX_GRAD_MAX) f = -VOLUX_GRAD_MAX;
+                                w |= ((uint32_t)(int32_t)f & 0x3ffu) << (10 * a);
+                            }
                             dst[lx + VOLUX_BRICK_NODES * (ly + VOLUX_BRICK_NODES * lz)] = w;
                         }
             }

@@ -89,6 +89,29 @@ int volux_ray_clip(const volux_volume *v, volux_vec3 o, volux_vec3 d, volux_ray 
     ray->dq = v3(d.x * v->inv_spacing[0], d.y * v->inv_spacing[1], d.z * v->inv_spacing[2]);
     ray->t0 = t0;
     ray->t1 = t1;
+    ray->windowed = 0;
+    ray->w0 = t0;
+    ray->w1 = t1;
+    return 1;
+}
+
+int volux_ray_clip_part(const volux_volume *v, volux_vec3 o, volux_vec3 d, volux_ray *ray) {
+    if (!v->part_count) return volux_ray_clip(v, o, d, ray);
+    volux_vec3 lo, hi;
+    float w0, w1, t0, t1;
+    volux_volume_owned_bounds(v, &lo, &hi);
+    if (!v3_ray_box(o, d, lo, hi, &w0, &w1)) return 0;
+    volux_volume_domain_bounds(v, &lo, &hi);
+    if (!v3_ray_box(o, d, lo, hi, &t0, &t1)) return 0;
+    ray->o = o;
+    ray->d = d;
+    ray->q0 = volux_volume_to_index(v, o);
+    ray->dq = v3(d.x * v->inv_spacing[0], d.y * v->inv_spacing[1], d.z * v->inv_spacing[2]);
+    ray->t0 = t0;
+    ray->t1 = t1;
+    ray->windowed = 1;
+    ray->w0 = w0;
+    ray->w1 = w1;
     return 1;
 }
 

@@ -36,11 +36,23 @@ typedef struct volux_ray {
     volux_vec3 o, d;      /* world origin and unit direction              */
     volux_vec3 q0, dq;    /* index-space origin and direction per world t */
     float t0, t1;         /* world-t interval inside the volume box       */
+    /* Data-parallel bricks (volux_ray_clip_part): the samples stay on the
+     * whole box's lattice t0 + (k + jitter)·h, and only the segments whose
+     * end lies in (w0, w1] — inside this brick's owned box — are
+     * integrated, so the bricks along a ray share its segments exactly
+     * once. windowed 0: the whole ray (volux_ray_clip). */
+    int windowed;
+    float w0, w1;
 } volux_ray;
 
 /* Clips the world ray (o, d unit) to the volume's box; returns 0 if it
  * misses. */
 int volux_ray_clip(const volux_volume *v, volux_vec3 o, volux_vec3 d, volux_ray *ray);
+/* For a brick of a whole grid (volux_volume_brick): t0, t1 from the whole
+ * box (the lattice of a single-process render), the window (w0, w1] from
+ * the brick's owned box. Returns 0 if the ray misses the owned box. For an
+ * ordinary volume it is volux_ray_clip. */
+int volux_ray_clip_part(const volux_volume *v, volux_vec3 o, volux_vec3 d, volux_ray *ray);
 
 typedef struct volux_interval {
     float t0, t1, sigma_max;

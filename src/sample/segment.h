@@ -59,7 +59,33 @@ static inline void volux_segments_init(volux_segments *g, volux_march_iter *it, 
     g->done = 0;
     g->gap = 1;
     g->k = g->next_k = 0;
-    if (grid) volux_march_init(it, grid, ray, ray->t0, ray->t1);
+    float m0 = ray->t0;
+    if (ray->windowed) { /* a brick's share of the ray: segments ending in (w0, w1] */
+        if (!(ray->w0 < g->t1)) {
+            g->t1 = g->iv_t1 = g->t0; /* nothing of the ray is ours */
+        } else if (ray->w0 > g->t0) {
+            /* the first segment whose end min(t0 + (k + jitter)·h, t1) is
+             * past w0, with the loop's own float expression */
+            int k = (int)floorf((ray->w0 - g->t0) / h - jitter);
+            if (k < 0) k = 0;
+            while (k > 0 && fminf(g->t0 + ((float)(k - 1) + jitter) * h, g->t1) > ray->w0) k--;
+            while (fminf(g->t0 + ((float)k + jitter) * h, g->t1) <= ray->w0) k++;
+            g->k = g->next_k = k;
+            m0 = ray->w0;
+        }
+        if (ray->w1 < g->t1) {
+            /* the last segment ending at or before w1 (here t_k < t1):
+             * its end becomes the ray's end, so the next segment's front
+             * (the same float) stops the loop */
+            int k = (int)floorf((ray->w1 - g->t0) / h - jitter);
+            if (k < -1) k = -1;
+            while (g->t0 + ((float)(k + 1) + jitter) * h <= ray->w1) k++;
+            while (k >= 0 && g->t0 + ((float)k + jitter) * h > ray->w1) k--;
+            g->t1 = g->iv_t1 = k >= 0 ? g->t0 + ((float)k + jitter) * h : g->t0;
+        }
+        if (g->t1 < m0) m0 = g->t1;
+    }
+    if (grid) volux_march_init(it, grid, ray, m0, g->t1);
 }
 
 /* Next non-empty segment (a, b]; returns 0 at the end of the ray. *gap is 1

@@ -82,7 +82,8 @@ static void emit_warnings(const bench_out *o, const bench_messages *m) {
 static void usage(FILE *f) {
     fprintf(f, "usage: volux bench SCENE.json [--technique T] [--repeat N] [--edit KIND]... [--json]\n"
                "                   [--reference IMG] [scene options as for render]\n"
-               "                   [--distribute image] (under mpirun: distributed frame timings)\n"
+               "                   [--distribute image|data] (under mpirun: distributed frame timings;\n"
+               "                   data: also the bytes of the volume each rank holds)\n"
                "edits (default: tf camera; 'all' for every one):\n");
     for (int i = 0; volux_edit_at(i); i++) {
         const volux_edit *e = volux_edit_at(i);

@@ -10,6 +10,9 @@
  *   composite_ms            the reduction of the sums (median)
  *   composite_fraction      composite_ms / render_ms
  *   rank_render_ms.<k>      rank k's tile rendering (median), tiles.<k>
+ *                           (data-parallel: rank k's brick, all pixels)
+ *   volume_bytes.<k>        data-parallel: the scalar grid rank k holds
+ *   volume_fraction.<k>     ... over volume_bytes_whole (the whole grid)
  * Edits and --reference are single-process measurements: refused here.
  */
 #include <stdio.h>
@@ -70,10 +73,10 @@ int cli_bench_distributed(int argc, char **argv, int distribute_mode) {
     }
     int mode = dist_begin("bench", requested);
     if (mode < 0) return CLI_USAGE;
+    volux_volume_region region;
     if (mode == DIST_DATA) {
-        cli_eprintf("volux bench: --distribute data: not available yet (use image)\n");
-        dist_end();
-        return CLI_USAGE;
+        dist_region(&region);
+        args.region = &region;
     }
     volux_context *ctx = cli_context(dist_default_threads());
     if (!ctx) {
@@ -94,6 +97,7 @@ int cli_bench_distributed(int argc, char **argv, int distribute_mode) {
         snprintf(msg, sizeof msg, "out of memory");
     }
     if ((rc = dist_agree_msg("bench", rc, msg))) goto done;
+    if (mode == DIST_DATA && (rc = dist_agree("bench", ctx, dist_share_stats(scene)))) goto done;
     const volux_render_settings *rs = volux_scene_render(scene);
     line_out o = {json, volux_context_threads(ctx), rs->width, rs->height, ranks, args.scene_path, rs->technique};
 
@@ -106,12 +110,14 @@ int cli_bench_distributed(int argc, char **argv, int distribute_mode) {
     dist_max(&prepare_max);
 
     dist_timing tm;
-    st = dist_render_image(tech, scene, fb, &tm); /* warm-up: connections, caches */
+    volux_status (*frame_fn)(volux_technique *, const volux_scene *, volux_framebuffer *, dist_timing *) =
+        mode == DIST_DATA ? dist_render_data : dist_render_image;
+    st = frame_fn(tech, scene, fb, &tm); /* warm-up: connections, caches */
     int tiles = tm.tiles;
     for (int k = 0; k < repeat && !st; k++) {
         dist_barrier();
         t0 = cli_now_ms();
-        st = dist_render_image(tech, scene, fb, &tm);
+        st = frame_fn(tech, scene, fb, &tm);
         frame[k] = cli_now_ms() - t0;
         composite[k] = tm.composite_ms;
         mine[k] = tm.render_ms;
@@ -121,6 +127,11 @@ int cli_bench_distributed(int argc, char **argv, int distribute_mode) {
     double stats[2] = {cli_median(mine, repeat), (double)tiles};
     double *gathered = rank == 0 ? all : NULL;
     dist_gather2(stats, gathered);
+    /* data-parallel: the scalar grid each rank holds (bytes) */
+    double held, whole, *bytes = rank == 0 ? calloc(2 * (size_t)ranks, sizeof *bytes) : NULL;
+    dist_volume_bytes(scene, &held, &whole);
+    double mem[2] = {held, whole};
+    if (mode == DIST_DATA) dist_gather2(mem, bytes ? bytes : mem);
     if (rank == 0) {
         emit(&o, "prepare_ms", prepare_max, "ms");
         double render = cli_median(frame, repeat), comp = cli_median(composite, repeat);
@@ -131,10 +142,22 @@ int cli_bench_distributed(int argc, char **argv, int distribute_mode) {
             char metric[64];
             snprintf(metric, sizeof metric, "rank_render_ms.%d", r);
             emit(&o, metric, gathered[2 * r], "ms");
+            if (mode == DIST_DATA) continue; /* every rank renders every pixel of its brick */
             snprintf(metric, sizeof metric, "tiles.%d", r);
             emit(&o, metric, gathered[2 * r + 1], "tiles");
         }
+        if (mode == DIST_DATA && bytes) {
+            emit(&o, "volume_bytes_whole", bytes[1], "bytes");
+            for (int r = 0; r < ranks; r++) {
+                char metric[64];
+                snprintf(metric, sizeof metric, "volume_bytes.%d", r);
+                emit(&o, metric, bytes[2 * r], "bytes");
+                snprintf(metric, sizeof metric, "volume_fraction.%d", r);
+                emit(&o, metric, bytes[1] > 0 ? bytes[2 * r] / bytes[1] : 0.0, "");
+            }
+        }
     }
+    free(bytes);
 done:
     free(frame);
     free(composite);

@@ -230,8 +230,18 @@ int cli_load_scene_quiet(const char *cmd, volux_context *ctx, const cli_scene_ar
                  "%s: neither a scene (a JSON object) nor a volume (" VOLUME_EXTENSIONS ", procedural:NAME[:N])", in);
         return CLI_USAGE;
     }
+    if (a->region && kind == INPUT_VOLUME) {
+        /* A quick look's transfer function comes from the volume's
+         * histogram, which a brick does not have. */
+        snprintf(msg, msg_size,
+                 "%s: --distribute data needs a scene file (a quick look's transfer function comes from the "
+                 "whole volume's histogram; write one with --dump-scene)",
+                 in);
+        return CLI_USAGE;
+    }
     volux_scene_load_options o;
     memset(&o, 0, sizeof o);
+    o.region = a->region;
     o.overrides = a->overrides;
     o.n_overrides = a->n_overrides;
     o.data_dir = cli_data_dir();

@@ -20,6 +20,8 @@ typedef struct cli_scene_args {
     int n_overrides;
     const char *dump_path; /* --dump-scene: the scene as read, as JSON */
     int quiet;             /* no notes on stderr */
+    /* --distribute data: load only this brick of the scene's volume */
+    const volux_volume_region *region;
 } cli_scene_args;
 
 /* If argv[*i] is a scene option, consumes it (and its value), returns 1;

@@ -5,6 +5,7 @@
 #include <string.h>
 #include <time.h>
 #include <fcntl.h>
+#include <limits.h>
 #include <unistd.h>
 
 #include "tools/cli/cli.h"
@@ -240,6 +241,142 @@ volux_status dist_render_image(volux_technique *t, const volux_scene *scene, vol
     free(chunks);
     MPI_Win_free(&win);
 
+    double r[2] = {-timing->render_ms, timing->render_ms}, ext[2];
+    MPI_Reduce(r, ext, 2, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
+    timing->rank_render_ms_min = -ext[0];
+    timing->rank_render_ms_max = ext[1];
+    return st;
+}
+
+/* ------------------------------------------------------------ data-parallel */
+
+void dist_region(volux_volume_region *out) {
+    memset(out, 0, sizeof *out);
+    out->count = size;
+    out->index = rank;
+    out->ghost = 0; /* VOLUX_BRICK_GHOST */
+}
+
+volux_status dist_share_stats(volux_scene *scene) {
+    volux_volume *v = volux_scene_volume(scene);
+    volux_volume_stats w;
+    volux_volume_stats_of(v, &w);
+    if (started) {
+        double mine[3] = {-w.value_min, w.value_max, w.gradient_max}, all[3];
+        MPI_Allreduce(mine, all, 3, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+        w.value_min = -all[0];
+        w.value_max = all[1];
+        w.gradient_max = all[2];
+    }
+    volux_status st = volux_volume_set_whole_stats(v, &w);
+    /* again, so the scene bakes its table over the whole range */
+    return st ? st : volux_scene_set_volume(scene, v);
+}
+
+/* "over" on premultiplied colour + transmittance: `in` is in front (MPI
+ * hands a non-commutative operation the lower rank's data as invec), so
+ * inout = in over inout = (C_in + T_in·C_inout, T_in·T_inout). */
+static void over_op(void *in, void *inout, int *len, MPI_Datatype *type) {
+    (void)type;
+    const float *f = in;
+    float *b = inout;
+    for (int i = 0; i < *len; i++, f += 4, b += 4) {
+        b[0] = f[0] + f[3] * b[0];
+        b[1] = f[1] + f[3] * b[1];
+        b[2] = f[2] + f[3] * b[2];
+        b[3] = f[3] * b[3];
+    }
+}
+
+/* Rank 0: the composited samples (spp images of px pixels) into fb's sums
+ * (tile order of volux_framebuffer_write_tiles). */
+static volux_status put_frame(volux_framebuffer *fb, const float *rgbt, size_t px, uint32_t spp) {
+    int w = volux_framebuffer_width(fb), h = volux_framebuffer_height(fb);
+    int tiles_x = (w + VOLUX_TILE_SIZE - 1) / VOLUX_TILE_SIZE, tiles = volux_framebuffer_tile_count(fb);
+    double *buf = malloc((size_t)VOLUX_TILE_SIZE * VOLUX_TILE_SIZE * VOLUX_TILE_SUMS * sizeof *buf);
+    if (!buf) return VOLUX_ERR_NOMEM;
+    for (int t = 0; t < tiles; t++) {
+        int x0 = (t % tiles_x) * VOLUX_TILE_SIZE, y0 = (t / tiles_x) * VOLUX_TILE_SIZE;
+        int tw = w - x0 < VOLUX_TILE_SIZE ? w - x0 : VOLUX_TILE_SIZE;
+        int th = h - y0 < VOLUX_TILE_SIZE ? h - y0 : VOLUX_TILE_SIZE;
+        double *o = buf;
+        for (int y = y0; y < y0 + th; y++)
+            for (int x = x0; x < x0 + tw; x++, o += VOLUX_TILE_SUMS) {
+                memset(o, 0, VOLUX_TILE_SUMS * sizeof *o);
+                for (uint32_t s = 0; s < spp; s++) { /* in sample order, as volux_render adds them */
+                    const float *c = rgbt + 4 * (px * s + (size_t)y * (size_t)w + (size_t)x);
+                    double lum = 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+                    o[0] += c[0];
+                    o[1] += c[1];
+                    o[2] += c[2];
+                    o[3] += lum * lum;
+                }
+            }
+        volux_framebuffer_write_tiles(fb, t, 1, buf, spp);
+    }
+    free(buf);
+    return VOLUX_OK;
+}
+
+volux_status dist_render_data(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
+                              dist_timing *timing) {
+    memset(timing, 0, sizeof *timing);
+    const volux_render_settings *rs = volux_scene_render(scene);
+    uint32_t spp = rs->spp > 0 ? (uint32_t)rs->spp : 1;
+    size_t px = (size_t)rs->width * (size_t)rs->height;
+    /* One partial image per sample, composited per sample ("over" does not
+     * commute with the mean over a pixel's jittered samples) in one
+     * reduction; rank 0 averages. */
+    size_t n = px * spp;
+    float *part = n <= (size_t)INT_MAX ? malloc(n * 4 * sizeof *part) : NULL;
+    float *frame = rank == 0 && part ? malloc(n * 4 * sizeof *frame) : NULL;
+    volux_status st = part && (rank || frame) ? VOLUX_OK : VOLUX_ERR_NOMEM;
+    int pos = rank;
+    volux_render_report rep = {0};
+    for (uint32_t s = 0; !st && s < spp; s++) {
+        volux_render_report one;
+        st = volux_render_part(t, scene, s, part + 4 * px * s, &pos, &one);
+        rep.ms += one.ms;
+    }
+    timing->render_ms = rep.ms;
+    timing->position = pos;
+    timing->tiles = volux_framebuffer_tile_count(fb);
+    if (!started) { /* one process: the brick is the whole volume */
+        if (!st) st = put_frame(fb, part, px, spp);
+        timing->rank_render_ms_min = timing->rank_render_ms_max = rep.ms;
+        free(part);
+        free(frame);
+        return st;
+    }
+    /* Everyone composites or no one does (the caller reports the failure). */
+    int ok = st == VOLUX_OK, all_ok = 0;
+    MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    if (all_ok) {
+        double wait_start = now_ms();
+        MPI_Barrier(MPI_COMM_WORLD);
+        timing->wait_ms = now_ms() - wait_start;
+        double t0 = now_ms();
+        /* The ranks sorted by their place in the visibility order. */
+        MPI_Comm vis;
+        MPI_Comm_split(MPI_COMM_WORLD, 0, pos, &vis);
+        int root = 0, vis_rank;
+        MPI_Comm_rank(vis, &vis_rank);
+        if (rank == 0) root = vis_rank;
+        MPI_Bcast(&root, 1, MPI_INT, 0, MPI_COMM_WORLD);
+        MPI_Datatype pixel;
+        MPI_Type_contiguous(4, MPI_FLOAT, &pixel);
+        MPI_Type_commit(&pixel);
+        MPI_Op over;
+        MPI_Op_create(over_op, 0 /* not commutative */, &over);
+        MPI_Reduce(part, frame, (int)n, pixel, over, root, vis);
+        MPI_Op_free(&over);
+        MPI_Type_free(&pixel);
+        MPI_Comm_free(&vis);
+        timing->composite_ms = now_ms() - t0;
+        if (rank == 0) st = put_frame(fb, frame, px, spp);
+    } /* else another rank failed: the caller's dist_agree reports it, once */
+    free(part);
+    free(frame);
     double r[2] = {-timing->render_ms, timing->render_ms}, ext[2];
     MPI_Reduce(r, ext, 2, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
     timing->rank_render_ms_min = -ext[0];

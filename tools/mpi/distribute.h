@@ -69,6 +69,8 @@ typedef struct dist_timing {
     double composite_ms;    /* the reduction of the sums onto rank 0         */
     int tiles;              /* tiles this rank rendered                      */
     double rank_render_ms_min, rank_render_ms_max; /* over ranks (rank 0)    */
+    /* data-parallel: this rank's place in the visibility order (0 = front) */
+    int position;
 } dist_timing;
 
 /* Collective: renders render.spp samples of the whole frame image-parallel;
@@ -77,6 +79,32 @@ typedef struct dist_timing {
  * rank's status (pass it to dist_agree). */
 volux_status dist_render_image(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
                                dist_timing *timing);
+
+/* ---- Data-parallel (sort-last), --distribute data ----
+ *
+ * Rank r loads brick r of the k-d split of the volume into dist_size()
+ * bricks (dist_region, for cli_scene_args.region), the ranks agree on the
+ * whole volume's statistics (dist_share_stats), and each renders its
+ * brick with volux_render_part: premultiplied colour + transmittance
+ * through its owned box, on the whole volume's sample lattice. The
+ * partial images are composited with MPI_Reduce and a non-commutative
+ * user-defined "over" MPI_Op on a communicator whose rank order is the
+ * visibility order of the view (MPI applies a non-commutative operation in
+ * rank order), with rank 0 as the root. */
+void dist_region(volux_volume_region *out);
+/* Collective: the whole volume's statistics (value range, largest
+ * gradient component: min/max over the bricks' own) given to this rank's
+ * brick, and the scene's volume set again so its transfer-function table
+ * is baked over the whole range. */
+volux_status dist_share_stats(volux_scene *scene);
+/* Collective: renders render.spp samples of this rank's brick and
+ * composites; afterwards rank 0's fb holds the frame (render.spp samples).
+ * Returns this rank's status (pass it to dist_agree). */
+volux_status dist_render_data(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
+                              dist_timing *timing);
+/* Bytes of the scalar grid this process holds for the scene's volume, and
+ * of the whole volume's grid at the same storage type. */
+void dist_volume_bytes(const volux_scene *scene, double *held, double *whole);
 
 /* One process: volux_render with the scene's limits, timings filled in
  * (mode.c; both front ends use it). */

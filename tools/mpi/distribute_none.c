@@ -36,3 +36,16 @@ volux_status dist_render_image(volux_technique *t, const volux_scene *scene, vol
                                dist_timing *timing) {
     return dist_render_local(t, scene, fb, timing);
 }
+
+void dist_region(volux_volume_region *out) {
+    memset(out, 0, sizeof *out);
+    out->count = 1;
+}
+volux_status dist_share_stats(volux_scene *scene) {
+    (void)scene;
+    return VOLUX_OK;
+}
+volux_status dist_render_data(volux_technique *t, const volux_scene *scene, volux_framebuffer *fb,
+                              dist_timing *timing) {
+    return dist_render_local(t, scene, fb, timing);
+}

@@ -29,3 +29,15 @@ volux_status dist_render_local(volux_technique *t, const volux_scene *scene, vol
     timing->tiles = volux_framebuffer_tile_count(fb);
     return st;
 }
+
+void dist_volume_bytes(const volux_scene *scene, double *held, double *whole) {
+    const volux_volume *v = volux_scene_volume(scene);
+    int dims[3];
+    volux_volume_dims(v, dims);
+    volux_storage k = volux_volume_storage_kind(v);
+    double elem = k == VOLUX_STORE_U8 ? 1.0 : k == VOLUX_STORE_U16 ? 2.0 : 4.0;
+    *held = elem * dims[0] * dims[1] * dims[2];
+    volux_brick_info b;
+    if (volux_volume_brick(v, &b)) *whole = elem * b.whole_dims[0] * b.whole_dims[1] * b.whole_dims[2];
+    else *whole = *held;
+}

@@ -654,4 +654,5 @@ const volux_technique_class volux_ambient_class = {
     sizeof(ambient_state), 0, 0,
     ambient_init, ambient_update, ambient_render_tile, ambient_memory_bytes, ambient_release,
     NULL, NULL, NULL, /* no refine, pending work or statistics */
+    NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
 };

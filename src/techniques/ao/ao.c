@@ -90,4 +90,5 @@ const volux_technique_class volux_ao_class = {
     sizeof(ao_state), 0, 0,
     NULL, ao_update, ao_render_tile, ao_memory_bytes, ao_release,
     NULL, NULL, NULL, /* no refine, pending work or statistics */
+    NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
 };

@@ -353,3 +353,31 @@ void volux_dvr_render_tile(const void *state, const volux_scene *scene, const vo
     else if (st->preintegrate) tile_as(st, scene, tile, rgb, stats, 0, 1);
     else tile_as(st, scene, tile, rgb, stats, 0, 0);
 }
+
+static inline __attribute__((always_inline)) void part_as(const dvr_state *st, const volux_scene *scene,
+                                                           const volux_tile *tile, int background, float *rgbt,
+                                                           volux_tile_stats *stats, int shaded, int preint) {
+    switch (st->rc.volume->storage) {
+    case VOLUX_STORE_U8:
+        volux_raycaster_tile_part(&st->rc, st, scene, tile, background, rgbt, stats, integrate,
+                                  DVR_VARIANT(shaded, preint, VOLUX_STORE_U8));
+        break;
+    case VOLUX_STORE_U16:
+        volux_raycaster_tile_part(&st->rc, st, scene, tile, background, rgbt, stats, integrate,
+                                  DVR_VARIANT(shaded, preint, VOLUX_STORE_U16));
+        break;
+    default:
+        volux_raycaster_tile_part(&st->rc, st, scene, tile, background, rgbt, stats, integrate,
+                                  DVR_VARIANT(shaded, preint, VOLUX_STORE_F32));
+        break;
+    }
+}
+
+void volux_dvr_render_tile_part(const void *state, const volux_scene *scene, const volux_tile *tile, int background,
+                                float *rgbt, volux_tile_stats *stats) {
+    const dvr_state *st = state;
+    if (st->shaded && st->preintegrate) part_as(st, scene, tile, background, rgbt, stats, 1, 1);
+    else if (st->shaded) part_as(st, scene, tile, background, rgbt, stats, 1, 0);
+    else if (st->preintegrate) part_as(st, scene, tile, background, rgbt, stats, 0, 1);
+    else part_as(st, scene, tile, background, rgbt, stats, 0, 0);
+}

@@ -83,6 +83,10 @@ void volux_dvr_init(void *state);
 volux_status volux_dvr_update(void *state, const volux_scene *scene, const volux_change_set *c);
 void volux_dvr_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
                            volux_tile_stats *stats);
+/* A brick of a data-parallel render (render_tile_part); always the scalar
+ * kernel: the SIMD packets clip rays to the whole volume only. */
+void volux_dvr_render_tile_part(const void *state, const volux_scene *scene, const volux_tile *tile, int background,
+                                float *rgbt, volux_tile_stats *stats);
 size_t volux_dvr_memory_bytes(const void *state);
 void volux_dvr_release(void *state);
 

@@ -18,6 +18,7 @@ const volux_technique_class volux_ea_class = {
     sizeof(dvr_state), VOLUX_CHANGE_LIGHTS | VOLUX_CHANGE_PHASE | VOLUX_CHANGE_ALBEDO, 0,
     volux_dvr_init, volux_dvr_update, volux_dvr_render_tile, volux_dvr_memory_bytes, volux_dvr_release,
     NULL, NULL, NULL, /* no refine, pending work or statistics */
+    volux_dvr_render_tile_part,
 };
 
 static const volux_param_info shaded_params[] = {
@@ -33,4 +34,5 @@ const volux_technique_class volux_shaded_class = {
     sizeof(dvr_state), VOLUX_CHANGE_PHASE | VOLUX_CHANGE_ALBEDO, 0,
     volux_dvr_init, volux_dvr_update, volux_dvr_render_tile, volux_dvr_memory_bytes, volux_dvr_release,
     NULL, NULL, NULL, /* no refine, pending work or statistics */
+    volux_dvr_render_tile_part,
 };

@@ -295,4 +295,5 @@ const volux_technique_class volux_guided_class = {
     NULL, /* no deferred work to refine */
     NULL,
     NULL, /* no pending-work measure, no statistics */
+    NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
 };

@@ -357,4 +357,5 @@ const volux_technique_class volux_lightvol_class = {
     sizeof(lightvol_state), 0, 1e-4f,
     NULL, lightvol_update, lightvol_render_tile, lightvol_memory_bytes, lightvol_release,
     lightvol_refine, lightvol_pending, NULL, /* §7.3 budget; no statistics */
+    NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
 };

@@ -493,4 +493,5 @@ const volux_technique_class volux_sh_class = {
     sizeof(sh_state), 0, 0,
     NULL, sh_update, sh_render_tile, sh_memory_bytes, sh_release, sh_refine,
     NULL, NULL, /* no pending-work measure, no statistics */
+    NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
 };
