@@ -15,7 +15,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
-#include <sys/stat.h>
 #include <sys/time.h>
 #include <time.h>
 #include <unistd.h>
@@ -42,17 +41,7 @@ static tu_server server;
 
 static int setup(void **state) {
     (void)state;
-    char dir[600];
-    snprintf(dir, sizeof dir, "%s", tu_temp_path("viewer"));
-    mkdir(dir, 0755);
-    snprintf(scene_path, sizeof scene_path, "%s/scene.json", dir);
-    FILE *f = fopen(scene_path, "w");
-    if (!f) return -1;
-    fputs(SCENE, f);
-    fclose(f);
-    char args[1400];
-    snprintf(args, sizeof args, "'%s' --quiet --timeout 2 --idle-ms 0 --preview 32", scene_path);
-    return tu_server_start(&server, args) ? 0 : -1;
+    return tu_server_start_scene(&server, "viewer", SCENE, scene_path, sizeof scene_path) ? 0 : -1;
 }
 
 static int teardown(void **state) {

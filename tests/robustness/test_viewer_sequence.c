@@ -11,7 +11,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 #include "http_client.h"
 #include "test_util.h"
@@ -35,17 +34,7 @@ static tu_server server;
 
 static int setup(void **state) {
     (void)state;
-    char dir[600];
-    snprintf(dir, sizeof dir, "%s", tu_temp_path("viewer_seq"));
-    mkdir(dir, 0755);
-    snprintf(scene_path, sizeof scene_path, "%s/scene.json", dir);
-    FILE *f = fopen(scene_path, "w");
-    if (!f) return -1;
-    fputs(SCENE, f);
-    fclose(f);
-    char args[1400];
-    snprintf(args, sizeof args, "'%s' --quiet --timeout 2 --idle-ms 0 --preview 32", scene_path);
-    return tu_server_start(&server, args) ? 0 : -1;
+    return tu_server_start_scene(&server, "viewer_seq", SCENE, scene_path, sizeof scene_path) ? 0 : -1;
 }
 
 static int teardown(void **state) {

@@ -1,5 +1,6 @@
 /* tests/support/http_client.c — see http_client.h. */
 #include "http_client.h"
+#include "test_util.h"
 
 #include <arpa/inet.h>
 #include <errno.h>
@@ -13,6 +14,7 @@
 #include <strings.h>
 #include <sys/prctl.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
@@ -20,6 +22,19 @@
 #ifndef VOLUX_CLI
 #define VOLUX_CLI "volux"
 #endif
+
+int tu_server_start_scene(tu_server *s, const char *folder, const char *scene_json, char *scene_path, size_t cap) {
+    const char *dir = tu_temp_path(folder);
+    mkdir(dir, 0755);
+    if ((size_t)snprintf(scene_path, cap, "%s/scene.json", dir) >= cap) return 0;
+    FILE *f = fopen(scene_path, "w");
+    if (!f) return 0;
+    fputs(scene_json, f);
+    fclose(f);
+    char args[1400];
+    snprintf(args, sizeof args, "'%s' --quiet --timeout 2 --idle-ms 0 --preview 32", scene_path);
+    return tu_server_start(s, args);
+}
 
 int tu_server_start(tu_server *s, const char *args) {
     int fd[2];

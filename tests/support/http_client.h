@@ -18,6 +18,11 @@ typedef struct tu_server {
 /* Starts `volux serve ARGS --port 0` (ARGS shell-quoted) and waits for the
  * URL line on its stdout. Returns 1 on success. */
 int tu_server_start(tu_server *s, const char *args);
+/* Writes `scene_json` to FOLDER/scene.json in the test's temp folder
+ * (path in scene_path, cap bytes) and starts the server on it with the
+ * options the HTTP tests share: --quiet --timeout 2 --idle-ms 0
+ * --preview 32. Returns 1 on success. */
+int tu_server_start_scene(tu_server *s, const char *folder, const char *scene_json, char *scene_path, size_t cap);
 /* SIGTERM, then waits; returns the exit status (or -1). */
 int tu_server_stop(tu_server *s);
 /* 1 while the process runs. */
