@@ -46,6 +46,7 @@
 #include <zlib.h>
 
 #include "core/volume_internal.h"
+#include "header_text.h"
 #include "volume_formats.h"
 
 #define VTI_CHUNK (64u << 10)    /* source bytes per read, inflate output per step */
@@ -125,16 +126,13 @@ static const char *attr(const XML_Char **a, const char *key) {
     return NULL;
 }
 
-/* Exactly `n` numbers separated by white space. 0 on anything else. */
+/* Exactly `n` finite numbers separated by white space, read in the C
+ * locale like every header number (header_text.c). 0 on anything else. */
 static int parse_numbers(const char *s, int n, double *out) {
-    for (int i = 0; i < n; i++) {
-        char *end;
-        out[i] = strtod(s, &end);
-        if (end == s || !isfinite(out[i])) return 0;
-        s = end;
-    }
-    while (*s == ' ' || *s == '\t' || *s == '\r' || *s == '\n') s++;
-    return *s == '\0';
+    volux_text rest = {s, strlen(s)}, tok;
+    for (int i = 0; i < n; i++)
+        if (!volux_text_token(&rest, &tok) || !volux_text_to_double(tok, &out[i]) || !isfinite(out[i])) return 0;
+    return !volux_text_token(&rest, &tok);
 }
 
 /* The extent's six integers (a string of whole numbers within ±2^31). */
@@ -355,12 +353,13 @@ static int b64_value(unsigned char c) {
     return -1;
 }
 
-/* Feeds base64 text; decoded bytes go to frame_push. Stops early (and
- * returns how many characters it used) once the framing is done. */
-static size_t b64_push(vti *p, const unsigned char *s, size_t n) {
+/* Feeds base64 text; decoded bytes go to frame_push. An appended array
+ * stops at the group where its framing is done (the next array's text
+ * follows). */
+static void b64_push(vti *p, const unsigned char *s, size_t n) {
     unsigned char out[3 * 256];
-    size_t nout = 0, i = 0;
-    for (; i < n && !p->st; i++) {
+    size_t nout = 0;
+    for (size_t i = 0; i < n && !p->st; i++) {
         unsigned char c = s[i];
         if (c == ' ' || c == '\t' || c == '\r' || c == '\n') continue;
         int v = c == '=' ? 0 : b64_value(c);
@@ -384,13 +383,9 @@ static size_t b64_push(vti *p, const unsigned char *s, size_t n) {
             frame_push(p, out, nout);
             nout = 0;
         }
-        if (p->frame == FRAME_DONE && p->format == FMT_APPENDED) {
-            i++;
-            break;
-        }
+        if (p->frame == FRAME_DONE && p->format == FMT_APPENDED) break;
     }
     if (nout && !p->st) frame_push(p, out, nout);
-    return i;
 }
 
 static void ascii_flush(vti *p) {
@@ -407,9 +402,8 @@ static void ascii_flush(vti *p) {
 static void ascii_value(vti *p) {
     p->tok[p->ntok] = '\0';
     p->ntok = 0;
-    char *end;
-    double d = strtod(p->tok, &end);
-    if (*end || end == p->tok) {
+    double d;
+    if (!volux_text_to_double((volux_text){p->tok, strlen(p->tok)}, &d)) {
         fail(p, volux_error(p->ctx, VOLUX_ERR_FORMAT, "%s: DataArray: '%s' is not a number", p->name, p->tok));
         return;
     }

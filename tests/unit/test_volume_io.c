@@ -263,14 +263,21 @@ static void test_header_numbers_ignore_a_decimal_comma_locale(void **state) {
                         "spacings: 0.5 1.25 2.5e-1\n\n";
     const char mhd[] = "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\n"
                        "ElementSpacing = 0.5 1.25 2.5e-1\nElementDataFile = LOCAL\n";
-    volux_volume_header h[2];
-    volux_status st[2] = {volux_nrrd_parse_header(ctx, nrrd, sizeof nrrd - 1, "mem.nrrd", &h[0]),
-                          volux_metaimage_parse_header(ctx, mhd, sizeof mhd - 1, "mem.mhd", &h[1])};
+    const char vti[] = "<VTKFile type=\"ImageData\"><ImageData WholeExtent=\"0 1 0 1 0 1\" "
+                       "Spacing=\"0.5 1.25 2.5e-1\"><Piece Extent=\"0 1 0 1 0 1\"><PointData>"
+                       "<DataArray type=\"UInt8\" format=\"ascii\">0 1 2 3 4 5 6 7</DataArray>"
+                       "</PointData></Piece></ImageData></VTKFile>";
+    volux_source vti_src;
+    volux_source_memory(vti, sizeof vti - 1, "mem.vti", &vti_src);
+    volux_volume_header h[3];
+    volux_status st[3] = {volux_nrrd_parse_header(ctx, nrrd, sizeof nrrd - 1, "mem.nrrd", &h[0]),
+                          volux_metaimage_parse_header(ctx, mhd, sizeof mhd - 1, "mem.mhd", &h[1]),
+                          volux_vti_parse_header(ctx, &vti_src, &h[2])};
     setlocale(LC_NUMERIC, "C");
     unsetenv("LOCPATH");
     snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
     if (system(cmd) != 0) fprintf(stderr, "could not remove %s\n", dir);
-    for (int i = 0; i < 2; i++) {
+    for (int i = 0; i < 3; i++) {
         assert_int_equal(st[i], VOLUX_OK);
         assert_near(h[i].spacing[0], 0.5, 0);
         assert_near(h[i].spacing[1], 1.25, 0);
