@@ -105,6 +105,18 @@ VOLUX_API volux_status volux_ambient_table_strip(volux_context *ctx, const char 
 VOLUX_API volux_status volux_ambient_table_inspect(volux_context *ctx, const char *path,
                                                    volux_ambient_table_summary *out);
 
+/* One (g, albedo) slice of a table (Ament et al. 2013, Fig. 5): out[is·n_theta
+ * + it] = L̃o(θ, σ̃t, g, albedo) at θ = π·it/(n_theta − 1) and σ̃t =
+ * Σ̃t·is/(n_sigma − 1), read from the table file `path` (NULL: the built-in
+ * table) as the technique reads it (linear in θ, σ̃t and albedo, log-linear
+ * in g). With reference_paths > 0 the same points are instead estimated by
+ * the paper's estimator (§4.1.2: that many random walks per entry from
+ * x_o(θ), no symmetry or variance reduction; slow), on the context's
+ * threads, deterministic. VOLUX_ERR_INVALID naming g, albedo or the size;
+ * load errors as for inspect. */
+VOLUX_API volux_status volux_ambient_table_slice(volux_context *ctx, const char *path, double g, double albedo,
+                                                 int n_theta, int n_sigma, uint64_t reference_paths, float *out);
+
 #ifdef __cplusplus
 }
 #endif

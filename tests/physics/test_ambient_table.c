@@ -591,6 +591,70 @@ static void test_cli_builds_a_table(void **state) {
     assert_non_null(strstr(err, "albedo"));
 }
 
+/* volux_ambient_table_slice (Fig. 5 of the paper): at the table's own nodes
+ * it returns the table's entries; its reference mode is the paper's
+ * estimator, exact at σ̃t = 0 (p_g(cos θ)), deterministic for any thread
+ * count; bad arguments are named. And the CLI draws slices. */
+static void test_slices(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(2), *ctx1 = tu_context(1);
+    volux_ambient_table_desc d = small_desc();
+    const char *path = tu_temp_path("slices.vxat");
+    assert_int_equal(volux_ambient_table_write(ctx, &d, path, NULL), VOLUX_OK);
+    volux_ambient_table t;
+    assert_int_equal(volux_ambient_table_load(ctx, path, &t), VOLUX_OK);
+    const int nt = d.n_theta, ns = d.n_sigma, ig = 3; /* g = 0.45, a node */
+    float *v = malloc(sizeof(float) * nt * ns), *r1 = malloc(sizeof(float) * nt * ns),
+          *r2 = malloc(sizeof(float) * nt * ns);
+    assert_int_equal(volux_ambient_table_slice(ctx, path, g_at(&d, ig), 0.9, nt, ns, 0, v), VOLUX_OK);
+    for (int is = 0; is < ns; is++)
+        for (int it = 0; it < nt; it++) {
+            double want = at(&t, it, is, ig);
+            assert_near(v[is * nt + it], want, 1e-5 * want + 1e-12);
+        }
+    assert_int_equal(volux_ambient_table_slice(ctx, path, 0.45, 0.9, nt, ns, 50, r2), VOLUX_OK);
+    assert_int_equal(volux_ambient_table_slice(ctx1, path, 0.45, 0.9, nt, ns, 50, r1), VOLUX_OK);
+    assert_memory_equal(r1, r2, sizeof(float) * nt * ns);
+    for (int it = 0; it < nt; it++) { /* σ̃t = 0: every walk crosses the empty sphere */
+        double want = scatter_hg_d(0.45, cos(theta_at(&d, it)));
+        assert_near(r1[it], want, 1e-6 * want);
+    }
+    /* away from σ̃t = 0 the paper's estimator is noisy but on the table */
+    double sum_t = 0.0, sum_r = 0.0;
+    for (int i = nt; i < nt * ns; i++) sum_t += v[i], sum_r += r1[i];
+    assert_true(fabs(sum_r / sum_t - 1.0) < 0.15);
+    volux_context_clear_error(ctx);
+    assert_int_equal(volux_ambient_table_slice(ctx, path, 1.0, 0.9, nt, ns, 0, v), VOLUX_ERR_INVALID);
+    assert_non_null(strstr(volux_context_error(ctx), "g"));
+    volux_context_clear_error(ctx);
+    assert_int_equal(volux_ambient_table_slice(ctx, path, 0.0, 1.5, nt, ns, 0, v), VOLUX_ERR_INVALID);
+    assert_non_null(strstr(volux_context_error(ctx), "albedo"));
+    volux_context_clear_error(ctx);
+    assert_int_equal(volux_ambient_table_slice(ctx, path, 0.0, 0.9, 1, ns, 0, v), VOLUX_ERR_INVALID);
+    assert_non_null(strstr(volux_context_error(ctx), "size"));
+    volux_context_clear_error(ctx);
+    assert_int_equal(volux_ambient_table_slice(ctx, tu_temp_path("missing.vxat"), 0.0, 0.9, nt, ns, 0, v),
+                     VOLUX_ERR_IO);
+    free(v), free(r1), free(r2);
+    volux_ambient_table_free(ctx, &t);
+    volux_context_destroy(ctx), volux_context_destroy(ctx1);
+    const char *png = tu_temp_path("slices.png"), *err;
+    char args[1024];
+    snprintf(args, sizeof args, "ambient-table --slices %s --table %s --slice-size 8 --slice-g -0.5,0.5", png, path);
+    assert_int_equal(tu_run_cli(args, &err), 0);
+    ctx = tu_context(1);
+    volux_image img;
+    assert_int_equal(volux_image_load(ctx, png, &img), VOLUX_OK);
+    assert_int_equal(img.width, 2 * 8 + 2); /* two slices and the gap */
+    assert_int_equal(img.height, 8);
+    volux_image_free(ctx, &img);
+    volux_context_destroy(ctx);
+    assert_int_equal(tu_run_cli("ambient-table --slices x.png --slice-g 1.5", &err), 2);
+    assert_non_null(strstr(err, "slice-g"));
+    assert_int_equal(tu_run_cli("ambient-table --info x.vxat --table y.vxat", &err), 2);
+    assert_non_null(strstr(err, "--slices"));
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_empty_sphere_gives_boundary_term),
@@ -611,6 +675,7 @@ int main(void) {
         cmocka_unit_test(test_cli_builds_a_table),
         cmocka_unit_test(test_builtin_table),
         cmocka_unit_test(test_a_build_is_announced),
+        cmocka_unit_test(test_slices),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -74,6 +74,10 @@ int cli_procedural_size_ok(const char *spec);
 volux_status cli_procedural(volux_context *ctx, const char *cmd, const char *spec, uint64_t seed, volux_volume **out,
                             char *json, size_t json_size);
 
+/* A viridis-like false-colour ramp: t in [0, 1] (clamped; NaN shows as 1)
+ * to linear RGB (PNG writing applies sRGB). */
+void cli_ramp_color(double t, float *linear_rgb);
+
 /* Checks that `path` can be created (its folder exists and is writable,
  * it is not a folder); else 0 with "OPTION PATH: why" in msg. */
 int cli_check_writable(const char *option, const char *path, char *msg, size_t msg_size);

@@ -248,3 +248,25 @@ int cli_check_writable(const char *option, const char *path, char *msg, size_t m
     }
     return 1;
 }
+
+/* A viridis-like ramp (after matplotlib's viridis, van der Walt & Smith
+ * 2015): sRGB colours at t = 0, 1/8, ..., 1, interpolated linearly in sRGB.
+ * Perceptually ordered and readable with colour-vision deficiency. */
+static const float ramp[9][3] = {
+    {0.267f, 0.005f, 0.329f}, {0.283f, 0.141f, 0.458f}, {0.230f, 0.322f, 0.546f},
+    {0.173f, 0.449f, 0.558f}, {0.128f, 0.567f, 0.551f}, {0.158f, 0.684f, 0.502f},
+    {0.369f, 0.789f, 0.383f}, {0.678f, 0.864f, 0.190f}, {0.993f, 0.906f, 0.144f},
+};
+
+void cli_ramp_color(double t, float *linear_rgb) {
+    if (!(t >= 0.0)) t = t < 0.0 ? 0.0 : 1.0; /* NaN differences show as the maximum */
+    if (t > 1.0) t = 1.0;
+    double u = t * 8.0;
+    int i = u >= 8.0 ? 7 : (int)u;
+    float f = (float)(u - i);
+    for (int k = 0; k < 3; k++) {
+        float s = ramp[i][k] + (ramp[i + 1][k] - ramp[i][k]) * f;
+        /* The image holds linear values; PNG writing re-applies sRGB. */
+        linear_rgb[k] = volux_srgb_decode(s);
+    }
+}

@@ -476,3 +476,48 @@ volux_status volux_ambient_table_inspect(volux_context *ctx, const char *path, v
     volux_ambient_table_free(ctx, &t);
     return VOLUX_OK;
 }
+
+/* ------------------------------------------------------------- slices */
+
+typedef struct slice_job {
+    const volux_ambient_table *t; /* NULL: the paper's estimator */
+    double g, albedo, sigma_max;
+    int n_theta, n_sigma;
+    uint64_t paths, seed;
+    float *out;
+} slice_job;
+
+static void slice_entry(void *user, int64_t i, int thread) {
+    (void)thread;
+    const slice_job *j = user;
+    int it = (int)(i % j->n_theta), is = (int)(i / j->n_theta);
+    double theta = 3.14159265358979323846 * it / (j->n_theta - 1), sigma = j->sigma_max * is / (j->n_sigma - 1);
+    j->out[i] = (float)(j->t ? volux_ambient_table_eval(j->t, theta, sigma, j->g, j->albedo)
+                             : volux_ambient_reference_entry(theta, sigma, j->g, j->albedo, j->paths,
+                                                             j->seed ^ (uint64_t)i, NULL));
+}
+
+volux_status volux_ambient_table_slice(volux_context *ctx, const char *path, double g, double albedo, int n_theta,
+                                       int n_sigma, uint64_t reference_paths, float *out) {
+    if (!(g > -1.0 && g < 1.0)) return volux_error(ctx, VOLUX_ERR_INVALID, "ambient table slice: g: %g is not in (-1, 1)", g);
+    if (!(albedo >= 0.0 && albedo <= 1.0))
+        return volux_error(ctx, VOLUX_ERR_INVALID, "ambient table slice: albedo: %g is not in [0, 1]", albedo);
+    if (n_theta < 2 || n_theta > VOLUX_AMBIENT_TABLE_MAX_DIM || n_sigma < 2 || n_sigma > VOLUX_AMBIENT_TABLE_MAX_DIM)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "ambient table slice: size: %d x %d is not in [2, %d]", n_theta,
+                           n_sigma, VOLUX_AMBIENT_TABLE_MAX_DIM);
+    if (!out) return volux_error(ctx, VOLUX_ERR_INVALID, "ambient table slice: no output buffer");
+    volux_ambient_table t;
+    volux_status st;
+    if (path) st = volux_ambient_table_load(ctx, path, &t);
+    else {
+        volux_ambient_table_desc d;
+        volux_ambient_table_desc_builtin(&d);
+        st = volux_ambient_table_get(ctx, &d, &t, NULL);
+    }
+    if (st) return st;
+    slice_job j = {reference_paths ? NULL : &t, g, albedo, t.desc.sigma_max, n_theta, n_sigma, reference_paths,
+                   t.desc.seed, out};
+    volux_parallel_for(volux_context_threads(ctx), (int64_t)n_theta * n_sigma, slice_entry, &j);
+    volux_ambient_table_free(ctx, &t);
+    return VOLUX_OK;
+}
