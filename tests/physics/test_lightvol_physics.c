@@ -4,7 +4,9 @@
  * energy never grows along a propagation, inverse-square falloff of a point
  * light in empty space, the spot cone, colour of forward scattering.
  */
+#include <math.h>
 #include <stdio.h>
+#include <string.h>
 
 #include "lightvol_fixture.h"
 
@@ -325,9 +327,63 @@ static void test_spot_light_respects_its_cone(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* show = "illumination" (the paper's Fig. 4b) renders the illumination
+ * volume itself: with an isotropic phase (directional = false) and one TF
+ * colour c, the radiance image is albedo·c/(4π) times it, pixel by pixel
+ * (same march, same opacity). A bad value names the parameter. */
+static volux_image lv_render(volux_context *ctx, volux_scene *s) {
+    volux_technique *t;
+    if (volux_technique_create(ctx, "lightvol", s, &t) != VOLUX_OK) fail_msg("%s", volux_context_error(ctx));
+    volux_framebuffer *fb;
+    assert_int_equal(volux_framebuffer_create(ctx, 32, 32, &fb), VOLUX_OK);
+    assert_int_equal(volux_render(t, s, fb, NULL, NULL), VOLUX_OK);
+    volux_image img;
+    assert_int_equal(volux_framebuffer_resolve(fb, &img), VOLUX_OK);
+    volux_framebuffer_destroy(fb);
+    volux_technique_destroy(t);
+    return img;
+}
+
+static void test_show_illumination_is_the_light_volume(void **state) {
+    (void)state;
+    static const char scene[] =
+        "{\"volume\": {\"procedural\": \"phantom\", \"dims\": [32, 32, 32]},"
+        " \"transfer_function\": {\"color\": [[0, 0.9, 0.6, 0.3], [255, 0.9, 0.6, 0.3]],"
+        "   \"opacity\": [[0, 0], [30, 0], [60, 0.05], [255, 0.5]], \"albedo\": 0.8, \"anisotropy\": 0.5},"
+        " \"camera\": {\"orbit\": {\"azimuth\": 30, \"elevation\": 20}, \"fov_y\": 30},"
+        " \"lights\": [{\"type\": \"directional\", \"direction\": [-0.5, -0.7, -0.5], \"irradiance\": 2,"
+        "   \"color\": [1, 0.5, 0.2]}, {\"type\": \"point\", \"position\": [20, 10, 30], \"intensity\": 800}],"
+        " \"render\": {\"width\": 32, \"height\": 32, \"spp\": 1},"
+        " \"techniques\": {\"lightvol\": {\"directional\": false}}}";
+    volux_context *ctx = tu_context(2);
+    volux_scene *s;
+    assert_int_equal(volux_scene_load_string(ctx, scene, ".", "test", NULL, 0, &s), VOLUX_OK);
+    volux_image rad = lv_render(ctx, s);
+    assert_int_equal(volux_scene_set_param(s, "lightvol", "show", 0, "illumination"), VOLUX_OK);
+    volux_image ill = lv_render(ctx, s);
+    const double c[3] = {0.9, 0.6, 0.3}, k = 0.8 / (4.0 * M_PI);
+    double lit = 0.0;
+    for (size_t i = 0; i < (size_t)32 * 32 * 3; i++) {
+        double want = k * c[i % 3] * ill.rgb[i];
+        assert_near(rad.rgb[i], want, 1e-4 * want + 1e-9);
+        lit += ill.rgb[i];
+    }
+    assert_true(lit > 1.0); /* the light reaches the image */
+    assert_int_equal(volux_scene_set_param(s, "lightvol", "show", 0, "light"), VOLUX_OK);
+    volux_technique *t;
+    volux_context_clear_error(ctx);
+    assert_int_equal(volux_technique_create(ctx, "lightvol", s, &t), VOLUX_ERR_INVALID);
+    assert_non_null(strstr(volux_context_error(ctx), "techniques.lightvol.show"));
+    volux_image_free(ctx, &rad);
+    volux_image_free(ctx, &ill);
+    volux_scene_destroy(s);
+    volux_context_destroy(ctx);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_beer_lambert_along_the_sweep),
+        cmocka_unit_test(test_show_illumination_is_the_light_volume),
         cmocka_unit_test(test_beer_lambert_oblique),
         cmocka_unit_test(test_blocked_light_contributes_nothing_behind_the_blocker),
         cmocka_unit_test(test_energy_never_grows_along_a_propagation),

@@ -72,6 +72,10 @@ static const volux_param_info lightvol_params[] = {
     {"budget_slices", VOLUX_PARAM_INT, 0, 0, 1000000, NULL,
      "as budget_ms, counted in slice steps of the propagation sweeps (deterministic; overrides budget_ms); 0 = use "
      "budget_ms"},
+    {"show", VOLUX_PARAM_STRING, 0, 0, 0, "radiance",
+     "radiance: the scattered light (the technique); illumination: the illumination volume itself, the RGB "
+     "light E arriving at each sample without albedo, colour or phase, through the transfer function's opacity "
+     "(the paper's Fig. 4b, a view for checking light setups)"},
     {"rebuild_token", VOLUX_PARAM_NUMBER, 0, 0, 1e15, NULL,
      "benchmark hook: changing this value forces an entire light update"},
     {NULL, 0, 0, 0, 0, NULL, NULL}};
@@ -139,6 +143,12 @@ static volux_status read_params(lightvol_state *st, const volux_scene *scene, lv
     p->rebuild_token = volux_technique_param(scene, cls, "rebuild_token");
     p->budget_ms = (float)volux_technique_param(scene, cls, "budget_ms");
     p->budget_slices = (int)volux_technique_param(scene, cls, "budget_slices");
+    const char *show = volux_technique_param_string(scene, cls, "show");
+    if (!strcmp(show, "radiance")) p->show_illumination = 0;
+    else if (!strcmp(show, "illumination")) p->show_illumination = 1;
+    else
+        return volux_error(ctx, VOLUX_ERR_INVALID,
+                           "techniques.lightvol.show: expected \"radiance\" or \"illumination\", got \"%s\"", show);
     if (p->local_shading > 0.0f && !p->directional)
         return volux_error(ctx, VOLUX_ERR_INVALID,
                            "techniques.lightvol.local_shading: needs techniques.lightvol.directional = true (the light "
@@ -273,6 +283,10 @@ static inline __attribute__((always_inline)) void scatter(const lightvol_state *
     illum_at(st, qi, I);
     /* selective updates may leave −ε where a light was removed */
     volux_vec3 E = v3(fmaxf(I[0], 0.0f), fmaxf(I[1], 0.0f), fmaxf(I[2], 0.0f));
+    if (st->p.show_illumination) { /* Fig. 4b: the light volume itself */
+        S[0] = E.x, S[1] = E.y, S[2] = E.z;
+        return;
+    }
     float lum = v3_luminance(E);
     if (!(lum > 0.0f)) {
         S[0] = S[1] = S[2] = 0.0f;

@@ -190,6 +190,7 @@ typedef struct lv_params {
     float budget_ms;        /* §7.3: propagation per update / refine step
                                (0 = all at once)                          */
     int budget_slices;      /* ... as slice steps (deterministic; wins)   */
+    int show_illumination;  /* render E itself (Fig. 4b), not radiance    */
 } lv_params;
 
 /* ---------------------------------------------------------------- state */
