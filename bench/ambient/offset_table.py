@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """bench/ambient/offset_table.py OUTDIR/offset.jsonl — the markdown table of
 docs/techniques/ambient.md §8: rel_mse vs pathtrace per scene (and radius)
-for single, ao and ambient's three camera offsets; the best per row bold."""
+for single, ao and ambient's four camera offsets; the best per row bold."""
 import json
 import sys
 
@@ -19,9 +19,10 @@ for line in open(sys.argv[1]):
     col = r["technique"] if r["technique"] != "ambient" else "ambient " + r["variant"]
     rows[key].setdefault(r["radius"], {})[col] = r["rel_mse"]
 
-cols = ["single", "ao", "ambient constant", "ambient offset0", "ambient adaptive"]
-print("| scene | r | `single` | `ao` | `ambient` constant (Eq. 20) | `ambient` offset 0 | `ambient` adaptive (default) |")
-print("|---|---|---|---|---|---|---|")
+cols = ["single", "ao", "ambient constant", "ambient offset0", "ambient adaptive", "ambient fill"]
+print("| scene | r | `single` | `ao` | `ambient` constant (Eq. 20) | `ambient` offset 0 | `ambient` adaptive (default) "
+      "| `ambient` fill |")
+print("|---|---|---|---|---|---|---|---|")
 for scene in order:
     by_r = rows[scene]
     single = by_r.get(0, {}).get("single")

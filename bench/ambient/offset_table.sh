@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # bench/ambient/offset_table.sh — issue 17's accuracy table: rel_mse against
 # `pathtrace` (all scattering orders, max_depth 64) of single, ao and
-# ambient with the three camera offsets (constant = Eq. 20, offset 0,
-# adaptive = the default) over thin / medium / dense procedural media
+# ambient with the four camera offsets (constant = Eq. 20, offset 0,
+# adaptive = the default, fill) over thin / medium / dense procedural media
 # (media/*.json) at r = 2, 4, 8, 14 voxels and on bonsai, engine,
 # aneurism (their own r), all at SIZE² pixels.
 #
@@ -50,6 +50,7 @@ ambient_variants() { # NAME SCENE RADIUS
   measure "$name" "$scene" ambient constant "$r" "${rs[@]}" --set 'techniques.ambient.offset_mode="constant"'
   measure "$name" "$scene" ambient offset0 "$r" "${rs[@]}" --set techniques.ambient.offset=0
   measure "$name" "$scene" ambient adaptive "$r" "${rs[@]}"
+  measure "$name" "$scene" ambient fill "$r" "${rs[@]}" --set 'techniques.ambient.offset_mode="fill"'
 }
 
 if [ -n "${REFS_ONLY:-}" ]; then # render the references only

@@ -70,9 +70,13 @@ static const volux_param_info ambient_params[] = {
      "(see docs/techniques/ambient.md, section 8)"},
     {"offset_mode", VOLUX_PARAM_STRING, 0, 0, 0, "adaptive",
      "lag of x_o: \"adaptive\" = min(r, offset_mfp/σt(x)): the paper's r where r·σt ≤ offset_mfp, "
-     "offset_mfp mean free paths in denser media; \"constant\" = r (Eq. 20, the paper)"},
+     "offset_mfp mean free paths in denser media; \"constant\" = r (Eq. 20, the paper); \"fill\" = "
+     "min(r, fill_mfp·min(1, 2·fill)/σt(x)) with the lag integrated exactly over each step and the table's "
+     "collided light not weighted by the albedo twice (docs/techniques/ambient.md, section 8)"},
     {"offset_mfp", VOLUX_PARAM_NUMBER, 2, 0.01, 100, NULL,
      "adaptive lag cap in local mean free paths 1/σt(x)"},
+    {"fill_mfp", VOLUX_PARAM_NUMBER, 0.75, 0.01, 100, NULL,
+     "offset_mode \"fill\": lag cap in local mean free paths, times min(1, 2·fill) (fill = ρ/(r·σt(x)))"},
     {"ao", VOLUX_PARAM_NUMBER, 0, 0, 1e6, NULL,
      "radiance of a white ambient light added through SAT ambient occlusion (0 = off; environment lights are "
      "always added this way)"},
@@ -401,12 +405,15 @@ static volux_status ambient_update(void *state, const volux_scene *scene, const 
         st->phase_cache = (int)volux_technique_param(scene, cls, "phase_cache");
         st->offset = (float)volux_technique_param(scene, cls, "offset");
         const char *mode = volux_technique_param_string(scene, cls, "offset_mode");
+        st->fill = 0;
         if (!strcmp(mode, "adaptive")) st->offset_mfp = (float)volux_technique_param(scene, cls, "offset_mfp");
         else if (!strcmp(mode, "constant")) st->offset_mfp = 0.0f;
+        else if (!strcmp(mode, "fill")) st->fill = 1, st->offset_mfp = (float)volux_technique_param(scene, cls, "fill_mfp");
         else
             return volux_error(b->rc.ctx, VOLUX_ERR_INVALID,
-                               "techniques.ambient.offset_mode: expected \"adaptive\" or \"constant\", got \"%s\"",
+                               "techniques.ambient.offset_mode: expected \"adaptive\", \"constant\" or \"fill\", got \"%s\"",
                                mode);
+        b->lag_window = st->fill;
         st->grad_ref =
             volux_raycaster_gradient_ref(&b->rc, volux_technique_param(scene, cls, "gradient_threshold"));
         snprintf(st->table_file, sizeof st->table_file, "%s",
@@ -545,6 +552,13 @@ static inline volux_vec3 tinted_lookup(const ambient_state *st, float ut, float 
     if (it > nt - 2) it = nt - 2;
     if (is > ns - 2) is = ns - 2;
     float ft = ut - (float)it, fs = us - (float)is, out[3];
+    /* offset_mode "fill": the view ray's σs·albedo·c already weights the
+     * scattering at x once; the table's collided part L̃o − L̃o(albedo 0)
+     * has every event inside the sphere weighted by albedo·c again. Read
+     * it divided by albedo·c (exact and finite: linear in the albedo from
+     * the node 0 up); the uncollided part stays as it is. */
+    int unweight = st->fill && st->table.desc.albedo[0] == 0.0;
+    float v_zero = unweight ? slab_lookup(st, 0, it, is, ft, fs) : 0.0f;
     for (int c = 0; c < 3; c++) {
         float x = a[c] * (float)(AMBIENT_ALBEDO_LUT - 1);
         x = x < 0.0f ? 0.0f : (x > (float)(AMBIENT_ALBEDO_LUT - 1) ? (float)(AMBIENT_ALBEDO_LUT - 1) : x);
@@ -556,6 +570,7 @@ static inline volux_vec3 tinted_lookup(const ambient_state *st, float ut, float 
         float fa = u - (float)ia;
         float v0 = slab_lookup(st, ia, it, is, ft, fs), v1 = slab_lookup(st, ia + 1, it, is, ft, fs);
         out[c] = v0 + (v1 - v0) * fa;
+        if (unweight) out[c] = v_zero + (out[c] - v_zero) / (a[c] > 0.02f ? a[c] : 0.02f);
     }
     return v3(out[0], out[1], out[2]);
 }
@@ -641,6 +656,11 @@ static inline __attribute__((always_inline)) float ambient_lag(const void *tech,
     float lag = st->offset * st->radius;
     if (st->offset_mfp > 0.0f && smp->sigma_t * lag > st->offset_mfp * st->offset) {
         float capped = st->offset * st->offset_mfp / smp->sigma_t;
+        if (st->fill) { /* a thin structure in an empty sphere lags less than a bulk medium's surface */
+            float f = 2.0f * scatter_grid_sample_index(&st->rho, smp->q.x, smp->q.y, smp->q.z) /
+                      (st->radius * smp->sigma_t);
+            capped *= f < 1.0f ? f : 1.0f;
+        }
         lag = capped < lag ? capped : lag;
     }
     return lag;

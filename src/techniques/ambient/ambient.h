@@ -29,6 +29,9 @@ typedef struct ambient_state {
     int specular;
     float offset;                 /* x_o = x + offset·lag·ω (Eq. 20: 1)      */
     float offset_mfp;             /* adaptive lag ≤ offset_mfp/σt (0: lag r)  */
+    int fill;                     /* offset_mode "fill" (§8): lag scaled by the
+                                     sphere's fill, exact lag window, collided
+                                     light not weighted by the albedo twice  */
     float grad_ref;               /* |∇s| (per world unit) of full specular  */
     float ao, ao_radius;          /* AO term weight, radius (world)          */
     int ao_shells;

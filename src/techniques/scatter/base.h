@@ -34,6 +34,8 @@ typedef struct scatter_base {
     volux_raycaster rc;            /* base: volume, LUT, grid, camera, lights, albedo, g */
     float t_min, emission;         /* SCATTER_COMMON_PARAMS               */
     int skip_empty;
+    int lag_window;                /* 1: weight ∫σt T(t − lag) dt over the
+                                      segment; 0: T(e − lag)·α (see march) */
 } scatter_base;
 
 /* Reads the common parameters (on a PARAMS or VOLUME change). */
@@ -119,23 +121,39 @@ scatter_march(const scatter_base *b, const void *tech, const volux_ray *ray, flo
         if (tau <= 0.0f) continue;
         float alpha = 1.0f - volux_exp_nonpos_t6(-tau);
         if (lagged) /* records that no sample can reach any more */
-            while (tail != head && rec[tail % SCATTER_LAG_RECORDS][1] <= e - max_lag)
+            while (tail != head && rec[tail % SCATTER_LAG_RECORDS][1] <= (b->lag_window ? a : e) - max_lag)
                 T_base = rec[tail++ % SCATTER_LAG_RECORDS][3];
         float ac = albedo * alpha;
         if (ac > 0.0f && (rgba[0] > 0.0f || rgba[1] > 0.0f || rgba[2] > 0.0f)) {
-            /* T(x_o), x_o = x + lag·ω: the transmittance at t = e − lag,
-             * linear within the recorded segment that contains it. */
-            float T_o = T;
+            /* The segment's weight. lag_window: ∫_a^e σt T(t − lag) dt
+             * (Eq. 20 with x_o = x + lag·ω), T·α for lag 0; the part of
+             * the lagged window [a − lag, e − lag] inside this segment
+             * decays from T(a), the part before a is read from the
+             * records (trapezoid of its ends). Otherwise T(x_o) at
+             * t = e − lag times α, which shortens every lag by up to one
+             * step (no lag at all where lag < step: the result depends on
+             * render.step in dense media; docs/techniques/ambient.md §8). */
+            float w = T * ac, wx = T * alpha; /* weights of albedo·c·L_s and of the extra term */
             smp.sigma_t = rgba[3];
             smp.rgb[0] = rgba[0], smp.rgb[1] = rgba[1], smp.rgb[2] = rgba[2];
             smp.p = v3_madd(ray->o, ray->d, e);
             if (lagged) {
                 float lag = lag_fn(tech, &smp);
-                if (lag > 0.0f) T_o = scatter_lag_T((const float(*)[4])rec, tail, head, T_base, T, e - lag);
+                const float(*rc4)[4] = (const float(*)[4])rec;
+                if (lag > 0.0f && b->lag_window) {
+                    float past = lag < len ? lag : len; /* window length before a */
+                    float T0 = scatter_lag_T(rc4, tail, head, T_base, T, a - lag);
+                    float T1 = scatter_lag_T(rc4, tail, head, T_base, T, a - lag + past);
+                    float here = lag < len ? T * (1.0f - volux_exp_nonpos_t6(-rgba[3] * (len - lag))) : 0.0f;
+                    wx = here + rgba[3] * past * 0.5f * (T0 + T1);
+                    w = wx * albedo;
+                } else if (lag > 0.0f) {
+                    float T_o = scatter_lag_T(rc4, tail, head, T_base, T, e - lag);
+                    w = T_o * ac, wx = T_o * alpha;
+                }
             }
             volux_vec3 Ls = v3(0, 0, 0), Lx = v3(0, 0, 0);
             inscatter(tech, &smp, &Ls, &Lx);
-            float w = T_o * ac, wx = T_o * alpha;
             C[0] += w * rgba[0] * Ls.x + wx * Lx.x;
             C[1] += w * rgba[1] * Ls.y + wx * Lx.y;
             C[2] += w * rgba[2] * Ls.z + wx * Lx.z;
