@@ -318,6 +318,20 @@ static const ref_case CASES[] = {
      * Measured 0.634 / +0.144 (noise 0.021). Bounds 0.70 / 0.20.
      * Caught: offset_mode "constant", offset 0 (numbers above). */
     {"ambient_dense", "ambient", DENSE, {NULL}, REF_PATHTRACE, {NULL}, 2048, 1, 0.70, 0.20, 0},
+    /* offset_mode "fill" (opt-in, ambient.md §8), the same two media.
+     * Thin: measured 0.292 / +0.122 — worse than the default's 0.117 /
+     * +0.008: reading the collided part divided by albedo·c brightens
+     * these heterogeneous blobs by 11 % (without it 0.121 / +0.013), where
+     * it made the homogeneous thin phantom of §8 right (0.87 → 1.01 of
+     * the reference's brightness). Bounds 0.35 / 0.16.
+     * Dense: measured 0.605 / +0.047 (default 0.634 / +0.144). Bounds
+     * 0.66 / 0.10. Caught: the collided part not divided (0.704 / −0.210).
+     * Not caught: the fill factor off (0.582 / +0.095 — at 16² the lag
+     * cut does not show). */
+    {"ambient_thin_fill", "ambient", THIN, {"techniques.ambient.offset_mode=\"fill\"", NULL}, REF_PATHTRACE,
+     {"render.max_depth=64", NULL}, 8192, 1, 0.35, 0.16, 0},
+    {"ambient_dense_fill", "ambient", DENSE, {"techniques.ambient.offset_mode=\"fill\"", NULL}, REF_PATHTRACE, {NULL},
+     2048, 1, 0.66, 0.10, 0},
 };
 #define N_CASES ((int)(sizeof CASES / sizeof CASES[0]))
 
