@@ -75,8 +75,16 @@ typedef struct volux_volume_load_options {
     const volux_volume_region *region;
 } volux_volume_load_options;
 
-/* Loads a volume file, choosing the reader by extension (.nrrd .nhdr .mhd
- * .mha .nii .nii.gz .raw). options may be NULL. Errors name the file and
+/* The file-name extensions volux_volume_load recognises by themselves (raw
+ * files, ".raw", need a description), as one string for help texts and
+ * messages. */
+#define VOLUX_VOLUME_EXTENSIONS ".nrrd .nhdr .mhd .mha .nii .nii.gz .hdr .vti"
+
+/* 1 if path ends (case-insensitively) in one of VOLUX_VOLUME_EXTENSIONS. */
+VOLUX_API int volux_volume_path_is_known(const char *path);
+
+/* Loads a volume file, choosing the reader by extension (VOLUX_VOLUME_EXTENSIONS,
+ * or .raw with a description; otherwise by the first bytes). options may be NULL. Errors name the file and
  * the problem; VOLUX_ERR_IO when missing/unreadable, VOLUX_ERR_FORMAT when
  * malformed, VOLUX_ERR_UNSUPPORTED, VOLUX_ERR_LIMIT. Caller releases. */
 VOLUX_API volux_status volux_volume_load(volux_context *ctx, const char *path,

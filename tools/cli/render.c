@@ -16,7 +16,7 @@ static void usage(FILE *f) {
             "                    [--distribute image|data]   (under mpirun; image is the default there)\n"
             "Renders until the scene's spp, time budget or target relative error is reached and\n"
             "writes the image (PNG tone-mapped with render.exposure; PFM/EXR linear).\n"
-            "VOLUME (.nrrd .nhdr .mhd .mha .nii .nii.gz .vti, or procedural:NAME[:N]) renders its quick-look\n"
+            "VOLUME (" VOLUX_VOLUME_EXTENSIONS ", or procedural:NAME[:N]) renders its quick-look\n"
             "scene: a transfer function from the histogram, an orbit camera, one key light, `shaded`.\n"
             "--dump-scene writes the scene as read (after --set and defaults) as JSON; without -o it\n"
             "only writes that.\n"

@@ -86,14 +86,10 @@ static int ends_with_ci(const char *s, const char *suffix) {
 
 enum { INPUT_SCENE, INPUT_VOLUME, INPUT_UNKNOWN };
 
-#define VOLUME_EXTENSIONS ".nrrd .nhdr .mhd .mha .nii .nii.gz .hdr .vti"
-
 static int input_kind(const char *path) {
     if (cli_is_procedural(path)) return INPUT_VOLUME;
     if (ends_with_ci(path, ".json")) return INPUT_SCENE;
-    static const char *const volume_ext[] = {".nrrd", ".nhdr", ".mhd", ".mha", ".nii", ".nii.gz", ".hdr", ".vti"};
-    for (size_t i = 0; i < sizeof volume_ext / sizeof volume_ext[0]; i++)
-        if (ends_with_ci(path, volume_ext[i])) return INPUT_VOLUME;
+    if (volux_volume_path_is_known(path)) return INPUT_VOLUME;
     /* Another name: a scene if it starts like a JSON object. A file that
      * cannot be opened goes to the scene loader, which says why. */
     struct stat sb;
@@ -227,7 +223,7 @@ int cli_load_scene_quiet(const char *cmd, volux_context *ctx, const cli_scene_ar
     }
     if (kind == INPUT_UNKNOWN) {
         snprintf(msg, msg_size,
-                 "%s: neither a scene (a JSON object) nor a volume (" VOLUME_EXTENSIONS ", procedural:NAME[:N])", in);
+                 "%s: neither a scene (a JSON object) nor a volume (" VOLUX_VOLUME_EXTENSIONS ", procedural:NAME[:N])", in);
         return CLI_USAGE;
     }
     if (a->region && kind == INPUT_VOLUME) {
