@@ -1,9 +1,10 @@
 /*
  * volux/io.h — files ⇄ core objects.
  *
- * Volumes: NRRD (.nrrd attached, .nhdr detached; raw and gzip encodings),
- * MetaImage (.mhd/.mha), NIfTI-1 (.nii, .nii.gz), raw with an explicit
- * description, and procedural volumes by name. Every reader validates the
+ * Volumes: NRRD (.nrrd attached, .nhdr detached; raw and gzip encodings;
+ * slice stacks by LIST or pattern), MetaImage (.mhd/.mha), NIfTI-1 and
+ * NIfTI-2 (.nii, .nii.gz, .hdr/.img), VTK XML ImageData (.vti), raw with
+ * an explicit description, and procedural volumes by name. Every reader validates the
  * header with checked arithmetic against the bytes actually present, and
  * against the context's max_bytes, before it allocates.
  *
