@@ -129,6 +129,11 @@ VOLUX_API volux_status volux_sequence_load_files(volux_context *ctx, const char 
 VOLUX_API volux_status volux_sequence_load_pattern(volux_context *ctx, const char *pattern, int first, int last,
                                                    int stride, const volux_volume_load_options *options,
                                                    uint64_t cache_bytes, volux_sequence **out);
+/* How many step-number conversions (%d, %Nd, %0Nd with N ≤ 9) `pattern`
+ * holds — volux_sequence_load_pattern needs exactly 1 — or −1 when it
+ * holds any other '%' than those and "%%" (such a name must never reach
+ * printf). Also for numbered output names (`volux render --all-steps`). */
+VOLUX_API int volux_sequence_pattern_conversions(const char *pattern);
 VOLUX_API volux_status volux_sequence_procedural(volux_context *ctx, const char *name, const int dims[3],
                                                  uint64_t seed, double time0, double time_per_step, int steps,
                                                  uint64_t cache_bytes, volux_sequence **out);
