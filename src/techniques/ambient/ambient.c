@@ -655,4 +655,5 @@ const volux_technique_class volux_ambient_class = {
     ambient_init, ambient_update, ambient_render_tile, ambient_memory_bytes, ambient_release,
     NULL, NULL, NULL, /* no refine, pending work or statistics */
     NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
+    NULL, /* no per-frame budget (volux_technique_set_budget) */
 };

@@ -222,6 +222,11 @@ static volux_status lightvol_refine(void *state, const volux_scene *scene, int *
 
 static uint64_t lightvol_pending(const void *state) { return volux_lightvol_pending(state); }
 
+/* The front end's per-frame budget (volux_technique_set_budget). Switching
+ * it off leaves a job in progress to the next update or refine step, which
+ * then finishes it at once. */
+static void lightvol_set_budget(void *state, double ms) { ((lightvol_state *)state)->frame_budget_ms = ms; }
+
 static void lightvol_release(void *state) {
     lightvol_state *st = state;
     volux_lightvol_free_buffers(st);
@@ -358,4 +363,5 @@ const volux_technique_class volux_lightvol_class = {
     NULL, lightvol_update, lightvol_render_tile, lightvol_memory_bytes, lightvol_release,
     lightvol_refine, lightvol_pending, NULL, /* §7.3 budget; no statistics */
     NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
+    lightvol_set_budget,
 };
