@@ -33,7 +33,7 @@ static void usage(FILE *f) {
             "                     measured cost says the --preview size would arrive later than MS;\n"
             "                     the --preview size follows at once (default 100; 0 = always --preview)\n"
             "  --preview-step K   before making it smaller, that first frame may march at up to K times\n"
-            "                     render.step (1..8, default 2; 1 = never); refinement and the final\n"
+            "                     render.step (1..8, default 4; 1 = never); refinement and the final\n"
             "                     frame always use render.step\n"
             "  --idle-ms MS       quiet time before refinement starts (default 100)\n"
             "  --max-image N      largest render.width/height an edit may set (default 4096)\n"
@@ -77,7 +77,7 @@ int cli_serve(int argc, char **argv) {
     o->preview_max = 256;
     o->idle_ms = 100;
     o->preview_budget_ms = 100;
-    o->preview_step_max = 2;
+    o->preview_step_max = 4;
     o->max_image = 4096;
     o->jpeg_quality = 85;
     o->max_connections = 64;
