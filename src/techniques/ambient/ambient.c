@@ -384,6 +384,9 @@ static volux_status ambient_update(void *state, const volux_scene *scene, const 
     const volux_light_list *ls = &b->rc.lights;
     volux_status s;
     scatter_base_update(b, scene, c);
+    /* the camera rays sample the bricked copy (scatter_march: the same
+     * values, fewer cache misses than the linear layout) */
+    if ((c->what & VOLUX_CHANGE_VOLUME) && (s = volux_volume_build_bricks(b->rc.volume))) return s;
     int need_ext = (c->what & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY)) != 0;
     int need_slice = (c->what & VOLUX_CHANGE_PHASE) != 0, all_caches = 0, scale_changed = 0, table_loaded = 0;
     if (c->what & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME)) {

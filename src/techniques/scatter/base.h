@@ -123,7 +123,10 @@ scatter_march(const scatter_base *b, const void *tech, const volux_ray *ray, flo
     while (volux_segments_next(&seg, &a, &e, &gap)) {
         float len = e - a;
         smp.q = v3_madd(ray->q0, ray->dq, e);
-        smp.s = volux_volume_sample_index(v, smp.q.x, smp.q.y, smp.q.z);
+        /* the bricked copy where the technique built one (ambient): the
+         * same value, better locality along oblique rays */
+        smp.s = v->bricks ? volux_volume_sample_bricked(v, smp.q.x, smp.q.y, smp.q.z, v->storage)
+                          : volux_volume_sample_index(v, smp.q.x, smp.q.y, smp.q.z);
         count++;
         float rgba[4];
         volux_lut_rgba(lut, smp.s, rgba);
