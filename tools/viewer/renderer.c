@@ -214,6 +214,13 @@ static void preview_size(const viewer *v, int w, int h, int *pw, int *ph) {
 #define FIRST_SIDE_STEP 16
 /* Time kept back for the encode and the event (a 256² JPEG takes ~2 ms). */
 #define PUBLISH_MARGIN_MS 5.0
+/* The share of what is left of the budget a first frame's estimated render
+ * may take: the estimate is a running mean (about every other frame is
+ * slower than it), the page adds the event's delivery and the decode, and
+ * a coarser step saves less than the 1/step the estimate assumes (misses
+ * per voxel crossed stay) — aimed at the budget itself, the step would
+ * settle where every other frame is late. */
+#define RENDER_FILL 0.8
 
 /* The running cost estimate of a technique's preview render (ms/pixel;
  * 0 until measured). */
@@ -333,7 +340,7 @@ static void do_preview(viewer *v, uint64_t version) {
          * then only brings the ray-caster's camera to the new size. */
         double step_scale = 1;
         if (!st && v->need_latency) {
-            double left = v->opt.preview_budget_ms - (t1 - v->last_edit_ms) - PUBLISH_MARGIN_MS;
+            double left = RENDER_FILL * (v->opt.preview_budget_ms - (t1 - v->last_edit_ms) - PUBLISH_MARGIN_MS);
             double c = *cost_of(v, full.technique);
             step_scale = step_scale_for(v, c, left, (double)first.width * first.height);
             budget_size(v, c / step_scale, left, &first.width, &first.height);
