@@ -15,6 +15,11 @@
 // (all threads), which the load inflates far less: on an idle machine with
 // 2 threads the server part takes at least CPU/2.
 //
+// With the default --preview-budget a first frame may be smaller than the
+// --preview size or march at a coarser step (--preview-step): the columns
+// "edit → --preview size" (any step), "first step scales" and "... at
+// render.step" tell them apart.
+//
 // Usage: node bench/viewer/latency.mjs VOLUX SCENE.json [EDITS_PER_KIND] [OUT.jsonl]
 // Run with OMP_WAIT_POLICY=passive; report the load (/proc/loadavg is printed).
 import { spawn } from 'node:child_process';
