@@ -441,6 +441,12 @@ static void test_cli_renders_one_or_all_steps(void **state) {
     snprintf(args, sizeof args, "render '%s' -o '%s' --all-steps", scene, tu_temp_path("x%s.png"));
     assert_int_equal(tu_run_cli(args, &err), 2);
     assert_false(exists(tu_temp_path("x.png")));
+    snprintf(args, sizeof args, "render '%s' -o '%s' --all-steps", scene, tu_temp_path("x%d_%d.png"));
+    assert_int_equal(tu_run_cli(args, &err), 2);
+    if (!strstr(err, "holds one %d")) fail_msg("%s", err);
+    snprintf(args, sizeof args, "render '%s' -o '%s'", scene, tu_temp_path("x%d.png"));
+    assert_int_equal(tu_run_cli(args, &err), 2);
+    if (!strstr(err, "needs --all-steps")) fail_msg("%s", err);
     /* frames whose headers disagree: exit 2 naming the file */
     const char *h0 = "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 4 4 4\nencoding: raw\n\n";
     const char *h1 = "NRRD0004\ntype: uint16\ndimension: 3\nsizes: 4 4 4\nendian: little\nencoding: raw\n\n";

@@ -112,7 +112,7 @@ int cli_render(int argc, char **argv) {
     int pattern = out_path ? volux_sequence_pattern_conversions(out_path) : 0; /* 1: a numbered output */
     if (pattern < 0 || pattern > 1 || (pattern && !all_steps)) {
         cli_eprintf("volux render: -o %s: %s\n", out_path,
-                pattern < 0 ? "a numbered output holds one %d, %Nd or %0Nd (%% for a literal %)"
+                pattern != 1 ? "a numbered output holds one %d, %Nd or %0Nd (%% for a literal %)"
                             : "a numbered output (%d) needs --all-steps");
         return CLI_USAGE;
     }
