@@ -587,6 +587,15 @@ static volux_status ml_update(void *state, const volux_scene *scene, const volux
     ml_layout_init(&st->layout, st->avsm_res, st->avsm_nodes, 2.0f * st->bound_r);
     if ((w & VOLUX_CHANGE_LIGHTS) && (s = update_env_samplers(st, scene, c))) return s;
     if ((s = update_sets(st, scene, c))) return s;
+    /* an even share of vl_count: with more lights than VLs, the lights past
+     * the first vl_count get none (their multiple scattering is missing) */
+    if ((w & (VOLUX_CHANGE_LIGHTS | VOLUX_CHANGE_PARAMS)) && st->multi_on && rc->max_depth > 1 &&
+        rc->lights.n_all > st->vl_count)
+        volux_message(ctx, VOLUX_MESSAGE_WARNING,
+                      "manylights: %d lights share techniques.manylights.vl_count = %d virtual lights: the lights "
+                      "after the first %d (in slot order) get none, so their multiple scattering is missing (set "
+                      "vl_count to at least the number of lights)",
+                      rc->lights.n_all, st->vl_count, st->vl_count);
     /* weights of everything (cheap: a few operations per VL) */
     for (int i = 0; i < rc->lights.n_all; i++) {
         const volux_prepared_light *l = &rc->lights.all[i];
