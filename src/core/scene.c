@@ -571,9 +571,9 @@ volux_change_set volux_scene_changes_since(const volux_scene *s, const volux_sce
     if (!seen || seen->scene_id != s->id) return volux_change_all();
     for (int a = 0; a < A_COUNT; a++)
         if (seen->aspect[a] != s->aspect[a]) c.what |= 1u << a;
-    /* a zeroed stamp of this scene's id cannot happen (counters start at
-     * 1), so since = 0 keeps meaning "all" */
-    c.since = seen->light_edits ? seen->light_edits : 0;
+    /* the counter starts at 1, so a stamp of this scene never has 0 (which
+     * means "all") */
+    c.since = seen->light_edits;
     c.scene = s;
     return c;
 }
