@@ -244,8 +244,32 @@ static void test_allocation_failures(void **state) {
     print_message("a 40-light load survived %ld injected allocation failures\n", k - 2);
 }
 
+/* The CLI: a scene file one light over the cap is exit 2 naming the field,
+ * before any light is read, and writes no image. */
+static void test_cli_refuses_one_light_over_the_cap(void **state) {
+    (void)state;
+    size_t n = (size_t)VOLUX_MAX_LIGHTS + 1;
+    char *json = malloc(3 * n + 128), *p = json;
+    assert_non_null(json);
+    p += sprintf(p, "{\"volume\": {\"procedural\": \"sphere\", \"dims\": [8, 8, 8]}, \"lights\": [");
+    for (size_t i = 0; i < n; i++) p += sprintf(p, "%s{}", i ? "," : "");
+    p += sprintf(p, "]}");
+    const char *path = tu_write_file("over_cap.json", json, (size_t)(p - json));
+    free(json);
+    const char *out = tu_temp_path("over_cap.pfm");
+    char cmd[2048];
+    snprintf(cmd, sizeof cmd, "render '%s' -o '%s'", path, out);
+    const char *err = NULL;
+    int rc = tu_run_cli(cmd, &err);
+    if (rc != 2 || !strstr(err, "lights: at most 1048576 lights, got 1048577"))
+        fail_msg("volux %s: exit %d; stderr: %s", cmd, rc, err);
+    FILE *f = fopen(out, "rb");
+    assert_null(f);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_cli_refuses_one_light_over_the_cap),
         cmocka_unit_test(test_65536_point_lights_load),
         cmocka_unit_test(test_an_edit_marks_exactly_its_slot),
         cmocka_unit_test(test_slot_cap_and_highest_slot),
