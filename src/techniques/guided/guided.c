@@ -42,10 +42,10 @@ static const volux_param_info guided_params[] = {
     {"oversample", VOLUX_PARAM_INT, 1, 1, 4, NULL,
      "sub-directions per axis per direction texel, averaged (2 = 4x, 4 = 16x angular oversampling)"},
     {"epsilon", VOLUX_PARAM_NUMBER, 0.01, 1e-6, 1, NULL, "added to the visibility before the product (Sec. 6)"},
-    {"env_resolution", VOLUX_PARAM_INT, 512, 0, 4096, NULL,
+    {"env_resolution", VOLUX_PARAM_INT, 0, 0, 4096, NULL,
      "M: the environment is resampled into an M x M equal-area octahedral image (a power of two >= directions); "
-     "0 (auto): from the maps' sizes, the largest M with no more texels than the largest environment map "
-     "(directions for a constant environment)"},
+     "0 (auto, the default): the largest M with no more texels than the largest environment map (512 for a "
+     "1024 x 512 map), the directions N for a constant environment"},
     {"mis", VOLUX_PARAM_BOOL, 1, 0, 1, NULL,
      "combine the environment sample with phase sampling (power heuristic); 0: the environment is lit by its "
      "light sample alone"},
