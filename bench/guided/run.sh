@@ -28,13 +28,6 @@ if has refs; then # pathtrace references: single scattering and max_depth 8
     [[ -s $out/${sc}_ref.pfm ]] || "$volux" render "$here/$sc.json" -o "$out/${sc}_ref.pfm" --technique pathtrace --spp 4096 --quiet
     [[ -s $out/${sc}_ms_ref.pfm ]] || "$volux" render "$here/$sc.json" -o "$out/${sc}_ms_ref.pfm" --technique pathtrace --spp 4096 --max-depth 8 --quiet
   done
-  # per-step references of the animated cloud for the lazy phase: 64x64,
-  # steps 0..LAZY_STEPS-1, one render per step (each well under 2 minutes)
-  for ((t = 0; t < ${LAZY_STEPS:-24}; t++)); do
-    f=$(printf "$out/cloud_ref_%04d.pfm" $t)
-    [[ -s $f ]] || "$volux" render "$here/cloud_sequence.json" -o "$f" --technique pathtrace --spp 512 --width 64 \
-      --height 64 --threads 1 --time-step $t --seed 1000 --quiet
-  done
   note "refs done"
 fi
 
@@ -128,6 +121,13 @@ if has lazy; then # animated sequence: per-frame update cost and error per lazy 
   # 64x64, 8 spp per frame, steps 0..LAZY_STEPS-1, one thread; the same
   # seed for every policy (paired); "off" sweeps every direction at every
   # step (the per-step reference visibility)
+  # per-step references of the animated cloud: pathtrace 512 spp, 64x64,
+  # steps 0..LAZY_STEPS-1, one render per step (each well under 2 minutes)
+  for ((t = 0; t < ${LAZY_STEPS:-24}; t++)); do
+    f=$(printf "$out/cloud_ref_%04d.pfm" $t)
+    [[ -s $f ]] || "$volux" render "$here/cloud_sequence.json" -o "$f" --technique pathtrace --spp 512 --width 64 \
+      --height 64 --threads 1 --time-step $t --seed 1000 --quiet
+  done
   : > "$out/lazy.jsonl"
   lz=(--spp 8 --steps "${LAZY_STEPS:-24}" --reference "$out/cloud_ref_%04d.pfm" --set render.width=64
       --set render.height=64 --set render.threads=1)
