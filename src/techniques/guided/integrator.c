@@ -34,6 +34,10 @@
  * `guide_depth` bounds the events that use the strategy (1 is the paper's
  * first event; 0 every event, "guided multiple scattering"); later events
  * sample the environment quadtree alone.
+ *
+ * `guide_continuation` α > 0 also draws the continuation direction from
+ * the event's density (continue_hook below; off by default: it raises the
+ * variance, docs/techniques/guided.md).
  */
 #include <math.h>
 #include <string.h>
