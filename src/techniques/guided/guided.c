@@ -42,14 +42,20 @@ static const volux_param_info guided_params[] = {
     {"oversample", VOLUX_PARAM_INT, 1, 1, 4, NULL,
      "sub-directions per axis per direction texel, averaged (2 = 4x, 4 = 16x angular oversampling)"},
     {"epsilon", VOLUX_PARAM_NUMBER, 0.01, 1e-6, 1, NULL, "added to the visibility before the product (Sec. 6)"},
-    {"env_resolution", VOLUX_PARAM_INT, 512, 2, 4096, NULL,
-     "M: the environment is resampled into an M x M equal-area octahedral image (a power of two >= directions)"},
+    {"env_resolution", VOLUX_PARAM_INT, 0, 0, 4096, NULL,
+     "M: the environment is resampled into an M x M equal-area octahedral image (a power of two >= directions); "
+     "0 (auto, the default): the largest M with no more texels than the largest environment map (512 for a "
+     "1024 x 512 map), the directions N for a constant environment"},
     {"mis", VOLUX_PARAM_BOOL, 1, 0, 1, NULL,
      "combine the environment sample with phase sampling (power heuristic); 0: the environment is lit by its "
      "light sample alone"},
     {"guide_depth", VOLUX_PARAM_INT, 0, 0, 100000, NULL,
      "scattering events per path whose environment sample uses the strategy (1: the first, as in the paper; 0: "
      "every event); later events sample the environment alone"},
+    {"guide_continuation", VOLUX_PARAM_NUMBER, 0, 0, 0.95, NULL,
+     "alpha: probability that the continuation direction at a scattering event is drawn from the event's "
+     "environment density instead of the phase function (one-sample mixture, weighted by phase / mixture: "
+     "unbiased); 0: phase sampling alone, as pathtrace"},
     {"rr_depth", VOLUX_PARAM_INT, 5, 0, 100000, NULL,
      "scattering events before Russian roulette on the path throughput"},
     {"lazy", VOLUX_PARAM_STRING, 0, 0, 0, "round_robin",
@@ -106,9 +112,10 @@ static volux_status read_params(guided_state *st, const volux_scene *scene) {
     if (!is_pow2(n))
         return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.guided.directions: %d is not a power of two", n);
     int m = (int)volux_technique_param(scene, cls, "env_resolution");
-    if (!is_pow2(m) || m < n)
+    if (m != 0 && (!is_pow2(m) || m < n))
         return volux_error(ctx, VOLUX_ERR_INVALID,
-                           "techniques.guided.env_resolution: %d must be a power of two and at least directions (%d)",
+                           "techniques.guided.env_resolution: %d must be 0 (auto) or a power of two and at least "
+                           "directions (%d)",
                            m, n);
     guided_vis_params v;
     memset(&v, 0, sizeof v);
@@ -126,11 +133,12 @@ static volux_status read_params(guided_state *st, const volux_scene *scene) {
     st->dir_levels = 0;
     while ((1 << st->dir_levels) < n) st->dir_levels++;
     st->strategy = strategy;
-    st->env_res = m;
+    st->env_res_param = m;
     st->epsilon = (float)volux_technique_param(scene, cls, "epsilon");
     st->mis = (int)volux_technique_param(scene, cls, "mis");
     st->guide_depth = (int)volux_technique_param(scene, cls, "guide_depth");
     st->rr_depth = (int)volux_technique_param(scene, cls, "rr_depth");
+    st->continuation = (float)volux_technique_param(scene, cls, "guide_continuation");
     return VOLUX_OK;
 }
 
@@ -144,11 +152,30 @@ static int vis_content_differs(const guided_vis_params *a, const guided_vis_para
     return 0;
 }
 
-/* The environment slots, as a bitset over light slots. */
-static void env_slots(const volux_light_list *lights, uint64_t out[VOLUX_MAX_LIGHTS / 64]) {
-    memset(out, 0, sizeof(uint64_t) * (VOLUX_MAX_LIGHTS / 64));
+/* env_resolution 0 ("auto"): the largest power of two M whose M×M
+ * octahedral image has no more texels than the largest environment map
+ * (finer would only interpolate the map; a 1024×512 map gives 512, a
+ * 256×128 one 128), at least the grid's N (a constant environment is
+ * uniform within every direction texel, so N is all it needs). */
+static int env_resolution_auto(const volux_light_list *lights, int n) {
+    int m = n;
+    for (int i = 0; i < lights->n_all; i++) {
+        const volux_prepared_light *l = &lights->all[i];
+        if (l->type != VOLUX_LIGHT_ENVIRONMENT || !l->desc || !l->desc->map) continue;
+        double texels = (double)l->desc->map->width * (double)l->desc->map->height;
+        while (m < 4096 && (double)(2 * m) * (double)(2 * m) <= texels) m *= 2;
+    }
+    return m;
+}
+
+/* 1 if an environment light of `lights` or of the last build (`slots`)
+ * changed in c. */
+static int env_touched(const volux_light_list *lights, const int *slots, int n_slots, const volux_change_set *c) {
     for (int i = 0; i < lights->n_all; i++)
-        if (lights->all[i].type == VOLUX_LIGHT_ENVIRONMENT) out[lights->all[i].slot >> 6] |= 1ull << (lights->all[i].slot & 63);
+        if (lights->all[i].type == VOLUX_LIGHT_ENVIRONMENT && volux_change_light(c, lights->all[i].slot)) return 1;
+    for (int i = 0; i < n_slots; i++)
+        if (volux_change_light(c, slots[i])) return 1;
+    return 0;
 }
 
 /* Seed of the environment-guided lazy schedule (fixed: the schedule must
@@ -223,14 +250,19 @@ static volux_status guided_update(void *state, const volux_scene *scene, const v
     /* environment quadtree: when an environment light (now or before)
      * changed, or its resolution */
     if (w & (VOLUX_CHANGE_LIGHTS | VOLUX_CHANGE_PARAMS)) {
-        uint64_t now[VOLUX_MAX_LIGHTS / 64];
-        env_slots(&st->rc.lights, now);
-        int touched = !st->env_built || st->env_res != old_env_res;
-        for (int i = 0; i < VOLUX_MAX_LIGHTS / 64; i++) touched |= ((now[i] | st->env_slot_bits[i]) & c->lights[i]) != 0;
+        const volux_light_list *ls = &st->rc.lights;
+        int res = st->env_res_param ? st->env_res_param : env_resolution_auto(ls, st->vis.dir_res);
+        int touched = !st->env_built || res != old_env_res || env_touched(ls, st->env_slots, st->n_env_slots, c);
         if (touched) {
             st->env_built = 0;
-            if ((s = guided_env_build(ctx, st->rc.threads, &st->env, &st->rc.lights, st->env_res))) return s;
-            memcpy(st->env_slot_bits, now, sizeof now);
+            st->env_res = res;
+            if ((s = volux_grow_slots(ctx, &st->env_slots, &st->env_slots_cap, ls->n_env, sizeof *st->env_slots,
+                                      "guided: environment slots")))
+                return s;
+            if ((s = guided_env_build(ctx, st->rc.threads, &st->env, ls, res))) return s;
+            st->n_env_slots = 0;
+            for (int i = 0; i < ls->n_all; i++)
+                if (ls->all[i].type == VOLUX_LIGHT_ENVIRONMENT) st->env_slots[st->n_env_slots++] = ls->all[i].slot;
             st->env_built = 1;
             st->env_builds++;
         }
@@ -272,11 +304,14 @@ static void guided_release(void *state) {
     guided_state *st = state;
     guided_grid_free(st->rc.ctx, &st->grid);
     guided_env_free(st->rc.ctx, &st->env);
+    volux_free(st->rc.ctx, st->env_slots, sizeof *st->env_slots * (size_t)st->env_slots_cap);
+    st->env_slots = NULL;
+    st->env_slots_cap = st->n_env_slots = 0;
 }
 
 static size_t guided_memory_bytes(const void *state) {
     const guided_state *st = state;
-    return st->grid.bytes + st->grid.src_bytes + st->env.bytes;
+    return st->grid.bytes + st->grid.src_bytes + st->env.bytes + sizeof *st->env_slots * (size_t)st->env_slots_cap;
 }
 
 const volux_technique_class volux_guided_class = {

@@ -97,9 +97,11 @@ typedef struct guided_state {
     int strategy;       /* guided_strategy                                */
     int mis;            /* combine with phase sampling (power heuristic)  */
     int guide_depth;    /* scattering events guided (0 = all)             */
+    float continuation; /* α: continuation drawn from the event's density  */
     int rr_depth;
     float epsilon;      /* ε added to V before the product (§6)           */
-    int env_res;
+    int env_res_param;  /* env_resolution as set (0: auto)                */
+    int env_res;        /* M of the environment quadtree built            */
     int dir_levels;     /* log2 N                                         */
     guided_vis_params vis;
     /* caches */
@@ -108,7 +110,8 @@ typedef struct guided_state {
     uint64_t seq_id;    /* sequence the grid's sources refer to (0: none) */
     guided_env env;
     int env_built;
-    uint64_t env_slot_bits[VOLUX_MAX_LIGHTS / 64]; /* slots in `env`       */
+    int *env_slots;      /* the environment lights' slots in `env`     */
+    int n_env_slots, env_slots_cap;
     int n_env;          /* enabled environment lights                     */
     /* work done by updates so far (tests and benchmarks check that an edit
      * does the least work) */

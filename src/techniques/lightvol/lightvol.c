@@ -172,9 +172,10 @@ static volux_status lightvol_update(void *state, const volux_scene *scene, const
         volux_gradient_cache_free(ctx, &st->grad);
         if ((s = volux_volume_build_bricks(rc->volume))) return s;
     }
-    if (w & VOLUX_CHANGE_LIGHTS) /* no sweep direction to propagate an environment along (docs) */
-        volux_raycaster_warn_unused_lights(rc, 1u << VOLUX_LIGHT_ENVIRONMENT,
-                                           "environment lights are not propagated through the illumination volume");
+    if ((w & VOLUX_CHANGE_LIGHTS) && /* no sweep direction to propagate an environment along (docs) */
+        (s = volux_raycaster_warn_unused_lights(rc, 1u << VOLUX_LIGHT_ENVIRONMENT,
+                                                "environment lights are not propagated through the illumination volume")))
+        return s;
     if (w & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY | VOLUX_CHANGE_COLOR |
              VOLUX_CHANGE_ALBEDO))
         medium = 1;
@@ -243,12 +244,16 @@ static void lightvol_release(void *state) {
     volux_lightvol_free_buffers(st);
     volux_lightvol_drop_job(st);
     volux_gradient_cache_free(st->rc.ctx, &st->grad);
+    volux_free(st->rc.ctx, st->applied, sizeof *st->applied * (size_t)st->applied_cap);
+    st->applied = NULL;
+    st->applied_cap = 0;
 }
 
 static size_t lightvol_memory_bytes(const void *state) {
     const lightvol_state *st = state;
     return st->vol_bytes + st->medium_bytes + volux_lightvol_scratch_bytes(st) + st->grad.bytes +
-           st->job.items_bytes + st->job.passes_bytes + st->job.idx_bytes;
+           st->job.items_bytes + st->job.passes_bytes + st->job.idx_bytes +
+           sizeof *st->applied * (size_t)st->applied_cap;
 }
 
 /* ---------------------------------------------------------------- kernel */

@@ -277,7 +277,8 @@ typedef struct lightvol_state {
     int rows_threads;
     size_t row_stride;
 
-    lv_applied applied[VOLUX_MAX_LIGHTS];
+    lv_applied *applied;           /* per light slot [applied_cap]          */
+    int applied_cap;
     int valid;                     /* the volume matches `applied` once the
                                       job (if any) has run                 */
     lv_job job;
