@@ -29,8 +29,9 @@
 /* What an update from `from` (the applied state) to the scene's lights
  * needs: the next state, the items, and selective or entire. */
 typedef struct lv_decision {
-    lv_applied *next;     /* VOLUX_MAX_LIGHTS                              */
-    lv_item *items;       /* 3·VOLUX_MAX_LIGHTS: the changes, then the full setup */
+    int slots;            /* max(applied slots, the scene's slots)         */
+    lv_applied *next;     /* [slots]                                       */
+    lv_item *items;       /* [3·slots]: the changes, then the full setup   */
     int n, nf, changed, total, selective, ps, pf;
     double ws, wf;
     const char *reason;
@@ -41,8 +42,9 @@ typedef struct lv_decision {
 static void decide(const lightvol_state *st, const volux_scene *scene, const volux_change_set *c, int force_full,
                    const char *reason, int selective_since_full, lv_decision *d) {
     int n = 0, changed = 0, before = 0, after = 0;
-    for (int slot = 0; slot < VOLUX_MAX_LIGHTS; slot++) {
-        const lv_applied *o = &st->applied[slot];
+    static const lv_applied none; /* a slot past `applied`: never active */
+    for (int slot = 0; slot < d->slots; slot++) {
+        const lv_applied *o = slot < st->applied_cap ? &st->applied[slot] : &none;
         lv_applied *w = &d->next[slot];
         if (force_full || !c || volux_change_light(c, slot)) {
             memset(w, 0, sizeof *w);
@@ -67,8 +69,8 @@ static void decide(const lightvol_state *st, const volux_scene *scene, const vol
     d->total = before > after ? before : after;
     /* The full setup, for the cost estimate and a rebuild. */
     int nf = 0;
-    lv_item *full_items = d->items + 2 * VOLUX_MAX_LIGHTS; /* after ≤ 2 items per slot */
-    for (int slot = 0; slot < VOLUX_MAX_LIGHTS; slot++)
+    lv_item *full_items = d->items + 2 * (size_t)d->slots; /* after ≤ 2 items per slot */
+    for (int slot = 0; slot < d->slots; slot++)
         if (d->next[slot].active) full_items[nf++] = (lv_item){d->next[slot].src, +1.0f, slot};
     d->nf = nf;
     d->selective = 0;
@@ -104,7 +106,7 @@ static void decide(const lightvol_state *st, const volux_scene *scene, const vol
 
 /* Slice steps of the plan a decision makes. */
 static uint64_t decision_steps(const lightvol_state *st, const lv_decision *d, lv_pass *passes, int *idx) {
-    const lv_item *items = d->selective ? d->items : d->items + 2 * VOLUX_MAX_LIGHTS;
+    const lv_item *items = d->selective ? d->items : d->items + 2 * (size_t)d->slots;
     int np = volux_lightvol_plan(items, d->selective ? d->n : d->nf, st->p.coherent, st->p.max_per_pass, passes, idx);
     uint64_t steps = 0;
     for (int i = 0; i < np; i++) steps += (uint64_t)volux_lightvol_pass_steps(st, &passes[i]);
@@ -135,7 +137,7 @@ uint64_t volux_lightvol_pending(const lightvol_state *st) { return st->job.left 
 static volux_status start_job(lightvol_state *st, const lv_decision *d) {
     volux_context *ctx = st->rc.ctx;
     lv_job *j = &st->job;
-    const lv_item *src = d->selective ? d->items : d->items + 2 * VOLUX_MAX_LIGHTS;
+    const lv_item *src = d->selective ? d->items : d->items + 2 * (size_t)d->slots;
     int n = d->selective ? d->n : d->nf;
     int np = volux_lightvol_plan(src, n, st->p.coherent, st->p.max_per_pass, NULL, NULL);
     lv_job nj;
@@ -151,6 +153,9 @@ static volux_status start_job(lightvol_state *st, const lv_decision *d) {
         s = volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for the pass plan");
         goto fail;
     }
+    if ((s = volux_grow_slots(ctx, &st->applied, &st->applied_cap, d->slots, sizeof *st->applied,
+                              "lightvol: the applied lights")))
+        goto fail;
     memcpy(nj.items, src, (size_t)n * sizeof(lv_item));
     volux_lightvol_plan(nj.items, n, st->p.coherent, st->p.max_per_pass, nj.passes, nj.idx);
     int most = 0;
@@ -170,7 +175,7 @@ static volux_status start_job(lightvol_state *st, const lv_decision *d) {
         free_job_arrays(ctx, j);
         if (nj.full) memset(st->vol, 0, st->vol_bytes); /* no light: the entire update is zero */
     }
-    memcpy(st->applied, d->next, (size_t)VOLUX_MAX_LIGHTS * sizeof(lv_applied));
+    if (d->slots > 0) memcpy(st->applied, d->next, (size_t)d->slots * sizeof(lv_applied));
     st->valid = 1;
     st->stats.changed = d->changed;
     st->stats.total = d->total;
@@ -217,11 +222,14 @@ static volux_status run_job(lightvol_state *st, int *did) {
     size_t ebytes = (size_t)(most > 0 ? most : 1) * sizeof(lv_entry);
     lv_entry *E = volux_malloc(ctx, ebytes);
     if (!E) return volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for the pass entries");
-    const int by_slices = st->p.budget_slices > 0, by_ms = !by_slices && st->p.budget_ms > 0.0f;
+    int budget_slices;
+    double budget_ms;
+    lv_budget(st, &budget_slices, &budget_ms);
+    const int by_slices = budget_slices > 0, by_ms = budget_ms > 0.0;
     /* budget_ms: modelled work allowed at the measured rate (none measured
      * yet: one step at a time until there is) */
-    double work_left = by_ms && j->ms_per_work > 0.0 ? (double)st->p.budget_ms / j->ms_per_work : 0.0;
-    long steps_left = by_slices ? st->p.budget_slices : -1;
+    double work_left = by_ms && j->ms_per_work > 0.0 ? budget_ms / j->ms_per_work : 0.0;
+    long steps_left = by_slices ? budget_slices : -1;
     volux_status s = VOLUX_OK;
     int first = 1;
     while (j->pass < j->np) {
@@ -269,22 +277,29 @@ static volux_status run_job(lightvol_state *st, int *did) {
     return s;
 }
 
-/* Allocates the decision's arrays. */
-static volux_status decision_alloc(volux_context *ctx, lv_decision *d) {
+/* Allocates the decision's arrays for the slots of `applied` and of the
+ * scene. */
+static volux_status decision_alloc(volux_context *ctx, const lightvol_state *st, const volux_scene *scene,
+                                   lv_decision *d) {
     memset(d, 0, sizeof *d);
-    d->items = volux_malloc(ctx, (size_t)VOLUX_MAX_LIGHTS * 3 * sizeof(lv_item));
-    d->next = volux_malloc(ctx, (size_t)VOLUX_MAX_LIGHTS * sizeof(lv_applied));
+    int slots = volux_scene_light_slots(scene);
+    d->slots = st->applied_cap > slots ? st->applied_cap : slots;
+    size_t n = d->slots > 0 ? (size_t)d->slots : 1;
+    d->items = volux_malloc(ctx, n * 3 * sizeof(lv_item));
+    d->next = volux_malloc(ctx, n * sizeof(lv_applied));
     if (!d->items || !d->next) {
-        volux_free(ctx, d->items, d->items ? (size_t)VOLUX_MAX_LIGHTS * 3 * sizeof(lv_item) : 0);
-        volux_free(ctx, d->next, d->next ? (size_t)VOLUX_MAX_LIGHTS * sizeof(lv_applied) : 0);
-        return volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for the light update");
+        volux_free(ctx, d->items, d->items ? n * 3 * sizeof(lv_item) : 0);
+        volux_free(ctx, d->next, d->next ? n * sizeof(lv_applied) : 0);
+        d->items = NULL, d->next = NULL;
+        return volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for the light update (%d slots)", d->slots);
     }
     return VOLUX_OK;
 }
 
 static void decision_free(volux_context *ctx, lv_decision *d) {
-    volux_free(ctx, d->items, (size_t)VOLUX_MAX_LIGHTS * 3 * sizeof(lv_item));
-    volux_free(ctx, d->next, (size_t)VOLUX_MAX_LIGHTS * sizeof(lv_applied));
+    size_t n = d->slots > 0 ? (size_t)d->slots : 1;
+    volux_free(ctx, d->items, n * 3 * sizeof(lv_item));
+    volux_free(ctx, d->next, n * sizeof(lv_applied));
 }
 
 /* The size of the plan that would follow the current job (0 if the scene's
@@ -292,10 +307,11 @@ static void decision_free(volux_context *ctx, lv_decision *d) {
 static volux_status measure_queue(lightvol_state *st, const volux_scene *scene) {
     volux_context *ctx = st->rc.ctx;
     lv_decision d;
-    volux_status s = decision_alloc(ctx, &d);
+    volux_status s = decision_alloc(ctx, st, scene, &d);
     if (s) return s;
-    lv_pass *passes = volux_malloc(ctx, (size_t)VOLUX_MAX_LIGHTS * 2 * LV_GROUPS * sizeof(lv_pass));
-    int *idx = volux_malloc(ctx, (size_t)VOLUX_MAX_LIGHTS * 2 * LV_GROUPS * sizeof(int));
+    const size_t most = (d.slots > 0 ? (size_t)d.slots : 1) * 2 * LV_GROUPS; /* ≤ 2 items per slot */
+    lv_pass *passes = volux_malloc(ctx, most * sizeof(lv_pass));
+    int *idx = volux_malloc(ctx, most * sizeof(int));
     if (!passes || !idx) {
         s = volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for the light update");
     } else {
@@ -303,8 +319,8 @@ static volux_status measure_queue(lightvol_state *st, const volux_scene *scene) 
         st->job.queued = d.changed ? decision_steps(st, &d, passes, idx) : 0;
         if (d.changed && st->job.queued == 0) st->job.queued = 1; /* a change with nothing to propagate */
     }
-    volux_free(ctx, passes, passes ? (size_t)VOLUX_MAX_LIGHTS * 2 * LV_GROUPS * sizeof(lv_pass) : 0);
-    volux_free(ctx, idx, idx ? (size_t)VOLUX_MAX_LIGHTS * 2 * LV_GROUPS * sizeof(int) : 0);
+    volux_free(ctx, passes, passes ? most * sizeof(lv_pass) : 0);
+    volux_free(ctx, idx, idx ? most * sizeof(int) : 0);
     decision_free(ctx, &d);
     return s;
 }
@@ -315,7 +331,7 @@ static volux_status start_update(lightvol_state *st, const volux_scene *scene, c
                                  int force_full, const char *reason) {
     volux_context *ctx = st->rc.ctx;
     lv_decision d;
-    volux_status s = decision_alloc(ctx, &d);
+    volux_status s = decision_alloc(ctx, st, scene, &d);
     if (s) return s;
     decide(st, scene, c, force_full, reason, st->stats.selective_since_full, &d);
     st->stats.changed = d.changed;
@@ -347,7 +363,9 @@ volux_status volux_lightvol_continue(lightvol_state *st, const volux_scene *scen
 
 volux_status volux_lightvol_update_lights(lightvol_state *st, const volux_scene *scene, const volux_change_set *c,
                                           int force_full, const char *reason) {
-    const int budget = st->p.budget_slices > 0 || st->p.budget_ms > 0.0f;
+    int budget_slices;
+    double budget_ms;
+    const int budget = lv_budget(st, &budget_slices, &budget_ms);
     int did = 0;
     volux_status s;
     if (!st->valid) force_full = 1, reason = reason ? reason : "illumination volume invalid";
