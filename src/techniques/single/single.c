@@ -109,34 +109,14 @@ static volux_status build_cache(single_state *st, const volux_prepared_light *l)
 
 /* ------------------------------------------------------------------ environment */
 
-/* Point i of the Fibonacci set of n points on the unit sphere (equal-area
- * bands in z, golden-angle steps in φ: near-uniform, deterministic). */
-static volux_vec3 fibonacci_dir(int i, int n) {
-    const double golden = 2.39996322972865332; /* π(3 − √5) */
-    double z = 1.0 - (2.0 * i + 1.0) / n, r = sqrt(fmax(0.0, 1.0 - z * z)), phi = golden * i;
-    return v3((float)(r * cos(phi)), (float)z, (float)(r * sin(phi)));
-}
-
-/* Index of the direction of `from` (K unit vectors) nearest to d. */
-static int nearest_dir(const volux_vec3 *from, int K, volux_vec3 d) {
-    int best = 0;
-    float best_dot = -2.0f;
-    for (int k = 0; k < K; k++) {
-        float c = v3_dot(d, from[k]);
-        if (c > best_dot) best_dot = c, best = k;
-    }
-    return best;
-}
-
 /* The environment as n_env_dirs directional lights: direction k is point k
  * of a Fibonacci set; its irradiance is the environments' radiance
  * integrated over its cell (the directions nearer to it than to any
- * other). A map is integrated texel by texel (solid angle
- * (2π/W)(π/H)·sin θ each), so its energy is kept exactly — a sun lands in
- * its nearest direction instead of falling between point samples (on the
- * Venice sunset map the images barely changed: that map's sun is wide);
- * a constant environment uses 64 finer Fibonacci points per direction
- * (≈ L·4π/K each). Light travels opposite to the direction it comes from. */
+ * other; volux_environment_cells, shared with `lightvol`): a map texel by
+ * texel, so its energy is kept exactly — a sun lands in its nearest
+ * direction instead of falling between point samples (on the Venice sunset
+ * map the images barely changed: that map's sun is wide). Light travels
+ * opposite to the direction it comes from. */
 static void env_prepare(single_state *st) {
     const volux_light_list *ls = &st->b.rc.lights;
     int K = st->n_env_dirs;
@@ -144,40 +124,12 @@ static void env_prepare(single_state *st) {
     if (!st->env_active) return;
     volux_vec3 from[SINGLE_MAX_ENV_DIRS];
     for (int k = 0; k < K; k++) {
-        from[k] = fibonacci_dir(k, K);
+        from[k] = volux_fibonacci_dir(k, K);
         st->env_travel[k] = v3_scale(from[k], -1.0f);
         st->env_E[k] = v3(0, 0, 0);
     }
-    for (int e = 0; e < ls->n_all; e++) {
-        const volux_prepared_light *l = &ls->all[e];
-        if (l->type != VOLUX_LIGHT_ENVIRONMENT) continue;
-        const volux_light_desc *d = l->desc;
-        if (!d->map) {
-            int N = 64 * K;
-            float w = (float)(4.0 * 3.14159265358979323846 / N);
-            for (int i = 0; i < N; i++) {
-                volux_vec3 dir = fibonacci_dir(i, N);
-                int k = nearest_dir(from, K, dir);
-                st->env_E[k] = v3_madd(st->env_E[k], volux_environment_radiance(d, dir), w);
-            }
-            continue;
-        }
-        const volux_image *m = d->map;
-        volux_vec3 scale = v3_scale(d->color, d->intensity);
-        double dtheta = 3.14159265358979323846 / m->height, dphi = 2.0 * 3.14159265358979323846 / m->width;
-        for (int j = 0; j < m->height; j++) {
-            float v = ((float)j + 0.5f) / (float)m->height;
-            float w = (float)(dphi * dtheta * sin(((double)j + 0.5) * dtheta));
-            for (int i = 0; i < m->width; i++) {
-                const float *t = &m->rgb[3 * ((size_t)j * (size_t)m->width + (size_t)i)];
-                volux_vec3 L = v3(fmaxf(t[0], 0.0f), fmaxf(t[1], 0.0f), fmaxf(t[2], 0.0f));
-                if (L.x <= 0.0f && L.y <= 0.0f && L.z <= 0.0f) continue;
-                volux_vec3 dir = volux_environment_direction(d, ((float)i + 0.5f) / (float)m->width, v);
-                int k = nearest_dir(from, K, dir);
-                st->env_E[k] = v3_madd(st->env_E[k], v3_mul(L, scale), w);
-            }
-        }
-    }
+    for (int e = 0; e < ls->n_all; e++)
+        if (ls->all[e].type == VOLUX_LIGHT_ENVIRONMENT) volux_environment_cells(ls->all[e].desc, K, from, st->env_E);
 }
 
 /* Environment transmittance caches (resolution: half cache_scale; the
