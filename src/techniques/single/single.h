@@ -17,6 +17,7 @@ typedef struct single_state {
     int use_cache;
     float cache_scale;
     float shadow_step;                      /* world units */
+    float near_field;                       /* cache cells marched before the cache is read */
     scatter_grid cache[VOLUX_MAX_LIGHTS];   /* per scene slot */
     uint64_t cache_builds[VOLUX_MAX_LIGHTS];
     /* environment lights: n_env_dirs directions, each a shadowed directional
