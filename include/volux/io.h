@@ -1,9 +1,10 @@
 /*
  * volux/io.h — files ⇄ core objects.
  *
- * Volumes: NRRD (.nrrd attached, .nhdr detached; raw and gzip encodings),
- * MetaImage (.mhd/.mha), NIfTI-1 (.nii, .nii.gz), raw with an explicit
- * description, and procedural volumes by name. Every reader validates the
+ * Volumes: NRRD (.nrrd attached, .nhdr detached; raw and gzip encodings;
+ * slice stacks by LIST or pattern), MetaImage (.mhd/.mha), NIfTI-1 and
+ * NIfTI-2 (.nii, .nii.gz, .hdr/.img), VTK XML ImageData (.vti), raw with
+ * an explicit description, and procedural volumes by name. Every reader validates the
  * header with checked arithmetic against the bytes actually present, and
  * against the context's max_bytes, before it allocates.
  *
@@ -75,8 +76,16 @@ typedef struct volux_volume_load_options {
     const volux_volume_region *region;
 } volux_volume_load_options;
 
-/* Loads a volume file, choosing the reader by extension (.nrrd .nhdr .mhd
- * .mha .nii .nii.gz .raw). options may be NULL. Errors name the file and
+/* The file-name extensions volux_volume_load recognises by themselves (raw
+ * files, ".raw", need a description), as one string for help texts and
+ * messages. */
+#define VOLUX_VOLUME_EXTENSIONS ".nrrd .nhdr .mhd .mha .nii .nii.gz .hdr .vti"
+
+/* 1 if path ends (case-insensitively) in one of VOLUX_VOLUME_EXTENSIONS. */
+VOLUX_API int volux_volume_path_is_known(const char *path);
+
+/* Loads a volume file, choosing the reader by extension (VOLUX_VOLUME_EXTENSIONS,
+ * or .raw with a description; otherwise by the first bytes). options may be NULL. Errors name the file and
  * the problem; VOLUX_ERR_IO when missing/unreadable, VOLUX_ERR_FORMAT when
  * malformed, VOLUX_ERR_UNSUPPORTED, VOLUX_ERR_LIMIT. Caller releases. */
 VOLUX_API volux_status volux_volume_load(volux_context *ctx, const char *path,
@@ -120,6 +129,11 @@ VOLUX_API volux_status volux_sequence_load_files(volux_context *ctx, const char 
 VOLUX_API volux_status volux_sequence_load_pattern(volux_context *ctx, const char *pattern, int first, int last,
                                                    int stride, const volux_volume_load_options *options,
                                                    uint64_t cache_bytes, volux_sequence **out);
+/* How many step-number conversions (%d, %Nd, %0Nd with N ≤ 9) `pattern`
+ * holds — volux_sequence_load_pattern needs exactly 1 — or −1 when it
+ * holds any other '%' than those and "%%" (such a name must never reach
+ * printf). Also for numbered output names (`volux render --all-steps`). */
+VOLUX_API int volux_sequence_pattern_conversions(const char *pattern);
 VOLUX_API volux_status volux_sequence_procedural(volux_context *ctx, const char *name, const int dims[3],
                                                  uint64_t seed, double time0, double time_per_step, int steps,
                                                  uint64_t cache_bytes, volux_sequence **out);

@@ -54,6 +54,10 @@ typedef struct volux_technique_info {
 VOLUX_API int volux_technique_count(void);
 VOLUX_API const volux_technique_info *volux_technique_info_at(int index);  /* NULL past the end */
 VOLUX_API const volux_technique_info *volux_technique_info_find(const char *name); /* NULL if unknown */
+/* For "did you mean": the registered name closest to a misspelt `name`
+ * (a few letters off, or a prefix such as "path"), NULL when none is
+ * close. Static string. */
+VOLUX_API const char *volux_technique_closest(const char *name);
 
 /* Checks every "techniques" parameter stored in the scene against the
  * registered techniques: unknown technique or parameter, wrong kind, out

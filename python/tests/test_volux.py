@@ -179,6 +179,22 @@ class Errors(unittest.TestCase):
             volux.compare(np.zeros((4, 4, 3)), np.zeros((4, 5, 3)))
         self.assertEqual(volux.compare(before, before)["max_abs"], 0.0)
 
+    def test_load_options_reach_the_reader(self):
+        import tempfile
+        data = np.arange(27, dtype=np.float32).reshape(3, 3, 3)
+        data[1, 2, 0] = np.nan
+        with tempfile.TemporaryDirectory() as d:
+            path = os.path.join(d, "nan.nrrd")
+            with open(path, "wb") as f:
+                f.write(b"NRRD0004\ntype: float\ndimension: 3\nsizes: 3 3 3\nendian: little\nencoding: raw\n\n")
+                f.write(data.astype("<f4").tobytes())
+            with self.assertRaises(volux.Error) as e:
+                volux.Volume.load(path)
+            self.assertEqual(e.exception.status, "format")
+            self.assertIn("nan.nrrd", str(e.exception))
+            lo, hi = volux.Volume.load(path, allow_nonfinite=True).range
+            self.assertEqual((lo, hi), (0.0, 26.0))  # the NaN became the lowest value
+
 
 class Resources(unittest.TestCase):
     def test_no_leak_across_1000_renders(self):

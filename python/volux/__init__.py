@@ -173,9 +173,18 @@ class Volume:
             raise
 
     @classmethod
-    def load(cls, path):
-        """Reads a volume file (.nrrd .nhdr .mhd .mha .nii .nii.gz)."""
-        return _new_volume(lambda ctx, out: _lib.volux_volume_load(ctx, os.fsencode(path), None, out))
+    def load(cls, path, *, use_file_origin=False, allow_outside_dir=False, data_root=None, allow_nonfinite=False):
+        """Reads a volume file (.nrrd .nhdr .mhd .mha .nii .nii.gz .hdr .vti).
+
+        use_file_origin: place it at the header's origin (else centred);
+        allow_outside_dir: a detached header's data file may lie outside the
+        header's folder; data_root: detached data must also lie in this
+        folder; allow_nonfinite: NaN/Inf values become the lowest value with
+        a warning (else the load fails naming the count and first voxel)."""
+        opt = _capi.LoadOptions(None, int(bool(use_file_origin)), int(bool(allow_outside_dir)),
+                                os.fsencode(data_root) if data_root is not None else None,
+                                int(bool(allow_nonfinite)), None)
+        return _new_volume(lambda ctx, out: _lib.volux_volume_load(ctx, os.fsencode(path), ctypes.byref(opt), out))
 
     @classmethod
     def procedural(cls, name, dims, seed=1):

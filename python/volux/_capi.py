@@ -33,6 +33,11 @@ class VolumeMemoryDesc(ctypes.Structure):
                 ("release", RELEASE_FN), ("release_user", c_void_p)]
 
 
+class LoadOptions(ctypes.Structure):  # volux_volume_load_options (raw and region: not exposed, NULL)
+    _fields_ = [("raw", c_void_p), ("use_file_origin", c_int), ("allow_outside_dir", c_int), ("data_root", c_char_p),
+                ("allow_nonfinite", c_int), ("region", c_void_p)]
+
+
 class RenderSettings(ctypes.Structure):
     _fields_ = [("width", c_int), ("height", c_int), ("spp", c_int), ("step", c_float), ("seed", c_uint64),
                 ("max_depth", c_int), ("exposure", c_float), ("threads", c_int), ("time_ms", c_double),
@@ -76,7 +81,7 @@ _SIGNATURES = {
     "volux_context_set_progress": (None, [c_void_p, PROGRESS_FN, c_void_p]),
     "volux_context_bytes_in_use": (c_uint64, [c_void_p]),
     "volux_volume_from_memory": (c_int, [c_void_p, P(VolumeMemoryDesc), P(c_void_p)]),
-    "volux_volume_load": (c_int, [c_void_p, c_char_p, c_void_p, P(c_void_p)]),
+    "volux_volume_load": (c_int, [c_void_p, c_char_p, P(LoadOptions), P(c_void_p)]),
     "volux_volume_procedural": (c_int, [c_void_p, c_char_p, P(c_int * 3), c_uint64, P(c_void_p)]),
     "volux_volume_release": (None, [c_void_p]),
     "volux_volume_dims": (None, [c_void_p, P(c_int * 3)]),

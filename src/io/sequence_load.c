@@ -112,10 +112,7 @@ volux_status volux_sequence_load_files(volux_context *ctx, const char *const *pa
     return make_file_sequence(ctx, f, paths[0], cache_bytes, out);
 }
 
-/* Checks that `pattern` holds exactly one integer conversion of the form
- * %d, %Nd or %0Nd (N ≤ 9), and otherwise only literal text and "%%". The
- * pattern comes from a scene file, so nothing else may reach snprintf. */
-static int valid_pattern(const char *pattern) {
+int volux_sequence_pattern_conversions(const char *pattern) {
     int conversions = 0;
     for (const char *p = pattern; *p; p++) {
         if (*p != '%') continue;
@@ -126,17 +123,17 @@ static int valid_pattern(const char *pattern) {
         const char *q = p + 1;
         if (*q == '0') q++;
         if (*q >= '1' && *q <= '9') q++;
-        if (*q != 'd') return 0;
+        if (*q != 'd') return -1;
         conversions++;
         p = q;
     }
-    return conversions == 1;
+    return conversions;
 }
 
 volux_status volux_sequence_load_pattern(volux_context *ctx, const char *pattern, int first, int last, int stride,
                                          const volux_volume_load_options *options, uint64_t cache_bytes,
                                          volux_sequence **out) {
-    if (!pattern || !valid_pattern(pattern))
+    if (!pattern || volux_sequence_pattern_conversions(pattern) != 1)
         return volux_error(ctx, VOLUX_ERR_INVALID,
                            "pattern '%s' must hold exactly one integer conversion (%%d, %%3d or %%03d; %%%% for a "
                            "literal %%)",

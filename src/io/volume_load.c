@@ -31,6 +31,11 @@ static kind kind_from_extension(const char *path) {
     return K_UNKNOWN;
 }
 
+int volux_volume_path_is_known(const char *path) {
+    kind k = path ? kind_from_extension(path) : K_UNKNOWN;
+    return k != K_UNKNOWN && k != K_RAW;
+}
+
 /* For unknown extensions: recognise a format by its first bytes. */
 static kind kind_from_bytes(const unsigned char *b, size_t n) {
     if (n >= 7 && memcmp(b, "NRRD000", 7) == 0) return K_NRRD;
@@ -336,7 +341,7 @@ static volux_status open_volume(volux_context *ctx, const char *path, volux_sour
             k = kind_from_bytes(b, got);
             if (k == K_UNKNOWN)
                 st = volux_error(ctx, VOLUX_ERR_UNSUPPORTED,
-                                 "%s: unknown volume format (expected .nrrd .nhdr .mhd .mha .nii .nii.gz .hdr .vti, or .raw "
+                                 "%s: unknown volume format (expected " VOLUX_VOLUME_EXTENSIONS ", or .raw "
                                  "with a description)",
                                  path);
         }
@@ -369,7 +374,7 @@ volux_status volux_volume_load(volux_context *ctx, const char *path, const volux
         volux_source_close(&src);
         return st;
     }
-    kind k;
+    kind k = K_UNKNOWN; /* set by open_volume on success */
     if ((st = open_volume(ctx, path, &src, &k))) return st;
     st = load_from(ctx, k, &src, 0, options, out);
     volux_source_close(&src);
@@ -388,7 +393,7 @@ volux_status volux_volume_probe(volux_context *ctx, const char *path, const volu
         volux_source_close(&src);
     } else {
         volux_source src;
-        kind k;
+        kind k = K_UNKNOWN;
         if ((st = open_volume(ctx, path, &src, &k))) return st;
         st = parse_header(ctx, k, &src, &h);
         volux_source_close(&src);

@@ -53,19 +53,31 @@ static int edit_distance(const char *a, const char *b) {
     return row[m];
 }
 
+void volux_name_guess_try(volux_name_guess *g, const char *name, const char *candidate) {
+    size_t len = strlen(name);
+    int d = !strcmp(candidate, name)                   ? 0
+            : len >= 2 && !strncmp(candidate, name, len) ? 1
+                                                         : edit_distance(name, candidate);
+    if (!g->best || d < g->distance) g->best = candidate, g->distance = d;
+}
+
+const char *volux_name_guess_best(const volux_name_guess *g, const char *name) {
+    int len = (int)strlen(name);
+    return len > 0 && g->best && g->distance <= (len < 6 ? 2 : len / 3 + 1) ? g->best : NULL;
+}
+
 /* The message for a parameter name the technique does not have: the
  * nearest name when one is close (a typo), and every valid name. */
 static volux_status unknown_param(volux_context *ctx, const volux_technique_info *info, const char *name) {
     char list[1024] = "", guess[96] = "";
-    const char *best = NULL;
-    int best_d = 99, len = (int)strlen(name);
+    volux_name_guess g = {0};
     for (const volux_param_info *p = info->params; p && p->name; p++) {
         size_t w = strlen(list);
         snprintf(list + w, sizeof list - w, "%s%s", w ? ", " : "", p->name);
-        int d = edit_distance(name, p->name);
-        if (d < best_d) best_d = d, best = p->name;
+        volux_name_guess_try(&g, name, p->name);
     }
-    if (best && best_d <= (len < 6 ? 2 : len / 3 + 1)) snprintf(guess, sizeof guess, "did you mean '%s'? ", best);
+    const char *best = volux_name_guess_best(&g, name);
+    if (best) snprintf(guess, sizeof guess, "did you mean '%s'? ", best);
     if (!*list)
         return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.%s.%s: unknown parameter (%s has none)", info->name,
                            name, info->name);

@@ -41,12 +41,23 @@ const volux_technique_info *volux_technique_info_find(const char *name) {
     return cls ? &cls->info : NULL;
 }
 
+const char *volux_technique_closest(const char *name) {
+    if (!name) return NULL;
+    volux_name_guess g = {0};
+    for (int i = 0; i < volux_technique_count(); i++) volux_name_guess_try(&g, name, classes[i]->info.name);
+    return volux_name_guess_best(&g, name);
+}
+
 volux_status volux_technique_validate_params(volux_context *ctx, const volux_scene *scene) {
     const char *tech, *name, *string;
     double number;
     for (int i = 0; volux_scene_param_at(scene, i, &tech, &name, &number, &string); i++) {
         const volux_technique_class *cls = volux_technique_class_find(tech);
-        if (!cls) return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.%s: unknown technique", tech);
+        if (!cls) {
+            const char *guess = volux_technique_closest(tech);
+            return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.%s: unknown technique%s%s%s", tech,
+                               guess ? " (did you mean '" : "", guess ? guess : "", guess ? "'?)" : "");
+        }
         volux_status st = volux_technique_check_param(ctx, &cls->info, name, number, string);
         if (st) return st;
     }
@@ -56,7 +67,11 @@ volux_status volux_technique_validate_params(volux_context *ctx, const volux_sce
 volux_status volux_technique_create(volux_context *ctx, const char *name, const volux_scene *scene,
                                     volux_technique **out) {
     const volux_technique_class *cls = volux_technique_class_find(name);
-    if (!cls) return volux_error(ctx, VOLUX_ERR_INVALID, "render.technique: unknown technique '%s'", name);
+    if (!cls) {
+        const char *guess = volux_technique_closest(name);
+        return volux_error(ctx, VOLUX_ERR_INVALID, "render.technique: unknown technique '%s'%s%s%s", name,
+                           guess ? " (did you mean '" : "", guess ? guess : "", guess ? "'?)" : "");
+    }
     volux_status st = volux_technique_validate_params(ctx, scene);
     return st ? st : volux_technique_create_class(ctx, cls, scene, out);
 }

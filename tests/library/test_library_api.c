@@ -31,6 +31,34 @@ static void test_version(void **state) {
     assert_string_equal(buf, VOLUX_VERSION);
 }
 
+/* "Did you mean" for technique names: typos and prefixes find the
+ * registered name, unrelated words and empty names find none, and the
+ * library's own message for an unknown technique carries the guess. */
+static void test_technique_closest(void **state) {
+    (void)state;
+    assert_string_equal(volux_technique_closest("pathtrac"), "pathtrace");
+    assert_string_equal(volux_technique_closest("pathtracer"), "pathtrace");
+    assert_string_equal(volux_technique_closest("path"), "pathtrace");
+    assert_string_equal(volux_technique_closest("lightvolume"), "lightvol");
+    assert_string_equal(volux_technique_closest("ambeint"), "ambient");
+    assert_null(volux_technique_closest("xylophone"));
+    assert_null(volux_technique_closest(""));
+    assert_null(volux_technique_closest(NULL));
+    for (int i = 0; i < volux_technique_count(); i++) {
+        const char *name = volux_technique_info_at(i)->name;
+        assert_string_equal(volux_technique_closest(name), name);
+    }
+
+    volux_context *ctx = tu_context(1);
+    volux_scene *scene;
+    assert_int_equal(volux_scene_load_string(ctx, SCENE_JSON, NULL, "t.json", NULL, 0, &scene), VOLUX_OK);
+    volux_technique *t = NULL;
+    assert_int_equal(volux_technique_create(ctx, "ambeint", scene, &t), VOLUX_ERR_INVALID);
+    assert_non_null(strstr(volux_context_error(ctx), "did you mean 'ambient'?"));
+    volux_scene_destroy(scene);
+    volux_context_destroy(ctx);
+}
+
 /* A field with a distinct value per node: f(i,j,k) = i + 10 j + 100 k. */
 static float field_value(int i, int j, int k) { return (float)(i + 10 * j + 100 * k); }
 
@@ -342,6 +370,7 @@ static void test_two_threads_equal_serial(void **state) {
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_version),
+        cmocka_unit_test(test_technique_closest),
         cmocka_unit_test(test_copy_strided),
         cmocka_unit_test(test_borrow),
         cmocka_unit_test(test_memory_refusals),

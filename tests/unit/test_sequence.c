@@ -441,6 +441,12 @@ static void test_cli_renders_one_or_all_steps(void **state) {
     snprintf(args, sizeof args, "render '%s' -o '%s' --all-steps", scene, tu_temp_path("x%s.png"));
     assert_int_equal(tu_run_cli(args, &err), 2);
     assert_false(exists(tu_temp_path("x.png")));
+    snprintf(args, sizeof args, "render '%s' -o '%s' --all-steps", scene, tu_temp_path("x%d_%d.png"));
+    assert_int_equal(tu_run_cli(args, &err), 2);
+    if (!strstr(err, "holds one %d")) fail_msg("%s", err);
+    snprintf(args, sizeof args, "render '%s' -o '%s'", scene, tu_temp_path("x%d.png"));
+    assert_int_equal(tu_run_cli(args, &err), 2);
+    if (!strstr(err, "needs --all-steps")) fail_msg("%s", err);
     /* frames whose headers disagree: exit 2 naming the file */
     const char *h0 = "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 4 4 4\nencoding: raw\n\n";
     const char *h1 = "NRRD0004\ntype: uint16\ndimension: 3\nsizes: 4 4 4\nendian: little\nencoding: raw\n\n";
@@ -456,8 +462,25 @@ static void test_cli_renders_one_or_all_steps(void **state) {
     assert_false(exists(tu_temp_path("bad_0000.png")));
 }
 
+/* The step-number check both the pattern loader and numbered outputs use:
+ * only %d, %Nd and %0Nd count, "%%" is literal, anything else is refused. */
+static void test_pattern_conversions(void **state) {
+    (void)state;
+    assert_int_equal(volux_sequence_pattern_conversions("t.nhdr"), 0);
+    assert_int_equal(volux_sequence_pattern_conversions("t%d.nhdr"), 1);
+    assert_int_equal(volux_sequence_pattern_conversions("t%3d.nhdr"), 1);
+    assert_int_equal(volux_sequence_pattern_conversions("out/t%03d_100%%.png"), 1);
+    assert_int_equal(volux_sequence_pattern_conversions("a%d/b%04d.nrrd"), 2);
+    assert_int_equal(volux_sequence_pattern_conversions("t%s.nhdr"), -1);
+    assert_int_equal(volux_sequence_pattern_conversions("t%10d.nhdr"), -1); /* width over 9 */
+    assert_int_equal(volux_sequence_pattern_conversions("t%ld.nhdr"), -1);
+    assert_int_equal(volux_sequence_pattern_conversions("t%n.nhdr"), -1);
+    assert_int_equal(volux_sequence_pattern_conversions("t%"), -1);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_pattern_conversions),
         cmocka_unit_test(test_steps_load_once_while_cached),
         cmocka_unit_test(test_cache_stays_within_its_memory_bound),
         cmocka_unit_test(test_a_step_of_another_shape_is_a_format_error),

@@ -3,6 +3,7 @@
  * by the test: each scalar type, both byte orders, raw and compressed,
  * attached and detached; exact values, spacing and origin.
  */
+#include <ctype.h>
 #include <locale.h>
 #include <math.h>
 #include <stdio.h>
@@ -501,6 +502,25 @@ static void test_unknown_extension_is_sniffed(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* Every extension the help texts list is one the loader recognises, and
+ * the ones it must not claim (raw needs a description; scenes) are not. */
+static void test_known_extensions_match_the_listed_ones(void **state) {
+    (void)state;
+    char list[] = VOLUX_VOLUME_EXTENSIONS, name[64];
+    int n = 0;
+    for (char *ext = strtok(list, " "); ext; ext = strtok(NULL, " "), n++) {
+        snprintf(name, sizeof name, "dir/ct%s", ext);
+        assert_true(volux_volume_path_is_known(name));
+        for (char *c = name; *c; c++) *c = (char)toupper((unsigned char)*c);
+        assert_true(volux_volume_path_is_known(name));
+    }
+    assert_int_equal(n, 8);
+    assert_false(volux_volume_path_is_known("ct.raw"));
+    assert_false(volux_volume_path_is_known("scene.json"));
+    assert_false(volux_volume_path_is_known("ct.gz"));
+    assert_false(volux_volume_path_is_known(NULL));
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_nrrd_every_type_endian_encoding_layout),
@@ -516,6 +536,7 @@ int main(void) {
         cmocka_unit_test(test_nifti_scaling_gives_float32),
         cmocka_unit_test(test_raw_with_description),
         cmocka_unit_test(test_unknown_extension_is_sniffed),
+        cmocka_unit_test(test_known_extensions_match_the_listed_ones),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -16,7 +16,7 @@
 static void usage(FILE *f) {
     fprintf(f,
             "usage: volux info FILE [options]\n"
-            "  FILE                 .nrrd .nhdr .mhd .mha .nii .nii.gz .hdr .vti, a raw file with --raw-*,\n"
+            "  FILE                 " VOLUX_VOLUME_EXTENSIONS ", a raw file with --raw-*,\n"
             "                       an image (.png .pfm .exr, Radiance .hdr: size, range, metadata)\n"
             "                       or procedural:NAME[:N] (NAME: %s; N³ voxels, default 64)\n"
             "  --raw-dims X Y Z     read FILE as raw data of these dims (needs --raw-type)\n"

@@ -16,7 +16,7 @@ static void usage(FILE *f) {
             "                    [--distribute image|data]   (under mpirun; image is the default there)\n"
             "Renders until the scene's spp, time budget or target relative error is reached and\n"
             "writes the image (PNG tone-mapped with render.exposure; PFM/EXR linear).\n"
-            "VOLUME (.nrrd .nhdr .mhd .mha .nii .nii.gz .vti, or procedural:NAME[:N]) renders its quick-look\n"
+            "VOLUME (" VOLUX_VOLUME_EXTENSIONS ", or procedural:NAME[:N]) renders its quick-look\n"
             "scene: a transfer function from the histogram, an orbit camera, one key light, `shaded`.\n"
             "--dump-scene writes the scene as read (after --set and defaults) as JSON; without -o it\n"
             "only writes that.\n"
@@ -42,26 +42,6 @@ static void format_error(double e, char *out, size_t n) {
     else snprintf(out, n, "%.3g", e);
 }
 
-/* 1 if `path` holds one %d / %Nd / %0Nd conversion (and otherwise only
- * "%%"), 0 if it holds no '%' at all, −1 if it is malformed. */
-static int numbered_pattern(const char *path) {
-    int conversions = 0;
-    for (const char *p = path; *p; p++) {
-        if (*p != '%') continue;
-        if (p[1] == '%') {
-            p++;
-            continue;
-        }
-        const char *q = p + 1;
-        if (*q == '0') q++;
-        if (*q >= '1' && *q <= '9') q++;
-        if (*q != 'd') return -1;
-        conversions++;
-        p = q;
-    }
-    return conversions > 1 ? -1 : conversions;
-}
-
 /* The output file of step `step`: OUT's printf number, or _%04d before the
  * extension. 0 if the name does not fit. */
 static int step_path(const char *out, int has_pattern, int step, char *buf, size_t n) {
@@ -69,7 +49,7 @@ static int step_path(const char *out, int has_pattern, int step, char *buf, size
     if (has_pattern) {
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wformat-nonliteral"
-        w = snprintf(buf, n, out, step); /* checked by numbered_pattern */
+        w = snprintf(buf, n, out, step); /* checked by volux_sequence_pattern_conversions */
 #pragma GCC diagnostic pop
     } else {
         const char *dot = strrchr(out, '.');
@@ -129,10 +109,10 @@ int cli_render(int argc, char **argv) {
         cli_eprintf("volux render: give --time-step or --all-steps, not both\n");
         return CLI_USAGE;
     }
-    int pattern = out_path ? numbered_pattern(out_path) : 0;
-    if (pattern < 0 || (pattern && !all_steps)) {
+    int pattern = out_path ? volux_sequence_pattern_conversions(out_path) : 0; /* 1: a numbered output */
+    if (pattern < 0 || pattern > 1 || (pattern && !all_steps)) {
         cli_eprintf("volux render: -o %s: %s\n", out_path,
-                pattern < 0 ? "a numbered output holds one %d, %Nd or %0Nd (%% for a literal %)"
+                pattern != 1 ? "a numbered output holds one %d, %Nd or %0Nd (%% for a literal %)"
                             : "a numbered output (%d) needs --all-steps");
         return CLI_USAGE;
     }

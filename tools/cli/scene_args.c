@@ -86,14 +86,10 @@ static int ends_with_ci(const char *s, const char *suffix) {
 
 enum { INPUT_SCENE, INPUT_VOLUME, INPUT_UNKNOWN };
 
-#define VOLUME_EXTENSIONS ".nrrd .nhdr .mhd .mha .nii .nii.gz .hdr .vti"
-
 static int input_kind(const char *path) {
     if (cli_is_procedural(path)) return INPUT_VOLUME;
     if (ends_with_ci(path, ".json")) return INPUT_SCENE;
-    static const char *const volume_ext[] = {".nrrd", ".nhdr", ".mhd", ".mha", ".nii", ".nii.gz", ".hdr", ".vti"};
-    for (size_t i = 0; i < sizeof volume_ext / sizeof volume_ext[0]; i++)
-        if (ends_with_ci(path, volume_ext[i])) return INPUT_VOLUME;
+    if (volux_volume_path_is_known(path)) return INPUT_VOLUME;
     /* Another name: a scene if it starts like a JSON object. A file that
      * cannot be opened goes to the scene loader, which says why. */
     struct stat sb;
@@ -156,41 +152,6 @@ static int context_failure(volux_context *ctx, volux_status st, char *msg, size_
     return cli_exit_status(st);
 }
 
-/* Levenshtein distance, for "did you mean". */
-static int edit_distance(const char *a, const char *b) {
-    size_t n = strlen(a), m = strlen(b);
-    if (n > 63 || m > 63) return 99;
-    int row[64];
-    for (size_t j = 0; j <= m; j++) row[j] = (int)j;
-    for (size_t i = 1; i <= n; i++) {
-        int diag = row[0];
-        row[0] = (int)i;
-        for (size_t j = 1; j <= m; j++) {
-            int up = row[j];
-            int best = diag + (a[i - 1] != b[j - 1]);
-            if (up + 1 < best) best = up + 1;
-            if (row[j - 1] + 1 < best) best = row[j - 1] + 1;
-            row[j] = best;
-            diag = up;
-        }
-    }
-    return row[m];
-}
-
-const char *cli_closest_technique(const char *name) {
-    const char *best = NULL;
-    int best_d = 99;
-    for (int i = 0; i < volux_technique_count(); i++) {
-        const char *cand = volux_technique_info_at(i)->name;
-        int d = edit_distance(name, cand);
-        /* A prefix also counts ("path" → "pathtrace"). */
-        if (!strncmp(cand, name, strlen(name)) && strlen(name) >= 2) d = 1;
-        if (d < best_d) best_d = d, best = cand;
-    }
-    int len = (int)strlen(name);
-    return best && best_d <= (len < 6 ? 2 : len / 3 + 1) ? best : NULL;
-}
-
 void cli_technique_names(char *out, size_t n) {
     out[0] = 0;
     for (int i = 0; i < volux_technique_count(); i++) {
@@ -227,7 +188,7 @@ int cli_load_scene_quiet(const char *cmd, volux_context *ctx, const cli_scene_ar
     }
     if (kind == INPUT_UNKNOWN) {
         snprintf(msg, msg_size,
-                 "%s: neither a scene (a JSON object) nor a volume (" VOLUME_EXTENSIONS ", procedural:NAME[:N])", in);
+                 "%s: neither a scene (a JSON object) nor a volume (" VOLUX_VOLUME_EXTENSIONS ", procedural:NAME[:N])", in);
         return CLI_USAGE;
     }
     if (a->region && kind == INPUT_VOLUME) {
@@ -300,7 +261,7 @@ int cli_load_scene_quiet(const char *cmd, volux_context *ctx, const cli_scene_ar
     if (!volux_technique_info_find(tech)) {
         char names[256];
         cli_technique_names(names, sizeof names);
-        const char *guess = cli_closest_technique(tech);
+        const char *guess = volux_technique_closest(tech);
         snprintf(msg, msg_size, "%s: render.technique: unknown technique '%s'%s%s%s (techniques: %s)", in, tech,
                  guess ? "; did you mean '" : "", guess ? guess : "", guess ? "'?" : "", names);
         volux_scene_destroy(scene);

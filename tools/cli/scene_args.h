@@ -41,9 +41,8 @@ int cli_load_scene_quiet(const char *cmd, volux_context *ctx, const cli_scene_ar
 /* The scene's notes, one "volux CMD: note: ..." line each, on stderr. */
 void cli_print_notes(const char *cmd, const volux_scene *scene);
 
-/* The registered technique nearest to `name` (edit distance or prefix),
- * or NULL when none is close; all names, comma-separated. */
-const char *cli_closest_technique(const char *name);
+/* All registered technique names, comma-separated (the nearest one to a
+ * typo: volux_technique_closest). */
 void cli_technique_names(char *out, size_t n);
 
 #endif

@@ -47,7 +47,7 @@ int cli_techniques(int argc, char **argv) {
             if (!volux_technique_info_find(argv[i])) {
                 char names[256];
                 cli_technique_names(names, sizeof names);
-                const char *guess = cli_closest_technique(argv[i]);
+                const char *guess = volux_technique_closest(argv[i]);
                 cli_eprintf("volux techniques: unknown technique '%s'%s%s%s (techniques: %s)\n", argv[i],
                         guess ? "; did you mean '" : "", guess ? guess : "", guess ? "'?" : "", names);
                 return CLI_USAGE;

@@ -4,12 +4,13 @@
 #include <string.h>
 
 #include "distribute.h"
+#include "tools/cli/cli.h"
 
 int dist_parse_mode(const char *cmd, const char *value, dist_mode *out) {
     if (value && !strcmp(value, "image")) *out = DIST_IMAGE;
     else if (value && !strcmp(value, "data")) *out = DIST_DATA;
     else {
-        fprintf(stderr, "volux %s: --distribute: expected 'image' or 'data', got '%s'\n", cmd,
+        cli_eprintf("volux %s: --distribute: expected 'image' or 'data', got '%s'\n", cmd,
                 value ? value : "(missing)");
         return 0;
     }

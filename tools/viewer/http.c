@@ -25,6 +25,7 @@
 #include <strings.h>
 #include <time.h>
 
+#include "tools/cli/cli.h"
 #include "viewer.h"
 
 #define MAX_BODY (4u << 20)     /* an edit list (a 4096-point TF is ~150 KiB) */
@@ -582,7 +583,7 @@ int viewer_http_start(viewer *v) {
         a6->sin6_port = htons((uint16_t)v->opt.port);
         flags |= MHD_USE_IPv6;
     } else {
-        fprintf(stderr, "volux serve: --bind %s: expected an IPv4 or IPv6 address\n", v->opt.bind);
+        cli_eprintf("volux serve: --bind %s: expected an IPv4 or IPv6 address\n", v->opt.bind);
         return 0;
     }
     v->daemon = MHD_start_daemon(flags, (uint16_t)v->opt.port, NULL, NULL, on_request, v, MHD_OPTION_EXTERNAL_LOGGER,
@@ -591,7 +592,7 @@ int viewer_http_start(viewer *v) {
                                  (unsigned)v->opt.timeout_s, MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)(64 * 1024),
                                  MHD_OPTION_NOTIFY_COMPLETED, on_completed, v, MHD_OPTION_END);
     if (!v->daemon) {
-        fprintf(stderr, "volux serve: cannot listen on %s port %d (in use?)\n", v->opt.bind, v->opt.port);
+        cli_eprintf("volux serve: cannot listen on %s port %d (in use?)\n", v->opt.bind, v->opt.port);
         return 0;
     }
     const union MHD_DaemonInfo *info = MHD_get_daemon_info(v->daemon, MHD_DAEMON_INFO_BIND_PORT);

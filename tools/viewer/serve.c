@@ -44,7 +44,7 @@ static volux_status validate(void *user, volux_context *ctx, const volux_scene *
     if (!volux_technique_info_find(rs->technique)) {
         char names[256];
         cli_technique_names(names, sizeof names);
-        const char *guess = cli_closest_technique(rs->technique);
+        const char *guess = volux_technique_closest(rs->technique);
         return volux_context_set_error(ctx, VOLUX_ERR_INVALID,
                                        "render.technique: unknown technique '%s'%s%s%s (techniques: %s)",
                                        rs->technique, guess ? "; did you mean '" : "", guess ? guess : "",

@@ -16,7 +16,7 @@
 
 static void usage(FILE *f) {
     fprintf(f, "usage: volux view VOLUME|SCENE.json [volux serve options]\n"
-               "Opens a volume (.nrrd .nhdr .mhd .mha .nii .nii.gz .vti, procedural:NAME[:N]) in the web\n"
+               "Opens a volume (" VOLUX_VOLUME_EXTENSIONS ", procedural:NAME[:N]) in the web\n"
                "viewer with its quick-look scene (the one `volux render VOLUME` renders); a scene file\n"
                "is served as by `volux serve`. Options: see `volux serve --help`.\n");
 }
