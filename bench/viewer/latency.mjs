@@ -15,6 +15,11 @@
 // (all threads), which the load inflates far less: on an idle machine with
 // 2 threads the server part takes at least CPU/2.
 //
+// With the default --preview-budget a first frame may be smaller than the
+// --preview size or march at a coarser step (--preview-step): the columns
+// "edit → --preview size" (any step), "first step scales" and "... at
+// render.step" tell them apart.
+//
 // Usage: node bench/viewer/latency.mjs VOLUX SCENE.json [EDITS_PER_KIND] [OUT.jsonl]
 // Run with OMP_WAIT_POLICY=passive; report the load (/proc/loadavg is printed).
 import { spawn } from 'node:child_process';
@@ -115,6 +120,12 @@ async function measure(technique, kind, n) {
         const f = V.lastFrame;
         return f.version >= preview.version && f.width * f.height >= full[0] * full[1] ? f : null;
       }, 5000);
+      // ... and at the scene's own march step (a first frame may be coarser:
+      // --preview-step; step_scale 1)
+      const exactPreview = await waitFor(() => {
+        const f = V.lastFrame;
+        return f.version >= preview.version && f.width * f.height >= full[0] * full[1] && !(f.step_scale > 1) ? f : null;
+      }, 5000);
       const fin = await waitFor(() => {
         const f = V.lastFrame;
         return f.kind === 'final' && f.version >= preview.version ? f : null;
@@ -122,7 +133,8 @@ async function measure(technique, kind, n) {
       out.push({
         latency_ms: V.latencies[L], server_ms: preview.latency_ms, cpu_ms: preview.cpu_ms, update_ms: preview.update_ms,
         render_ms: preview.render_ms, encode_ms: preview.encode_ms, bytes: preview.bytes,
-        preview: `${preview.width}x${preview.height}`, kind: preview.kind,
+        preview: `${preview.width}x${preview.height}`, kind: preview.kind, step_scale: preview.step_scale || 1,
+        exact_preview_ms: exactPreview ? exactPreview.shown - t0 : null,
         full_preview_ms: fullPreview ? fullPreview.shown - t0 : null, full_preview_cpu_ms: fullPreview ? fullPreview.cpu_ms : null,
         final_ms: fin ? fin.shown - t0 : null, final_render_ms: fin ? fin.render_ms : null,
         final_encode_ms: fin ? fin.encode_ms : null, final_bytes: fin ? fin.bytes : null, final_cpu_ms: fin ? fin.cpu_ms : null, format: preview.format,
@@ -135,8 +147,8 @@ async function measure(technique, kind, n) {
 const median = (a) => { const s = [...a].sort((x, y) => x - y); return s.length ? s[Math.floor((s.length - 1) / 2)] : NaN; };
 const pct = (a, q) => { const s = [...a].sort((x, y) => x - y); return s.length ? s[Math.min(s.length - 1, Math.ceil(q * s.length) - 1)] : NaN; };
 const f1 = (x) => (Number.isFinite(x) ? x.toFixed(1) : '–');
-console.log('| technique | edit | edits | page: edit → first preview median (p90) ms | server: edit → first preview published | server CPU (all threads) | first preview sizes | update | preview render | preview encode ms (KiB) | page: edit → --preview size | its server CPU | edit → final 512² median ms (seen) | final: server CPU |');
-console.log('|---|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|');
+console.log('| technique | edit | edits | page: edit → first preview median (p90) ms | server: edit → first preview published | server CPU (all threads) | first preview sizes | update | preview render | preview encode ms (KiB) | page: edit → --preview size | its server CPU | first step scales | page: edit → --preview size at render.step | edit → final 512² median ms (seen) | final: server CPU |');
+console.log('|---|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---|---:|---:|---:|');
 for (const [technique, kinds] of plan) {
   for (const kind of kinds) {
     const rec = await measure(technique, kind, perKind);
@@ -149,6 +161,8 @@ for (const [technique, kinds] of plan) {
       preview_render_median_ms: median(ok.map((r) => r.render_ms)), encode_median_ms: median(ok.map((r) => r.encode_ms)),
       jpeg_kib: median(ok.map((r) => r.bytes)) / 1024, preview: ok[0] && ok[0].preview,
       first_sizes: [...new Set(ok.map((r) => r.preview))].join(' '),
+      first_step_scales: [...new Set(ok.map((r) => r.step_scale))].join(' '),
+      exact_preview_page_median_ms: median(ok.map((r) => r.exact_preview_ms).filter((x) => x !== null)),
       full_preview_page_median_ms: median(ok.map((r) => r.full_preview_ms).filter((x) => x !== null)),
       full_preview_cpu_median_ms: median(ok.map((r) => r.full_preview_cpu_ms).filter((x) => x !== null && x >= 0)),
       final_median_ms: median(fins), finals_seen: fins.length,
@@ -160,7 +174,7 @@ for (const [technique, kinds] of plan) {
     };
     console.log(`| ${technique} | ${kind} | ${row.edits} | ${f1(row.page_latency_median_ms)} (${f1(row.page_latency_p90_ms)}) | ` +
       `${f1(row.server_latency_median_ms)} | ${f1(row.server_cpu_median_ms)} | ${row.first_sizes} | ${f1(row.update_median_ms)} | ${f1(row.preview_render_median_ms)} | ` +
-      `${f1(row.encode_median_ms)} (${f1(row.jpeg_kib)}) | ${f1(row.full_preview_page_median_ms)} | ${f1(row.full_preview_cpu_median_ms)} | ${f1(row.final_median_ms)} (${fins.length}/${ok.length}) | ${f1(row.final_cpu_median_ms)} |`);
+      `${f1(row.encode_median_ms)} (${f1(row.jpeg_kib)}) | ${f1(row.full_preview_page_median_ms)} | ${f1(row.full_preview_cpu_median_ms)} | ${row.first_step_scales} | ${f1(row.exact_preview_page_median_ms)} | ${f1(row.final_median_ms)} (${fins.length}/${ok.length}) | ${f1(row.final_cpu_median_ms)} |`);
     if (outPath) appendFileSync(outPath, JSON.stringify(row) + '\n');
   }
 }

@@ -97,6 +97,20 @@ VOLUX_API int volux_technique_is_current(const volux_technique *t, const volux_s
  * measure it. Each refine step that changes the instance decreases it. */
 VOLUX_API uint64_t volux_technique_pending(const volux_technique *t);
 
+/* For interactive front ends (`volux serve`): a per-frame budget, in
+ * milliseconds of wall time, for the cache work of this instance's later
+ * updates and refine steps, where the technique can spread an update over
+ * frames (lightvol: §7.3's propagation per frame — it then replaces the
+ * scene's techniques.lightvol.budget_ms and budget_slices for this
+ * instance). An update does about one budget of the work (at least one
+ * step), renders in between see the partly updated caches, and each
+ * volux_technique_refine call does the next budget; once refine reports no
+ * more steps the instance is exactly what an update without a budget gives.
+ * The scene is not touched, so `volux render` of it is unaffected. 0 (or a
+ * negative or NaN value) restores the scene's own setting. Returns 1 if the
+ * technique honours a budget, 0 if it never defers work (nothing changes). */
+VOLUX_API int volux_technique_set_budget(volux_technique *t, double ms);
+
 /* Technique-specific statistics of the current state, for benchmarks
  * (e.g. manylights: "vl_count", "avsm_build_ms"). name and unit are static
  * strings. Writes at most `max` and returns how many the technique has. */

@@ -207,6 +207,12 @@ volux_status volux_technique_refine(volux_technique *t, const volux_scene *scene
     return st;
 }
 
+int volux_technique_set_budget(volux_technique *t, double ms) {
+    if (!t->cls->set_budget) return 0;
+    t->cls->set_budget(t->state, ms > 0.0 ? ms : 0.0); /* NaN fails the test: 0 */
+    return 1;
+}
+
 uint64_t volux_technique_pending(const volux_technique *t) {
     return t->cls->pending ? t->cls->pending(t->state) : 0;
 }

@@ -96,6 +96,10 @@ typedef struct volux_technique_class {
      * not stay inside a brick (scattering), so it cannot render one. */
     void (*render_tile_part)(const void *state, const volux_scene *scene, const volux_tile *tile, int background,
                              float *rgbt, volux_tile_stats *stats);
+    /* Optional (volux_technique_set_budget): the front end's per-frame
+     * budget for updates and refine steps in ms (0 = the scene's setting).
+     * NULL: the technique never defers work. */
+    void (*set_budget)(void *state, double ms);
 } volux_technique_class;
 
 /* Creates an instance of `cls` for the scene (registry.c resolves names). */

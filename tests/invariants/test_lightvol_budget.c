@@ -9,6 +9,7 @@
  * the test independent of timing; budget_ms only changes where the steps
  * are cut, never the result.
  */
+#include <math.h>
 #include <stdio.h>
 
 #include "lightvol_fixture.h"
@@ -246,6 +247,74 @@ static void test_each_step_spends_the_budget(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* volux_technique_set_budget (the viewer's per-frame budget): it wins over
+ * the scene's budget, leaves the scene alone, converges bit for bit to the
+ * update at once, and 0 (or NaN) gives the scene's own budget back. A
+ * budget below one step's measured time is exactly one slice step per call
+ * ("at least one step"), which keeps the test independent of timing. */
+static void test_front_end_budget(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(1);
+    float *data = medium();
+    volux_scene *sa = scene(ctx, data, NULL, 0), *sb = scene(ctx, data, "budget_slices", 6);
+    volux_technique *a = lvf_create(ctx, sa), *b = lvf_create(ctx, sb);
+    assert_int_equal(volux_technique_set_budget(b, 1e-9), 1);
+    move_point(sa, 0);
+    move_point(sb, 0);
+    lvf_update(a, sa);
+    lvf_update(b, sb);
+    uint64_t total = volux_technique_pending(b) + 1; /* the update ran one step */
+    assert_true(total > 8);
+    for (int i = 0; i < 3; i++) {
+        uint64_t before = volux_technique_pending(b);
+        int refined = 0, more = 0;
+        assert_int_equal(volux_technique_refine(b, sb, &refined, &more), VOLUX_OK);
+        assert_true(refined && more);
+        assert_int_equal(before - volux_technique_pending(b), 1); /* not the scene's 6 */
+    }
+    /* the scene's budget again: 6 slice steps per call */
+    assert_int_equal(volux_technique_set_budget(b, 0), 1);
+    uint64_t before = volux_technique_pending(b);
+    assert_int_equal(volux_technique_refine(b, sb, NULL, NULL), VOLUX_OK);
+    assert_int_equal(before - volux_technique_pending(b), 6);
+    assert_int_equal(volux_technique_set_budget(b, NAN), 1); /* NaN: the scene's */
+    before = volux_technique_pending(b);
+    assert_int_equal(volux_technique_refine(b, sb, NULL, NULL), VOLUX_OK);
+    assert_int_equal(before - volux_technique_pending(b), 6);
+    assert_int_equal(volux_technique_set_budget(b, 1e-9), 1);
+    finish(b, sb);
+    assert_same_volume(a, b, "front-end budget");
+    volux_image ia = tu_render_with(ctx, sa, a), ib = tu_render_with(ctx, sb, b);
+    assert_true(tu_max_abs_diff(&ia, &ib) == 0.0);
+    volux_image_free(ctx, &ia);
+    volux_image_free(ctx, &ib);
+    /* the scene was not touched; a new instance (what `volux render` of it
+     * builds) differs from any selectively updated one by the class's
+     * update tolerance only (incremental arithmetic), budget or not */
+    assert_int_equal((int)volux_scene_param(sb, "lightvol", "budget_ms", -1), -1);
+    assert_int_equal((int)volux_scene_param(sb, "lightvol", "budget_slices", -1), 6);
+    volux_technique *fresh = lvf_create(ctx, sb);
+    size_t n = lvf_count(lvf_state(b));
+    float *x = lvf_copy(fresh), *y = lvf_copy(b);
+    double bmax, d = lvf_max_diff(x, y, n, &bmax);
+    assert_true(d <= 1e-4 * bmax);
+    free(x);
+    free(y);
+    /* a technique that defers nothing does not take a budget */
+    volux_technique *ea = NULL;
+    assert_int_equal(volux_technique_create(ctx, "ea", sb, &ea), VOLUX_OK);
+    assert_int_equal(volux_technique_set_budget(ea, 10), 0);
+    volux_technique_destroy(ea);
+    volux_technique_destroy(fresh);
+    volux_technique_destroy(a);
+    volux_technique_destroy(b);
+    volux_scene_destroy(sa);
+    volux_scene_destroy(sb);
+    free(data);
+    assert_int_equal(volux_context_bytes_in_use(ctx), 0);
+    volux_context_destroy(ctx);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_light_edit_converges_bit_identically),
@@ -254,6 +323,7 @@ int main(void) {
         cmocka_unit_test(test_edit_after_a_job_joins_the_queue),
         cmocka_unit_test(test_budget_ms_converges_bit_identically),
         cmocka_unit_test(test_each_step_spends_the_budget),
+        cmocka_unit_test(test_front_end_budget),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

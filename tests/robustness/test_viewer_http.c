@@ -460,7 +460,16 @@ static void test_bad_command_lines(void **state) {
  * aspect kept), the --preview size follows, then the final frame, which
  * still equals `volux render`; with --preview-budget 0 the first frame is
  * the --preview size. */
-static void first_preview_size(int port, const char *edit, int *w, int *h, double *first_ms, double *full_ms) {
+static double stat_number(const char *body, const char *key) {
+    char k[128];
+    snprintf(k, sizeof k, "\"%s\":", key);
+    const char *p = strstr(body, k);
+    if (!p) fail_msg("no %s in %s", key, body);
+    return atof(p + strlen(k));
+}
+
+static void first_preview_size(int port, const char *edit, int *w, int *h, double *first_ms, double *full_ms,
+                               double *step_scale) {
     tu_reply r;
     assert_true(tu_http(port, "POST", "/api/edit", NULL, edit, &r));
     assert_int_equal(r.status, 200);
@@ -479,13 +488,16 @@ static void first_preview_size(int port, const char *edit, int *w, int *h, doubl
     p = strstr(r.body, "\"edit_to_full_preview_ms\":");
     assert_non_null(p);
     *full_ms = atof(p + strlen("\"edit_to_full_preview_ms\":"));
+    *step_scale = stat_number(r.body, "first_preview_step_scale");
     tu_reply_free(&r);
 }
 
 static void test_preview_budget(void **state) {
     (void)state;
-    static const char *const budgets[] = {"0.001", "0"};
-    for (int b = 0; b < 2; b++) {
+    /* an unmeetable budget (the step coarsened as far as allowed, then the
+     * size), the same without a coarser step, and no budget */
+    static const char *const budgets[] = {"0.001 --preview-step 3", "0.001 --preview-step 1", "0"};
+    for (int b = 0; b < 3; b++) {
         tu_server own;
         char args[1400];
         snprintf(args, sizeof args,
@@ -494,17 +506,19 @@ static void test_preview_budget(void **state) {
                  scene_path, budgets[b]);
         assert_true(tu_server_start(&own, args));
         int w = 0, h = 0;
-        double first_ms, full_ms;
+        double first_ms, full_ms, step_scale;
         /* the first edit after the start (whose frame measured the cost), then one more */
         first_preview_size(own.port, "[{\"path\": \"lights.0.irradiance\", \"value\": 1.7}]", &w, &h, &first_ms,
-                           &full_ms);
+                           &full_ms, &step_scale);
         first_preview_size(own.port, "[{\"path\": \"camera.orbit.azimuth\", \"value\": 55}]", &w, &h, &first_ms,
-                           &full_ms);
-        if (b == 0) {
+                           &full_ms, &step_scale);
+        if (b < 2) {
             assert_int_equal(w, 64);
             assert_int_equal(h, 48);
             assert_true(full_ms >= first_ms); /* the 128×96 preview came after the first frame */
+            assert_true(step_scale == (b == 0 ? 3.0 : 1.0));
         } else {
+            assert_true(step_scale == 1.0);
             assert_int_equal(w, 128);
             assert_int_equal(h, 96);
             assert_true(full_ms == first_ms); /* the first frame was the --preview size */
@@ -517,6 +531,83 @@ static void test_preview_budget(void **state) {
     snprintf(args, sizeof args, "serve '%s' --port 0 --preview-budget -1", scene_path);
     assert_int_equal(tu_run_cli(args, &err), 2);
     assert_contains(err, "--preview-budget");
+    snprintf(args, sizeof args, "serve '%s' --port 0 --preview-step 0.5", scene_path);
+    assert_int_equal(tu_run_cli(args, &err), 2);
+    assert_contains(err, "--preview-step: expected 1..8, got 0.5");
+}
+
+/* lightvol under the viewer's per-frame propagation budget
+ * (volux_technique_set_budget, derived from --preview-budget): the final
+ * frame after a light edit is bit for bit the one of a viewer that updates
+ * at once (--preview-budget 0), the saved scene carries no budget, and
+ * `volux render` of it gives that frame up to lightvol's update tolerance
+ * (incremental light arithmetic: 1e-4 of the image's maximum, with or
+ * without a budget). */
+static void lightvol_final(const char *budget, const char *pfm, const char *saved) {
+    tu_server own;
+    char args[1400];
+    snprintf(args, sizeof args,
+             "'%s' --quiet --idle-ms 0 --preview 64 --preview-budget %s --set render.technique=lightvol "
+             "--set 'volume.dims=[96,96,96]' --set render.threads=2",
+             scene_path, budget);
+    assert_true(tu_server_start(&own, args));
+    tu_reply r;
+    assert_true(tu_http(own.port, "GET", "/api/frame?wait=final&format=pfm&timeout=60000", NULL, NULL, &r));
+    assert_int_equal(r.status, 200);
+    tu_reply_free(&r);
+    assert_true(tu_http(own.port, "POST", "/api/edit", NULL,
+                        "[{\"path\": \"lights.0.direction\", \"value\": [-0.2, -1, 0.6]}]", &r));
+    assert_int_equal(r.status, 200);
+    tu_reply_free(&r);
+    assert_true(tu_http(own.port, "GET", "/api/frame?wait=final&format=pfm&timeout=60000", NULL, NULL, &r));
+    assert_int_equal(r.status, 200);
+    FILE *f = fopen(pfm, "wb");
+    fwrite(r.body, 1, r.body_len, f);
+    fclose(f);
+    tu_reply_free(&r);
+    assert_true(tu_http(own.port, "GET", "/api/stats", NULL, NULL, &r));
+    assert_int_equal(r.status, 200);
+    double b = stat_number(r.body, "budget_ms");
+    if (atof(budget) > 0) assert_true(b >= 10.0); /* the viewer's budget was in force */
+    else assert_true(b == 0.0);                   /* the scene's: none */
+    assert_true(stat_number(r.body, "pending") == 0.0); /* converged */
+    tu_reply_free(&r);
+    assert_true(tu_http(own.port, "GET", "/api/scene?paths=absolute", NULL, NULL, &r));
+    assert_int_equal(r.status, 200);
+    assert_null(strstr(r.body, "budget"));
+    f = fopen(saved, "wb");
+    fwrite(r.body, 1, r.body_len, f);
+    fclose(f);
+    tu_reply_free(&r);
+    assert_int_equal(tu_server_stop(&own), 0);
+}
+
+static void test_lightvol_budget_converges(void **state) {
+    (void)state;
+    char with[1100], without[1100], saved[1100], cli[1100], args[3000];
+    snprintf(with, sizeof with, "%s", tu_temp_path("viewer_lv_budget.pfm"));
+    snprintf(without, sizeof without, "%s", tu_temp_path("viewer_lv_at_once.pfm"));
+    snprintf(saved, sizeof saved, "%s", tu_temp_path("viewer_lv_saved.json"));
+    snprintf(cli, sizeof cli, "%s", tu_temp_path("viewer_lv_cli.pfm"));
+    lightvol_final("100", with, saved);
+    lightvol_final("0", without, saved);
+    snprintf(args, sizeof args, "render '%s' -o '%s' --quiet", saved, cli);
+    const char *err;
+    assert_int_equal(tu_run_cli(args, &err), 0);
+    volux_context *ctx = tu_context(1);
+    volux_image a, b, c;
+    assert_int_equal(volux_image_load(ctx, with, &a), VOLUX_OK);
+    assert_int_equal(volux_image_load(ctx, without, &b), VOLUX_OK);
+    assert_int_equal(volux_image_load(ctx, cli, &c), VOLUX_OK);
+    assert_true(tu_max_abs_diff(&a, &b) == 0.0);
+    float peak = 0;
+    for (size_t i = 0; i < (size_t)c.width * c.height * 3; i++) peak = c.rgb[i] > peak ? c.rgb[i] : peak;
+    assert_true(peak > 0);
+    assert_true(tu_max_abs_diff(&a, &c) <= 1e-4 * peak);
+    volux_image_free(ctx, &a);
+    volux_image_free(ctx, &b);
+    volux_image_free(ctx, &c);
+    volux_context_destroy(ctx);
 }
 
 int main(void) {
@@ -526,6 +617,7 @@ int main(void) {
         cmocka_unit_test(test_slow_client_times_out), cmocka_unit_test(test_event_stream),
         cmocka_unit_test(test_concurrent_edits),  cmocka_unit_test(test_token),
         cmocka_unit_test(test_bad_command_lines), cmocka_unit_test(test_preview_budget),
+        cmocka_unit_test(test_lightvol_budget_converges),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -189,10 +189,10 @@ static char *next_event(stream *s) {
             int hn = snprintf(head, sizeof head,
                               "event: frame\ndata: {\"id\":%llu,\"version\":%llu,\"kind\":\"%s\",\"spp\":%u,"
                               "\"width\":%d,\"height\":%d,\"format\":\"%s\",\"bytes\":%zu,\"update_ms\":%.3f,"
-                              "\"render_ms\":%.3f,\"encode_ms\":%.3f,\"latency_ms\":%.3f,\"cpu_ms\":%.3f,\"data\":\"",
+                              "\"render_ms\":%.3f,\"encode_ms\":%.3f,\"latency_ms\":%.3f,\"cpu_ms\":%.3f,\"step_scale\":%.3f,\"data\":\"",
                               (unsigned long long)f->id, (unsigned long long)f->version, kinds[f->kind], f->spp,
                               f->width, f->height, f->format, f->size, f->update_ms, f->render_ms, f->encode_ms,
-                              f->latency_ms, f->cpu_ms);
+                              f->latency_ms, f->cpu_ms, (double)f->step_scale);
             event = malloc((size_t)hn + n64 + 8);
             if (event) {
                 memcpy(event, head, (size_t)hn);

@@ -89,7 +89,8 @@ enum {
 /* Encodes `img` (ownership passes to the frame) and publishes it. Runs
  * without `lock`. `since_edit_t0` <= 0: no latency to report. */
 static void publish(viewer *v, volux_image *img, frame_kind kind, uint64_t version, uint32_t spp, float exposure,
-                    double update_ms, double render_ms, double since_edit_t0, double since_edit_cpu, unsigned flags) {
+                    float step_scale, double update_ms, double render_ms, double since_edit_t0, double since_edit_cpu,
+                    unsigned flags) {
     double t0 = viewer_now_ms();
     unsigned char *data = NULL;
     size_t size = 0;
@@ -132,6 +133,7 @@ static void publish(viewer *v, volux_image *img, frame_kind kind, uint64_t versi
     f->size = size;
     f->image = *img;
     f->exposure = exposure;
+    f->step_scale = step_scale;
     f->update_ms = update_ms;
     f->render_ms = render_ms;
     f->encode_ms = t1 - t0;
@@ -148,6 +150,7 @@ static void publish(viewer *v, volux_image *img, frame_kind kind, uint64_t versi
         s->last_latency_cpu_ms = f->cpu_ms;
         s->last_first_w = f->width;
         s->last_first_h = f->height;
+        s->last_first_step_scale = step_scale;
     }
     if ((flags & PUB_FULL_PREVIEW) && f->latency_ms >= 0) {
         s->last_full_preview_ms = f->latency_ms;
@@ -211,6 +214,13 @@ static void preview_size(const viewer *v, int w, int h, int *pw, int *ph) {
 #define FIRST_SIDE_STEP 16
 /* Time kept back for the encode and the event (a 256² JPEG takes ~2 ms). */
 #define PUBLISH_MARGIN_MS 5.0
+/* The share of what is left of the budget a first frame's estimated render
+ * may take: the estimate is a running mean (about every other frame is
+ * slower than it), the page adds the event's delivery and the decode, and
+ * a coarser step saves less than the 1/step the estimate assumes (misses
+ * per voxel crossed stay) — aimed at the budget itself, the step would
+ * settle where every other frame is late. */
+#define RENDER_FILL 0.8
 
 /* The running cost estimate of a technique's preview render (ms/pixel;
  * 0 until measured). */
@@ -246,11 +256,59 @@ static void budget_size(const viewer *v, double ms_per_pixel, double left_ms, in
     if (*ph < 1) *ph = 1;
 }
 
+/* Techniques that can spread an update over frames (lightvol's §7.3
+ * propagation budget, volux_technique_set_budget) get, before a first
+ * frame, what the preview budget leaves after the estimated render of the
+ * --preview size, but at most half of what is left (the technique turns ms
+ * into work at a measured rate: room for its error and the render's), and
+ * at least MIN_UPDATE_BUDGET_MS so that the light keeps arriving when the
+ * render alone fills the budget. Refinement steps then finish the update
+ * in REFINE_BUDGET_MS pieces: an edit waits at most about one piece. The
+ * scene is not touched: `volux render` of the saved scene builds the
+ * converged state at once, the final frame's state. */
+#define MIN_UPDATE_BUDGET_MS 10.0
+#define REFINE_BUDGET_MS 25.0
+
+static double update_budget(const viewer *v, double ms_per_pixel, int w, int h) {
+    double left = v->opt.preview_budget_ms - PUBLISH_MARGIN_MS;
+    if (v->need_latency) left -= viewer_now_ms() - v->last_edit_ms;
+    double b = 0.5 * left;
+    if (ms_per_pixel > 0 && left - ms_per_pixel * w * h < b) b = left - ms_per_pixel * w * h;
+    return b > MIN_UPDATE_BUDGET_MS ? b : MIN_UPDATE_BUDGET_MS;
+}
+
+/* A render's cost at k × the scene's step relative to k = 1: a share that
+ * does not fall with the step (rays, misses per voxel crossed) and the
+ * rest ∝ 1/k. Measured on bonsai 256², 2 threads: 2× the step costs 0.65×
+ * for lightvol and ambient (share 0.3; ea's 0.84× would be 0.68 — the
+ * running estimate absorbs the difference). */
+#define STEP_FIXED_SHARE 0.3
+static double step_cost(double k) { return STEP_FIXED_SHARE + (1.0 - STEP_FIXED_SHARE) / k; }
+
+/* The march step factor of a first frame: 1 when the --preview size
+ * (`pixels`) fits in `left_ms` at the scene's step, else what step_cost
+ * says it takes to fit, rounded up to a quarter, at most --preview-step
+ * (the estimate is per pixel at the scene's step). Fewer samples per ray
+ * lose thin features and opacity detail that the size keeps, but the
+ * preview keeps its resolution; only the first frame after an edit is
+ * coarsened — the --preview size at the scene's step follows at once, then
+ * refinement. */
+static double step_scale_for(const viewer *v, double ms_per_pixel, double left_ms, double pixels) {
+    const double kmax = v->opt.preview_step_max;
+    if (v->opt.preview_budget_ms <= 0 || kmax <= 1 || ms_per_pixel <= 0) return 1;
+    double need = ms_per_pixel * pixels;
+    if (need <= left_ms) return 1;
+    double share = left_ms / need; /* step_cost(k) must not exceed it */
+    if (share <= step_cost(kmax)) return kmax;
+    double k = ceil((1.0 - STEP_FIXED_SHARE) / (share - STEP_FIXED_SHARE) * 4) / 4;
+    return k < kmax ? k : kmax;
+}
+
 /* Folds one measured render into the estimate (a running mean that follows
  * changes of the scene — TF, camera, technique parameters — within a few
  * frames). */
-static void learn_cost(viewer *v, const char *technique, double render_ms, int w, int h) {
-    double *c = cost_of(v, technique), now = render_ms / ((double)w * h);
+static void learn_cost(viewer *v, const char *technique, double render_ms, int w, int h, double step_scale) {
+    double *c = cost_of(v, technique), now = render_ms / (step_cost(step_scale) * w * h);
     *c = *c > 0 ? 0.5 * *c + 0.5 * now : now;
 }
 
@@ -274,6 +332,10 @@ static void do_preview(viewer *v, uint64_t version) {
      * lock is released, so clients never see the preview size. */
     volux_render_settings small = full;
     preview_size(v, full.width, full.height, &small.width, &small.height);
+    double budget = v->opt.preview_budget_ms > 0
+                        ? update_budget(v, *cost_of(v, full.technique), small.width, small.height)
+                        : 0; /* no preview budget: the scene's own setting */
+    int budgeted = volux_technique_set_budget(v->tech, budget);
     volux_image img = {0};
     volux_render_report rep = {0};
     volux_change_set changed;
@@ -287,14 +349,19 @@ static void do_preview(viewer *v, uint64_t version) {
          * update (the edit's own cost, which a smaller frame cannot save):
          * the preview size the measured cost per pixel fits in. The render
          * then only brings the ray-caster's camera to the new size. */
+        double step_scale = 1;
         if (!st && v->need_latency) {
-            double left = v->opt.preview_budget_ms - (t1 - v->last_edit_ms) - PUBLISH_MARGIN_MS;
-            budget_size(v, *cost_of(v, full.technique), left, &first.width, &first.height);
-            if (first.width != small.width || first.height != small.height)
+            double left = RENDER_FILL * (v->opt.preview_budget_ms - (t1 - v->last_edit_ms) - PUBLISH_MARGIN_MS);
+            double c = *cost_of(v, full.technique);
+            step_scale = step_scale_for(v, c, left, (double)first.width * first.height);
+            budget_size(v, c * step_cost(step_scale), left, &first.width, &first.height);
+            first.step = (float)(full.step * step_scale);
+            if (first.width != small.width || first.height != small.height || step_scale != 1)
                 st = volux_scene_set_render(scene, &first);
         }
-        int reduced = first.width != small.width || first.height != small.height;
-        volux_framebuffer **slot = reduced ? &v->fb_first : &v->fb_preview;
+        int smaller = first.width != small.width || first.height != small.height;
+        int reduced = smaller || step_scale != 1;
+        volux_framebuffer **slot = smaller ? &v->fb_first : &v->fb_preview;
         if (!st && !(st = ensure_fb(v, slot, first.width, first.height))) {
             fb = *slot;
             volux_framebuffer_reset(fb);
@@ -303,7 +370,7 @@ static void do_preview(viewer *v, uint64_t version) {
         double t2 = viewer_now_ms();
         if (!st) st = volux_render(v->tech, scene, fb, &one, &rep);
         if (!st) st = volux_framebuffer_resolve(fb, &img);
-        if (!st) learn_cost(v, full.technique, viewer_now_ms() - t2, first.width, first.height);
+        if (!st) learn_cost(v, full.technique, viewer_now_ms() - t2, first.width, first.height, step_scale);
         volux_scene_set_render(scene, &full); /* cannot fail: the settings were valid */
         pthread_mutex_lock(&v->frame_lock);
         v->stats.last_update_ms = t1 - t0;
@@ -316,16 +383,19 @@ static void do_preview(viewer *v, uint64_t version) {
         v->stats.last_lights_changed = lights;
         snprintf(v->stats.technique, sizeof v->stats.technique, "%s", full.technique);
         v->stats.technique_bytes = volux_technique_memory_bytes(v->tech);
+        v->stats.last_update_budget_ms = budgeted ? budget : -1;
+        v->stats.pending = volux_technique_pending(v->tech);
         pthread_mutex_unlock(&v->frame_lock);
         if (!st) {
             double edit_t0 = v->need_latency ? v->last_edit_ms : -1;
             v->need_latency = 0;
             v->refined = 0;
             v->upgrade = reduced;
+            v->upgrade_smaller = smaller;
             if (v->fb_full) volux_framebuffer_reset(v->fb_full);
             pthread_mutex_unlock(&v->lock);
-            publish(v, &img, FRAME_PREVIEW, version, 1, full.exposure, t1 - t0, viewer_now_ms() - t2, edit_t0,
-                    v->last_edit_cpu_ms, PUB_FIRST | (reduced ? 0u : PUB_FULL_PREVIEW));
+            publish(v, &img, FRAME_PREVIEW, version, 1, full.exposure, (float)step_scale, t1 - t0,
+                    viewer_now_ms() - t2, edit_t0, v->last_edit_cpu_ms, PUB_FIRST | (smaller ? 0u : PUB_FULL_PREVIEW));
             pthread_mutex_lock(&v->lock);
             return;
         }
@@ -374,11 +444,14 @@ static void do_upgrade(viewer *v) {
         render_failed(v, "preview", st);
         return;
     }
-    learn_cost(v, full.technique, render_ms, small.width, small.height);
+    /* after a first frame at this size but a coarser step, the first one
+     * at this size was that frame */
+    const int smaller = v->upgrade_smaller;
+    learn_cost(v, full.technique, render_ms, small.width, small.height, 1);
     uint64_t version = v->shown_version;
     pthread_mutex_unlock(&v->lock);
-    publish(v, &img, FRAME_PREVIEW, version, 1, full.exposure, 0, render_ms, v->last_edit_ms, v->last_edit_cpu_ms,
-            PUB_FULL_PREVIEW);
+    publish(v, &img, FRAME_PREVIEW, version, 1, full.exposure, 1.0f, 0, render_ms, v->last_edit_ms,
+            v->last_edit_cpu_ms, smaller ? PUB_FULL_PREVIEW : 0u);
     pthread_mutex_lock(&v->lock);
 }
 
@@ -393,6 +466,7 @@ static void do_refine(viewer *v) {
     atomic_store(&v->cancellable, 1);
     if (!v->refine_steps_done) {
         int more = 0;
+        volux_technique_set_budget(v->tech, v->opt.preview_budget_ms > 0 ? REFINE_BUDGET_MS : 0);
         st = volux_technique_refine(v->tech, scene, NULL, &more);
         atomic_store(&v->cancellable, 0);
         if (st == VOLUX_ERR_CANCELLED) return;
@@ -404,6 +478,7 @@ static void do_refine(viewer *v) {
         v->refine_steps_done = !more;
         pthread_mutex_lock(&v->frame_lock);
         v->stats.last_refine_ms = viewer_now_ms() - t0;
+        v->stats.pending = volux_technique_pending(v->tech);
         pthread_mutex_unlock(&v->frame_lock);
         return;
     }
@@ -447,7 +522,7 @@ static void do_refine(viewer *v) {
     uint64_t version = v->shown_version;
     float exposure = rs->exposure;
     pthread_mutex_unlock(&v->lock);
-    publish(v, &img, final ? FRAME_FINAL : FRAME_REFINE, version, spp, exposure, 0, now - t0, edit_t0,
+    publish(v, &img, final ? FRAME_FINAL : FRAME_REFINE, version, spp, exposure, 1.0f, 0, now - t0, edit_t0,
             v->last_edit_cpu_ms, 0);
     pthread_mutex_lock(&v->lock);
 }

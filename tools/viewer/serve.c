@@ -16,7 +16,8 @@
 static void usage(FILE *f) {
     fprintf(f,
             "usage: volux serve SCENE.json [--port P] [--bind ADDR] [--token T] [--data-root DIR]\n"
-            "                   [--preview N] [--preview-budget MS] [--idle-ms MS] [--max-image N]\n"
+            "                   [--preview N] [--preview-budget MS] [--preview-step K] [--idle-ms MS]\n"
+            "                   [--max-image N]\n"
             "                   [--jpeg-quality Q] [--preview-png]\n"
             "                   [--max-connections N] [--timeout S] [--max-mb MB] [--quiet]\n"
             "                   [--technique T] [--spp N] [--width W] [--height H] [--threads N]\n"
@@ -31,6 +32,9 @@ static void usage(FILE *f) {
             "  --preview-budget MS  the first frame after an edit is made smaller when the technique's\n"
             "                     measured cost says the --preview size would arrive later than MS;\n"
             "                     the --preview size follows at once (default 100; 0 = always --preview)\n"
+            "  --preview-step K   before making it smaller, that first frame may march at up to K times\n"
+            "                     render.step (1..8, default 4; 1 = never); refinement and the final\n"
+            "                     frame always use render.step\n"
             "  --idle-ms MS       quiet time before refinement starts (default 100)\n"
             "  --max-image N      largest render.width/height an edit may set (default 4096)\n"
             "  --port 0           any free port (the URL printed says which)\n");
@@ -73,6 +77,7 @@ int cli_serve(int argc, char **argv) {
     o->preview_max = 256;
     o->idle_ms = 100;
     o->preview_budget_ms = 100;
+    o->preview_step_max = 4;
     o->max_image = 4096;
     o->jpeg_quality = 85;
     o->max_connections = 64;
@@ -100,7 +105,7 @@ int cli_serve(int argc, char **argv) {
         }
         static const char *const valued[] = {"--port",    "--bind",        "--token",           "--data-root",
                                              "--preview", "--idle-ms",     "--max-image",       "--jpeg-quality",
-                                             "--timeout", "--max-mb",      "--max-connections", "--preview-budget",
+                                             "--timeout", "--max-mb",      "--max-connections", "--preview-budget", "--preview-step",
                                              NULL};
         int is_valued = 0;
         for (int k = 0; valued[k]; k++) is_valued |= !strcmp(a, valued[k]);
@@ -146,6 +151,13 @@ int cli_serve(int argc, char **argv) {
                     goto out;
                 }
                 o->preview_budget_ms = d;
+            } else if (!strcmp(a, "--preview-step")) {
+                if (!cli_parse_double("serve", a, val, &d)) goto out;
+                if (!(d >= 1 && d <= 8)) {
+                    cli_eprintf("volux serve: --preview-step: expected 1..8, got %s\n", val);
+                    goto out;
+                }
+                o->preview_step_max = d;
             } else if (!strcmp(a, "--max-image")) {
                 if (!cli_parse_int("serve", a, val, 16, VOLUX_MAX_IMAGE_DIM, &n)) goto out;
                 o->max_image = (int)n;

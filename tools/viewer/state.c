@@ -236,6 +236,8 @@ char *viewer_stats_json(viewer *v) {
     cJSON_AddNumberToObject(o, "edit_to_preview_cpu_ms", s.last_latency_cpu_ms);
     int first[2] = {s.last_first_w, s.last_first_h};
     cJSON_AddItemToObject(o, "first_preview_size", cJSON_CreateIntArray(first, 2));
+    cJSON_AddNumberToObject(o, "first_preview_step_scale", s.last_first_step_scale);
+    cJSON_AddNumberToObject(o, "preview_step_max", v->opt.preview_step_max);
     cJSON_AddNumberToObject(o, "edit_to_full_preview_ms", s.last_full_preview_ms);
     cJSON_AddNumberToObject(o, "edit_to_full_preview_cpu_ms", s.last_full_preview_cpu_ms);
     cJSON_AddNumberToObject(o, "preview_budget_ms", v->opt.preview_budget_ms);
@@ -251,6 +253,8 @@ char *viewer_stats_json(viewer *v) {
     cJSON_AddNumberToObject(cw, "lights_updated", s.last_lights_changed);
     cJSON_AddNumberToObject(cw, "update_ms", s.last_update_ms);
     cJSON_AddNumberToObject(cw, "memory_bytes", (double)s.technique_bytes);
+    cJSON_AddNumberToObject(cw, "budget_ms", s.last_update_budget_ms);
+    cJSON_AddNumberToObject(cw, "pending", (double)s.pending);
     cJSON_AddNumberToObject(o, "edits", (double)s.edits);
     cJSON_AddNumberToObject(o, "edits_rejected", (double)s.edits_rejected);
     cJSON_AddNumberToObject(o, "frames", (double)s.frames);

@@ -47,6 +47,8 @@ typedef struct viewer_frame {
     volux_image image;
     float exposure;
     double render_ms, update_ms, encode_ms;
+    float step_scale;  /* march step of this frame / the scene's render.step (> 1: a
+                          first frame coarsened to meet the preview budget) */
     double latency_ms; /* edit received → this frame published (first frame after an edit) */
     double cpu_ms;     /* CPU time the process spent meanwhile (all threads): a
                           figure a loaded machine inflates far less than latency_ms */
@@ -64,6 +66,9 @@ typedef struct viewer_options {
     double preview_budget_ms; /* > 0: the first frame after an edit is sized to
                                  arrive within this time (then the preview_max
                                  size follows); 0: always preview_max      */
+    double preview_step_max; /* with a budget: a first frame may march at up
+                                to this multiple of render.step before it is
+                                made smaller (1 = never)               */
     double idle_ms;        /* quiet time before refinement starts       */
     int max_image;         /* largest render.width/height an edit may set */
     int jpeg_quality;
@@ -78,11 +83,16 @@ typedef struct viewer_stats {
     double last_latency_ms;       /* edit → first preview published    */
     double last_latency_cpu_ms;   /* process CPU time over that interval */
     int last_first_w, last_first_h; /* size of that first preview          */
+    double last_first_step_scale; /* and its step / render.step          */
     double last_full_preview_ms;  /* edit → preview at the --preview size  */
     double last_full_preview_cpu_ms;
     double last_final_ms;         /* edit → final frame published      */
     double last_update_ms, last_render_ms, last_encode_ms, last_refine_ms;
     uint32_t last_changes;        /* volux_change bits of the last update */
+    double last_update_budget_ms; /* volux_technique_set_budget before it; -1:
+                                     the technique defers nothing        */
+    uint64_t pending;             /* volux_technique_pending after the last
+                                     update or refine step               */
     int last_lights_changed;      /* light slots in the last update     */
     char technique[32];
     size_t technique_bytes;
@@ -109,7 +119,10 @@ typedef struct viewer {
     /* render thread state (under `lock`) */
     volux_technique *tech, *spare; /* current and previous instance   */
     volux_framebuffer *fb_preview, *fb_first, *fb_full; /* --preview size, adaptive first frame, full */
-    int upgrade;             /* the first preview was smaller than --preview */
+    int upgrade;             /* the first preview was smaller than --preview
+                                or marched at a coarser step        */
+    int upgrade_smaller;     /* ... smaller (the upgrade is then the first
+                                frame at the --preview size)         */
     struct {
         char technique[32];
         double ms_per_pixel; /* running estimate of a preview render's cost */

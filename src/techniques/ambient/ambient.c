@@ -384,6 +384,9 @@ static volux_status ambient_update(void *state, const volux_scene *scene, const 
     const volux_light_list *ls = &b->rc.lights;
     volux_status s;
     scatter_base_update(b, scene, c);
+    /* the camera rays sample the bricked copy (scatter_march: the same
+     * values, fewer cache misses than the linear layout) */
+    if ((c->what & VOLUX_CHANGE_VOLUME) && (s = volux_volume_build_bricks(b->rc.volume))) return s;
     int need_ext = (c->what & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY)) != 0;
     int need_slice = (c->what & VOLUX_CHANGE_PHASE) != 0, all_caches = 0, scale_changed = 0, table_loaded = 0;
     if (c->what & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME)) {
@@ -655,4 +658,5 @@ const volux_technique_class volux_ambient_class = {
     ambient_init, ambient_update, ambient_render_tile, ambient_memory_bytes, ambient_release,
     NULL, NULL, NULL, /* no refine, pending work or statistics */
     NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
+    NULL, /* no per-frame budget (volux_technique_set_budget) */
 };

@@ -91,4 +91,5 @@ const volux_technique_class volux_ao_class = {
     NULL, ao_update, ao_render_tile, ao_memory_bytes, ao_release,
     NULL, NULL, NULL, /* no refine, pending work or statistics */
     NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
+    NULL, /* no per-frame budget (volux_technique_set_budget) */
 };

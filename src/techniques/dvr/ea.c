@@ -19,6 +19,7 @@ const volux_technique_class volux_ea_class = {
     volux_dvr_init, volux_dvr_update, volux_dvr_render_tile, volux_dvr_memory_bytes, volux_dvr_release,
     NULL, NULL, NULL, /* no refine, pending work or statistics */
     volux_dvr_render_tile_part,
+    NULL, /* no per-frame budget: nothing to defer */
 };
 
 static const volux_param_info shaded_params[] = {
@@ -35,4 +36,5 @@ const volux_technique_class volux_shaded_class = {
     volux_dvr_init, volux_dvr_update, volux_dvr_render_tile, volux_dvr_memory_bytes, volux_dvr_release,
     NULL, NULL, NULL, /* no refine, pending work or statistics */
     volux_dvr_render_tile_part,
+    NULL, /* no per-frame budget: nothing to defer */
 };

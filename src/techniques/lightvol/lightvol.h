@@ -296,8 +296,19 @@ typedef struct lightvol_state {
     int valid;                     /* the volume matches `applied` once the
                                       job (if any) has run                 */
     lv_job job;
+    double frame_budget_ms;        /* volux_technique_set_budget (0: the
+                                      scene's budget_ms / budget_slices)  */
     lv_stats stats;
 } lightvol_state;
+
+/* The budget in force: the front end's per-frame budget when set (it wins
+ * over the scene's), else budget_slices (wins) or budget_ms; *slices and
+ * *ms are 0 when that kind is not in force. 1 if any budget is. */
+static inline int lv_budget(const lightvol_state *st, int *slices, double *ms) {
+    *slices = st->frame_budget_ms > 0.0 ? 0 : st->p.budget_slices;
+    *ms = st->frame_budget_ms > 0.0 ? st->frame_budget_ms : *slices > 0 ? 0.0 : (double)st->p.budget_ms;
+    return *slices > 0 || *ms > 0.0;
+}
 
 /* propagation (buffers.c, medium.c, sources.c, update.c; the files and
  * their internal interface: sweep.h) */

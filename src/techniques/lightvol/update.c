@@ -259,11 +259,14 @@ static volux_status run_job(lightvol_state *st, int *did) {
     size_t ebytes = (size_t)(most > 0 ? most : 1) * sizeof(lv_entry);
     lv_entry *E = volux_malloc(ctx, ebytes);
     if (!E) return volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for the pass entries");
-    const int by_slices = st->p.budget_slices > 0, by_ms = !by_slices && st->p.budget_ms > 0.0f;
+    int budget_slices;
+    double budget_ms;
+    lv_budget(st, &budget_slices, &budget_ms);
+    const int by_slices = budget_slices > 0, by_ms = budget_ms > 0.0;
     /* budget_ms: modelled work allowed at the measured rate (none measured
      * yet: one step at a time until there is) */
-    double work_left = by_ms && j->ms_per_work > 0.0 ? (double)st->p.budget_ms / j->ms_per_work : 0.0;
-    long steps_left = by_slices ? st->p.budget_slices : -1;
+    double work_left = by_ms && j->ms_per_work > 0.0 ? budget_ms / j->ms_per_work : 0.0;
+    long steps_left = by_slices ? budget_slices : -1;
     volux_status s = VOLUX_OK;
     int first = 1;
     while (j->pass < j->np) {
@@ -395,7 +398,9 @@ volux_status volux_lightvol_continue(lightvol_state *st, const volux_scene *scen
 
 volux_status volux_lightvol_update_lights(lightvol_state *st, const volux_scene *scene, const volux_change_set *c,
                                           int force_full, const char *reason) {
-    const int budget = st->p.budget_slices > 0 || st->p.budget_ms > 0.0f;
+    int budget_slices;
+    double budget_ms;
+    const int budget = lv_budget(st, &budget_slices, &budget_ms);
     int did = 0;
     volux_status s;
     if (!st->valid) force_full = 1, reason = reason ? reason : "illumination volume invalid";

@@ -711,4 +711,5 @@ const volux_technique_class volux_manylights_class = {
     ml_init, ml_update, ml_render_tile, ml_memory_bytes, ml_release,
     ml_refine, ml_pending, ml_stats,
     NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
+    NULL, /* no per-frame budget (volux_technique_set_budget) */
 };

@@ -82,4 +82,5 @@ const volux_technique_class volux_pathtrace_class = {
     NULL, pt_update, volux_pathtrace_render_tile, pt_memory_bytes, pt_release,
     NULL, NULL, NULL, /* no refine, pending work or statistics */
     NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
+    NULL, /* no per-frame budget (volux_technique_set_budget) */
 };

@@ -83,6 +83,18 @@ static inline __attribute__((always_inline)) float scatter_lag_T(const float (*r
     return lo == tail ? T_base : rec[(lo - 1) % SCATTER_LAG_RECORDS][3];
 }
 
+/* scatter_lag_T at tq = e − max_lag right after the records that end at or
+ * before tq were folded into T_base (scatter_march): the first record that
+ * ends after tq is then the oldest one, so the bisection would return it —
+ * the same value without the search, once per sample. */
+static inline __attribute__((always_inline)) float scatter_lag_T_oldest(const float (*rec)[4], int tail, int head,
+                                                                        float T_base, float T_now, float tq) {
+    if (tail == head || rec[(head - 1) % SCATTER_LAG_RECORDS][1] <= tq) return T_now;
+    const float *r0 = rec[tail % SCATTER_LAG_RECORDS];
+    if (tq > r0[0]) return r0[2] + (r0[3] - r0[2]) * (tq - r0[0]) / (r0[1] - r0[0]);
+    return T_base;
+}
+
 /* Integrates one view ray (the per-ray half of Eqs. 18–20; the pixel loop
  * is volux_raycaster_tile): segments of sample/segment.h, each adding
  * T(x_o)·(1 − e^{−τ})·albedo·c·L_s + emission, with x_o = x + lag·ω, the
@@ -111,7 +123,10 @@ scatter_march(const scatter_base *b, const void *tech, const volux_ray *ray, flo
     while (volux_segments_next(&seg, &a, &e, &gap)) {
         float len = e - a;
         smp.q = v3_madd(ray->q0, ray->dq, e);
-        smp.s = volux_volume_sample_index(v, smp.q.x, smp.q.y, smp.q.z);
+        /* the bricked copy where the technique built one (ambient): the
+         * same value, better locality along oblique rays */
+        smp.s = v->bricks ? volux_volume_sample_bricked(v, smp.q.x, smp.q.y, smp.q.z, v->storage)
+                          : volux_volume_sample_index(v, smp.q.x, smp.q.y, smp.q.z);
         count++;
         float rgba[4];
         volux_lut_rgba(lut, smp.s, rgba);
@@ -146,7 +161,7 @@ scatter_march(const scatter_base *b, const void *tech, const volux_ray *ray, flo
         }
         float T_far = T; /* T at max_lag behind this sample (before it) */
         if (lagged) {
-            T_far = scatter_lag_T((const float(*)[4])rec, tail, head, T_base, T, e - max_lag);
+            T_far = scatter_lag_T_oldest((const float(*)[4])rec, tail, head, T_base, T, e - max_lag);
             if (head - tail == SCATTER_LAG_RECORDS) T_base = rec[tail++ % SCATTER_LAG_RECORDS][3];
             float *r = rec[head++ % SCATTER_LAG_RECORDS];
             r[0] = a, r[1] = e, r[2] = T, r[3] = T * (1.0f - alpha);

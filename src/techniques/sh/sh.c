@@ -494,4 +494,5 @@ const volux_technique_class volux_sh_class = {
     NULL, sh_update, sh_render_tile, sh_memory_bytes, sh_release, sh_refine,
     NULL, NULL, /* no pending-work measure, no statistics */
     NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
+    NULL, /* no per-frame budget (volux_technique_set_budget) */
 };

@@ -295,4 +295,5 @@ const volux_technique_class volux_single_class = {
     single_init, single_update, single_render_tile, single_memory_bytes, single_release,
     NULL, NULL, NULL, /* no refine, pending work or statistics */
     NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
+    NULL, /* no per-frame budget (volux_technique_set_budget) */
 };

@@ -101,7 +101,9 @@ function connect() {
     window.volux.lastFrame = f;
     window.volux.frames.push(f);
     if (window.volux.frames.length > 200) window.volux.frames.shift();
-    $('st-kind').textContent = `${f.kind} ${f.width}×${f.height}, ${f.spp} spp, frame ${f.id}`;
+    // a first frame may march at a coarser step than render.step (--preview-step)
+    const coarse = f.step_scale > 1 ? `, step ×${f.step_scale}` : '';
+    $('st-kind').textContent = `${f.kind} ${f.width}×${f.height}${coarse}, ${f.spp} spp, frame ${f.id}`;
     $('st-server').textContent = `render ${f.render_ms.toFixed(0)} ms, encode ${f.encode_ms.toFixed(1)} ms (${f.format}, ${(f.bytes / 1024).toFixed(0)} KiB)`;
   });
   es.addEventListener('scene', (ev) => {
