@@ -10,7 +10,9 @@
  *
  * Lights live in slots [0, VOLUX_MAX_LIGHTS): a slot is empty or holds a
  * light; removing a light empties its slot without moving the others, so a
- * slot index identifies a light for its whole life.
+ * slot index identifies a light for its whole life. The slot table grows
+ * with the highest slot used (memory from the context's allocator), so a
+ * scene pays for the lights it has, not for the cap.
  *
  * DOES NOT: read files (io.h), render (render.h). Not thread-safe for
  * mutation; read-only sharing during a render is safe.
@@ -38,7 +40,10 @@
 extern "C" {
 #endif
 
-#define VOLUX_MAX_LIGHTS 256
+/* Hard cap on light slots (VOLUX_ERR_LIMIT beyond): 2^20 slots of a few
+ * hundred bytes each is a few hundred MB of scene before any technique
+ * state, the most a scene should take without the user noticing. */
+#define VOLUX_MAX_LIGHTS (1 << 20)
 /* Largest environment-map texel value kept (larger ones are clamped with a
  * warning; NaN/Inf are refused): sums over a map and radiance × intensity
  * stay finite in float. */
@@ -61,28 +66,40 @@ typedef enum volux_change {
     VOLUX_CHANGE_ALL = 0x3ffu
 } volux_change;
 
+typedef struct volux_scene volux_scene;
+
+/* What changed between a stamp and the scene (volux_scene_changes_since).
+ * Lights: the scene keeps one edit counter and, per slot, the counter's
+ * value at the slot's last change (set, enable, remove); a slot changed
+ * when that value is above `since`. The set therefore stays small however
+ * many lights there are, and it reads the scene: it is valid until the
+ * scene's next light edit (or its destruction). since = 0 means every
+ * slot (volux_change_all, a stamp of another scene). */
 typedef struct volux_change_set {
-    uint32_t what;                             /* volux_change bits         */
-    uint64_t lights[VOLUX_MAX_LIGHTS / 64];    /* bit i: slot i changed     */
+    uint32_t what;              /* volux_change bits                        */
+    uint64_t since;             /* the stamp's light edit counter; 0: all    */
+    const volux_scene *scene;   /* the scene asked (NULL with since = 0)     */
 } volux_change_set;
 
-static inline int volux_change_light(const volux_change_set *c, int slot) {
-    return (int)((c->lights[slot >> 6] >> (slot & 63)) & 1u);
-}
+/* 1 if the light in `slot` (or its removal) changed since the stamp. */
+VOLUX_API int volux_change_light(const volux_change_set *c, int slot);
+/* How many slots changed (O(slots); -1 for since = 0: all of them). */
+VOLUX_API int volux_change_light_count(const volux_change_set *c);
 
 /* Everything changed (what a technique's create() applies). */
 static inline volux_change_set volux_change_all(void) {
     volux_change_set c;
     c.what = VOLUX_CHANGE_ALL;
-    for (int i = 0; i < VOLUX_MAX_LIGHTS / 64; i++) c.lights[i] = ~0ull;
+    c.since = 0;
+    c.scene = NULL;
     return c;
 }
 
-/* The versions a consumer saw (opaque contents, copyable). */
+/* The versions a consumer saw (opaque contents, copyable, fixed size). */
 typedef struct volux_scene_stamp {
     uint64_t scene_id;
     uint32_t aspect[10];
-    uint32_t light[VOLUX_MAX_LIGHTS];
+    uint64_t light_edits; /* the scene's light edit counter */
 } volux_scene_stamp;
 
 /* Render settings (scene "render" object). */
@@ -100,8 +117,6 @@ typedef struct volux_render_settings {
 } volux_render_settings;
 
 VOLUX_API void volux_render_settings_defaults(volux_render_settings *r);
-
-typedef struct volux_scene volux_scene;
 
 VOLUX_API volux_status volux_scene_create(volux_context *ctx, volux_scene **out);
 VOLUX_API void volux_scene_destroy(volux_scene *s);
@@ -146,13 +161,15 @@ VOLUX_API const volux_camera_desc *volux_scene_camera_desc(const volux_scene *s)
 VOLUX_API volux_status volux_scene_camera(const volux_scene *s, volux_camera *out);
 
 /* Sets (adds or replaces) the light in `slot`. Copies d, including an
- * environment map. Bumps LIGHTS and the slot. */
+ * environment map. Bumps LIGHTS and the slot. A slot past the table grows
+ * it (geometrically: n lights added in slot order cost O(n)); NOMEM when
+ * that fails, VOLUX_ERR_LIMIT for slot >= VOLUX_MAX_LIGHTS. */
 VOLUX_API volux_status volux_scene_set_light(volux_scene *s, int slot, const volux_light_desc *d);
 VOLUX_API volux_status volux_scene_remove_light(volux_scene *s, int slot);
 VOLUX_API volux_status volux_scene_set_light_enabled(volux_scene *s, int slot, int enabled);
 /* The light in `slot`, or NULL if the slot is empty. Owned by the scene. */
 VOLUX_API const volux_light_desc *volux_scene_light(const volux_scene *s, int slot);
-/* One past the highest occupied slot. */
+/* One past the highest occupied slot (loops over lights stop here). */
 VOLUX_API int volux_scene_light_slots(const volux_scene *s);
 
 /* Notes the loader left for the user (e.g. "no transfer_function: using
@@ -208,7 +225,8 @@ VOLUX_API volux_status volux_scene_assign(volux_scene *dst, const volux_scene *s
 
 VOLUX_API volux_scene_stamp volux_scene_stamp_now(const volux_scene *s);
 /* What changed since `seen`. A stamp from another scene (or zeroed) yields
- * VOLUX_CHANGE_ALL with every light bit set. */
+ * VOLUX_CHANGE_ALL with every light slot changed. O(1): the light slots
+ * are asked one by one through volux_change_light. */
 VOLUX_API volux_change_set volux_scene_changes_since(const volux_scene *s, const volux_scene_stamp *seen);
 
 #ifdef __cplusplus

@@ -117,6 +117,21 @@ class Edits(unittest.TestCase):
                 self.assertFalse(np.array_equal(got, previous), "set(%r) changed nothing" % path)
             previous = got
 
+    def test_edit_of_one_light_among_many(self):
+        # 1000 point lights (the cap was 256): the edit of light 999 through
+        # its dotted path renders like a fresh scene and changes the image
+        scene = lit_scene()
+        scene["lights"] = [{"type": "point", "position": [30 * math.cos(i), 20, 30 * math.sin(i)],
+                            "intensity": 2.0} for i in range(1000)]
+        vol = volux.Volume.from_numpy(sphere(16, 6.0))
+        live = volux.Scene.from_json(scene, volume=vol)
+        before = live.render()
+        live.set("lights.999.intensity", 500.0)
+        scene["lights"][999]["intensity"] = 500.0
+        got = live.render()
+        self.assertTrue(np.array_equal(got, volux.Scene.from_json(scene, volume=vol).render()))
+        self.assertFalse(np.array_equal(got, before))
+
     def test_version_matches_package(self):
         here = os.path.dirname(os.path.abspath(__file__))
         with open(os.path.join(here, "..", "pyproject.toml")) as f:

@@ -1,4 +1,6 @@
 /* core/context.c — context, allocator, error messages, progress, cache folder. */
+#include <limits.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -338,4 +340,19 @@ void volux_warn(volux_context *ctx, const char *fmt, ...) {
 int volux_progress(volux_context *ctx, const char *task, double fraction) {
     if (!ctx->progress) return 0;
     return ctx->progress(ctx->progress_user, task, fraction);
+}
+
+volux_status volux_grow_slots(volux_context *ctx, void *arr, int *cap, int need, size_t elem, const char *what) {
+    if (need <= *cap) return VOLUX_OK;
+    int n = *cap > 0 ? *cap : 8;
+    while (n < need) n = n > INT_MAX / 2 ? need : 2 * n;
+    void *p;
+    memcpy(&p, arr, sizeof p); /* arr is a T **: read the pointer without type punning */
+    if ((size_t)n > SIZE_MAX / elem) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for %s", what);
+    void *q = volux_realloc(ctx, p, elem * (size_t)*cap, elem * (size_t)n);
+    if (!q) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for %s (%d slots)", what, n);
+    memset((char *)q + elem * (size_t)*cap, 0, elem * (size_t)(n - *cap));
+    memcpy(arr, &q, sizeof q);
+    *cap = n;
+    return VOLUX_OK;
 }

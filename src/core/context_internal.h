@@ -40,6 +40,13 @@ void volux_free(volux_context *ctx, void *p, size_t n);
 char *volux_strdup(volux_context *ctx, const char *s);
 void volux_strfree(volux_context *ctx, char *s);
 
+/* Per-slot arrays (one element per light slot): makes the array at `arr`
+ * (the address of a T *) of *cap elements of `elem` bytes hold at least
+ * `need`, new elements zeroed, doubling so that n slots added one by one
+ * cost O(n) in all. On failure the array is unchanged and the error says
+ * "out of memory for WHAT". Free with volux_free(ctx, p, *cap * elem). */
+volux_status volux_grow_slots(volux_context *ctx, void *arr, int *cap, int need, size_t elem, const char *what);
+
 /* Like the above, but sets "out of memory (N bytes) for WHAT" on failure. */
 void *volux_alloc_or_error(volux_context *ctx, size_t n, const char *what);
 

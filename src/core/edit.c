@@ -130,7 +130,7 @@ static volux_status edit_light_toggle(volux_scene *s, int k) {
 static volux_status edit_light_add(volux_scene *s, int k) {
     int slot = last_light(s);
     if (k & 1) return slot >= 0 ? volux_scene_remove_light(s, slot) : VOLUX_ERR_UNSUPPORTED;
-    if (slot + 1 >= VOLUX_MAX_LIGHTS) return VOLUX_ERR_UNSUPPORTED;
+    if (slot + 1 >= VOLUX_MAX_LIGHTS) return VOLUX_ERR_UNSUPPORTED; /* the last slot is taken */
     volux_vec3 c;
     float r;
     volux_scene_bounds_sphere(s, &c, &r);

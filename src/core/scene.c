@@ -14,6 +14,7 @@ enum { A_VOLUME, A_EXTINCTION, A_COLOR, A_DENSITY, A_PHASE, A_LIGHTS, A_CAMERA, 
 
 typedef struct light_slot {
     int present;
+    uint64_t edit; /* light_edits at the slot's last change (set, enable, remove) */
     volux_light_desc desc;
     volux_image map; /* owned copy of desc.map */
 } light_slot;
@@ -37,14 +38,15 @@ struct volux_scene {
     volux_tf_material *materials;
     volux_transfer_lut lut; /* baked by the setters of the volume and the TF */
     volux_camera_desc camera;
-    light_slot lights[VOLUX_MAX_LIGHTS];
-    int light_slots;
+    light_slot *lights;    /* [light_cap]                                 */
+    int light_cap;         /* slots allocated (grown geometrically)       */
+    int light_slots;       /* one past the highest occupied slot          */
+    uint64_t light_edits;  /* counts light changes; starts at 1 (0 = all) */
     volux_vec3 background;
     volux_render_settings render;
     param_entry params[VOLUX_MAX_PARAMS];
     int n_params;
     uint32_t aspect[A_COUNT];
-    uint32_t light_version[VOLUX_MAX_LIGHTS];
     char notes[1024];
 };
 
@@ -80,7 +82,7 @@ volux_status volux_scene_create(volux_context *ctx, volux_scene **out) {
     volux_camera_desc_defaults(&s->camera);
     volux_render_settings_defaults(&s->render);
     for (int a = 0; a < A_COUNT; a++) s->aspect[a] = 1;
-    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) s->light_version[i] = 1;
+    s->light_edits = 1;
     *out = s;
     return VOLUX_OK;
 }
@@ -101,7 +103,8 @@ void volux_scene_destroy(volux_scene *s) {
     volux_sequence_destroy(s->seq);
     free_tf_arrays(s);
     volux_transfer_lut_free(ctx, &s->lut);
-    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) volux_image_free(ctx, &s->lights[i].map);
+    for (int i = 0; i < s->light_cap; i++) volux_image_free(ctx, &s->lights[i].map);
+    volux_free(ctx, s->lights, sizeof *s->lights * (size_t)s->light_cap);
     for (int i = 0; i < s->n_params; i++) volux_strfree(ctx, s->params[i].string);
     volux_free(ctx, s, sizeof *s);
 }
@@ -307,20 +310,45 @@ volux_status volux_scene_camera(const volux_scene *s, volux_camera *out) {
     return volux_camera_resolve(s->ctx, &s->camera, c, r, s->render.width, s->render.height, out);
 }
 
-static int valid_slot(const volux_scene *s, int slot) { return slot >= 0 && slot < VOLUX_MAX_LIGHTS && s; }
+static int valid_slot(const volux_scene *s, int slot) { return s && slot >= 0 && slot < s->light_cap; }
+
+/* Makes slots [0, need) exist (new ones empty, never changed). Doubling
+ * keeps n lights added in slot order at O(n) copies in all. */
+static volux_status grow_lights(volux_scene *s, int need) {
+    if (need <= s->light_cap) return VOLUX_OK;
+    int cap = s->light_cap ? s->light_cap : 8;
+    while (cap < need) cap = cap > VOLUX_MAX_LIGHTS / 2 ? VOLUX_MAX_LIGHTS : 2 * cap;
+    size_t old = (size_t)s->light_cap, n = (size_t)cap;
+    light_slot *l = volux_realloc(s->ctx, s->lights, sizeof *l * old, sizeof *l * n);
+    if (!l) return volux_error(s->ctx, VOLUX_ERR_NOMEM, "out of memory for %d light slots", cap);
+    s->lights = l;
+    memset(l + old, 0, sizeof *l * (n - old));
+    /* map pointers point into the slot itself: re-aim them after the move */
+    for (size_t i = 0; i < old; i++)
+        if (l[i].desc.map) l[i].desc.map = &l[i].map;
+    s->light_cap = cap;
+    return VOLUX_OK;
+}
 
 static void touch_light(volux_scene *s, int slot) {
-    s->light_version[slot]++;
+    s->lights[slot].edit = ++s->light_edits;
     bump(s, A_LIGHTS);
-    int n = 0;
-    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++)
-        if (s->lights[i].present) n = i + 1;
-    s->light_slots = n;
+    if (s->lights[slot].present) {
+        if (slot >= s->light_slots) s->light_slots = slot + 1;
+    } else if (slot == s->light_slots - 1) {
+        /* the highest light left: walk down to the next occupied slot
+         * (each empty slot is passed once per removal of the top) */
+        int n = slot;
+        while (n > 0 && !s->lights[n - 1].present) n--;
+        s->light_slots = n;
+    }
 }
 
 volux_status volux_scene_set_light(volux_scene *s, int slot, const volux_light_desc *d) {
-    if (!valid_slot(s, slot))
+    if (slot < 0)
         return volux_error(s->ctx, VOLUX_ERR_INVALID, "lights[%d]: slot outside [0, %d)", slot, VOLUX_MAX_LIGHTS);
+    if (slot >= VOLUX_MAX_LIGHTS)
+        return volux_error(s->ctx, VOLUX_ERR_LIMIT, "lights[%d]: at most %d light slots", slot, VOLUX_MAX_LIGHTS);
     char path[32];
     snprintf(path, sizeof path, "lights[%d]", slot);
     volux_status st = volux_light_desc_validate(s->ctx, d, path);
@@ -352,10 +380,16 @@ volux_status volux_scene_set_light(volux_scene *s, int slot, const volux_light_d
             volux_warn(s->ctx, "%s.file: %zu texel values above %g clamped to it", path, clamped,
                        (double)VOLUX_ENV_TEXEL_MAX);
     }
+    /* d may point into this scene's table, which growing moves */
+    const volux_light_desc copy = *d;
+    if ((st = grow_lights(s, slot + 1))) {
+        volux_image_free(s->ctx, &map);
+        return st;
+    }
     light_slot *l = &s->lights[slot];
     volux_image_free(s->ctx, &l->map);
     l->present = 1;
-    l->desc = *d;
+    l->desc = copy;
     l->map = map;
     l->desc.map = map.rgb ? &l->map : NULL;
     touch_light(s, slot);
@@ -367,7 +401,8 @@ volux_status volux_scene_remove_light(volux_scene *s, int slot) {
         return volux_error(s->ctx, VOLUX_ERR_INVALID, "lights[%d]: no light in this slot", slot);
     light_slot *l = &s->lights[slot];
     volux_image_free(s->ctx, &l->map);
-    memset(l, 0, sizeof *l);
+    memset(&l->desc, 0, sizeof l->desc);
+    l->present = 0;
     touch_light(s, slot);
     return VOLUX_OK;
 }
@@ -382,7 +417,7 @@ volux_status volux_scene_set_light_enabled(volux_scene *s, int slot, int enabled
 }
 
 const volux_light_desc *volux_scene_light(const volux_scene *s, int slot) {
-    if (slot < 0 || slot >= VOLUX_MAX_LIGHTS || !s->lights[slot].present) return NULL;
+    if (slot < 0 || slot >= s->light_cap || !s->lights[slot].present) return NULL;
     return &s->lights[slot].desc;
 }
 
@@ -513,8 +548,21 @@ volux_scene_stamp volux_scene_stamp_now(const volux_scene *s) {
     memset(&st, 0, sizeof st);
     st.scene_id = s->id;
     memcpy(st.aspect, s->aspect, sizeof st.aspect);
-    memcpy(st.light, s->light_version, sizeof st.light);
+    st.light_edits = s->light_edits;
     return st;
+}
+
+int volux_change_light(const volux_change_set *c, int slot) {
+    if (c->since == 0) return 1;
+    const volux_scene *s = c->scene;
+    return s && slot >= 0 && slot < s->light_cap && s->lights[slot].edit > c->since;
+}
+
+int volux_change_light_count(const volux_change_set *c) {
+    if (c->since == 0) return -1;
+    int n = 0;
+    for (int i = 0; c->scene && i < c->scene->light_cap; i++) n += c->scene->lights[i].edit > c->since;
+    return n;
 }
 
 volux_change_set volux_scene_changes_since(const volux_scene *s, const volux_scene_stamp *seen) {
@@ -523,8 +571,10 @@ volux_change_set volux_scene_changes_since(const volux_scene *s, const volux_sce
     if (!seen || seen->scene_id != s->id) return volux_change_all();
     for (int a = 0; a < A_COUNT; a++)
         if (seen->aspect[a] != s->aspect[a]) c.what |= 1u << a;
-    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++)
-        if (seen->light[i] != s->light_version[i]) c.lights[i >> 6] |= 1ull << (i & 63);
+    /* the counter starts at 1, so a stamp of this scene never has 0 (which
+     * means "all") */
+    c.since = seen->light_edits;
+    c.scene = s;
     return c;
 }
 
@@ -561,10 +611,10 @@ volux_status volux_scene_assign(volux_scene *dst, const volux_scene *src, int ke
         return st;
     int slots = dst->light_slots > src->light_slots ? dst->light_slots : src->light_slots;
     for (int i = 0; i < slots; i++) {
-        const light_slot *a = &dst->lights[i], *b = &src->lights[i];
-        if (b->present && (!a->present || !light_equal(&a->desc, &b->desc))) {
-            if ((st = volux_scene_set_light(dst, i, &b->desc))) return st;
-        } else if (!b->present && a->present && (st = volux_scene_remove_light(dst, i)))
+        const volux_light_desc *a = volux_scene_light(dst, i), *b = volux_scene_light(src, i);
+        if (b && (!a || !light_equal(a, b))) {
+            if ((st = volux_scene_set_light(dst, i, b))) return st;
+        } else if (!b && a && (st = volux_scene_remove_light(dst, i)))
             return st;
     }
     volux_scene_set_background(dst, src->background);

@@ -261,12 +261,13 @@ volux_status volux_scene_doc_edit(volux_scene_doc *doc, const char *const *assig
     cJSON *tree = cJSON_Duplicate(doc->tree, 1);
     if (!tree) return volux_json_error(&r, VOLUX_ERR_NOMEM, NULL, "out of memory for an edit");
     volux_scene *cand = NULL;
+    volux_scene_edit_plan plan;
+    memset(&plan, 0, sizeof plan);
     volux_status st = VOLUX_OK;
     for (int i = 0; i < n && !st; i++) st = volux_json_apply_override(&r, tree, assignments[i]);
     if (st) goto done;
     if ((st = volux_scene_create(ctx, &cand))) goto done;
     volux_scene_files files = {NULL, doc->root, &doc->trusted};
-    volux_scene_edit_plan plan;
     if ((st = volux_scene_read_edit(ctx, tree, doc->tree, doc->scene, doc->base_dir, doc->name, &files, cand, &plan)))
         goto done;
     if (doc->validate && (st = doc->validate(doc->validate_user, ctx, cand))) {
@@ -279,6 +280,7 @@ volux_status volux_scene_doc_edit(volux_scene_doc *doc, const char *const *assig
     tree = NULL;
     doc->version++;
 done:
+    volux_scene_edit_plan_free(ctx, &plan);
     cJSON_Delete(tree);
     volux_scene_destroy(cand);
     return st;

@@ -79,8 +79,11 @@ typedef struct volux_scene_edit_plan {
     int volume, transfer, camera;
     int time_step;                          /* render.time_step of the edit */
     int n_lights;                           /* size of the new "lights" array */
-    unsigned char light[VOLUX_MAX_LIGHTS]; /* 1: slot i changed or is new    */
+    unsigned char *light;                   /* [n_lights] 1: slot i changed or is new */
 } volux_scene_edit_plan;
+
+/* Frees what volux_scene_read_edit allocated in *plan (also after it failed). */
+void volux_scene_edit_plan_free(volux_context *ctx, volux_scene_edit_plan *plan);
 
 /* Reads the edited tree `root` into the fresh scene `candidate`, re-reading
  * only the sections that differ from `old_root` (files of unchanged

@@ -1226,6 +1226,12 @@ static const cJSON *item(const cJSON *obj, const char *key) {
     return obj ? cJSON_GetObjectItemCaseSensitive(obj, key) : NULL;
 }
 
+void volux_scene_edit_plan_free(volux_context *ctx, volux_scene_edit_plan *plan) {
+    volux_free(ctx, plan->light, (size_t)plan->n_lights);
+    plan->light = NULL;
+    plan->n_lights = 0;
+}
+
 volux_status volux_scene_read_edit(volux_context *ctx, const cJSON *root, const cJSON *old_root,
                                    const volux_scene *live, const char *base_dir, const char *name,
                                    const volux_scene_files *files, volux_scene *candidate,
@@ -1301,6 +1307,8 @@ volux_status volux_scene_read_edit(volux_context *ctx, const cJSON *root, const 
         int n = cJSON_GetArraySize(lights);
         if (n > VOLUX_MAX_LIGHTS)
             return volux_json_error(r, VOLUX_ERR_LIMIT, "lights", "at most %d lights, got %d", VOLUX_MAX_LIGHTS, n);
+        if (n > 0 && !(plan->light = volux_malloc(ctx, (size_t)n)))
+            return volux_json_error(r, VOLUX_ERR_NOMEM, "lights", "out of memory for the edit of %d lights", n);
         plan->n_lights = n;
         const cJSON *old = cJSON_IsArray(old_lights) ? old_lights->child : NULL;
         int i = 0;

@@ -2,6 +2,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "core/context_internal.h"
 #include "lights.h"
 
 volux_vec3 volux_environment_mean(const volux_light_desc *d) {
@@ -49,9 +50,26 @@ void volux_light_prepare(const volux_light_desc *d, int slot, volux_prepared_lig
     }
 }
 
-void volux_light_list_prepare(const volux_scene *s, volux_light_list *out) {
+volux_status volux_light_list_prepare(const volux_scene *s, volux_light_list *out) {
     out->n_all = out->n_direct = out->n_env = out->n_sphere = 0;
     out->env_mean = v3(0, 0, 0);
+    int need = volux_scene_light_slots(s);
+    if (need > out->cap) {
+        /* both arrays the same length: grow a copy of the count for each */
+        volux_context *ctx = volux_scene_context(s);
+        int cap_all = out->cap, cap_direct = out->cap;
+        volux_status st = volux_grow_slots(ctx, &out->all, &cap_all, need, sizeof *out->all, "prepared lights");
+        if (!st) st = volux_grow_slots(ctx, &out->direct, &cap_direct, need, sizeof *out->direct, "prepared lights");
+        if (st) {
+            /* keep what grew (freed by volux_light_list_free at its size) */
+            volux_free(ctx, out->all, sizeof *out->all * (size_t)cap_all);
+            volux_free(ctx, out->direct, sizeof *out->direct * (size_t)cap_direct);
+            out->all = out->direct = NULL;
+            out->cap = 0;
+            return st;
+        }
+        out->cap = cap_all;
+    }
     for (int i = 0; i < volux_scene_light_slots(s); i++) {
         const volux_light_desc *d = volux_scene_light(s, i);
         if (!d || !d->enabled) continue;
@@ -65,6 +83,14 @@ void volux_light_list_prepare(const volux_scene *s, volux_light_list *out) {
         out->n_sphere += d->type == VOLUX_LIGHT_SPHERE;
         out->direct[out->n_direct++] = *l;
     }
+    return VOLUX_OK;
+}
+
+void volux_light_list_free(volux_context *ctx, volux_light_list *l) {
+    volux_free(ctx, l->all, sizeof *l->all * (size_t)l->cap);
+    volux_free(ctx, l->direct, sizeof *l->direct * (size_t)l->cap);
+    l->all = l->direct = NULL;
+    l->cap = l->n_all = l->n_direct = l->n_env = l->n_sphere = 0;
 }
 
 volux_vec3 volux_fibonacci_dir(int i, int n) {

@@ -37,18 +37,22 @@ typedef struct volux_prepared_light {
 } volux_prepared_light;
 
 typedef struct volux_light_list {
-    volux_prepared_light all[VOLUX_MAX_LIGHTS];    /* enabled lights, slot order     */
+    volux_prepared_light *all;    /* enabled lights, slot order     */
     int n_all;
-    volux_prepared_light direct[VOLUX_MAX_LIGHTS]; /* the same without environments  */
+    volux_prepared_light *direct; /* the same without environments  */
     int n_direct;
+    int cap;                      /* elements allocated in each     */
     int n_env, n_sphere;
     volux_vec3 env_mean; /* Σ of the enabled environments' mean radiance (0 if none) */
 } volux_light_list;
 
 /* One light in the prepared form (slot recorded; `desc` borrowed). */
 void volux_light_prepare(const volux_light_desc *d, int slot, volux_prepared_light *l);
-/* Fills `out` from the scene's enabled lights. */
-void volux_light_list_prepare(const volux_scene *s, volux_light_list *out);
+/* Fills `out` from the scene's enabled lights, growing its arrays (from
+ * the scene's context) to the scene's slot count; NOMEM leaves `out`
+ * empty but valid. */
+volux_status volux_light_list_prepare(const volux_scene *s, volux_light_list *out);
+void volux_light_list_free(volux_context *ctx, volux_light_list *l);
 
 /* Solid-angle mean radiance of an environment light (rows of a map are
  * weighted by the sine of their polar angle). */

@@ -40,29 +40,41 @@ volux_status volux_raycaster_update(volux_raycaster *rc, const volux_scene *scen
         rc->g = tf->anisotropy;
         rc->material = tf->material;
     }
-    if (w & VOLUX_CHANGE_LIGHTS) volux_light_list_prepare(scene, &rc->lights);
+    if ((w & VOLUX_CHANGE_LIGHTS) && (s = volux_light_list_prepare(scene, &rc->lights))) return s;
     return VOLUX_OK;
 }
 
-void volux_raycaster_warn_unused_lights(volux_raycaster *rc, unsigned types, const char *why) {
+volux_status volux_raycaster_warn_unused_lights(volux_raycaster *rc, unsigned types, const char *why) {
     const volux_light_list *ls = &rc->lights;
-    uint64_t now[(VOLUX_MAX_LIGHTS + 63) / 64] = {0};
+    int slots = ls->n_all ? ls->all[ls->n_all - 1].slot + 1 : 0; /* slot order */
+    volux_status s = volux_grow_slots(rc->ctx, &rc->ignored_in, &rc->ignored_cap, slots, sizeof *rc->ignored_in,
+                                      "the ignored-light warnings");
+    if (s) return s;
+    /* call numbers start at 2, so a zeroed entry never reads as "ignored in
+     * the previous call" */
+    const uint32_t call = ++rc->warn_calls + 1;
     for (int i = 0; i < ls->n_all; i++) {
         const volux_prepared_light *l = &ls->all[i];
         if (!(types & (1u << l->type))) continue;
-        uint64_t bit = 1ull << (l->slot % 64);
-        now[l->slot / 64] |= bit;
-        if (!(rc->warned_unused[l->slot / 64] & bit))
+        if (rc->ignored_in[l->slot] != call - 1)
             volux_message(rc->ctx, VOLUX_MESSAGE_WARNING, "%s: ignores lights[%d] (%s): %s", rc->cls->info.name,
                           l->slot, volux_light_type_name(l->type), why);
+        rc->ignored_in[l->slot] = call;
     }
-    memcpy(rc->warned_unused, now, sizeof now);
+    return VOLUX_OK;
 }
 
 void volux_raycaster_release(volux_raycaster *rc) {
     volux_majorant_grid_free(rc->ctx, &rc->grid);
+    volux_light_list_free(rc->ctx, &rc->lights);
+    volux_free(rc->ctx, rc->ignored_in, sizeof *rc->ignored_in * (size_t)rc->ignored_cap);
+    rc->ignored_in = NULL;
+    rc->ignored_cap = 0;
     volux_volume_release(rc->volume);
     rc->volume = NULL;
 }
 
-size_t volux_raycaster_memory_bytes(const volux_raycaster *rc) { return rc->grid.bytes; }
+size_t volux_raycaster_memory_bytes(const volux_raycaster *rc) {
+    return rc->grid.bytes + 2 * sizeof(volux_prepared_light) * (size_t)rc->lights.cap +
+           sizeof(uint32_t) * (size_t)rc->ignored_cap;
+}

@@ -57,7 +57,12 @@ typedef struct volux_raycaster {
     float albedo, g;               /* scattering albedo, HG anisotropy         */
     volux_material material;
     volux_light_list lights;
-    uint64_t warned_unused[(VOLUX_MAX_LIGHTS + 63) / 64]; /* slots already reported as ignored */
+    /* volux_raycaster_warn_unused_lights: per slot, the call that last
+     * found the slot's light ignored (a light ignored in the previous call
+     * was reported already) */
+    uint32_t *ignored_in;
+    int ignored_cap;
+    uint32_t warn_calls;
 } volux_raycaster;
 
 /* Parameters most ray casters share (same names, ranges and meaning). */
@@ -92,7 +97,7 @@ void volux_raycaster_release(volux_raycaster *rc);
  * (VOLUX_CHANGE_LIGHTS): the image then differs from the scene's lighting
  * by design, never silently. A light is reported once while it stays
  * ignored (an edit of another light does not repeat the warning). */
-void volux_raycaster_warn_unused_lights(volux_raycaster *rc, unsigned types, const char *why);
+volux_status volux_raycaster_warn_unused_lights(volux_raycaster *rc, unsigned types, const char *why);
 size_t volux_raycaster_memory_bytes(const volux_raycaster *rc);
 
 /* Integrates one clipped ray: returns the radiance gathered inside the

@@ -169,11 +169,8 @@ volux_status volux_technique_create_class(volux_context *ctx, const volux_techni
     return VOLUX_OK;
 }
 
-static int any_change(const volux_change_set *c) {
-    int any = c->what != 0;
-    for (int i = 0; i < VOLUX_MAX_LIGHTS / 64; i++) any |= c->lights[i] != 0;
-    return any;
-}
+/* Every light change bumps VOLUX_CHANGE_LIGHTS too. */
+static int any_change(const volux_change_set *c) { return c->what != 0; }
 
 int volux_technique_is_current(const volux_technique *t, const volux_scene *scene) {
     volux_change_set c = volux_scene_changes_since(scene, &t->stamp);

@@ -57,6 +57,18 @@ static void edit_tf_field(volux_scene *s, int which) {
     assert_int_equal(volux_scene_set_transfer(s, &d), VOLUX_OK);
 }
 
+/* The per-slot counters of ambient's first three light slots. */
+typedef struct slot_counts {
+    uint64_t builds[3], resums[3];
+} slot_counts;
+
+static slot_counts counts_of(const ambient_state *st) {
+    slot_counts c;
+    assert_true(st->slot_cap >= 3);
+    for (int i = 0; i < 3; i++) c.builds[i] = st->slot[i].cache_builds, c.resums[i] = st->slot[i].cache_resums;
+    return c;
+}
+
 /* Least work, read from the techniques' own counters. */
 static void test_ambient_edits_do_least_work(void **state) {
     (void)state;
@@ -66,6 +78,7 @@ static void test_ambient_edits_do_least_work(void **state) {
     assert_int_equal(volux_technique_create(ctx, "ambient", s, &t), VOLUX_OK);
     const ambient_state *st = volux_technique_state(t);
     ambient_stats before = st->stats;
+    slot_counts was = counts_of(st), now;
     /* camera: nothing */
     volux_camera_desc cam = *volux_scene_camera_desc(s);
     cam.elevation_deg += 10.0f;
@@ -81,23 +94,29 @@ static void test_ambient_edits_do_least_work(void **state) {
     l.position.y += 3.0f;
     assert_int_equal(volux_scene_set_light(s, 1, &l), VOLUX_OK);
     assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
-    assert_true(st->stats.cache_builds[1] == before.cache_builds[1] + 1);
-    assert_true(st->stats.cache_builds[0] == before.cache_builds[0]);
-    assert_true(st->stats.cache_builds[2] == before.cache_builds[2]);
+    now = counts_of(st);
+    assert_true(now.builds[1] == was.builds[1] + 1);
+    assert_true(now.builds[0] == was.builds[0]);
+    assert_true(now.builds[2] == was.builds[2]);
+    assert_true(st->stats.cache_builds == before.cache_builds + 1);
     assert_true(st->stats.sat_builds == before.sat_builds && st->stats.rho_builds == before.rho_builds);
     before = st->stats;
+    was = now;
     /* phase: slice + every radiance cache re-summed from its kept geometry
      * (no march), no SAT / ambient extinction */
     edit_tf_field(s, 2);
     assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
     assert_true(st->stats.slice_builds == before.slice_builds + 1);
+    now = counts_of(st);
     for (int i = 0; i < 3; i++) {
-        assert_true(st->stats.cache_resums[i] == before.cache_resums[i] + 1);
-        assert_true(st->stats.cache_builds[i] == before.cache_builds[i]);
+        assert_true(now.resums[i] == was.resums[i] + 1);
+        assert_true(now.builds[i] == was.builds[i]);
     }
+    assert_true(st->stats.cache_resums == before.cache_resums + 3);
     assert_true(st->stats.sat_builds == before.sat_builds && st->stats.rho_builds == before.rho_builds);
     assert_true(st->stats.table_loads == before.table_loads);
     before = st->stats;
+    was = now;
     /* without the kept geometry a phase edit marches every cache */
     assert_int_equal(volux_scene_set_param(s, "ambient", "phase_cache", 0, NULL), VOLUX_OK);
     assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
@@ -105,18 +124,21 @@ static void test_ambient_edits_do_least_work(void **state) {
     td.anisotropy = 0.3f;
     assert_int_equal(volux_scene_set_transfer(s, &td), VOLUX_OK);
     assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    now = counts_of(st);
     for (int i = 0; i < 3; i++) {
-        assert_true(st->stats.cache_builds[i] == before.cache_builds[i] + 1);
-        assert_true(st->stats.cache_resums[i] == before.cache_resums[i]);
+        assert_true(now.builds[i] == was.builds[i] + 1);
+        assert_true(now.resums[i] == was.resums[i]);
     }
     assert_int_equal(volux_scene_set_param(s, "ambient", "phase_cache", 1, NULL), VOLUX_OK);
     assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
     before = st->stats;
+    was = counts_of(st);
     /* TF extinction: SAT, ambient extinction, all radiance caches */
     edit_opacity(s, 0.5f);
     assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
     assert_true(st->stats.sat_builds == before.sat_builds + 1 && st->stats.rho_builds == before.rho_builds + 1);
-    for (int i = 0; i < 3; i++) assert_true(st->stats.cache_builds[i] == before.cache_builds[i] + 1);
+    now = counts_of(st);
+    for (int i = 0; i < 3; i++) assert_true(now.builds[i] == was.builds[i] + 1);
     assert_true(st->stats.slice_builds == before.slice_builds);
     volux_technique_destroy(t);
     volux_scene_destroy(s);
@@ -132,14 +154,14 @@ static void test_single_and_ao_edits_do_least_work(void **state) {
     assert_int_equal(volux_technique_create(ctx, "ao", s, &ta), VOLUX_OK);
     const single_state *ss = volux_technique_state(ts);
     const ao_state *as = volux_technique_state(ta);
-    uint64_t c0 = ss->cache_builds[0], c1 = ss->cache_builds[1], sat = as->sat_builds;
+    uint64_t c0 = ss->slot[0].cache_builds, c1 = ss->slot[1].cache_builds, sat = as->sat_builds;
     edit_tf_field(s, 2); /* phase: no cache work for either */
     volux_light_desc l = *volux_scene_light(s, 1);
     l.position.z += 2.0f;
     assert_int_equal(volux_scene_set_light(s, 1, &l), VOLUX_OK); /* light 1: single rebuilds its cache only */
     assert_int_equal(volux_technique_update(ts, s, NULL), VOLUX_OK);
     assert_int_equal(volux_technique_update(ta, s, NULL), VOLUX_OK);
-    assert_true(ss->cache_builds[0] == c0 && ss->cache_builds[1] == c1 + 1);
+    assert_true(ss->slot[0].cache_builds == c0 && ss->slot[1].cache_builds == c1 + 1);
     assert_true(as->sat_builds == sat);
     volux_technique_destroy(ts);
     volux_technique_destroy(ta);

@@ -73,6 +73,13 @@ static volux_scene *load(volux_context *ctx, const char *technique) {
     volux_scene *s = NULL;
     volux_status st = volux_scene_load_string(ctx, scene_json, tu_temp_path(""), "matrix.json", ov, 1, &s);
     if (st) fail_msg("scene: %s", volux_context_error(ctx));
+    /* The point light lives in slot 511: past the old cap of 256, and the
+     * light_add edit (the slot after the last light) then grows the slot
+     * table and every technique's per-slot state inside the update (so
+     * the OOM runs fail each of those allocations too). */
+    volux_light_desc point = *volux_scene_light(s, 2);
+    if (volux_scene_set_light(s, 511, &point) || volux_scene_remove_light(s, 2))
+        fail_msg("scene: %s", volux_context_error(ctx));
     return s;
 }
 

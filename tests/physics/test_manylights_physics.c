@@ -130,7 +130,7 @@ static void set_placement(volux_scene *s, float smin, float smax) {
 static void depth_sum(const ml_state *st, int depth, double *mean, double *se) {
     double sum = 0.0, sq = 0.0;
     long paths = 0;
-    for (int slot = 0; slot < VOLUX_MAX_LIGHTS; slot++) {
+    for (int slot = 0; slot < st->sets_cap; slot++) {
         const ml_set *set = &st->sets[slot];
         if (!set->active) continue;
         paths += set->paths;
@@ -317,7 +317,7 @@ static void test_roulette_unbiased(void **state) {
 /* The VL nearest to the volume's centre (the world origin). */
 static const ml_vl *central_vl(const ml_state *st, const ml_set **set_out) {
     const ml_vl *best = NULL;
-    for (int slot = 0; slot < VOLUX_MAX_LIGHTS; slot++)
+    for (int slot = 0; slot < st->sets_cap; slot++)
         for (int i = 0; st->sets[slot].active && i < st->sets[slot].cur.n; i++) {
             const ml_vl *v = &st->sets[slot].cur.v[i];
             if (!best || v3_dot(v->pos, v->pos) < v3_dot(best->pos, best->pos)) {

@@ -266,8 +266,9 @@ static void test_huge_arrays_deep_nesting_and_many_keys(void **state) {
         volux_status status;
         const char *part;
     } cases[] = {
-        {repeat("{" VOL ", " TF ", \"lights\": [", "{\"type\": \"point\"}", 100000, ",", "]}"), VOLUX_ERR_LIMIT,
-         "lights: at most 256 lights, got 100000"},
+        /* one light past the cap: refused before any light is read */
+        {repeat("{" VOL ", " TF ", \"lights\": [", "{}", VOLUX_MAX_LIGHTS + 1, ",", "]}"), VOLUX_ERR_LIMIT,
+         "lights: at most 1048576 lights, got 1048577"},
         {repeat("{" VOL ", \"transfer_function\": {\"opacity\": [", "[0, 0]", 65537, ",", "]}}"), VOLUX_ERR_INVALID,
          "transfer_function.opacity: needs 1..65536 rows, got 65537"},
         {repeat("{" VOL ", \"transfer_function\": {\"opacity\": [[", "0", 200000, ",", "]]}}"), VOLUX_ERR_INVALID,

@@ -379,7 +379,7 @@ static void do_preview(viewer *v, uint64_t version) {
                                                      ? (uint32_t)VOLUX_CHANGE_RENDER
                                                      : 0u);
         int lights = 0;
-        for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) lights += volux_change_light(&changed, i);
+        if (changed.what & VOLUX_CHANGE_LIGHTS) lights = volux_change_light_count(&changed);
         v->stats.last_lights_changed = lights;
         snprintf(v->stats.technique, sizeof v->stats.technique, "%s", full.technique);
         v->stats.technique_bytes = volux_technique_memory_bytes(v->tech);

@@ -354,27 +354,29 @@ static volux_status build_rho_c(ambient_state *st) {
  * changed (a phase edit) and the geometry is valid, else a march (which
  * records the geometry when phase_cache is on). */
 static volux_status build_cache(ambient_state *st, const volux_prepared_light *l, int kappa_only) {
-    int slot = l->slot;
-    scatter_grid *V = &st->cache[slot];
+    ambient_slot *as = &st->slot[l->slot];
+    scatter_grid *V = &as->cache;
     volux_status s = scatter_grid_alloc(st->b.rc.ctx, st->b.rc.volume, st->cache_scale, V, "ambient: radiance cache");
     if (s) return s;
     tube_input in = {&st->rho_c, st->kappa, st->table.desc.n_sigma, (float)st->table.desc.sigma_max, st->radius,
                      st->b.rc.threads, 0, NULL};
-    if (kappa_only && st->phase_cache && st->geo_ok[slot]) {
-        in.geo = &st->geo[slot];
+    if (kappa_only && st->phase_cache && as->geo_ok) {
+        in.geo = &as->geo;
         if ((s = tube_resum(st->b.rc.ctx, &in, l, V))) return s;
-        st->stats.cache_resums[slot]++;
+        as->cache_resums++;
+        st->stats.cache_resums++;
         return VOLUX_OK;
     }
-    st->geo_ok[slot] = 0;
+    as->geo_ok = 0;
     if (st->phase_cache) {
         size_t n = (size_t)V->dims[0] * (size_t)V->dims[1] * (size_t)V->dims[2];
-        if ((s = tube_geometry_alloc(st->b.rc.ctx, n, &st->geo[slot]))) return s;
-        in.geo = &st->geo[slot];
+        if ((s = tube_geometry_alloc(st->b.rc.ctx, n, &as->geo))) return s;
+        in.geo = &as->geo;
     }
     if ((s = tube_march(st->b.rc.ctx, &in, l, V))) return s;
-    st->geo_ok[slot] = st->phase_cache;
-    st->stats.cache_builds[slot]++;
+    as->geo_ok = st->phase_cache;
+    as->cache_builds++;
+    st->stats.cache_builds++;
     return VOLUX_OK;
 }
 
@@ -459,16 +461,21 @@ static volux_status ambient_update(void *state, const volux_scene *scene, const 
     /* The kept tube geometry depends on ρ_c, the radius, the cache grid
      * and the table's σ̃t axis, not on g: only a phase edit can re-sum. */
     int kappa_only = !need_ext && !scale_changed && !table_loaded;
-    int live[VOLUX_MAX_LIGHTS] = {0};
-    for (int i = 0; i < ls->n_direct; i++) live[ls->direct[i].slot] = 1;
-    for (int slot = 0; slot < VOLUX_MAX_LIGHTS; slot++) {
-        if (st->cache[slot].v && !live[slot]) scatter_grid_free(b->rc.ctx, &st->cache[slot]);
-        if (!kappa_only || !live[slot]) st->geo_ok[slot] = 0;
-        if (st->geo[slot].arg && (!live[slot] || !st->phase_cache)) tube_geometry_free(b->rc.ctx, &st->geo[slot]);
+    if ((s = volux_grow_slots(b->rc.ctx, &st->slot, &st->slot_cap, volux_scene_light_slots(scene), sizeof *st->slot,
+                              "ambient: radiance caches")))
+        return s;
+    /* the direct lights are in slot order: one merge pass */
+    for (int slot = 0, i = 0; slot < st->slot_cap; slot++) {
+        while (i < ls->n_direct && ls->direct[i].slot < slot) i++;
+        int live = i < ls->n_direct && ls->direct[i].slot == slot;
+        ambient_slot *as = &st->slot[slot];
+        if (as->cache.v && !live) scatter_grid_free(b->rc.ctx, &as->cache);
+        if (!kappa_only || !live) as->geo_ok = 0;
+        if (as->geo.arg && (!live || !st->phase_cache)) tube_geometry_free(b->rc.ctx, &as->geo);
     }
     for (int i = 0; i < ls->n_direct; i++) {
         const volux_prepared_light *l = &ls->direct[i];
-        int light_changed = volux_change_light(c, l->slot) || !st->cache[l->slot].v;
+        int light_changed = volux_change_light(c, l->slot) || !st->slot[l->slot].cache.v;
         if (all_caches || light_changed)
             if ((s = build_cache(st, l, kappa_only && !light_changed))) return s;
     }
@@ -484,8 +491,13 @@ static void ambient_init(void *state) {
 static void ambient_release(void *state) {
     ambient_state *st = state;
     volux_context *ctx = st->b.rc.ctx;
-    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) scatter_grid_free(ctx, &st->cache[i]);
-    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) tube_geometry_free(ctx, &st->geo[i]);
+    for (int i = 0; i < st->slot_cap; i++) {
+        scatter_grid_free(ctx, &st->slot[i].cache);
+        tube_geometry_free(ctx, &st->slot[i].geo);
+    }
+    volux_free(ctx, st->slot, sizeof *st->slot * (size_t)st->slot_cap);
+    st->slot = NULL;
+    st->slot_cap = 0;
     scatter_grid_free(ctx, &st->rho);
     scatter_grid_free(ctx, &st->rho_c);
     scatter_grid_free(ctx, &st->occ);
@@ -505,7 +517,8 @@ static size_t ambient_memory_bytes(const void *state) {
         size_t values = (size_t)st->table.desc.n_theta * (size_t)st->table.desc.n_sigma * (size_t)st->table.desc.n_g;
         n += values * sizeof(float) * (st->table.rel_error ? 2 : 1); /* data (+ error block) */
     }
-    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) n += st->cache[i].bytes + st->geo[i].bytes;
+    n += sizeof *st->slot * (size_t)st->slot_cap;
+    for (int i = 0; i < st->slot_cap; i++) n += st->slot[i].cache.bytes + st->slot[i].geo.bytes;
     for (int i = 0; i < st->ln_n; i++)
         if (st->ln_col[i]) n += (size_t)st->table.desc.n_sigma * (size_t)st->table.desc.n_theta * sizeof(double);
     n += (size_t)st->ln_n * sizeof *st->ln_col;
@@ -600,7 +613,7 @@ static inline __attribute__((always_inline)) void inscatter(const void *tech, co
             E = v3_scale(E, f < 1e6f ? f : 1e6f);
         }
         if (E.x <= 0.0f && E.y <= 0.0f && E.z <= 0.0f) continue;
-        float V = volux_exp_nonpos_t6(-scatter_grid_sample(&st->cache[l->slot], xj));
+        float V = volux_exp_nonpos_t6(-scatter_grid_sample(&st->slot[l->slot].cache, xj));
         float theta = volux_acos_deg3(v3_dot(travel, smp->to_eye));
         if (st->slab) {
             volux_vec3 Lo = tinted_lookup(st, theta * st->u_theta, us, albedo_c);

@@ -17,9 +17,17 @@ extern const volux_technique_class volux_ambient_class;
 
 typedef struct ambient_stats {
     uint64_t sat_builds, rho_builds, rho_c_builds, occ_builds, table_loads, slice_builds;
-    uint64_t cache_builds[VOLUX_MAX_LIGHTS];
-    uint64_t cache_resums[VOLUX_MAX_LIGHTS]; /* phase edits: re-sums from the kept geometry */
+    uint64_t cache_builds, cache_resums; /* over all slots (per slot: ambient_slot) */
 } ambient_stats;
+
+/* What ambient keeps per light slot. */
+typedef struct ambient_slot {
+    scatter_grid cache;    /* radiance cache D_j = −ln V_j                  */
+    tube_geometry geo;     /* when phase_cache                              */
+    int geo_ok;            /* geo matches ρ_c, radius, table, light         */
+    uint64_t cache_builds; /* marches                                       */
+    uint64_t cache_resums; /* phase edits: re-sums from the kept geometry   */
+} ambient_slot;
 
 typedef struct ambient_state {
     scatter_base b;
@@ -57,10 +65,9 @@ typedef struct ambient_state {
     scatter_grid rho;             /* r·σ̃t at the volume's nodes             */
     scatter_grid rho_c;           /* ρ at the radiance caches' nodes (tube marching) */
     scatter_grid occ;             /* A(x), only when the AO term is on       */
-    scatter_grid cache[VOLUX_MAX_LIGHTS]; /* radiance caches D_j = −ln V_j per slot */
+    ambient_slot *slot;           /* per light slot [slot_cap]               */
+    int slot_cap;
     int phase_cache;              /* keep the g-independent tube geometry    */
-    tube_geometry geo[VOLUX_MAX_LIGHTS]; /* per slot, when phase_cache       */
-    int geo_ok[VOLUX_MAX_LIGHTS]; /* geo[slot] matches ρ_c, radius, table, light */
     ambient_stats stats;
 } ambient_state;
 

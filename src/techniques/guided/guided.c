@@ -144,11 +144,14 @@ static int vis_content_differs(const guided_vis_params *a, const guided_vis_para
     return 0;
 }
 
-/* The environment slots, as a bitset over light slots. */
-static void env_slots(const volux_light_list *lights, uint64_t out[VOLUX_MAX_LIGHTS / 64]) {
-    memset(out, 0, sizeof(uint64_t) * (VOLUX_MAX_LIGHTS / 64));
+/* 1 if an environment light of `lights` or of the last build (`slots`)
+ * changed in c. */
+static int env_touched(const volux_light_list *lights, const int *slots, int n_slots, const volux_change_set *c) {
     for (int i = 0; i < lights->n_all; i++)
-        if (lights->all[i].type == VOLUX_LIGHT_ENVIRONMENT) out[lights->all[i].slot >> 6] |= 1ull << (lights->all[i].slot & 63);
+        if (lights->all[i].type == VOLUX_LIGHT_ENVIRONMENT && volux_change_light(c, lights->all[i].slot)) return 1;
+    for (int i = 0; i < n_slots; i++)
+        if (volux_change_light(c, slots[i])) return 1;
+    return 0;
 }
 
 /* Seed of the environment-guided lazy schedule (fixed: the schedule must
@@ -223,14 +226,18 @@ static volux_status guided_update(void *state, const volux_scene *scene, const v
     /* environment quadtree: when an environment light (now or before)
      * changed, or its resolution */
     if (w & (VOLUX_CHANGE_LIGHTS | VOLUX_CHANGE_PARAMS)) {
-        uint64_t now[VOLUX_MAX_LIGHTS / 64];
-        env_slots(&st->rc.lights, now);
-        int touched = !st->env_built || st->env_res != old_env_res;
-        for (int i = 0; i < VOLUX_MAX_LIGHTS / 64; i++) touched |= ((now[i] | st->env_slot_bits[i]) & c->lights[i]) != 0;
+        const volux_light_list *ls = &st->rc.lights;
+        int touched = !st->env_built || st->env_res != old_env_res ||
+                      env_touched(ls, st->env_slots, st->n_env_slots, c);
         if (touched) {
             st->env_built = 0;
-            if ((s = guided_env_build(ctx, st->rc.threads, &st->env, &st->rc.lights, st->env_res))) return s;
-            memcpy(st->env_slot_bits, now, sizeof now);
+            if ((s = volux_grow_slots(ctx, &st->env_slots, &st->env_slots_cap, ls->n_env, sizeof *st->env_slots,
+                                      "guided: environment slots")))
+                return s;
+            if ((s = guided_env_build(ctx, st->rc.threads, &st->env, ls, st->env_res))) return s;
+            st->n_env_slots = 0;
+            for (int i = 0; i < ls->n_all; i++)
+                if (ls->all[i].type == VOLUX_LIGHT_ENVIRONMENT) st->env_slots[st->n_env_slots++] = ls->all[i].slot;
             st->env_built = 1;
             st->env_builds++;
         }
@@ -272,11 +279,14 @@ static void guided_release(void *state) {
     guided_state *st = state;
     guided_grid_free(st->rc.ctx, &st->grid);
     guided_env_free(st->rc.ctx, &st->env);
+    volux_free(st->rc.ctx, st->env_slots, sizeof *st->env_slots * (size_t)st->env_slots_cap);
+    st->env_slots = NULL;
+    st->env_slots_cap = st->n_env_slots = 0;
 }
 
 static size_t guided_memory_bytes(const void *state) {
     const guided_state *st = state;
-    return st->grid.bytes + st->grid.src_bytes + st->env.bytes;
+    return st->grid.bytes + st->grid.src_bytes + st->env.bytes + sizeof *st->env_slots * (size_t)st->env_slots_cap;
 }
 
 const volux_technique_class volux_guided_class = {

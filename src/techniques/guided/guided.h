@@ -108,7 +108,8 @@ typedef struct guided_state {
     uint64_t seq_id;    /* sequence the grid's sources refer to (0: none) */
     guided_env env;
     int env_built;
-    uint64_t env_slot_bits[VOLUX_MAX_LIGHTS / 64]; /* slots in `env`       */
+    int *env_slots;      /* the environment lights' slots in `env`     */
+    int n_env_slots, env_slots_cap;
     int n_env;          /* enabled environment lights                     */
     /* work done by updates so far (tests and benchmarks check that an edit
      * does the least work) */

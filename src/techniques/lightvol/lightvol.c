@@ -191,9 +191,10 @@ static volux_status lightvol_update(void *state, const volux_scene *scene, const
         st->use_avx512 = st->use_simd && np.kernel != LV_KERNEL_AVX2 && volux_lightvol_avx512_available();
         st->grad_ref = volux_raycaster_gradient_ref(rc, np.gradient_threshold);
     }
-    if (w & (VOLUX_CHANGE_LIGHTS | VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME))
-        volux_raycaster_warn_unused_lights(rc, st->p.env_dirs ? 0u : 1u << VOLUX_LIGHT_ENVIRONMENT,
-                                           "techniques.lightvol.env_directions is 0");
+    if ((w & (VOLUX_CHANGE_LIGHTS | VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME)) &&
+        (s = volux_raycaster_warn_unused_lights(rc, st->p.env_dirs ? 0u : 1u << VOLUX_LIGHT_ENVIRONMENT,
+                                                "techniques.lightvol.env_directions is 0")))
+        return s;
     if (st->p.local_shading > 0.0f && !st->grad.grad)
         if ((s = volux_gradient_cache_build(ctx, rc->volume, &st->grad, "lightvol"))) return s;
     if (realloc_vol) {
@@ -238,12 +239,16 @@ static void lightvol_release(void *state) {
     volux_lightvol_free_buffers(st);
     volux_lightvol_drop_job(st);
     volux_gradient_cache_free(st->rc.ctx, &st->grad);
+    volux_free(st->rc.ctx, st->applied, sizeof *st->applied * (size_t)st->applied_cap);
+    st->applied = NULL;
+    st->applied_cap = 0;
 }
 
 static size_t lightvol_memory_bytes(const void *state) {
     const lightvol_state *st = state;
     return st->vol_bytes + st->medium_bytes + volux_lightvol_scratch_bytes(st) + st->grad.bytes +
-           st->job.items_bytes + st->job.passes_bytes + st->job.idx_bytes;
+           st->job.items_bytes + st->job.passes_bytes + st->job.idx_bytes +
+           sizeof *st->applied * (size_t)st->applied_cap;
 }
 
 /* ---------------------------------------------------------------- kernel */

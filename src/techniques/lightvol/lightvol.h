@@ -285,7 +285,8 @@ typedef struct lightvol_state {
     int rows_threads;
     size_t row_stride;
 
-    lv_applied applied[VOLUX_MAX_LIGHTS];
+    lv_applied *applied;           /* per light slot [applied_cap]          */
+    int applied_cap;
     /* the scene's environment lights as p.env_dirs directional lights,
      * travelling −volux_fibonacci_dir(k, K), each with the irradiance of its
      * cell summed over the environments — as applied to the volume. The

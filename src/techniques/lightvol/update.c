@@ -29,12 +29,12 @@
 /* What an update from `from` (the applied state) to the scene's lights
  * needs: the next state, the items, and selective or entire. */
 typedef struct lv_decision {
-    lv_applied *next;     /* VOLUX_MAX_LIGHTS                              */
+    int slots;            /* max(applied slots, the scene's slots)         */
+    lv_applied *next;     /* [slots]                                       */
     lv_item *items;       /* the changes (≤ 2 per slot, 1 per environment
                              direction), then `full`                      */
     lv_item *full;        /* the full setup (≤ 1 per slot and direction)   */
-    size_t items_bytes;
-    int cap;              /* capacity of items + full                      */
+    size_t cap;           /* items + full                                  */
     volux_vec3 env_next[LV_MAX_ENV_DIRS];
     int n, nf, changed, total, selective, ps, pf;
     double ws, wf;
@@ -52,8 +52,9 @@ static int any_light(volux_vec3 E) { return E.x > 0.0f || E.y > 0.0f || E.z > 0.
 static void decide(const lightvol_state *st, const volux_scene *scene, const volux_change_set *c, int force_full,
                    const char *reason, int selective_since_full, lv_decision *d) {
     int n = 0, changed = 0, before = 0, after = 0, env_dirty = force_full || !c;
-    for (int slot = 0; slot < VOLUX_MAX_LIGHTS; slot++) {
-        const lv_applied *o = &st->applied[slot];
+    static const lv_applied none; /* a slot past `applied`: never active */
+    for (int slot = 0; slot < d->slots; slot++) {
+        const lv_applied *o = slot < st->applied_cap ? &st->applied[slot] : &none;
         lv_applied *w = &d->next[slot];
         if (force_full || !c || volux_change_light(c, slot)) {
             memset(w, 0, sizeof *w);
@@ -102,7 +103,7 @@ static void decide(const lightvol_state *st, const volux_scene *scene, const vol
     /* The full setup, for the cost estimate and a rebuild. */
     int nf = 0;
     lv_item *full_items = d->full;
-    for (int slot = 0; slot < VOLUX_MAX_LIGHTS; slot++)
+    for (int slot = 0; slot < d->slots; slot++)
         if (d->next[slot].active) full_items[nf++] = (lv_item){d->next[slot].src, +1.0f, slot};
     for (int k = 0; k < K; k++) {
         if (!any_light(d->env_next[k])) continue;
@@ -192,6 +193,9 @@ static volux_status start_job(lightvol_state *st, const lv_decision *d) {
         s = volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for the pass plan");
         goto fail;
     }
+    if ((s = volux_grow_slots(ctx, &st->applied, &st->applied_cap, d->slots, sizeof *st->applied,
+                              "lightvol: the applied lights")))
+        goto fail;
     memcpy(nj.items, src, (size_t)n * sizeof(lv_item));
     volux_lightvol_plan(nj.items, n, st->p.coherent, st->p.max_per_pass, nj.passes, nj.idx);
     int most = 0;
@@ -211,7 +215,7 @@ static volux_status start_job(lightvol_state *st, const lv_decision *d) {
         free_job_arrays(ctx, j);
         if (nj.full) memset(st->vol, 0, st->vol_bytes); /* no light: the entire update is zero */
     }
-    memcpy(st->applied, d->next, (size_t)VOLUX_MAX_LIGHTS * sizeof(lv_applied));
+    if (d->slots > 0) memcpy(st->applied, d->next, (size_t)d->slots * sizeof(lv_applied));
     memcpy(st->env_E, d->env_next, sizeof st->env_E);
     st->valid = 1;
     st->stats.changed = d->changed;
@@ -314,27 +318,31 @@ static volux_status run_job(lightvol_state *st, int *did) {
     return s;
 }
 
-/* Allocates the decision's arrays. */
-static volux_status decision_alloc(const lightvol_state *st, lv_decision *d) {
-    volux_context *ctx = st->rc.ctx;
+/* Allocates the decision's arrays for the slots of `applied` and of the
+ * scene. */
+static volux_status decision_alloc(volux_context *ctx, const lightvol_state *st, const volux_scene *scene,
+                                   lv_decision *d) {
     memset(d, 0, sizeof *d);
-    const int K = st->p.env_dirs;
-    d->cap = 3 * VOLUX_MAX_LIGHTS + 2 * K;
-    d->items_bytes = (size_t)d->cap * sizeof(lv_item);
-    d->items = volux_malloc(ctx, d->items_bytes);
-    d->next = volux_malloc(ctx, (size_t)VOLUX_MAX_LIGHTS * sizeof(lv_applied));
+    int slots = volux_scene_light_slots(scene);
+    d->slots = st->applied_cap > slots ? st->applied_cap : slots;
+    size_t n = d->slots > 0 ? (size_t)d->slots : 1, K = (size_t)st->p.env_dirs;
+    d->cap = 3 * n + 2 * K;
+    d->items = volux_malloc(ctx, d->cap * sizeof(lv_item));
+    d->next = volux_malloc(ctx, n * sizeof(lv_applied));
     if (!d->items || !d->next) {
-        volux_free(ctx, d->items, d->items ? d->items_bytes : 0);
-        volux_free(ctx, d->next, d->next ? (size_t)VOLUX_MAX_LIGHTS * sizeof(lv_applied) : 0);
-        return volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for the light update");
+        volux_free(ctx, d->items, d->items ? d->cap * sizeof(lv_item) : 0);
+        volux_free(ctx, d->next, d->next ? n * sizeof(lv_applied) : 0);
+        d->items = NULL, d->next = NULL;
+        return volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for the light update (%d slots)", d->slots);
     }
-    d->full = d->items + 2 * VOLUX_MAX_LIGHTS + K;
+    d->full = d->items + 2 * n + K; /* after ≤ 2 items per slot and 1 per direction */
     return VOLUX_OK;
 }
 
 static void decision_free(volux_context *ctx, lv_decision *d) {
-    volux_free(ctx, d->items, d->items_bytes);
-    volux_free(ctx, d->next, (size_t)VOLUX_MAX_LIGHTS * sizeof(lv_applied));
+    size_t n = d->slots > 0 ? (size_t)d->slots : 1;
+    volux_free(ctx, d->items, d->cap * sizeof(lv_item));
+    volux_free(ctx, d->next, n * sizeof(lv_applied));
 }
 
 /* The size of the plan that would follow the current job (0 if the scene's
@@ -342,11 +350,12 @@ static void decision_free(volux_context *ctx, lv_decision *d) {
 static volux_status measure_queue(lightvol_state *st, const volux_scene *scene) {
     volux_context *ctx = st->rc.ctx;
     lv_decision d;
-    volux_status s = decision_alloc(st, &d);
+    volux_status s = decision_alloc(ctx, st, scene, &d);
     if (s) return s;
-    const size_t np = (size_t)d.cap * LV_GROUPS;
-    lv_pass *passes = volux_malloc(ctx, np * sizeof(lv_pass));
-    int *idx = volux_malloc(ctx, np * sizeof(int));
+    /* ≤ 2 items per slot and 1 per environment direction */
+    const size_t most = ((d.slots > 0 ? (size_t)d.slots : 1) * 2 + (size_t)st->p.env_dirs) * LV_GROUPS;
+    lv_pass *passes = volux_malloc(ctx, most * sizeof(lv_pass));
+    int *idx = volux_malloc(ctx, most * sizeof(int));
     if (!passes || !idx) {
         s = volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for the light update");
     } else {
@@ -354,8 +363,8 @@ static volux_status measure_queue(lightvol_state *st, const volux_scene *scene) 
         st->job.queued = d.changed ? decision_steps(st, &d, passes, idx) : 0;
         if (d.changed && st->job.queued == 0) st->job.queued = 1; /* a change with nothing to propagate */
     }
-    volux_free(ctx, passes, passes ? np * sizeof(lv_pass) : 0);
-    volux_free(ctx, idx, idx ? np * sizeof(int) : 0);
+    volux_free(ctx, passes, passes ? most * sizeof(lv_pass) : 0);
+    volux_free(ctx, idx, idx ? most * sizeof(int) : 0);
     decision_free(ctx, &d);
     return s;
 }
@@ -366,7 +375,7 @@ static volux_status start_update(lightvol_state *st, const volux_scene *scene, c
                                  int force_full, const char *reason) {
     volux_context *ctx = st->rc.ctx;
     lv_decision d;
-    volux_status s = decision_alloc(st, &d);
+    volux_status s = decision_alloc(ctx, st, scene, &d);
     if (s) return s;
     decide(st, scene, c, force_full, reason, st->stats.selective_since_full, &d);
     st->stats.changed = d.changed;

@@ -401,13 +401,18 @@ static int light_moved(const volux_light_desc *a, uint64_t ha, const volux_light
            a->falloff_angle_deg != b->falloff_angle_deg || a->rotation_y_deg != b->rotation_y_deg || ha != hb;
 }
 
-static volux_status update_sets(ml_state *st, const volux_change_set *c) {
+static volux_status update_sets(ml_state *st, const volux_scene *scene, const volux_change_set *c) {
     const volux_light_list *ll = &st->rc.lights;
-    int n = ll->n_all, enabled[VOLUX_MAX_LIGHTS];
-    memset(enabled, 0, sizeof enabled);
-    for (int i = 0; i < n; i++) enabled[ll->all[i].slot] = 1;
-    for (int slot = 0; slot < VOLUX_MAX_LIGHTS; slot++)
-        if (st->sets[slot].active && !enabled[slot]) set_free(st, &st->sets[slot]);
+    int n = ll->n_all;
+    volux_status g = volux_grow_slots(st->rc.ctx, &st->sets, &st->sets_cap, volux_scene_light_slots(scene),
+                                      sizeof *st->sets, "manylights: per-light VL sets");
+    if (g) return g;
+    /* drop the sets of slots without an enabled light (ll->all is in slot
+     * order: one merge pass) */
+    for (int slot = 0, i = 0; slot < st->sets_cap; slot++) {
+        while (i < n && ll->all[i].slot < slot) i++;
+        if (st->sets[slot].active && !(i < n && ll->all[i].slot == slot)) set_free(st, &st->sets[slot]);
+    }
     for (int i = 0; i < n; i++) {
         const volux_prepared_light *l = &ll->all[i];
         ml_set *set = &st->sets[l->slot];
@@ -435,7 +440,7 @@ static volux_status update_sets(ml_state *st, const volux_change_set *c) {
 
 static int display_bound(const ml_state *st) {
     int bound = 0;
-    for (int slot = 0; slot < VOLUX_MAX_LIGHTS; slot++) {
+    for (int slot = 0; slot < st->sets_cap; slot++) {
         const ml_set *set = &st->sets[slot];
         if (!set->active) continue;
         bound += set->replacing && set->next.n > set->cur.n ? set->next.n : set->cur.n;
@@ -470,7 +475,7 @@ static volux_status prepare_render(ml_state *st, int may_alloc) {
         st->cap_rvl = bound;
     }
     int n = 0;
-    for (int slot = 0; slot < VOLUX_MAX_LIGHTS; slot++) {
+    for (int slot = 0; slot < st->sets_cap; slot++) {
         const ml_set *set = &st->sets[slot];
         if (!set->active) continue;
         if (set->replacing)
@@ -506,7 +511,10 @@ static float auto_radius(const ml_state *st) {
 }
 
 static volux_status update_env_samplers(ml_state *st, const volux_scene *scene, const volux_change_set *c) {
-    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) {
+    volux_status g = volux_grow_slots(st->rc.ctx, &st->env, &st->env_cap, volux_scene_light_slots(scene),
+                                      sizeof *st->env, "manylights: environment tables");
+    if (g) return g;
+    for (int i = 0; i < st->env_cap; i++) {
         if (!volux_change_light(c, i)) continue;
         const volux_light_desc *d = volux_scene_light(scene, i);
         if (d && d->type == VOLUX_LIGHT_ENVIRONMENT) {
@@ -578,7 +586,16 @@ static volux_status ml_update(void *state, const volux_scene *scene, const volux
     st->h = st->shadow_vox * rc->min_spacing;
     ml_layout_init(&st->layout, st->avsm_res, st->avsm_nodes, 2.0f * st->bound_r);
     if ((w & VOLUX_CHANGE_LIGHTS) && (s = update_env_samplers(st, scene, c))) return s;
-    if ((s = update_sets(st, c))) return s;
+    if ((s = update_sets(st, scene, c))) return s;
+    /* an even share of vl_count: with more lights than VLs, the lights past
+     * the first vl_count get none (their multiple scattering is missing) */
+    if ((w & (VOLUX_CHANGE_LIGHTS | VOLUX_CHANGE_PARAMS)) && st->multi_on && rc->max_depth > 1 &&
+        rc->lights.n_all > st->vl_count)
+        volux_message(ctx, VOLUX_MESSAGE_WARNING,
+                      "manylights: %d lights share techniques.manylights.vl_count = %d virtual lights: the lights "
+                      "after the first %d (in slot order) get none, so their multiple scattering is missing (set "
+                      "vl_count to at least the number of lights)",
+                      rc->lights.n_all, st->vl_count, st->vl_count);
     /* weights of everything (cheap: a few operations per VL) */
     for (int i = 0; i < rc->lights.n_all; i++) {
         const volux_prepared_light *l = &rc->lights.all[i];
@@ -592,7 +609,7 @@ static volux_status ml_update(void *state, const volux_scene *scene, const volux
 static uint64_t ml_pending(const void *state) {
     const ml_state *st = state;
     uint64_t n = 0;
-    for (int slot = 0; slot < VOLUX_MAX_LIGHTS; slot++) {
+    for (int slot = 0; slot < st->sets_cap; slot++) {
         const ml_set *set = &st->sets[slot];
         if (set->active && set->replacing) n += (uint64_t)(set->next.n - set->added) + 1;
     }
@@ -614,7 +631,7 @@ static volux_status ml_refine(void *state, const volux_scene *scene, int *change
     st->avsm_ms = st->trace_ms = 0.0;
     st->avsm_built = st->traced = 0;
     int budget = st->budget;
-    for (int slot = 0; slot < VOLUX_MAX_LIGHTS && budget > 0; slot++) {
+    for (int slot = 0; slot < st->sets_cap && budget > 0; slot++) {
         ml_set *set = &st->sets[slot];
         while (set->active && set->replacing && budget > 0) {
             int k_end = set->added;
@@ -649,7 +666,7 @@ static volux_status ml_refine(void *state, const volux_scene *scene, int *change
 static int ml_stats(const void *state, volux_technique_stat *out, int max) {
     const ml_state *st = state;
     double paths = 0.0, avsm_bytes = 0.0;
-    for (int slot = 0; slot < VOLUX_MAX_LIGHTS; slot++) {
+    for (int slot = 0; slot < st->sets_cap; slot++) {
         const ml_set *set = &st->sets[slot];
         if (!set->active) continue;
         paths += set->replacing ? set->npaths : set->paths;
@@ -676,9 +693,10 @@ static size_t ml_memory_bytes(const void *state) {
     size_t n = st->grid1.bytes + (size_t)st->cap_rvl * sizeof(ml_rvl);
     if (st->decode) n += sizeof(float) * ML_TAU_CODES;
     n += (size_t)st->lut1.n * (5 * sizeof(float) + 4 * sizeof(double));
-    for (int slot = 0; slot < VOLUX_MAX_LIGHTS; slot++) {
+    n += sizeof *st->env * (size_t)st->env_cap + sizeof *st->sets * (size_t)st->sets_cap;
+    for (int slot = 0; slot < st->env_cap; slot++) n += volux_envmap_sampler_bytes(&st->env[slot]);
+    for (int slot = 0; slot < st->sets_cap; slot++) {
         const ml_set *set = &st->sets[slot];
-        n += volux_envmap_sampler_bytes(&st->env[slot]);
         if (!set->active) continue;
         n += sizeof(ml_vl) * (size_t)(set->cur.cap + set->next.cap) + set->pool_size +
              sizeof(int) * (size_t)set->pool_cap;
@@ -689,10 +707,13 @@ static size_t ml_memory_bytes(const void *state) {
 static void ml_release(void *state) {
     ml_state *st = state;
     volux_context *ctx = st->rc.ctx;
-    for (int slot = 0; slot < VOLUX_MAX_LIGHTS; slot++) {
-        set_free(st, &st->sets[slot]);
-        volux_envmap_sampler_free(ctx, &st->env[slot]);
-    }
+    for (int slot = 0; slot < st->sets_cap; slot++) set_free(st, &st->sets[slot]);
+    for (int slot = 0; slot < st->env_cap; slot++) volux_envmap_sampler_free(ctx, &st->env[slot]);
+    volux_free(ctx, st->sets, sizeof *st->sets * (size_t)st->sets_cap);
+    volux_free(ctx, st->env, sizeof *st->env * (size_t)st->env_cap);
+    st->sets = NULL;
+    st->env = NULL;
+    st->sets_cap = st->env_cap = 0;
     volux_transfer_lut_free(ctx, &st->lut1);
     volux_majorant_grid_free(ctx, &st->grid1);
     volux_free(ctx, st->decode, sizeof(float) * ML_TAU_CODES);

@@ -142,8 +142,10 @@ typedef struct ml_state {
     volux_majorant_grid grid1;
     float *decode;           /* τ1 code → exp(−ξ τ1)                           */
     ml_layout layout;
-    volux_envmap_sampler env[VOLUX_MAX_LIGHTS];
-    ml_set sets[VOLUX_MAX_LIGHTS];
+    volux_envmap_sampler *env; /* per light slot [env_cap]                  */
+    int env_cap;
+    ml_set *sets;              /* per light slot [sets_cap]                 */
+    int sets_cap;
     ml_rvl *rvl;
     int n_rvl, cap_rvl;
     /* statistics of the last update or step */

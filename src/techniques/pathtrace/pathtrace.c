@@ -41,7 +41,10 @@ static volux_status read_params(pt_state *st, const volux_scene *scene) {
 /* The environment sampling tables of the slots that changed (a pass over
  * the map each). */
 static volux_status update_env_tables(pt_state *st, const volux_scene *scene, const volux_change_set *c) {
-    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) {
+    volux_status g = volux_grow_slots(st->rc.ctx, &st->env, &st->env_cap, volux_scene_light_slots(scene),
+                                      sizeof *st->env, "pathtrace: environment tables");
+    if (g) return g;
+    for (int i = 0; i < st->env_cap; i++) {
         if (!volux_change_light(c, i)) continue;
         const volux_light_desc *d = volux_scene_light(scene, i);
         if (d && d->type == VOLUX_LIGHT_ENVIRONMENT) {
@@ -65,13 +68,16 @@ static volux_status pt_update(void *state, const volux_scene *scene, const volux
 
 static void pt_release(void *state) {
     pt_state *st = state;
-    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) volux_envmap_sampler_free(st->rc.ctx, &st->env[i]);
+    for (int i = 0; i < st->env_cap; i++) volux_envmap_sampler_free(st->rc.ctx, &st->env[i]);
+    volux_free(st->rc.ctx, st->env, sizeof *st->env * (size_t)st->env_cap);
+    st->env = NULL;
+    st->env_cap = 0;
 }
 
 static size_t pt_memory_bytes(const void *state) {
     const pt_state *st = state;
-    size_t n = 0;
-    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) n += volux_envmap_sampler_bytes(&st->env[i]);
+    size_t n = sizeof *st->env * (size_t)st->env_cap;
+    for (int i = 0; i < st->env_cap; i++) n += volux_envmap_sampler_bytes(&st->env[i]);
     return n;
 }
 

@@ -31,7 +31,8 @@ typedef struct pt_state {
     int global_majorant; /* 1: one majorant for the whole box (benchmark)   */
     int n_area;          /* lights a phase-sampled ray can reach (sphere,
                             environment)                                    */
-    volux_envmap_sampler env[VOLUX_MAX_LIGHTS]; /* per slot */
+    volux_envmap_sampler *env; /* per light slot [env_cap] */
+    int env_cap;
 } pt_state;
 
 /* integrator.c */

@@ -228,10 +228,13 @@ static volux_status sh_update(void *state, const volux_scene *scene, const volux
         volux_vec3 centre;
         float radius;
         volux_scene_bounds_sphere(scene, &centre, &radius);
+        if ((s = volux_grow_slots(rc->ctx, &st->light_sh, &st->light_sh_cap, volux_scene_light_slots(scene),
+                                  sizeof *st->light_sh, "sh: light projections")))
+            return s;
         for (int i = 0; i < volux_scene_light_slots(scene); i++) {
             const volux_light_desc *d = volux_scene_light(scene, i);
             if (d && ((w & VOLUX_CHANGE_VOLUME) || volux_change_light(c, i))) {
-                if ((s = sh_light_project(rc->ctx, d, centre, st->light_sh[i]))) return s;
+                if ((s = sh_light_project(rc->ctx, d, centre, st->light_sh[i].c))) return s;
                 st->light_projections++;
             }
         }
@@ -239,7 +242,7 @@ static volux_status sh_update(void *state, const volux_scene *scene, const volux
         for (int i = 0; i < rc->lights.n_all; i++) {
             int slot = rc->lights.all[i].slot;
             for (int k = 0; k < 3; k++)
-                for (int j = 0; j < SH_MAX_COEFFS; j++) st->li[k][j] += st->light_sh[slot][k][j];
+                for (int j = 0; j < SH_MAX_COEFFS; j++) st->li[k][j] += st->light_sh[slot].c[k][j];
         }
         st->have_shade = st->have_light_tables = 0;
     }
@@ -301,7 +304,8 @@ static size_t sh_memory_bytes(const void *state) {
         if (st->mat[i].table) tables += sizeof *st->mat[i].table * SH_TABLE_THETA;
         if (st->mat[i].light_table) tables += sizeof(float) * 6 * SH_OCTA * SH_OCTA * SH_OCTA * SH_OCTA;
     }
-    return st->coef_bytes + st->shade_bytes + tables + st->grad.bytes;
+    return st->coef_bytes + st->shade_bytes + tables + st->grad.bytes +
+           sizeof *st->light_sh * (size_t)st->light_sh_cap;
 }
 
 static void sh_release(void *state) {
@@ -312,6 +316,9 @@ static void sh_release(void *state) {
     st->coef = st->shade = NULL;
     free_materials(st);
     volux_gradient_cache_free(ctx, &st->grad);
+    volux_free(ctx, st->light_sh, sizeof *st->light_sh * (size_t)st->light_sh_cap);
+    st->light_sh = NULL;
+    st->light_sh_cap = 0;
 }
 
 /* ------------------------------------------------------------------ render */

@@ -62,6 +62,11 @@ typedef struct sh_material {
     float *light_table;
 } sh_material;
 
+/* One light's projection, RGB. */
+typedef struct sh_light_coeffs {
+    float c[3][SH_MAX_COEFFS];
+} sh_light_coeffs;
+
 typedef struct sh_state {
     volux_raycaster rc;
     /* render parameters */
@@ -78,7 +83,8 @@ typedef struct sh_state {
     float *coef;              /* layout.stride floats per node            */
     size_t coef_bytes;
     /* lights */
-    float light_sh[VOLUX_MAX_LIGHTS][3][SH_MAX_COEFFS];
+    sh_light_coeffs *light_sh;   /* per light slot [light_sh_cap]          */
+    int light_sh_cap;
     float li[3][SH_MAX_COEFFS];  /* Σ over enabled lights, RGB             */
     /* shade volume: S(x) RGB per node (4 floats, w unused) */
     float *shade;

@@ -141,8 +141,8 @@ static volux_status build_grid(single_state *st, const volux_prepared_light *l, 
 }
 
 static volux_status build_cache(single_state *st, const volux_prepared_light *l) {
-    volux_status s = build_grid(st, l, &st->cache[l->slot], st->cache_scale);
-    if (!s) st->cache_builds[l->slot]++;
+    volux_status s = build_grid(st, l, &st->slot[l->slot].cache, st->cache_scale);
+    if (!s) st->slot[l->slot].cache_builds++;
     return s;
 }
 
@@ -211,23 +211,29 @@ static volux_status single_update(void *state, const volux_scene *scene, const v
         }
         st->use_cache = use, st->cache_scale = scale, st->shadow_step = step, st->n_env_dirs = dirs;
     }
+    volux_status s;
     if (env) {
         env_prepare(st);
-        volux_raycaster_warn_unused_lights(rc, st->n_env_dirs ? 0u : 1u << VOLUX_LIGHT_ENVIRONMENT,
-                                           "techniques.single.env_directions is 0");
+        if ((s = volux_raycaster_warn_unused_lights(rc, st->n_env_dirs ? 0u : 1u << VOLUX_LIGHT_ENVIRONMENT,
+                                                    "techniques.single.env_directions is 0")))
+            return s;
     }
-    /* Drop caches of slots that no longer hold an enabled light. */
     const volux_light_list *ls = &rc->lights;
-    int live[VOLUX_MAX_LIGHTS] = {0};
-    for (int i = 0; i < ls->n_direct; i++) live[ls->direct[i].slot] = 1;
-    for (int slot = 0; slot < VOLUX_MAX_LIGHTS; slot++)
-        if (st->cache[slot].v && (!live[slot] || !st->use_cache)) scatter_grid_free(rc->ctx, &st->cache[slot]);
+    if ((s = volux_grow_slots(rc->ctx, &st->slot, &st->slot_cap, volux_scene_light_slots(scene), sizeof *st->slot,
+                              "single: per-light caches")))
+        return s;
+    /* Drop caches of slots that no longer hold an enabled light (the
+     * direct lights are in slot order: one merge pass). */
+    for (int slot = 0, i = 0; slot < st->slot_cap; slot++) {
+        while (i < ls->n_direct && ls->direct[i].slot < slot) i++;
+        int live = i < ls->n_direct && ls->direct[i].slot == slot;
+        if (st->slot[slot].cache.v && (!live || !st->use_cache)) scatter_grid_free(rc->ctx, &st->slot[slot].cache);
+    }
     if (!st->env_active || !st->use_cache) env_free_caches(st);
     if (!st->use_cache) return VOLUX_OK;
     for (int i = 0; i < ls->n_direct; i++) {
         const volux_prepared_light *l = &ls->direct[i];
-        volux_status s;
-        if (all || volux_change_light(c, l->slot) || !st->cache[l->slot].v)
+        if (all || volux_change_light(c, l->slot) || !st->slot[l->slot].cache.v)
             if ((s = build_cache(st, l))) return s;
     }
     /* The directions are fixed: an environment edit only changes env_E. */
@@ -243,15 +249,18 @@ static void single_init(void *state) {
 
 static size_t single_memory_bytes(const void *state) {
     const single_state *st = state;
-    size_t n = 0;
-    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) n += st->cache[i].bytes;
+    size_t n = sizeof *st->slot * (size_t)st->slot_cap;
+    for (int i = 0; i < st->slot_cap; i++) n += st->slot[i].cache.bytes;
     for (int k = 0; k < SINGLE_MAX_ENV_DIRS; k++) n += st->env_cache[k].bytes;
     return n;
 }
 
 static void single_release(void *state) {
     single_state *st = state;
-    for (int i = 0; i < VOLUX_MAX_LIGHTS; i++) scatter_grid_free(st->b.rc.ctx, &st->cache[i]);
+    for (int i = 0; i < st->slot_cap; i++) scatter_grid_free(st->b.rc.ctx, &st->slot[i].cache);
+    volux_free(st->b.rc.ctx, st->slot, sizeof *st->slot * (size_t)st->slot_cap);
+    st->slot = NULL;
+    st->slot_cap = 0;
     env_free_caches(st);
 }
 
@@ -268,7 +277,7 @@ static inline __attribute__((always_inline)) void inscatter(const void *tech, co
         volux_vec3 travel;
         volux_vec3 E = volux_light_irradiance(l, smp->p, &travel);
         if (E.x <= 0.0f && E.y <= 0.0f && E.z <= 0.0f) continue;
-        float T = st->use_cache ? cached_transmittance(st, &st->cache[l->slot], smp->p, l)
+        float T = st->use_cache ? cached_transmittance(st, &st->slot[l->slot].cache, smp->p, l)
                                 : shadow_transmittance(st, smp->p, l);
         L = v3_add(L, v3_scale(E, T * volux_hg_eval(st->b.rc.g, v3_dot(travel, smp->to_eye))));
     }

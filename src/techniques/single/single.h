@@ -12,14 +12,20 @@ extern const volux_technique_class volux_single_class;
 
 #define SINGLE_MAX_ENV_DIRS 256
 
+/* What single keeps per light slot. */
+typedef struct single_slot {
+    scatter_grid cache;    /* transmittance to the light */
+    uint64_t cache_builds; /* times `cache` was built (tests, stats) */
+} single_slot;
+
 typedef struct single_state {
     scatter_base b;
     int use_cache;
     float cache_scale;
     float shadow_step;                      /* world units */
     float near_field;                       /* cache cells marched before the cache is read */
-    scatter_grid cache[VOLUX_MAX_LIGHTS];   /* per scene slot */
-    uint64_t cache_builds[VOLUX_MAX_LIGHTS];
+    single_slot *slot;                      /* per light slot [slot_cap] */
+    int slot_cap;
     /* environment lights: n_env_dirs directions, each a shadowed directional
      * light carrying the environments' radiance over its cell (single.c) */
     int n_env_dirs;                         /* env_directions parameter    */
