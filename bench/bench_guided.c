@@ -17,12 +17,13 @@
  *       --all-steps`) the image's mean squared error. Also the time of a
  *       full update for scale.
  *
- *   bench_guided converge SCENE --reference IMG [--set ...]... [--spp S] [--label L]
+ *   bench_guided converge SCENE --reference IMG [--set ...]... [--spp S] [--seeds K] [--label L]
  *       Convergence against a reference image: after 1, 2, 4, ..., S samples
  *       per pixel (one framebuffer, accumulated), the mean squared error and
  *       the cumulative render time, wall and CPU (all threads: the fair
  *       clock on a shared machine), excluding the technique's preparation,
- *       which is reported once (prepare_ms, prepare_cpu_ms). Works for any
+ *       which is reported once (prepare_ms, prepare_cpu_ms); --seeds K
+ *       repeats it with seeds seed … seed+K−1 on the same instance. Works for any
  *       technique (render.technique).
  *
  * Output: one JSON object per line (DESIGN §4 bench format plus fields).
@@ -60,7 +61,7 @@ static int die(volux_context *ctx, const char *what) {
 typedef struct opts {
     const char *mode, *scene, *label, *reference;
     const char *sets[MAX_SET];
-    int n_sets, repeat, steps, spp;
+    int n_sets, repeat, steps, spp, seeds;
 } opts;
 
 static void emit(const opts *o, const volux_scene *s, const char *metric, double value, const char *unit,
@@ -73,12 +74,20 @@ static void emit(const opts *o, const volux_scene *s, const char *metric, double
     fflush(stdout);
 }
 
-/* Full recompute of the visibility grid: update after a `tf` edit. */
+/* Full recompute of the visibility grid: update after a `tf` edit. The
+ * technique is created with strategy `environment`, which never reads the
+ * grid and so leaves it unswept (guided.c), and the scene's strategy is
+ * restored before the first timed update: the grid is computed once per
+ * repeat instead of once more at creation (brute force takes minutes). */
 static int visibility(volux_context *ctx, volux_scene *s, const opts *o) {
     volux_technique *t;
-    double t0 = now_ms(CLOCK_MONOTONIC);
+    char strategy[64];
+    snprintf(strategy, sizeof strategy, "%s", volux_scene_param_string(s, "guided", "strategy", "two_step"));
+    if (volux_scene_set_param(s, "guided", "strategy", 0.0, "environment")) return die(ctx, "strategy");
+    double t0 = now_ms(CLOCK_MONOTONIC), tc0 = now_ms(CLOCK_PROCESS_CPUTIME_ID);
     if (volux_technique_create(ctx, "guided", s, &t)) return die(ctx, "create");
-    double prepare = now_ms(CLOCK_MONOTONIC) - t0;
+    double prepare = now_ms(CLOCK_MONOTONIC) - t0, prepare_cpu = now_ms(CLOCK_PROCESS_CPUTIME_ID) - tc0;
+    if (volux_scene_set_param(s, "guided", "strategy", 0.0, strategy)) return die(ctx, "strategy");
     double wall[64], cpu[64];
     const volux_edit *tf = volux_edit_find("tf");
     for (int k = 0; k < o->repeat; k++) {
@@ -89,6 +98,7 @@ static int visibility(volux_context *ctx, volux_scene *s, const opts *o) {
         cpu[k] = now_ms(CLOCK_PROCESS_CPUTIME_ID) - c0;
     }
     emit(o, s, "prepare_ms", prepare, "ms", NULL);
+    emit(o, s, "prepare_cpu_ms", prepare_cpu, "ms", NULL);
     emit(o, s, "visibility_ms", median(wall, o->repeat), "ms", NULL);
     emit(o, s, "visibility_cpu_ms", median(cpu, o->repeat), "ms", NULL);
     emit(o, s, "memory_bytes", (double)volux_technique_memory_bytes(t), "bytes", NULL);
@@ -186,22 +196,34 @@ static int converge(volux_context *ctx, volux_scene *s, const opts *o) {
     emit(o, s, "prepare_cpu_ms", now_ms(CLOCK_PROCESS_CPUTIME_ID) - c0, "ms", extra);
     volux_framebuffer *fb;
     if (volux_framebuffer_create(ctx, rs->width, rs->height, &fb)) return die(ctx, "framebuffer");
-    double wall = 0.0, cpu = 0.0;
-    for (int spp = 1; spp <= o->spp; spp *= 2) {
-        volux_render_limits lim = {(uint32_t)spp, 0.0, 0.0};
-        volux_render_report rep;
-        double a = now_ms(CLOCK_MONOTONIC), b = now_ms(CLOCK_PROCESS_CPUTIME_ID);
-        if (volux_render(t, s, fb, &lim, &rep)) return die(ctx, "render");
-        wall += now_ms(CLOCK_MONOTONIC) - a;
-        cpu += now_ms(CLOCK_PROCESS_CPUTIME_ID) - b;
-        volux_image img = {0};
-        if (volux_framebuffer_resolve(fb, &img)) return die(ctx, "resolve");
-        double mse = image_mse(&img, &ref);
-        volux_image_free(ctx, &img);
-        snprintf(extra, sizeof extra,
-                 "\"render_technique\":\"%s\",\"spp\":%d,\"ms\":%.3f,\"cpu_ms\":%.3f,\"mse\":%.6g", rs->technique,
-                 spp, wall, cpu, mse);
-        emit(o, s, "convergence.mse", mse, "", extra);
+    /* --seeds K: K independent runs on the same instance, seeds seed,
+     * seed+1, ... (a seed edit changes no cache: the visibility grid is
+     * built once for all of them) */
+    uint64_t seed0 = rs->seed;
+    for (int k = 0; k < o->seeds; k++) {
+        if (k > 0) {
+            volux_render_settings r = *volux_scene_render(s);
+            r.seed = seed0 + (uint64_t)k;
+            if (volux_scene_set_render(s, &r)) return die(ctx, "seed");
+            volux_framebuffer_reset(fb);
+        }
+        double wall = 0.0, cpu = 0.0;
+        for (int spp = 1; spp <= o->spp; spp *= 2) {
+            volux_render_limits lim = {(uint32_t)spp, 0.0, 0.0};
+            volux_render_report rep;
+            double a = now_ms(CLOCK_MONOTONIC), b = now_ms(CLOCK_PROCESS_CPUTIME_ID);
+            if (volux_render(t, s, fb, &lim, &rep)) return die(ctx, "render");
+            wall += now_ms(CLOCK_MONOTONIC) - a;
+            cpu += now_ms(CLOCK_PROCESS_CPUTIME_ID) - b;
+            volux_image img = {0};
+            if (volux_framebuffer_resolve(fb, &img)) return die(ctx, "resolve");
+            double mse = image_mse(&img, &ref);
+            volux_image_free(ctx, &img);
+            snprintf(extra, sizeof extra,
+                     "\"render_technique\":\"%s\",\"spp\":%d,\"ms\":%.3f,\"cpu_ms\":%.3f,\"mse\":%.6g,\"seed\":%llu",
+                     rs->technique, spp, wall, cpu, mse, (unsigned long long)volux_scene_render(s)->seed);
+            emit(o, s, "convergence.mse", mse, "", extra);
+        }
     }
     volux_framebuffer_destroy(fb);
     volux_technique_destroy(t);
@@ -214,10 +236,11 @@ int main(int argc, char **argv) {
     o.repeat = 3;
     o.steps = 1 << 30;
     o.spp = 4;
+    o.seeds = 1;
     o.label = "";
     if (argc < 3) {
         fprintf(stderr, "usage: bench_guided visibility|lazy|converge SCENE [--set path=value]... [--repeat N] [--steps N] "
-                        "[--spp S] [--reference PATTERN] [--label L]\n");
+                        "[--spp S] [--seeds K] [--reference PATTERN] [--label L]\n");
         return 2;
     }
     o.mode = argv[1];
@@ -227,6 +250,7 @@ int main(int argc, char **argv) {
         else if (!strcmp(argv[i], "--repeat") && i + 1 < argc) o.repeat = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--steps") && i + 1 < argc) o.steps = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--spp") && i + 1 < argc) o.spp = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--seeds") && i + 1 < argc) o.seeds = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--reference") && i + 1 < argc) o.reference = argv[++i];
         else if (!strcmp(argv[i], "--label") && i + 1 < argc) o.label = argv[++i];
         else {
@@ -235,6 +259,7 @@ int main(int argc, char **argv) {
         }
     }
     if (o.repeat < 1 || o.repeat > 64) o.repeat = 3;
+    if (o.seeds < 1 || o.seeds > 64) o.seeds = 1;
     volux_context *ctx;
     if (volux_context_create(NULL, &ctx)) return 1;
     volux_scene *s;

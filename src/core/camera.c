@@ -3,6 +3,7 @@
 #include <string.h>
 
 #include "context_internal.h"
+#include "camera_rays.h"
 #include "vecmath.h"
 #include "volux/camera.h"
 
@@ -96,18 +97,7 @@ volux_status volux_camera_resolve(volux_context *ctx, const volux_camera_desc *d
 }
 
 void volux_camera_ray(const volux_camera *cam, float px, float py, volux_vec3 *origin, volux_vec3 *dir) {
-    float aspect = (float)cam->width / (float)cam->height;
-    /* Normalised device coordinates: x right, y up, in [−1, 1]. */
-    float sx = (2.0f * px / (float)cam->width - 1.0f) * aspect;
-    float sy = 1.0f - 2.0f * py / (float)cam->height;
-    if (cam->projection == VOLUX_ORTHOGRAPHIC) {
-        *origin = v3_add(cam->eye, v3_add(v3_scale(cam->right, sx * cam->half_height),
-                                          v3_scale(cam->up, sy * cam->half_height)));
-        *dir = cam->forward;
-    } else {
-        *origin = cam->eye;
-        volux_vec3 d = v3_add(cam->forward, v3_add(v3_scale(cam->right, sx * cam->tan_half_fov),
-                                                   v3_scale(cam->up, sy * cam->tan_half_fov)));
-        *dir = v3_normalize(d);
-    }
+    /* core/camera_rays.h: the packet ray caster builds the same rays from
+     * per-column and per-row offsets */
+    volux_camera_ray_offsets(cam, volux_camera_offset_x(cam, px), volux_camera_offset_y(cam, py), origin, dir);
 }

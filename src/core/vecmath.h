@@ -42,10 +42,11 @@ static inline void v3_basis(volux_vec3 n, volux_vec3 *t, volux_vec3 *b) {
     *b = v3(c, sign + n.y * n.y * a, -n.y);
 }
 
-/* Slab test of the ray o + t·d against the box [lo,hi]; returns 1 and the
- * parametric interval if it hits with t1 > max(t0, 0). */
-static inline int v3_ray_box(volux_vec3 o, volux_vec3 d, volux_vec3 lo, volux_vec3 hi, float *t0, float *t1) {
-    float inv[3] = {1.0f / d.x, 1.0f / d.y, 1.0f / d.z};
+/* Slab test of the ray o + t·d against the box [lo,hi] given inv = 1/d per
+ * component (hoisted by callers whose rays share a direction); returns 1
+ * and the parametric interval if it hits with t1 > max(t0, 0). */
+static inline int v3_ray_box_inv(volux_vec3 o, volux_vec3 inv_d, volux_vec3 lo, volux_vec3 hi, float *t0, float *t1) {
+    float inv[3] = {inv_d.x, inv_d.y, inv_d.z};
     float ov[3] = {o.x, o.y, o.z}, l[3] = {lo.x, lo.y, lo.z}, h[3] = {hi.x, hi.y, hi.z};
     float tn = -INFINITY, tf = INFINITY;
     for (int a = 0; a < 3; a++) {
@@ -63,6 +64,14 @@ static inline int v3_ray_box(volux_vec3 o, volux_vec3 d, volux_vec3 lo, volux_ve
     *t0 = tn;
     *t1 = tf;
     return 1;
+}
+
+static inline volux_vec3 v3_inverse(volux_vec3 d) { return v3(1.0f / d.x, 1.0f / d.y, 1.0f / d.z); }
+
+/* Slab test of the ray o + t·d against the box [lo,hi]; returns 1 and the
+ * parametric interval if it hits with t1 > max(t0, 0). */
+static inline int v3_ray_box(volux_vec3 o, volux_vec3 d, volux_vec3 lo, volux_vec3 hi, float *t0, float *t1) {
+    return v3_ray_box_inv(o, v3_inverse(d), lo, hi, t0, t1);
 }
 
 #endif

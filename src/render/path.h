@@ -38,6 +38,12 @@ typedef volux_vec3 (*volux_path_direct_fn)(void *self, volux_vec3 x, volux_vec3 
  * along d, times its MIS weight against the environment sampling of the
  * last vertex (pdf_phase: the phase function's density of d). */
 typedef volux_vec3 (*volux_path_escaped_fn)(void *self, volux_vec3 d, float pdf_phase);
+/* Optional: the continuation direction at the depth-th vertex (path
+ * arriving along d) drawn from another density than the phase function's.
+ * Returns it, sets *pdf_phase to the phase function's density of it (what
+ * MIS weighs against light sampling) and *weight to phase / actual density
+ * (multiplies the throughput; 0 ends the path). NULL: phase sampling. */
+typedef volux_vec3 (*volux_path_continue_fn)(void *self, volux_vec3 d, int depth, float *pdf_phase, float *weight);
 
 /* One camera path from o along d: the radiance arriving at the camera.
  * n_area: emitters a phase-sampled ray can reach (sphere lights, and the
@@ -46,7 +52,7 @@ typedef volux_vec3 (*volux_path_escaped_fn)(void *self, volux_vec3 d, float pdf_
 static inline __attribute__((always_inline)) volux_vec3
 volux_path_trace(volux_tracker *tr, const volux_raycaster *rc, const volux_scene *scene, int rr_depth, int n_area,
                  volux_vec3 o, volux_vec3 d, uint64_t *vertices, volux_path_direct_fn direct,
-                 volux_path_escaped_fn escaped, void *self) {
+                 volux_path_escaped_fn escaped, volux_path_continue_fn next, void *self) {
     const volux_light_list *lights = &rc->lights;
     volux_vec3 L = v3(0, 0, 0), beta = v3(1, 1, 1);
     float pdf_phase = 0.0f;
@@ -104,7 +110,14 @@ volux_path_trace(volux_tracker *tr, const volux_raycaster *rc, const volux_scene
         /* Phase sampling: f/pdf = 1 for HG sampled exactly. (The two
          * draws as arguments, in the compiler's order, as the loop has
          * always had them: images stay bit-identical.) */
-        d = volux_hg_sample(rc->g, d, volux_tracker_rnd(tr), volux_tracker_rnd(tr), &pdf_phase);
+        if (next) {
+            float weight = 0.0f;
+            d = next(self, d, depth, &pdf_phase, &weight);
+            if (!(weight > 0.0f)) break;
+            beta = v3_scale(beta, weight);
+        } else {
+            d = volux_hg_sample(rc->g, d, volux_tracker_rnd(tr), volux_tracker_rnd(tr), &pdf_phase);
+        }
         o = x;
     }
     return L;

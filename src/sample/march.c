@@ -81,18 +81,7 @@ void volux_majorant_grid_free(volux_context *ctx, volux_majorant_grid *grid) {
 int volux_ray_clip(const volux_volume *v, volux_vec3 o, volux_vec3 d, volux_ray *ray) {
     volux_vec3 lo, hi;
     volux_volume_bounds(v, &lo, &hi);
-    float t0, t1;
-    if (!v3_ray_box(o, d, lo, hi, &t0, &t1)) return 0;
-    ray->o = o;
-    ray->d = d;
-    ray->q0 = volux_volume_to_index(v, o);
-    ray->dq = v3(d.x * v->inv_spacing[0], d.y * v->inv_spacing[1], d.z * v->inv_spacing[2]);
-    ray->t0 = t0;
-    ray->t1 = t1;
-    ray->windowed = 0;
-    ray->w0 = t0;
-    ray->w1 = t1;
-    return 1;
+    return volux_ray_clip_hoisted(v, lo, hi, o, d, v3_inverse(d), ray);
 }
 
 int volux_ray_clip_part(const volux_volume *v, volux_vec3 o, volux_vec3 d, volux_ray *ray) {

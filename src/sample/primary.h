@@ -19,18 +19,27 @@ typedef struct volux_primary {
     float jitter;    /* first-segment offset in [0, 1) */
 } volux_primary;
 
+/* The random numbers of a pixel sample: the position (*jx, *jy) inside
+ * the pixel and the returned march jitter. */
+static inline __attribute__((always_inline)) float volux_primary_numbers(const volux_camera *cam, uint64_t seed,
+                                                                        int px, int py, uint32_t sample_index,
+                                                                        float *jx, float *jy) {
+    uint64_t pixel = (uint64_t)py * (uint64_t)cam->width + (uint64_t)px;
+    volux_rng rng = volux_rng_make(seed, pixel, sample_index, 0);
+    *jx = 0.5f, *jy = 0.5f;
+    if (sample_index > 0) {
+        *jx = volux_rng_float(&rng);
+        *jy = volux_rng_float(&rng);
+    }
+    return volux_rng_float(&rng);
+}
+
 /* Always inlined into the pixel loops (called once per pixel sample). */
 static inline __attribute__((always_inline)) volux_primary volux_primary_ray(const volux_camera *cam, uint64_t seed,
                                                                              int px, int py, uint32_t sample_index) {
-    uint64_t pixel = (uint64_t)py * (uint64_t)cam->width + (uint64_t)px;
-    volux_rng rng = volux_rng_make(seed, pixel, sample_index, 0);
-    float jx = 0.5f, jy = 0.5f;
-    if (sample_index > 0) {
-        jx = volux_rng_float(&rng);
-        jy = volux_rng_float(&rng);
-    }
+    float jx, jy;
     volux_primary r;
-    r.jitter = volux_rng_float(&rng);
+    r.jitter = volux_primary_numbers(cam, seed, px, py, sample_index, &jx, &jy);
     volux_camera_ray(cam, (float)px + jx, (float)py + jy, &r.o, &r.d);
     return r;
 }

@@ -128,6 +128,71 @@ static void test_each_edit_does_the_least_work(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* ------------------------------------------------------------------ env_resolution 0: auto */
+
+/* env_resolution 0 picks the largest power of two M with M² no more than
+ * the map's texels (at least the directions N), follows the map when it is
+ * edited (rebuilding the environment quadtree, nothing else), and renders
+ * exactly what the explicit M renders. */
+static void test_env_resolution_auto_follows_the_map(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(2);
+    volux_scene *s = tu_scene(ctx, "{\"volume\": {\"procedural\": \"cloud\", \"dims\": [20, 18, 16]},"
+                                   " \"transfer_function\": {\"extinction\": [[0, 0], [40, 0], [255, 0.5]]},"
+                                   " \"render\": {\"technique\": \"guided\", \"width\": 8, \"height\": 8, \"spp\": 2},"
+                                   " \"techniques\": {\"guided\": {\"env_resolution\": 0}}}");
+    add_sky(ctx, s); /* 32 × 16 = 512 texels: 16² ≤ 512 < 32² */
+    volux_technique *t, *f;
+    assert_int_equal(volux_technique_create(ctx, "guided", s, &t), VOLUX_OK);
+    assert_int_equal(state_of(t)->env_res, 16);
+    volux_image auto_img = tu_render_with(ctx, s, t);
+    assert_int_equal(volux_scene_set_param(s, "guided", "env_resolution", 16, NULL), VOLUX_OK);
+    assert_int_equal(volux_technique_create(ctx, "guided", s, &f), VOLUX_OK);
+    volux_image explicit_img = tu_render_with(ctx, s, f);
+    if (tu_max_abs_diff(&auto_img, &explicit_img) != 0.0) fail_msg("auto (16) and 16 render different images");
+    volux_image_free(ctx, &auto_img);
+    volux_image_free(ctx, &explicit_img);
+    volux_technique_destroy(f);
+    assert_int_equal(volux_scene_set_param(s, "guided", "env_resolution", 0, NULL), VOLUX_OK);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    assert_int_equal(state_of(t)->env_res, 16);
+
+    /* a 64 × 32 map (2048 texels): 32; the visibility grid is not swept */
+    volux_image map;
+    assert_int_equal(volux_image_create(ctx, 64, 32, &map), VOLUX_OK);
+    for (int i = 0; i < 3 * 64 * 32; i++) map.rgb[i] = 1.0f + (float)(i % 7);
+    volux_light_desc l;
+    volux_light_desc_defaults(&l, VOLUX_LIGHT_ENVIRONMENT);
+    l.map = &map;
+    assert_int_equal(volux_scene_set_light(s, 0, &l), VOLUX_OK);
+    volux_image_free(ctx, &map);
+    work before = work_of(t);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    assert_int_equal(state_of(t)->env_res, 32);
+    assert_int_equal(work_of(t).dirs - before.dirs, 0);
+    assert_int_equal(work_of(t).env - before.env, 1);
+
+    /* a constant environment: the grid's N (8 by default) */
+    volux_light_desc_defaults(&l, VOLUX_LIGHT_ENVIRONMENT);
+    l.radiance = 2.0f;
+    assert_int_equal(volux_scene_set_light(s, 0, &l), VOLUX_OK);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    assert_int_equal(state_of(t)->env_res, 8);
+    /* ... which follows N: directions 16 */
+    assert_int_equal(volux_scene_set_param(s, "guided", "directions", 16, NULL), VOLUX_OK);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    assert_int_equal(state_of(t)->env_res, 16);
+    /* not a power of two: a clear error */
+    assert_int_equal(volux_scene_set_param(s, "guided", "env_resolution", 48, NULL), VOLUX_OK);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_ERR_INVALID);
+    assert_non_null(strstr(volux_context_error(ctx), "env_resolution"));
+    volux_context_clear_error(ctx);
+    volux_technique_destroy(t);
+    volux_scene_destroy(s);
+    assert_int_equal(volux_context_bytes_in_use(ctx), 0);
+    volux_context_destroy(ctx);
+}
+
 /* ------------------------------------------------------------------ lazy updates over a sequence */
 
 static volux_scene *sequence_scene(volux_context *ctx, const char *lazy) {
@@ -245,6 +310,7 @@ static void test_failed_lazy_update_recovers(void **state) {
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_each_edit_does_the_least_work),
+        cmocka_unit_test(test_env_resolution_auto_follows_the_map),
         cmocka_unit_test(test_lazy_updates_equal_a_fresh_instance),
         cmocka_unit_test(test_failed_lazy_update_recovers),
     };

@@ -6,11 +6,12 @@
  * is standard normal. The scene is where guiding matters — a cloud lit by
  * a sky with a small sun (a 400× brighter patch), multiple scattering
  * (max_depth 2), anisotropic phase, RGB albedo — rendered with every
- * strategy and, for two_step, with and without MIS and with guided
- * multiple scattering.
+ * strategy and, for two_step, with and without MIS, with guided
+ * multiple scattering and with guided continuation directions
+ * (guide_continuation 0.5: the phase/environment-density mixture).
  *
  * Bounds: no pixel channel beyond |z| = 5 (family-wise false alarm < 1e-3
- * over 256 pixels × 3 channels × 11 configurations), the image mean within
+ * over 256 pixels × 3 channels × 14 configurations), the image mean within
  * 4 standard errors of pathtrace's, and that standard error below 2.5 % of
  * the mean (so the bound is tight enough to mean something). The pixel
  * check needs light-tailed estimates: under the sun only the strategies
@@ -102,6 +103,7 @@ static void compare(const pt_stats *g, const pt_stats *p, const char *what) {
 typedef struct run {
     const char *strategy;
     int mis, guide_depth;
+    double continuation; /* guide_continuation: the mixture for the continuation ray */
 } run;
 
 static void check_runs(int sun, const run *runs, int n_runs) {
@@ -112,10 +114,12 @@ static void check_runs(int sun, const run *runs, int n_runs) {
         assert_int_equal(volux_scene_set_param(s, "guided", "strategy", 0, runs[i].strategy), VOLUX_OK);
         assert_int_equal(volux_scene_set_param(s, "guided", "mis", runs[i].mis, NULL), VOLUX_OK);
         assert_int_equal(volux_scene_set_param(s, "guided", "guide_depth", runs[i].guide_depth, NULL), VOLUX_OK);
+        assert_int_equal(volux_scene_set_param(s, "guided", "guide_continuation", runs[i].continuation, NULL),
+                         VOLUX_OK);
         pt_stats g = render_stats(ctx, s, "guided", 1024);
-        char what[96];
-        snprintf(what, sizeof what, "%s%s, mis %d, guide_depth %d", sun ? "sun: " : "sky: ", runs[i].strategy,
-                 runs[i].mis, runs[i].guide_depth);
+        char what[128];
+        snprintf(what, sizeof what, "%s%s, mis %d, guide_depth %d, cont %.1f", sun ? "sun: " : "sky: ",
+                 runs[i].strategy, runs[i].mis, runs[i].guide_depth, runs[i].continuation);
         compare(&g, &ref, what);
         pt_stats_free(&g);
     }
@@ -127,8 +131,9 @@ static void check_runs(int sun, const run *runs, int n_runs) {
 /* A smooth sky: every strategy has light tails there. */
 static void test_every_strategy_agrees_under_a_smooth_sky(void **state) {
     (void)state;
-    static const run runs[] = {{"uniform", 1, 1}, {"environment", 1, 1}, {"visibility", 1, 1},
-                               {"product", 1, 1}, {"two_step", 1, 1},    {"two_step", 0, 0}};
+    static const run runs[] = {{"uniform", 1, 1, 0},  {"environment", 1, 1, 0}, {"visibility", 1, 1, 0},
+                               {"product", 1, 1, 0}, {"two_step", 1, 1, 0},    {"two_step", 0, 0, 0},
+                               {"two_step", 1, 0, 0.5}};
     check_runs(0, runs, (int)(sizeof runs / sizeof runs[0]));
 }
 
@@ -137,8 +142,9 @@ static void test_every_strategy_agrees_under_a_smooth_sky(void **state) {
  * a pixel's sample variance says nothing about its error at this spp). */
 static void test_environment_following_strategies_agree_under_a_sun(void **state) {
     (void)state;
-    static const run runs[] = {{"environment", 1, 1}, {"product", 1, 1}, {"two_step", 1, 1},
-                               {"two_step", 0, 1},    {"two_step", 1, 0}};
+    static const run runs[] = {{"environment", 1, 1, 0}, {"product", 1, 1, 0}, {"two_step", 1, 1, 0},
+                               {"two_step", 0, 1, 0},    {"two_step", 1, 0, 0},  {"two_step", 1, 0, 0.5},
+                               {"two_step", 0, 0, 0.5}};
     check_runs(1, runs, (int)(sizeof runs / sizeof runs[0]));
 }
 

@@ -21,6 +21,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "core/camera_rays.h"
 #include "core/rng.h"
 #include "core/simd.h"
 #include "core/vecmath.h"

@@ -42,14 +42,20 @@ static const volux_param_info guided_params[] = {
     {"oversample", VOLUX_PARAM_INT, 1, 1, 4, NULL,
      "sub-directions per axis per direction texel, averaged (2 = 4x, 4 = 16x angular oversampling)"},
     {"epsilon", VOLUX_PARAM_NUMBER, 0.01, 1e-6, 1, NULL, "added to the visibility before the product (Sec. 6)"},
-    {"env_resolution", VOLUX_PARAM_INT, 512, 2, 4096, NULL,
-     "M: the environment is resampled into an M x M equal-area octahedral image (a power of two >= directions)"},
+    {"env_resolution", VOLUX_PARAM_INT, 0, 0, 4096, NULL,
+     "M: the environment is resampled into an M x M equal-area octahedral image (a power of two >= directions); "
+     "0 (auto, the default): the largest M with no more texels than the largest environment map (512 for a "
+     "1024 x 512 map), the directions N for a constant environment"},
     {"mis", VOLUX_PARAM_BOOL, 1, 0, 1, NULL,
      "combine the environment sample with phase sampling (power heuristic); 0: the environment is lit by its "
      "light sample alone"},
     {"guide_depth", VOLUX_PARAM_INT, 0, 0, 100000, NULL,
      "scattering events per path whose environment sample uses the strategy (1: the first, as in the paper; 0: "
      "every event); later events sample the environment alone"},
+    {"guide_continuation", VOLUX_PARAM_NUMBER, 0, 0, 0.95, NULL,
+     "alpha: probability that the continuation direction at a scattering event is drawn from the event's "
+     "environment density instead of the phase function (one-sample mixture, weighted by phase / mixture: "
+     "unbiased); 0: phase sampling alone, as pathtrace"},
     {"rr_depth", VOLUX_PARAM_INT, 5, 0, 100000, NULL,
      "scattering events before Russian roulette on the path throughput"},
     {"lazy", VOLUX_PARAM_STRING, 0, 0, 0, "round_robin",
@@ -106,9 +112,10 @@ static volux_status read_params(guided_state *st, const volux_scene *scene) {
     if (!is_pow2(n))
         return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.guided.directions: %d is not a power of two", n);
     int m = (int)volux_technique_param(scene, cls, "env_resolution");
-    if (!is_pow2(m) || m < n)
+    if (m != 0 && (!is_pow2(m) || m < n))
         return volux_error(ctx, VOLUX_ERR_INVALID,
-                           "techniques.guided.env_resolution: %d must be a power of two and at least directions (%d)",
+                           "techniques.guided.env_resolution: %d must be 0 (auto) or a power of two and at least "
+                           "directions (%d)",
                            m, n);
     guided_vis_params v;
     memset(&v, 0, sizeof v);
@@ -126,11 +133,12 @@ static volux_status read_params(guided_state *st, const volux_scene *scene) {
     st->dir_levels = 0;
     while ((1 << st->dir_levels) < n) st->dir_levels++;
     st->strategy = strategy;
-    st->env_res = m;
+    st->env_res_param = m;
     st->epsilon = (float)volux_technique_param(scene, cls, "epsilon");
     st->mis = (int)volux_technique_param(scene, cls, "mis");
     st->guide_depth = (int)volux_technique_param(scene, cls, "guide_depth");
     st->rr_depth = (int)volux_technique_param(scene, cls, "rr_depth");
+    st->continuation = (float)volux_technique_param(scene, cls, "guide_continuation");
     return VOLUX_OK;
 }
 
@@ -142,6 +150,22 @@ static int vis_content_differs(const guided_vis_params *a, const guided_vis_para
                      (a->filter && a->filter_angle != b->filter_angle)))
         return 1;
     return 0;
+}
+
+/* env_resolution 0 ("auto"): the largest power of two M whose M×M
+ * octahedral image has no more texels than the largest environment map
+ * (finer would only interpolate the map; a 1024×512 map gives 512, a
+ * 256×128 one 128), at least the grid's N (a constant environment is
+ * uniform within every direction texel, so N is all it needs). */
+static int env_resolution_auto(const volux_light_list *lights, int n) {
+    int m = n;
+    for (int i = 0; i < lights->n_all; i++) {
+        const volux_prepared_light *l = &lights->all[i];
+        if (l->type != VOLUX_LIGHT_ENVIRONMENT || !l->desc || !l->desc->map) continue;
+        double texels = (double)l->desc->map->width * (double)l->desc->map->height;
+        while (m < 4096 && (double)(2 * m) * (double)(2 * m) <= texels) m *= 2;
+    }
+    return m;
 }
 
 /* 1 if an environment light of `lights` or of the last build (`slots`)
@@ -227,14 +251,15 @@ static volux_status guided_update(void *state, const volux_scene *scene, const v
      * changed, or its resolution */
     if (w & (VOLUX_CHANGE_LIGHTS | VOLUX_CHANGE_PARAMS)) {
         const volux_light_list *ls = &st->rc.lights;
-        int touched = !st->env_built || st->env_res != old_env_res ||
-                      env_touched(ls, st->env_slots, st->n_env_slots, c);
+        int res = st->env_res_param ? st->env_res_param : env_resolution_auto(ls, st->vis.dir_res);
+        int touched = !st->env_built || res != old_env_res || env_touched(ls, st->env_slots, st->n_env_slots, c);
         if (touched) {
             st->env_built = 0;
+            st->env_res = res;
             if ((s = volux_grow_slots(ctx, &st->env_slots, &st->env_slots_cap, ls->n_env, sizeof *st->env_slots,
                                       "guided: environment slots")))
                 return s;
-            if ((s = guided_env_build(ctx, st->rc.threads, &st->env, ls, st->env_res))) return s;
+            if ((s = guided_env_build(ctx, st->rc.threads, &st->env, ls, res))) return s;
             st->n_env_slots = 0;
             for (int i = 0; i < ls->n_all; i++)
                 if (ls->all[i].type == VOLUX_LIGHT_ENVIRONMENT) st->env_slots[st->n_env_slots++] = ls->all[i].slot;

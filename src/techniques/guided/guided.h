@@ -97,9 +97,11 @@ typedef struct guided_state {
     int strategy;       /* guided_strategy                                */
     int mis;            /* combine with phase sampling (power heuristic)  */
     int guide_depth;    /* scattering events guided (0 = all)             */
+    float continuation; /* α: continuation drawn from the event's density  */
     int rr_depth;
     float epsilon;      /* ε added to V before the product (§6)           */
-    int env_res;
+    int env_res_param;  /* env_resolution as set (0: auto)                */
+    int env_res;        /* M of the environment quadtree built            */
     int dir_levels;     /* log2 N                                         */
     guided_vis_params vis;
     /* caches */

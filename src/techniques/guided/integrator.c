@@ -34,6 +34,10 @@
  * `guide_depth` bounds the events that use the strategy (1 is the paper's
  * first event; 0 every event, "guided multiple scattering"); later events
  * sample the environment quadtree alone.
+ *
+ * `guide_continuation` α > 0 also draws the continuation direction from
+ * the event's density (continue_hook below; off by default: it raises the
+ * variance, docs/techniques/guided.md).
  */
 #include <math.h>
 #include <string.h>
@@ -214,6 +218,40 @@ static volux_vec3 environment_escaped(void *self, volux_vec3 d, float pdf_phase)
     return v3_scale(guided_env_radiance(&st->rc.lights, d), w);
 }
 
+/* The render/path.h `next` hook (guide_continuation α > 0): the
+ * continuation direction from the one-sample mixture
+ *     q(ω) = (1 − α)·f(ω) + α·p_x(ω)
+ * of the phase function f and the event's environment density p_x (the
+ * visibility × environment product of the strategy), weight f/q: unbiased
+ * for any α < 1 (q ≥ (1 − α) f > 0 wherever f > 0). MIS against light
+ * sampling keeps weighing with f, the density the next-event estimate
+ * assumes: the two weights of a direction still sum to one. Paths are
+ * steered towards what x sees of the bright environment, so the next
+ * vertex tends to be better lit (the indirect light of a fog lit through
+ * an opening). */
+static volux_vec3 continue_hook(void *self, volux_vec3 d, int depth, float *pdf_phase, float *weight) {
+    (void)depth;
+    gd_path *p = self;
+    const guided_state *st = p->st;
+    const float g = st->rc.g, a = st->continuation;
+    volux_vec3 w;
+    if (rnd(p) < a) {
+        double u = volux_rng_double(&p->tr.rng), v = volux_rng_double(&p->tr.rng);
+        if (!(guided_event_sample(st, p->ev, u, v, &w) > 0.0f)) {
+            *weight = 0.0f;
+            return d;
+        }
+    } else {
+        float u1 = rnd(p), u2 = rnd(p), pdf;
+        w = volux_hg_sample(g, d, u1, u2, &pdf);
+    }
+    float f = volux_hg_eval(g, v3_dot(w, d));
+    float q = (1.0f - a) * f + a * guided_event_pdf(st, p->ev, w);
+    *pdf_phase = f;
+    *weight = q > 0.0f ? f / q : 0.0f;
+    return w;
+}
+
 void guided_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
                         volux_tile_stats *stats) {
     const guided_state *st = state;
@@ -223,6 +261,7 @@ void guided_render_tile(const void *state, const volux_scene *scene, const volux
     gd_path p = {st, {&medium, {0, 0}, 0, tile->deadline, 0}, 0, 0, &ev};
     p.n_area = st->rc.lights.n_sphere + (st->env.present && st->mis ? 1 : 0);
     ev.kind = st->strategy;
+    const int guided = st->continuation > 0.0f && st->env.present;
     for (int y = 0; y < tile->h; y++)
         for (int x = 0; x < tile->w; x++) {
             int px = tile->x0 + x, py = tile->y0 + y;
@@ -231,8 +270,13 @@ void guided_render_tile(const void *state, const volux_scene *scene, const volux
             float jx = rnd(&p), jy = rnd(&p);
             volux_vec3 o, dir;
             volux_camera_ray(cam, (float)px + jx, (float)py + jy, &o, &dir);
-            volux_vec3 L = volux_path_trace(&p.tr, &st->rc, scene, st->rr_depth, p.n_area, o, dir, &p.vertices,
-                                            direct_hook, environment_escaped, &p);
+            /* two inlined copies of the loop: without the mixture it is
+             * exactly the phase sampling (and the images) of before */
+            volux_vec3 L = guided
+                               ? volux_path_trace(&p.tr, &st->rc, scene, st->rr_depth, p.n_area, o, dir,
+                                                  &p.vertices, direct_hook, environment_escaped, continue_hook, &p)
+                               : volux_path_trace(&p.tr, &st->rc, scene, st->rr_depth, p.n_area, o, dir,
+                                                  &p.vertices, direct_hook, environment_escaped, NULL, &p);
             float *out = &rgb[3 * (y * tile->w + x)];
             out[0] = L.x, out[1] = L.y, out[2] = L.z;
         }

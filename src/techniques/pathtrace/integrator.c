@@ -127,7 +127,7 @@ static volux_vec3 direct_hook(void *self, volux_vec3 x, volux_vec3 d, int depth)
 static volux_vec3 trace(pt_path *p, const volux_scene *scene, volux_vec3 o, volux_vec3 d) {
     const pt_state *st = p->st;
     return volux_path_trace(&p->tr, &st->rc, scene, st->rr_depth, st->n_area, o, d, &p->vertices, direct_hook,
-                            environment_escaped, p);
+                            environment_escaped, NULL, p);
 }
 
 void volux_pathtrace_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
