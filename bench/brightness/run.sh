@@ -20,7 +20,7 @@ out=${2:-$here/out}
 spp=${SPP:-64}
 size=${SIZE:-96}
 envmap=${ENVMAP:-/work/shared/data/envmaps/venice_sunset_1k.hdr}
-techniques=${TECHNIQUES:-"ea shaded single ao ambient lightvol sh"}
+techniques=${TECHNIQUES:-"ea shaded single ao ambient lightvol sh manylights"}
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
 mkdir -p "$out"
 jsonl="$out/brightness.jsonl"

@@ -92,3 +92,53 @@ void volux_light_list_free(volux_context *ctx, volux_light_list *l) {
     l->all = l->direct = NULL;
     l->cap = l->n_all = l->n_direct = l->n_env = l->n_sphere = 0;
 }
+
+volux_vec3 volux_fibonacci_dir(int i, int n) {
+    const double golden = 2.39996322972865332; /* π(3 − √5) */
+    double z = 1.0 - (2.0 * i + 1.0) / n, r = sqrt(fmax(0.0, 1.0 - z * z)), phi = golden * i;
+    return v3((float)(r * cos(phi)), (float)z, (float)(r * sin(phi)));
+}
+
+/* Index of the direction of `from` (K unit vectors) nearest to d. */
+static int nearest_dir(const volux_vec3 *from, int K, volux_vec3 d) {
+    int best = 0;
+    float best_dot = -2.0f;
+    for (int k = 0; k < K; k++) {
+        float c = v3_dot(d, from[k]);
+        if (c > best_dot) best_dot = c, best = k;
+    }
+    return best;
+}
+
+/* A map texel by texel (solid angle (2π/W)(π/H)·sin θ each): a sun lands
+ * in its nearest direction instead of falling between point samples; a
+ * constant environment with 64 finer Fibonacci points per direction
+ * (≈ L·4π/K each). */
+void volux_environment_cells(const volux_light_desc *d, int K, const volux_vec3 *from, volux_vec3 *E) {
+    if (K <= 0) return;
+    if (!d->map) {
+        int N = 64 * K;
+        float w = (float)(4.0 * 3.14159265358979323846 / N);
+        for (int i = 0; i < N; i++) {
+            volux_vec3 dir = volux_fibonacci_dir(i, N);
+            int k = nearest_dir(from, K, dir);
+            E[k] = v3_madd(E[k], volux_environment_radiance(d, dir), w);
+        }
+        return;
+    }
+    const volux_image *m = d->map;
+    volux_vec3 scale = v3_scale(d->color, d->intensity);
+    double dtheta = 3.14159265358979323846 / m->height, dphi = 2.0 * 3.14159265358979323846 / m->width;
+    for (int j = 0; j < m->height; j++) {
+        float v = ((float)j + 0.5f) / (float)m->height;
+        float w = (float)(dphi * dtheta * sin(((double)j + 0.5) * dtheta));
+        for (int i = 0; i < m->width; i++) {
+            const float *t = &m->rgb[3 * ((size_t)j * (size_t)m->width + (size_t)i)];
+            volux_vec3 L = v3(fmaxf(t[0], 0.0f), fmaxf(t[1], 0.0f), fmaxf(t[2], 0.0f));
+            if (L.x <= 0.0f && L.y <= 0.0f && L.z <= 0.0f) continue;
+            volux_vec3 dir = volux_environment_direction(d, ((float)i + 0.5f) / (float)m->width, v);
+            int k = nearest_dir(from, K, dir);
+            E[k] = v3_madd(E[k], v3_mul(L, scale), w);
+        }
+    }
+}

@@ -58,6 +58,18 @@ void volux_light_list_free(volux_context *ctx, volux_light_list *l);
  * weighted by the sine of their polar angle). */
 volux_vec3 volux_environment_mean(const volux_light_desc *d);
 
+/* Point i of the Fibonacci set of n points on the unit sphere (equal-area
+ * bands in z, golden-angle steps in φ: near-uniform, deterministic). */
+volux_vec3 volux_fibonacci_dir(int i, int n);
+
+/* An environment as K directional lights (the `env_directions` of `single`
+ * and `lightvol`): adds to E[k] the radiance of environment light d
+ * integrated over the cell of from[k] — the directions nearer to from[k]
+ * than to any other of the K unit vectors `from` (in practice
+ * volux_fibonacci_dir(k, K)). A map is integrated texel by texel, so the
+ * energy is kept exactly: Σ_k E_k = ∫ L dω. */
+void volux_environment_cells(const volux_light_desc *d, int K, const volux_vec3 *from, volux_vec3 *E);
+
 /* Unshadowed irradiance at p from a direct light and the direction the
  * light travels there (unit). */
 static inline volux_vec3 volux_light_irradiance(const volux_prepared_light *l, volux_vec3 p, volux_vec3 *travel) {

@@ -598,8 +598,9 @@ static void test_memory_is_independent_of_the_number_of_lights(void **state) {
     fx_teardown(&f);
 }
 
-/* Lights that do not take part: environment (not propagated), disabled,
- * zero power, a spot aimed away from the volume. */
+/* Lights that do not take part: environment with env_directions = 0
+ * (ignored; tests/physics/test_lightvol_env.c), disabled, zero power, a
+ * spot aimed away from the volume. */
 static void test_lights_that_do_not_propagate(void **state) {
     (void)state;
     fixture f;
@@ -613,6 +614,7 @@ static void test_lights_that_do_not_propagate(void **state) {
     assert_int_equal(volux_scene_set_light(f.s, 1, &off), VOLUX_OK);
     assert_int_equal(volux_scene_set_light(f.s, 2, &zero), VOLUX_OK);
     assert_int_equal(volux_scene_set_light(f.s, 3, &away), VOLUX_OK);
+    assert_int_equal(volux_scene_set_param(f.s, "lightvol", "env_directions", 0, NULL), VOLUX_OK);
     volux_technique *t = lvf_create(f.ctx, f.s);
     const lightvol_state *st = lvf_state(t);
     assert_int_equal(st->stats.passes, 0);
@@ -640,7 +642,8 @@ static void test_bad_parameters_are_named(void **state) {
                {"kernel", 0, "gpu", "techniques.lightvol.kernel"},
                {"positional_grouping", 0, "corner", "techniques.lightvol.positional_grouping"},
                {"budget_ms", -1.0, NULL, "techniques.lightvol.budget_ms"},
-               {"budget_slices", -2, NULL, "techniques.lightvol.budget_slices"}};
+               {"budget_slices", -2, NULL, "techniques.lightvol.budget_slices"},
+               {"env_directions", 257, NULL, "techniques.lightvol.env_directions"}};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         fixture g;
         fx_setup(&g, 1);

@@ -76,6 +76,10 @@ static const volux_param_info lightvol_params[] = {
      "radiance: the scattered light (the technique); illumination: the illumination volume itself, the RGB "
      "light E arriving at each sample without albedo, colour or phase, through the transfer function's opacity "
      "(the paper's Fig. 4b, a view for checking light setups)"},
+    {"env_directions", VOLUX_PARAM_INT, 16, 0, LV_MAX_ENV_DIRS, NULL,
+     "environment lights as this many directional lights propagated like the others (the Fibonacci set of "
+     "techniques.single.env_directions, each carrying the environment's radiance over its cell; they share the "
+     "six propagation groups with the scene's lights); 0 = ignore environment lights (with a warning)"},
     {"rebuild_token", VOLUX_PARAM_NUMBER, 0, 0, 1e15, NULL,
      "benchmark hook: changing this value forces an entire light update"},
     {NULL, 0, 0, 0, 0, NULL, NULL}};
@@ -149,6 +153,7 @@ static volux_status read_params(lightvol_state *st, const volux_scene *scene, lv
     else
         return volux_error(ctx, VOLUX_ERR_INVALID,
                            "techniques.lightvol.show: expected \"radiance\" or \"illumination\", got \"%s\"", show);
+    p->env_dirs = (int)volux_technique_param(scene, cls, "env_directions");
     if (p->local_shading > 0.0f && !p->directional)
         return volux_error(ctx, VOLUX_ERR_INVALID,
                            "techniques.lightvol.local_shading: needs techniques.lightvol.directional = true (the light "
@@ -172,10 +177,6 @@ static volux_status lightvol_update(void *state, const volux_scene *scene, const
         volux_gradient_cache_free(ctx, &st->grad);
         if ((s = volux_volume_build_bricks(rc->volume))) return s;
     }
-    if ((w & VOLUX_CHANGE_LIGHTS) && /* no sweep direction to propagate an environment along (docs) */
-        (s = volux_raycaster_warn_unused_lights(rc, 1u << VOLUX_LIGHT_ENVIRONMENT,
-                                                "environment lights are not propagated through the illumination volume")))
-        return s;
     if (w & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY | VOLUX_CHANGE_COLOR |
              VOLUX_CHANGE_ALBEDO))
         medium = 1;
@@ -191,7 +192,7 @@ static volux_status lightvol_update(void *state, const volux_scene *scene, const
         /* a kernel switch rebuilds, so that selective updates never mix two
          * kernels' rounding in one volume */
         if (np.forward != op->forward || np.cone_deg != op->cone_deg || np.rebuild_token != op->rebuild_token ||
-            np.kernel != op->kernel || np.grouping != op->grouping) {
+            np.kernel != op->kernel || np.grouping != op->grouping || np.env_dirs != op->env_dirs) {
             full = 1;
             if (!reason) reason = "parameters changed";
         }
@@ -200,6 +201,10 @@ static volux_status lightvol_update(void *state, const volux_scene *scene, const
         st->use_avx512 = st->use_simd && np.kernel != LV_KERNEL_AVX2 && volux_lightvol_avx512_available();
         st->grad_ref = volux_raycaster_gradient_ref(rc, np.gradient_threshold);
     }
+    if ((w & (VOLUX_CHANGE_LIGHTS | VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME)) &&
+        (s = volux_raycaster_warn_unused_lights(rc, st->p.env_dirs ? 0u : 1u << VOLUX_LIGHT_ENVIRONMENT,
+                                                "techniques.lightvol.env_directions is 0")))
+        return s;
     if (st->p.local_shading > 0.0f && !st->grad.grad)
         if ((s = volux_gradient_cache_build(ctx, rc->volume, &st->grad, "lightvol"))) return s;
     if (realloc_vol) {

@@ -126,6 +126,10 @@ static inline float lv_face_weight(volux_vec3 w, int g) {
 
 enum { LV_DIRECTIONAL = 0, LV_POSITIONAL = 1 };
 
+/* Environment lights as up to this many directional lights (env_directions:
+ * the Fibonacci set of `single`, each with the radiance over its cell). */
+#define LV_MAX_ENV_DIRS 256
+
 /* A light reduced to what propagation needs (world units). */
 typedef struct lv_source {
     int kind;               /* LV_DIRECTIONAL / LV_POSITIONAL             */
@@ -148,7 +152,7 @@ typedef struct lv_source {
 typedef struct lv_item {
     lv_source src;
     float sign;
-    int slot;
+    int slot;               /* −1: an environment direction               */
 } lv_item;
 
 /* The light in a slot as last applied to the illumination volume, so that
@@ -157,7 +161,10 @@ typedef struct lv_item {
  * Two states differ iff their sources differ (an edit of a field that does
  * not affect propagation, e.g. a point light's radius, costs nothing). */
 typedef struct lv_applied {
-    int active;             /* contributes to the volume                  */
+    int active;             /* contributes to the volume as a light of its
+                               own (an environment never does: it is in
+                               env_E, see lightvol_state)                 */
+    int env;                /* the slot holds an environment light        */
     volux_light_desc desc;  /* as applied (map pointer cleared)           */
     lv_source src;          /* derived; memset-clean, so memcmp compares  */
 } lv_applied;
@@ -191,6 +198,8 @@ typedef struct lv_params {
                                (0 = all at once)                          */
     int budget_slices;      /* ... as slice steps (deterministic; wins)   */
     int show_illumination;  /* render E itself (Fig. 4b), not radiance    */
+    int env_dirs;           /* environment lights as this many directional
+                               lights (0: ignored, with a warning)        */
 } lv_params;
 
 /* ---------------------------------------------------------------- state */
@@ -279,6 +288,13 @@ typedef struct lightvol_state {
 
     lv_applied *applied;           /* per light slot [applied_cap]          */
     int applied_cap;
+    /* the scene's environment lights as p.env_dirs directional lights,
+     * travelling −volux_fibonacci_dir(k, K), each with the irradiance of its
+     * cell summed over the environments — as applied to the volume. The
+     * directions are fixed, so an environment edit (rotation, intensity,
+     * map) only changes these irradiances and is propagated as their
+     * differences, one entry per direction. */
+    volux_vec3 env_E[LV_MAX_ENV_DIRS];
     int valid;                     /* the volume matches `applied` once the
                                       job (if any) has run                 */
     lv_job job;
@@ -316,6 +332,12 @@ void volux_lightvol_drop_job(lightvol_state *st);
 /* Fills src from a light; returns 0 if the light does not take part in
  * propagation (disabled, environment, zero power). */
 int volux_lightvol_source(const lightvol_state *st, const volux_light_desc *d, lv_source *src);
+/* Environment direction k of the p.env_dirs as a directional source of
+ * irradiance `power` (which may be a difference of two, negative). */
+void volux_lightvol_env_source(const lightvol_state *st, int k, volux_vec3 power, lv_source *src);
+/* The scene's enabled environment lights integrated into the p.env_dirs
+ * directions' cells (E[0..env_dirs) overwritten). */
+void volux_lightvol_env_irradiance(const lightvol_state *st, const volux_scene *scene, volux_vec3 *E);
 /* Unoccluded value a light sends to world point p: directional E0,
  * positional I·cone(θ)/max(r², r_min²) (rgb). */
 void volux_lightvol_unoccluded(const lightvol_state *st, const lv_source *s, volux_vec3 p, float out[3]);

@@ -102,7 +102,8 @@ static int center_groups(const lightvol_state *st, lv_source *s) {
 
 int volux_lightvol_source(const lightvol_state *st, const volux_light_desc *d, lv_source *s) {
     memset(s, 0, sizeof *s);
-    if (!d || !d->enabled || d->type == VOLUX_LIGHT_ENVIRONMENT) return 0; /* environments: not propagated (docs) */
+    /* environments: as env directions (volux_lightvol_env_source) */
+    if (!d || !d->enabled || d->type == VOLUX_LIGHT_ENVIRONMENT) return 0;
     volux_prepared_light l;
     volux_light_prepare(d, 0, &l); /* power, travel direction, position (render/lights.h) */
     s->power = l.power;
@@ -130,4 +131,22 @@ int volux_lightvol_source(const lightvol_state *st, const volux_light_desc *d, l
         if (s->groups && st->p.grouping == LV_GROUP_CENTER) center_groups(st, s);
     }
     return s->groups != 0;
+}
+
+void volux_lightvol_env_source(const lightvol_state *st, int k, volux_vec3 power, lv_source *s) {
+    memset(s, 0, sizeof *s);
+    s->kind = LV_DIRECTIONAL;
+    s->power = power;
+    s->dir = v3_scale(volux_fibonacci_dir(k, st->p.env_dirs), -1.0f); /* travels away from where it comes from */
+    s->groups = lv_face_weights(s->dir, s->weight);
+}
+
+void volux_lightvol_env_irradiance(const lightvol_state *st, const volux_scene *scene, volux_vec3 *E) {
+    const int K = st->p.env_dirs;
+    volux_vec3 from[LV_MAX_ENV_DIRS];
+    for (int k = 0; k < K; k++) from[k] = volux_fibonacci_dir(k, K), E[k] = v3(0, 0, 0);
+    for (int slot = 0; slot < volux_scene_light_slots(scene); slot++) {
+        const volux_light_desc *d = volux_scene_light(scene, slot);
+        if (d && d->enabled && d->type == VOLUX_LIGHT_ENVIRONMENT) volux_environment_cells(d, K, from, E);
+    }
 }

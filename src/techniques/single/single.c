@@ -32,31 +32,28 @@ static const volux_param_info single_params[] = {
      "transmittance cache resolution relative to the volume (1 = one node per voxel; 0.5 = the resolution of "
      "ambient's radiance cache)"},
     {"shadow_step", VOLUX_PARAM_NUMBER, 1.0, 0.05, 16, NULL, "shadow-ray step in units of the smallest voxel spacing"},
+    {"near_field", VOLUX_PARAM_NUMBER, 2, 0, 16, NULL,
+     "with transmittance_cache: march the first near_field cache cells of each shadow ray and read the cache "
+     "there, so the cache's blur does not light thin structures through themselves; 0 = read the cache at the "
+     "sample"},
     {"env_directions", VOLUX_PARAM_INT, 16, 0, SINGLE_MAX_ENV_DIRS, NULL,
      "environment lights as this many shadowed directional lights (a Fibonacci set; each carries the "
      "environment's radiance over its cell and has a transmittance cache at half cache_scale); 0 = ignore "
      "environment lights (with a warning)"},
     {NULL, 0, 0, 0, 0, NULL, NULL}};
 
-/* Transmittance from p towards light l through the volume: midpoint rule on
- * fixed segments [i·h, (i+1)·h] of the ray from p, skipping empty
- * macrocells; stops below 1e-5. */
-static float shadow_transmittance(const single_state *st, volux_vec3 p, const volux_prepared_light *l) {
+/* Optical depth from p along unit dir over [0, t_max) through the volume:
+ * midpoint rule on fixed segments [i·h, (i+1)·h] of the ray from p,
+ * skipping empty macrocells; stops above 11.5 (T < 1e-5). *t_exit: where
+ * the ray leaves the volume (0 if it misses it). */
+static float shadow_tau(const single_state *st, volux_vec3 p, volux_vec3 dir, float t_max, float *t_exit) {
     const volux_raycaster *rc = &st->b.rc;
-    volux_vec3 dir;
-    float t_max = INFINITY;
-    if (l->positional) {
-        volux_vec3 to = v3_sub(l->pos, p);
-        t_max = v3_length(to);
-        if (t_max <= 0.0f) return 1.0f;
-        dir = v3_scale(to, 1.0f / t_max);
-    } else {
-        dir = v3_scale(l->travel, -1.0f);
-    }
     volux_ray ray;
-    if (!volux_ray_clip(rc->volume, p, dir, &ray)) return 1.0f;
+    *t_exit = 0.0f;
+    if (!volux_ray_clip(rc->volume, p, dir, &ray)) return 0.0f;
+    *t_exit = ray.t1;
     float t1 = ray.t1 < t_max ? ray.t1 : t_max, h = st->shadow_step;
-    if (ray.t0 >= t1) return 1.0f;
+    if (ray.t0 >= t1) return 0.0f;
     volux_march_iter it;
     volux_march_init(&it, &rc->grid, &ray, ray.t0, t1);
     volux_interval iv;
@@ -72,9 +69,51 @@ static float shadow_transmittance(const single_state *st, volux_vec3 p, const vo
             volux_vec3 q = v3_madd(ray.q0, ray.dq, 0.5f * (a + e));
             tau += volux_lut_sigma(rc->lut, volux_volume_sample_index(rc->volume, q.x, q.y, q.z)) * (e - a);
         }
-        if (tau > 11.5f) return 0.0f;
+        if (tau > 11.5f) return INFINITY;
     }
-    return expf(-tau);
+    return tau;
+}
+
+/* Direction from p towards light l (unit) and the distance to it
+ * (INFINITY for a directional light); 0 if p is at the light. */
+static float towards_light(volux_vec3 p, const volux_prepared_light *l, volux_vec3 *dir) {
+    if (!l->positional) {
+        *dir = v3_scale(l->travel, -1.0f);
+        return INFINITY;
+    }
+    volux_vec3 to = v3_sub(l->pos, p);
+    float d = v3_length(to);
+    if (d > 0.0f) *dir = v3_scale(to, 1.0f / d);
+    return d;
+}
+
+/* Transmittance from p towards light l through the volume. */
+static float shadow_transmittance(const single_state *st, volux_vec3 p, const volux_prepared_light *l) {
+    volux_vec3 dir;
+    float dist = towards_light(p, l, &dir), exit;
+    if (dist <= 0.0f) return 1.0f;
+    return expf(-shadow_tau(st, p, dir, dist, &exit));
+}
+
+/* Transmittance towards l read from its cache g. With near_field > 0 the
+ * first near_field cache cells of the way are marched and the cache is read
+ * there: T = exp(−τ(p, q))·T_cache(q), q = p + d·ω. A trilinear read at p
+ * itself mixes in nodes up to a cell away, whose shadow rays miss the thin
+ * structure p sits in (a vessel wall, an engine fin): the blurred cache
+ * lights such structures up to 2× too brightly (docs/lights.md); at q the
+ * neighbours' rays run beside the part of the way already marched. */
+static float cached_transmittance(const single_state *st, const scatter_grid *g, volux_vec3 p,
+                                  const volux_prepared_light *l) {
+    if (st->near_field <= 0.0f) return scatter_grid_sample(g, p);
+    volux_vec3 dir;
+    float dist = towards_light(p, l, &dir), exit;
+    if (dist <= 0.0f) return 1.0f;
+    float cell = fmaxf(g->h[0], fmaxf(g->h[1], g->h[2])), d = st->near_field * cell;
+    if (d > dist) d = dist;
+    float tau = shadow_tau(st, p, dir, d, &exit);
+    if (!(tau < 11.5f)) return 0.0f;
+    if (exit <= d || d >= dist) return expf(-tau); /* the light or the volume's edge is nearer */
+    return expf(-tau) * scatter_grid_sample(g, v3_madd(p, dir, d));
 }
 
 typedef struct cache_job {
@@ -109,34 +148,14 @@ static volux_status build_cache(single_state *st, const volux_prepared_light *l)
 
 /* ------------------------------------------------------------------ environment */
 
-/* Point i of the Fibonacci set of n points on the unit sphere (equal-area
- * bands in z, golden-angle steps in φ: near-uniform, deterministic). */
-static volux_vec3 fibonacci_dir(int i, int n) {
-    const double golden = 2.39996322972865332; /* π(3 − √5) */
-    double z = 1.0 - (2.0 * i + 1.0) / n, r = sqrt(fmax(0.0, 1.0 - z * z)), phi = golden * i;
-    return v3((float)(r * cos(phi)), (float)z, (float)(r * sin(phi)));
-}
-
-/* Index of the direction of `from` (K unit vectors) nearest to d. */
-static int nearest_dir(const volux_vec3 *from, int K, volux_vec3 d) {
-    int best = 0;
-    float best_dot = -2.0f;
-    for (int k = 0; k < K; k++) {
-        float c = v3_dot(d, from[k]);
-        if (c > best_dot) best_dot = c, best = k;
-    }
-    return best;
-}
-
 /* The environment as n_env_dirs directional lights: direction k is point k
  * of a Fibonacci set; its irradiance is the environments' radiance
  * integrated over its cell (the directions nearer to it than to any
- * other). A map is integrated texel by texel (solid angle
- * (2π/W)(π/H)·sin θ each), so its energy is kept exactly — a sun lands in
- * its nearest direction instead of falling between point samples (on the
- * Venice sunset map the images barely changed: that map's sun is wide);
- * a constant environment uses 64 finer Fibonacci points per direction
- * (≈ L·4π/K each). Light travels opposite to the direction it comes from. */
+ * other; volux_environment_cells, shared with `lightvol`): a map texel by
+ * texel, so its energy is kept exactly — a sun lands in its nearest
+ * direction instead of falling between point samples (on the Venice sunset
+ * map the images barely changed: that map's sun is wide). Light travels
+ * opposite to the direction it comes from. */
 static void env_prepare(single_state *st) {
     const volux_light_list *ls = &st->b.rc.lights;
     int K = st->n_env_dirs;
@@ -144,40 +163,12 @@ static void env_prepare(single_state *st) {
     if (!st->env_active) return;
     volux_vec3 from[SINGLE_MAX_ENV_DIRS];
     for (int k = 0; k < K; k++) {
-        from[k] = fibonacci_dir(k, K);
+        from[k] = volux_fibonacci_dir(k, K);
         st->env_travel[k] = v3_scale(from[k], -1.0f);
         st->env_E[k] = v3(0, 0, 0);
     }
-    for (int e = 0; e < ls->n_all; e++) {
-        const volux_prepared_light *l = &ls->all[e];
-        if (l->type != VOLUX_LIGHT_ENVIRONMENT) continue;
-        const volux_light_desc *d = l->desc;
-        if (!d->map) {
-            int N = 64 * K;
-            float w = (float)(4.0 * 3.14159265358979323846 / N);
-            for (int i = 0; i < N; i++) {
-                volux_vec3 dir = fibonacci_dir(i, N);
-                int k = nearest_dir(from, K, dir);
-                st->env_E[k] = v3_madd(st->env_E[k], volux_environment_radiance(d, dir), w);
-            }
-            continue;
-        }
-        const volux_image *m = d->map;
-        volux_vec3 scale = v3_scale(d->color, d->intensity);
-        double dtheta = 3.14159265358979323846 / m->height, dphi = 2.0 * 3.14159265358979323846 / m->width;
-        for (int j = 0; j < m->height; j++) {
-            float v = ((float)j + 0.5f) / (float)m->height;
-            float w = (float)(dphi * dtheta * sin(((double)j + 0.5) * dtheta));
-            for (int i = 0; i < m->width; i++) {
-                const float *t = &m->rgb[3 * ((size_t)j * (size_t)m->width + (size_t)i)];
-                volux_vec3 L = v3(fmaxf(t[0], 0.0f), fmaxf(t[1], 0.0f), fmaxf(t[2], 0.0f));
-                if (L.x <= 0.0f && L.y <= 0.0f && L.z <= 0.0f) continue;
-                volux_vec3 dir = volux_environment_direction(d, ((float)i + 0.5f) / (float)m->width, v);
-                int k = nearest_dir(from, K, dir);
-                st->env_E[k] = v3_madd(st->env_E[k], v3_mul(L, scale), w);
-            }
-        }
-    }
+    for (int e = 0; e < ls->n_all; e++)
+        if (ls->all[e].type == VOLUX_LIGHT_ENVIRONMENT) volux_environment_cells(ls->all[e].desc, K, from, st->env_E);
 }
 
 /* Environment transmittance caches (resolution: half cache_scale; the
@@ -212,6 +203,7 @@ static volux_status single_update(void *state, const volux_scene *scene, const v
         float scale = (float)volux_technique_param(scene, rc->cls, "cache_scale");
         float step = (float)volux_technique_param(scene, rc->cls, "shadow_step") * rc->min_spacing;
         int dirs = (int)volux_technique_param(scene, rc->cls, "env_directions");
+        st->near_field = (float)volux_technique_param(scene, rc->cls, "near_field");
         if (use != st->use_cache || scale != st->cache_scale || step != st->shadow_step) all = 1;
         if (dirs != st->n_env_dirs) {
             env_free_caches(st); /* other directions */
@@ -285,7 +277,7 @@ static inline __attribute__((always_inline)) void inscatter(const void *tech, co
         volux_vec3 travel;
         volux_vec3 E = volux_light_irradiance(l, smp->p, &travel);
         if (E.x <= 0.0f && E.y <= 0.0f && E.z <= 0.0f) continue;
-        float T = st->use_cache ? scatter_grid_sample(&st->slot[l->slot].cache, smp->p)
+        float T = st->use_cache ? cached_transmittance(st, &st->slot[l->slot].cache, smp->p, l)
                                 : shadow_transmittance(st, smp->p, l);
         L = v3_add(L, v3_scale(E, T * volux_hg_eval(st->b.rc.g, v3_dot(travel, smp->to_eye))));
     }
@@ -293,15 +285,11 @@ static inline __attribute__((always_inline)) void inscatter(const void *tech, co
         for (int k = 0; k < st->n_env_dirs; k++) {
             volux_vec3 E = st->env_E[k];
             if (E.x <= 0.0f && E.y <= 0.0f && E.z <= 0.0f) continue;
-            float T;
-            if (st->use_cache) {
-                T = scatter_grid_sample(&st->env_cache[k], smp->p);
-            } else {
-                volux_prepared_light l;
-                memset(&l, 0, sizeof l);
-                l.travel = st->env_travel[k];
-                T = shadow_transmittance(st, smp->p, &l);
-            }
+            volux_prepared_light l;
+            memset(&l, 0, sizeof l);
+            l.travel = st->env_travel[k];
+            float T = st->use_cache ? cached_transmittance(st, &st->env_cache[k], smp->p, &l)
+                                    : shadow_transmittance(st, smp->p, &l);
             L = v3_add(L, v3_scale(E, T * volux_hg_eval(st->b.rc.g, v3_dot(st->env_travel[k], smp->to_eye))));
         }
     *Ls = L;

@@ -23,6 +23,7 @@ typedef struct single_state {
     int use_cache;
     float cache_scale;
     float shadow_step;                      /* world units */
+    float near_field;                       /* cache cells marched before the cache is read */
     single_slot *slot;                      /* per light slot [slot_cap] */
     int slot_cap;
     /* environment lights: n_env_dirs directions, each a shadowed directional
