@@ -92,15 +92,7 @@ int volux_ray_clip_part(const volux_volume *v, volux_vec3 o, volux_vec3 d, volux
     if (!v3_ray_box(o, d, lo, hi, &w0, &w1)) return 0;
     volux_volume_domain_bounds(v, &lo, &hi);
     if (!v3_ray_box(o, d, lo, hi, &t0, &t1)) return 0;
-    ray->o = o;
-    ray->d = d;
-    ray->q0 = volux_volume_to_index(v, o);
-    ray->dq = v3(d.x * v->inv_spacing[0], d.y * v->inv_spacing[1], d.z * v->inv_spacing[2]);
-    ray->t0 = t0;
-    ray->t1 = t1;
-    ray->windowed = 1;
-    ray->w0 = w0;
-    ray->w1 = w1;
+    volux_ray_fill(v, o, d, t0, t1, 1, w0, w1, ray);
     return 1;
 }
 

@@ -53,19 +53,24 @@ int volux_ray_clip(const volux_volume *v, volux_vec3 o, volux_vec3 d, volux_ray 
  * computed by the caller: the same result, for loops over many rays (the
  * packet ray caster's ray list: one box per tile, one 1/d per tile for an
  * orthographic camera). */
-static inline int volux_ray_clip_hoisted(const volux_volume *v, volux_vec3 lo, volux_vec3 hi, volux_vec3 o,
-                                         volux_vec3 d, volux_vec3 inv_d, volux_ray *ray) {
-    float t0, t1;
-    if (!v3_ray_box_inv(o, inv_d, lo, hi, &t0, &t1)) return 0;
+/* Fills *ray for o + t·d over (t0, t1] with the march window (w0, w1]. */
+static inline void volux_ray_fill(const volux_volume *v, volux_vec3 o, volux_vec3 d, float t0, float t1, int windowed,
+                                  float w0, float w1, volux_ray *ray) {
     ray->o = o;
     ray->d = d;
     ray->q0 = volux_volume_to_index(v, o);
     ray->dq = v3(d.x * v->inv_spacing[0], d.y * v->inv_spacing[1], d.z * v->inv_spacing[2]);
     ray->t0 = t0;
     ray->t1 = t1;
-    ray->windowed = 0;
-    ray->w0 = t0;
-    ray->w1 = t1;
+    ray->windowed = windowed;
+    ray->w0 = w0;
+    ray->w1 = w1;
+}
+static inline int volux_ray_clip_hoisted(const volux_volume *v, volux_vec3 lo, volux_vec3 hi, volux_vec3 o,
+                                         volux_vec3 d, volux_vec3 inv_d, volux_ray *ray) {
+    float t0, t1;
+    if (!v3_ray_box_inv(o, inv_d, lo, hi, &t0, &t1)) return 0;
+    volux_ray_fill(v, o, d, t0, t1, 0, t0, t1, ray);
     return 1;
 }
 /* For a brick of a whole grid (volux_volume_brick): t0, t1 from the whole
