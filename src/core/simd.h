@@ -137,7 +137,10 @@ static inline float volux_acos01_deg7(float x) {
 /* e^x for x ≤ 0 (Cephes expf: round to the nearest power of two, degree-6
  * polynomial on [−ln2/2, ln2/2]); ≤ 2 ulp from libm's expf, and
  * e^x = 0 below −87.3 is not needed (the result stays a tiny normal).
- * Used by the `ea`/`shaded` packets (opacity, specular power). */
+ * The `ea`/`shaded` packet kernels (opacity, specular power) use the same
+ * operations written over their lane vocabulary at 8 and 16 lanes
+ * (exp_nonpos in techniques/dvr/dvr_simd_impl.h, which core cannot host);
+ * this 8-lane form is what test_simd checks the ulp error of. */
 VOLUX_AVX2_FMA_INLINE __m256 volux_exp_nonpos_cephes_avx2(__m256 x) {
     x = _mm256_max_ps(x, _mm256_set1_ps(-87.3f));
     __m256 n = _mm256_round_ps(_mm256_mul_ps(x, _mm256_set1_ps(1.44269504088896341f)),
