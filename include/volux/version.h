@@ -30,9 +30,9 @@
 #include "base.h"
 
 #define VOLUX_VERSION_MAJOR 0
-#define VOLUX_VERSION_MINOR 1
+#define VOLUX_VERSION_MINOR 2
 #define VOLUX_VERSION_PATCH 0
-#define VOLUX_VERSION "0.1.0"
+#define VOLUX_VERSION "0.2.0"
 /* MAJOR·10000 + MINOR·100 + PATCH, for #if tests. */
 #define VOLUX_VERSION_NUMBER (VOLUX_VERSION_MAJOR * 10000 + VOLUX_VERSION_MINOR * 100 + VOLUX_VERSION_PATCH)
 
@@ -46,7 +46,7 @@
 extern "C" {
 #endif
 
-/* The version of the library actually loaded ("0.1.0"), which may differ
+/* The version of the library actually loaded ("0.2.0"), which may differ
  * from VOLUX_VERSION (the headers a program was compiled with) when a
  * shared library was upgraded. Static string; never NULL; thread-safe. */
 VOLUX_API const char *volux_version(void);

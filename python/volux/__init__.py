@@ -52,7 +52,7 @@ class Cancelled(Error):
 
 
 def version():
-    """The version of the loaded libvolux ("0.1.0")."""
+    """The version of the loaded libvolux ("0.2.0")."""
     return __version__
 
 

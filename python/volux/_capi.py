@@ -9,7 +9,7 @@ import ctypes
 import ctypes.util
 import os
 
-ABI_VERSION = (0, 1)  # MAJOR, MINOR of the headers mirrored below
+ABI_VERSION = (0, 2)  # MAJOR, MINOR of the headers mirrored below
 
 c_int, c_uint32, c_uint64, c_int64 = ctypes.c_int, ctypes.c_uint32, ctypes.c_uint64, ctypes.c_int64
 c_double, c_float, c_char_p, c_void_p, c_size_t = (ctypes.c_double, ctypes.c_float, ctypes.c_char_p,
