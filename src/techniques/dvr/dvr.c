@@ -22,6 +22,13 @@ static volux_status read_params(dvr_state *st, const volux_scene *scene) {
         return volux_error(st->rc.ctx, VOLUX_ERR_INVALID,
                            "techniques.%s.kernel: expected \"auto\", \"scalar\", \"simd\" or \"avx2\", got \"%s\"",
                            cls->info.name, kernel);
+    const char *layout = volux_technique_param_string(scene, cls, "volume_layout");
+    if (!strcmp(layout, "auto")) st->layout_auto = 1;
+    else if (!strcmp(layout, "bricked")) st->layout_auto = 0;
+    else
+        return volux_error(st->rc.ctx, VOLUX_ERR_INVALID,
+                           "techniques.%s.volume_layout: expected \"auto\" or \"bricked\", got \"%s\"", cls->info.name,
+                           layout);
     if (st->shaded)
         st->grad_ref = volux_raycaster_gradient_ref(&st->rc, volux_technique_param(scene, cls, "gradient_threshold"));
     return VOLUX_OK;
@@ -252,18 +259,21 @@ volux_status volux_dvr_update(void *state, const volux_scene *scene, const volux
     if (w & VOLUX_CHANGE_LIGHTS) st->ambient = rc->lights.n_env ? rc->lights.env_mean : v3(1, 1, 1);
     if (w & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_LIGHTS))
         if ((s = resolve_kernel(st))) return s;
+    if (w & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_LIGHTS))
+        if ((s = volux_dvr_corner_words_update(st, (w & VOLUX_CHANGE_VOLUME) != 0))) return s;
     return VOLUX_OK;
 }
 
 size_t volux_dvr_memory_bytes(const void *state) {
     const dvr_state *st = state;
-    return st->grad.bytes + st->pre_bytes + st->skip_bytes + st->range_bytes;
+    return st->grad.bytes + st->pre_bytes + st->skip_bytes + st->range_bytes + st->corner_bytes;
 }
 
 void volux_dvr_release(void *state) {
     dvr_state *st = state;
     volux_context *ctx = st->rc.ctx;
     volux_gradient_cache_free(ctx, &st->grad);
+    volux_dvr_corner_words_free(st);
     if (st->pre_f) volux_free_aligned(ctx, st->pre_f, st->pre_bytes);
     if (st->skip_dist) volux_free(ctx, st->skip_dist, st->skip_bytes);
     if (st->skip_range) volux_free(ctx, st->skip_range, st->range_bytes);

@@ -10,6 +10,7 @@
  *   gradient cache (shaded only)         ← volume (bricked, see dvr.c)
  *   ambient term (shaded only)           ← lights
  *   float pre-integration table (SIMD)   ← extinction, density, colour
+ *   corner words (SIMD, 8-bit volumes)   ← volume (dvr_corners.c)
  * Colour/albedo/material edits re-read the scene's LUT only.
  *
  * Two kernels compute the same image: the scalar one in dvr.c (portable,
@@ -28,6 +29,8 @@
 
 #define DVR_SIMD_MAX_LIGHTS 4 /* directional lights the SIMD shading takes */
 #define DVR_SKIP_CELL 4       /* SIMD skip cells: 4³ voxels (macrocells are 8³) */
+/* largest corner-word copy `volume_layout: "auto"` builds (≈ 320³ voxels) */
+#define DVR_CORNER_WORDS_MAX_BYTES ((size_t)256 << 20)
 
 typedef enum dvr_kernel { DVR_KERNEL_AUTO, DVR_KERNEL_SCALAR, DVR_KERNEL_SIMD, DVR_KERNEL_AVX2 } dvr_kernel;
 
@@ -65,6 +68,12 @@ typedef struct dvr_state {
     float *skip_range;             /* [2·cells] min, max per skip cell     */
     size_t range_bytes;
     int skip_cells[3];
+    /* Corner words (dvr_corners.c): per cell of an 8-bit volume one 64-bit
+     * word with its 8 corners, so a SIMD sample gathers one element instead
+     * of four. NULL: the kernel gathers from the bricked copy. */
+    int layout_auto;               /* `volume_layout` "auto" (else "bricked") */
+    uint64_t *corners;
+    size_t corner_bytes;
 } dvr_state;
 
 /* 1 if this CPU can run the AVX2+FMA kernel (and it was compiled in). */
@@ -77,6 +86,12 @@ void volux_dvr_render_tile_avx2(const dvr_state *st, const volux_scene *scene, c
                                 volux_tile_stats *stats);
 void volux_dvr_render_tile_avx512(const dvr_state *st, const volux_scene *scene, const volux_tile *tile, float *rgb,
                                   volux_tile_stats *stats);
+
+/* (Re)builds or frees the corner words after the kernel choice: built
+ * when wanted and missing or the volume changed; fails never (when the
+ * allocation is refused the kernel reads the bricks, same image). */
+volux_status volux_dvr_corner_words_update(dvr_state *st, int volume_changed);
+void volux_dvr_corner_words_free(dvr_state *st);
 
 /* The class hooks both `ea` and `shaded` use (ea.c holds the classes). */
 void volux_dvr_init(void *state);

@@ -121,6 +121,18 @@ DI void gather_corners_f32(const float *p, vi b, vf c[8]) {
     c[7] = _mm256_i32gather_ps(p + SZ_ + SY_ + 1, b, 4);
 }
 
+/* Corner words (dvr_corners.c) at word indices w: w[0] the low dwords
+ * (the z corner row), w[1] the high ones (z+1); two gathers of 4 64-bit
+ * elements, 8 gathered elements per 8 samples against 32 from the bricks. */
+DI void gather_corner_words(const uint64_t *p, vi idx, vi w[2]) {
+    const long long *base = (const long long *)(const void *)p;
+    __m256 lo = _mm256_castsi256_ps(_mm256_i32gather_epi64(base, _mm256_castsi256_si128(idx), 8));
+    __m256 hi = _mm256_castsi256_ps(_mm256_i32gather_epi64(base, _mm256_extracti128_si256(idx, 1), 8));
+    /* the shuffle leaves the lanes in order 0 1 4 5 2 3 6 7, the permute restores it */
+    w[0] = _mm256_permute4x64_epi64(_mm256_castps_si256(_mm256_shuffle_ps(lo, hi, 0x88)), 0xD8);
+    w[1] = _mm256_permute4x64_epi64(_mm256_castps_si256(_mm256_shuffle_ps(lo, hi, 0xDD)), 0xD8);
+}
+
 /* Gradient cache nodes x and x+1 of the 4 corner rows for the lanes of m
  * (0 elsewhere): each pair is one 64-bit element (two gathers of 4 per
  * row). */

@@ -131,6 +131,19 @@ DI void gather_corners_f32(const float *p, vi b, vf c[8]) {
     c[7] = _mm512_i32gather_ps(b, p + SZ_ + SY_ + 1, 4);
 }
 
+/* Corner words (dvr_corners.c) at word indices w: w[0] the low dwords
+ * (the z corner row), w[1] the high ones (z+1); two gathers of 8 64-bit
+ * elements, 16 gathered elements per 16 samples against 64 from the
+ * bricks, split by two-source permutes. */
+DI void gather_corner_words(const uint64_t *p, vi idx, vi w[2]) {
+    const vi even = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
+    const vi odd = _mm512_add_epi32(even, _mm512_set1_epi32(1));
+    vi lo = _mm512_i32gather_epi64(_mm512_castsi512_si256(idx), (const void *)p, 8);
+    vi hi = _mm512_i32gather_epi64(_mm512_extracti64x4_epi64(idx, 1), (const void *)p, 8);
+    w[0] = _mm512_permutex2var_epi32(lo, even, hi);
+    w[1] = _mm512_permutex2var_epi32(lo, odd, hi);
+}
+
 /* Gradient cache nodes x and x+1 of the 4 corner rows for the lanes of m
  * (0 elsewhere): each pair is one 64-bit element (two gathers of 8 per
  * row), split into the even (node x) and odd (node x+1) dwords by

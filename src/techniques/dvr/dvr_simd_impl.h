@@ -53,7 +53,8 @@
  *   sel(m, a, b)         a where m, else b (isel for vi); f_keep(v, m): v
  *                        where m, else +0
  *   m_* and m_bits       mask logic, the mask as an int (bit l = lane l)
- *   gather_*             the volume, gradient and skip-distance reads
+ *   gather_*             the volume (bricks or corner words), gradient and
+ *                        skip-distance reads
  *   load_rows8           rows of 8 floats, one per lane, transposed
  *   lane_ranks/f_pick    the ray-list refill (see refill)
  */
@@ -67,16 +68,22 @@
 /* Volume constants broadcast once per tile. */
 typedef struct vol_consts {
     const unsigned char *bricks;
+    const uint64_t *corners; /* corner words (dvr_corners.c) or NULL     */
     vi imax[3];             /* highest valid cell index per axis (n − 2) */
     vi stride_y, stride_z;  /* brick strides in nodes (·729)             */
+    vi wstride_y, wstride_z; /* the same in corner words (·512)          */
     vf offset;              /* file value = stored + offset              */
 } vol_consts;
 
-DI void vol_consts_init(vol_consts *vc, const volux_volume *v) {
+DI void vol_consts_init(vol_consts *vc, const dvr_state *st) {
+    const volux_volume *v = st->rc.volume;
     vc->bricks = v->bricks;
     for (int a = 0; a < 3; a++) vc->imax[a] = i_set(v->dims[a] > 1 ? v->dims[a] - 2 : 0);
     vc->stride_y = i_set(v->brick_counts[0] * VOLUX_BRICK_VOXELS);
     vc->stride_z = i_set(v->brick_counts[0] * v->brick_counts[1] * VOLUX_BRICK_VOXELS);
+    vc->corners = st->corners;
+    vc->wstride_y = i_set(v->brick_counts[0] * 512);
+    vc->wstride_z = i_set(v->brick_counts[0] * v->brick_counts[1] * 512);
     vc->offset = f_set(v->value_offset);
 }
 
@@ -102,19 +109,41 @@ DI vi brick_offset(const vol_consts *vc, vi i, vi j, vi k) {
     return i_add(brick, i_add(i_and(i, seven), i_madd16(jk, i_set((81 << 16) | 9))));
 }
 
+/* Index of the corner word of the cell holding (i, j, k) (dvr_corners.c):
+ * the same brick, 512 words per brick, x fastest. */
+DI vi corner_word_index(const vol_consts *vc, vi i, vi j, vi k) {
+    const vi seven = i_set(7);
+    vi brick = i_add(i_slli(i_srli(i, 3), 9), i_add(i_mullo(i_srli(j, 3), vc->wstride_y), i_mullo(i_srli(k, 3), vc->wstride_z)));
+    vi in = i_or(i_and(i, seven), i_or(i_slli(i_and(j, seven), 3), i_slli(i_and(k, seven), 6)));
+    return i_add(brick, in);
+}
+
 /* Trilinear samples at index-space (x, y, z) from the bricked copy; same
  * clamping and arithmetic as volux_volume_sample_bricked. Every lane gets
  * a valid address (indices are clamped), so no masks are needed. */
-DI vf sample_v(const vol_consts *vc, vf x, vf y, vf z, volux_storage storage, cellv *cell) {
+DI vf sample_v(const vol_consts *vc, vf x, vf y, vf z, volux_storage storage, int words, cellv *cell) {
     const vi zero = i_zero();
     vi i = i_max(i_min(i_trunc(x), vc->imax[0]), zero);
     vi j = i_max(i_min(i_trunc(y), vc->imax[1]), zero);
     vi k = i_max(i_min(i_trunc(z), vc->imax[2]), zero);
     vf fx = f_sub(x, f_from_i(i)), fy = f_sub(y, f_from_i(j)), fz = f_sub(z, f_from_i(k));
-    vi b = brick_offset(vc, i, j, k);
+    vi b = words && !cell ? zero : brick_offset(vc, i, j, k);
     if (cell) cell->b = b, cell->fx = fx, cell->fy = fy, cell->fz = fz;
     vf c[8]; /* c000, c100, c010, c110, c001, c101, c011, c111 */
-    if (storage == VOLUX_STORE_U8 || storage == VOLUX_STORE_U16) {
+    if (words) {
+        /* 8-bit corner words: one 64-bit element per lane, the z row in
+         * the low dword and the z+1 row in the high one, a byte per corner
+         * in the order of c[] (the same bytes the bricked gathers read) */
+        vi w[2];
+        gather_corner_words(vc->corners, corner_word_index(vc, i, j, k), w);
+        const vi lo = i_set(0xff);
+        for (int r = 0; r < 2; r++) {
+            c[4 * r] = f_from_i(i_and(w[r], lo));
+            c[4 * r + 1] = f_from_i(i_and(i_srli(w[r], 8), lo));
+            c[4 * r + 2] = f_from_i(i_and(i_srli(w[r], 16), lo));
+            c[4 * r + 3] = f_from_i(i_srli(w[r], 24));
+        }
+    } else if (storage == VOLUX_STORE_U8 || storage == VOLUX_STORE_U16) {
         /* One 32-bit gather per (y, z) corner row returns the x pair. */
         const int u8 = storage == VOLUX_STORE_U8, shift = u8 ? 8 : 16;
         const vi lo = i_set(u8 ? 0xff : 0xffff);
@@ -136,12 +165,18 @@ DI vf sample_v(const vol_consts *vc, vf x, vf y, vf z, volux_storage storage, ce
 
 /* Software prefetch of the cells at (x, y, z) for the lanes of `m`: the
  * z and z+1 corner rows (81 nodes apart, usually two cache lines). */
-DI void prefetch_cells(const vol_consts *vc, vf x, vf y, vf z, vm m, volux_storage storage) {
+DI void prefetch_cells(const vol_consts *vc, vf x, vf y, vf z, vm m, volux_storage storage, int words) {
     const vi zero = i_zero();
     vi i = i_max(i_min(i_trunc(x), vc->imax[0]), zero);
     vi j = i_max(i_min(i_trunc(y), vc->imax[1]), zero);
     vi k = i_max(i_min(i_trunc(z), vc->imax[2]), zero);
     _Alignas(64) int32_t off[DVR_W];
+    if (words) { /* one line: the cell's corner word */
+        i_store(off, corner_word_index(vc, i, j, k));
+        for (unsigned bits = (unsigned)m_bits(m); bits; bits &= bits - 1)
+            __builtin_prefetch(vc->corners + off[__builtin_ctz(bits)]);
+        return;
+    }
     i_store(off, brick_offset(vc, i, j, k));
     const size_t size = storage == VOLUX_STORE_U8 ? 1 : storage == VOLUX_STORE_U16 ? 2 : 4;
     for (unsigned bits = (unsigned)m_bits(m); bits; bits &= bits - 1) {
@@ -476,6 +511,7 @@ typedef struct march_consts {
     int prefetch;     /* prefetch_cells of a later sample (coarse steps) */
     float pf_ahead;   /* segments beyond the next one to prefetch       */
     volux_storage storage;
+    int words;        /* 8-bit corner words instead of the bricks       */
 } march_consts;
 
 DI vf seg_start(const packet_state *ps, vf kf, vf h) {
@@ -484,9 +520,10 @@ DI vf seg_start(const packet_state *ps, vf kf, vf h) {
     return f_max(ps->t0, f_add(ps->t0, f_mul(k1, h)));
 }
 
-DI vf sample_at_t(const vol_consts *vc, const packet_state *ps, vf t, volux_storage storage, cellv *cell) {
+DI vf sample_at_t(const vol_consts *vc, const packet_state *ps, vf t, volux_storage storage, int words,
+                    cellv *cell) {
     return sample_v(vc, f_add(ps->q0[0], f_mul(ps->dq[0], t)), f_add(ps->q0[1], f_mul(ps->dq[1], t)),
-                    f_add(ps->q0[2], f_mul(ps->dq[2], t)), storage, cell);
+                    f_add(ps->q0[2], f_mul(ps->dq[2], t)), storage, words, cell);
 }
 
 /* Writes the lanes of `done` (their rays have finished) to the tile:
@@ -570,6 +607,7 @@ DI void march_tile(const march_consts *mc, const ray_list *rl, float *rgb, uint6
     const volux_transfer_lut *lut = st->rc.lut;
     const int shaded = mc->shaded, preint = mc->preint, skip = mc->skip;
     const volux_storage storage = mc->storage;
+    const int words = mc->words;
     const vf zero = f_zero(), one = f_set(1.0f), h = mc->h;
     const vf t_min = f_set(st->t_min), len_scale = f_set(lut->inv_ds);
     packet_state P[DVR_NP];
@@ -644,7 +682,7 @@ DI void march_tile(const march_consts *mc, const ray_list *rl, float *rgb, uint6
         /* Phase 2: the samples at the segment ends. */
         for (int p = 0; p < DVR_NP; p++)
             if (seg_bits[p]) {
-                s[p] = sample_at_t(&mc->vc, &P[p], b[p], storage, shaded ? &cells[p] : NULL);
+                s[p] = sample_at_t(&mc->vc, &P[p], b[p], storage, words, shaded ? &cells[p] : NULL);
                 count += (uint64_t)__builtin_popcount((unsigned)seg_bits[p]);
             }
         /* while the samples above are gathered: prefetch the cells of the
@@ -656,7 +694,7 @@ DI void march_tile(const march_consts *mc, const ray_list *rl, float *rgb, uint6
                     vf tn = f_min(f_add(ps->t0, f_mul(f_add(f_add(kf_next[p], f_set(mc->pf_ahead)), ps->jit), h)), ps->t1);
                     prefetch_cells(&mc->vc, f_add(ps->q0[0], f_mul(ps->dq[0], tn)),
                                    f_add(ps->q0[1], f_mul(ps->dq[1], tn)), f_add(ps->q0[2], f_mul(ps->dq[2], tn)),
-                                   seg[p], storage);
+                                   seg[p], storage, words);
                 }
         /* Phase 3: classification, pre-integration and compositing. */
         for (int p = 0; p < DVR_NP; p++) {
@@ -725,13 +763,13 @@ DI void march_tile(const march_consts *mc, const ray_list *rl, float *rgb, uint6
 }
 
 DI void render_tile_impl(const dvr_state *st, const volux_scene *scene, const volux_tile *tile, float *rgb,
-                         volux_tile_stats *stats, int shaded, int preint, volux_storage storage) {
+                         volux_tile_stats *stats, int shaded, int preint, volux_storage storage, int words) {
     ray_list rl;
     build_ray_list(st, scene, tile, rgb, &rl);
     if (!rl.n) return;
     march_consts mc;
     mc.st = st;
-    vol_consts_init(&mc.vc, st->rc.volume);
+    vol_consts_init(&mc.vc, st);
     mc.h = f_set(st->rc.step);
     mc.inv_h = f_set(1.0f / st->rc.step);
     mc.shaded = shaded, mc.preint = preint, mc.skip = st->skip_empty;
@@ -748,29 +786,35 @@ DI void render_tile_impl(const dvr_state *st, const volux_scene *scene, const vo
     mc.prefetch = step_vox >= 2.0f;
     mc.pf_ahead = step_vox < 3.0f ? 1.0f : 0.0f;
     mc.storage = storage;
+    mc.words = words;
     uint64_t samples = 0;
     march_tile(&mc, &rl, rgb, &samples);
     stats->samples += samples;
 }
 
-#define VOLUX_INSTANCE_(NAME, SH, PRE, STORE)                                                                         \
+#define VOLUX_INSTANCE_(NAME, SH, PRE, STORE, WORDS)                                                                  \
     static DVR_TARGET __attribute__((noinline)) void NAME(const dvr_state *st, const volux_scene *scene,              \
                                                           const volux_tile *tile, float *rgb,                         \
                                                           volux_tile_stats *stats) {                                  \
-        render_tile_impl(st, scene, tile, rgb, stats, SH, PRE, STORE);                                                \
+        render_tile_impl(st, scene, tile, rgb, stats, SH, PRE, STORE, WORDS);                                         \
     }
-VOLUX_INSTANCE_(ea_u8_pre, 0, 1, VOLUX_STORE_U8)
-VOLUX_INSTANCE_(ea_u8, 0, 0, VOLUX_STORE_U8)
-VOLUX_INSTANCE_(ea_u16_pre, 0, 1, VOLUX_STORE_U16)
-VOLUX_INSTANCE_(ea_u16, 0, 0, VOLUX_STORE_U16)
-VOLUX_INSTANCE_(ea_f32_pre, 0, 1, VOLUX_STORE_F32)
-VOLUX_INSTANCE_(ea_f32, 0, 0, VOLUX_STORE_F32)
-VOLUX_INSTANCE_(sh_u8_pre, 1, 1, VOLUX_STORE_U8)
-VOLUX_INSTANCE_(sh_u8, 1, 0, VOLUX_STORE_U8)
-VOLUX_INSTANCE_(sh_u16_pre, 1, 1, VOLUX_STORE_U16)
-VOLUX_INSTANCE_(sh_u16, 1, 0, VOLUX_STORE_U16)
-VOLUX_INSTANCE_(sh_f32_pre, 1, 1, VOLUX_STORE_F32)
-VOLUX_INSTANCE_(sh_f32, 1, 0, VOLUX_STORE_F32)
+VOLUX_INSTANCE_(ea_u8_pre, 0, 1, VOLUX_STORE_U8, 0)
+VOLUX_INSTANCE_(ea_u8, 0, 0, VOLUX_STORE_U8, 0)
+VOLUX_INSTANCE_(ea_u16_pre, 0, 1, VOLUX_STORE_U16, 0)
+VOLUX_INSTANCE_(ea_u16, 0, 0, VOLUX_STORE_U16, 0)
+VOLUX_INSTANCE_(ea_f32_pre, 0, 1, VOLUX_STORE_F32, 0)
+VOLUX_INSTANCE_(ea_f32, 0, 0, VOLUX_STORE_F32, 0)
+VOLUX_INSTANCE_(sh_u8_pre, 1, 1, VOLUX_STORE_U8, 0)
+VOLUX_INSTANCE_(sh_u8, 1, 0, VOLUX_STORE_U8, 0)
+VOLUX_INSTANCE_(sh_u16_pre, 1, 1, VOLUX_STORE_U16, 0)
+VOLUX_INSTANCE_(sh_u16, 1, 0, VOLUX_STORE_U16, 0)
+VOLUX_INSTANCE_(sh_f32_pre, 1, 1, VOLUX_STORE_F32, 0)
+VOLUX_INSTANCE_(sh_f32, 1, 0, VOLUX_STORE_F32, 0)
+/* 8-bit volumes with corner words (dvr_corners.c) */
+VOLUX_INSTANCE_(ea_w8_pre, 0, 1, VOLUX_STORE_U8, 1)
+VOLUX_INSTANCE_(ea_w8, 0, 0, VOLUX_STORE_U8, 1)
+VOLUX_INSTANCE_(sh_w8_pre, 1, 1, VOLUX_STORE_U8, 1)
+VOLUX_INSTANCE_(sh_w8, 1, 0, VOLUX_STORE_U8, 1)
 #undef VOLUX_INSTANCE_
 
 typedef void (*tile_fn)(const dvr_state *, const volux_scene *, const volux_tile *, float *, volux_tile_stats *);
@@ -781,6 +825,8 @@ static tile_fn pick_tile_fn(const dvr_state *st) {
         {{ea_u8, ea_u16, ea_f32}, {ea_u8_pre, ea_u16_pre, ea_f32_pre}},
         {{sh_u8, sh_u16, sh_f32}, {sh_u8_pre, sh_u16_pre, sh_f32_pre}},
     };
+    static const tile_fn words[2][2] = {{ea_w8, ea_w8_pre}, {sh_w8, sh_w8_pre}};
     int storage = st->rc.volume->storage == VOLUX_STORE_U8 ? 0 : st->rc.volume->storage == VOLUX_STORE_U16 ? 1 : 2;
+    if (st->corners && storage == 0) return words[st->shaded ? 1 : 0][st->preintegrate ? 1 : 0];
     return table[st->shaded ? 1 : 0][st->preintegrate ? 1 : 0][storage];
 }

@@ -7,7 +7,10 @@
         {"kernel", VOLUX_PARAM_STRING, 0, 0, 0, "auto",                                                          \
          "\"auto\" (SIMD when the CPU has AVX2+FMA, 16-lane AVX-512 packets where it has those too; shaded: with " \
          "at most 4 lights, all directional), \"scalar\" (portable reference), \"simd\" (as auto; error if "     \
-         "unavailable) or \"avx2\" (8-lane packets only, the same image); same image up to float rounding"}
+         "unavailable) or \"avx2\" (8-lane packets only, the same image); same image up to float rounding"},        \
+        {"volume_layout", VOLUX_PARAM_STRING, 0, 0, 0, "auto",                                                   \
+         "\"auto\" (SIMD kernel, 8-bit volumes: a per-cell copy with the 8 corners in one 64-bit word, 8 bytes "  \
+         "per voxel, when it takes at most 256 MiB) or \"bricked\" (the volume's bricked copy only); the same image"}
 
 static const volux_param_info ea_params[] = {DVR_COMMON_PARAMS, {NULL, 0, 0, 0, 0, NULL, NULL}};
 
