@@ -15,8 +15,12 @@
  *     (the scalar one double); the error bound per segment is
  *     ≈ 3·2⁻²⁴·len·(n−1)·σ̄ (dvr_avx2.c), summed over a ray and weighted by
  *     transmittance: max 1e-4, mean 1e-6 (measured: 1.8e-5, 1.4e-7);
- *   - `shaded` adds vector sqrt/log/exp in Blinn–Phong (same gradient
- *     cache, same operation order): the same bounds hold. */
+ *   - `shaded` adds vector sqrt/log/exp in Blinn–Phong (same gradient,
+ *     same operation order, for both `gradient` choices: the cell's
+ *     trilinear gradient and the cached central differences): the same
+ *     bounds hold.
+ * The corner-word layout (`volume_layout: "corner_words"`, dvr_corners.c)
+ * reads the same bytes as the bricked gathers: bit-identical images. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -111,8 +115,11 @@ static volux_scene *make_scene(volux_context *ctx, const storage_case *sc, const
     return make_scene_t(ctx, "ea", sc, file, ortho, preint, skip, early);
 }
 
+static const char *g_gradient = "cell"; /* `gradient` of the shaded scenes */
+
 static volux_image render_kernel_t(volux_context *ctx, volux_scene *s, const char *tech, const char *kernel) {
     assert_int_equal(volux_scene_set_param(s, tech, "kernel", 0, kernel), VOLUX_OK);
+    if (!strcmp(tech, "shaded")) assert_int_equal(volux_scene_set_param(s, tech, "gradient", 0, g_gradient), VOLUX_OK);
     return tu_render(ctx, s, tech);
 }
 
@@ -170,6 +177,13 @@ static void simd_matches_scalar(const char *tech) {
 static void test_simd_matches_scalar(void **state) {
     (void)state;
     simd_matches_scalar("ea");
+}
+
+static void test_simd_shaded_cached_gradient_matches_scalar(void **state) {
+    (void)state;
+    g_gradient = "cached";
+    simd_matches_scalar("shaded");
+    g_gradient = "cell";
 }
 
 static void test_simd_shaded_matches_scalar(void **state) {
@@ -267,19 +281,24 @@ static void test_widths_are_bit_identical(void **state) {
                         double early = skip_empty ? 0.002 : 0.0;
                         volux_scene *s =
                             make_scene_t(ctx, techs[tech], &storages[t], file, ortho, preint, skip_empty, early);
-                        volux_image a = render_kernel_t(ctx, s, techs[tech], "simd");
-                        volux_image b = render_kernel_t(ctx, s, techs[tech], "avx2");
-                        if (memcmp(a.rgb, b.rgb, sizeof(float) * 3 * W * H))
-                            fail_msg("%s %s %s preint=%d skip=%d: AVX-512 and AVX2 images differ (max %g)",
-                                     techs[tech], storages[t].type, ortho ? "ortho" : "persp", preint, skip_empty,
-                                     tu_max_abs_diff(&a, &b));
-                        compared++;
-                        volux_image_free(ctx, &a);
-                        volux_image_free(ctx, &b);
+                        for (int g = 0; g < (tech ? 2 : 1); g++) { /* shaded: both gradients */
+                            g_gradient = g ? "cached" : "cell";
+                            volux_image a = render_kernel_t(ctx, s, techs[tech], "simd");
+                            volux_image b = render_kernel_t(ctx, s, techs[tech], "avx2");
+                            if (memcmp(a.rgb, b.rgb, sizeof(float) * 3 * W * H))
+                                fail_msg("%s %s %s preint=%d skip=%d gradient=%s: AVX-512 and AVX2 images differ "
+                                         "(max %g)",
+                                         techs[tech], storages[t].type, ortho ? "ortho" : "persp", preint, skip_empty,
+                                         g_gradient, tu_max_abs_diff(&a, &b));
+                            compared++;
+                            volux_image_free(ctx, &a);
+                            volux_image_free(ctx, &b);
+                        }
+                        g_gradient = "cell";
                         volux_scene_destroy(s);
                     }
     }
-    assert_int_equal(compared, 4 * 2 * 2 * 2 * 2);
+    assert_int_equal(compared, 4 * 3 * 2 * 2 * 2);
     volux_context_destroy(ctx);
 }
 
@@ -341,6 +360,86 @@ static void test_coarse_steps(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* `volume_layout: "corner_words"` (dvr_corners.c): one 64-bit word per
+ * cell holding the 8 corners the bricked gathers read, so every sample —
+ * and every pixel — has the same bits, at both widths, fine and coarse
+ * steps (the prefetch path), ea and shaded (whose gradient reads the
+ * bricks). The technique's memory grows by exactly the words (8 bytes per
+ * cell of the bricked copy), so the comparison is not vacuous. */
+static void test_corner_words_are_bit_identical(void **state) {
+    (void)state;
+    if (!simd_or_skip()) skip();
+    static const char *techs[] = {"ea", "shaded"};
+    static const double steps[] = {0.45, 4.0};
+    const char *kernels[2] = {"simd", "avx2"};
+    const int nk = volux_dvr_avx512_available() ? 2 : 1;
+    volux_context *ctx = tu_context(2);
+    const char *file = write_volume(&storages[0]); /* uint8 */
+    const size_t bricks = (size_t)((NX - 1 + 7) / 8) * ((NY - 1 + 7) / 8) * ((NZ - 1 + 7) / 8);
+    for (int st = 0; st < 2; st++) {
+        g_step = steps[st];
+        for (int tech = 0; tech < 2; tech++)
+            for (int preint = 0; preint < 2; preint++)
+                for (int k = 0; k < nk; k++) {
+                    volux_scene *s = make_scene_t(ctx, techs[tech], &storages[0], file, 0, preint, 1, 0.002);
+                    assert_int_equal(volux_scene_set_param(s, techs[tech], "kernel", 0, kernels[k]), VOLUX_OK);
+                    volux_technique *t = NULL;
+                    assert_int_equal(volux_technique_create(ctx, techs[tech], s, &t), VOLUX_OK);
+                    volux_image a = tu_render_with(ctx, s, t);
+                    size_t mem_bricked = volux_technique_memory_bytes(t);
+                    volux_technique_destroy(t);
+                    assert_int_equal(volux_scene_set_param(s, techs[tech], "volume_layout", 0, "corner_words"), VOLUX_OK);
+                    assert_int_equal(volux_technique_create(ctx, techs[tech], s, &t), VOLUX_OK);
+                    volux_image b = tu_render_with(ctx, s, t);
+                    assert_int_equal(volux_technique_memory_bytes(t) - mem_bricked, bricks * 512 * 8);
+                    volux_technique_destroy(t);
+                    if (memcmp(a.rgb, b.rgb, sizeof(float) * 3 * W * H))
+                        fail_msg("%s step %g preint=%d %s: corner words and bricks differ (max %g)", techs[tech],
+                                 steps[st], preint, kernels[k], tu_max_abs_diff(&a, &b));
+                    volux_image_free(ctx, &a);
+                    volux_image_free(ctx, &b);
+                    volux_scene_destroy(s);
+                }
+    }
+    g_step = 0.45;
+    volux_context_destroy(ctx);
+}
+
+/* The gradient of the trilinear interpolant (`gradient: "cell"`) is exact
+ * for a linear field, whatever the cell and fractions: s = 3i − 2j + 5k on
+ * spacing (0.5, 2, 1.25) has the world gradient (6, −1, 4) everywhere
+ * (float32 storage: the node values are exact). */
+static void test_cell_gradient_of_linear_field(void **state) {
+    (void)state;
+    enum { N = 12 };
+    float *buf = malloc(sizeof(float) * N * N * N);
+    assert_non_null(buf);
+    for (int k = 0, p = 0; k < N; k++)
+        for (int j = 0; j < N; j++)
+            for (int i = 0; i < N; i++) buf[p++] = (float)(3 * i - 2 * j + 5 * k);
+    const char *path = tu_write_file("fastpath_linear.raw", buf, sizeof(float) * N * N * N);
+    free(buf);
+    volux_context *ctx = tu_context(1);
+    char json[512];
+    snprintf(json, sizeof json,
+             "{\"volume\": {\"file\": \"%s\", \"dims\": [%d, %d, %d], \"type\": \"float32\","
+             " \"spacing\": [0.5, 2, 1.25]}}",
+             strrchr(path, '/') + 1, N, N, N);
+    volux_volume *v = NULL;
+    volux_scene *s = tu_scene(ctx, json);
+    v = (volux_volume *)volux_scene_volume(s);
+    assert_int_equal(volux_volume_build_bricks(v), VOLUX_OK);
+    const float q[][3] = {{0.25f, 0.5f, 0.75f}, {7.9f, 3.1f, 8.5f}, {10.99f, 10.99f, 0.01f}, {5.5f, 9.25f, 4.0f}};
+    for (size_t n = 0; n < sizeof q / sizeof q[0]; n++) {
+        volux_vec3 g = volux_cell_gradient_bricked(v, v3(q[n][0], q[n][1], q[n][2]));
+        assert_float_equal(g.x, 6.0f, 1e-4f);
+        assert_float_equal(g.y, -1.0f, 1e-4f);
+        assert_float_equal(g.z, 4.0f, 1e-4f);
+    }
+    volux_scene_destroy(s);
+    volux_context_destroy(ctx);
+}
+
 static void test_kernel_parameter_is_validated(void **state) {
     (void)state;
     volux_context *ctx = tu_context(1);
@@ -351,6 +450,17 @@ static void test_kernel_parameter_is_validated(void **state) {
     volux_context_clear_error(ctx);
     assert_int_equal(volux_technique_create(ctx, "ea", s, &t), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "techniques.ea.kernel"));
+    /* the layout and (shaded) the gradient are validated too */
+    assert_int_equal(volux_scene_set_param(s, "ea", "kernel", 0, "auto"), VOLUX_OK);
+    assert_int_equal(volux_scene_set_param(s, "ea", "volume_layout", 0, "packed"), VOLUX_OK);
+    volux_context_clear_error(ctx);
+    assert_int_equal(volux_technique_create(ctx, "ea", s, &t), VOLUX_ERR_INVALID);
+    assert_non_null(strstr(volux_context_error(ctx), "techniques.ea.volume_layout"));
+    assert_int_equal(volux_scene_set_param(s, "ea", "volume_layout", 0, "bricked"), VOLUX_OK);
+    assert_int_equal(volux_scene_set_param(s, "shaded", "gradient", 0, "sobel"), VOLUX_OK);
+    volux_context_clear_error(ctx);
+    assert_int_equal(volux_technique_create(ctx, "shaded", s, &t), VOLUX_ERR_INVALID);
+    assert_non_null(strstr(volux_context_error(ctx), "techniques.shaded.gradient"));
     /* the scalar kernel is always there */
     assert_int_equal(volux_scene_set_param(s, "ea", "kernel", 0, "scalar"), VOLUX_OK);
     assert_int_equal(volux_technique_create(ctx, "ea", s, &t), VOLUX_OK);
@@ -377,6 +487,9 @@ int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_simd_matches_scalar),
         cmocka_unit_test(test_simd_shaded_matches_scalar),
+        cmocka_unit_test(test_simd_shaded_cached_gradient_matches_scalar),
+        cmocka_unit_test(test_corner_words_are_bit_identical),
+        cmocka_unit_test(test_cell_gradient_of_linear_field),
         cmocka_unit_test(test_shaded_with_point_light_uses_scalar),
         cmocka_unit_test(test_simd_is_thread_count_independent),
         cmocka_unit_test(test_simd_skipping_is_exact),

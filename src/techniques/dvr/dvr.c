@@ -23,14 +23,21 @@ static volux_status read_params(dvr_state *st, const volux_scene *scene) {
                            "techniques.%s.kernel: expected \"auto\", \"scalar\", \"simd\" or \"avx2\", got \"%s\"",
                            cls->info.name, kernel);
     const char *layout = volux_technique_param_string(scene, cls, "volume_layout");
-    if (!strcmp(layout, "auto")) st->layout_auto = 1;
-    else if (!strcmp(layout, "bricked")) st->layout_auto = 0;
+    if (!strcmp(layout, "bricked")) st->corner_words = 0;
+    else if (!strcmp(layout, "corner_words")) st->corner_words = 1;
     else
         return volux_error(st->rc.ctx, VOLUX_ERR_INVALID,
-                           "techniques.%s.volume_layout: expected \"auto\" or \"bricked\", got \"%s\"", cls->info.name,
-                           layout);
-    if (st->shaded)
+                           "techniques.%s.volume_layout: expected \"bricked\" or \"corner_words\", got \"%s\"",
+                           cls->info.name, layout);
+    if (st->shaded) {
         st->grad_ref = volux_raycaster_gradient_ref(&st->rc, volux_technique_param(scene, cls, "gradient_threshold"));
+        const char *g = volux_technique_param_string(scene, cls, "gradient");
+        if (!strcmp(g, "cell")) st->grad_cell = 1;
+        else if (!strcmp(g, "cached")) st->grad_cell = 0;
+        else
+            return volux_error(st->rc.ctx, VOLUX_ERR_INVALID,
+                               "techniques.%s.gradient: expected \"cell\" or \"cached\", got \"%s\"", cls->info.name, g);
+    }
     return VOLUX_OK;
 }
 
@@ -245,14 +252,20 @@ volux_status volux_dvr_update(void *state, const volux_scene *scene, const volux
     volux_status s;
     if (w & VOLUX_CHANGE_VOLUME) {
         if ((s = volux_volume_build_bricks(rc->volume)) || (s = build_skip_ranges(st))) return s;
-        if (st->shaded && (s = volux_gradient_cache_build(rc->ctx, rc->volume, &st->grad, "shaded"))) return s;
     }
     if (w & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY | VOLUX_CHANGE_COLOR))
         if ((s = build_float_tables(st))) return s;
     if (w & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY))
         if ((s = build_skip_distance(st))) return s;
-    if (w & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME))
+    if (w & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME)) {
         if ((s = read_params(st, scene))) return s;
+        /* the gradient cache only for `gradient: "cached"` (4 bytes per node) */
+        if (st->shaded && !st->grad_cell && (!st->grad.grad || (w & VOLUX_CHANGE_VOLUME))) {
+            if ((s = volux_gradient_cache_build(rc->ctx, rc->volume, &st->grad, "shaded"))) return s;
+        } else if (st->grad_cell) {
+            volux_gradient_cache_free(rc->ctx, &st->grad);
+        }
+    }
     /* Without an environment the ambient light is white of radiance 1, the
      * convention of VTK/ParaView's `ambient` coefficient; an environment
      * acts through its mean radiance. */
@@ -285,8 +298,9 @@ void volux_dvr_release(void *state) {
  * caster does), faded by gradient magnitude. c: emission colour in/out. */
 static inline void shade(const dvr_state *st, volux_vec3 p_world, volux_vec3 q, volux_vec3 view_dir, float c[3]) {
     volux_vec3 n;
-    float m = volux_shading_normal(volux_gradient_cache_sample(&st->grad, st->rc.volume, q), st->grad_ref, view_dir,
-                                   &n);
+    volux_vec3 g = st->grad_cell ? volux_cell_gradient_bricked(st->rc.volume, q)
+                                 : volux_gradient_cache_sample(&st->grad, st->rc.volume, q);
+    float m = volux_shading_normal(g, st->grad_ref, view_dir, &n);
     if (m <= 0.0f) return;
     const volux_material *mat = &st->rc.material;
     const volux_light_list *ls = &st->rc.lights;

@@ -7,7 +7,7 @@
  * invalidates them:
  *   skip cell ranges (SIMD skipping)     ← volume
  *   skip distances (SIMD skipping)       ← volume, extinction, density
- *   gradient cache (shaded only)         ← volume (bricked, see dvr.c)
+ *   gradient cache (shaded, `gradient: "cached"` only) ← volume (bricked)
  *   ambient term (shaded only)           ← lights
  *   float pre-integration table (SIMD)   ← extinction, density, colour
  *   corner words (SIMD, 8-bit volumes)   ← volume (dvr_corners.c)
@@ -29,7 +29,7 @@
 
 #define DVR_SIMD_MAX_LIGHTS 4 /* directional lights the SIMD shading takes */
 #define DVR_SKIP_CELL 4       /* SIMD skip cells: 4³ voxels (macrocells are 8³) */
-/* largest corner-word copy `volume_layout: "auto"` builds (≈ 320³ voxels) */
+/* largest corner-word copy `volume_layout: "corner_words"` builds (≈ 320³) */
 #define DVR_CORNER_WORDS_MAX_BYTES ((size_t)256 << 20)
 
 typedef enum dvr_kernel { DVR_KERNEL_AUTO, DVR_KERNEL_SCALAR, DVR_KERNEL_SIMD, DVR_KERNEL_AVX2 } dvr_kernel;
@@ -50,6 +50,10 @@ typedef struct dvr_state {
     /* shading */
     volux_gradient_cache grad;     /* shared helper (sample/gradient.h)  */
     float grad_ref;                /* |∇s| at which shading is fully on    */
+    /* `gradient`: 1 "cell" (the trilinear interpolant's own gradient from
+     * the sample's 8 corners, volux_cell_gradient_bricked), 0 "cached"
+     * (central differences from the 10-bit cache) */
+    int grad_cell;
     volux_vec3 ambient;            /* environment mean, or white 1 (VTK)   */
     /* Float pre-integration table for the SIMD kernel: per table node i,
      * 8 floats {P_σ, P_σr, P_σg, P_σb, D_σ, D_σr, D_σg, D_σb} where P is the
@@ -71,7 +75,7 @@ typedef struct dvr_state {
     /* Corner words (dvr_corners.c): per cell of an 8-bit volume one 64-bit
      * word with its 8 corners, so a SIMD sample gathers one element instead
      * of four. NULL: the kernel gathers from the bricked copy. */
-    int layout_auto;               /* `volume_layout` "auto" (else "bricked") */
+    int corner_words;              /* `volume_layout` "corner_words"       */
     uint64_t *corners;
     size_t corner_bytes;
 } dvr_state;

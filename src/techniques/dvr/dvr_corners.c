@@ -22,11 +22,19 @@
  * test_corner_words_are_bit_identical).
  *
  * Memory: 8 bytes per cell, 8× the data (128 MiB at 256³, against the
- * bricked copy's 1.42× and `shaded`'s 4-bytes-per-node gradient cache);
- * built only under `volume_layout: "auto"` for 8-bit volumes rendered by
- * the SIMD kernel, when it takes at most DVR_CORNER_WORDS_MAX_BYTES and
- * the context grants the allocation; otherwise the kernel gathers from
- * the bricked copy as before (same image). Rebuilt on VOLUME only.
+ * bricked copy's 1.42×); built only under `volume_layout: "corner_words"`
+ * for 8-bit volumes rendered by the SIMD kernel, when it takes at most
+ * DVR_CORNER_WORDS_MAX_BYTES and the context grants the allocation;
+ * otherwise the kernel gathers from the bricked copy (same image).
+ * Rebuilt on VOLUME only.
+ *
+ * NOT the default, because it measured SLOWER on the one CPU at hand (Zen
+ * 4, bonsai 256³, 1 thread: step 0.5 +33 %, step 1 +27 %, step 2 +7 %,
+ * step 4 +9 % with AVX-512, ±0–3 % with AVX2 at step 4): the copy is 8× the
+ * cache footprint (128 MiB does not fit the 32 MiB L3 that the 23 MiB
+ * bricked copy fits), and at fine steps neighbouring samples share far
+ * fewer lines (8 cells per line against 64 nodes). Kept as an option to
+ * measure on CPUs whose gathers cost several times more per element.
  */
 #include <string.h>
 
@@ -67,7 +75,7 @@ static void fill_corner_words(uint64_t *out, const volux_volume *v) {
 volux_status volux_dvr_corner_words_update(dvr_state *st, int volume_changed) {
     const volux_volume *v = st->rc.volume;
     const size_t bytes = corner_words_count(v) * sizeof(uint64_t);
-    const int wanted = st->layout_auto && st->use_simd && v->storage == VOLUX_STORE_U8 && v->bricks &&
+    const int wanted = st->corner_words && st->use_simd && v->storage == VOLUX_STORE_U8 && v->bricks &&
                        bytes <= DVR_CORNER_WORDS_MAX_BYTES;
     if (!wanted) {
         volux_dvr_corner_words_free(st);

@@ -73,6 +73,7 @@ typedef struct vol_consts {
     vi stride_y, stride_z;  /* brick strides in nodes (·729)             */
     vi wstride_y, wstride_z; /* the same in corner words (·512)          */
     vf offset;              /* file value = stored + offset              */
+    vf inv_sp[3];
 } vol_consts;
 
 DI void vol_consts_init(vol_consts *vc, const dvr_state *st) {
@@ -82,6 +83,7 @@ DI void vol_consts_init(vol_consts *vc, const dvr_state *st) {
     vc->stride_y = i_set(v->brick_counts[0] * VOLUX_BRICK_VOXELS);
     vc->stride_z = i_set(v->brick_counts[0] * v->brick_counts[1] * VOLUX_BRICK_VOXELS);
     vc->corners = st->corners;
+    for (int a = 0; a < 3; a++) vc->inv_sp[a] = f_set(v->inv_spacing[a]);
     vc->wstride_y = i_set(v->brick_counts[0] * 512);
     vc->wstride_z = i_set(v->brick_counts[0] * v->brick_counts[1] * 512);
     vc->offset = f_set(v->value_offset);
@@ -118,6 +120,24 @@ DI vi corner_word_index(const vol_consts *vc, vi i, vi j, vi k) {
     return i_add(brick, in);
 }
 
+/* The 8 corners (stored values) of the cells at brick offsets b. */
+DI void fetch_corners(const vol_consts *vc, vi b, volux_storage storage, vf c[8]) {
+    if (storage == VOLUX_STORE_U8 || storage == VOLUX_STORE_U16) {
+        /* One 32-bit gather per (y, z) corner row returns the x pair. */
+        const int u8 = storage == VOLUX_STORE_U8, shift = u8 ? 8 : 16;
+        const vi lo = i_set(u8 ? 0xff : 0xffff);
+        vi g[4];
+        if (u8) gather_rows_u8(vc->bricks, b, g);
+        else gather_rows_u16(vc->bricks, b, g);
+        for (int r = 0; r < 4; r++) {
+            c[2 * r] = f_from_i(i_and(g[r], lo));
+            c[2 * r + 1] = f_from_i(i_and(i_srli(g[r], shift), lo));
+        }
+    } else {
+        gather_corners_f32((const float *)(const void *)vc->bricks, b, c);
+    }
+}
+
 /* Trilinear samples at index-space (x, y, z) from the bricked copy; same
  * clamping and arithmetic as volux_volume_sample_bricked. Every lane gets
  * a valid address (indices are clamped), so no masks are needed. */
@@ -143,19 +163,8 @@ DI vf sample_v(const vol_consts *vc, vf x, vf y, vf z, volux_storage storage, in
             c[4 * r + 2] = f_from_i(i_and(i_srli(w[r], 16), lo));
             c[4 * r + 3] = f_from_i(i_srli(w[r], 24));
         }
-    } else if (storage == VOLUX_STORE_U8 || storage == VOLUX_STORE_U16) {
-        /* One 32-bit gather per (y, z) corner row returns the x pair. */
-        const int u8 = storage == VOLUX_STORE_U8, shift = u8 ? 8 : 16;
-        const vi lo = i_set(u8 ? 0xff : 0xffff);
-        vi g[4];
-        if (u8) gather_rows_u8(vc->bricks, b, g);
-        else gather_rows_u16(vc->bricks, b, g);
-        for (int r = 0; r < 4; r++) {
-            c[2 * r] = f_from_i(i_and(g[r], lo));
-            c[2 * r + 1] = f_from_i(i_and(i_srli(g[r], shift), lo));
-        }
     } else {
-        gather_corners_f32((const float *)(const void *)vc->bricks, b, c);
+        fetch_corners(vc, b, storage, c);
     }
     vf c00 = lerp(c[0], c[1], fx), c10 = lerp(c[2], c[3], fx);
     vf c01 = lerp(c[4], c[5], fx), c11 = lerp(c[6], c[7], fx);
@@ -318,6 +327,21 @@ DI void gradient_v(const dvr_state *st, const cellv *cell, vm m, vf g[3]) {
         vf c0 = lerp(c00, c10, cell->fy), c1 = lerp(c01, c11, cell->fy);
         g[a] = f_mul(lerp(c0, c1, cell->fz), scale);
     }
+}
+
+/* `gradient: "cell"`: the gradient of the trilinear interpolant in the
+ * sample's cell from its 8 corners, as volux_cell_gradient_bricked. The
+ * corners are read again (the sample's gathers just brought their lines
+ * into L1) rather than kept: 8 more live vectors per packet would spill. */
+DI void gradient_cell_v(const vol_consts *vc, const cellv *cell, volux_storage storage, vf g[3]) {
+    vf c[8];
+    fetch_corners(vc, cell->b, storage, c);
+    vf gx = lerp(lerp(f_sub(c[1], c[0]), f_sub(c[3], c[2]), cell->fy), lerp(f_sub(c[5], c[4]), f_sub(c[7], c[6]), cell->fy), cell->fz);
+    vf gy = lerp(lerp(f_sub(c[2], c[0]), f_sub(c[3], c[1]), cell->fx), lerp(f_sub(c[6], c[4]), f_sub(c[7], c[5]), cell->fx), cell->fz);
+    vf gz = lerp(lerp(f_sub(c[4], c[0]), f_sub(c[5], c[1]), cell->fx), lerp(f_sub(c[6], c[2]), f_sub(c[7], c[3]), cell->fx), cell->fy);
+    g[0] = f_mul(gx, vc->inv_sp[0]);
+    g[1] = f_mul(gy, vc->inv_sp[1]);
+    g[2] = f_mul(gz, vc->inv_sp[2]);
 }
 
 DI vf dot3(const vf a[3], const vf b[3]) {
@@ -512,6 +536,7 @@ typedef struct march_consts {
     float pf_ahead;   /* segments beyond the next one to prefetch       */
     volux_storage storage;
     int words;        /* 8-bit corner words instead of the bricks       */
+    int grad_cell;    /* shaded: gradient_cell_v, else the cache        */
 } march_consts;
 
 DI vf seg_start(const packet_state *ps, vf kf, vf h) {
@@ -742,7 +767,8 @@ DI void march_tile(const march_consts *mc, const ray_list *rl, float *rgb, uint6
                 vm lit = m_andnot(ps->warm, m_and(seg[p], f_gt(tau, zero)));
                 if (shaded && m_bits(lit)) {
                     vf g[3], c3[3] = {cr, cg, cb};
-                    gradient_v(st, &cells[p], lit, g);
+                    if (mc->grad_cell) gradient_cell_v(&mc->vc, &cells[p], storage, g);
+                    else gradient_v(st, &cells[p], lit, g);
                     shade_v(st, g, ps->d, (const vf(*)[3])ps->hn, c3);
                     cr = c3[0], cg = c3[1], cb = c3[2];
                 }
@@ -787,6 +813,7 @@ DI void render_tile_impl(const dvr_state *st, const volux_scene *scene, const vo
     mc.pf_ahead = step_vox < 3.0f ? 1.0f : 0.0f;
     mc.storage = storage;
     mc.words = words;
+    mc.grad_cell = st->grad_cell;
     uint64_t samples = 0;
     march_tile(&mc, &rl, rgb, &samples);
     stats->samples += samples;

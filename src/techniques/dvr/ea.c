@@ -8,9 +8,10 @@
          "\"auto\" (SIMD when the CPU has AVX2+FMA, 16-lane AVX-512 packets where it has those too; shaded: with " \
          "at most 4 lights, all directional), \"scalar\" (portable reference), \"simd\" (as auto; error if "     \
          "unavailable) or \"avx2\" (8-lane packets only, the same image); same image up to float rounding"},        \
-        {"volume_layout", VOLUX_PARAM_STRING, 0, 0, 0, "auto",                                                   \
-         "\"auto\" (SIMD kernel, 8-bit volumes: a per-cell copy with the 8 corners in one 64-bit word, 8 bytes "  \
-         "per voxel, when it takes at most 256 MiB) or \"bricked\" (the volume's bricked copy only); the same image"}
+        {"volume_layout", VOLUX_PARAM_STRING, 0, 0, 0, "bricked",                                                \
+         "\"bricked\" (the volume's bricked copy) or \"corner_words\" (SIMD kernel, 8-bit volumes: a per-cell "  \
+         "copy with the 8 corners in one 64-bit word, 8 bytes per voxel, up to 256 MiB; slower where gathers are " \
+         "cheap, see docs/BENCHMARKS.md); the same image"}
 
 static const volux_param_info ea_params[] = {DVR_COMMON_PARAMS, {NULL, 0, 0, 0, 0, NULL, NULL}};
 
@@ -30,6 +31,10 @@ static const volux_param_info shaded_params[] = {
     /* below it the sample fades to unshaded emission, so homogeneous
      * regions do not flicker */
     VOLUX_PARAM_GRADIENT_THRESHOLD("shading is"),
+    {"gradient", VOLUX_PARAM_STRING, 0, 0, 0, "cell",
+     "\"cell\" (the gradient of the trilinear interpolant, from the 8 corners the sample reads: no cache, "
+     "sharper) or \"cached\" (central differences at the nodes, 10-bit cache of 4 bytes per voxel, interpolated: "
+     "smoother, the default up to 0.2.0)"},
     {NULL, 0, 0, 0, 0, NULL, NULL}};
 
 /* Blinn–Phong has no phase function and no scattering albedo. */
