@@ -133,6 +133,15 @@ DI void gather_corner_words(const uint64_t *p, vi idx, vi w[2]) {
     w[1] = _mm256_permute4x64_epi64(_mm256_castps_si256(_mm256_shuffle_ps(lo, hi, 0xDD)), 0xD8);
 }
 
+/* gather_rows_u8/u16 for the lanes of m only (0 elsewhere) */
+DI void gather_rows_masked(const unsigned char *p, vi b, vm m, int size, vi g[4]) {
+    static const int rows[4] = {0, SY_, SZ_, SZ_ + SY_};
+    const __m256i mi = _mm256_castps_si256(m), zero = _mm256_setzero_si256();
+    for (int r = 0; r < 4; r++)
+        g[r] = size == 1 ? _mm256_mask_i32gather_epi32(zero, (const int *)(const void *)(p + rows[r]), b, mi, 1)
+                         : _mm256_mask_i32gather_epi32(zero, (const int *)(const void *)(p + 2 * rows[r]), b, mi, 2);
+}
+
 /* Gradient cache nodes x and x+1 of the 4 corner rows for the lanes of m
  * (0 elsewhere): each pair is one 64-bit element (two gathers of 4 per
  * row). */

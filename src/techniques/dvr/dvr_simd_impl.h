@@ -333,9 +333,21 @@ DI void gradient_v(const dvr_state *st, const cellv *cell, vm m, vf g[3]) {
  * sample's cell from its 8 corners, as volux_cell_gradient_bricked. The
  * corners are read again (the sample's gathers just brought their lines
  * into L1) rather than kept: 8 more live vectors per packet would spill. */
-DI void gradient_cell_v(const vol_consts *vc, const cellv *cell, volux_storage storage, vf g[3]) {
+DI void gradient_cell_v(const vol_consts *vc, const cellv *cell, volux_storage storage, vm m, vf g[3]) {
     vf c[8];
-    fetch_corners(vc, cell->b, storage, c);
+    if (storage == VOLUX_STORE_U8 || storage == VOLUX_STORE_U16) {
+        /* only the compositing lanes m read (as gradient_v) */
+        const int u8 = storage == VOLUX_STORE_U8, shift = u8 ? 8 : 16;
+        const vi lo = i_set(u8 ? 0xff : 0xffff);
+        vi w[4];
+        gather_rows_masked(vc->bricks, cell->b, m, u8 ? 1 : 2, w);
+        for (int r = 0; r < 4; r++) {
+            c[2 * r] = f_from_i(i_and(w[r], lo));
+            c[2 * r + 1] = f_from_i(i_and(i_srli(w[r], shift), lo));
+        }
+    } else {
+        fetch_corners(vc, cell->b, storage, c);
+    }
     vf gx = lerp(lerp(f_sub(c[1], c[0]), f_sub(c[3], c[2]), cell->fy), lerp(f_sub(c[5], c[4]), f_sub(c[7], c[6]), cell->fy), cell->fz);
     vf gy = lerp(lerp(f_sub(c[2], c[0]), f_sub(c[3], c[1]), cell->fx), lerp(f_sub(c[6], c[4]), f_sub(c[7], c[5]), cell->fx), cell->fz);
     vf gz = lerp(lerp(f_sub(c[4], c[0]), f_sub(c[5], c[1]), cell->fx), lerp(f_sub(c[6], c[2]), f_sub(c[7], c[3]), cell->fx), cell->fy);
@@ -767,7 +779,7 @@ DI void march_tile(const march_consts *mc, const ray_list *rl, float *rgb, uint6
                 vm lit = m_andnot(ps->warm, m_and(seg[p], f_gt(tau, zero)));
                 if (shaded && m_bits(lit)) {
                     vf g[3], c3[3] = {cr, cg, cb};
-                    if (mc->grad_cell) gradient_cell_v(&mc->vc, &cells[p], storage, g);
+                    if (mc->grad_cell) gradient_cell_v(&mc->vc, &cells[p], storage, lit, g);
                     else gradient_v(st, &cells[p], lit, g);
                     shade_v(st, g, ps->d, (const vf(*)[3])ps->hn, c3);
                     cr = c3[0], cg = c3[1], cb = c3[2];
