@@ -99,6 +99,7 @@ DI vf lerp(vf a, vf b, vf f) {
 typedef struct cellv {
     vi b;
     vf fx, fy, fz;
+    vi rows[4]; /* u8/u16 from the bricks: the corner rows (gradient_cell_v) */
 } cellv;
 
 /* Brick offset (in nodes) of the cell holding (i, j, k). */
@@ -121,18 +122,26 @@ DI vi corner_word_index(const vol_consts *vc, vi i, vi j, vi k) {
 }
 
 /* The 8 corners (stored values) of the cells at brick offsets b. */
-DI void fetch_corners(const vol_consts *vc, vi b, volux_storage storage, vf c[8]) {
+/* The 8 corners from the 4 gathered corner rows of u8/u16 bricks. */
+DI void rows_to_corners(const vi g[4], volux_storage storage, vf c[8]) {
+    const int u8 = storage == VOLUX_STORE_U8, shift = u8 ? 8 : 16;
+    const vi lo = i_set(u8 ? 0xff : 0xffff);
+    for (int r = 0; r < 4; r++) {
+        c[2 * r] = f_from_i(i_and(g[r], lo));
+        c[2 * r + 1] = f_from_i(i_and(i_srli(g[r], shift), lo));
+    }
+}
+
+DI void fetch_corners(const vol_consts *vc, vi b, volux_storage storage, vf c[8], vi *rows) {
     if (storage == VOLUX_STORE_U8 || storage == VOLUX_STORE_U16) {
-        /* One 32-bit gather per (y, z) corner row returns the x pair. */
-        const int u8 = storage == VOLUX_STORE_U8, shift = u8 ? 8 : 16;
-        const vi lo = i_set(u8 ? 0xff : 0xffff);
+        /* One 32-bit gather per (y, z) corner row returns the x pair;
+         * `rows` (if given) keeps them. */
         vi g[4];
-        if (u8) gather_rows_u8(vc->bricks, b, g);
+        if (storage == VOLUX_STORE_U8) gather_rows_u8(vc->bricks, b, g);
         else gather_rows_u16(vc->bricks, b, g);
-        for (int r = 0; r < 4; r++) {
-            c[2 * r] = f_from_i(i_and(g[r], lo));
-            c[2 * r + 1] = f_from_i(i_and(i_srli(g[r], shift), lo));
-        }
+        rows_to_corners(g, storage, c);
+        if (rows)
+            for (int r = 0; r < 4; r++) rows[r] = g[r];
     } else {
         gather_corners_f32((const float *)(const void *)vc->bricks, b, c);
     }
@@ -164,7 +173,7 @@ DI vf sample_v(const vol_consts *vc, vf x, vf y, vf z, volux_storage storage, in
             c[4 * r + 3] = f_from_i(i_srli(w[r], 24));
         }
     } else {
-        fetch_corners(vc, b, storage, c);
+        fetch_corners(vc, b, storage, c, cell ? cell->rows : NULL);
     }
     vf c00 = lerp(c[0], c[1], fx), c10 = lerp(c[2], c[3], fx);
     vf c01 = lerp(c[4], c[5], fx), c11 = lerp(c[6], c[7], fx);
@@ -333,9 +342,11 @@ DI void gradient_v(const dvr_state *st, const cellv *cell, vm m, vf g[3]) {
  * sample's cell from its 8 corners, as volux_cell_gradient_bricked. The
  * corners are read again (the sample's gathers just brought their lines
  * into L1) rather than kept: 8 more live vectors per packet would spill. */
-DI void gradient_cell_v(const vol_consts *vc, const cellv *cell, volux_storage storage, vm m, vf g[3]) {
+DI void gradient_cell_v(const vol_consts *vc, const cellv *cell, volux_storage storage, int words, vm m, vf g[3]) {
     vf c[8];
-    if (storage == VOLUX_STORE_U8 || storage == VOLUX_STORE_U16) {
+    if (!words && (storage == VOLUX_STORE_U8 || storage == VOLUX_STORE_U16)) {
+        rows_to_corners(cell->rows, storage, c); /* kept by sample_v */
+    } else if (storage == VOLUX_STORE_U8 || storage == VOLUX_STORE_U16) {
         /* only the compositing lanes m read (as gradient_v) */
         const int u8 = storage == VOLUX_STORE_U8, shift = u8 ? 8 : 16;
         const vi lo = i_set(u8 ? 0xff : 0xffff);
@@ -346,7 +357,7 @@ DI void gradient_cell_v(const vol_consts *vc, const cellv *cell, volux_storage s
             c[2 * r + 1] = f_from_i(i_and(i_srli(w[r], shift), lo));
         }
     } else {
-        fetch_corners(vc, cell->b, storage, c);
+        fetch_corners(vc, cell->b, storage, c, NULL);
     }
     vf gx = lerp(lerp(f_sub(c[1], c[0]), f_sub(c[3], c[2]), cell->fy), lerp(f_sub(c[5], c[4]), f_sub(c[7], c[6]), cell->fy), cell->fz);
     vf gy = lerp(lerp(f_sub(c[2], c[0]), f_sub(c[3], c[1]), cell->fx), lerp(f_sub(c[6], c[4]), f_sub(c[7], c[5]), cell->fx), cell->fz);
@@ -779,7 +790,7 @@ DI void march_tile(const march_consts *mc, const ray_list *rl, float *rgb, uint6
                 vm lit = m_andnot(ps->warm, m_and(seg[p], f_gt(tau, zero)));
                 if (shaded && m_bits(lit)) {
                     vf g[3], c3[3] = {cr, cg, cb};
-                    if (mc->grad_cell) gradient_cell_v(&mc->vc, &cells[p], storage, lit, g);
+                    if (mc->grad_cell) gradient_cell_v(&mc->vc, &cells[p], storage, words, lit, g);
                     else gradient_v(st, &cells[p], lit, g);
                     shade_v(st, g, ps->d, (const vf(*)[3])ps->hn, c3);
                     cr = c3[0], cg = c3[1], cb = c3[2];
