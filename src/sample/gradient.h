@@ -99,9 +99,12 @@ static inline volux_vec3 volux_cell_gradient_bricked(const volux_volume *v, volu
                                                : ((const float *)v->bricks)[o];
     }
 #define VOLUX_LERP_(a, b, f) ((a) + ((b) - (a)) * (f))
-    float gx = VOLUX_LERP_(VOLUX_LERP_(n[1] - n[0], n[3] - n[2], c.fy), VOLUX_LERP_(n[5] - n[4], n[7] - n[6], c.fy), c.fz);
-    float gy = VOLUX_LERP_(VOLUX_LERP_(n[2] - n[0], n[3] - n[1], c.fx), VOLUX_LERP_(n[6] - n[4], n[7] - n[5], c.fx), c.fz);
-    float gz = VOLUX_LERP_(VOLUX_LERP_(n[4] - n[0], n[5] - n[1], c.fx), VOLUX_LERP_(n[6] - n[2], n[7] - n[3], c.fx), c.fy);
+    float gx = VOLUX_LERP_(VOLUX_LERP_(n[1] - n[0], n[3] - n[2], c.fy), VOLUX_LERP_(n[5] - n[4], n[7] - n[6], c.fy),
+                           c.fz);
+    float gy = VOLUX_LERP_(VOLUX_LERP_(n[2] - n[0], n[3] - n[1], c.fx), VOLUX_LERP_(n[6] - n[4], n[7] - n[5], c.fx),
+                           c.fz);
+    float gz = VOLUX_LERP_(VOLUX_LERP_(n[4] - n[0], n[5] - n[1], c.fx), VOLUX_LERP_(n[6] - n[2], n[7] - n[3], c.fx),
+                           c.fy);
 #undef VOLUX_LERP_
     return v3(gx * v->inv_spacing[0], gy * v->inv_spacing[1], gz * v->inv_spacing[2]);
 }

@@ -388,7 +388,8 @@ static void test_corner_words_are_bit_identical(void **state) {
                     volux_image a = tu_render_with(ctx, s, t);
                     size_t mem_bricked = volux_technique_memory_bytes(t);
                     volux_technique_destroy(t);
-                    assert_int_equal(volux_scene_set_param(s, techs[tech], "volume_layout", 0, "corner_words"), VOLUX_OK);
+                    assert_int_equal(volux_scene_set_param(s, techs[tech], "volume_layout", 0, "corner_words"),
+                                     VOLUX_OK);
                     assert_int_equal(volux_technique_create(ctx, techs[tech], s, &t), VOLUX_OK);
                     volux_image b = tu_render_with(ctx, s, t);
                     assert_int_equal(volux_technique_memory_bytes(t) - mem_bricked, bricks * 512 * 8);

@@ -36,7 +36,8 @@ static volux_status read_params(dvr_state *st, const volux_scene *scene) {
         else if (!strcmp(g, "cached")) st->grad_cell = 0;
         else
             return volux_error(st->rc.ctx, VOLUX_ERR_INVALID,
-                               "techniques.%s.gradient: expected \"cell\" or \"cached\", got \"%s\"", cls->info.name, g);
+                               "techniques.%s.gradient: expected \"cell\" or \"cached\", got \"%s\"",
+                               cls->info.name, g);
     }
     return VOLUX_OK;
 }

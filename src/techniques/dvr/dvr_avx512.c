@@ -149,7 +149,8 @@ DI void gather_rows_masked(const unsigned char *p, vi b, vm m, int size, vi g[4]
     static const int rows[4] = {0, SY_, SZ_, SZ_ + SY_};
     for (int r = 0; r < 4; r++)
         g[r] = size == 1 ? _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), m, b, (const void *)(p + rows[r]), 1)
-                         : _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), m, b, (const void *)(p + 2 * rows[r]), 2);
+                         : _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), m, b,
+                                                       (const void *)(p + 2 * rows[r]), 2);
 }
 
 /* Gradient cache nodes x and x+1 of the 4 corner rows for the lanes of m

@@ -64,7 +64,8 @@ static void fill_corner_words(uint64_t *out, const volux_volume *v) {
             for (int j = 0; j < VOLUX_BRICK_CELLS; j++)
                 for (int i = 0; i < VOLUX_BRICK_CELLS; i++) {
                     const unsigned char *p = brick + i + SY * j + SZ * k;
-                    const unsigned char c[8] = {p[0], p[1], p[SY], p[SY + 1], p[SZ], p[SZ + 1], p[SZ + SY], p[SZ + SY + 1]};
+                    const unsigned char c[8] = {p[0],  p[1],      p[SY],      p[SY + 1],
+                                                p[SZ], p[SZ + 1], p[SZ + SY], p[SZ + SY + 1]};
                     uint64_t word = 0;
                     for (int n = 7; n >= 0; n--) word = word << 8 | c[n];
                     *w++ = word;

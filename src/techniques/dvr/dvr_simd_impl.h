@@ -116,7 +116,8 @@ DI vi brick_offset(const vol_consts *vc, vi i, vi j, vi k) {
  * the same brick, 512 words per brick, x fastest. */
 DI vi corner_word_index(const vol_consts *vc, vi i, vi j, vi k) {
     const vi seven = i_set(7);
-    vi brick = i_add(i_slli(i_srli(i, 3), 9), i_add(i_mullo(i_srli(j, 3), vc->wstride_y), i_mullo(i_srli(k, 3), vc->wstride_z)));
+    vi brick = i_add(i_slli(i_srli(i, 3), 9),
+                     i_add(i_mullo(i_srli(j, 3), vc->wstride_y), i_mullo(i_srli(k, 3), vc->wstride_z)));
     vi in = i_or(i_and(i, seven), i_or(i_slli(i_and(j, seven), 3), i_slli(i_and(k, seven), 6)));
     return i_add(brick, in);
 }
@@ -359,9 +360,13 @@ DI void gradient_cell_v(const vol_consts *vc, const cellv *cell, volux_storage s
     } else {
         fetch_corners(vc, cell->b, storage, c, NULL);
     }
-    vf gx = lerp(lerp(f_sub(c[1], c[0]), f_sub(c[3], c[2]), cell->fy), lerp(f_sub(c[5], c[4]), f_sub(c[7], c[6]), cell->fy), cell->fz);
-    vf gy = lerp(lerp(f_sub(c[2], c[0]), f_sub(c[3], c[1]), cell->fx), lerp(f_sub(c[6], c[4]), f_sub(c[7], c[5]), cell->fx), cell->fz);
-    vf gz = lerp(lerp(f_sub(c[4], c[0]), f_sub(c[5], c[1]), cell->fx), lerp(f_sub(c[6], c[2]), f_sub(c[7], c[3]), cell->fx), cell->fy);
+    /* ∂/∂x: the x-differences of the 4 rows blended over (y, z); likewise y, z */
+    vf gx = lerp(lerp(f_sub(c[1], c[0]), f_sub(c[3], c[2]), cell->fy),
+                 lerp(f_sub(c[5], c[4]), f_sub(c[7], c[6]), cell->fy), cell->fz);
+    vf gy = lerp(lerp(f_sub(c[2], c[0]), f_sub(c[3], c[1]), cell->fx),
+                 lerp(f_sub(c[6], c[4]), f_sub(c[7], c[5]), cell->fx), cell->fz);
+    vf gz = lerp(lerp(f_sub(c[4], c[0]), f_sub(c[5], c[1]), cell->fx),
+                 lerp(f_sub(c[6], c[2]), f_sub(c[7], c[3]), cell->fx), cell->fy);
     g[0] = f_mul(gx, vc->inv_sp[0]);
     g[1] = f_mul(gy, vc->inv_sp[1]);
     g[2] = f_mul(gz, vc->inv_sp[2]);
