@@ -5,8 +5,8 @@
  *
  * Caches beyond the ray-caster base (render/raycaster.h) and what
  * invalidates them:
- *   skip (sub-)cell ranges (SIMD)        ← volume
- *   skip distances + occupancy (SIMD)    ← volume, extinction, density
+ *   skip cell ranges (SIMD skipping)     ← volume
+ *   skip distances (SIMD skipping)       ← volume, extinction, density
  *   gradient cache (shaded only)         ← volume (bricked, see dvr.c)
  *   ambient term (shaded only)           ← lights
  *   float pre-integration table (SIMD)   ← extinction, density, colour
@@ -34,50 +34,6 @@ typedef enum dvr_kernel { DVR_KERNEL_AUTO, DVR_KERNEL_SCALAR, DVR_KERNEL_SIMD, D
 extern const volux_technique_class volux_ea_class;
 extern const volux_technique_class volux_shaded_class;
 
-/* Two-level empty-space skipping for the packet kernel (dvr_skip.c).
- *
- * Level 1: skip cells of DVR_SKIP_CELL³ = 4³ voxels (finer than the 8³
- * macrocells: in real data most samples of a non-empty macrocell still have
- * zero opacity; bonsai: 2.3 M of 14 M lane samples contribute). Level 2:
- * the 8 sub-cells of 2³ voxels of each cell. A (sub-)cell is empty when
- * σt = 0 on every table node bracketing its value range (the majorant
- * grid's test), so every segment with both ends in one connected run of
- * empty (sub-)cells contributes exactly 0, pre-integrated or not.
- *
- * TF-independent (built with the volume): the value range of every cell
- * and sub-cell, nodes inclusive, so the trilinear field inside lies in it.
- * Per transfer function (rebuilt on extinction/density edits, within the
- * TF-edit budget): per cell two bytes, read by one 32-bit gather —
- *   code[2c]     signed chessboard distance d: d ≥ 1 for an empty cell
- *                (all cells within d − 1 rings are empty too), d ≤ −1 for a
- *                full cell (every sub-cell non-empty; −d − 1 rings of full
- *                cells around it), 0 for a mixed cell; |d| ≤ 127;
- *   code[2c + 1] occupancy: bit sx + 2·sy + 4·sz set iff that sub-cell is
- *                non-empty (sub-cells past the volume's last node: 0).
- * Why: one lookup tells a lane how far it can go before the emptiness can
- * change — a cube of empty cells to skip, a cube of full cells to march
- * without checking — and in a mixed cell whether its 2³ sub-cell may be
- * skipped. Memory: 2 bytes per cell (512 KiB at 256³) per TF; the ranges
- * 72 bytes per cell (18 MiB at 256³). */
-typedef struct dvr_skip {
-    int cells[3];          /* skip cells per axis: ⌈(dims − 1)/4⌉          */
-    float *range;          /* [2·cells] min, max per cell                    */
-    float *sub_range;      /* [16·cells] min, max of sub-cell b of cell c at
-                              2·(8c + b); empty (∞, −∞) past the volume     */
-    int8_t *dist;          /* [cells + 3] signed distance                    */
-    uint8_t *occ;          /* [cells + 3] sub-cell occupancy bits            */
-    size_t range_bytes, sub_bytes, bytes;
-} dvr_skip;
-
-/* Builds sk's cell and sub-cell value ranges for volume v (and its cell
- * counts); reuses the buffers when the size matches. */
-volux_status volux_dvr_skip_ranges(volux_context *ctx, const volux_volume *v, dvr_skip *sk);
-/* Builds (in place) sk's distance and occupancy bytes for lut, from the
- * ranges of volume v built by volux_dvr_skip_ranges. */
-volux_status volux_dvr_skip_classify(volux_context *ctx, const volux_volume *v, const volux_transfer_lut *lut,
-                                     dvr_skip *sk);
-void volux_dvr_skip_free(volux_context *ctx, dvr_skip *sk);
-
 typedef struct dvr_state {
     volux_raycaster rc;            /* base: volume, LUT, grid, camera, step,
                                       seed, material, lights              */
@@ -99,7 +55,16 @@ typedef struct dvr_state {
      * dvr_avx2.c). 32 bytes: one unaligned 256-bit load per lane. */
     float *pre_f;
     size_t pre_bytes;
-    dvr_skip skip;                 /* packet kernel's empty-space skipping */
+    /* Signed chessboard distance per skip cell to the nearest cell of the
+     * other kind (empty > 0, non-empty < 0, |d| ≤ 127); see
+     * build_skip_distance. One byte per cell (+3 bytes of padding, so a
+     * 32-bit gather at any cell stays inside): 256 KiB at 256³ fits the L2
+     * cache where int32 (1 MiB) did not. */
+    int8_t *skip_dist;
+    size_t skip_bytes;
+    float *skip_range;             /* [2·cells] min, max per skip cell     */
+    size_t range_bytes;
+    int skip_cells[3];
 } dvr_state;
 
 /* 1 if this CPU can run the AVX2+FMA kernel (and it was compiled in). */

@@ -69,7 +69,6 @@ DI vi i_or(vi a, vi b) { return _mm256_or_si256(a, b); }
 DI vi i_srli(vi a, int n) { return _mm256_srli_epi32(a, n); }
 DI vi i_slli(vi a, int n) { return _mm256_slli_epi32(a, n); }
 DI vi i_srai(vi a, int n) { return _mm256_srai_epi32(a, n); }
-DI vi i_srlv(vi a, vi n) { return _mm256_srlv_epi32(a, n); }
 DI void i_store(int32_t *p, vi a) { _mm256_storeu_si256((__m256i *)(void *)p, a); }
 DI vm i_gt(vi a, vi b) { return _mm256_castsi256_ps(_mm256_cmpgt_epi32(a, b)); }
 DI vm i_eq(vi a, vi b) { return _mm256_castsi256_ps(_mm256_cmpeq_epi32(a, b)); }

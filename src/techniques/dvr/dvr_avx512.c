@@ -83,7 +83,6 @@ DI vi i_or(vi a, vi b) { return _mm512_or_si512(a, b); }
 DI vi i_srli(vi a, int n) { return _mm512_srli_epi32(a, (unsigned)n); }
 DI vi i_slli(vi a, int n) { return _mm512_slli_epi32(a, (unsigned)n); }
 DI vi i_srai(vi a, int n) { return _mm512_srai_epi32(a, (unsigned)n); }
-DI vi i_srlv(vi a, vi n) { return _mm512_srlv_epi32(a, n); }
 DI void i_store(int32_t *p, vi a) { _mm512_storeu_si512((void *)p, a); }
 DI vm i_gt(vi a, vi b) { return _mm512_cmpgt_epi32_mask(a, b); }
 DI vm i_eq(vi a, vi b) { return _mm512_cmpeq_epi32_mask(a, b); }

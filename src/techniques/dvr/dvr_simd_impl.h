@@ -182,62 +182,37 @@ typedef struct skipv {
 } skipv;
 
 /* Empty-space check at world t for the lanes in `need`. One lookup of the
- * two skip bytes of the 4³ cell holding q(t) (dvr.h, dvr_skip): its
- * signed distance d gives a cube of r = |d| − 1 rings of cells around it
- * that are all empty (d > 0) or all full (d < 0); in a mixed cell (d = 0)
- * the box is the 2³ sub-cell holding q(t), empty iff its occupancy bit is
- * clear. *t_exit is where the ray leaves that box (cube or sub-cell).
- * Returns the lanes in an empty box, which may skip to *m, the last
- * segment index whose start is ≤ *t_exit (with a margin of 10⁻³ h, so
- * rounding never skips into a non-empty cell); lanes in a non-empty box
- * need not check again before *t_exit. Every box face lies on the 2-voxel
- * lattice, so all bounds are exact integers times 2 in float. */
-DI vm check_cells(const dvr_skip *skip, const skipv *sk, const vf q0[3], const vf dq[3], vf t0, vf jit, vf inv_h,
+ * signed skip distance d of the skip cell holding q(t) (dvr.c,
+ * build_skip_distance) gives a cube of r = |d| − 1 rings of cells around
+ * it that are all empty (d > 0) or all non-empty (d < 0); *t_exit is where
+ * the ray leaves that cube. Returns the lanes in an empty cube, which may
+ * skip to *m, the last segment index whose start is ≤ *t_exit (with a
+ * margin of 10⁻³ h, so rounding never skips into a non-empty cell); lanes
+ * in a non-empty cube need not check again before *t_exit. */
+DI vm check_cells(const int8_t *dist, const skipv *sk, const vf q0[3], const vf dq[3], vf t0, vf jit, vf inv_h,
                   vf t, vm need, vf *t_exit, vf *m) {
     const vi zero_i = i_zero(), one_i = i_set(1);
     vf q[3];
-    vi c[3], sc[3];
+    vi c[3];
     for (int ax = 0; ax < 3; ax++) {
         q[ax] = f_add(q0[ax], f_mul(dq[ax], t));
         c[ax] = i_trunc(f_mul(q[ax], f_set(1.0f / DVR_SKIP_CELL)));
         c[ax] = i_max(i_min(c[ax], sk->cells_max[ax]), zero_i);
     }
     vi cell = i_add(i_mullo(i_add(i_mullo(c[2], sk->ncy), c[1]), sk->ncx), c[0]);
-    vi d = gather_i8_masked(skip->dist, cell, need);
-    /* level 2, only in non-empty cells next to an empty one (d = −1): the
-     * 2³ sub-cell holding q(t), when the cell has an empty one */
-    vm edge = m_and(need, i_eq(d, i_set(-1))), mixed = m_none(), sub_hole = m_none();
-    if (m_bits(edge)) {
-        vi occ = gather_i8_masked((const int8_t *)skip->occ, cell, edge);
-        mixed = m_andnot(i_eq(occ, i_set(-1)), edge);
-        vi bit = zero_i;
-        for (int ax = 0; ax < 3; ax++) {
-            /* the sub-cell, kept inside the cell (q·½ and q·¼ are exact,
-             * so this only acts where q is clamped) */
-            vi lo = i_add(c[ax], c[ax]);
-            sc[ax] = i_max(i_min(i_trunc(f_mul(q[ax], f_set(2.0f / DVR_SKIP_CELL))), i_add(lo, one_i)), lo);
-            bit = i_or(bit, i_slli(i_and(sc[ax], one_i), ax));
-        }
-        sub_hole = m_and(mixed, i_eq(i_and(i_srlv(occ, bit), one_i), zero_i));
-    } else {
-        for (int ax = 0; ax < 3; ax++) sc[ax] = zero_i;
-    }
+    vi d = gather_i8_masked(dist, cell, need);
     vi r = i_max(i_sub(i_abs(d), one_i), zero_i);
     vf tmin = f_set(INFINITY);
     for (int ax = 0; ax < 3; ax++) {
-        /* the box's far face along the ray, in sub-cells: the cube's is
-         * cell c + r + 1 going up, c − r going down; the sub-cell's sc + 1
-         * or sc */
-        vi cube = isel(sk->up[ax], i_add(i_add(c[ax], r), one_i), i_sub(c[ax], r));
-        vi sub = isel(sk->up[ax], i_add(sc[ax], one_i), sc[ax]);
-        vi face = isel(mixed, sub, i_add(cube, cube));
-        vf bound = f_mul(f_from_i(face), f_set((float)(DVR_SKIP_CELL / 2)));
+        /* the cube's far face along the ray: cell c + r + 1 going up, c − r going down */
+        vi face = isel(sk->up[ax], i_add(i_add(c[ax], r), one_i), i_sub(c[ax], r));
+        vf bound = f_mul(f_from_i(face), f_set((float)DVR_SKIP_CELL));
         vf ta = f_mul(f_sub(bound, q[ax]), sk->inv_dq[ax]);
         tmin = f_min(tmin, sel(sk->flat[ax], f_set(INFINITY), ta));
     }
     *t_exit = f_add(t, tmin);
     *m = f_add(f_floor(f_sub(f_mul(f_sub(*t_exit, t0), inv_h), f_add(jit, f_set(1e-3f)))), f_set(1.0f));
-    return m_and(need, m_or(i_gt(d, zero_i), sub_hole));
+    return m_and(need, i_gt(d, zero_i));
 }
 
 /* ------------------------------------------------------------- shading */
@@ -574,7 +549,7 @@ DI void refill(const march_consts *mc, packet_state *ps, const ray_list *rl, int
         }
         /* the check of segment 0, at t0 */
         vf t_exit, m;
-        vm empty = check_cells(&st->skip, sk, ps->q0, ps->dq, ps->t0, ps->jit, mc->inv_h, ps->t0, fresh, &t_exit,
+        vm empty = check_cells(st->skip_dist, sk, ps->q0, ps->dq, ps->t0, ps->jit, mc->inv_h, ps->t0, fresh, &t_exit,
                                &m);
         k = sel(m_and(empty, f_gt(m, zero)), m, zero);
         ps->t_check = sel(fresh, t_exit, sel(fill, f_set(INFINITY), ps->t_check));
@@ -607,7 +582,7 @@ DI void march_tile(const march_consts *mc, const ray_list *rl, float *rgb, uint6
         ps->i_p = i_zero();
         ps->t_check = f_set(INFINITY);
         if (skip) {
-            const int *cells = st->skip.cells;
+            const int *cells = st->skip_cells;
             for (int a = 0; a < 3; a++) ps->sk.cells_max[a] = i_set(cells[a] - 1);
             ps->sk.ncx = i_set(cells[0]);
             ps->sk.ncy = i_set(cells[1]);
@@ -652,7 +627,7 @@ DI void march_tile(const march_consts *mc, const ray_list *rl, float *rgb, uint6
                 vm need = m_and(ps->active, f_ge(b[p], ps->t_check));
                 if (m_bits(need)) {
                     vf t_exit, m;
-                    vm empty = check_cells(&st->skip, &ps->sk, ps->q0, ps->dq, ps->t0, ps->jit, mc->inv_h, b[p],
+                    vm empty = check_cells(st->skip_dist, &ps->sk, ps->q0, ps->dq, ps->t0, ps->jit, mc->inv_h, b[p],
                                            need, &t_exit, &m);
                     /* With pre-integration the lane lands one segment early,
                      * on m − 1 (inside the empty cube, contribution 0), and
