@@ -373,6 +373,130 @@ static inline __attribute__((always_inline)) volux_vec3 integrate(const void *te
                           (variant & DVR_SHADED) ? shade_at : NULL, variant);
 }
 
+/* ---- two rays per loop iteration (the scalar tile loop) ----
+ * One ray's march is the operations of volux_ea_march, per ray and in the
+ * same order, so every pixel has the same bits; two rays advance in one
+ * loop so that the out-of-order core has two independent sample chains
+ * (position → brick → 8 loads → trilinear → table → τ) side by side. */
+typedef struct ray_march {
+    volux_ray ray;
+    volux_segments seg;
+    volux_march_iter it;
+    volux_preint pi;
+    float T, C[3];
+    int live;
+} ray_march;
+
+static inline __attribute__((always_inline)) void ray_march_init(ray_march *r, const volux_ea_march_desc *m,
+                                                                  float jitter) {
+    r->T = 1.0f;
+    r->C[0] = r->C[1] = r->C[2] = 0.0f;
+    r->live = 1;
+    volux_segments_init(&r->seg, &r->it, m->grid, &r->ray, m->step, jitter);
+    r->pi = (volux_preint){0.0f, 0.0, {0.0, 0.0, 0.0}};
+}
+
+/* The body of volux_ea_march's loop for segment (a, b]; returns 0 when
+ * the ray terminates early. */
+static inline __attribute__((always_inline)) int ray_march_step(const volux_ea_march_desc *m, const void *tech,
+                                                                 ray_march *r, float a, float b, int gap,
+                                                                 uint64_t *count, int variant) {
+    const volux_transfer_lut *lut = m->lut;
+    const int preint = (variant & DVR_PREINT) != 0;
+    if (preint && gap) {
+        volux_preint_front(lut, sample_at(tech, &r->ray, a, variant), &r->pi);
+        ++*count;
+    }
+    float s = sample_at(tech, &r->ray, b, variant), c[3];
+    float tau = preint ? volux_preint_segment(lut, &r->pi, s, b - a, c) : volux_point_segment(lut, s, b - a, c);
+    ++*count;
+    if (tau <= 0.0f) return 1;
+    if (variant & DVR_SHADED) shade_at(tech, &r->ray, b, c, variant);
+    float alpha = 1.0f - expf(-tau);
+    float w = r->T * alpha;
+    r->C[0] += w * c[0];
+    r->C[1] += w * c[1];
+    r->C[2] += w * c[2];
+    r->T -= w;
+    return !(r->T < m->t_min);
+}
+
+static inline __attribute__((always_inline)) void march_pair(const volux_ea_march_desc *m, const void *tech,
+                                                             ray_march r[2], uint64_t *count, int variant) {
+    for (;;) {
+        float a0 = 0.0f, b0 = 0.0f, a1 = 0.0f, b1 = 0.0f; /* (set when h0 / h1) */
+        int g0 = 0, g1 = 0;
+        const int h0 = volux_segments_next(&r[0].seg, &a0, &b0, &g0);
+        const int h1 = volux_segments_next(&r[1].seg, &a1, &b1, &g1);
+        if (!(h0 && h1)) {
+            /* one ray (or none) left: finish it alone */
+            ray_march *last = h0 ? &r[0] : h1 ? &r[1] : NULL;
+            if (!last) return;
+            float a = h0 ? a0 : a1, b = h0 ? b0 : b1;
+            int gap = h0 ? g0 : g1;
+            if (!ray_march_step(m, tech, last, a, b, gap, count, variant)) return;
+            while (volux_segments_next(&last->seg, &a, &b, &gap))
+                if (!ray_march_step(m, tech, last, a, b, gap, count, variant)) return;
+            return;
+        }
+        const int k0 = ray_march_step(m, tech, &r[0], a0, b0, g0, count, variant);
+        const int k1 = ray_march_step(m, tech, &r[1], a1, b1, g1, count, variant);
+        if (!k0 || !k1) {
+            ray_march *last = k0 ? &r[0] : k1 ? &r[1] : NULL;
+            if (!last) return;
+            float a, b;
+            int gap;
+            while (volux_segments_next(&last->seg, &a, &b, &gap))
+                if (!ray_march_step(m, tech, last, a, b, gap, count, variant)) return;
+            return;
+        }
+    }
+}
+
+/* volux_raycaster_tile with the rays that hit the volume marched in pairs. */
+static inline __attribute__((always_inline)) void tile_pairs(const dvr_state *st, const void *tech,
+                                                             const volux_scene *scene, const volux_tile *tile,
+                                                             float *rgb, volux_tile_stats *stats, int variant) {
+    const volux_raycaster *rc = &st->rc;
+    const volux_ea_march_desc m = {rc->lut, st->skip_empty ? &rc->grid : NULL, rc->step, st->t_min};
+    uint64_t count = 0;
+    ray_march r[2];
+    volux_vec3 bg[2];
+    float *out[2];
+    int n = 0;
+    for (int y = 0; y < tile->h; y++)
+        for (int x = 0; x < tile->w; x++) {
+            volux_primary pr = volux_primary_ray(&rc->camera, rc->seed, tile->x0 + x, tile->y0 + y, tile->sample_index);
+            volux_vec3 e = volux_scene_escape_radiance(scene, pr.d);
+            float *o = &rgb[3 * (y * tile->w + x)];
+            if (!volux_ray_clip(rc->volume, pr.o, pr.d, &r[n].ray)) {
+                o[0] = e.x, o[1] = e.y, o[2] = e.z;
+                continue;
+            }
+            ray_march_init(&r[n], &m, pr.jitter);
+            bg[n] = e;
+            out[n] = o;
+            if (++n < 2) continue;
+            march_pair(&m, tech, r, &count, variant);
+            for (int q = 0; q < 2; q++) {
+                out[q][0] = r[q].C[0] + r[q].T * bg[q].x;
+                out[q][1] = r[q].C[1] + r[q].T * bg[q].y;
+                out[q][2] = r[q].C[2] + r[q].T * bg[q].z;
+            }
+            n = 0;
+        }
+    if (n) { /* an odd ray out */
+        float a, b;
+        int gap;
+        while (volux_segments_next(&r[0].seg, &a, &b, &gap))
+            if (!ray_march_step(&m, tech, &r[0], a, b, gap, &count, variant)) break;
+        out[0][0] = r[0].C[0] + r[0].T * bg[0].x;
+        out[0][1] = r[0].C[1] + r[0].T * bg[0].y;
+        out[0][2] = r[0].C[2] + r[0].T * bg[0].z;
+    }
+    stats->samples += count;
+}
+
 static inline __attribute__((always_inline)) void tile_as(const dvr_state *st, const volux_scene *scene,
                                                            const volux_tile *tile, float *rgb,
                                                            volux_tile_stats *stats, int shaded, int preint) {
@@ -380,15 +504,13 @@ static inline __attribute__((always_inline)) void tile_as(const dvr_state *st, c
     scalar_ctx_init(&sc, st);
     switch (st->rc.volume->storage) {
     case VOLUX_STORE_U8:
-        volux_raycaster_tile(&st->rc, &sc, scene, tile, rgb, stats, integrate, DVR_VARIANT(shaded, preint, VOLUX_STORE_U8));
+        tile_pairs(st, &sc, scene, tile, rgb, stats, DVR_VARIANT(shaded, preint, VOLUX_STORE_U8));
         break;
     case VOLUX_STORE_U16:
-        volux_raycaster_tile(&st->rc, &sc, scene, tile, rgb, stats, integrate,
-                             DVR_VARIANT(shaded, preint, VOLUX_STORE_U16));
+        tile_pairs(st, &sc, scene, tile, rgb, stats, DVR_VARIANT(shaded, preint, VOLUX_STORE_U16));
         break;
     default:
-        volux_raycaster_tile(&st->rc, &sc, scene, tile, rgb, stats, integrate,
-                             DVR_VARIANT(shaded, preint, VOLUX_STORE_F32));
+        tile_pairs(st, &sc, scene, tile, rgb, stats, DVR_VARIANT(shaded, preint, VOLUX_STORE_F32));
         break;
     }
 }
