@@ -85,6 +85,7 @@ static const char *write_volume(const storage_case *sc) {
 }
 
 static double g_step = 0.45; /* render.step of the scenes below (voxels) */
+static int g_spp = 2;        /* render.spp of the scenes below */
 
 /* Scene JSON for storage `sc`; TF positions are fractions of its range. */
 static volux_scene *make_scene_t(volux_context *ctx, const char *tech, const storage_case *sc, const char *file,
@@ -101,11 +102,11 @@ static volux_scene *make_scene_t(volux_context *ctx, const char *tech, const sto
              " \"lights\": [{\"type\": \"directional\", \"direction\": [-1, -0.5, -0.8], \"irradiance\": 1.5},"
              "              {\"type\": \"directional\", \"direction\": [0.6, -1, 0.2], \"irradiance\": 0.7,"
              "               \"color\": [1, 0.7, 0.4]}],"
-             " \"render\": {\"width\": %d, \"height\": %d, \"spp\": 2, \"step\": %g},"
+             " \"render\": {\"width\": %d, \"height\": %d, \"spp\": %d, \"step\": %g},"
              " \"techniques\": {\"%s\": {\"preintegrate\": %s, \"skip_empty\": %s, \"early_termination\": %g}}}",
              file, NX, NY, NZ, sc->type, S_(0), S_(0.3), S_(0.36), S_(0.42), S_(0.6), S_(0.8), S_(1.0), S_(0),
              S_(0.36), S_(0.7), S_(1.0), ortho ? "\"type\": \"orthographic\", " : "", ortho ? "-60" : "35",
-             ortho ? "10" : "25", W, H, g_step, tech, preint ? "true" : "false", skip ? "true" : "false", early);
+             ortho ? "10" : "25", W, H, g_spp, g_step, tech, preint ? "true" : "false", skip ? "true" : "false", early);
 #undef S_
     return tu_scene(ctx, json);
 }
@@ -484,6 +485,54 @@ static void test_kernel_parameter_is_validated(void **state) {
     volux_context_destroy(ctx);
 }
 
+
+/* The scalar kernel marches the rays of a tile two at a time (dvr.c,
+ * tile_pairs: the operations of volux_ea_march per ray, in the same
+ * order). volux_render_part on an ordinary volume still marches one ray at
+ * a time (volux_raycaster_tile_part + volux_ea_march) and adds the
+ * background behind it, so for one sample per pixel both give the same
+ * bits: on every storage type, with and without pre-integration, skipping
+ * and early termination (rays of a pair ending at different segments),
+ * ea and shaded, and an odd number of rays per tile (37×29 pixels). */
+static void test_scalar_pairs_match_single_ray_march(void **state) {
+    (void)state;
+    static const char *techs[] = {"ea", "shaded"};
+    volux_context *ctx = tu_context(2);
+    g_spp = 1;
+    int compared = 0;
+    for (size_t t = 0; t < sizeof storages / sizeof storages[0]; t++) {
+        const char *file = write_volume(&storages[t]);
+        for (int tech = 0; tech < 2; tech++)
+            for (int preint = 0; preint < 2; preint++)
+                for (int skip_empty = 0; skip_empty < 2; skip_empty++)
+                    for (int early = 0; early < 2; early++) {
+                        volux_scene *s = make_scene_t(ctx, techs[tech], &storages[t], file, early, preint,
+                                                      skip_empty, early ? 0.3 : 0.0);
+                        volux_image a = render_kernel_t(ctx, s, techs[tech], "scalar");
+                        volux_technique *tq = NULL;
+                        assert_int_equal(volux_technique_create(ctx, techs[tech], s, &tq), VOLUX_OK);
+                        float *rgbt = malloc(sizeof(float) * 4 * W * H);
+                        assert_non_null(rgbt);
+                        assert_int_equal(volux_render_part(tq, s, 0, rgbt, NULL, NULL), VOLUX_OK);
+                        int differ = 0;
+                        for (int p = 0; p < W * H; p++)
+                            for (int c = 0; c < 3; c++) differ += a.rgb[3 * p + c] != rgbt[4 * p + c];
+                        if (differ)
+                            fail_msg("%s %s preint=%d skip=%d early=%d: %d channels differ between the paired and "
+                                     "the single-ray scalar march",
+                                     techs[tech], storages[t].type, preint, skip_empty, early, differ);
+                        compared++;
+                        free(rgbt);
+                        volux_technique_destroy(tq);
+                        volux_image_free(ctx, &a);
+                        volux_scene_destroy(s);
+                    }
+    }
+    g_spp = 2;
+    assert_int_equal(compared, 4 * 2 * 2 * 2 * 2);
+    volux_context_destroy(ctx);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_simd_matches_scalar),
@@ -497,6 +546,7 @@ int main(void) {
         cmocka_unit_test(test_widths_are_bit_identical),
         cmocka_unit_test(test_coarse_steps),
         cmocka_unit_test(test_kernel_parameter_is_validated),
+        cmocka_unit_test(test_scalar_pairs_match_single_ray_march),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

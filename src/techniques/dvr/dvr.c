@@ -329,43 +329,234 @@ static inline void shade(const dvr_state *st, volux_vec3 p_world, volux_vec3 q, 
 enum { DVR_SHADED = 1, DVR_PREINT = 2 };
 #define DVR_VARIANT(shaded, preint, storage) ((shaded) | (preint) << 1 | (int)(storage) << 2)
 
+/* What the scalar sampler needs of the volume, computed once per tile
+ * instead of per sample: the highest cell index per axis (dims − 2, as
+ * volux_volume_cell clamps) and the brick strides in nodes, so a sample's
+ * brick offset is (i>>3)·729 + (j>>3)·sy + (k>>3)·sz plus the offset inside
+ * the brick — the same integer as volux_volume_sample_bricked's brick
+ * index · 729, and the same trilinear arithmetic, so the same bits. Why:
+ * the loop is instruction-bound, and per sample it re-read the volume's
+ * dims and brick counts and re-derived the clamps and the brick index (two
+ * 64-bit multiplies and three ·9 steps): ≈ 20 of its ≈ 150 instructions. */
+typedef struct scalar_ctx {
+    const dvr_state *st;
+    const unsigned char *bricks;
+    int imax[3];
+    size_t sy, sz;
+    float offset;
+} scalar_ctx;
+
+static inline void scalar_ctx_init(scalar_ctx *sc, const dvr_state *st) {
+    const volux_volume *v = st->rc.volume;
+    sc->st = st;
+    sc->bricks = v->bricks;
+    for (int a = 0; a < 3; a++) sc->imax[a] = v->dims[a] > 1 ? v->dims[a] - 2 : 0;
+    sc->sy = (size_t)v->brick_counts[0] * VOLUX_BRICK_VOXELS;
+    sc->sz = (size_t)v->brick_counts[0] * (size_t)v->brick_counts[1] * VOLUX_BRICK_VOXELS;
+    sc->offset = v->value_offset;
+}
+
 static inline __attribute__((always_inline)) float sample_at(const void *tech, const volux_ray *r, float t,
                                                               int variant) {
-    const dvr_state *st = tech;
-    return volux_volume_sample_bricked(st->rc.volume, r->q0.x + r->dq.x * t, r->q0.y + r->dq.y * t,
-                                       r->q0.z + r->dq.z * t, (volux_storage)(variant >> 2));
+    const scalar_ctx *sc = tech;
+    const float x = r->q0.x + r->dq.x * t, y = r->q0.y + r->dq.y * t, z = r->q0.z + r->dq.z * t;
+    int i = (int)x, j = (int)y, k = (int)z;
+    i = i > sc->imax[0] ? sc->imax[0] : i < 0 ? 0 : i;
+    j = j > sc->imax[1] ? sc->imax[1] : j < 0 ? 0 : j;
+    k = k > sc->imax[2] ? sc->imax[2] : k < 0 ? 0 : k;
+    const float fx = x - (float)i, fy = y - (float)j, fz = z - (float)k;
+    enum { SY = VOLUX_BRICK_NODES, SZ = VOLUX_BRICK_NODES * VOLUX_BRICK_NODES };
+    const size_t b = (size_t)(i >> 3) * VOLUX_BRICK_VOXELS + (size_t)(j >> 3) * sc->sy + (size_t)(k >> 3) * sc->sz +
+                     (size_t)((i & 7) + SY * (j & 7) + SZ * (k & 7));
+    float n[8];
+#define VOLUX_FETCH_(T)                                                                                           \
+    do {                                                                                                          \
+        const T *p = (const T *)(const void *)sc->bricks + b;                                                     \
+        n[0] = p[0], n[1] = p[1], n[2] = p[SY], n[3] = p[SY + 1];                                                 \
+        n[4] = p[SZ], n[5] = p[SZ + 1], n[6] = p[SZ + SY], n[7] = p[SZ + SY + 1];                                 \
+    } while (0)
+    const volux_storage storage = (volux_storage)(variant >> 2);
+    if (storage == VOLUX_STORE_U8) VOLUX_FETCH_(uint8_t);
+    else if (storage == VOLUX_STORE_U16) VOLUX_FETCH_(uint16_t);
+    else VOLUX_FETCH_(float);
+#undef VOLUX_FETCH_
+    return volux_lerp3(n, fx, fy, fz) + sc->offset;
 }
 
 static inline __attribute__((always_inline)) void shade_at(const void *tech, const volux_ray *ray, float t,
                                                             float c[3], int variant) {
-    if (variant & DVR_SHADED) shade(tech, v3_madd(ray->o, ray->d, t), v3_madd(ray->q0, ray->dq, t), ray->d, c);
+    const scalar_ctx *sc = tech;
+    if (variant & DVR_SHADED) shade(sc->st, v3_madd(ray->o, ray->d, t), v3_madd(ray->q0, ray->dq, t), ray->d, c);
 }
 
 static inline __attribute__((always_inline)) volux_vec3 integrate(const void *tech, const volux_ray *ray,
                                                                    float jitter, float *T, uint64_t *samples,
                                                                    int variant) {
-    const dvr_state *st = tech;
+    const dvr_state *st = ((const scalar_ctx *)tech)->st;
     const volux_ea_march_desc m = {st->rc.lut, st->skip_empty ? &st->rc.grid : NULL, st->rc.step, st->t_min};
     return volux_ea_march(&m, tech, ray, jitter, T, samples, (variant & DVR_PREINT) != 0, sample_at,
                           (variant & DVR_SHADED) ? shade_at : NULL, variant);
 }
 
+/* ---- two rays per loop iteration (the scalar tile loop) ----
+ * One ray's march is the operations of volux_ea_march, per ray and in the
+ * same order, so every pixel has the same bits; two rays advance in one
+ * loop so that the out-of-order core has two independent sample chains
+ * (position → brick → 8 loads → trilinear → table → τ) side by side. */
+typedef struct ray_march {
+    volux_ray ray;
+    volux_segments seg;
+    volux_march_iter it;
+    volux_preint pi;
+    float T, C[3];
+    int live;
+} ray_march;
+
+static inline __attribute__((always_inline)) void ray_march_init(ray_march *r, const volux_ea_march_desc *m,
+                                                                  float jitter) {
+    r->T = 1.0f;
+    r->C[0] = r->C[1] = r->C[2] = 0.0f;
+    r->live = 1;
+    volux_segments_init(&r->seg, &r->it, m->grid, &r->ray, m->step, jitter);
+    r->pi = (volux_preint){0.0f, 0.0, {0.0, 0.0, 0.0}};
+}
+
+/* The body of volux_ea_march's loop for segment (a, b]; returns 0 when
+ * the ray terminates early. */
+static inline __attribute__((always_inline)) int ray_march_step(const volux_ea_march_desc *m, const void *tech,
+                                                                 ray_march *r, float a, float b, int gap,
+                                                                 uint64_t *count, int variant) {
+    const volux_transfer_lut *lut = m->lut;
+    const int preint = (variant & DVR_PREINT) != 0;
+    if (preint && gap) {
+        volux_preint_front(lut, sample_at(tech, &r->ray, a, variant), &r->pi);
+        ++*count;
+    }
+    float s = sample_at(tech, &r->ray, b, variant), c[3];
+    float tau = preint ? volux_preint_segment(lut, &r->pi, s, b - a, c) : volux_point_segment(lut, s, b - a, c);
+    ++*count;
+    if (tau <= 0.0f) return 1;
+    if (variant & DVR_SHADED) shade_at(tech, &r->ray, b, c, variant);
+    float alpha = 1.0f - expf(-tau);
+    float w = r->T * alpha;
+    r->C[0] += w * c[0];
+    r->C[1] += w * c[1];
+    r->C[2] += w * c[2];
+    r->T -= w;
+    return !(r->T < m->t_min);
+}
+
+static inline __attribute__((always_inline)) void march_pair(const volux_ea_march_desc *m, const void *tech,
+                                                             ray_march r[2], uint64_t *count, int variant) {
+    for (;;) {
+        float a0 = 0.0f, b0 = 0.0f, a1 = 0.0f, b1 = 0.0f; /* (set when h0 / h1) */
+        int g0 = 0, g1 = 0;
+        const int h0 = volux_segments_next(&r[0].seg, &a0, &b0, &g0);
+        const int h1 = volux_segments_next(&r[1].seg, &a1, &b1, &g1);
+        if (!(h0 && h1)) {
+            /* one ray (or none) left: finish it alone */
+            ray_march *last = h0 ? &r[0] : h1 ? &r[1] : NULL;
+            if (!last) return;
+            float a = h0 ? a0 : a1, b = h0 ? b0 : b1;
+            int gap = h0 ? g0 : g1;
+            if (!ray_march_step(m, tech, last, a, b, gap, count, variant)) return;
+            while (volux_segments_next(&last->seg, &a, &b, &gap))
+                if (!ray_march_step(m, tech, last, a, b, gap, count, variant)) return;
+            return;
+        }
+        const int k0 = ray_march_step(m, tech, &r[0], a0, b0, g0, count, variant);
+        const int k1 = ray_march_step(m, tech, &r[1], a1, b1, g1, count, variant);
+        if (!k0 || !k1) {
+            ray_march *last = k0 ? &r[0] : k1 ? &r[1] : NULL;
+            if (!last) return;
+            float a, b;
+            int gap;
+            while (volux_segments_next(&last->seg, &a, &b, &gap))
+                if (!ray_march_step(m, tech, last, a, b, gap, count, variant)) return;
+            return;
+        }
+    }
+}
+
+/* volux_raycaster_tile with the rays that hit the volume marched in pairs. */
+static inline __attribute__((always_inline)) void tile_pairs(const dvr_state *st, const void *tech,
+                                                             const volux_scene *scene, const volux_tile *tile,
+                                                             float *rgb, volux_tile_stats *stats, int variant) {
+    const volux_raycaster *rc = &st->rc;
+    const volux_ea_march_desc m = {rc->lut, st->skip_empty ? &rc->grid : NULL, rc->step, st->t_min};
+    uint64_t count = 0;
+    ray_march r[2];
+    volux_vec3 bg[2];
+    float *out[2];
+    int n = 0;
+    for (int y = 0; y < tile->h; y++)
+        for (int x = 0; x < tile->w; x++) {
+            volux_primary pr = volux_primary_ray(&rc->camera, rc->seed, tile->x0 + x, tile->y0 + y, tile->sample_index);
+            volux_vec3 e = volux_scene_escape_radiance(scene, pr.d);
+            float *o = &rgb[3 * (y * tile->w + x)];
+            if (!volux_ray_clip(rc->volume, pr.o, pr.d, &r[n].ray)) {
+                o[0] = e.x, o[1] = e.y, o[2] = e.z;
+                continue;
+            }
+            ray_march_init(&r[n], &m, pr.jitter);
+            bg[n] = e;
+            out[n] = o;
+            if (++n < 2) continue;
+            march_pair(&m, tech, r, &count, variant);
+            for (int q = 0; q < 2; q++) {
+                out[q][0] = r[q].C[0] + r[q].T * bg[q].x;
+                out[q][1] = r[q].C[1] + r[q].T * bg[q].y;
+                out[q][2] = r[q].C[2] + r[q].T * bg[q].z;
+            }
+            n = 0;
+        }
+    if (n) { /* an odd ray out */
+        float a, b;
+        int gap;
+        while (volux_segments_next(&r[0].seg, &a, &b, &gap))
+            if (!ray_march_step(&m, tech, &r[0], a, b, gap, &count, variant)) break;
+        out[0][0] = r[0].C[0] + r[0].T * bg[0].x;
+        out[0][1] = r[0].C[1] + r[0].T * bg[0].y;
+        out[0][2] = r[0].C[2] + r[0].T * bg[0].z;
+    }
+    stats->samples += count;
+}
+
 static inline __attribute__((always_inline)) void tile_as(const dvr_state *st, const volux_scene *scene,
                                                            const volux_tile *tile, float *rgb,
                                                            volux_tile_stats *stats, int shaded, int preint) {
+    scalar_ctx sc;
+    scalar_ctx_init(&sc, st);
     switch (st->rc.volume->storage) {
     case VOLUX_STORE_U8:
-        volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate, DVR_VARIANT(shaded, preint, VOLUX_STORE_U8));
+        tile_pairs(st, &sc, scene, tile, rgb, stats, DVR_VARIANT(shaded, preint, VOLUX_STORE_U8));
         break;
     case VOLUX_STORE_U16:
-        volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate,
-                             DVR_VARIANT(shaded, preint, VOLUX_STORE_U16));
+        tile_pairs(st, &sc, scene, tile, rgb, stats, DVR_VARIANT(shaded, preint, VOLUX_STORE_U16));
         break;
     default:
-        volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate,
-                             DVR_VARIANT(shaded, preint, VOLUX_STORE_F32));
+        tile_pairs(st, &sc, scene, tile, rgb, stats, DVR_VARIANT(shaded, preint, VOLUX_STORE_F32));
         break;
     }
+}
+
+/* The scalar kernel twice: for x86-64-v3 (AVX2, BMI, FMA: VEX encodings,
+ * roundss for floorf; C11 keeps fp-contract off, so no multiply-add is
+ * fused and the image has the same bits) and the baseline, picked once at
+ * load time (ifunc). Measured on Zen 4: 43–44 → 46 M samples/CPU-s for the
+ * whole loop compiled that way (docs/BENCHMARKS.md, session 4). */
+#if defined(__x86_64__) && defined(__GNUC__) && defined(__ELF__)
+#define VOLUX_SCALAR_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define VOLUX_SCALAR_CLONES
+#endif
+
+VOLUX_SCALAR_CLONES static void scalar_tile(const dvr_state *st, const volux_scene *scene, const volux_tile *tile,
+                                            float *rgb, volux_tile_stats *stats) {
+    if (st->shaded && st->preintegrate) tile_as(st, scene, tile, rgb, stats, 1, 1);
+    else if (st->shaded) tile_as(st, scene, tile, rgb, stats, 1, 0);
+    else if (st->preintegrate) tile_as(st, scene, tile, rgb, stats, 0, 1);
+    else tile_as(st, scene, tile, rgb, stats, 0, 0);
 }
 
 void volux_dvr_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
@@ -373,26 +564,25 @@ void volux_dvr_render_tile(const void *state, const volux_scene *scene, const vo
     const dvr_state *st = state;
     if (st->use_simd && st->simd_lanes == 16) volux_dvr_render_tile_avx512(st, scene, tile, rgb, stats);
     else if (st->use_simd) volux_dvr_render_tile_avx2(st, scene, tile, rgb, stats);
-    else if (st->shaded && st->preintegrate) tile_as(st, scene, tile, rgb, stats, 1, 1);
-    else if (st->shaded) tile_as(st, scene, tile, rgb, stats, 1, 0);
-    else if (st->preintegrate) tile_as(st, scene, tile, rgb, stats, 0, 1);
-    else tile_as(st, scene, tile, rgb, stats, 0, 0);
+    else scalar_tile(st, scene, tile, rgb, stats);
 }
 
 static inline __attribute__((always_inline)) void part_as(const dvr_state *st, const volux_scene *scene,
                                                            const volux_tile *tile, int background, float *rgbt,
                                                            volux_tile_stats *stats, int shaded, int preint) {
+    scalar_ctx sc;
+    scalar_ctx_init(&sc, st);
     switch (st->rc.volume->storage) {
     case VOLUX_STORE_U8:
-        volux_raycaster_tile_part(&st->rc, st, scene, tile, background, rgbt, stats, integrate,
+        volux_raycaster_tile_part(&st->rc, &sc, scene, tile, background, rgbt, stats, integrate,
                                   DVR_VARIANT(shaded, preint, VOLUX_STORE_U8));
         break;
     case VOLUX_STORE_U16:
-        volux_raycaster_tile_part(&st->rc, st, scene, tile, background, rgbt, stats, integrate,
+        volux_raycaster_tile_part(&st->rc, &sc, scene, tile, background, rgbt, stats, integrate,
                                   DVR_VARIANT(shaded, preint, VOLUX_STORE_U16));
         break;
     default:
-        volux_raycaster_tile_part(&st->rc, st, scene, tile, background, rgbt, stats, integrate,
+        volux_raycaster_tile_part(&st->rc, &sc, scene, tile, background, rgbt, stats, integrate,
                                   DVR_VARIANT(shaded, preint, VOLUX_STORE_F32));
         break;
     }
