@@ -68,15 +68,18 @@ static const volux_param_info ambient_params[] = {
     {"offset", VOLUX_PARAM_NUMBER, 1, 0, 1, NULL,
      "camera transmittance from x_o = x + offset·lag·ω; 0 takes T(x) as single scattering does "
      "(see docs/techniques/ambient.md, section 8)"},
-    {"offset_mode", VOLUX_PARAM_STRING, 0, 0, 0, "adaptive",
-     "lag of x_o: \"adaptive\" = min(r, offset_mfp/σt(x)): the paper's r where r·σt ≤ offset_mfp, "
-     "offset_mfp mean free paths in denser media; \"constant\" = r (Eq. 20, the paper); \"fill\" = "
-     "min(r, fill_mfp·min(1, 2·fill)/σt(x)) with the lag integrated exactly over each step and the table's "
-     "collided light not weighted by the albedo twice (docs/techniques/ambient.md, section 8)"},
+    {"offset_mode", VOLUX_PARAM_STRING, 0, 0, 0, "fill",
+     "lag of x_o: \"fill\" = min(r, fill_mfp·min(1, 2·fill)/σt(x)), integrated exactly over each step; "
+     "\"adaptive\" = min(r, offset_mfp/σt(x)) read one step late (the default before issue 17); \"constant\" = r "
+     "(Eq. 20, the paper) (docs/techniques/ambient.md, section 8)"},
     {"offset_mfp", VOLUX_PARAM_NUMBER, 2, 0.01, 100, NULL,
      "adaptive lag cap in local mean free paths 1/σt(x)"},
     {"fill_mfp", VOLUX_PARAM_NUMBER, 0.75, 0.01, 100, NULL,
      "offset_mode \"fill\": lag cap in local mean free paths, times min(1, 2·fill) (fill = ρ/(r·σt(x)))"},
+    {"albedo_once", VOLUX_PARAM_BOOL, 1, 0, 1, NULL,
+     "divide the table's collided light by albedo·c in proportion to the view line's collision probability "
+     "1 − e^{−2ρ}: in a thick sphere its last collision is the view sample's own scattering, which σs already "
+     "weights (needs the tinted albedo axis; docs/techniques/ambient.md, section 8)"},
     {"ao", VOLUX_PARAM_NUMBER, 0, 0, 1e6, NULL,
      "radiance of a white ambient light added through SAT ambient occlusion (0 = off; environment lights are "
      "always added this way)"},
@@ -411,6 +414,7 @@ static volux_status ambient_update(void *state, const volux_scene *scene, const 
         st->offset = (float)volux_technique_param(scene, cls, "offset");
         const char *mode = volux_technique_param_string(scene, cls, "offset_mode");
         st->fill = 0;
+        st->albedo_once = (int)volux_technique_param(scene, cls, "albedo_once");
         if (!strcmp(mode, "adaptive")) st->offset_mfp = (float)volux_technique_param(scene, cls, "offset_mfp");
         else if (!strcmp(mode, "constant")) st->offset_mfp = 0.0f;
         else if (!strcmp(mode, "fill")) st->fill = 1, st->offset_mfp = (float)volux_technique_param(scene, cls, "fill_mfp");
@@ -568,13 +572,23 @@ static inline volux_vec3 tinted_lookup(const ambient_state *st, float ut, float 
     if (it > nt - 2) it = nt - 2;
     if (is > ns - 2) is = ns - 2;
     float ft = ut - (float)it, fs = us - (float)is, out[3];
-    /* offset_mode "fill": the view ray's σs·albedo·c already weights the
-     * scattering at x once; the table's collided part L̃o − L̃o(albedo 0)
-     * has every event inside the sphere weighted by albedo·c again. Read
-     * it divided by albedo·c (exact and finite: linear in the albedo from
-     * the node 0 up); the uncollided part stays as it is. */
-    int unweight = st->fill && st->table.desc.albedo[0] == 0.0;
+    /* albedo_once (docs/techniques/ambient.md §8). The table's collided
+     * part L̃o − L̃o(albedo 0) starts, in light-travel order backwards, with
+     * a collision on the view line through the sphere (the estimator's
+     * forced first collision on the diameter, probability 1 − e^{−2ρ},
+     * §2), weighted by albedo·c; the view ray weights its sample by
+     * σs = albedo·c·σt again. In a thin sphere that collision is a
+     * neighbour's scattering (second order: (albedo·c)² is right); in a
+     * thick one the view line is collided wherever the camera can see
+     * into it, and that collision is the view sample's own scattering
+     * counted twice ((albedo·c)² where a path tracer has albedo·c). Read
+     * the collided part divided by albedo·c with the weight w = 1 − e^{−2ρ}
+     * between the two limits: × (1 + w·(1/(albedo·c) − 1)) (finite: the
+     * part is linear in the albedo from the node 0 up). The uncollided
+     * part L̃o(albedo 0) stays as it is. */
+    int unweight = st->albedo_once && st->table.desc.albedo[0] == 0.0;
     float v_zero = unweight ? slab_lookup(st, 0, it, is, ft, fs) : 0.0f;
+    float w_once = unweight ? 1.0f - volux_exp_nonpos_t6(-2.0f * us / st->u_sigma) : 0.0f;
     for (int c = 0; c < 3; c++) {
         float x = a[c] * (float)(AMBIENT_ALBEDO_LUT - 1);
         x = x < 0.0f ? 0.0f : (x > (float)(AMBIENT_ALBEDO_LUT - 1) ? (float)(AMBIENT_ALBEDO_LUT - 1) : x);
@@ -586,7 +600,7 @@ static inline volux_vec3 tinted_lookup(const ambient_state *st, float ut, float 
         float fa = u - (float)ia;
         float v0 = slab_lookup(st, ia, it, is, ft, fs), v1 = slab_lookup(st, ia + 1, it, is, ft, fs);
         out[c] = v0 + (v1 - v0) * fa;
-        if (unweight) out[c] = v_zero + (out[c] - v_zero) / (a[c] > 0.02f ? a[c] : 0.02f);
+        if (unweight) out[c] = v_zero + (out[c] - v_zero) * (1.0f + w_once * (1.0f / (a[c] > 0.02f ? a[c] : 0.02f) - 1.0f));
     }
     return v3(out[0], out[1], out[2]);
 }
