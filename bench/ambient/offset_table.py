@@ -19,10 +19,11 @@ for line in open(sys.argv[1]):
     col = r["technique"] if r["technique"] != "ambient" else "ambient " + r["variant"]
     rows[key].setdefault(r["radius"], {})[col] = r["rel_mse"]
 
-cols = ["single", "ao", "ambient constant", "ambient offset0", "ambient adaptive", "ambient fill"]
-print("| scene | r | `single` | `ao` | `ambient` constant (Eq. 20) | `ambient` offset 0 | `ambient` adaptive (default) "
-      "| `ambient` fill |")
-print("|---|---|---|---|---|---|---|---|")
+cols = ["single", "ao", "ambient constant", "ambient offset0", "ambient adaptive", "ambient adaptive_once",
+        "ambient fill"]
+print("| scene | r | `single` | `ao` | `ambient` constant (Eq. 20) | `ambient` offset 0 | `ambient` adaptive (old default) "
+      "| adaptive + albedo_once | `ambient` fill + albedo_once (default) |")
+print("|---|---|---|---|---|---|---|---|---|")
 for scene in order:
     by_r = rows[scene]
     single = by_r.get(0, {}).get("single")

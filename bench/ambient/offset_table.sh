@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # bench/ambient/offset_table.sh — issue 17's accuracy table: rel_mse against
 # `pathtrace` (all scattering orders, max_depth 64) of single, ao and
-# ambient with the four camera offsets (constant = Eq. 20, offset 0,
-# adaptive = the default, fill) over thin / medium / dense procedural media
+# ambient: the camera offsets constant (Eq. 20), offset 0 and adaptive (the
+# old default) with the table's albedo weighting as before (albedo_once
+# false), adaptive with albedo_once, and fill (the default) over thin / medium / dense procedural media
 # (media/*.json) at r = 2, 4, 8, 14 voxels and on bonsai, engine,
 # aneurism (their own r), all at SIZE² pixels.
 #
@@ -47,10 +48,13 @@ reference() {
 ambient_variants() { # NAME SCENE RADIUS
   local name=$1 scene=$2 r=$3
   local rs=(--set techniques.ambient.radius="$r")
-  measure "$name" "$scene" ambient constant "$r" "${rs[@]}" --set 'techniques.ambient.offset_mode="constant"'
-  measure "$name" "$scene" ambient offset0 "$r" "${rs[@]}" --set techniques.ambient.offset=0
-  measure "$name" "$scene" ambient adaptive "$r" "${rs[@]}"
-  measure "$name" "$scene" ambient fill "$r" "${rs[@]}" --set 'techniques.ambient.offset_mode="fill"'
+  local old=(--set techniques.ambient.albedo_once=false) # the table's albedo weighting as before issue 17
+  measure "$name" "$scene" ambient constant "$r" "${rs[@]}" "${old[@]}" --set 'techniques.ambient.offset_mode="constant"'
+  measure "$name" "$scene" ambient offset0 "$r" "${rs[@]}" "${old[@]}" --set 'techniques.ambient.offset_mode="adaptive"' \
+    --set techniques.ambient.offset=0
+  measure "$name" "$scene" ambient adaptive "$r" "${rs[@]}" "${old[@]}" --set 'techniques.ambient.offset_mode="adaptive"'
+  measure "$name" "$scene" ambient adaptive_once "$r" "${rs[@]}" --set 'techniques.ambient.offset_mode="adaptive"'
+  measure "$name" "$scene" ambient fill "$r" "${rs[@]}"
 }
 
 if [ -n "${REFS_ONLY:-}" ]; then # render the references only

@@ -75,6 +75,45 @@ static void test_black_medium_is_uncollided_term(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* Between g nodes the lookup keeps the uncollided term exact: at σ̃t = 0
+ * it is p_g(cos θ) at any g (log-linear interpolation of the entries gave
+ * √(p_0.45·p_0.9) at g = 0.7's forward peak, far from p_0.7), and in a
+ * black medium (nothing but the uncollided term) it is the analytic term
+ * at every (θ, σ̃t) node and g. A collided part is still log-linear. */
+static void test_lookup_between_g_nodes_keeps_the_uncollided_term(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(2);
+    volux_ambient_table_desc d = small_desc(); /* g nodes 0.45 apart */
+    volux_ambient_table t = build(ctx, &d);
+    const double gs[] = {-0.8, -0.2, 0.3, 0.7, 0.85};
+    for (size_t k = 0; k < sizeof gs / sizeof gs[0]; k++)
+        for (int it = 0; it < d.n_theta; it++) {
+            double want = scatter_hg_d(gs[k], cos(theta_at(&d, it)));
+            assert_near(volux_ambient_table_eval(&t, theta_at(&d, it), 0.0, gs[k], 0.9), want, 1e-6 * want);
+        }
+    /* the collided part between nodes: log-linear (the entries at the two
+     * nodes minus their uncollided terms, geometric mean at the midpoint) */
+    int it = 5, is = 3;
+    double th = theta_at(&d, it), sg = sigma_at(&d, is), g0 = g_at(&d, 3), g1 = g_at(&d, 4), gm = 0.5 * (g0 + g1);
+    double c0 = at(&t, it, is, 3) - volux_ambient_uncollided(th, sg, g0);
+    double c1 = at(&t, it, is, 4) - volux_ambient_uncollided(th, sg, g1);
+    assert_true(c0 > 0.0 && c1 > 0.0);
+    double want = volux_ambient_uncollided(th, sg, gm) + sqrt(c0 * c1);
+    assert_near(volux_ambient_table_eval(&t, th, sg, gm, 0.9), want, 1e-6 * want);
+    volux_ambient_table_free(ctx, &t);
+    d.albedo[0] = 0.0;
+    t = build(ctx, &d);
+    for (size_t k = 0; k < sizeof gs / sizeof gs[0]; k++)
+        for (int js = 0; js < d.n_sigma; js++)
+            for (int jt = 0; jt < d.n_theta; jt++) {
+                double w = volux_ambient_uncollided(theta_at(&d, jt), sigma_at(&d, js), gs[k]);
+                assert_near(volux_ambient_table_eval(&t, theta_at(&d, jt), sigma_at(&d, js), gs[k], 0.0), w,
+                            1e-6 * w + 1e-30);
+            }
+    volux_ambient_table_free(ctx, &t);
+    volux_context_destroy(ctx);
+}
+
 /* g ↔ −g mirrors θ ↔ π − θ in the empty sphere (the phase lobe flips). */
 static void test_g_mirror_symmetry_at_zero_extinction(void **state) {
     (void)state;
@@ -650,6 +689,7 @@ int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_empty_sphere_gives_boundary_term),
         cmocka_unit_test(test_black_medium_is_uncollided_term),
+        cmocka_unit_test(test_lookup_between_g_nodes_keeps_the_uncollided_term),
         cmocka_unit_test(test_g_mirror_symmetry_at_zero_extinction),
         cmocka_unit_test(test_energy_bounds),
         cmocka_unit_test(test_fast_estimator_matches_paper_estimator),

@@ -48,12 +48,14 @@
  *   single_cache                   SINGLE 16², 4×4096   0.032  0.045   +0.0014 0.01    0.0167
  *   lightvol_two_lights_isotropic  SINGLE 16², 4×2048   0.060  0.08    −0.008  0.02    0.023
  *   lightvol_one_light_hg          SINGLE 16², 4×2048   0.075  0.10    −0.004  0.02    0.025
- *   ambient_thin_limit             THIN 16², 4×8192     0.043  0.06    −0.020  0.03    0.018
+ *   ambient_thin_limit             THIN 16², 4×8192     0.047  0.06    +0.018  0.03    0.018
  *   ao_thin_sky                    THIN_ENV 16², 4×8192 0.048  0.075   +0.017  0.03    0.037
  *   single_sky                     THIN_ENV 16², 4×8192 0.038  0.075   −0.010  0.03    0.037
  *   lightvol_sky                   THIN_ENV 16², 4×8192 0.034  0.075   −0.005  0.03    0.037
- *   ambient_thin (all orders)      THIN 16², 4×8192     0.117  0.15    +0.008  0.05    0.025
- *   ambient_dense (all orders)     DENSE 16², 4×2048    0.634  0.70    +0.144  0.20    0.021
+ *   ambient_thin (all orders)      THIN 16², 4×8192     0.170  0.20    +0.051  0.07    0.025
+ *   ambient_dense (all orders)     DENSE 16², 4×2048    0.608  0.66    +0.039  0.10    0.021
+ *   ambient_thin_adaptive          THIN 16², 4×8192     0.122  0.15    +0.018  0.05    0.025
+ *   ambient_dense_adaptive         DENSE 16², 4×2048    0.633  0.70    +0.142  0.20    0.021
  *
  * Why each model is exact (or nearly) in its case, and the mutations of
  * its source it was seen to catch, are next to each entry of CASES. A
@@ -286,8 +288,15 @@ static const ref_case CASES[] = {
      * is exact against nothing — with the TF's albedo ambient is +9 % here,
      * ambient.md §8 has real volumes — and is checked by
      * tests/physics/test_ambient_table.c instead.
-     * Measured 0.043 / −0.020 (noise 0.018). Bounds 0.06 / 0.03.
-     * Caught: table value ×1.1 (0.138 / +0.078); radiance-cache optical
+     * Measured 0.047 / +0.018 (noise 0.018). Before issue 17's last step
+     * 0.043 / −0.020; with offset_mode "fill" (the lag integrated exactly,
+     * where the old adaptive rule read T one step = r late, i.e. with no
+     * lag) 0.031 / −0.001; with the table's uncollided term exact between
+     * g nodes (g = 0.4 lies between the tiny table's 0 and 0.45, whose
+     * log-linear mean missed p_g by up to 4 %) 0.047 / +0.018: the
+     * collided light at the TF's albedo·c (tinted) shows. Bounds 0.06 /
+     * 0.03.
+     * Caught (measured with the old default): table value ×1.1 (0.138 / +0.078); radiance-cache optical
      * depth ×1.1 (0.080 / −0.043); light entry point x_j = x' + rω_j
      * instead of x' − rω_j (0.075 / −0.038). */
     {"ambient_thin_limit", "ambient", THIN,
@@ -320,14 +329,18 @@ static const ref_case CASES[] = {
      * caught here: directions reversed (a constant sky in a thin medium is
      * nearly symmetric; tests/physics/test_lightvol_env.c catches it). */
     {"lightvol_sky", "lightvol", THIN_ENV, {NULL}, REF_PATHTRACE, {NULL}, 8192, 1, 0.075, 0.03, 0},
-    /* ambient, default settings (the built-in table, the adaptive x_o,
-     * r = 8 voxels), the thin medium (σt ≤ 0.1, albedo 0.8), all scattering
-     * orders: multiple scattering adds a third (single scattering alone is
-     * 0.480 / −0.245 here), which the table's spheres carry.
-     * Measured 0.117 / +0.008 (noise 0.025). Bounds 0.15 / 0.05.
-     * Caught: `single` in its place (numbers above); no mutation of
-     * ambient's source was tried for this case. */
-    {"ambient_thin", "ambient", THIN, {NULL}, REF_PATHTRACE, {"render.max_depth=64", NULL}, 8192, 1, 0.15, 0.05, 0},
+    /* ambient, default settings (the built-in table, offset_mode "fill",
+     * albedo_once; r = 8 voxels), the thin medium (σt ≤ 0.1, albedo 0.8),
+     * all scattering orders: multiple scattering adds a third (single
+     * scattering alone is 0.480 / −0.245 here), which the table's spheres
+     * carry. Measured 0.170 / +0.051 (noise 0.025): worse than the old
+     * default (ambient_thin_adaptive, 0.122 / +0.018) — the albedo_once
+     * weight 1 − e^{−2ρ} is small but not 0 in these thin blobs (without
+     * it 0.121 / +0.013 before the g-interpolation change). Bounds 0.20 /
+     * 0.07.
+     * Caught: `single` in its place (numbers above); albedo_once with the
+     * full division (w = 1: 0.292 / +0.122). */
+    {"ambient_thin", "ambient", THIN, {NULL}, REF_PATHTRACE, {"render.max_depth=64", NULL}, 8192, 1, 0.20, 0.07, 0},
     /* ambient, default settings (r = 8 voxels), the dense medium (DENSE),
      * all orders. Not a case where the model is exact: at 16² every pixel
      * holds sharp silhouettes and shadow edges, so rel_rmse stays large
@@ -335,24 +348,21 @@ static const ref_case CASES[] = {
      * measures and to beating the alternatives. Measured with the same
      * reference: `single` 0.742 / −0.392; ambient with Eq. 20's constant
      * x_o 2.750 / +1.287 (the over-count of §8), with offset 0 1.001 /
-     * −0.489, with r = 2 / 4 voxels 0.405 / −0.125 and 0.442 / −0.030.
-     * Measured 0.634 / +0.144 (noise 0.021). Bounds 0.70 / 0.20.
-     * Caught: offset_mode "constant", offset 0 (numbers above). */
-    {"ambient_dense", "ambient", DENSE, {NULL}, REF_PATHTRACE, {NULL}, 2048, 1, 0.70, 0.20, 0},
-    /* offset_mode "fill" (opt-in, ambient.md §8), the same two media.
-     * Thin: measured 0.292 / +0.122 — worse than the default's 0.117 /
-     * +0.008: reading the collided part divided by albedo·c brightens
-     * these heterogeneous blobs by 11 % (without it 0.121 / +0.013), where
-     * it made the homogeneous thin phantom of §8 right (0.87 → 1.01 of
-     * the reference's brightness). Bounds 0.35 / 0.16.
-     * Dense: measured 0.605 / +0.047 (default 0.634 / +0.144). Bounds
-     * 0.66 / 0.10. Caught: the collided part not divided (0.704 / −0.210).
-     * Not caught: the fill factor off (0.582 / +0.095 — at 16² the lag
-     * cut does not show). */
-    {"ambient_thin_fill", "ambient", THIN, {"techniques.ambient.offset_mode=\"fill\"", NULL}, REF_PATHTRACE,
-     {"render.max_depth=64", NULL}, 8192, 1, 0.35, 0.16, 0},
-    {"ambient_dense_fill", "ambient", DENSE, {"techniques.ambient.offset_mode=\"fill\"", NULL}, REF_PATHTRACE, {NULL},
-     2048, 1, 0.66, 0.10, 0},
+     * −0.489, the old default (adaptive) 0.634 / +0.144.
+     * Measured 0.608 / +0.039 (noise 0.021). Bounds 0.66 / 0.10.
+     * Caught: albedo_once off (the collided part weighted by albedo·c
+     * twice: 0.704 / −0.210), offset_mode "constant" (above). */
+    {"ambient_dense", "ambient", DENSE, {NULL}, REF_PATHTRACE, {NULL}, 2048, 1, 0.66, 0.10, 0},
+    /* The default before issue 17's last step (offset_mode "adaptive",
+     * albedo_once off), the same two media: thin 0.122 / +0.018 (0.117 /
+     * +0.008 before the uncollided term became exact between g nodes;
+     * bounds 0.15 / 0.05), dense 0.633 / +0.142 (bounds 0.70 / 0.20). */
+    {"ambient_thin_adaptive", "ambient", THIN,
+     {"techniques.ambient.offset_mode=\"adaptive\"", "techniques.ambient.albedo_once=false", NULL}, REF_PATHTRACE,
+     {"render.max_depth=64", NULL}, 8192, 1, 0.15, 0.05, 0},
+    {"ambient_dense_adaptive", "ambient", DENSE,
+     {"techniques.ambient.offset_mode=\"adaptive\"", "techniques.ambient.albedo_once=false", NULL}, REF_PATHTRACE,
+     {NULL}, 2048, 1, 0.70, 0.20, 0},
 };
 #define N_CASES ((int)(sizeof CASES / sizeof CASES[0]))
 

@@ -4,7 +4,8 @@
  *
  *  1. Preintegration table L̃o(θ, σ̃t, g) (§4.1; table.c), loaded from the
  *     cache or built on first use; at each phase edit the slice at the
- *     scene's g is extracted (log-linear in g).
+ *     scene's g is extracted (the analytic uncollided term at g plus the
+ *     collided part log-linear in g, volux_ambient_g_interp).
  *  2. Ambient extinction volume (§4.2.1, Eqs. 12–13): σ̃t(x) is the mean σt
  *     over the cube of the sphere's volume, from the exact integer SAT
  *     (scatter/sat3d.h). The cube of equal volume rarely has an odd voxel
@@ -68,15 +69,18 @@ static const volux_param_info ambient_params[] = {
     {"offset", VOLUX_PARAM_NUMBER, 1, 0, 1, NULL,
      "camera transmittance from x_o = x + offset·lag·ω; 0 takes T(x) as single scattering does "
      "(see docs/techniques/ambient.md, section 8)"},
-    {"offset_mode", VOLUX_PARAM_STRING, 0, 0, 0, "adaptive",
-     "lag of x_o: \"adaptive\" = min(r, offset_mfp/σt(x)): the paper's r where r·σt ≤ offset_mfp, "
-     "offset_mfp mean free paths in denser media; \"constant\" = r (Eq. 20, the paper); \"fill\" = "
-     "min(r, fill_mfp·min(1, 2·fill)/σt(x)) with the lag integrated exactly over each step and the table's "
-     "collided light not weighted by the albedo twice (docs/techniques/ambient.md, section 8)"},
+    {"offset_mode", VOLUX_PARAM_STRING, 0, 0, 0, "fill",
+     "lag of x_o: \"fill\" = min(r, fill_mfp·min(1, 2·fill)/σt(x)), integrated exactly over each step; "
+     "\"adaptive\" = min(r, offset_mfp/σt(x)) read one step late (the default before issue 17); \"constant\" = r "
+     "(Eq. 20, the paper) (docs/techniques/ambient.md, section 8)"},
     {"offset_mfp", VOLUX_PARAM_NUMBER, 2, 0.01, 100, NULL,
      "adaptive lag cap in local mean free paths 1/σt(x)"},
     {"fill_mfp", VOLUX_PARAM_NUMBER, 0.75, 0.01, 100, NULL,
      "offset_mode \"fill\": lag cap in local mean free paths, times min(1, 2·fill) (fill = ρ/(r·σt(x)))"},
+    {"albedo_once", VOLUX_PARAM_BOOL, 1, 0, 1, NULL,
+     "divide the table's collided light by albedo·c in proportion to the view line's collision probability "
+     "1 − e^{−2ρ}: in a thick sphere its last collision is the view sample's own scattering, which σs already "
+     "weights (needs the tinted albedo axis; docs/techniques/ambient.md, section 8)"},
     {"ao", VOLUX_PARAM_NUMBER, 0, 0, 1e6, NULL,
      "radiance of a white ambient light added through SAT ambient occlusion (0 = off; environment lights are "
      "always added this way)"},
@@ -146,30 +150,63 @@ typedef struct slice_job {
     ambient_state *st;
     double *ln[4]; /* (albedo ia, g ig), (ia, ig + 1), (ia + 1, ig), (ia + 1, ig + 1) */
     double f, fa;  /* weights of g column ig + 1 and albedo block ia + 1 */
+    double g;      /* the scene's g, clamped to the table's axis */
+    const double *unc; /* uncollided term per (σ, θ) node at g_ig, g_ig+1, g */
     int ig, ia;
 } slice_job;
 
-/* ln of one σ row of the (ia, ig) block (0 where the entry is not
- * positive: the slice then interpolates linearly). */
+static double node_theta(const volux_ambient_table_desc *d, size_t it) {
+    return 3.14159265358979323846 * (double)it / (double)(d->n_theta - 1);
+}
+static double node_sigma(const volux_ambient_table_desc *d, size_t is) {
+    return d->sigma_max * (double)is / (double)(d->n_sigma - 1);
+}
+static double node_g(const volux_ambient_table_desc *d, int ig) {
+    return d->g_min + (d->g_max - d->g_min) * (double)ig / (double)(d->n_g - 1);
+}
+
+/* ln of the collided part (entry − the analytic uncollided term) of one σ
+ * row of the (ia, ig) block (0 where it is not positive: the slice then
+ * interpolates linearly). */
 static void ln_row(void *user, int64_t is, int thread) {
     (void)thread;
     const slice_job *j = user;
     const volux_ambient_table_desc *d = &j->st->table.desc;
     size_t nt = (size_t)d->n_theta;
     for (size_t it = 0; it < nt; it++) {
-        double a = j->st->table.data[volux_ambient_table_index4(d, (int)it, (int)is, j->ig, j->ia)];
+        double a = j->st->table.data[volux_ambient_table_index4(d, (int)it, (int)is, j->ig, j->ia)] -
+                   volux_ambient_uncollided(node_theta(d, it), node_sigma(d, (size_t)is), node_g(d, j->ig));
         j->ln[0][(size_t)is * nt + it] = a > 0.0 ? log(a) : 0.0;
     }
 }
 
-/* Log-linear in g between columns ig and ig + 1 of albedo block ia; ln
- * holds the logarithms of the two columns. */
+/* The table at g between columns ig and ig + 1 of albedo block ia
+ * (volux_ambient_g_interp: the uncollided term exact at g, the collided
+ * part log-linear); ln holds the logarithms of the two columns' collided
+ * parts. */
 static inline double g_lerp(const slice_job *j, double *const ln[2], int ia, size_t is, size_t it) {
     const volux_ambient_table_desc *d = &j->st->table.desc;
-    size_t k = is * (size_t)d->n_theta + it;
-    double a = j->st->table.data[volux_ambient_table_index4(d, (int)it, (int)is, j->ig, ia)];
-    double b = j->st->table.data[volux_ambient_table_index4(d, (int)it, (int)is, j->ig + 1, ia)];
-    return a > 0.0 && b > 0.0 ? exp(ln[0][k] * (1.0 - j->f) + ln[1][k] * j->f) : a * (1.0 - j->f) + b * j->f;
+    size_t k = is * (size_t)d->n_theta + it, n = (size_t)d->n_sigma * (size_t)d->n_theta;
+    double a = j->st->table.data[volux_ambient_table_index4(d, (int)it, (int)is, j->ig, ia)] - j->unc[k];
+    double b = j->st->table.data[volux_ambient_table_index4(d, (int)it, (int)is, j->ig + 1, ia)] - j->unc[n + k];
+    double c = a > 0.0 && b > 0.0 ? exp(ln[0][k] * (1.0 - j->f) + ln[1][k] * j->f) : a * (1.0 - j->f) + b * j->f;
+    return j->unc[2 * n + k] + c;
+}
+
+/* One σ row of the uncollided term at g_ig, g_ig+1 and g. */
+static void unc_row(void *user, int64_t is, int thread) {
+    (void)thread;
+    const slice_job *j = user;
+    const volux_ambient_table_desc *d = &j->st->table.desc;
+    size_t nt = (size_t)d->n_theta, n = (size_t)d->n_sigma * nt;
+    double *unc = (double *)j->unc, sg = node_sigma(d, (size_t)is), ga = node_g(d, j->ig), gb = node_g(d, j->ig + 1);
+    for (size_t it = 0; it < nt; it++) {
+        double th = node_theta(d, it);
+        size_t k = (size_t)is * nt + it;
+        unc[k] = volux_ambient_uncollided(th, sg, ga);
+        unc[n + k] = volux_ambient_uncollided(th, sg, gb);
+        unc[2 * n + k] = volux_ambient_uncollided(th, sg, j->g);
+    }
 }
 
 /* One σ row of the slice at (g, albedo): log-linear in g, linear in the
@@ -199,9 +236,16 @@ static void slab_row(void *user, int64_t row, int thread) {
     for (size_t it = 0; it < nt; it++) j->st->slab[((size_t)ia * ns + is) * nt + it] = (float)g_lerp(j, ln, ia, is, it);
 }
 
+/* The scene's g on the table's g axis (lookups clamp there). */
+static double clamped_g(const ambient_state *st) {
+    const volux_ambient_table_desc *d = &st->table.desc;
+    double g = (double)st->b.rc.g;
+    return g < d->g_min ? d->g_min : (g > d->g_max ? d->g_max : g);
+}
+
 /* The slab: the table at g for every albedo node, read per colour channel
  * at albedo·c (tinted multiple scattering, see inscatter). */
-static volux_status build_slab(ambient_state *st, int i0, double f) {
+static volux_status build_slab(ambient_state *st, int i0, double f, const double *unc) {
     const volux_ambient_table_desc *d = &st->table.desc;
     size_t ns = (size_t)d->n_sigma, nt = (size_t)d->n_theta;
     if (!st->tinted || d->n_albedo < 2) {
@@ -217,7 +261,7 @@ static volux_status build_slab(ambient_state *st, int i0, double f) {
         st->slab_bytes = st->slab ? bytes : 0;
         if (!st->slab) return volux_error(st->b.rc.ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the table slab");
     }
-    slice_job job = {st, {NULL, NULL, NULL, NULL}, f, 0.0, i0, 0};
+    slice_job job = {st, {NULL, NULL, NULL, NULL}, f, 0.0, clamped_g(st), unc, i0, 0};
     for (int ia = 0; ia < d->n_albedo; ia++)
         for (int c = 0; c < 2; c++) {
             double **col = &st->ln_col[(size_t)ia * (size_t)d->n_g + (size_t)(i0 + c)];
@@ -239,8 +283,9 @@ static volux_status build_slab(ambient_state *st, int i0, double f) {
     return VOLUX_OK;
 }
 
-/* The table slice at g (log-linear between g nodes, as the table's own
- * lookup) and the normalised, clamped tube factor τ (see the header). */
+/* The table slice at g (the uncollided term exact, the collided part
+ * log-linear between g nodes, as the table's own lookup) and the
+ * normalised, clamped tube factor τ (see the header). */
 static volux_status build_slice(ambient_state *st) {
     const volux_ambient_table_desc *d = &st->table.desc;
     volux_status s;
@@ -271,14 +316,23 @@ static volux_status build_slice(ambient_state *st) {
         if (!st->ln_col) return volux_error(st->b.rc.ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the table slice");
         st->ln_n = (int)blocks;
     }
-    slice_job job = {st, {NULL, NULL, NULL, NULL}, u - i0, fa, i0, ia};
+    /* the analytic uncollided term at the two g nodes and at g, once for
+     * every albedo block (volux_ambient_g_interp) */
+    size_t n = ns * nt;
+    double *unc = volux_malloc(st->b.rc.ctx, 3 * n * sizeof(double));
+    if (!unc) return volux_error(st->b.rc.ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the table slice");
+    slice_job job = {st, {NULL, NULL, NULL, NULL}, u - i0, fa, clamped_g(st), unc, i0, ia};
+    volux_parallel_for(st->b.rc.threads, (int64_t)ns, unc_row, &job);
     for (int c = 0; c < 4; c++) {
         int ja = ia + (c >> 1), jg = i0 + (c & 1);
         if (ja >= d->n_albedo || (c >= 2 && fa <= 0.0)) continue;
         double **col = &st->ln_col[(size_t)ja * (size_t)d->n_g + (size_t)jg];
         if (!*col) {
             *col = volux_malloc(st->b.rc.ctx, ns * nt * sizeof(double));
-            if (!*col) return volux_error(st->b.rc.ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the table slice");
+            if (!*col) {
+                volux_free(st->b.rc.ctx, unc, 3 * n * sizeof(double));
+                return volux_error(st->b.rc.ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the table slice");
+            }
             slice_job one = job;
             one.ln[0] = *col;
             one.ig = jg, one.ia = ja;
@@ -287,7 +341,9 @@ static volux_status build_slice(ambient_state *st) {
         job.ln[c] = *col;
     }
     volux_parallel_for(st->b.rc.threads, (int64_t)ns, slice_row, &job);
-    if ((s = build_slab(st, i0, u - i0))) return s;
+    s = build_slab(st, i0, u - i0, unc);
+    volux_free(st->b.rc.ctx, unc, 3 * n * sizeof(double));
+    if (s) return s;
     float vac = st->slice[0];
     for (size_t is = 0; is < ns; is++) {
         float t = vac > 0.0f ? st->slice[is * nt] / vac : 0.0f;
@@ -411,6 +467,7 @@ static volux_status ambient_update(void *state, const volux_scene *scene, const 
         st->offset = (float)volux_technique_param(scene, cls, "offset");
         const char *mode = volux_technique_param_string(scene, cls, "offset_mode");
         st->fill = 0;
+        st->albedo_once = (int)volux_technique_param(scene, cls, "albedo_once");
         if (!strcmp(mode, "adaptive")) st->offset_mfp = (float)volux_technique_param(scene, cls, "offset_mfp");
         else if (!strcmp(mode, "constant")) st->offset_mfp = 0.0f;
         else if (!strcmp(mode, "fill")) st->fill = 1, st->offset_mfp = (float)volux_technique_param(scene, cls, "fill_mfp");
@@ -568,13 +625,23 @@ static inline volux_vec3 tinted_lookup(const ambient_state *st, float ut, float 
     if (it > nt - 2) it = nt - 2;
     if (is > ns - 2) is = ns - 2;
     float ft = ut - (float)it, fs = us - (float)is, out[3];
-    /* offset_mode "fill": the view ray's σs·albedo·c already weights the
-     * scattering at x once; the table's collided part L̃o − L̃o(albedo 0)
-     * has every event inside the sphere weighted by albedo·c again. Read
-     * it divided by albedo·c (exact and finite: linear in the albedo from
-     * the node 0 up); the uncollided part stays as it is. */
-    int unweight = st->fill && st->table.desc.albedo[0] == 0.0;
+    /* albedo_once (docs/techniques/ambient.md §8). The table's collided
+     * part L̃o − L̃o(albedo 0) starts, in light-travel order backwards, with
+     * a collision on the view line through the sphere (the estimator's
+     * forced first collision on the diameter, probability 1 − e^{−2ρ},
+     * §2), weighted by albedo·c; the view ray weights its sample by
+     * σs = albedo·c·σt again. In a thin sphere that collision is a
+     * neighbour's scattering (second order: (albedo·c)² is right); in a
+     * thick one the view line is collided wherever the camera can see
+     * into it, and that collision is the view sample's own scattering
+     * counted twice ((albedo·c)² where a path tracer has albedo·c). Read
+     * the collided part divided by albedo·c with the weight w = 1 − e^{−2ρ}
+     * between the two limits: × (1 + w·(1/(albedo·c) − 1)) (finite: the
+     * part is linear in the albedo from the node 0 up). The uncollided
+     * part L̃o(albedo 0) stays as it is. */
+    int unweight = st->albedo_once && st->table.desc.albedo[0] == 0.0;
     float v_zero = unweight ? slab_lookup(st, 0, it, is, ft, fs) : 0.0f;
+    float w_once = unweight ? 1.0f - volux_exp_nonpos_t6(-2.0f * us / st->u_sigma) : 0.0f;
     for (int c = 0; c < 3; c++) {
         float x = a[c] * (float)(AMBIENT_ALBEDO_LUT - 1);
         x = x < 0.0f ? 0.0f : (x > (float)(AMBIENT_ALBEDO_LUT - 1) ? (float)(AMBIENT_ALBEDO_LUT - 1) : x);
@@ -586,7 +653,7 @@ static inline volux_vec3 tinted_lookup(const ambient_state *st, float ut, float 
         float fa = u - (float)ia;
         float v0 = slab_lookup(st, ia, it, is, ft, fs), v1 = slab_lookup(st, ia + 1, it, is, ft, fs);
         out[c] = v0 + (v1 - v0) * fa;
-        if (unweight) out[c] = v_zero + (out[c] - v_zero) / (a[c] > 0.02f ? a[c] : 0.02f);
+        if (unweight) out[c] = v_zero + (out[c] - v_zero) * (1.0f + w_once * (1.0f / (a[c] > 0.02f ? a[c] : 0.02f) - 1.0f));
     }
     return v3(out[0], out[1], out[2]);
 }

@@ -38,8 +38,8 @@ typedef struct ambient_state {
     float offset;                 /* x_o = x + offset·lag·ω (Eq. 20: 1)      */
     float offset_mfp;             /* adaptive lag ≤ offset_mfp/σt (0: lag r)  */
     int fill;                     /* offset_mode "fill" (§8): lag scaled by the
-                                     sphere's fill, exact lag window, collided
-                                     light not weighted by the albedo twice  */
+                                     sphere's fill, exact lag window          */
+    int albedo_once;              /* collided light ÷ albedo·c, weight 1 − e^{−2ρ} */
     float grad_ref;               /* |∇s| (per world unit) of full specular  */
     float ao, ao_radius;          /* AO term weight, radius (world)          */
     int ao_shells;

@@ -314,20 +314,28 @@ volux_status volux_ambient_table_build(volux_context *ctx, const volux_ambient_t
 
 /* ------------------------------------------------------------------ lookup */
 
-/* Bilinear in (θ, σ̃t), log-linear in g, at albedo block ia. */
-static double eval_block(const volux_ambient_table *t, const int i0[3], const double f[3], int ia) {
+double volux_ambient_g_interp(double uncollided_g, double a, double ua, double b, double ub, double f) {
+    double ca = a - ua, cb = b - ub; /* the collided parts at the two g nodes */
+    double c = ca > 0.0 && cb > 0.0 ? exp(log(ca) * (1.0 - f) + log(cb) * f) : ca * (1.0 - f) + cb * f;
+    return uncollided_g + c;
+}
+
+/* Bilinear in (θ, σ̃t) of the values at g (volux_ambient_g_interp at each
+ * of the four nodes), at albedo block ia. */
+static double eval_block(const volux_ambient_table *t, const int i0[3], const double f[3], double g, int ia) {
     const volux_ambient_table_desc *d = &t->desc;
-    double lg[2];
-    for (int k = 0; k < 2; k++) {
-        int ig = i0[2] + k;
-        double v00 = t->data[volux_ambient_table_index4(d, i0[0], i0[1], ig, ia)];
-        double v10 = t->data[volux_ambient_table_index4(d, i0[0] + 1, i0[1], ig, ia)];
-        double v01 = t->data[volux_ambient_table_index4(d, i0[0], i0[1] + 1, ig, ia)];
-        double v11 = t->data[volux_ambient_table_index4(d, i0[0] + 1, i0[1] + 1, ig, ia)];
-        lg[k] = (v00 * (1 - f[0]) + v10 * f[0]) * (1 - f[1]) + (v01 * (1 - f[0]) + v11 * f[0]) * f[1];
-    }
-    if (lg[0] > 0.0 && lg[1] > 0.0) return exp(log(lg[0]) * (1 - f[2]) + log(lg[1]) * f[2]);
-    return lg[0] * (1 - f[2]) + lg[1] * f[2];
+    double ga = table_g(d, i0[2]), gb = table_g(d, i0[2] + 1), v[2][2];
+    for (int j = 0; j < 2; j++)
+        for (int k = 0; k < 2; k++) {
+            int it = i0[0] + k, is = i0[1] + j;
+            double th = table_theta(d, it), sg = table_sigma(d, is);
+            v[j][k] = volux_ambient_g_interp(volux_ambient_uncollided(th, sg, g),
+                                             t->data[volux_ambient_table_index4(d, it, is, i0[2], ia)],
+                                             volux_ambient_uncollided(th, sg, ga),
+                                             t->data[volux_ambient_table_index4(d, it, is, i0[2] + 1, ia)],
+                                             volux_ambient_uncollided(th, sg, gb), f[2]);
+        }
+    return (v[0][0] * (1 - f[0]) + v[0][1] * f[0]) * (1 - f[1]) + (v[1][0] * (1 - f[0]) + v[1][1] * f[0]) * f[1];
 }
 
 int volux_ambient_table_albedo_bracket(const volux_ambient_table_desc *d, double albedo, double *frac) {
@@ -359,8 +367,9 @@ double volux_ambient_table_eval(const volux_ambient_table *t, double theta, doub
     }
     double fa;
     int ia = volux_ambient_table_albedo_bracket(d, albedo, &fa);
-    double v = eval_block(t, i0, f, ia);
-    if (d->n_albedo > 1) v = v * (1.0 - fa) + eval_block(t, i0, f, ia + 1) * fa;
+    double gc = g < d->g_min ? d->g_min : (g > d->g_max ? d->g_max : g); /* the g axis is clamped */
+    double v = eval_block(t, i0, f, gc, ia);
+    if (d->n_albedo > 1) v = v * (1.0 - fa) + eval_block(t, i0, f, gc, ia + 1) * fa;
     return v;
 }
 

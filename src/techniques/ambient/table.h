@@ -47,6 +47,15 @@ int volux_ambient_table_noise_summary(volux_context *ctx, const volux_ambient_ta
  * travelled d = 2·max(0, −cos θ):  L0 = e^{−σ̃t (2 + d)} p_g(cos θ). */
 double volux_ambient_uncollided(double theta, double sigma, double g);
 
+/* The table between two g nodes (weight f of the second): the uncollided
+ * term, exact at any g (uncollided_g = volux_ambient_uncollided at g), plus
+ * the collided part (entry a or b minus its node's uncollided ua or ub)
+ * log-linear in g (linear where either part is not positive). The
+ * uncollided term carries the phase function's peak, which log-linear
+ * interpolation between nodes 0.2 apart misses by up to a third at
+ * |g| = 0.8 (docs/techniques/ambient.md §2, Fig. 5). */
+double volux_ambient_g_interp(double uncollided_g, double a, double ua, double b, double ub, double f);
+
 /* The paper's estimator, literally (§4.1.2): `paths` walks started at
  * x_o(θ) towards the centre, free paths −ln ξ/σ̃t, Russian roulette with the
  * albedo, HG sampling, the boundary condition scored at the exit. Slow;
