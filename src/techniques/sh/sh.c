@@ -146,7 +146,13 @@ static void bake_slice(void *user, int64_t z, int thread) {
                     const float *cq = cf + (L->channels == 1 ? 0 : L->offset[q]);
                     for (int j = 0; j < bq * bq; j++) V[j] += wq * cq[j];
                 }
-                sh_triple_product(&st->triple, st->le[c], V, b->prod + (n * 3 + (size_t)c) * SH_MAX_COEFFS);
+                float *W = b->prod + (n * 3 + (size_t)c) * SH_MAX_COEFFS;
+                int flat = 1; /* unoccluded (skipped nodes, empty space): L_env·V0/√(4π) */
+                for (int j = 1; j < SH_MAX_COEFFS && flat; j++) flat = V[j] == 0.0f;
+                if (flat)
+                    for (int j = 0; j < SH_MAX_COEFFS; j++) W[j] = st->le[c][j] * V[0] * 0.28209479f;
+                else
+                    sh_triple_product(&st->triple, st->le[c], V, W);
             }
         }
         S[3] = 0.0f;
