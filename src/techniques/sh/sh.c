@@ -112,6 +112,9 @@ typedef struct bake_job {
     float *prod;                 /* NULL: no triple product          */
     float ld[3][SH_MAX_COEFFS];  /* the lights S is normalised over  */
     float E[3];
+    /* M_c[k][j] = Σ_i Γ_ijk L_env,c,i: the product with the environment
+     * as a 16 × 16 matrix, so a node costs 256 multiply-adds per channel */
+    float M[3][SH_MAX_COEFFS][SH_MAX_COEFFS];
 } bake_job;
 
 /* S_c = ∫ L'_mi,c L_d,c / ∫ L_d,c at every node (Eq. 3's second factor,
@@ -152,7 +155,11 @@ static void bake_slice(void *user, int64_t z, int thread) {
                 if (flat)
                     for (int j = 0; j < SH_MAX_COEFFS; j++) W[j] = st->le[c][j] * V[0] * 0.28209479f;
                 else
-                    sh_triple_product(&st->triple, st->le[c], V, W);
+                    for (int k = 0; k < SH_MAX_COEFFS; k++) {
+                        float w = 0.0f;
+                        for (int j = 0; j < SH_MAX_COEFFS; j++) w += b->M[c][k][j] * V[j];
+                        W[k] = w;
+                    }
             }
         }
         S[3] = 0.0f;
@@ -170,8 +177,14 @@ static void delta_lights(const sh_state *st, float ld[3][SH_MAX_COEFFS]) {
  * and, with the triple product, the product volume into prod. */
 static void bake_into(sh_state *st, const sh_grid *g, const sh_layout *L, const float *coef, float *shade,
                       float *prod) {
-    bake_job b = {st, g, L, coef, shade, st->product_on ? prod : NULL, {{0}}, {0, 0, 0}};
+    bake_job b; /* 3 KB of matrices: fine on the stack */
+    memset(&b, 0, sizeof b);
+    b.st = st, b.grid = g, b.L = L, b.coef = coef, b.shade = shade, b.prod = st->product_on ? prod : NULL;
     delta_lights(st, b.ld);
+    if (b.prod)
+        for (int n = 0; n < st->triple.n; n++)
+            for (int c = 0; c < 3; c++)
+                b.M[c][st->triple.k[n]][st->triple.j[n]] += st->triple.v[n] * st->le[c][st->triple.i[n]];
     for (int c = 0; c < 3; c++) b.E[c] = 3.5449077f * b.ld[c][0]; /* ∫ L_d = √(4π)·L_00 */
     volux_parallel_for(st->rc.threads, g->dims[2], bake_slice, &b);
     st->bakes++;
