@@ -12,10 +12,15 @@
  * 1.9·10⁻⁴ against an 8192-spp render): rel_mse 0.0021 (VL-set variance
  * dominates: 0.0013 with 2000 VLs); single scattering alone 0.02.
  * Bounds: rel_mse < 0.003; multiple scattering must cut the single-only
- * error at least 5×; mean luminance within 3 % of the reference (measured
- * −1.8 %). The test fails for a wrong VL weight: dropping ρ(x_k) of the
- * VL's own vertex (ml_weights) gives rel_mse 0.0037 and an 8 % brighter
- * image (both bounds fail).
+ * error at least 5×; mean luminance, averaged over eight VL sets (seeds
+ * 1–8), within 4 % of the reference. One set's mean scatters by 3.3 %
+ * (standard deviation over seeds 1–11, whose mean is +0.7 % against a
+ * 4096-spp reference), so the 8-set mean has a standard error of 1.2 %;
+ * the single set this test used to check against 3 % (−1.8 %) passed
+ * only because the direct term was several per cent too bright before
+ * the midpoint fix of render.c (−3.4 % after it). The test fails for a wrong
+ * VL weight: dropping ρ(x_k) of the VL's own vertex (ml_weights) gives
+ * rel_mse 0.0037 and an 8 % brighter image (both bounds fail).
  */
 #include <math.h>
 #include <stdio.h>
@@ -56,12 +61,23 @@ static void test_manylights_vs_pathtrace(void **state) {
     volux_image_error e_ml, e_ss;
     assert_int_equal(volux_image_compare(ctx, &ml, &ref, &e_ml), VOLUX_OK);
     assert_int_equal(volux_image_compare(ctx, &ss, &ref, &e_ss), VOLUX_OK);
-    double lum_ml = mean_luminance(&ml), lum_ref = mean_luminance(&ref);
-    printf("  manylights rel_mse %.4g (single scattering only %.4g), mean luminance %.4g vs %.4g\n", e_ml.rel_mse,
-           e_ss.rel_mse, lum_ml, lum_ref);
+    double lum_ml1 = mean_luminance(&ml), lum_ref = mean_luminance(&ref), lum_ml = lum_ml1;
+    assert_int_equal(volux_scene_set_param(s, "manylights", "multiple_scattering", 1, NULL), VOLUX_OK);
+    lum_ml = 0.0;
+    for (int k = 1; k <= 8; k++) { /* eight VL sets */
+        rs.seed = (uint64_t)k;
+        assert_int_equal(volux_scene_set_render(s, &rs), VOLUX_OK);
+        volux_image other = tu_render(ctx, s, "manylights");
+        lum_ml += mean_luminance(&other);
+        volux_image_free(ctx, &other);
+    }
+    lum_ml /= 8.0;
+    printf("  manylights rel_mse %.4g (single scattering only %.4g), mean luminance %.4g (this seed %.4g, mean of 8"
+           " VL sets %.4g = %+.1f%%) vs %.4g\n",
+           e_ml.rel_mse, e_ss.rel_mse, lum_ml, lum_ml1, lum_ml, 100.0 * (lum_ml / lum_ref - 1.0), lum_ref);
     assert_true(e_ml.rel_mse < 0.003);
     assert_true(e_ml.rel_mse * 5.0 < e_ss.rel_mse);
-    assert_true(fabs(lum_ml / lum_ref - 1.0) < 0.03);
+    assert_true(fabs(lum_ml / lum_ref - 1.0) < 0.04);
     volux_image_free(ctx, &ref);
     volux_image_free(ctx, &ml);
     volux_image_free(ctx, &ss);

@@ -3,7 +3,8 @@
  * agree with the general definition, the basis is orthonormal, the zonal
  * kernels (clamped cosine, HG, cap) are the projections of their
  * functions, rotation matrices rotate projections exactly and keep
- * product integrals, and Funk–Hecke convolution equals the integral.
+ * product integrals, Funk–Hecke convolution equals the integral, and the
+ * triple-product table projects the product of two functions.
  * Integrals are midpoint quadrature in (cos θ, φ): exact enough (1e-5)
  * for the smooth integrands used here.
  */
@@ -215,8 +216,43 @@ static void test_funk_hecke(void **state) {
     assert_near(sh_dot(4, kc, c), integrate(hg_times_f, &fc), 1e-4);
 }
 
+typedef struct triple_case {
+    const float *f, *g;
+    int k;
+} triple_case;
+
+static double fgy(const double d[3], const void *user) {
+    const triple_case *t = user;
+    double f = 0.0, g = 0.0;
+    for (int j = 0; j < 16; j++) f += t->f[j] * y_of(j, d), g += t->g[j] * y_of(j, d);
+    return f * g * y_of(t->k, d);
+}
+
+/* (f·g)_k = Σ Γ_ijk f_i g_j is ∫ f g Y_k for band-limited f, g (the
+ * product has bands up to 6; its projection onto 0…3 is what the table
+ * gives). Γ_0jk = δ_jk/√(4π); a wrong sign or a missing entry in any band
+ * moves some k. */
+static void test_triple_product(void **state) {
+    (void)state;
+    static sh_triple t;
+    sh_triple_init(&t);
+    assert_true(t.n > 16 && t.n < 4096);
+    float f[16], g[16], out[16];
+    for (int j = 0; j < 16; j++) f[j] = 0.4f * sinf(1.3f * j + 0.2f), g[j] = 0.5f * cosf(0.7f * j - 0.4f);
+    f[0] = 1.5f;
+    sh_triple_product(&t, f, g, out);
+    for (int k = 0; k < 16; k++) {
+        triple_case tc = {f, g, k};
+        assert_near(out[k], integrate(fgy, &tc), 2e-4);
+    }
+    float one[16] = {3.5449077f}; /* the constant 1 */
+    sh_triple_product(&t, one, g, out);
+    for (int k = 0; k < 16; k++) assert_near(out[k], g[k], 1e-5);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_triple_product),
         cmocka_unit_test(test_polynomials_match_definition), cmocka_unit_test(test_orthonormal),
         cmocka_unit_test(test_clamped_cosine_zonal),          cmocka_unit_test(test_hg_and_cap_zonal),
         cmocka_unit_test(test_rotation_rotates_projections),   cmocka_unit_test(test_rotation_keeps_product),

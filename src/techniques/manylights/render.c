@@ -283,6 +283,13 @@ static volux_vec3 integrate(const ml_state *st, const volux_ray *ray, float jitt
                 t = a + clampf(fr, 0.0f, 1.0f) * len;
                 weight = alpha / (float)S;
             }
+            /* σt was read at b, so the segment stands for the midpoint
+             * cell (b − len/2, b + len/2] of that sample (the ray casters
+             * light and colour a segment at b too). Placing x in (a, b]
+             * instead put the light half a step in front of the medium it
+             * weights: +8 % (step 0.5) … +2 % (0.05) against pathtrace on
+             * a lit cloud, gone with this shift. */
+            t = fminf(t + 0.5f * len, ray->t1); /* the last cell stops at the box */
             volux_vec3 x = v3_madd(ray->o, ray->d, t);
             volux_vec3 q = v3_madd(ray->q0, ray->dq, t);
             float rgba[4];

@@ -52,6 +52,10 @@ static const volux_param_info sh_params[] = {
      "millimetres of material per world unit (the presets' coefficients are per mm)"},
     {"neighbourhood", VOLUX_PARAM_NUMBER, 0.1, 0.01, 0.5, NULL,
      "radius of the scattering neighbourhood N(x) as a fraction of the largest extent (the paper: 10 %)"},
+    {"env_product", VOLUX_PARAM_BOOL, 1, 0, 1, NULL,
+     "environment lights through the triple product: L_env*L'_mi projected per node, so the phase function sees where "
+     "the environment is occluded (16 coefficients per colour and node); false: the paper's two double products (Eq. 3 "
+     "as in §4.3), which multiply the phase-weighted light by the mean visibility"},
     {"progressive", VOLUX_PARAM_BOOL, 0, 0, 1, NULL,
      "project coarse first (2x coarser grid, 1/8 of the rays) and refine in later steps (volux_technique_refine)"},
     VOLUX_PARAM_GRADIENT_THRESHOLD("BRDF shading is"),
@@ -105,11 +109,18 @@ typedef struct bake_job {
     const sh_layout *L;
     const float *coef;
     float *shade;
+    float *prod;                 /* NULL: no triple product          */
+    float ld[3][SH_MAX_COEFFS];  /* the lights S is normalised over  */
     float E[3];
+    /* M_c[k][j] = Σ_i Γ_ijk L_env,c,i: the product with the environment
+     * as a 16 × 16 matrix, so a node costs 256 multiply-adds per channel */
+    float M[3][SH_MAX_COEFFS][SH_MAX_COEFFS];
 } bake_job;
 
-/* S_c = ∫ L'_mi,c L_i,c / ∫ L_i,c at every node (Eq. 3's second factor,
- * normalised); Y/Cb/Cr channels are mixed back to RGB linearly. */
+/* S_c = ∫ L'_mi,c L_d,c / ∫ L_d,c at every node (Eq. 3's second factor,
+ * normalised; L_d = every light, or the delta lights when the environment
+ * goes through the triple product); Y/Cb/Cr channels are mixed back to RGB
+ * linearly. With `prod`: (L_env,c·L'_mi,c) projected, 16 per channel. */
 static void bake_slice(void *user, int64_t z, int thread) {
     (void)thread;
     const bake_job *b = user;
@@ -122,23 +133,65 @@ static void bake_slice(void *user, int64_t z, int thread) {
         float *S = b->shade + 4 * n;
         for (int c = 0; c < 3; c++) {
             float v = 0.0f;
-            if (L->channels == 1) v = sh_dot(L->bands[0], cf, st->li[c]);
-            else if (!L->ycc) v = sh_dot(L->bands[c], cf + L->offset[c], st->li[c]);
+            if (L->channels == 1) v = sh_dot(L->bands[0], cf, b->ld[c]);
+            else if (!L->ycc) v = sh_dot(L->bands[c], cf + L->offset[c], b->ld[c]);
             else
                 for (int q = 0; q < 3; q++)
-                    if (ycc[c][q] != 0.0f) v += ycc[c][q] * sh_dot(L->bands[q], cf + L->offset[q], st->li[c]);
+                    if (ycc[c][q] != 0.0f) v += ycc[c][q] * sh_dot(L->bands[q], cf + L->offset[q], b->ld[c]);
             S[c] = b->E[c] > 1e-12f && v > 0.0f ? v / b->E[c] : 0.0f;
+            if (b->prod) {
+                /* channel c's L'_mi, zero above its bands */
+                float V[SH_MAX_COEFFS] = {0};
+                for (int q = 0; q < 3; q++) {
+                    float wq = L->channels == 1 ? (q == 0) : !L->ycc ? (q == c) : ycc[c][q];
+                    if (wq == 0.0f) continue;
+                    const int bq = L->bands[L->channels == 1 ? 0 : q];
+                    const float *cq = cf + (L->channels == 1 ? 0 : L->offset[q]);
+                    for (int j = 0; j < bq * bq; j++) V[j] += wq * cq[j];
+                }
+                float *W = b->prod + (n * 3 + (size_t)c) * SH_MAX_COEFFS;
+                int flat = 1; /* unoccluded (skipped nodes, empty space): L_env·V0/√(4π) */
+                for (int j = 1; j < SH_MAX_COEFFS && flat; j++) flat = V[j] == 0.0f;
+                if (flat)
+                    for (int j = 0; j < SH_MAX_COEFFS; j++) W[j] = st->le[c][j] * V[0] * 0.28209479f;
+                else
+                    for (int k = 0; k < SH_MAX_COEFFS; k++) {
+                        float w = 0.0f;
+                        for (int j = 0; j < SH_MAX_COEFFS; j++) w += b->M[c][k][j] * V[j];
+                        W[k] = w;
+                    }
+            }
         }
         S[3] = 0.0f;
     }
 }
 
-/* Bakes the shade volume of (grid, layout, coef) into shade (4 per node). */
-static void bake_into(sh_state *st, const sh_grid *g, const sh_layout *L, const float *coef, float *shade) {
-    bake_job b = {st, g, L, coef, shade, {0, 0, 0}};
-    for (int c = 0; c < 3; c++) b.E[c] = 3.5449077f * st->li[c][0]; /* ∫ L_i = √(4π)·L_00 */
+/* The lights the shade volume S stands for: all of them, or without the
+ * environment when that goes through the triple product. */
+static void delta_lights(const sh_state *st, float ld[3][SH_MAX_COEFFS]) {
+    for (int c = 0; c < 3; c++)
+        for (int j = 0; j < SH_MAX_COEFFS; j++) ld[c][j] = st->li[c][j] - (st->product_on ? st->le[c][j] : 0.0f);
+}
+
+/* Bakes the shade volume of (grid, layout, coef) into shade (4 per node)
+ * and, with the triple product, the product volume into prod. */
+static void bake_into(sh_state *st, const sh_grid *g, const sh_layout *L, const float *coef, float *shade,
+                      float *prod) {
+    bake_job b; /* 3 KB of matrices: fine on the stack */
+    memset(&b, 0, sizeof b);
+    b.st = st, b.grid = g, b.L = L, b.coef = coef, b.shade = shade, b.prod = st->product_on ? prod : NULL;
+    delta_lights(st, b.ld);
+    if (b.prod)
+        for (int n = 0; n < st->triple.n; n++)
+            for (int c = 0; c < 3; c++)
+                b.M[c][st->triple.k[n]][st->triple.j[n]] += st->triple.v[n] * st->le[c][st->triple.i[n]];
+    for (int c = 0; c < 3; c++) b.E[c] = 3.5449077f * b.ld[c][0]; /* ∫ L_d = √(4π)·L_00 */
     volux_parallel_for(st->rc.threads, g->dims[2], bake_slice, &b);
     st->bakes++;
+}
+
+static size_t prod_bytes(const sh_state *st, const sh_grid *g) {
+    return st->product_on ? g->nodes * 3 * SH_MAX_COEFFS * sizeof(float) : 0;
 }
 
 static volux_status bake(sh_state *st) {
@@ -150,7 +203,16 @@ static volux_status bake(sh_state *st) {
             return volux_error(st->rc.ctx, VOLUX_ERR_NOMEM, "sh: out of memory for the shade volume");
         st->shade_bytes = bytes;
     }
-    bake_into(st, &st->grid, &st->layout, st->coef, st->shade);
+    size_t pb = prod_bytes(st, &st->grid);
+    if (pb != st->prod_bytes) {
+        if (st->prod) volux_free_aligned(st->rc.ctx, st->prod, st->prod_bytes);
+        st->prod = NULL;
+        st->prod_bytes = 0;
+        if (pb && !(st->prod = volux_alloc_aligned(st->rc.ctx, pb)))
+            return volux_error(st->rc.ctx, VOLUX_ERR_NOMEM, "sh: out of memory for the environment product volume");
+        st->prod_bytes = pb;
+    }
+    bake_into(st, &st->grid, &st->layout, st->coef, st->shade, st->prod);
     return VOLUX_OK;
 }
 
@@ -202,6 +264,13 @@ static volux_status sh_update(void *state, const volux_scene *scene, const volux
         st->skip_empty = (int)volux_technique_param(scene, cls, "skip_empty");
         st->t_min = (float)volux_technique_param(scene, cls, "early_termination");
         st->grad_ref = volux_raycaster_gradient_ref(rc, volux_technique_param(scene, cls, "gradient_threshold"));
+        int ep = (int)volux_technique_param(scene, cls, "env_product");
+        if (ep != st->env_product) st->have_shade = 0;
+        st->env_product = ep;
+    }
+    if (!st->have_triple) {
+        sh_triple_init(&st->triple);
+        st->have_triple = 1;
     }
     sh_projection_params p;
     if ((s = read_projection_params(st, scene, &p))) return s;
@@ -239,14 +308,19 @@ static volux_status sh_update(void *state, const volux_scene *scene, const volux
             }
         }
         memset(st->li, 0, sizeof st->li);
+        memset(st->le, 0, sizeof st->le);
         for (int i = 0; i < rc->lights.n_all; i++) {
-            int slot = rc->lights.all[i].slot;
+            int slot = rc->lights.all[i].slot, env = rc->lights.all[i].type == VOLUX_LIGHT_ENVIRONMENT;
             for (int k = 0; k < 3; k++)
-                for (int j = 0; j < SH_MAX_COEFFS; j++) st->li[k][j] += st->light_sh[slot].c[k][j];
+                for (int j = 0; j < SH_MAX_COEFFS; j++) {
+                    st->li[k][j] += st->light_sh[slot].c[k][j];
+                    if (env) st->le[k][j] += st->light_sh[slot].c[k][j];
+                }
         }
         st->have_shade = st->have_light_tables = 0;
     }
     if (!st->have_shade) {
+        st->product_on = st->env_product && (st->le[0][0] > 0.0f || st->le[1][0] > 0.0f || st->le[2][0] > 0.0f);
         if ((s = bake(st))) return s;
         st->have_shade = 1;
     }
@@ -285,12 +359,21 @@ static volux_status sh_refine(void *state, const volux_scene *scene, int *change
         volux_free_aligned(st->rc.ctx, coef, bytes);
         return volux_error(st->rc.ctx, VOLUX_ERR_NOMEM, "sh: out of memory for the shade volume");
     }
-    bake_into(st, &g, &lay, coef, shade);
+    size_t pb = prod_bytes(st, &g);
+    float *prod = pb ? volux_alloc_aligned(st->rc.ctx, pb) : NULL;
+    if (pb && !prod) {
+        volux_free_aligned(st->rc.ctx, coef, bytes);
+        volux_free_aligned(st->rc.ctx, shade, shade_bytes);
+        return volux_error(st->rc.ctx, VOLUX_ERR_NOMEM, "sh: out of memory for the environment product volume");
+    }
+    bake_into(st, &g, &lay, coef, shade, prod);
     volux_free_aligned(st->rc.ctx, st->coef, st->coef_bytes);
     if (st->shade) volux_free_aligned(st->rc.ctx, st->shade, st->shade_bytes);
+    if (st->prod) volux_free_aligned(st->rc.ctx, st->prod, st->prod_bytes);
     st->grid = g, st->layout = lay;
     st->coef = coef, st->coef_bytes = bytes;
     st->shade = shade, st->shade_bytes = shade_bytes;
+    st->prod = prod, st->prod_bytes = pb;
     st->coarse = 0;
     st->projections++;
     *changed = 1;
@@ -304,7 +387,7 @@ static size_t sh_memory_bytes(const void *state) {
         if (st->mat[i].table) tables += sizeof *st->mat[i].table * SH_TABLE_THETA;
         if (st->mat[i].light_table) tables += sizeof(float) * 6 * SH_OCTA * SH_OCTA * SH_OCTA * SH_OCTA;
     }
-    return st->coef_bytes + st->shade_bytes + tables + st->grad.bytes +
+    return st->coef_bytes + st->shade_bytes + st->prod_bytes + tables + st->grad.bytes +
            sizeof *st->light_sh * (size_t)st->light_sh_cap;
 }
 
@@ -313,7 +396,9 @@ static void sh_release(void *state) {
     volux_context *ctx = st->rc.ctx;
     if (st->coef) volux_free_aligned(ctx, st->coef, st->coef_bytes);
     if (st->shade) volux_free_aligned(ctx, st->shade, st->shade_bytes);
-    st->coef = st->shade = NULL;
+    if (st->prod) volux_free_aligned(ctx, st->prod, st->prod_bytes);
+    st->coef = st->shade = st->prod = NULL;
+    st->prod_bytes = 0;
     free_materials(st);
     volux_gradient_cache_free(ctx, &st->grad);
     volux_free(ctx, st->light_sh, sizeof *st->light_sh * (size_t)st->light_sh_cap);
@@ -332,6 +417,12 @@ typedef struct sh_ray {
     float a_mat[SH_MAX_MATERIALS][3];
     int wo_cell[4];
     float wo_w[4];
+    /* triple product: albedo·g^l·Y_lm(d) for the TF's phase function and
+     * each phase material (∫ p_g(ω·d) F(ω) dω = Σ_lm that · F_lm), and for
+     * BRDF materials the first factor over every light */
+    float h_def[SH_MAX_COEFFS];
+    float h_mat[SH_MAX_MATERIALS][SH_MAX_COEFFS];
+    float a_tot[3];
 } sh_ray;
 
 /* albedo·∫ p_g(ω·d) L_i(ω) dω per colour = albedo·Σ_l g^l Σ_m L_lm Y_lm(d)
@@ -342,16 +433,22 @@ static inline void phase_factor(float albedo, float g, const float b[3][SH_MAX_B
         out[c] = albedo * (b[c][0] + gl[1] * b[c][1] + gl[2] * b[c][2] + gl[3] * b[c][3]);
 }
 
-/* Σ_m L_lm Y_lm(d) per colour and band. */
-static inline void band_sums(const sh_state *st, volux_vec3 d, float b[3][SH_MAX_BANDS]) {
-    float y[SH_MAX_COEFFS];
-    sh_eval(4, d, y);
+/* Σ_m L_lm Y_lm(d) per colour and band, for the lights li. */
+static inline void band_sums(const float li[3][SH_MAX_COEFFS], const float y[SH_MAX_COEFFS],
+                             float b[3][SH_MAX_BANDS]) {
     for (int c = 0; c < 3; c++)
         for (int l = 0; l < SH_MAX_BANDS; l++) {
             float s = 0.0f;
-            for (int j = l * l; j < (l + 1) * (l + 1); j++) s += st->li[c][j] * y[j];
+            for (int j = l * l; j < (l + 1) * (l + 1); j++) s += li[c][j] * y[j];
             b[c][l] = s;
         }
+}
+
+/* albedo·g^l·Y_lm(d): the zonal HG kernel about d (Funk–Hecke). */
+static inline void phase_kernel(float albedo, float g, const float y[SH_MAX_COEFFS], float h[SH_MAX_COEFFS]) {
+    float gl = albedo;
+    for (int l = 0; l < SH_MAX_BANDS; l++, gl *= g)
+        for (int j = l * l; j < (l + 1) * (l + 1); j++) h[j] = gl * y[j];
 }
 
 /* Bilinear cells of an octahedral table for direction d. */
@@ -397,14 +494,42 @@ static inline void shade_lookup(const sh_state *st, volux_vec3 q, float S[4]) {
     for (int c = 0; c < 4; c++) S[c] = acc[c];
 }
 
-enum { SH_MATERIALS = 1, SH_PREINT = 2 };
-#define SH_VARIANT(mat, preint, storage) ((mat) | (preint) << 1 | (int)(storage) << 2)
+/* Trilinear (L_env·L'_mi) at fine index q: 3 × 16 coefficients. */
+static inline void prod_lookup(const sh_state *st, volux_vec3 q, float P[3 * SH_MAX_COEFFS]) {
+    const sh_grid *g = &st->grid;
+    const float inv = 1.0f / (float)g->ratio;
+    float x = q.x * inv, y = q.y * inv, z = q.z * inv;
+    int i = (int)x, j = (int)y, k = (int)z;
+    i = i > g->dims[0] - 2 ? (g->dims[0] > 1 ? g->dims[0] - 2 : 0) : i;
+    j = j > g->dims[1] - 2 ? (g->dims[1] > 1 ? g->dims[1] - 2 : 0) : j;
+    k = k > g->dims[2] - 2 ? (g->dims[2] > 1 ? g->dims[2] - 2 : 0) : k;
+    float fx = x - (float)i, fy = y - (float)j, fz = z - (float)k;
+    fx = fx < 0.0f ? 0.0f : fx > 1.0f ? 1.0f : fx;
+    fy = fy < 0.0f ? 0.0f : fy > 1.0f ? 1.0f : fy;
+    fz = fz < 0.0f ? 0.0f : fz > 1.0f ? 1.0f : fz;
+    const size_t n = 3 * SH_MAX_COEFFS, sx = g->dims[0] > 1 ? n : 0, sy = g->dims[1] > 1 ? n * (size_t)g->dims[0] : 0,
+                 sz = g->dims[2] > 1 ? n * (size_t)g->dims[0] * g->dims[1] : 0;
+    const float *p = st->prod + n * (((size_t)k * g->dims[1] + j) * g->dims[0] + i);
+    const float gx = 1.0f - fx, gy = 1.0f - fy, gz = 1.0f - fz;
+    const float w[8] = {gx * gy * gz, fx * gy * gz, gx * fy * gz, fx * fy * gz,
+                        gx * gy * fz, fx * gy * fz, gx * fy * fz, fx * fy * fz};
+    const size_t o[8] = {0, sx, sy, sx + sy, sz, sx + sz, sy + sz, sx + sy + sz};
+    for (size_t c = 0; c < n; c++) P[c] = 0.0f;
+    for (int m = 0; m < 8; m++)
+        for (size_t c = 0; c < n; c++) P[c] += w[m] * p[o[m] + c];
+}
+
+enum { SH_MATERIALS = 1, SH_PREINT = 2, SH_PRODUCT = 32 };
+/* storage in bits 2–4 */
+#define SH_VARIANT(mat, preint, storage, product)                                                                  \
+    ((mat) | (preint) << 1 | (int)(storage) << 2 | ((product) ? SH_PRODUCT : 0))
+#define SH_STORAGE(variant) ((volux_storage)(((variant) >> 2) & 7))
 
 static inline __attribute__((always_inline)) float sample_at(const void *tech, const volux_ray *r, float t,
                                                               int variant) {
     const sh_ray *ry = tech;
     return volux_volume_sample_bricked(ry->st->rc.volume, r->q0.x + r->dq.x * t, r->q0.y + r->dq.y * t,
-                                       r->q0.z + r->dq.z * t, (volux_storage)(variant >> 2));
+                                       r->q0.z + r->dq.z * t, SH_STORAGE(variant));
 }
 
 static inline __attribute__((always_inline)) void shade_at(const void *tech, const volux_ray *ray, float t,
@@ -412,18 +537,19 @@ static inline __attribute__((always_inline)) void shade_at(const void *tech, con
     const sh_ray *ry = tech;
     const sh_state *st = ry->st;
     volux_vec3 q = v3_madd(ray->q0, ray->dq, t);
-    float S[4];
+    float S[4], P[3 * SH_MAX_COEFFS];
     shade_lookup(st, q, S);
-    const float *a = ry->a_def;
+    if (variant & SH_PRODUCT) prod_lookup(st, q, P);
+    const float *a = ry->a_def, *h = ry->h_def;
     if (variant & SH_MATERIALS) {
-        float sv = volux_volume_sample_bricked(st->rc.volume, q.x, q.y, q.z, (volux_storage)(variant >> 2));
+        float sv = volux_volume_sample_bricked(st->rc.volume, q.x, q.y, q.z, SH_STORAGE(variant));
         const volux_transfer_lut *lut = st->rc.lut;
         float u = (sv - lut->s_min) * lut->inv_ds;
         int e = u <= 0.0f ? 0 : u >= 4095.0f ? 4095 : (int)(u + 0.5f);
         int mi = st->mat_index[e];
         if (mi != 255) {
             const sh_material *m = &st->mat[mi];
-            if (!m->brdf) a = ry->a_mat[mi];
+            if (!m->brdf) a = ry->a_mat[mi], h = ry->h_mat[mi];
             else {
                 volux_vec3 n;
                 float f = volux_shading_normal(volux_gradient_cache_sample(&st->grad, st->rc.volume, q), st->grad_ref,
@@ -440,13 +566,30 @@ static inline __attribute__((always_inline)) void shade_at(const void *tech, con
                             for (int k = 0; k < 6; k++) F[k] += wgt * tb[k];
                         }
                     for (int k = 0; k < 3; k++) {
-                        float lit = f * (c[k] * F[k] + F[3 + k]) + (1.0f - f) * c[k] * ry->a_def[k];
-                        c[k] = fmaxf(lit * S[k], 0.0f);
+                        float Sk = S[k];
+                        if (variant & SH_PRODUCT) {
+                            /* the split over every light: S of all of them
+                             * from S of the delta lights and ∫ L_env L'_mi =
+                             * √(4π)·(L_env L'_mi)_00 */
+                            const float *ld = st->li[k];
+                            float Ed = 3.5449077f * (ld[0] - st->le[k][0]), Et = 3.5449077f * ld[0];
+                            Sk = Et > 1e-12f ? (Ed * S[k] + 3.5449077f * P[k * SH_MAX_COEFFS]) / Et : 0.0f;
+                        }
+                        float lit = f * (c[k] * F[k] + F[3 + k]) + (1.0f - f) * c[k] * ry->a_tot[k];
+                        c[k] = fmaxf(lit * Sk, 0.0f);
                     }
                     return;
                 }
             }
         }
+    }
+    if (variant & SH_PRODUCT) {
+        for (int k = 0; k < 3; k++) {
+            float e = 0.0f;
+            for (int j = 0; j < SH_MAX_COEFFS; j++) e += h[j] * P[k * SH_MAX_COEFFS + j];
+            c[k] = fmaxf(c[k] * (a[k] * S[k] + e), 0.0f);
+        }
+        return;
     }
     for (int k = 0; k < 3; k++) c[k] = fmaxf(c[k] * a[k] * S[k], 0.0f);
 }
@@ -457,12 +600,30 @@ static inline __attribute__((always_inline)) volux_vec3 integrate(const void *te
     const sh_state *st = tech;
     sh_ray ry;
     ry.st = st;
-    float b[3][SH_MAX_BANDS];
-    band_sums(st, ray->d, b);
+    float b[3][SH_MAX_BANDS], y[SH_MAX_COEFFS];
+    sh_eval(4, ray->d, y);
+    if (variant & SH_PRODUCT) {
+        float ld[3][SH_MAX_COEFFS];
+        delta_lights(st, ld);
+        band_sums((const float(*)[SH_MAX_COEFFS])ld, y, b);
+        phase_kernel(st->rc.albedo, st->rc.g, y, ry.h_def);
+    } else {
+        band_sums((const float(*)[SH_MAX_COEFFS])st->li, y, b);
+    }
     phase_factor(st->rc.albedo, st->rc.g, b, ry.a_def);
     if (variant & SH_MATERIALS) {
         for (int i = 0; i < st->n_materials; i++)
-            if (!st->mat[i].brdf) phase_factor(st->rc.albedo, st->mat[i].g, b, ry.a_mat[i]);
+            if (!st->mat[i].brdf) {
+                phase_factor(st->rc.albedo, st->mat[i].g, b, ry.a_mat[i]);
+                if (variant & SH_PRODUCT) phase_kernel(st->rc.albedo, st->mat[i].g, y, ry.h_mat[i]);
+            }
+        if (variant & SH_PRODUCT) {
+            float bt[3][SH_MAX_BANDS];
+            band_sums((const float(*)[SH_MAX_COEFFS])st->li, y, bt);
+            phase_factor(st->rc.albedo, st->rc.g, bt, ry.a_tot);
+        } else {
+            for (int k = 0; k < 3; k++) ry.a_tot[k] = ry.a_def[k];
+        }
         octa_cells(v3_scale(ray->d, -1.0f), ry.wo_cell, ry.wo_w);
     }
     const volux_ea_march_desc m = {st->rc.lut, st->skip_empty ? &st->rc.grid : NULL, st->rc.step, st->t_min};
@@ -471,16 +632,19 @@ static inline __attribute__((always_inline)) volux_vec3 integrate(const void *te
 
 static inline __attribute__((always_inline)) void tile_as(const sh_state *st, const volux_scene *scene,
                                                            const volux_tile *tile, float *rgb,
-                                                           volux_tile_stats *stats, int mat, int preint) {
+                                                           volux_tile_stats *stats, int mat, int preint, int prod) {
     switch (st->rc.volume->storage) {
     case VOLUX_STORE_U8:
-        volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate, SH_VARIANT(mat, preint, VOLUX_STORE_U8));
+        volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate,
+                             SH_VARIANT(mat, preint, VOLUX_STORE_U8, prod));
         break;
     case VOLUX_STORE_U16:
-        volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate, SH_VARIANT(mat, preint, VOLUX_STORE_U16));
+        volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate,
+                             SH_VARIANT(mat, preint, VOLUX_STORE_U16, prod));
         break;
     default:
-        volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate, SH_VARIANT(mat, preint, VOLUX_STORE_F32));
+        volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate,
+                             SH_VARIANT(mat, preint, VOLUX_STORE_F32, prod));
         break;
     }
 }
@@ -488,11 +652,16 @@ static inline __attribute__((always_inline)) void tile_as(const sh_state *st, co
 static void sh_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
                            volux_tile_stats *stats) {
     const sh_state *st = state;
-    int mat = st->n_materials > 0;
-    if (mat && st->preintegrate) tile_as(st, scene, tile, rgb, stats, 1, 1);
-    else if (mat) tile_as(st, scene, tile, rgb, stats, 1, 0);
-    else if (st->preintegrate) tile_as(st, scene, tile, rgb, stats, 0, 1);
-    else tile_as(st, scene, tile, rgb, stats, 0, 0);
+    int mat = st->n_materials > 0, prod = st->product_on && st->prod;
+    if (prod) {
+        if (mat && st->preintegrate) tile_as(st, scene, tile, rgb, stats, 1, 1, 1);
+        else if (mat) tile_as(st, scene, tile, rgb, stats, 1, 0, 1);
+        else if (st->preintegrate) tile_as(st, scene, tile, rgb, stats, 0, 1, 1);
+        else tile_as(st, scene, tile, rgb, stats, 0, 0, 1);
+    } else if (mat && st->preintegrate) tile_as(st, scene, tile, rgb, stats, 1, 1, 0);
+    else if (mat) tile_as(st, scene, tile, rgb, stats, 1, 0, 0);
+    else if (st->preintegrate) tile_as(st, scene, tile, rgb, stats, 0, 1, 0);
+    else tile_as(st, scene, tile, rgb, stats, 0, 0, 0);
 }
 
 const volux_technique_class volux_sh_class = {

@@ -86,10 +86,21 @@ typedef struct sh_state {
     sh_light_coeffs *light_sh;   /* per light slot [light_sh_cap]          */
     int light_sh_cap;
     float li[3][SH_MAX_COEFFS];  /* Σ over enabled lights, RGB             */
-    /* shade volume: S(x) RGB per node (4 floats, w unused) */
+    /* shade volume: S(x) RGB per node (4 floats, w unused); with the
+     * triple product, S of the delta lights only (li − le) */
     float *shade;
     size_t shade_bytes;
     int have_shade;
+    /* triple product for environment lights (`env_product`): le = their
+     * part of li; the product volume holds (L_env·L'_mi) projected, 16
+     * coefficients per colour channel and node (Γ from sh_triple_init) */
+    int env_product;             /* parameter                               */
+    int product_on;              /* env_product and an environment is lit   */
+    float le[3][SH_MAX_COEFFS];
+    float *prod;
+    size_t prod_bytes;
+    sh_triple triple;
+    int have_triple;
     /* material channel */
     int n_materials;
     sh_material mat[SH_MAX_MATERIALS];

@@ -32,6 +32,56 @@ void sh_eval(int bands, volux_vec3 d, float *y) {
     y[15] = 0.590043589f * x * (x2 - 3.0f * y2);
 }
 
+void sh_triple_init(sh_triple *t) {
+    /* Y_i Y_j Y_k is a polynomial of degree ≤ 9 in (x, y, z): 8
+     * Gauss–Legendre nodes in z = cos θ (exact to degree 15) times 24
+     * uniform φ (exact for frequencies below 24). Nodes by Newton's method
+     * on P_8. */
+    enum { NZ = 8, NPHI = 24 };
+    double zn[NZ], zw[NZ];
+    for (int a = 0; a < NZ; a++) {
+        double z = cos(PI_D * (a + 0.75) / (NZ + 0.5)), dp = 1.0;
+        for (int it = 0; it < 100; it++) {
+            double p0 = 1.0, p1 = z;
+            for (int l = 2; l <= NZ; l++) {
+                double p2 = ((2.0 * l - 1.0) * z * p1 - (l - 1.0) * p0) / l;
+                p0 = p1, p1 = p2;
+            }
+            dp = NZ * (z * p1 - p0) / (z * z - 1.0);
+            double dz = p1 / dp;
+            z -= dz;
+            if (fabs(dz) < 1e-15) break;
+        }
+        zn[a] = z;
+        zw[a] = 2.0 / ((1.0 - z * z) * dp * dp);
+    }
+    double acc[SH_MAX_COEFFS][SH_MAX_COEFFS][SH_MAX_COEFFS]; /* 32 KB */
+    memset(acc, 0, sizeof acc);
+    for (int a = 0; a < NZ; a++)
+        for (int b = 0; b < NPHI; b++) {
+            double phi = 2.0 * PI_D * (b + 0.5) / NPHI, s = sqrt(fmax(0.0, 1.0 - zn[a] * zn[a]));
+            float y[SH_MAX_COEFFS];
+            sh_eval(SH_MAX_BANDS, v3((float)(s * cos(phi)), (float)(s * sin(phi)), (float)zn[a]), y);
+            double w = zw[a] * 2.0 * PI_D / NPHI;
+            for (int i = 0; i < SH_MAX_COEFFS; i++)
+                for (int j = 0; j < SH_MAX_COEFFS; j++)
+                    for (int k = 0; k < SH_MAX_COEFFS; k++) acc[i][j][k] += w * y[i] * y[j] * y[k];
+        }
+    t->n = 0;
+    for (int i = 0; i < SH_MAX_COEFFS; i++)
+        for (int j = 0; j < SH_MAX_COEFFS; j++)
+            for (int k = 0; k < SH_MAX_COEFFS; k++)
+                if (fabs(acc[i][j][k]) > 1e-6) { /* float Y: the zeros come out ≈ 1e-8 */
+                    t->i[t->n] = (uint8_t)i, t->j[t->n] = (uint8_t)j, t->k[t->n] = (uint8_t)k;
+                    t->v[t->n++] = (float)acc[i][j][k];
+                }
+}
+
+void sh_triple_product(const sh_triple *t, const float *f, const float *g, float *out) {
+    for (int k = 0; k < SH_MAX_COEFFS; k++) out[k] = 0.0f;
+    for (int n = 0; n < t->n; n++) out[t->k[n]] += t->v[n] * f[t->i[n]] * g[t->j[n]];
+}
+
 /* Associated Legendre P_l^m(t), m ≥ 0, without the Condon–Shortley phase
  * (upward recurrence in l). */
 static double legendre(int l, int m, double t) {

@@ -56,6 +56,23 @@ static inline float sh_dot(int bands, const float *a, const float *b) {
     return s;
 }
 
+/* Triple products Γ_ijk = ∫ Y_i Y_j Y_k dω of the 16 coefficients (the
+ * non-zero ones, |Γ| > 1e-6): the projection of a product f·g of two
+ * band-limited functions onto bands 0…3 is (fg)_k = Σ Γ_ijk f_i g_j
+ * (Snyder 2006, "Code generation and factoring for fast evaluation of
+ * low-order spherical harmonic products and squares" — the triple product
+ * Lindemann & Ropinski §4.3 name and leave out). Computed by quadrature
+ * exact for these polynomials (Gauss–Legendre in cos θ, uniform in φ). */
+#define SH_TRIPLE_MAX (SH_MAX_COEFFS * SH_MAX_COEFFS * SH_MAX_COEFFS)
+typedef struct sh_triple {
+    int n;
+    uint8_t i[SH_TRIPLE_MAX], j[SH_TRIPLE_MAX], k[SH_TRIPLE_MAX];
+    float v[SH_TRIPLE_MAX];
+} sh_triple;
+void sh_triple_init(sh_triple *t);
+/* out_k = Σ Γ_ijk f_i g_j for k < 16 (f, g: 16 coefficients each). */
+void sh_triple_product(const sh_triple *t, const float *f, const float *g, float *out);
+
 /* Zonal coefficients (about +z) of max(cos θ, 0): Ramamoorthi & Hanrahan
  * 2001's Â_l times √((2l+1)/4π). */
 double sh_clamped_cosine_zonal(int l);
