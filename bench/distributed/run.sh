@@ -7,20 +7,8 @@
 # ../shared/data; docs/CONVENTIONS.md); prints JSON lines (volux bench
 # --json plus "ranks") and writes them to OUT.jsonl (default
 # $BENCH_OUT/distributed/results.jsonl, BENCH_OUT default out/bench).
-set -euo pipefail
-cd "$(dirname "$0")/../.."
-VOLUX=${VOLUX:-build/volux}
-OUT=${1:-${BENCH_OUT:-out/bench}/distributed/results.jsonl}
-mkdir -p "$(dirname "$OUT")"
-export VOLUX_DATA=${VOLUX_DATA:-$PWD/../shared/data}
-export OMP_WAIT_POLICY=passive OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
-export OMPI_MCA_btl=self,vader
-command -v mpirun >/dev/null || { echo "bench/distributed/run.sh: needs mpirun (openmpi-bin)" >&2; exit 2; }
+. "$(dirname "$0")/common.sh" "${1:-}" results.jsonl image 5
 [[ -d $VOLUX_DATA/volumes ]] || { echo "bench/distributed/run.sh: no volumes in VOLUX_DATA=$VOLUX_DATA" >&2; exit 2; }
-: >"$OUT.tmp"
-REPEAT=${REPEAT:-5}
-run() { local n=$1; shift; mpirun --oversubscribe -np "$n" "$VOLUX" bench "$@" --json --repeat "$REPEAT" --threads 1 \
-          --distribute image | tee -a "$OUT.tmp"; }
 # Strong scaling: the same frame on 1..4 ranks, interleaved per repeat
 # round so load changes hit every rank count alike.
 for round in 1 2; do

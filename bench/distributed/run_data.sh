@@ -9,19 +9,7 @@
 # ranks oversubscribe a 2-core machine. Prints JSON lines (volux bench
 # --json) and writes them to OUT.jsonl (default
 # $BENCH_OUT/distributed/data.jsonl, BENCH_OUT default out/bench).
-set -euo pipefail
-cd "$(dirname "$0")/../.."
-VOLUX=${VOLUX:-build/volux}
-OUT=${1:-${BENCH_OUT:-out/bench}/distributed/data.jsonl}
-mkdir -p "$(dirname "$OUT")"
-export VOLUX_DATA=${VOLUX_DATA:-$PWD/../shared/data}
-export OMP_WAIT_POLICY=passive OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
-export OMPI_MCA_btl=self,vader
-command -v mpirun >/dev/null || { echo "bench/distributed/run_data.sh: needs mpirun (openmpi-bin)" >&2; exit 2; }
-: >"$OUT.tmp"
-REPEAT=${REPEAT:-3}
-run() { local n=$1; shift; mpirun --oversubscribe -np "$n" "$VOLUX" bench "$@" --json --repeat "$REPEAT" --threads 1 \
-          --distribute data | tee -a "$OUT.tmp"; }
+. "$(dirname "$0")/common.sh" "${1:-}" data.jsonl data 3
 for n in 1 2 3 4; do
   run "$n" bench/scenes/ml256.json --spp 1
   run "$n" scenes/bonsai.json --technique shaded --width 512 --height 512 --spp 1

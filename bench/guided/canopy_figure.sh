@@ -5,12 +5,7 @@
 # about equal render CPU time (environment gets 1.3x the samples: the
 # measured per-sample cost ratio, bench/guided/equal_time.sh).
 #   bench/guided/canopy_figure.sh [BUILD_DIR] [OUT_DIR]
-set -euo pipefail
-here=$(cd "$(dirname "$0")" && pwd)
-build=${1:-$here/../../build}
-out=${2:-$here/results_figure}
-volux=$build/volux
-mkdir -p "$out"
+. "$(dirname "$0")/common.sh" "${1:-}" "${2:-}" results_figure
 size=(--width 96 --height 96)
 for holes in 0 1; do
   d=$out/canopy$holes

@@ -8,22 +8,15 @@
 # bench/guided/equal_time.py-style table: bench/guided/continuation.py OUT_DIR.
 #
 #   bench/guided/continuation.sh [BUILD_DIR] [OUT_DIR]   (SCENES, SEEDS, SPP, ALPHAS to narrow)
-set -euo pipefail
-export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
-here=$(cd "$(dirname "$0")" && pwd)
-build=${1:-$here/../../build}
-out=${2:-$here/results_continuation}
+. "$(dirname "$0")/common.sh" "${1:-}" "${2:-}" results_continuation
 scenes=${SCENES:-"canopy_closed bonsai"}
 seeds=${SEEDS:-"1 2 3"}
 spp=${SPP:-64}
 alphas=${ALPHAS:-"0 0.5"}
-volux=$build/volux bg=$build/bench/bench_guided
-[[ $scenes != *bonsai* && $scenes != *engine* ]] || [[ -n ${VOLUX_DATA:-} ]] || { echo "set VOLUX_DATA (the folder with volumes/, envmaps/)" >&2; exit 2; }
+needs_data "$scenes"
 small=(--set render.width=64 --set render.height=64 --set render.threads=1 --set render.max_depth=8)
-mkdir -p "$out"
-echo "{\"cpu\":\"$(lscpu | grep 'Model name' | sed 's/.*: *//')\",\"load\":\"$(cut -d' ' -f1-3 /proc/loadavg)\",\"date\":\"$(date -u +%FT%TZ)\"}" >> "$out/notes.jsonl"
-[[ -s $out/canopy/canopy.json ]] || python3 "$here/make_canopy.py" "$out/canopy" --holes 1
-[[ -s $out/canopy_closed/canopy.json ]] || python3 "$here/make_canopy.py" "$out/canopy_closed" --holes 0
+note_machine
+canopies
 for sc in $scenes; do
   case $sc in canopy*) json=$out/$sc/canopy.json ;; *) json=$here/$sc.json ;; esac
   [[ -s $out/${sc}_ms_ref.pfm ]] || "$volux" render "$json" -o "$out/${sc}_ms_ref.pfm" --technique pathtrace \
@@ -37,5 +30,5 @@ for sc in $scenes; do
     done
   done
 done
-echo "{\"end\":\"$(date -u +%FT%TZ)\",\"load\":\"$(cut -d' ' -f1-3 /proc/loadavg)\"}" >> "$out/notes.jsonl"
+note_machine end
 echo "wrote $out" >&2

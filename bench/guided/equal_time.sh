@@ -11,22 +11,14 @@
 # bench/guided/equal_time.py OUT_DIR prints the table (medians over seeds).
 #
 #   bench/guided/equal_time.sh [BUILD_DIR] [OUT_DIR]   (SCENES, SEEDS, SPP to narrow)
-set -euo pipefail
-export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
-here=$(cd "$(dirname "$0")" && pwd)
-build=${1:-$here/../../build}
-out=${2:-$here/results_equal_time}
+. "$(dirname "$0")/common.sh" "${1:-}" "${2:-}" results_equal_time
 scenes=${SCENES:-"canopy canopy_closed bonsai engine"}
 seeds=${SEEDS:-"1 2 3"}
 spp=${SPP:-64}
-volux=$build/volux bg=$build/bench/bench_guided
-if [[ -z ${VOLUX_DATA:-} && -d $here/../../../shared/data ]]; then export VOLUX_DATA=$here/../../../shared/data; fi
-[[ $scenes != *bonsai* && $scenes != *engine* ]] || [[ -n ${VOLUX_DATA:-} ]] || { echo "set VOLUX_DATA (the folder with volumes/, envmaps/)" >&2; exit 2; }
+needs_data "$scenes"
 small=(--set render.width=64 --set render.height=64 --set render.threads=1)
-mkdir -p "$out"
-echo "{\"cpu\":\"$(lscpu | grep 'Model name' | sed 's/.*: *//')\",\"load\":\"$(cut -d' ' -f1-3 /proc/loadavg)\",\"date\":\"$(date -u +%FT%TZ)\"}" >> "$out/notes.jsonl"
-[[ -s $out/canopy/canopy.json ]] || python3 "$here/make_canopy.py" "$out/canopy" --holes 1
-[[ -s $out/canopy_closed/canopy.json ]] || python3 "$here/make_canopy.py" "$out/canopy_closed" --holes 0
+note_machine
+canopies
 for sc in $scenes; do
   case $sc in canopy*) json=$out/$sc/canopy.json ;; *) json=$here/$sc.json ;; esac
   # references: pathtrace, 64x64, 32x the samples of the measured runs or more
@@ -48,5 +40,5 @@ for sc in $scenes; do
     done
   done
 done
-echo "{\"end\":\"$(date -u +%FT%TZ)\",\"load\":\"$(cut -d' ' -f1-3 /proc/loadavg)\"}" >> "$out/notes.jsonl"
+note_machine end
 echo "wrote $out" >&2

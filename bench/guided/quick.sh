@@ -6,15 +6,10 @@
 # resolutions), which takes hours under load.
 #
 #   bench/guided/quick.sh [BUILD_DIR] [OUT_DIR]
-set -euo pipefail
-export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
-here=$(cd "$(dirname "$0")" && pwd)
-build=${1:-$here/../../build}
-out=${2:-$here/results_quick}
-volux=$build/volux bg=$build/bench/bench_guided
+. "$(dirname "$0")/common.sh" "${1:-}" "${2:-}" results_quick
 small=(--set render.width=64 --set render.height=64 --set render.threads=1)
-mkdir -p "$out"
-echo "{\"cpu\":\"$(lscpu | grep 'Model name' | sed 's/.*: *//')\",\"load\":\"$(cut -d' ' -f1-3 /proc/loadavg)\"}" > "$out/notes.jsonl"
+: > "$out/notes.jsonl"
+note_machine
 
 # Table 1 at the default grid (8x8 directions, cell 4: 64^3 positions) on
 # bonsai 256^3; brute force on a 2x2 map (4 directions: its cost per

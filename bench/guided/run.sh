@@ -10,15 +10,8 @@
 # and image strips. Needs ../shared/data (absolute paths in the scenes).
 # Timings are medians of repeats; CPU milliseconds (all threads) are the
 # stable clock on a shared machine, so the tables use them next to wall.
-set -euo pipefail
-export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
-here=$(cd "$(dirname "$0")" && pwd)
-build=${1:-$here/../../build}
-out=${2:-$here/results}
+. "$(dirname "$0")/common.sh" "${1:-}" "${2:-}" results
 phases=${PHASES:-"refs table1 table2 strategies multiple lazy"}
-volux=$build/volux
-bg=$build/bench/bench_guided
-mkdir -p "$out"
 note() { echo "{\"note\":\"$*\",\"load\":\"$(cut -d' ' -f1-3 /proc/loadavg)\",\"date\":\"$(date -u +%FT%TZ)\"}" >> "$out/notes.jsonl"; }
 has() { [[ " $phases " == *" $1 "* ]]; }
 note "start $phases; $(lscpu | grep 'Model name' | sed 's/  */ /g')"

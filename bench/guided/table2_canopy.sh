@@ -7,13 +7,8 @@
 # With PHASES="table1", Table 1 at the same reduced size instead: sweep
 # (unfiltered) vs brute-force visibility over grid cells 2, 4, 8.
 #   bench/guided/table2_canopy.sh [BUILD_DIR] [OUT_DIR]   (then: table2_canopy.py OUT_DIR)
-set -euo pipefail
-export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
-here=$(cd "$(dirname "$0")" && pwd)
-build=${1:-$here/../../build}
-out=${2:-$here/results_equal_time}
+. "$(dirname "$0")/common.sh" "${1:-}" "${2:-}" results_equal_time
 seeds=${SEEDS:-"1 2 3"}
-bg=$build/bench/bench_guided
 json=$out/canopy_closed/canopy.json
 [[ -s $json ]] || python3 "$here/make_canopy.py" "$out/canopy_closed" --holes 0
 [[ -s $out/canopy_closed_ref.pfm ]] || "$build/volux" render "$json" -o "$out/canopy_closed_ref.pfm" --technique pathtrace \

@@ -4,7 +4,9 @@
  * A volume of dims (nx,ny,nz) and spacing (sx,sy,sz) is node-centred:
  * sample (i,j,k) lies at origin + (i·sx, j·sy, k·sz) (DESIGN §2). Values are
  * kept in file units: int8/int16 are stored as uint8/uint16 with a value
- * offset, float64 is converted to float32. Outside the box the value is 0
+ * offset; float64 and the 32/64-bit integers are converted to float32
+ * (exact for integers up to 2^24 in magnitude, rounded to float32's 24-bit
+ * precision beyond: label ids above 16 777 216 may merge). Outside the box the value is 0
  * and the medium is empty. Trilinear interpolation; gradients by central
  * differences of the interpolated field.
  *
@@ -38,8 +40,15 @@ typedef enum volux_scalar_type {
     VOLUX_UINT16,
     VOLUX_INT16,
     VOLUX_FLOAT32,
-    VOLUX_FLOAT64
+    VOLUX_FLOAT64,
+    /* wide integers, stored as float32 (see above) */
+    VOLUX_INT32,
+    VOLUX_UINT32,
+    VOLUX_INT64,
+    VOLUX_UINT64
 } volux_scalar_type;
+/* The last scalar type (types are 0 … VOLUX_SCALAR_TYPE_LAST). */
+#define VOLUX_SCALAR_TYPE_LAST VOLUX_UINT64
 
 /* Storage kinds: what the grid keeps in memory. */
 typedef enum volux_storage { VOLUX_STORE_U8, VOLUX_STORE_U16, VOLUX_STORE_F32 } volux_storage;

@@ -88,6 +88,19 @@ class BeerLambert(unittest.TestCase):
         ib = volux.Scene.from_json(absorber_scene(), volume=b).render()
         self.assertTrue(np.array_equal(ia, ib))
 
+    def test_wide_integers_equal_float32(self):
+        # int32 / uint64 data are kept as float32: the same image as the
+        # float32 array of the same (integer) values
+        field = np.rint(sphere() * 1000.0)
+        ref = volux.Volume.from_numpy(field.astype(np.float32), spacing=(SPACING,) * 3)
+        scene = absorber_scene()
+        scene["transfer_function"] = {"color": [[0, 0, 0, 0], [1000, 0, 0, 0]],
+                                      "extinction": [[0, 0], [1000, SIGMA]]}
+        iref = volux.Scene.from_json(scene, volume=ref).render()
+        for dtype in (np.int32, np.uint64):
+            v = volux.Volume.from_numpy(field.astype(dtype), spacing=(SPACING,) * 3)
+            self.assertTrue(np.array_equal(volux.Scene.from_json(scene, volume=v).render(), iref), dtype)
+
 
 class Edits(unittest.TestCase):
     EDITS = [("camera.orbit.azimuth", 70), ("lights.0.irradiance", 3.5),

@@ -116,7 +116,8 @@ def _new_volume(create):
 
 
 _TYPES = {np.dtype(np.uint8): 0, np.dtype(np.int8): 1, np.dtype(np.uint16): 2, np.dtype(np.int16): 3,
-          np.dtype(np.float32): 4, np.dtype(np.float64): 5}
+          np.dtype(np.float32): 4, np.dtype(np.float64): 5, np.dtype(np.int32): 6, np.dtype(np.uint32): 7,
+          np.dtype(np.int64): 8, np.dtype(np.uint64): 9}
 
 
 class Volume:
@@ -130,8 +131,10 @@ class Volume:
     def from_numpy(cls, array, spacing=(1.0, 1.0, 1.0), origin=None, copy=True):
         """A volume from a 3-D array indexed [z, y, x] (C order: x fastest).
 
-        dtype: uint8, int8, uint16, int16, float32 or float64 (values are file
-        units; the transfer function maps them). spacing and origin are
+        dtype: uint8, int8, uint16, int16, float32, float64 or a 32/64-bit
+        integer (values are file units; the transfer function maps them;
+        float64 and the wide integers are kept as float32, exact for
+        integers up to 2^24). spacing and origin are
         (x, y, z) in world units; origin None centres the volume at 0.
         copy=True copies (any strides, NaN/inf become 0); copy=False lends the
         array to volux without a copy (uint8/uint16/float32, C-contiguous,
@@ -144,8 +147,8 @@ class Volume:
         if a.dtype.byteorder not in ("=", "|") and copy:
             a = a.astype(a.dtype.newbyteorder("="))
         if a.dtype not in _TYPES:
-            raise Error("Volume.from_numpy: dtype %s is not one of uint8, int8, uint16, int16, float32, float64"
-                        % a.dtype, "unsupported")
+            raise Error("Volume.from_numpy: dtype %s is not one of uint8, int8, uint16, int16, float32, float64, "
+                        "int32, uint32, int64, uint64" % a.dtype, "unsupported")
         if any(s == 0 and n > 1 for s, n in zip(a.strides, a.shape)):
             if not copy:
                 raise Error("Volume.from_numpy: cannot borrow a broadcast array (zero strides); copy it",

@@ -16,6 +16,10 @@ const char *volux_scalar_type_name(volux_scalar_type t) {
     case VOLUX_INT16: return "int16";
     case VOLUX_FLOAT32: return "float32";
     case VOLUX_FLOAT64: return "float64";
+    case VOLUX_INT32: return "int32";
+    case VOLUX_UINT32: return "uint32";
+    case VOLUX_INT64: return "int64";
+    case VOLUX_UINT64: return "uint64";
     }
     return "unknown";
 }
@@ -26,8 +30,12 @@ size_t volux_scalar_type_size(volux_scalar_type t) {
     case VOLUX_INT8: return 1;
     case VOLUX_UINT16:
     case VOLUX_INT16: return 2;
-    case VOLUX_FLOAT32: return 4;
-    case VOLUX_FLOAT64: return 8;
+    case VOLUX_FLOAT32:
+    case VOLUX_INT32:
+    case VOLUX_UINT32: return 4;
+    case VOLUX_FLOAT64:
+    case VOLUX_INT64:
+    case VOLUX_UINT64: return 8;
     }
     return 0;
 }
@@ -45,6 +53,14 @@ int volux_scalar_type_parse(const char *name, volux_scalar_type *out) {
         {"signed short", VOLUX_INT16}, {"short int", VOLUX_INT16},    {"signed short int", VOLUX_INT16},
         {"int16_t", VOLUX_INT16},     {"float", VOLUX_FLOAT32},       {"float32", VOLUX_FLOAT32},
         {"double", VOLUX_FLOAT64},    {"float64", VOLUX_FLOAT64},
+        /* Teem's (NRRD) names of the wide integers */
+        {"int", VOLUX_INT32},         {"signed int", VOLUX_INT32},    {"int32", VOLUX_INT32},
+        {"int32_t", VOLUX_INT32},     {"uint", VOLUX_UINT32},         {"unsigned int", VOLUX_UINT32},
+        {"uint32", VOLUX_UINT32},     {"uint32_t", VOLUX_UINT32},     {"longlong", VOLUX_INT64},
+        {"long long", VOLUX_INT64},   {"long long int", VOLUX_INT64}, {"signed long long", VOLUX_INT64},
+        {"signed long long int", VOLUX_INT64}, {"int64", VOLUX_INT64}, {"int64_t", VOLUX_INT64},
+        {"ulonglong", VOLUX_UINT64},  {"unsigned long long", VOLUX_UINT64},
+        {"unsigned long long int", VOLUX_UINT64}, {"uint64", VOLUX_UINT64}, {"uint64_t", VOLUX_UINT64},
     };
     for (size_t i = 0; i < sizeof names / sizeof names[0]; i++)
         if (strcmp(name, names[i].name) == 0) {
@@ -235,6 +251,38 @@ volux_status volux_volume_finalize(volux_volume *v, const double *origin) {
     return VOLUX_OK;
 }
 
+/* One float64 or wide-integer element at p (native order) as the float32
+ * it is stored as. */
+static float converted_element(const unsigned char *p, volux_scalar_type t) {
+    switch (t) {
+    case VOLUX_INT32: {
+        int32_t x;
+        memcpy(&x, p, 4);
+        return (float)x;
+    }
+    case VOLUX_UINT32: {
+        uint32_t x;
+        memcpy(&x, p, 4);
+        return (float)x;
+    }
+    case VOLUX_INT64: {
+        int64_t x;
+        memcpy(&x, p, 8);
+        return (float)x;
+    }
+    case VOLUX_UINT64: {
+        uint64_t x;
+        memcpy(&x, p, 8);
+        return (float)x;
+    }
+    default: {
+        double x;
+        memcpy(&x, p, 8);
+        return (float)x;
+    }
+    }
+}
+
 static void convert_into(volux_volume *v, const void *src) {
     size_t n = (size_t)v->dims[0] * (size_t)v->dims[1] * (size_t)v->dims[2];
     switch (v->type) {
@@ -253,10 +301,15 @@ static void convert_into(volux_volume *v, const void *src) {
         for (size_t i = 0; i < n; i++) d[i] = (uint16_t)(s[i] + 32768);
         break;
     }
-    case VOLUX_FLOAT64: {
-        const double *s = src;
+    case VOLUX_FLOAT64:
+    case VOLUX_INT32:
+    case VOLUX_UINT32:
+    case VOLUX_INT64:
+    case VOLUX_UINT64: {
+        const unsigned char *s = src;
+        size_t size = volux_scalar_type_size(v->type);
         float *d = v->data;
-        for (size_t i = 0; i < n; i++) d[i] = (float)s[i];
+        for (size_t i = 0; i < n; i++) d[i] = converted_element(s + i * size, v->type);
         break;
     }
     }
@@ -274,7 +327,7 @@ size_t volux_volume_count_nonfinite(const volux_volume *v, size_t *first) {
 volux_status volux_volume_create(volux_context *ctx, const volux_volume_desc *desc, volux_volume **out) {
     double spacing[3];
     for (int a = 0; a < 3; a++) spacing[a] = desc->spacing[a] == 0.0 ? 1.0 : desc->spacing[a];
-    if ((unsigned)desc->type > VOLUX_FLOAT64)
+    if ((unsigned)desc->type > VOLUX_SCALAR_TYPE_LAST)
         return volux_error(ctx, VOLUX_ERR_INVALID, "unknown scalar type %d", (int)desc->type);
     volux_volume *v;
     volux_status st = volux_volume_create_storage(ctx, desc->dims, spacing, desc->type, &v);
@@ -324,19 +377,18 @@ static void store_element(volux_volume *v, size_t idx, const unsigned char *p) {
         break;
     }
     case VOLUX_FLOAT32: memcpy((float *)v->data + idx, p, 4); break;
-    case VOLUX_FLOAT64: {
-        double x;
-        memcpy(&x, p, 8);
-        ((float *)v->data)[idx] = (float)x;
-        break;
-    }
+    case VOLUX_FLOAT64:
+    case VOLUX_INT32:
+    case VOLUX_UINT32:
+    case VOLUX_INT64:
+    case VOLUX_UINT64: ((float *)v->data)[idx] = converted_element(p, v->type); break;
     }
 }
 
 volux_status volux_volume_from_memory(volux_context *ctx, const volux_volume_memory_desc *desc,
                                       volux_volume **out) {
     if (!desc->data) return volux_error(ctx, VOLUX_ERR_INVALID, "volume from memory: data is NULL");
-    if ((unsigned)desc->type > VOLUX_FLOAT64)
+    if ((unsigned)desc->type > VOLUX_SCALAR_TYPE_LAST)
         return volux_error(ctx, VOLUX_ERR_INVALID, "volume from memory: unknown scalar type %d", (int)desc->type);
     if (desc->mode != VOLUX_MEMORY_COPY && desc->mode != VOLUX_MEMORY_BORROW)
         return volux_error(ctx, VOLUX_ERR_INVALID, "volume from memory: mode %d is neither COPY nor BORROW",

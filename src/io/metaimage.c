@@ -70,10 +70,13 @@ static const struct {
 } types[] = {
     {"MET_UCHAR", VOLUX_UINT8}, {"MET_CHAR", VOLUX_INT8},    {"MET_USHORT", VOLUX_UINT16},
     {"MET_SHORT", VOLUX_INT16}, {"MET_FLOAT", VOLUX_FLOAT32}, {"MET_DOUBLE", VOLUX_FLOAT64},
+    /* MetaIO's sizes (MET_ValueTypeSize): INT, UINT, LONG, ULONG 4 bytes, LONG_LONG 8 */
+    {"MET_INT", VOLUX_INT32},   {"MET_UINT", VOLUX_UINT32},   {"MET_LONG", VOLUX_INT32},
+    {"MET_ULONG", VOLUX_UINT32}, {"MET_LONG_LONG", VOLUX_INT64}, {"MET_ULONG_LONG", VOLUX_UINT64},
 };
 
 static const char *const unsupported_types[] = {
-    "MET_INT", "MET_UINT", "MET_LONG", "MET_ULONG", "MET_LONG_LONG", "MET_ULONG_LONG", "MET_STRING",
+    "MET_STRING",
     "MET_ASCII_CHAR", "MET_FLOAT_MATRIX", "MET_UCHAR_ARRAY", "MET_CHAR_ARRAY", "MET_USHORT_ARRAY",
     "MET_SHORT_ARRAY", "MET_INT_ARRAY", "MET_UINT_ARRAY", "MET_FLOAT_ARRAY", "MET_DOUBLE_ARRAY",
 };
@@ -151,8 +154,8 @@ static volux_status parse_type(parser *p, volux_volume_header *h) {
     for (size_t i = 0; i < sizeof unsupported_types / sizeof unsupported_types[0]; i++)
         if (volux_text_eq(v, unsupported_types[i]))
             return volux_error(p->ctx, VOLUX_ERR_UNSUPPORTED,
-                               "%s: ElementType: %s is not supported (use MET_UCHAR, MET_CHAR, MET_USHORT, MET_SHORT, "
-                               "MET_FLOAT or MET_DOUBLE)",
+                               "%s: ElementType: %s is not supported (use a scalar integer type, MET_FLOAT or "
+                               "MET_DOUBLE)",
                                p->name, unsupported_types[i]);
     return volux_error(p->ctx, VOLUX_ERR_FORMAT, "%s: ElementType: unknown type '%s'", p->name,
                        volux_text_quote(v, q, sizeof q));

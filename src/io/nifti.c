@@ -68,10 +68,15 @@ static volux_status datatype(volux_context *ctx, const char *name, int code, vol
     case 512: *t = VOLUX_UINT16; return VOLUX_OK;
     case 16: *t = VOLUX_FLOAT32; return VOLUX_OK;
     case 64: *t = VOLUX_FLOAT64; return VOLUX_OK;
-    case 1: case 8: case 32: case 128: case 768: case 1024: case 1280: case 1536: case 1792: case 2048: case 2304:
+    case 8: *t = VOLUX_INT32; return VOLUX_OK;
+    case 768: *t = VOLUX_UINT32; return VOLUX_OK;
+    case 1024: *t = VOLUX_INT64; return VOLUX_OK;
+    case 1280: *t = VOLUX_UINT64; return VOLUX_OK;
+    /* binary, complex, RGB(A) and float128: not scalar data we can render */
+    case 1: case 32: case 128: case 1536: case 1792: case 2048: case 2304:
         return volux_error(ctx, VOLUX_ERR_UNSUPPORTED,
-                           "%s: datatype: code %d is not supported (use uint8, int8, uint16, int16, float32 or float64)",
-                           name, code);
+                           "%s: datatype: code %d is not supported (use an integer or a float32/float64 type)", name,
+                           code);
     }
     return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: datatype: unknown code %d", name, code);
 }

@@ -83,13 +83,6 @@ static const struct {
     {"sampleunits", F_IGNORED},
 };
 
-/* Teem type names we do not store (volux keeps u8/u16/f32). */
-static const char *const unsupported_types[] = {
-    "int", "signed int", "int32", "int32_t", "uint", "unsigned int", "uint32", "uint32_t",
-    "longlong", "long long", "long long int", "signed long long", "signed long long int", "int64", "int64_t",
-    "ulonglong", "unsigned long long", "unsigned long long int", "uint64", "uint64_t", "block",
-};
-
 typedef struct parser {
     volux_context *ctx;
     const char *name;
@@ -183,11 +176,9 @@ static volux_status scan_lines(parser *p, const char *bytes, size_t n, uint64_t 
 static volux_status parse_type(parser *p, volux_volume_header *h) {
     char q[80], buf[40];
     volux_text v = p->value[F_TYPE];
-    for (size_t i = 0; i < sizeof unsupported_types / sizeof unsupported_types[0]; i++)
-        if (volux_text_eq(v, unsupported_types[i]))
-            return volux_error(p->ctx, VOLUX_ERR_UNSUPPORTED,
-                               "%s: type: '%s' is not supported (use int8/uint8/int16/uint16/float/double)", p->name,
-                               unsupported_types[i]);
+    if (volux_text_eq(v, "block")) /* opaque bytes, not a scalar */
+        return volux_error(p->ctx, VOLUX_ERR_UNSUPPORTED,
+                           "%s: type: 'block' is not supported (use an integer or floating-point type)", p->name);
     if (v.n < sizeof buf) {
         memcpy(buf, v.p, v.n);
         buf[v.n] = 0;

@@ -10,7 +10,7 @@ volux_status volux_raw_header_from_desc(volux_context *ctx, const volux_raw_desc
                                         volux_volume_header *out) {
     volux_volume_header h;
     volux_volume_header_init(&h);
-    if ((unsigned)desc->type > VOLUX_FLOAT64)
+    if ((unsigned)desc->type > VOLUX_SCALAR_TYPE_LAST)
         return volux_error(ctx, VOLUX_ERR_INVALID, "%s: raw type: unknown scalar type %d", name, (int)desc->type);
     h.type = desc->type;
     h.big_endian = desc->big_endian != 0;

@@ -302,6 +302,26 @@ static double element(const unsigned char *p, volux_scalar_type t, size_t i) {
         memcpy(&v, p + 8 * i, 8);
         return v;
     }
+    case VOLUX_INT32: {
+        int32_t v;
+        memcpy(&v, p + 4 * i, 4);
+        return v;
+    }
+    case VOLUX_UINT32: {
+        uint32_t v;
+        memcpy(&v, p + 4 * i, 4);
+        return v;
+    }
+    case VOLUX_INT64: {
+        int64_t v;
+        memcpy(&v, p + 8 * i, 8);
+        return (double)v;
+    }
+    case VOLUX_UINT64: {
+        uint64_t v;
+        memcpy(&v, p + 8 * i, 8);
+        return (double)v;
+    }
     }
     return 0.0;
 }
@@ -335,9 +355,15 @@ static void convert_chunk(const volux_volume_header *h, volux_volume *v, size_t 
         }
         break;
     }
-    case VOLUX_FLOAT64: {
+    case VOLUX_FLOAT64:
+    case VOLUX_INT32:
+    case VOLUX_UINT32:
+    case VOLUX_INT64:
+    case VOLUX_UINT64: {
+        /* stored as float32 (volux/volume.h); a 64-bit integer goes through
+         * double first, which rounds only where float32 would anyway */
         float *d = (float *)v->data + first;
-        for (size_t i = 0; i < count; i++) d[i] = (float)element(chunk, VOLUX_FLOAT64, i);
+        for (size_t i = 0; i < count; i++) d[i] = (float)element(chunk, h->type, i);
         break;
     }
     }

@@ -36,7 +36,7 @@
  * read from the source directly.
  *
  * Not supported (each refused with a message naming the attribute): several
- * pieces, multi-component arrays, 32/64-bit integer arrays, a Direction that
+ * pieces, multi-component arrays, a Direction that
  * is not the identity, compressors other than zlib.
  */
 #include <expat.h>
@@ -399,6 +399,55 @@ static void ascii_flush(vti *p) {
     progress(p);
 }
 
+/* Stores the integer d as one element of integer type t at e (native
+ * order); 0 if d is not an integer in t's range. The upper bounds are
+ * exclusive powers of two: 2^63 − 1 is not a double. */
+static int ascii_integer(double d, volux_scalar_type t, unsigned char *e) {
+    if (d != floor(d)) return 0;
+    switch (t) {
+    case VOLUX_UINT8:
+    case VOLUX_INT8: {
+        int s = t == VOLUX_INT8;
+        if (d < (s ? -128 : 0) || d > (s ? 127 : 255)) return 0;
+        *e = s ? (unsigned char)(int8_t)d : (uint8_t)d;
+        return 1;
+    }
+    case VOLUX_UINT16:
+    case VOLUX_INT16: {
+        int s = t == VOLUX_INT16;
+        if (d < (s ? -32768 : 0) || d > (s ? 32767 : 65535)) return 0;
+        uint16_t u = s ? (uint16_t)(int16_t)d : (uint16_t)d;
+        memcpy(e, &u, 2);
+        return 1;
+    }
+    case VOLUX_INT32: {
+        if (d < -2147483648.0 || d >= 2147483648.0) return 0;
+        int32_t x = (int32_t)d;
+        memcpy(e, &x, 4);
+        return 1;
+    }
+    case VOLUX_UINT32: {
+        if (d < 0 || d >= 4294967296.0) return 0;
+        uint32_t x = (uint32_t)d;
+        memcpy(e, &x, 4);
+        return 1;
+    }
+    case VOLUX_INT64: {
+        if (d < -9223372036854775808.0 || d >= 9223372036854775808.0) return 0;
+        int64_t x = (int64_t)d;
+        memcpy(e, &x, 8);
+        return 1;
+    }
+    case VOLUX_UINT64: {
+        if (d < 0 || d >= 18446744073709551616.0) return 0;
+        uint64_t x = (uint64_t)d;
+        memcpy(e, &x, 8);
+        return 1;
+    }
+    default: return 0;
+    }
+}
+
 static void ascii_value(vti *p) {
     p->tok[p->ntok] = '\0';
     p->ntok = 0;
@@ -412,7 +461,6 @@ static void ascii_value(vti *p) {
                             p->name, p->count));
         return;
     }
-    static const double lo[] = {0, -128, 0, -32768}, hi[] = {255, 127, 65535, 32767};
     volux_scalar_type t = p->h.type;
     unsigned char *e = p->batch + p->nbatch * p->esize;
     if (t == VOLUX_FLOAT32) {
@@ -420,22 +468,10 @@ static void ascii_value(vti *p) {
         memcpy(e, &f, 4);
     } else if (t == VOLUX_FLOAT64) {
         memcpy(e, &d, 8);
-    } else {
-        if (!(d == floor(d) && d >= lo[t] && d <= hi[t])) {
-            fail(p, volux_error(p->ctx, VOLUX_ERR_FORMAT, "%s: DataArray: value '%s' does not fit type %s", p->name,
-                                p->tok, volux_scalar_type_name(t)));
-            return;
-        }
-        if (t == VOLUX_UINT8 || t == VOLUX_INT8) {
-            int8_t s8 = (int8_t)d;
-            uint8_t u8 = (uint8_t)d;
-            *e = t == VOLUX_INT8 ? (unsigned char)s8 : u8;
-        } else {
-            int16_t s16 = (int16_t)d;
-            uint16_t u16 = (uint16_t)d;
-            if (t == VOLUX_INT16) memcpy(e, &s16, 2);
-            else memcpy(e, &u16, 2);
-        }
+    } else if (!ascii_integer(d, t, e)) {
+        fail(p, volux_error(p->ctx, VOLUX_ERR_FORMAT, "%s: DataArray: value '%s' does not fit type %s", p->name,
+                            p->tok, volux_scalar_type_name(t)));
+        return;
     }
     if (++p->nbatch == VTI_ASCII_BATCH) ascii_flush(p);
 }
@@ -465,7 +501,9 @@ static int type_from_name(const char *s, volux_scalar_type *t) {
         const char *name;
         volux_scalar_type t;
     } types[] = {{"UInt8", VOLUX_UINT8},     {"Int8", VOLUX_INT8},       {"UInt16", VOLUX_UINT16},
-                 {"Int16", VOLUX_INT16},     {"Float32", VOLUX_FLOAT32}, {"Float64", VOLUX_FLOAT64}};
+                 {"Int16", VOLUX_INT16},     {"Float32", VOLUX_FLOAT32}, {"Float64", VOLUX_FLOAT64},
+                 {"Int32", VOLUX_INT32},     {"UInt32", VOLUX_UINT32},   {"Int64", VOLUX_INT64},
+                 {"UInt64", VOLUX_UINT64}};
     for (size_t i = 0; i < sizeof types / sizeof types[0]; i++)
         if (strcmp(s, types[i].name) == 0) {
             *t = types[i].t;
@@ -574,7 +612,8 @@ static void start_array(vti *p, const XML_Char **a) {
     const char *aname = name ? name : "(unnamed)";
     if (!type || !type_from_name(type, &p->h.type)) {
         fail(p, volux_error(ctx, VOLUX_ERR_UNSUPPORTED,
-                            "%s: DataArray '%s' type: '%s' (supported: UInt8 Int8 UInt16 Int16 Float32 Float64)",
+                            "%s: DataArray '%s' type: '%s' (supported: UInt8 Int8 UInt16 Int16 Int32 UInt32 "
+                            "Int64 UInt64 Float32 Float64)",
                             p->name, aname, type ? type : "(missing)"));
         return;
     }

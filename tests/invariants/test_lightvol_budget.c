@@ -98,6 +98,26 @@ static void tf_edit(volux_scene *s, int round) {
     assert_int_equal(volux_edit_apply(volux_edit_find("tf"), s, 0), VOLUX_OK);
 }
 
+/* The two instances render the same image, bit for bit. */
+static void assert_same_images(volux_context *ctx, volux_scene *sa, volux_technique *a, volux_scene *sb,
+                               volux_technique *b) {
+    volux_image ia = tu_render_with(ctx, sa, a), ib = tu_render_with(ctx, sb, b);
+    assert_true(tu_max_abs_diff(&ia, &ib) == 0.0);
+    volux_image_free(ctx, &ia);
+    volux_image_free(ctx, &ib);
+}
+
+/* One refine step propagates exactly `slices` slice steps (or what is
+ * left, if less). */
+static void assert_refine_spends(volux_technique *t, volux_scene *s, uint64_t slices) {
+    uint64_t before = volux_technique_pending(t);
+    int refined = 0, more = 0;
+    assert_int_equal(volux_technique_refine(t, s, &refined, &more), VOLUX_OK);
+    assert_true(refined);
+    assert_true(more == (volux_technique_pending(t) > 0));
+    assert_int_equal(before - volux_technique_pending(t), before < slices ? before : slices);
+}
+
 /* a light edit, then a transfer function edit while it propagates (the
  * entire update replaces the job) */
 static void light_then_tf(volux_scene *s, int round) {
@@ -141,11 +161,7 @@ static void check_edit(const char *what, edit_fn edit, int edits, const char *bu
     int steps = finish(b, sb);
     if (budget_name && !strcmp(budget_name, "budget_slices")) assert_true(steps >= 2);
     assert_same_volume(a, b, what);
-    /* and the images agree */
-    volux_image ia = tu_render_with(ctx, sa, a), ib = tu_render_with(ctx, sb, b);
-    assert_true(tu_max_abs_diff(&ia, &ib) == 0.0);
-    volux_image_free(ctx, &ia);
-    volux_image_free(ctx, &ib);
+    assert_same_images(ctx, sa, a, sb, b);
     volux_technique_destroy(a);
     volux_technique_destroy(b);
     volux_scene_destroy(sa);
@@ -227,13 +243,7 @@ static void test_each_step_spends_the_budget(void **state) {
     uint64_t total = 0;
     for (int p = 0; p < st->job.np; p++) total += (uint64_t)st->dims[st->job.passes[p].g / 2];
     assert_int_equal(volux_technique_pending(t) + 6, total);
-    while (volux_technique_pending(t) > 0) {
-        uint64_t before = volux_technique_pending(t);
-        int refined = 0, more = 0;
-        assert_int_equal(volux_technique_refine(t, s, &refined, &more), VOLUX_OK);
-        assert_true(refined);
-        assert_int_equal(before - volux_technique_pending(t), before < 6 ? before : 6);
-    }
+    while (volux_technique_pending(t) > 0) assert_refine_spends(t, s, 6);
     /* switching the budget off finishes a propagation at the next update */
     move_point(s, 1);
     lvf_update(t, s);
@@ -265,29 +275,16 @@ static void test_front_end_budget(void **state) {
     lvf_update(b, sb);
     uint64_t total = volux_technique_pending(b) + 1; /* the update ran one step */
     assert_true(total > 8);
-    for (int i = 0; i < 3; i++) {
-        uint64_t before = volux_technique_pending(b);
-        int refined = 0, more = 0;
-        assert_int_equal(volux_technique_refine(b, sb, &refined, &more), VOLUX_OK);
-        assert_true(refined && more);
-        assert_int_equal(before - volux_technique_pending(b), 1); /* not the scene's 6 */
-    }
+    for (int i = 0; i < 3; i++) assert_refine_spends(b, sb, 1); /* not the scene's 6 */
     /* the scene's budget again: 6 slice steps per call */
     assert_int_equal(volux_technique_set_budget(b, 0), 1);
-    uint64_t before = volux_technique_pending(b);
-    assert_int_equal(volux_technique_refine(b, sb, NULL, NULL), VOLUX_OK);
-    assert_int_equal(before - volux_technique_pending(b), 6);
+    assert_refine_spends(b, sb, 6);
     assert_int_equal(volux_technique_set_budget(b, NAN), 1); /* NaN: the scene's */
-    before = volux_technique_pending(b);
-    assert_int_equal(volux_technique_refine(b, sb, NULL, NULL), VOLUX_OK);
-    assert_int_equal(before - volux_technique_pending(b), 6);
+    assert_refine_spends(b, sb, 6);
     assert_int_equal(volux_technique_set_budget(b, 1e-9), 1);
     finish(b, sb);
     assert_same_volume(a, b, "front-end budget");
-    volux_image ia = tu_render_with(ctx, sa, a), ib = tu_render_with(ctx, sb, b);
-    assert_true(tu_max_abs_diff(&ia, &ib) == 0.0);
-    volux_image_free(ctx, &ia);
-    volux_image_free(ctx, &ib);
+    assert_same_images(ctx, sa, a, sb, b);
     /* the scene was not touched; a new instance (what `volux render` of it
      * builds) differs from any selectively updated one by the class's
      * update tolerance only (incremental arithmetic), budget or not */

@@ -545,31 +545,22 @@ static void test_builtin_table(void **state) {
 
 /* A table that has to be built says so (a note through the context's
  * message callback naming its size and where it is kept). */
-typedef struct notes {
-    int n;
-    char last[512];
-} notes;
-static void note(void *user, volux_message_level level, const char *text) {
-    notes *n = user;
-    assert_int_equal(level, VOLUX_MESSAGE_NOTE);
-    n->n++;
-    snprintf(n->last, sizeof n->last, "%s", text);
-}
 static void test_a_build_is_announced(void **state) {
     (void)state;
     volux_context *ctx = tu_context(2);
-    notes seen = {0, ""};
-    volux_context_set_message(ctx, note, &seen);
+    tu_messages seen = {0};
+    volux_context_set_message(ctx, tu_collect_messages, &seen);
     volux_ambient_table_desc d = small_desc();
     d.paths = 16;
     d.seed = 77;
     volux_ambient_table t = get(ctx, &d, 1);
-    assert_int_equal(seen.n, 2); /* "building ..." and "built in ..., kept in ..." */
+    assert_int_equal(seen.warnings, 0);
+    assert_int_equal(seen.notes, 2); /* "building ..." and "built in ..., kept in ..." */
     assert_non_null(strstr(seen.last, "kept in"));
     assert_non_null(strstr(seen.last, ".vxat"));
     volux_ambient_table_free(ctx, &t);
     t = get(ctx, &d, 0); /* from the cache: silent */
-    assert_int_equal(seen.n, 2);
+    assert_int_equal(seen.notes, 2);
     volux_ambient_table_free(ctx, &t);
     volux_context_destroy(ctx);
 }

@@ -266,39 +266,29 @@ static void test_cell_integrals_memo_matches_fresh(void **state) {
     volux_context_destroy(ctx);
 }
 
-typedef struct seen {
-    int n;
-    char text[512];
-} seen;
-static void collect(void *user, volux_message_level level, const char *text) {
-    seen *s = user;
-    assert_int_equal(level, VOLUX_MESSAGE_WARNING);
-    s->n++;
-    snprintf(s->text, sizeof s->text, "%s", text);
-}
-
 /* env_directions = 0: the sky is dropped with one warning naming it, and
  * nothing is propagated; set back to 16, it lights the volume and no
  * warning follows. */
 static void test_no_directions_warns(void **state) {
     (void)state;
     volux_context *ctx = tu_context(1);
-    seen w = {0, ""};
-    volux_context_set_message(ctx, collect, &w);
+    tu_messages w = {0};
+    volux_context_set_message(ctx, tu_collect_messages, &w);
     float *data = filled(N * N * N, 0.1f);
     volux_scene *s = lvf_scene(ctx, N, N, N, data, 0.9f, NULL);
     volux_light_desc env = sky(1.0f);
     assert_int_equal(volux_scene_set_light(s, 2, &env), VOLUX_OK);
     assert_int_equal(volux_scene_set_param(s, "lightvol", "env_directions", 0, NULL), VOLUX_OK);
     volux_technique *t = lvf_create(ctx, s);
-    assert_int_equal(w.n, 1);
-    assert_non_null(strstr(w.text, "lightvol: ignores lights[2] (environment)"));
-    assert_non_null(strstr(w.text, "env_directions"));
+    assert_int_equal(w.warnings, 1);
+    assert_int_equal(w.notes, 0);
+    assert_non_null(strstr(w.last, "lightvol: ignores lights[2] (environment)"));
+    assert_non_null(strstr(w.last, "env_directions"));
     const lightvol_state *st = lvf_state(t);
     for (size_t i = 0; i < lvf_count(st); i++) assert_true(st->vol[i] == 0.0f);
     assert_int_equal(volux_scene_set_param(s, "lightvol", "env_directions", 16, NULL), VOLUX_OK);
     lvf_update(t, s);
-    assert_int_equal(w.n, 1);
+    assert_int_equal(w.warnings, 1);
     assert_true(lvf_at(st, N / 2, N / 2, N / 2)[0] > 0.0f);
     volux_technique_destroy(t);
     volux_scene_destroy(s);

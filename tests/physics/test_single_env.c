@@ -93,42 +93,32 @@ static void test_one_texel_map_energy(void **state) {
     volux_context_destroy(ctx);
 }
 
-typedef struct seen {
-    int n;
-    char text[512];
-} seen;
-static void collect(void *user, volux_message_level level, const char *text) {
-    seen *s = user;
-    assert_int_equal(level, VOLUX_MESSAGE_WARNING);
-    s->n++;
-    snprintf(s->text, sizeof s->text, "%s", text);
-}
-
 /* env_directions = 0: the sky is dropped, with one warning that names it;
  * an edit of another light does not repeat it; the image is the
  * directional light's alone. */
 static void test_ignored_sky_warns_once(void **state) {
     (void)state;
     volux_context *ctx = tu_context(1);
-    seen w = {0, ""};
-    volux_context_set_message(ctx, collect, &w);
+    tu_messages w = {0};
+    volux_context_set_message(ctx, tu_collect_messages, &w);
     const char *sky = "{\"type\": \"environment\", \"radiance\": 3, \"visible\": false}";
     volux_scene *s = load(ctx, sky, 0);
     volux_technique *t = NULL;
     assert_int_equal(volux_technique_create(ctx, "single", s, &t), VOLUX_OK);
-    assert_int_equal(w.n, 1);
-    assert_non_null(strstr(w.text, "single: ignores lights[1] (environment)"));
-    assert_non_null(strstr(w.text, "env_directions"));
+    assert_int_equal(w.warnings, 1);
+    assert_int_equal(w.notes, 0);
+    assert_non_null(strstr(w.last, "single: ignores lights[1] (environment)"));
+    assert_non_null(strstr(w.last, "env_directions"));
     const volux_edit *e = volux_edit_find("light");
     assert_int_equal(volux_edit_apply(e, s, 0), VOLUX_OK);
     assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
-    assert_int_equal(w.n, 1);
+    assert_int_equal(w.warnings, 1);
     volux_technique_destroy(t);
     volux_scene_destroy(s);
     /* with the sky used, no warning */
     s = load(ctx, sky, 16);
     assert_int_equal(volux_technique_create(ctx, "single", s, &t), VOLUX_OK);
-    assert_int_equal(w.n, 1);
+    assert_int_equal(w.warnings, 1);
     volux_technique_destroy(t);
     volux_scene_destroy(s);
     volux_context_destroy(ctx);

@@ -200,13 +200,6 @@ CASE(6)
 CASE(7)
 CASE(8)
 
-/* Counts warnings (notes are only printed). */
-static void collect_warning(void *user, volux_message_level level, const char *message) {
-    int *n = user;
-    if (level == VOLUX_MESSAGE_WARNING) (*n)++;
-    printf("  %s: %s\n", level == VOLUX_MESSAGE_WARNING ? "warning" : "note", message);
-}
-
 /* --time-ms is honoured inside a path: the camera sits at the centre of a
  * white (albedo 1), dense medium (optical depth 2000·32 to the boundary),
  * so no path can escape and every one scatters max_depth = 1e5 times (no
@@ -219,8 +212,8 @@ static void collect_warning(void *user, volux_message_level level, const char *m
 static void test_time_budget_ends_long_paths(void **state) {
     (void)state;
     volux_context *ctx = tu_context(2);
-    int warnings = 0;
-    volux_context_set_message(ctx, collect_warning, &warnings);
+    tu_messages messages = {0};
+    volux_context_set_message(ctx, tu_collect_messages, &messages);
     volux_scene *s = tu_scene(ctx, "{\"volume\": {\"procedural\": \"constant\", \"dims\": [32, 32, 32]},"
                                    " \"transfer_function\": {\"extinction\": [[0, 2000], [2, 2000]], \"albedo\": 1},"
                                    " \"camera\": {\"eye\": [0, 0, 0], \"look_at\": [0, 0, 1]},"
@@ -240,7 +233,7 @@ static void test_time_budget_ends_long_paths(void **state) {
            rep.truncated);
     assert_int_equal(rep.spp, 1);
     assert_int_equal(rep.truncated, 1);
-    assert_int_equal(warnings, 1);
+    assert_int_equal(messages.warnings, 1);
     volux_image img = {0};
     assert_int_equal(volux_framebuffer_resolve(fb, &img), VOLUX_OK);
     for (int i = 0; i < 3 * img.width * img.height; i++) assert_true(isfinite(img.rgb[i]));

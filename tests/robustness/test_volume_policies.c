@@ -18,19 +18,6 @@
 #include "io/volume_formats.h"
 #include "tu_volume.h"
 
-typedef struct warnings {
-    int count;
-    char last[512];
-} warnings;
-
-/* Counts warnings (notes are not what these tests look for). */
-static void collect(void *user, volux_message_level level, const char *message) {
-    warnings *w = user;
-    if (level != VOLUX_MESSAGE_WARNING) return;
-    w->count++;
-    snprintf(w->last, sizeof w->last, "%s", message);
-}
-
 static void test_raw_nrrd_trailing_bytes_load_with_a_warning(void **state) {
     (void)state;
     unsigned char data[8 + 5] = {1, 2, 3, 4, 5, 6, 7, 8, 99, 99, 99, 99, 99};
@@ -38,11 +25,11 @@ static void test_raw_nrrd_trailing_bytes_load_with_a_warning(void **state) {
         tu_write_parts("trail.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n\n", data,
                        sizeof data);
     volux_context *ctx = tu_context(1);
-    warnings w = {0, ""};
-    volux_context_set_message(ctx, collect, &w);
+    tu_messages w = {0};
+    volux_context_set_message(ctx, tu_collect_messages, &w);
     volux_volume *v = NULL;
     assert_int_equal(volux_volume_load(ctx, path, NULL, &v), VOLUX_OK);
-    assert_int_equal(w.count, 1);
+    assert_int_equal(w.warnings, 1);
     assert_non_null(strstr(w.last, "trail.nrrd"));
     assert_non_null(strstr(w.last, "5 bytes after"));
     /* The data are the first 8 bytes, not the trailing ones. */
@@ -79,14 +66,14 @@ static void test_nonfinite_values_mapped_when_allowed(void **state) {
     (void)state;
     const char *path = nonfinite_file();
     volux_context *ctx = tu_context(1);
-    warnings w = {0, ""};
-    volux_context_set_message(ctx, collect, &w);
+    tu_messages w = {0};
+    volux_context_set_message(ctx, tu_collect_messages, &w);
     volux_volume_load_options o;
     memset(&o, 0, sizeof o);
     o.allow_nonfinite = 1;
     volux_volume *v = NULL;
     assert_int_equal(volux_volume_load(ctx, path, &o, &v), VOLUX_OK);
-    assert_int_equal(w.count, 1);
+    assert_int_equal(w.warnings, 1);
     assert_non_null(strstr(w.last, "2 non-finite"));
     double lo, hi;
     volux_volume_range(v, &lo, &hi);

@@ -52,6 +52,15 @@ static const char *temp_dir(void) {
     return temp_folder;
 }
 
+void tu_collect_messages(void *user, volux_message_level level, const char *text) {
+    tu_messages *m = user;
+    if (level == VOLUX_MESSAGE_WARNING)
+        m->warnings++;
+    else
+        m->notes++;
+    snprintf(m->last, sizeof m->last, "%s", text);
+}
+
 const char *tu_temp_path(const char *name) {
     static char paths[16][512];
     static int next;

@@ -31,6 +31,16 @@ const char *tu_temp_path(const char *name);
  * into *err (static buffer). Returns the exit status. */
 int tu_run_cli(const char *args, const char **err);
 
+/* What a context's message callback delivered: counts per level and the
+ * last message's text. Install with
+ * volux_context_set_message(ctx, tu_collect_messages, &messages). */
+typedef struct tu_messages {
+    int warnings;
+    int notes;
+    char last[512];
+} tu_messages;
+void tu_collect_messages(void *user, volux_message_level level, const char *text);
+
 /* Asserts |a − b| ≤ tol with a readable message. */
 #define assert_near(a, b, tol)                                                                         \
     do {                                                                                               \

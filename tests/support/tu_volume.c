@@ -27,6 +27,10 @@ size_t tu_encode(volux_scalar_type type, int big_endian, const double *values, s
         case VOLUX_INT16: { int16_t v = (int16_t)x; put(o, &v, 2, big_endian); break; }
         case VOLUX_FLOAT32: { float v = (float)x; put(o, &v, 4, big_endian); break; }
         case VOLUX_FLOAT64: put(o, &x, 8, big_endian); break;
+        case VOLUX_INT32: { int32_t v = (int32_t)x; put(o, &v, 4, big_endian); break; }
+        case VOLUX_UINT32: { uint32_t v = (uint32_t)x; put(o, &v, 4, big_endian); break; }
+        case VOLUX_INT64: { int64_t v = (int64_t)x; put(o, &v, 8, big_endian); break; }
+        case VOLUX_UINT64: { uint64_t v = (uint64_t)x; put(o, &v, 8, big_endian); break; }
         }
     }
     return n * es;

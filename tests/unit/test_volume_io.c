@@ -18,10 +18,12 @@
 #define NZ 2
 #define N (NX * NY * NZ)
 
-static const volux_scalar_type all_types[] = {VOLUX_UINT8, VOLUX_INT8,    VOLUX_UINT16,
-                                              VOLUX_INT16, VOLUX_FLOAT32, VOLUX_FLOAT64};
+static const volux_scalar_type all_types[] = {VOLUX_UINT8,   VOLUX_INT8,  VOLUX_UINT16, VOLUX_INT16, VOLUX_FLOAT32,
+                                              VOLUX_FLOAT64, VOLUX_INT32, VOLUX_UINT32, VOLUX_INT64, VOLUX_UINT64};
 
-/* Values that use the whole range of each type (and are exact in float). */
+/* Values that use the whole range of each type (and are exact in float;
+ * the wide integers on float32's grid near the ends of their range, plus
+ * one small odd value to catch a byte-order slip). */
 static void make_values(volux_scalar_type t, double *v) {
     for (int i = 0; i < N; i++) {
         switch (t) {
@@ -31,6 +33,10 @@ static void make_values(volux_scalar_type t, double *v) {
         case VOLUX_INT16: v[i] = (i * 2731) % 65536 - 32768; break;
         case VOLUX_FLOAT32: v[i] = i * 0.25 - 3.5; break;
         case VOLUX_FLOAT64: v[i] = i * 1e3 - 7.25; break;
+        case VOLUX_INT32: v[i] = i == 1 ? 12345 : ((i * 2731) % 65536 - 32768) * 65536.0; break;
+        case VOLUX_UINT32: v[i] = i == 1 ? 12345 : ((i * 2731) % 65536) * 65536.0; break;
+        case VOLUX_INT64: v[i] = i == 1 ? -12345 : ((i * 2731) % 65536 - 32768) * 281474976710656.0; break;
+        case VOLUX_UINT64: v[i] = i == 1 ? 12345 : ((i * 2731) % 65536) * 281474976710656.0; break;
         }
     }
 }
@@ -61,7 +67,8 @@ static void assert_values(const volux_volume *v, const double *expect) {
 /* ------------------------------------------------------------------ NRRD */
 
 static const char *nrrd_type(volux_scalar_type t) {
-    static const char *names[] = {"uint8", "int8", "uint16", "int16", "float", "double"};
+    static const char *names[] = {"uint8", "int8", "uint16", "int16", "float",
+                                  "double", "int", "unsigned int", "int64", "ulonglong"};
     return names[t];
 }
 
@@ -307,7 +314,8 @@ static void test_load_memory_attached(void **state) {
 /* ------------------------------------------------------------------ MetaImage */
 
 static const char *met_type(volux_scalar_type t) {
-    static const char *names[] = {"MET_UCHAR", "MET_CHAR", "MET_USHORT", "MET_SHORT", "MET_FLOAT", "MET_DOUBLE"};
+    static const char *names[] = {"MET_UCHAR", "MET_CHAR", "MET_USHORT", "MET_SHORT",     "MET_FLOAT",
+                                  "MET_DOUBLE", "MET_INT", "MET_UINT",   "MET_LONG_LONG", "MET_ULONG_LONG"};
     return names[t];
 }
 
@@ -382,7 +390,7 @@ static void test_metaimage_element_size_and_header_size_minus_one(void **state) 
 /* ------------------------------------------------------------------ NIfTI */
 
 static int nifti_code(volux_scalar_type t) {
-    static const int codes[] = {2, 256, 512, 4, 16, 64};
+    static const int codes[] = {2, 256, 512, 4, 16, 64, 8, 768, 1024, 1280};
     return codes[t];
 }
 

@@ -29,6 +29,16 @@ def value_f32(i, j, k):
     return 0.25 * i - 1.5 * j + 7.0 * k + 0.125
 
 
+def value_u32(i, j, k):
+    # near 2^32, multiples of 256: exact in float32 (24-bit significand)
+    return 4026531840 + 256 * (i + 7 * j + 35 * k)
+
+
+def value_i64(i, j, k):
+    # beyond 2^32 on both sides, multiples of 2^17: exact in float32 near 2^40
+    return -(1 << 40) + 131072 * (3 * i - 5 * j + 11 * k)
+
+
 def image(arrays):
     img = vtk.vtkImageData()
     img.SetExtent(2, 2 + NX - 1, -1, -1 + NY - 1, 0, NZ - 1)
@@ -36,10 +46,12 @@ def image(arrays):
     img.SetOrigin(10.0, 20.0, 30.0)
     for name, kind in arrays:
         a = {"u8": vtk.vtkUnsignedCharArray, "i16": vtk.vtkShortArray, "f32": vtk.vtkFloatArray,
-             "f64": vtk.vtkDoubleArray, "i32": vtk.vtkIntArray}[kind]()
+             "f64": vtk.vtkDoubleArray, "i32": vtk.vtkIntArray, "u32": vtk.vtkUnsignedIntArray,
+             "i64": vtk.vtkLongLongArray, "u64": vtk.vtkUnsignedLongLongArray}[kind]()
         a.SetName(name)
         a.SetNumberOfTuples(NX * NY * NZ)
-        f = {"u8": value_u8, "i16": value_i16, "f32": value_f32, "f64": value_f32, "i32": value_i16}[kind]
+        f = {"u8": value_u8, "i16": value_i16, "f32": value_f32, "f64": value_f32, "i32": value_i16,
+             "u32": value_u32, "i64": value_i64, "u64": value_u32}[kind]
         n = 0
         for k in range(NZ):
             for j in range(NY):
@@ -83,6 +95,9 @@ def main():
     write(f"{out}/binary_f64.vti", image([("density", "f64")]), "binary", zlib=True)
     write(f"{out}/two_arrays_u8.vti", two, "appended", zlib=True)
     write(f"{out}/int32.vti", image([("density", "i32")]), "binary")
+    write(f"{out}/ascii_u32.vti", image([("density", "u32")]), "ascii")
+    write(f"{out}/appended_zlib_i64.vti", image([("density", "i64")]), "appended", zlib=True, block=64)
+    write(f"{out}/big_endian_u64.vti", image([("density", "u64")]), "binary", big=True)
 
 
 if __name__ == "__main__":
