@@ -113,21 +113,20 @@ static int nearest_dir(const volux_vec3 *from, int K, volux_vec3 d) {
 /* A map texel by texel (solid angle (2π/W)(π/H)·sin θ each): a sun lands
  * in its nearest direction instead of falling between point samples; a
  * constant environment with 64 finer Fibonacci points per direction
- * (≈ L·4π/K each). */
-void volux_environment_cells(const volux_light_desc *d, int K, const volux_vec3 *from, volux_vec3 *E) {
+ * (≈ 4π/K each). Without the scale: see volux_environment_cells_scale. */
+void volux_environment_cell_integrals(const volux_light_desc *d, int K, const volux_vec3 *from, volux_vec3 *S) {
+    for (int k = 0; k < K; k++) S[k] = v3(0.0f, 0.0f, 0.0f);
     if (K <= 0) return;
     if (!d->map) {
         int N = 64 * K;
         float w = (float)(4.0 * 3.14159265358979323846 / N);
         for (int i = 0; i < N; i++) {
-            volux_vec3 dir = volux_fibonacci_dir(i, N);
-            int k = nearest_dir(from, K, dir);
-            E[k] = v3_madd(E[k], volux_environment_radiance(d, dir), w);
+            int k = nearest_dir(from, K, volux_fibonacci_dir(i, N));
+            S[k] = v3_add(S[k], v3(w, w, w));
         }
         return;
     }
     const volux_image *m = d->map;
-    volux_vec3 scale = v3_scale(d->color, d->intensity);
     double dtheta = 3.14159265358979323846 / m->height, dphi = 2.0 * 3.14159265358979323846 / m->width;
     for (int j = 0; j < m->height; j++) {
         float v = ((float)j + 0.5f) / (float)m->height;
@@ -138,7 +137,72 @@ void volux_environment_cells(const volux_light_desc *d, int K, const volux_vec3 
             if (L.x <= 0.0f && L.y <= 0.0f && L.z <= 0.0f) continue;
             volux_vec3 dir = volux_environment_direction(d, ((float)i + 0.5f) / (float)m->width, v);
             int k = nearest_dir(from, K, dir);
-            E[k] = v3_madd(E[k], v3_mul(L, scale), w);
+            S[k] = v3_madd(S[k], L, w);
         }
     }
+}
+
+volux_vec3 volux_environment_cells_scale(const volux_light_desc *d) {
+    /* as volux_environment_radiance scales the map or the constant */
+    return v3_scale(d->color, d->map ? d->intensity : d->radiance);
+}
+
+static void add_scaled(const volux_light_desc *d, int K, const volux_vec3 *S, volux_vec3 *E) {
+    const volux_vec3 scale = volux_environment_cells_scale(d);
+    for (int k = 0; k < K; k++) E[k] = v3_add(E[k], v3_mul(S[k], scale));
+}
+
+void volux_environment_cells(const volux_light_desc *d, int K, const volux_vec3 *from, volux_vec3 *E) {
+    if (K <= 0) return;
+    volux_vec3 S[VOLUX_ENV_CELLS_MAX];
+    if (K > VOLUX_ENV_CELLS_MAX) K = VOLUX_ENV_CELLS_MAX; /* the techniques' env_directions limit (256) */
+    volux_environment_cell_integrals(d, K, from, S);
+    add_scaled(d, K, S, E);
+}
+
+/* 64-bit hash of a map's texel bits (multiply–xorshift per 32-bit word;
+ * the order matters, so a rotated or shifted map hashes differently). */
+static uint64_t map_hash(const volux_image *m) {
+    uint64_t h = 0x9E3779B97F4A7C15ull ^ ((uint64_t)m->width << 32 | (uint64_t)(uint32_t)m->height);
+    const size_t n = 3 * (size_t)m->width * (size_t)m->height;
+    for (size_t i = 0; i < n; i++) {
+        uint32_t x;
+        memcpy(&x, &m->rgb[i], sizeof x);
+        h = (h ^ x) * 0xBF58476D1CE4E5B9ull;
+        h ^= h >> 31;
+    }
+    return h;
+}
+
+void volux_environment_cells_cached(volux_env_cells_cache *c, const volux_light_desc *d, int K, volux_vec3 *E) {
+    if (K <= 0) return;
+    if (K > VOLUX_ENV_CELLS_MAX) K = VOLUX_ENV_CELLS_MAX;
+    const int has_map = d->map != NULL;
+    const int w = has_map ? d->map->width : 0, h = has_map ? d->map->height : 0;
+    /* a constant environment's integrals depend on K alone */
+    const float rot = has_map ? d->rotation_y_deg : 0.0f;
+    const uint64_t hash = has_map ? map_hash(d->map) : 0;
+    c->clock++;
+    int hit = -1, victim = 0;
+    for (int i = 0; i < VOLUX_ENV_CELLS_SLOTS; i++) {
+        if (c->e[i].used && c->e[i].K == K && c->e[i].has_map == has_map && c->e[i].width == w &&
+            c->e[i].height == h && c->e[i].rotation_y_deg == rot && c->e[i].hash == hash) {
+            hit = i;
+            break;
+        }
+        if (!c->e[i].used || (c->e[victim].used && c->e[i].last_use < c->e[victim].last_use)) victim = i;
+    }
+    if (hit < 0) {
+        volux_vec3 from[VOLUX_ENV_CELLS_MAX];
+        for (int k = 0; k < K; k++) from[k] = volux_fibonacci_dir(k, K);
+        hit = victim;
+        volux_environment_cell_integrals(d, K, from, c->e[hit].S);
+        c->e[hit].used = 1, c->e[hit].K = K, c->e[hit].has_map = has_map;
+        c->e[hit].width = w, c->e[hit].height = h, c->e[hit].rotation_y_deg = rot, c->e[hit].hash = hash;
+        c->misses++;
+    } else {
+        c->hits++;
+    }
+    c->e[hit].last_use = c->clock;
+    add_scaled(d, K, c->e[hit].S, E);
 }

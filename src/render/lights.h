@@ -16,6 +16,7 @@
 #ifndef VOLUX_RENDER_LIGHTS_H
 #define VOLUX_RENDER_LIGHTS_H
 
+#include <stdint.h>
 #include "core/vecmath.h"
 #include "volux/scene.h"
 
@@ -69,6 +70,40 @@ volux_vec3 volux_fibonacci_dir(int i, int n);
  * volux_fibonacci_dir(k, K)). A map is integrated texel by texel, so the
  * energy is kept exactly: Σ_k E_k = ∫ L dω. */
 void volux_environment_cells(const volux_light_desc *d, int K, const volux_vec3 *from, volux_vec3 *E);
+
+/* The cell integrals without the environment's scale (map: colour ×
+ * intensity; constant: colour × radiance): S[k] = ∫_cell L dω of the bare
+ * map (or of 1), overwritten. volux_environment_cells adds scale ⊙ S[k]. */
+void volux_environment_cell_integrals(const volux_light_desc *d, int K, const volux_vec3 *from, volux_vec3 *S);
+volux_vec3 volux_environment_cells_scale(const volux_light_desc *d);
+
+/* A memo of cell integrals (issue 17): the texel-by-texel integration of a
+ * map (a direction, trigonometry and K dot products per texel: tens of ms
+ * for a 1k map) depends only on the map's texels, its rotation and K — not
+ * on colour or intensity, which scale the result. An update that re-derives
+ * the environment (any light edit, a transfer-function edit, a queued
+ * budget plan) then costs a hash of the map. Keyed on K, rotation, the map's
+ * size and a 64-bit hash of its texels (the scene copies a map on every
+ * light edit, so its address says nothing); the least recently used of
+ * VOLUX_ENV_CELLS_SLOTS entries is replaced. */
+#define VOLUX_ENV_CELLS_MAX 256
+#define VOLUX_ENV_CELLS_SLOTS 4
+typedef struct volux_env_cells_cache {
+    struct {
+        int used, K, has_map, width, height;
+        float rotation_y_deg;
+        uint64_t hash;
+        unsigned long long last_use;
+        volux_vec3 S[VOLUX_ENV_CELLS_MAX];
+    } e[VOLUX_ENV_CELLS_SLOTS];
+    unsigned long long clock;
+    long hits, misses; /* for tests and statistics */
+} volux_env_cells_cache;
+
+/* volux_environment_cells with from[k] = volux_fibonacci_dir(k, K) (K ≤
+ * VOLUX_ENV_CELLS_MAX) through the memo: the same arithmetic as a fresh
+ * call, so the same bits. */
+void volux_environment_cells_cached(volux_env_cells_cache *c, const volux_light_desc *d, int K, volux_vec3 *E);
 
 /* Unshadowed irradiance at p from a direct light and the direction the
  * light travels there (unit). */

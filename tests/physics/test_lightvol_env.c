@@ -180,10 +180,89 @@ static void test_sky_map_rotation(void **state) {
     double sum1 = 0.0;
     for (int k = 0; k < st->p.env_dirs; k++) sum1 += st->env_E[k].x;
     assert_near(sum1, sum0, 1e-4 * sum0);
+    /* an intensity edit re-derives the environment from the memo (no new
+     * integration), and the applied irradiances are a fresh integration's */
+    long misses = st->env_cells.misses, hits = st->env_cells.hits;
+    env.intensity = 0.25f;
+    assert_int_equal(volux_scene_set_light(s, 0, &env), VOLUX_OK);
+    expect_fresh(ctx, s, t, "sky intensity after rotation");
+    assert_int_equal(st->env_cells.misses, misses);
+    assert_true(st->env_cells.hits > hits);
+    volux_vec3 from[LV_MAX_ENV_DIRS], fresh[LV_MAX_ENV_DIRS];
+    const int K = st->p.env_dirs;
+    for (int k = 0; k < K; k++) from[k] = volux_fibonacci_dir(k, K), fresh[k] = v3(0, 0, 0);
+    volux_environment_cells(volux_scene_light(s, 0), K, from, fresh);
+    assert_memory_equal(fresh, st->env_E, (size_t)K * sizeof *fresh);
     volux_technique_destroy(t);
     volux_scene_destroy(s);
     volux_image_free(ctx, &map);
     free(data);
+    volux_context_destroy(ctx);
+}
+
+/* The memo of cell integrals (render/lights.h) against a fresh
+ * integration after every kind of environment edit: the same bits, and a
+ * hit exactly where only colour or intensity changed (or a map came back
+ * with the same texels), a miss where the map, its rotation or K changed. */
+static void cells_match(volux_env_cells_cache *c, const volux_light_desc *d, int K, int expect_hit, const char *what) {
+    volux_vec3 from[64], E[64], F[64];
+    for (int k = 0; k < K; k++) from[k] = volux_fibonacci_dir(k, K), E[k] = F[k] = v3(0.25f, 0.0f, 1.0f);
+    long hits = c->hits, misses = c->misses;
+    volux_environment_cells_cached(c, d, K, E);
+    volux_environment_cells(d, K, from, F);
+    if (memcmp(E, F, (size_t)K * sizeof *E) != 0) fail_msg("%s: cached cells differ from a fresh integration", what);
+    if (c->hits - hits != (expect_hit ? 1 : 0) || c->misses - misses != (expect_hit ? 0 : 1))
+        fail_msg("%s: expected a %s", what, expect_hit ? "hit" : "miss");
+}
+
+static void test_cell_integrals_memo_matches_fresh(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(1);
+    volux_image m1, m2, m3;
+    assert_int_equal(volux_image_create(ctx, 16, 8, &m1), VOLUX_OK);
+    for (int i = 0; i < 16 * 8 * 3; i++) m1.rgb[i] = 0.2f + (float)((i * 5) % 13);
+    m1.rgb[3 * 20 + 1] = 400.0f; /* a sun */
+    assert_int_equal(volux_image_copy(ctx, &m1, &m2), VOLUX_OK);
+    assert_int_equal(volux_image_copy(ctx, &m1, &m3), VOLUX_OK);
+    m3.rgb[3 * 77] += 1.0f;
+    volux_env_cells_cache *c = calloc(1, sizeof *c);
+    assert_non_null(c);
+    volux_light_desc d = sky(0.0f);
+    d.map = &m1;
+    d.intensity = 0.1f;
+    cells_match(c, &d, 16, 0, "first use");
+    cells_match(c, &d, 16, 1, "unchanged");
+    d.intensity = 0.3f;
+    cells_match(c, &d, 16, 1, "intensity");
+    d.color = v3(0.2f, 1.0f, 3.0f);
+    cells_match(c, &d, 16, 1, "colour");
+    d.rotation_y_deg = 70.0f;
+    cells_match(c, &d, 16, 0, "rotation");
+    d.rotation_y_deg = 0.0f;
+    cells_match(c, &d, 16, 1, "rotation back");
+    d.map = &m2;
+    cells_match(c, &d, 16, 1, "the same texels in another copy");
+    d.map = &m3;
+    cells_match(c, &d, 16, 0, "one texel changed");
+    d.map = &m1;
+    cells_match(c, &d, 40, 0, "env_directions");
+    d.map = NULL;
+    d.radiance = 0.5f;
+    cells_match(c, &d, 16, 0, "constant sky");
+    d.radiance = 2.0f;
+    d.rotation_y_deg = 30.0f;
+    cells_match(c, &d, 16, 1, "constant sky radiance and rotation");
+    /* four entries, the least recently used replaced: the constant sky
+     * took the place of the rotated map (last used before the others) */
+    d.map = &m1;
+    d.rotation_y_deg = 70.0f;
+    cells_match(c, &d, 16, 0, "evicted");
+    d.rotation_y_deg = 0.0f;
+    cells_match(c, &d, 40, 1, "kept");
+    free(c);
+    volux_image_free(ctx, &m1);
+    volux_image_free(ctx, &m2);
+    volux_image_free(ctx, &m3);
     volux_context_destroy(ctx);
 }
 
@@ -222,6 +301,7 @@ int main(void) {
         cmocka_unit_test(test_constant_sky_in_vacuum_keeps_its_energy),
         cmocka_unit_test(test_sky_edits_are_selective),
         cmocka_unit_test(test_sky_map_rotation),
+        cmocka_unit_test(test_cell_integrals_memo_matches_fresh),
         cmocka_unit_test(test_no_directions_warns),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

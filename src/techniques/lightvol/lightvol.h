@@ -25,6 +25,7 @@
 #include <string.h>
 
 #include "core/simd.h"
+#include "render/lights.h"
 #include "render/raycaster.h"
 #include "sample/gradient.h"
 
@@ -295,6 +296,10 @@ typedef struct lightvol_state {
      * map) only changes these irradiances and is propagated as their
      * differences, one entry per direction. */
     volux_vec3 env_E[LV_MAX_ENV_DIRS];
+    /* their cell integrals, memoised (render/lights.h): an update that
+     * re-derives the environment without changing its map, rotation or
+     * env_dirs does not integrate the map again */
+    volux_env_cells_cache env_cells;
     int valid;                     /* the volume matches `applied` once the
                                       job (if any) has run                 */
     lv_job job;
@@ -337,7 +342,8 @@ int volux_lightvol_source(const lightvol_state *st, const volux_light_desc *d, l
 void volux_lightvol_env_source(const lightvol_state *st, int k, volux_vec3 power, lv_source *src);
 /* The scene's enabled environment lights integrated into the p.env_dirs
  * directions' cells (E[0..env_dirs) overwritten). */
-void volux_lightvol_env_irradiance(const lightvol_state *st, const volux_scene *scene, volux_vec3 *E);
+void volux_lightvol_env_irradiance(const lightvol_state *st, volux_env_cells_cache *cells, const volux_scene *scene,
+                                   volux_vec3 *E);
 /* Unoccluded value a light sends to world point p: directional E0,
  * positional I·cone(θ)/max(r², r_min²) (rgb). */
 void volux_lightvol_unoccluded(const lightvol_state *st, const lv_source *s, volux_vec3 p, float out[3]);

@@ -680,70 +680,6 @@ A2 void volux_lightvol_pos_geometry_avx2(const lv_sweep *J, const lv_entry *e, l
     }
 }
 
-/* Bilinear gather of plane p at (ix, row base rb) with weights. */
-A2I __m256 gbil(const float *p, __m256i b, int mu, __m256 w00, __m256 w10, __m256 w01, __m256 w11) {
-    const __m256i one = _mm256_set1_epi32(1), row = _mm256_set1_epi32(mu);
-    __m256 x = _mm256_mul_ps(w00, _mm256_i32gather_ps(p, b, 4));
-    x = _mm256_fmadd_ps(w10, _mm256_i32gather_ps(p, _mm256_add_epi32(b, one), 4), x);
-    __m256i b1 = _mm256_add_epi32(b, row);
-    x = _mm256_fmadd_ps(w01, _mm256_i32gather_ps(p, b1, 4), x);
-    return _mm256_fmadd_ps(w11, _mm256_i32gather_ps(p, _mm256_add_epi32(b1, one), 4), x);
-}
-
-/* Cell and weights of x (per lane) on row j (constant) with fraction ay:
- * index base j·mu + ix, ix = min((int)x, mu − 2) as fetch() does. */
-A2I __m256i cell(__m256 x, int j, int mu, __m256 ay, __m256 *w00, __m256 *w10, __m256 *w01, __m256 *w11) {
-    __m256i ix = _mm256_min_epi32(_mm256_cvttps_epi32(x), _mm256_set1_epi32(mu - 2));
-    __m256 ax = _mm256_sub_ps(x, _mm256_cvtepi32_ps(ix));
-    const __m256 one = _mm256_set1_ps(1.0f);
-    __m256 bx = _mm256_sub_ps(one, ax), by = _mm256_sub_ps(one, ay);
-    *w00 = _mm256_mul_ps(bx, by);
-    *w10 = _mm256_mul_ps(ax, by);
-    *w01 = _mm256_mul_ps(bx, ay);
-    *w11 = _mm256_mul_ps(ax, ay);
-    return _mm256_add_epi32(ix, _mm256_set1_epi32(j * mu));
-}
-
-A2 void volux_lightvol_pos_tau_avx2(const lv_sweep *J, const lv_pos_row *R) {
-    const int mu = J->mu, np = J->nplanes;
-    const size_t area = J->area, ms = R->ms;
-    const __m256 lane = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
-    for (int i = 0; i < R->n; i++) {
-        const float t = R->tt[i], om = 1.0f - t;
-        const __m256 vom = _mm256_set1_ps(om), vt = _mm256_set1_ps(t), ayi = _mm256_set1_ps(R->ay[i]),
-                     winv = _mm256_set1_ps(R->inv_n);
-        for (int u = R->u0; u < R->u1; u += 8) {
-            /* lanes past the interior: masked gathers (their results are not used) */
-            const __m256 mk = _mm256_castsi256_ps(lane_mask(R->u1 - u));
-            __m256 uf = _mm256_add_ps(_mm256_set1_ps((float)u), lane);
-            __m256 Xv = _mm256_loadu_ps(R->X + u), Lv = _mm256_loadu_ps(R->LEN + u);
-            __m256 px = _mm256_add_ps(uf, _mm256_mul_ps(_mm256_sub_ps(Xv, uf), vom));
-            px = _mm256_and_ps(px, mk); /* masked lanes: cell 0, always inside */
-            __m256 w00, w10, w01, w11;
-            __m256i b = cell(px, R->jrow[i], mu, ayi, &w00, &w10, &w01, &w11);
-            __m256 wp = _mm256_mul_ps(_mm256_mul_ps(vom, Lv), winv), wc = _mm256_mul_ps(_mm256_mul_ps(vt, Lv), winv);
-            if (J->post) {
-                __m256 sp = gbil(J->mp, b, mu, w00, w10, w01, w11), sc = gbil(J->mc, b, mu, w00, w10, w01, w11);
-                __m256 s = _mm256_fmadd_ps(_mm256_sub_ps(sc, sp), vt, sp), m[4];
-                if (J->forward) lut_kappa8(J, s, m);
-                else m[0] = lut_sigma8(J->lut, s);
-                __m256 l = _mm256_add_ps(wp, wc);
-                for (int q = 0; q < np; q++) {
-                    float *d = R->TAU + (size_t)q * ms + (size_t)u;
-                    _mm256_storeu_ps(d, _mm256_fmadd_ps(l, m[q], _mm256_loadu_ps(d)));
-                }
-                continue;
-            }
-            for (int q = 0; q < np; q++) {
-                __m256 x = gbil(J->mp + (size_t)q * area, b, mu, w00, w10, w01, w11);
-                __m256 y = gbil(J->mc + (size_t)q * area, b, mu, w00, w10, w01, w11);
-                float *d = R->TAU + (size_t)q * ms + (size_t)u;
-                _mm256_storeu_ps(d, _mm256_add_ps(_mm256_loadu_ps(d), _mm256_fmadd_ps(wp, x, _mm256_mul_ps(wc, y))));
-            }
-        }
-    }
-}
-
 /* A light tap of a positional entry for 8 voxels: per-lane position x
  * (inside the slice), row j and fraction ay per lane. The lanes' x advance
  * by at most one column per voxel (x' = u − (u − l_u)·f, 0 < f ≤ 1, plus a
@@ -789,7 +725,10 @@ A2I void pos_tap_init(pos_tap *P, __m256 x, __m256i j, __m256 ay, int mu, __m256
     const int same_row = _mm256_movemask_epi8(_mm256_cmpeq_epi32(j, _mm256_set1_epi32(j0))) == -1;
     const int lo = hmin_epi32(ix), hi = hmax_epi32(ix);
     P->win = same_row && hi - lo <= 7 && mu >= 9;
-    if (!P->win) return;
+    if (!P->win) {
+        P->off = 0, P->rel = zero; /* unused by the gathers */
+        return;
+    }
     int s = lo > mu - 9 ? mu - 9 : lo;
     P->rel = _mm256_sub_epi32(ix, _mm256_set1_epi32(s));
     P->off = (ptrdiff_t)j0 * mu + s;
@@ -814,6 +753,51 @@ A2I __m256 pos_tap_val(const pos_tap *P, const float *plane, int mu) {
     x = _mm256_fmadd_ps(P->w10, b, x);
     x = _mm256_fmadd_ps(P->w01, c, x);
     return _mm256_fmadd_ps(P->w11, d, x);
+}
+
+/* The medium taps of a segment's sub-sample for 8 voxels share their row
+ * (jrow) and advance by at most one column per voxel (px = u − (u −
+ * l_u)·f·(1 − t)), so they take pos_tap's 9-column windows instead of 4
+ * gathers per plane and slice (the same nodes and weights, combined in the
+ * same order as gbil: bit-identical). */
+A2 void volux_lightvol_pos_tau_avx2(const lv_sweep *J, const lv_pos_row *R) {
+    const int mu = J->mu, np = J->nplanes;
+    const size_t area = J->area, ms = R->ms;
+    const __m256 lane = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
+    for (int i = 0; i < R->n; i++) {
+        const float t = R->tt[i], om = 1.0f - t;
+        const __m256 vom = _mm256_set1_ps(om), vt = _mm256_set1_ps(t), ayi = _mm256_set1_ps(R->ay[i]),
+                     winv = _mm256_set1_ps(R->inv_n);
+        const __m256i jv = _mm256_set1_epi32(R->jrow[i]);
+        for (int u = R->u0; u < R->u1; u += 8) {
+            /* lanes past the interior copy lane 0 (their results are not used) */
+            const __m256i mki = lane_mask(R->u1 - u);
+            __m256 uf = _mm256_add_ps(_mm256_set1_ps((float)u), lane);
+            __m256 Xv = _mm256_loadu_ps(R->X + u), Lv = _mm256_loadu_ps(R->LEN + u);
+            __m256 px = _mm256_add_ps(uf, _mm256_mul_ps(_mm256_sub_ps(Xv, uf), vom));
+            pos_tap P;
+            pos_tap_init(&P, px, jv, ayi, mu, mki);
+            __m256 wp = _mm256_mul_ps(_mm256_mul_ps(vom, Lv), winv), wc = _mm256_mul_ps(_mm256_mul_ps(vt, Lv), winv);
+            if (J->post) {
+                __m256 sp = pos_tap_val(&P, J->mp, mu), sc = pos_tap_val(&P, J->mc, mu);
+                __m256 s = _mm256_fmadd_ps(_mm256_sub_ps(sc, sp), vt, sp), m[4];
+                if (J->forward) lut_kappa8(J, s, m);
+                else m[0] = lut_sigma8(J->lut, s);
+                __m256 l = _mm256_add_ps(wp, wc);
+                for (int q = 0; q < np; q++) {
+                    float *d = R->TAU + (size_t)q * ms + (size_t)u;
+                    _mm256_storeu_ps(d, _mm256_fmadd_ps(l, m[q], _mm256_loadu_ps(d)));
+                }
+                continue;
+            }
+            for (int q = 0; q < np; q++) {
+                __m256 x = pos_tap_val(&P, J->mp + (size_t)q * area, mu);
+                __m256 y = pos_tap_val(&P, J->mc + (size_t)q * area, mu);
+                float *d = R->TAU + (size_t)q * ms + (size_t)u;
+                _mm256_storeu_ps(d, _mm256_add_ps(_mm256_loadu_ps(d), _mm256_fmadd_ps(wp, x, _mm256_mul_ps(wc, y))));
+            }
+        }
+    }
 }
 
 A2 void volux_lightvol_pos_light_avx2(const lv_sweep *J, const lv_entry *e, const lv_pos_row *R, float *const out[3],

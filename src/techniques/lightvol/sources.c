@@ -141,12 +141,12 @@ void volux_lightvol_env_source(const lightvol_state *st, int k, volux_vec3 power
     s->groups = lv_face_weights(s->dir, s->weight);
 }
 
-void volux_lightvol_env_irradiance(const lightvol_state *st, const volux_scene *scene, volux_vec3 *E) {
+void volux_lightvol_env_irradiance(const lightvol_state *st, volux_env_cells_cache *cells, const volux_scene *scene,
+                                   volux_vec3 *E) {
     const int K = st->p.env_dirs;
-    volux_vec3 from[LV_MAX_ENV_DIRS];
-    for (int k = 0; k < K; k++) from[k] = volux_fibonacci_dir(k, K), E[k] = v3(0, 0, 0);
+    for (int k = 0; k < K; k++) E[k] = v3(0, 0, 0);
     for (int slot = 0; slot < volux_scene_light_slots(scene); slot++) {
         const volux_light_desc *d = volux_scene_light(scene, slot);
-        if (d && d->enabled && d->type == VOLUX_LIGHT_ENVIRONMENT) volux_environment_cells(d, K, from, E);
+        if (d && d->enabled && d->type == VOLUX_LIGHT_ENVIRONMENT) volux_environment_cells_cached(cells, d, K, E);
     }
 }

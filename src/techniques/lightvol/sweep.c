@@ -53,6 +53,49 @@
 #include "core/vecmath.h"
 #include "rows.h"
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
+/* ------------------------------------------------------------ rows → volume */
+
+/* dst[6u + c] (+)= q[c·m + u] for u in [0, n): a row of the six-channel
+ * accumulator (planes of m floats) into the volume's interleaved layout
+ * (x rows of y/z sweeps, the x sweeps' staging). The same single add or
+ * copy per element as the plain loop (bit-identical); with SSE2 four
+ * voxels a step through a 4×4 transpose, where the compiler left the
+ * interleaving scalar (the fixed work of every pass, issue 17). */
+static void rows_to_aos6(float *restrict dst, const float *restrict q, size_t m, int n, int overwrite) {
+    int u = 0;
+#if defined(__SSE2__)
+    const float *q0 = q, *q1 = q + m, *q2 = q + 2 * m, *q3 = q + 3 * m, *q4 = q + 4 * m, *q5 = q + 5 * m;
+    for (; u + 4 <= n; u += 4) {
+        __m128 a = _mm_loadu_ps(q0 + u), b = _mm_loadu_ps(q1 + u), c = _mm_loadu_ps(q2 + u),
+               d = _mm_loadu_ps(q3 + u), e = _mm_loadu_ps(q4 + u), f = _mm_loadu_ps(q5 + u);
+        _MM_TRANSPOSE4_PS(a, b, c, d); /* a: channels 0–3 of voxel u, b: of u + 1, … */
+        __m128 ef_lo = _mm_unpacklo_ps(e, f), ef_hi = _mm_unpackhi_ps(e, f); /* (4, 5) of u, u+1 | u+2, u+3 */
+        __m128 o[6] = {a,
+                       _mm_shuffle_ps(ef_lo, b, _MM_SHUFFLE(1, 0, 1, 0)),
+                       _mm_shuffle_ps(b, ef_lo, _MM_SHUFFLE(3, 2, 3, 2)),
+                       c,
+                       _mm_shuffle_ps(ef_hi, d, _MM_SHUFFLE(1, 0, 1, 0)),
+                       _mm_shuffle_ps(d, ef_hi, _MM_SHUFFLE(3, 2, 3, 2))};
+        float *p = dst + 6 * (size_t)u;
+        if (overwrite)
+            for (int k = 0; k < 6; k++) _mm_storeu_ps(p + 4 * k, o[k]);
+        else
+            for (int k = 0; k < 6; k++) _mm_storeu_ps(p + 4 * k, _mm_add_ps(_mm_loadu_ps(p + 4 * k), o[k]));
+    }
+#endif
+    for (; u < n; u++) {
+        float *p = dst + 6 * (size_t)u;
+        if (overwrite)
+            for (int c = 0; c < 6; c++) p[c] = q[(size_t)c * m + (size_t)u];
+        else
+            for (int c = 0; c < 6; c++) p[c] += q[(size_t)c * m + (size_t)u];
+    }
+}
+
 /* ------------------------------------------------------------ pass setup */
 
 /* Bilinear tap at slice offset (du, dv): its cell and weights. */
@@ -218,8 +261,10 @@ static void sweep_row(const lv_sweep *J, int v, int thread) {
          * flush runs of `defer` voxels along x every `defer` slices */
         int b = J->step % J->defer;
         float *restrict dst = st->stage + ((size_t)b * (size_t)J->mu * (size_t)J->mv + (size_t)v * m) * (size_t)ch;
-        for (int u = 0; u < mu; u++)
-            for (int c = 0; c < ch; c++) dst[(size_t)u * (size_t)ch + (size_t)c] = acc[(size_t)c * m + (size_t)u];
+        if (ch == 6) rows_to_aos6(dst, acc, m, mu, 1);
+        else
+            for (int u = 0; u < mu; u++)
+                for (int c = 0; c < ch; c++) dst[(size_t)u * (size_t)ch + (size_t)c] = acc[(size_t)c * m + (size_t)u];
         /* ... and at the end of the steps of this call (a budgeted
          * update, §7.3): only the slices staged since it began */
         if (b == J->defer - 1 || J->step == J->last) {
@@ -228,7 +273,9 @@ static void sweep_row(const lv_sweep *J, int v, int thread) {
         }
         return;
     }
-    if (ch == 6) {
+    if (ch == 6 && stride == 6) { /* y and z sweeps: the row is contiguous along x */
+        rows_to_aos6(vol, acc, m, mu, J->overwrite);
+    } else if (ch == 6) {
         const float *restrict q0 = acc, *restrict q1 = acc + m, *restrict q2 = acc + 2 * m, *restrict q3 = acc + 3 * m,
                               *restrict q4 = acc + 4 * m, *restrict q5 = acc + 5 * m;
         if (J->overwrite) {

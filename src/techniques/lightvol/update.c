@@ -48,9 +48,11 @@ static int any_light(volux_vec3 E) { return E.x > 0.0f || E.y > 0.0f || E.z > 0.
  * lights count as one light: when one of them changed, each direction
  * whose irradiance changed becomes one item carrying the difference (the
  * directions are fixed; propagation is linear in the power), which does
- * in one entry what a remove and an add would do in two. No side effects. */
-static void decide(const lightvol_state *st, const volux_scene *scene, const volux_change_set *c, int force_full,
-                   const char *reason, int selective_since_full, lv_decision *d) {
+ * in one entry what a remove and an add would do in two. No side effects
+ * but on the memo of cell integrals. */
+static void decide(const lightvol_state *st, volux_env_cells_cache *cells, const volux_scene *scene,
+                   const volux_change_set *c, int force_full, const char *reason, int selective_since_full,
+                   lv_decision *d) {
     int n = 0, changed = 0, before = 0, after = 0, env_dirty = force_full || !c;
     static const lv_applied none; /* a slot past `applied`: never active */
     for (int slot = 0; slot < d->slots; slot++) {
@@ -79,7 +81,7 @@ static void decide(const lightvol_state *st, const volux_scene *scene, const vol
     /* The environment directions: their differences. */
     const int K = st->p.env_dirs;
     memset(d->env_next, 0, sizeof d->env_next);
-    if (env_dirty) volux_lightvol_env_irradiance(st, scene, d->env_next);
+    if (env_dirty) volux_lightvol_env_irradiance(st, cells, scene, d->env_next);
     else memcpy(d->env_next, st->env_E, (size_t)K * sizeof(volux_vec3));
     int env_before = 0, env_after = 0, env_changed = 0;
     for (int k = 0; k < K; k++) {
@@ -359,7 +361,7 @@ static volux_status measure_queue(lightvol_state *st, const volux_scene *scene) 
     if (!passes || !idx) {
         s = volux_error(ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for the light update");
     } else {
-        decide(st, scene, NULL, 0, NULL, st->stats.selective_since_full, &d);
+        decide(st, &st->env_cells, scene, NULL, 0, NULL, st->stats.selective_since_full, &d);
         st->job.queued = d.changed ? decision_steps(st, &d, passes, idx) : 0;
         if (d.changed && st->job.queued == 0) st->job.queued = 1; /* a change with nothing to propagate */
     }
@@ -377,7 +379,7 @@ static volux_status start_update(lightvol_state *st, const volux_scene *scene, c
     lv_decision d;
     volux_status s = decision_alloc(ctx, st, scene, &d);
     if (s) return s;
-    decide(st, scene, c, force_full, reason, st->stats.selective_since_full, &d);
+    decide(st, &st->env_cells, scene, c, force_full, reason, st->stats.selective_since_full, &d);
     st->stats.changed = d.changed;
     st->stats.total = d.total;
     if (!force_full && d.changed == 0) {
