@@ -467,10 +467,11 @@ static void octa_cells(volux_vec3 d, int cell[4], float wgt[4]) {
     }
 }
 
-/* Trilinear S at fine index q: eight weights, then one pass over the
- * four floats of each corner (vectorises). */
-static inline void shade_lookup(const sh_state *st, volux_vec3 q, float S[4]) {
-    const sh_grid *g = &st->grid;
+/* The trilinear cell of the coarse grid around fine index q, for records
+ * of n floats per node: returns the first corner's offset in floats and
+ * fills the eight corner weights and offsets (a one-node axis repeats its
+ * node). */
+static inline size_t grid_corners(const sh_grid *g, volux_vec3 q, size_t n, float w[8], size_t o[8]) {
     const float inv = 1.0f / (float)g->ratio;
     float x = q.x * inv, y = q.y * inv, z = q.z * inv;
     int i = (int)x, j = (int)y, k = (int)z;
@@ -481,13 +482,21 @@ static inline void shade_lookup(const sh_state *st, volux_vec3 q, float S[4]) {
     fx = fx < 0.0f ? 0.0f : fx > 1.0f ? 1.0f : fx;
     fy = fy < 0.0f ? 0.0f : fy > 1.0f ? 1.0f : fy;
     fz = fz < 0.0f ? 0.0f : fz > 1.0f ? 1.0f : fz;
-    const size_t sx = g->dims[0] > 1 ? 4 : 0, sy = g->dims[1] > 1 ? 4 * (size_t)g->dims[0] : 0,
-                 sz = g->dims[2] > 1 ? 4 * (size_t)g->dims[0] * g->dims[1] : 0;
-    const float *p = st->shade + 4 * (((size_t)k * g->dims[1] + j) * g->dims[0] + i);
+    const size_t sx = g->dims[0] > 1 ? n : 0, sy = g->dims[1] > 1 ? n * (size_t)g->dims[0] : 0,
+                 sz = g->dims[2] > 1 ? n * (size_t)g->dims[0] * g->dims[1] : 0;
     const float gx = 1.0f - fx, gy = 1.0f - fy, gz = 1.0f - fz;
-    const float w[8] = {gx * gy * gz, fx * gy * gz, gx * fy * gz, fx * fy * gz,
-                        gx * gy * fz, fx * gy * fz, gx * fy * fz, fx * fy * fz};
-    const size_t o[8] = {0, sx, sy, sx + sy, sz, sx + sz, sy + sz, sx + sy + sz};
+    w[0] = gx * gy * gz, w[1] = fx * gy * gz, w[2] = gx * fy * gz, w[3] = fx * fy * gz;
+    w[4] = gx * gy * fz, w[5] = fx * gy * fz, w[6] = gx * fy * fz, w[7] = fx * fy * fz;
+    o[0] = 0, o[1] = sx, o[2] = sy, o[3] = sx + sy, o[4] = sz, o[5] = sx + sz, o[6] = sy + sz, o[7] = sx + sy + sz;
+    return n * (((size_t)k * g->dims[1] + j) * g->dims[0] + i);
+}
+
+/* Trilinear S at fine index q: eight weights, then one pass over the
+ * four floats of each corner (vectorises). */
+static inline void shade_lookup(const sh_state *st, volux_vec3 q, float S[4]) {
+    float w[8];
+    size_t o[8];
+    const float *p = st->shade + grid_corners(&st->grid, q, 4, w, o);
     float acc[4] = {0, 0, 0, 0};
     for (int n = 0; n < 8; n++)
         for (int c = 0; c < 4; c++) acc[c] += w[n] * p[o[n] + c];
@@ -496,24 +505,10 @@ static inline void shade_lookup(const sh_state *st, volux_vec3 q, float S[4]) {
 
 /* Trilinear (L_env·L'_mi) at fine index q: 3 × 16 coefficients. */
 static inline void prod_lookup(const sh_state *st, volux_vec3 q, float P[3 * SH_MAX_COEFFS]) {
-    const sh_grid *g = &st->grid;
-    const float inv = 1.0f / (float)g->ratio;
-    float x = q.x * inv, y = q.y * inv, z = q.z * inv;
-    int i = (int)x, j = (int)y, k = (int)z;
-    i = i > g->dims[0] - 2 ? (g->dims[0] > 1 ? g->dims[0] - 2 : 0) : i;
-    j = j > g->dims[1] - 2 ? (g->dims[1] > 1 ? g->dims[1] - 2 : 0) : j;
-    k = k > g->dims[2] - 2 ? (g->dims[2] > 1 ? g->dims[2] - 2 : 0) : k;
-    float fx = x - (float)i, fy = y - (float)j, fz = z - (float)k;
-    fx = fx < 0.0f ? 0.0f : fx > 1.0f ? 1.0f : fx;
-    fy = fy < 0.0f ? 0.0f : fy > 1.0f ? 1.0f : fy;
-    fz = fz < 0.0f ? 0.0f : fz > 1.0f ? 1.0f : fz;
-    const size_t n = 3 * SH_MAX_COEFFS, sx = g->dims[0] > 1 ? n : 0, sy = g->dims[1] > 1 ? n * (size_t)g->dims[0] : 0,
-                 sz = g->dims[2] > 1 ? n * (size_t)g->dims[0] * g->dims[1] : 0;
-    const float *p = st->prod + n * (((size_t)k * g->dims[1] + j) * g->dims[0] + i);
-    const float gx = 1.0f - fx, gy = 1.0f - fy, gz = 1.0f - fz;
-    const float w[8] = {gx * gy * gz, fx * gy * gz, gx * fy * gz, fx * fy * gz,
-                        gx * gy * fz, fx * gy * fz, gx * fy * fz, fx * fy * fz};
-    const size_t o[8] = {0, sx, sy, sx + sy, sz, sx + sz, sy + sz, sx + sy + sz};
+    const size_t n = 3 * SH_MAX_COEFFS;
+    float w[8];
+    size_t o[8];
+    const float *p = st->prod + grid_corners(&st->grid, q, n, w, o);
     for (size_t c = 0; c < n; c++) P[c] = 0.0f;
     for (int m = 0; m < 8; m++)
         for (size_t c = 0; c < n; c++) P[c] += w[m] * p[o[m] + c];
