@@ -22,25 +22,12 @@ static const char *SCENE =
     " \"techniques\": {\"ambient\": {\"table_theta\": 64, \"table_sigma\": 64, \"table_g\": 5, \"table_paths\": 256,"
     "   \"radius\": 0.5, \"cache_scale\": 1}, \"single\": {\"cache_scale\": 1}}}";
 
-static volux_image render(volux_context *ctx, volux_scene *s, const char *name) {
-    volux_technique *t;
-    if (volux_technique_create(ctx, name, s, &t) != VOLUX_OK) fail_msg("%s: %s", name, volux_context_error(ctx));
-    volux_framebuffer *fb;
-    assert_int_equal(volux_framebuffer_create(ctx, 32, 32, &fb), VOLUX_OK);
-    assert_int_equal(volux_render(t, s, fb, NULL, NULL), VOLUX_OK);
-    volux_image img;
-    assert_int_equal(volux_framebuffer_resolve(fb, &img), VOLUX_OK);
-    volux_framebuffer_destroy(fb);
-    volux_technique_destroy(t);
-    return img;
-}
-
 static void test_small_radius_tends_to_single_scattering(void **state) {
     (void)state;
     volux_context *ctx = tu_context(2);
     volux_scene *s;
     assert_int_equal(volux_scene_load_string(ctx, SCENE, ".", "test", NULL, 0, &s), VOLUX_OK);
-    volux_image a = render(ctx, s, "ambient"), b = render(ctx, s, "single");
+    volux_image a = tu_render(ctx, s, "ambient"), b = tu_render(ctx, s, "single");
     volux_image_error err;
     assert_int_equal(volux_image_compare(ctx, &a, &b, &err), VOLUX_OK);
     print_message("ambient (r = 0.5 voxel) vs single: rel_mse %.4g\n", err.rel_mse);
@@ -50,7 +37,7 @@ static void test_small_radius_tends_to_single_scattering(void **state) {
      * 0.033 with the adaptive x_o, 50x the small radius's 0.00066; by 0.05
      * with the paper's constant one, which over-counts dense parts). */
     assert_int_equal(volux_scene_set_param(s, "ambient", "radius", 6, NULL), VOLUX_OK);
-    volux_image c = render(ctx, s, "ambient");
+    volux_image c = tu_render(ctx, s, "ambient");
     assert_int_equal(volux_image_compare(ctx, &c, &b, &err), VOLUX_OK);
     print_message("ambient (r = 6 voxels) vs single: rel_mse %.4g\n", err.rel_mse);
     assert_true(err.rel_mse > 5.0 * small && err.rel_mse > 0.003);
@@ -77,12 +64,12 @@ static void test_emission_only_is_emission_absorption(void **state) {
     assert_int_equal(volux_scene_set_param(s, "ambient", "table_albedo", 0.5, NULL), VOLUX_OK);
     const char *names[] = {"single", "ao", "ambient"};
     for (int k = 0; k < 3; k++) assert_int_equal(volux_scene_set_param(s, names[k], "emission", 1, NULL), VOLUX_OK);
-    volux_image ref = render(ctx, s, "ea");
+    volux_image ref = tu_render(ctx, s, "ea");
     double sum = 0.0;
     for (int i = 0; i < 32 * 32 * 3; i++) sum += ref.rgb[i];
     assert_true(sum > 1.0);
     for (int k = 0; k < 3; k++) {
-        volux_image img = render(ctx, s, names[k]);
+        volux_image img = tu_render(ctx, s, names[k]);
         double worst = 0.0;
         for (int i = 0; i < 32 * 32 * 3; i++) worst = fmax(worst, fabs(img.rgb[i] - ref.rgb[i]));
         print_message("%s vs ea, emission only: max |diff| %.3g\n", names[k], worst);
@@ -99,13 +86,6 @@ static void test_emission_only_is_emission_absorption(void **state) {
  * even where the lag (≈ 0.75 mean free paths here) is shorter than a step.
  * Reading T(e − lag)·α instead (the other modes) loses up to a step of lag:
  * 0.5 → 0.25 voxel changes that image by a third in this medium (printed). */
-static double mean_lum(const volux_image *im) {
-    double m = 0.0;
-    for (int i = 0; i < im->width * im->height; i++)
-        m += 0.2126 * im->rgb[3 * i] + 0.7152 * im->rgb[3 * i + 1] + 0.0722 * im->rgb[3 * i + 2];
-    return m / (im->width * im->height);
-}
-
 static void test_fill_lag_does_not_depend_on_the_step(void **state) {
     (void)state;
     static const char dense[] =
@@ -126,8 +106,8 @@ static void test_fill_lag_does_not_depend_on_the_step(void **state) {
             volux_render_settings r = *volux_scene_render(s);
             r.step = k ? 0.25f : 0.5f;
             assert_int_equal(volux_scene_set_render(s, &r), VOLUX_OK);
-            volux_image im = render(ctx, s, "ambient");
-            m[mode][k] = mean_lum(&im);
+            volux_image im = tu_render(ctx, s, "ambient");
+            m[mode][k] = tu_mean_luminance(&im);
             volux_image_free(ctx, &im);
         }
     }

@@ -331,19 +331,6 @@ static void test_spot_light_respects_its_cone(void **state) {
  * volume itself: with an isotropic phase (directional = false) and one TF
  * colour c, the radiance image is albedo·c/(4π) times it, pixel by pixel
  * (same march, same opacity). A bad value names the parameter. */
-static volux_image lv_render(volux_context *ctx, volux_scene *s) {
-    volux_technique *t;
-    if (volux_technique_create(ctx, "lightvol", s, &t) != VOLUX_OK) fail_msg("%s", volux_context_error(ctx));
-    volux_framebuffer *fb;
-    assert_int_equal(volux_framebuffer_create(ctx, 32, 32, &fb), VOLUX_OK);
-    assert_int_equal(volux_render(t, s, fb, NULL, NULL), VOLUX_OK);
-    volux_image img;
-    assert_int_equal(volux_framebuffer_resolve(fb, &img), VOLUX_OK);
-    volux_framebuffer_destroy(fb);
-    volux_technique_destroy(t);
-    return img;
-}
-
 static void test_show_illumination_is_the_light_volume(void **state) {
     (void)state;
     static const char scene[] =
@@ -358,9 +345,9 @@ static void test_show_illumination_is_the_light_volume(void **state) {
     volux_context *ctx = tu_context(2);
     volux_scene *s;
     assert_int_equal(volux_scene_load_string(ctx, scene, ".", "test", NULL, 0, &s), VOLUX_OK);
-    volux_image rad = lv_render(ctx, s);
+    volux_image rad = tu_render(ctx, s, "lightvol");
     assert_int_equal(volux_scene_set_param(s, "lightvol", "show", 0, "illumination"), VOLUX_OK);
-    volux_image ill = lv_render(ctx, s);
+    volux_image ill = tu_render(ctx, s, "lightvol");
     const double c[3] = {0.9, 0.6, 0.3}, k = 0.8 / (4.0 * M_PI);
     double lit = 0.0;
     for (size_t i = 0; i < (size_t)32 * 32 * 3; i++) {

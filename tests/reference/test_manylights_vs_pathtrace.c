@@ -38,13 +38,6 @@ static const char *scene_json =
     " \"techniques\": {\"manylights\": {\"vl_count\": 1000, \"vsl_radius\": 0.5, \"vsl_kernel\": \"ball\","
     "                                 \"samples\": 4, \"avsm_resolution\": 12, \"avsm_nodes\": 12}}}";
 
-static double mean_luminance(const volux_image *img) {
-    double s = 0.0;
-    size_t n = (size_t)img->width * (size_t)img->height;
-    for (size_t i = 0; i < n; i++) s += 0.2126 * img->rgb[3 * i] + 0.7152 * img->rgb[3 * i + 1] + 0.0722 * img->rgb[3 * i + 2];
-    return s / (double)n;
-}
-
 static void test_manylights_vs_pathtrace(void **state) {
     (void)state;
     volux_context *ctx = tu_context(0);
@@ -61,14 +54,14 @@ static void test_manylights_vs_pathtrace(void **state) {
     volux_image_error e_ml, e_ss;
     assert_int_equal(volux_image_compare(ctx, &ml, &ref, &e_ml), VOLUX_OK);
     assert_int_equal(volux_image_compare(ctx, &ss, &ref, &e_ss), VOLUX_OK);
-    double lum_ml1 = mean_luminance(&ml), lum_ref = mean_luminance(&ref), lum_ml = lum_ml1;
+    double lum_ml1 = tu_mean_luminance(&ml), lum_ref = tu_mean_luminance(&ref), lum_ml = lum_ml1;
     assert_int_equal(volux_scene_set_param(s, "manylights", "multiple_scattering", 1, NULL), VOLUX_OK);
     lum_ml = 0.0;
     for (int k = 1; k <= 8; k++) { /* eight VL sets */
         rs.seed = (uint64_t)k;
         assert_int_equal(volux_scene_set_render(s, &rs), VOLUX_OK);
         volux_image other = tu_render(ctx, s, "manylights");
-        lum_ml += mean_luminance(&other);
+        lum_ml += tu_mean_luminance(&other);
         volux_image_free(ctx, &other);
     }
     lum_ml /= 8.0;

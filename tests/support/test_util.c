@@ -123,6 +123,14 @@ volux_image tu_render(volux_context *ctx, volux_scene *s, const char *technique)
     return img;
 }
 
+double tu_mean_luminance(const volux_image *img) {
+    double s = 0.0;
+    size_t n = (size_t)img->width * (size_t)img->height;
+    for (size_t i = 0; i < n; i++)
+        s += 0.2126 * img->rgb[3 * i] + 0.7152 * img->rgb[3 * i + 1] + 0.0722 * img->rgb[3 * i + 2];
+    return s / (double)n;
+}
+
 double tu_max_abs_diff(const volux_image *a, const volux_image *b) {
     assert_int_equal(a->width, b->width);
     assert_int_equal(a->height, b->height);

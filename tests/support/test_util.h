@@ -62,6 +62,8 @@ volux_image tu_render(volux_context *ctx, volux_scene *s, const char *technique)
 volux_image tu_render_with(volux_context *ctx, volux_scene *s, volux_technique *t);
 /* Largest |a − b| over all channels (asserts equal sizes). */
 double tu_max_abs_diff(const volux_image *a, const volux_image *b);
+/* Mean Rec. 709 luminance of an image. */
+double tu_mean_luminance(const volux_image *img);
 /* Pixel channel c at (x, y). */
 float tu_pixel(const volux_image *img, int x, int y, int c);
 #endif
