@@ -436,7 +436,7 @@ def save_image(path, image, exposure=0.0):
         ctx.close()
 
 
-_KINDS = {0: "number", 1: "int", 2: "bool", 3: "string"}
+_KINDS = {0: "number", 1: "int", 2: "bool", 3: "string", 4: "file"}
 
 
 def techniques():
@@ -452,7 +452,7 @@ def techniques():
             p = info.params[k]
             kind = _KINDS.get(p.kind, "number")
             entry = {"kind": kind, "doc": (p.doc or b"").decode()}
-            if kind == "string":
+            if kind in ("string", "file"):
                 entry["default"] = (p.def_string or b"").decode()
             else:
                 conv = bool if kind == "bool" else int if kind == "int" else float

@@ -157,11 +157,10 @@ static volux_status check_containment(volux_context *ctx, const char *header_pat
  * success `path` holds the resolved name. */
 static volux_status check_data_root(volux_context *ctx, const char *header, const char *data_file, const char *root,
                                     char *path, size_t cap) {
+    /* Missing and outside read the same: no existence oracle. */
     char real[PATH_MAX];
-    if (!realpath(path, real))
-        return volux_error(ctx, VOLUX_ERR_IO, "%s: data file: %s: cannot open: %s", header, path, strerror(errno));
-    if (!volux_path_inside(real, root))
-        return volux_error(ctx, VOLUX_ERR_INVALID, "%s: data file: '%s' is outside the data root %s", header,
+    if (!realpath(path, real) || !volux_path_inside(real, root))
+        return volux_error(ctx, VOLUX_ERR_INVALID, "%s: data file: '%s' is not available in the data root %s", header,
                            data_file, root);
     if (strlen(real) >= cap) return volux_error(ctx, VOLUX_ERR_LIMIT, "%s: data file: path is too long", header);
     strcpy(path, real);

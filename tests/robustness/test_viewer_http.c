@@ -187,7 +187,7 @@ static void test_bad_edits(void **state) {
          "preintegrate"},
         {"[{\"path\": \"render.width\", \"value\": 100000}]", 400, "render.width=100000", "render.width"},
         {"[{\"path\": \"render.width\", \"value\": 5000}]", 413, NULL, "--max-image"},
-        {"[{\"path\": \"volume\", \"value\": {\"file\": \"/etc/passwd\"}}]", 400, NULL, "outside the data root"},
+        {"[{\"path\": \"volume\", \"value\": {\"file\": \"/etc/passwd\"}}]", 400, NULL, "not available in the data root"},
         {"[{\"path\": \"volume.procedural\", \"value\": \"cube\"}]", 400, "volume.procedural=cube", "procedural"},
         {"[{\"path\": \"lights.0.irradiance\", \"value\": 1}", 400, NULL, "invalid JSON"},
         {"{\"path\": \"lights.0.irradiance\", \"value\": 1}", 400, NULL, "expected an array"},
