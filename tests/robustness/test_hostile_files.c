@@ -202,6 +202,76 @@ static void test_table_header_cannot_claim_memory(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* A cancel reaches a table build inside a column: table_paths = 10^9
+ * (within the parameter's range) used to run for hours after the cancel. */
+static int cancel_at_once(void *user, const char *task, double fraction) {
+    (void)task;
+    (void)fraction;
+    ++*(int *)user;
+    return 1;
+}
+
+static void test_table_build_cancels_inside_a_column(void **state) {
+    (void)state;
+    int calls = 0;
+    volux_context_desc desc;
+    memset(&desc, 0, sizeof desc);
+    desc.threads = 2;
+    desc.progress = cancel_at_once;
+    desc.progress_user = &calls;
+    desc.cache_dir = "";
+    volux_context *ctx = NULL;
+    assert_int_equal(volux_context_create(&desc, &ctx), VOLUX_OK);
+    volux_ambient_table_desc d;
+    volux_ambient_table_desc_defaults(&d);
+    d.n_theta = d.n_sigma = d.n_g = 2;
+    d.paths = 1000000000ull;
+    const char *path = tu_temp_path("hostile_cancelled.vxat");
+    unlink(path);
+    alarm(120); /* the old build would run for hours: fail instead of hanging */
+    assert_int_equal(volux_ambient_table_write(ctx, &d, path, NULL), VOLUX_ERR_CANCELLED);
+    alarm(0);
+    assert_true(calls >= 1);
+    assert_int_equal(access(path, F_OK), -1);
+    volux_context_destroy(ctx);
+}
+
+/* Header values that cannot be honoured are said, not swallowed: a NaN
+ * NRRD spacing (1 assumed), a negative one (not mirrored), a NIfTI sform
+ * that is NaN or all zero (ignored). */
+static void expect_warning(const char *name, const void *bytes, size_t n, const char *what) {
+    volux_context *ctx = tu_context(1);
+    tu_messages m;
+    memset(&m, 0, sizeof m);
+    volux_context_set_message(ctx, tu_collect_messages, &m);
+    volux_volume *v = NULL;
+    assert_int_equal(volux_volume_load(ctx, tu_write_file(name, bytes, n), NULL, &v), VOLUX_OK);
+    if (m.warnings < 1 || !strstr(m.last, what)) fail_msg("%s: no warning about '%s' (last: '%s')", name, what, m.last);
+    volux_volume_release(v);
+    volux_context_destroy(ctx);
+}
+
+static void test_header_values_not_honoured_are_said(void **state) {
+    (void)state;
+    char nrrd[256];
+    int n = snprintf(nrrd, sizeof nrrd,
+                     "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nspacings: nan 1 1\nencoding: raw\n\n");
+    memset(nrrd + n, 7, 8);
+    expect_warning("nan_spacing.nrrd", nrrd, (size_t)n + 8, "axis 0 is NaN");
+    n = snprintf(nrrd, sizeof nrrd,
+                 "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nspacings: 1 -2 1\nencoding: raw\n\n");
+    memset(nrrd + n, 7, 8);
+    expect_warning("negative_spacing.nrrd", nrrd, (size_t)n + 8, "axis 1 is negative");
+    static const int dims[3] = {2, 2, 2};
+    unsigned char h[352 + 8];
+    tu_nifti_header(h, 0, dims, 2, 8);
+    memset(h + 352, 1, 8);
+    tu_put_i16(h, 254, 1, 0); /* sform_code 1, srow all zero */
+    expect_warning("zero_sform.nii", h, sizeof h, "sform is all zero");
+    tu_put_f32(h, 280, NAN, 0);
+    expect_warning("nan_sform.nii", h, sizeof h, "sform is not finite");
+}
+
 /* A NaN or an infinity in either image is an error, not a perfect match. */
 static void test_compare_refuses_nonfinite(void **state) {
     (void)state;
@@ -233,7 +303,9 @@ int main(void) {
         cmocka_unit_test(test_output_admission),
         cmocka_unit_test(test_fifo_inputs_refused),
         cmocka_unit_test(test_table_header_cannot_claim_memory),
+        cmocka_unit_test(test_table_build_cancels_inside_a_column),
         cmocka_unit_test(test_compare_refuses_nonfinite),
+        cmocka_unit_test(test_header_values_not_honoured_are_said),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
