@@ -35,7 +35,8 @@
 typedef struct request {
     char *body;
     size_t len, cap;
-    int rejected; /* a response was queued early */
+    int rejected;  /* a response was queued early */
+    int too_large; /* the body passed MAX_BODY: discarded, 413 at its end */
     double t0, cpu0;
 } request;
 
@@ -118,13 +119,22 @@ static int loopback_host(const char *host) {
     char name[256];
     size_t n = strlen(host);
     if (!n || n >= sizeof name) return 0;
+    const char *port;
     if (host[0] == '[') {
         const char *end = strchr(host, ']');
         if (!end) return 0;
         snprintf(name, sizeof name, "%.*s", (int)(end - host - 1), host + 1);
+        port = end + 1;
     } else {
         const char *colon = strchr(host, ':');
         snprintf(name, sizeof name, "%.*s", (int)(colon ? (size_t)(colon - host) : n), host);
+        port = colon ? colon : host + n;
+    }
+    /* Nothing may follow the name but ":" and 1-5 digits: "localhost:80@evil.com"
+     * is not a loopback name. */
+    if (*port) {
+        size_t digits = strspn(port + 1, "0123456789");
+        if (port[0] != ':' || digits < 1 || digits > 5 || port[1 + digits]) return 0;
     }
     if (!strcasecmp(name, "localhost")) return 1;
     struct in_addr a4;
@@ -451,6 +461,40 @@ static enum MHD_Result serve_asset(viewer *v, struct MHD_Connection *c, const ch
     return ok;
 }
 
+/* "application/json", alone or with parameters ("; charset=utf-8"). */
+static int json_media_type(const char *type) {
+    static const char want[] = "application/json";
+    if (strncasecmp(type, want, sizeof want - 1)) return 0;
+    const char *rest = type + sizeof want - 1;
+    rest += strspn(rest, " \t");
+    return !*rest || *rest == ';';
+}
+
+/* The Origin of a same-origin request: "http://" or "https://" and
+ * exactly the Host it was sent to. "null" (a sandboxed or file: page) and
+ * other schemes are cross-origin. */
+static int same_origin(const char *origin, const char *host) {
+    if (!host) return 0;
+    const char *rest = !strncasecmp(origin, "http://", 7) ? origin + 7 : !strncasecmp(origin, "https://", 8) ? origin + 8 : NULL;
+    return rest && !strcmp(rest, host);
+}
+
+/* Every Content-Length header must agree: two that differ make the body's
+ * end ambiguous (request smuggling through a proxy). */
+typedef struct length_headers {
+    const char *first;
+    int conflict;
+} length_headers;
+
+static enum MHD_Result collect_length(void *cls, enum MHD_ValueKind kind, const char *key, const char *value) {
+    (void)kind;
+    length_headers *l = cls;
+    if (strcasecmp(key, "Content-Length")) return MHD_YES;
+    if (!l->first) l->first = value;
+    else if (strcmp(l->first, value)) l->conflict = 1;
+    return MHD_YES;
+}
+
 /* Checks that apply before the body is read; returns a queued rejection
  * (MHD_YES/NO) through *handled. */
 static enum MHD_Result precheck(viewer *v, struct MHD_Connection *c, const char *url, const char *method,
@@ -467,16 +511,16 @@ static enum MHD_Result precheck(viewer *v, struct MHD_Connection *c, const char 
     if (is_post) {
         if (strcmp(url, "/api/edit")) return reply_error(v, c, 405, "invalid", "only /api/edit takes POST");
         const char *type = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Content-Type");
-        if (!type || strncasecmp(type, "application/json", 16))
+        if (!type || !json_media_type(type))
             return reply_error(v, c, 415, "invalid", "an edit must be sent as application/json");
         const char *origin = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Origin");
         const char *host = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Host");
-        if (origin && strcmp(origin, "null")) {
-            const char *o = strstr(origin, "://");
-            if (!host || !o || strcmp(o + 3, host))
-                return reply_error(v, c, 403, "invalid", "cross-origin edits are refused");
-        }
-        const char *len = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Content-Length");
+        if (origin && !same_origin(origin, host))
+            return reply_error(v, c, 403, "invalid", "cross-origin edits are refused");
+        length_headers lengths = {NULL, 0};
+        MHD_get_connection_values(c, MHD_HEADER_KIND, collect_length, &lengths);
+        if (lengths.conflict) return reply_error(v, c, 400, "invalid", "conflicting Content-Length headers");
+        const char *len = lengths.first;
         if (len && strtoull(len, NULL, 10) > MAX_BODY)
             return reply_error(v, c, 413, "limit", "request body larger than 4 MiB");
     } else if (!strcmp(url, "/api/edit")) {
@@ -510,11 +554,23 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
         *upload_size = 0; /* discard what still arrives */
         return MHD_YES;
     }
+    if (rq->too_large) {
+        /* A body without a declared length (chunked) that passed the
+         * limit: read and dropped to its end, then the documented 413
+         * (a response cannot be queued mid-upload; the per-client time
+         * limit bounds how long this may take). */
+        if (*upload_size) {
+            *upload_size = 0;
+            return MHD_YES;
+        }
+        rq->rejected = 1;
+        return reply_error(v, c, 413, "limit", "request body larger than 4 MiB");
+    }
     if (*upload_size) {
         if (rq->len + *upload_size > MAX_BODY) {
-            rq->rejected = 1;
+            rq->too_large = 1;
             *upload_size = 0;
-            return reply_error(v, c, 413, "limit", "request body larger than 4 MiB");
+            return MHD_YES;
         }
         if (rq->len + *upload_size + 1 > rq->cap) {
             size_t cap = rq->cap ? rq->cap : 4096;
