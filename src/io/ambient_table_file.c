@@ -466,13 +466,18 @@ int volux_ambient_table_cache_load(volux_context *ctx, const volux_ambient_table
         volux_ambient_table_free(ctx, &t);
         return 0;
     }
+    volux_cache_file_touch(path); /* recently used: evicted last */
     *out = t;
     return 1;
 }
 
 int volux_ambient_table_cache_store(volux_context *ctx, const volux_ambient_table *t) {
     char path[4400];
-    if (!volux_ambient_table_cache_path(ctx, &t->desc, path, sizeof path) || !volux_cache_folder_create(ctx))
+    /* The folder is capped (cache_folder.h): the least recently used
+     * tables make room, and a table larger than the cap is not stored. */
+    uint64_t bytes = (uint64_t)volux_ambient_table_values(&t->desc) * 4u * (t->rel_error ? 2u : 1u) + 4096u;
+    if (!volux_ambient_table_cache_path(ctx, &t->desc, path, sizeof path) || !volux_cache_folder_create(ctx) ||
+        !volux_cache_folder_make_room(ctx, bytes))
         return 0;
     /* An unwritable cache folder is not an error: keep the context's
      * error state as it was. */

@@ -15,10 +15,12 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "core/context_internal.h"
 #include "io/ambient_table_file.h"
+#include "io/cache_folder.h"
 #include "io/output_file.h"
 #include "test_util.h"
 #include "tu_volume.h"
@@ -272,6 +274,51 @@ static void test_header_values_not_honoured_are_said(void **state) {
     expect_warning("nan_sform.nii", h, sizeof h, "sform is not finite");
 }
 
+/* The cache folder is capped: the least recently used of volux's own
+ * entries make room; anything else in the folder is left alone. */
+static void make_entry(const char *dir, const char *name, size_t bytes, time_t mtime) {
+    char p[1200];
+    snprintf(p, sizeof p, "%s/%s", dir, name);
+    FILE *f = fopen(p, "wb");
+    assert_non_null(f);
+    assert_int_equal(ftruncate(fileno(f), (off_t)bytes), 0);
+    fclose(f);
+    struct timespec t[2] = {{mtime, 0}, {mtime, 0}};
+    assert_int_equal(utimensat(AT_FDCWD, p, t, 0), 0);
+}
+
+static int exists_in(const char *dir, const char *name) {
+    char p[1200];
+    snprintf(p, sizeof p, "%s/%s", dir, name);
+    return access(p, F_OK) == 0;
+}
+
+static void test_cache_folder_is_capped(void **state) {
+    (void)state;
+    const char *dir = fresh_dir("hostile_cache");
+    volux_context_desc desc;
+    memset(&desc, 0, sizeof desc);
+    desc.threads = 1;
+    desc.cache_dir = dir;
+    volux_context *ctx = NULL;
+    assert_int_equal(volux_context_create(&desc, &ctx), VOLUX_OK);
+    const size_t MB = 1u << 20;
+    make_entry(dir, "ambient-v2-old.vxat", MB, 1000);
+    make_entry(dir, "ambient-v2-mid.vxat", MB, 2000);
+    make_entry(dir, "ambient-v2-new.vxat", MB, 3000);
+    make_entry(dir, "notes.txt", 3 * MB, 500); /* not ours: never removed */
+    setenv("VOLUX_CACHE_MB", "2", 1);
+    volux_cache_file_touch(tu_temp_path("hostile_cache/ambient-v2-old.vxat")); /* a hit: now the newest */
+    assert_int_equal(volux_cache_folder_make_room(ctx, MB), 1);
+    assert_true(exists_in(dir, "ambient-v2-old.vxat"));
+    assert_false(exists_in(dir, "ambient-v2-mid.vxat"));
+    assert_false(exists_in(dir, "ambient-v2-new.vxat"));
+    assert_true(exists_in(dir, "notes.txt"));
+    assert_int_equal(volux_cache_folder_make_room(ctx, 3 * MB), 0); /* larger than the cap */
+    unsetenv("VOLUX_CACHE_MB");
+    volux_context_destroy(ctx);
+}
+
 /* A NaN or an infinity in either image is an error, not a perfect match. */
 static void test_compare_refuses_nonfinite(void **state) {
     (void)state;
@@ -305,6 +352,7 @@ int main(void) {
         cmocka_unit_test(test_table_header_cannot_claim_memory),
         cmocka_unit_test(test_table_build_cancels_inside_a_column),
         cmocka_unit_test(test_compare_refuses_nonfinite),
+        cmocka_unit_test(test_cache_folder_is_capped),
         cmocka_unit_test(test_header_values_not_honoured_are_said),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
