@@ -183,7 +183,7 @@ VOLUX_API volux_status volux_file_check_output(volux_context *ctx, const char *p
 /* Writes n bytes to an admitted `path` whole: into an unnamed file in the
  * same folder, synced, then renamed over the target, so a failure — or a
  * kill at any moment — leaves the old file or none, never a part or a
- * temporary. VOLUX_ERR_IO / VOLUX_ERR_WRITE. */
+ * temporary. VOLUX_ERR_WRITE naming the file (a refused path too). */
 VOLUX_API volux_status volux_file_save(volux_context *ctx, const char *path, const void *bytes, size_t n);
 /* Removes the named temporary files of writes in progress (used only where
  * the file system cannot create unnamed files). Async-signal-safe: for a

@@ -17,7 +17,7 @@
 #include <stdint.h>
 #include <stdio.h>
 
-#include "volux/context.h"
+#include "volux/base.h"
 
 /* Without a context (cache reads record no error): 0 and the descriptor
  * in *fd (O_RDONLY | O_CLOEXEC, the caller closes it), or a code that

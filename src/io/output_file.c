@@ -59,25 +59,27 @@ static void dir_of(const char *path, char *out, size_t n) {
     else snprintf(out, n, "%.*s", (int)(slash - path), path);
 }
 
-static volux_status check_folder(volux_context *ctx, const char *path, const char *file) {
+static volux_status check_folder(volux_context *ctx, const char *path, const char *file, volux_status fail) {
     char dir[PATH_MAX];
-    if (strlen(file) >= sizeof dir) return volux_error(ctx, VOLUX_ERR_IO, "cannot write '%s': path too long", path);
+    if (strlen(file) >= sizeof dir) return volux_error(ctx, fail, "cannot write '%s': path too long", path);
     dir_of(file, dir, sizeof dir);
     struct stat sb;
     if (stat(dir, &sb) != 0)
-        return volux_error(ctx, VOLUX_ERR_IO, "cannot write '%s': folder '%s': %s", path, dir, strerror(errno));
+        return volux_error(ctx, fail, "cannot write '%s': folder '%s': %s", path, dir, strerror(errno));
     if (!S_ISDIR(sb.st_mode))
-        return volux_error(ctx, VOLUX_ERR_IO, "cannot write '%s': '%s' is not a folder", path, dir);
+        return volux_error(ctx, fail, "cannot write '%s': '%s' is not a folder", path, dir);
     /* The file is created beside the target: the folder needs write and
      * search permission. */
     if (access(dir, W_OK | X_OK) != 0)
-        return volux_error(ctx, VOLUX_ERR_IO, "cannot write '%s': folder '%s': %s", path, dir, strerror(errno));
+        return volux_error(ctx, fail, "cannot write '%s': folder '%s': %s", path, dir, strerror(errno));
     return VOLUX_OK;
 }
 
 /* Admits `path`; the file to replace goes to *target (allocated through
- * ctx, *target_size bytes) when target is not NULL. */
-static volux_status admit(volux_context *ctx, const char *path, char **target, size_t *target_size) {
+ * ctx, *target_size bytes) when target is not NULL. Refusals are `fail`:
+ * VOLUX_ERR_IO for a check before any work, VOLUX_ERR_WRITE when writing. */
+static volux_status admit(volux_context *ctx, const char *path, char **target, size_t *target_size,
+                          volux_status fail) {
     if (!path || !*path) return volux_error(ctx, VOLUX_ERR_INVALID, "empty output file name");
     char resolved[PATH_MAX];
     const char *file = path;
@@ -86,29 +88,29 @@ static volux_status admit(volux_context *ctx, const char *path, char **target, s
         if (S_ISLNK(sb.st_mode)) {
             char link_dir[PATH_MAX], real_dir[PATH_MAX], target_dir[PATH_MAX];
             if (!realpath(path, resolved))
-                return volux_error(ctx, VOLUX_ERR_IO, "cannot write '%s': a symbolic link whose target is missing",
+                return volux_error(ctx, fail, "cannot write '%s': a symbolic link whose target is missing",
                                    path);
             dir_of(path, link_dir, sizeof link_dir);
             dir_of(resolved, target_dir, sizeof target_dir);
             if (!realpath(link_dir, real_dir) || strcmp(real_dir, target_dir) != 0)
-                return volux_error(ctx, VOLUX_ERR_IO,
+                return volux_error(ctx, fail,
                                    "cannot write '%s': a symbolic link out of its folder (to '%s'); volux follows "
                                    "links only within the output's folder",
                                    path, resolved);
             if (stat(resolved, &sb) != 0)
-                return volux_error(ctx, VOLUX_ERR_IO, "cannot write '%s': %s", path, strerror(errno));
+                return volux_error(ctx, fail, "cannot write '%s': %s", path, strerror(errno));
             file = resolved;
         }
-        if (S_ISDIR(sb.st_mode)) return volux_error(ctx, VOLUX_ERR_IO, "cannot write '%s': it is a folder", path);
+        if (S_ISDIR(sb.st_mode)) return volux_error(ctx, fail, "cannot write '%s': it is a folder", path);
         if (!S_ISREG(sb.st_mode))
-            return volux_error(ctx, VOLUX_ERR_IO,
+            return volux_error(ctx, fail,
                                "cannot write '%s': it exists and is not a regular file (a device, pipe or socket); "
                                "volux writes and replaces regular files only",
                                path);
     } else if (errno != ENOENT) {
-        return volux_error(ctx, VOLUX_ERR_IO, "cannot write '%s': %s", path, strerror(errno));
+        return volux_error(ctx, fail, "cannot write '%s': %s", path, strerror(errno));
     }
-    volux_status st = check_folder(ctx, path, file);
+    volux_status st = check_folder(ctx, path, file, fail);
     if (st || !target) return st;
     *target_size = strlen(file) + 1;
     *target = volux_alloc_or_error(ctx, *target_size, "an output file name");
@@ -117,7 +119,9 @@ static volux_status admit(volux_context *ctx, const char *path, char **target, s
     return VOLUX_OK;
 }
 
-volux_status volux_file_check_output(volux_context *ctx, const char *path) { return admit(ctx, path, NULL, NULL); }
+volux_status volux_file_check_output(volux_context *ctx, const char *path) {
+    return admit(ctx, path, NULL, NULL, VOLUX_ERR_IO);
+}
 
 /* ---- writing ---- */
 
@@ -147,7 +151,7 @@ static int temp_name(char *tmp, size_t tmp_size, const char *path, int create) {
 volux_status volux_output_begin(volux_context *ctx, const char *path, volux_output_file *out) {
     memset(out, 0, sizeof *out);
     out->slot = -1;
-    volux_status st = admit(ctx, path, &out->target, &out->target_size);
+    volux_status st = admit(ctx, path, &out->target, &out->target_size, VOLUX_ERR_WRITE);
     if (st) return st;
     int fd = -1;
 #ifdef O_TMPFILE

@@ -20,7 +20,7 @@ bad() { echo "FAIL: $*" >&2; fail=1; }
 expect() {
   local want=$1 text=$2
   shift 2
-  timeout 20 "$@" >"$tmp/out" 2>"$tmp/err"
+  timeout 20 "$@" >"$tmp/stdout" 2>"$tmp/err"
   local got=$?
   [[ $got == "$want" ]] || bad "$* -> exit $got, want $want: $(cat "$tmp/err")"
   [[ -z $text ]] || grep -qF -- "$text" "$tmp/err" || bad "$* -> stderr lacks '$text': $(cat "$tmp/err")"
@@ -102,8 +102,8 @@ expect 2 "non-finite" "$volux" compare "$tmp/all_nan.pfm" "$tmp/ref.pfm" --json
 expect 0 "" "$volux" compare "$tmp/ref.pfm" "$tmp/ref.pfm"
 expect 2 "6 NaN" "$volux" info "$tmp/all_nan.pfm"
 expect 0 "" "$volux" info "$tmp/all_nan.pfm" --allow-nonfinite
-grep -q "no finite value" "$tmp/out" || bad "info --allow-nonfinite on an all-NaN image: $(cat "$tmp/out")"
+grep -q "no finite value" "$tmp/stdout" || bad "info --allow-nonfinite on an all-NaN image: $(cat "$tmp/stdout")"
 expect 0 "" "$volux" info "$tmp/one_nan.pfm" --allow-nonfinite
-grep -q "nonfinite 1 NaN, 0 infinite" "$tmp/out" || bad "info: the NaN count is missing: $(cat "$tmp/out")"
+grep -q "nonfinite 1 NaN, 0 infinite" "$tmp/stdout" || bad "info: the NaN count is missing: $(cat "$tmp/stdout")"
 
 exit $fail

@@ -105,7 +105,7 @@ static void test_output_admission(void **state) {
     assert_int_equal(volux_file_check_output(ctx, p), VOLUX_ERR_IO);
     tu_assert_error_mentions(ctx, "fifo.png", "not a regular file", NULL);
     volux_context_clear_error(ctx);
-    assert_int_equal(volux_file_save(ctx, p, "x", 1), VOLUX_ERR_IO);
+    assert_int_equal(volux_file_save(ctx, p, "x", 1), VOLUX_ERR_WRITE);
     volux_context_clear_error(ctx);
     struct stat sb;
     assert_int_equal(lstat(p, &sb), 0);
