@@ -353,6 +353,35 @@ static void test_slow_client_times_out(void **state) {
     tu_reply_free(&r);
 }
 
+/* A client that trickles its headers (never idle for --timeout) is cut
+ * off --timeout seconds after it connected (issue 34 D3). */
+static void test_trickling_client_is_cut_off(void **state) {
+    (void)state;
+    int fd = tu_connect(server.port);
+    assert_true(fd >= 0);
+    const char *part = "GET /api/scene HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: ";
+    assert_true(send(fd, part, strlen(part), MSG_NOSIGNAL) > 0);
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    double t0 = (double)ts.tv_sec + ts.tv_nsec * 1e-9, waited = 0.0;
+    int closed = 0;
+    while (!closed && waited < 15.0) {
+        struct timespec nap = {0, 500 * 1000 * 1000};
+        nanosleep(&nap, NULL);
+        if (send(fd, "a", 1, MSG_NOSIGNAL) != 1) closed = 1; /* reset by the server */
+        char c;
+        if (recv(fd, &c, 1, MSG_DONTWAIT) == 0) closed = 1; /* orderly close */
+        clock_gettime(CLOCK_MONOTONIC, &ts);
+        waited = (double)ts.tv_sec + ts.tv_nsec * 1e-9 - t0;
+    }
+    close(fd);
+    if (!closed) fail_msg("a client trickling one byte per 0.5 s still held its connection after %.1f s", waited);
+    assert_true(waited < 9.0); /* --timeout 2 */
+    tu_reply r = get("/api/stats");
+    assert_int_equal(r.status, 200);
+    tu_reply_free(&r);
+}
+
 /* ------------------------------------------------------------------ events, concurrency */
 
 static void test_event_stream(void **state) {
@@ -646,7 +675,8 @@ int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_api_basics),        cmocka_unit_test(test_edit_and_save_reproduce),
         cmocka_unit_test(test_bad_edits),         cmocka_unit_test(test_bad_requests),
-        cmocka_unit_test(test_slow_client_times_out), cmocka_unit_test(test_event_stream),
+        cmocka_unit_test(test_slow_client_times_out),
+        cmocka_unit_test(test_trickling_client_is_cut_off), cmocka_unit_test(test_event_stream),
         cmocka_unit_test(test_concurrent_edits),  cmocka_unit_test(test_token),
         cmocka_unit_test(test_bad_command_lines), cmocka_unit_test(test_preview_budget),
         cmocka_unit_test(test_lightvol_budget_converges),
