@@ -30,7 +30,8 @@ VOLUX_API volux_status volux_image_copy(volux_context *ctx, const volux_image *s
 /* Error metrics between two images of the same size, over all channels:
  * rmse, rel_mse = mean((a−b)²/(b²+eps)) with b the reference (eps = 1e-2
  * as in Rousselle et al.'s relMSE), psnr = 20·log10(peak/rmse) with peak =
- * max of the reference (1 if it is ≤ 0), max_abs. */
+ * max of the reference (1 if it is ≤ 0), max_abs. VOLUX_ERR_INVALID when
+ * the sizes differ or either image holds a NaN or an infinity. */
 typedef struct volux_image_error {
     double rmse, rel_mse, psnr, max_abs;
 } volux_image_error;

@@ -167,10 +167,28 @@ VOLUX_API volux_status volux_image_save_meta(volux_context *ctx, const char *pat
 VOLUX_API volux_status volux_image_load_meta(volux_context *ctx, const char *path, volux_image *out,
                                              volux_image_meta *meta);
 /* Checks, before any work, that an image can be written at `path`: a
- * writable extension (.png .pfm .exr), an existing writable folder, and
- * not a folder itself. VOLUX_ERR_INVALID for the extension, VOLUX_ERR_IO
- * otherwise, with the reason. Writes nothing. */
+ * writable extension (.png .pfm .exr) and volux_file_check_output's rules.
+ * VOLUX_ERR_INVALID for the extension, VOLUX_ERR_IO otherwise, with the
+ * reason. Writes nothing. */
 VOLUX_API volux_status volux_image_check_output(volux_context *ctx, const char *path);
+
+/* Output files (images, scenes, tables: every file volux writes).
+ * volux_file_check_output admits `path` as an output: a regular file, a
+ * symbolic link to a regular file in the same folder (the target is
+ * replaced, the link kept), or a new name in an existing writable folder.
+ * Devices, pipes, sockets and folders are never replaced, links are not
+ * followed out of their folder. VOLUX_ERR_IO with the reason; writes
+ * nothing. */
+VOLUX_API volux_status volux_file_check_output(volux_context *ctx, const char *path);
+/* Writes n bytes to an admitted `path` whole: into an unnamed file in the
+ * same folder, synced, then renamed over the target, so a failure — or a
+ * kill at any moment — leaves the old file or none, never a part or a
+ * temporary. VOLUX_ERR_WRITE naming the file (a refused path too). */
+VOLUX_API volux_status volux_file_save(volux_context *ctx, const char *path, const void *bytes, size_t n);
+/* Removes the named temporary files of writes in progress (used only where
+ * the file system cannot create unnamed files). Async-signal-safe: for a
+ * handler that ends the process at once (a second Ctrl-C). */
+VOLUX_API void volux_file_abandon_writes(void);
 /* Image details (see src/io/image_formats.h): PNG reads 8/16-bit gray, RGB,
  * palette, with alpha dropped, decoding sRGB to linear; PNG writes 8-bit RGB.
  * PFM reads PF/Pf of either endianness and writes little-endian PF. EXR reads

@@ -31,7 +31,17 @@
 extern "C" {
 #endif
 
-typedef enum volux_param_kind { VOLUX_PARAM_NUMBER, VOLUX_PARAM_INT, VOLUX_PARAM_BOOL, VOLUX_PARAM_STRING } volux_param_kind;
+/* VOLUX_PARAM_FILE is a string that names a file: a scene resolves it like
+ * every other file it names (against the scene's folder, "$VOLUX_DATA/",
+ * and inside the viewer's data root), so the technique gets a path it may
+ * open. Appended last: the values of the others are ABI. */
+typedef enum volux_param_kind {
+    VOLUX_PARAM_NUMBER,
+    VOLUX_PARAM_INT,
+    VOLUX_PARAM_BOOL,
+    VOLUX_PARAM_STRING,
+    VOLUX_PARAM_FILE
+} volux_param_kind;
 
 /* One documented technique parameter (scene "techniques": {"<name>": {...}}). */
 typedef struct volux_param_info {

@@ -162,7 +162,7 @@ class Edits(unittest.TestCase):
         self.assertTrue(table["pathtrace"]["progressive"])
         for name, t in table.items():
             for p, info in t["params"].items():
-                self.assertIn(info["kind"], ("number", "int", "bool", "string"), (name, p))
+                self.assertIn(info["kind"], ("number", "int", "bool", "string", "file"), (name, p))
 
 
 class Errors(unittest.TestCase):

@@ -24,7 +24,9 @@ be called from any thread.
 import ctypes
 import itertools
 import json
+import math
 import os
+import stat
 import threading
 
 import numpy as np
@@ -222,6 +224,63 @@ class Volume:
         self._handle = None
 
 
+# The library's cap on a scene file (io/json_reader.c), applied before
+# reading so that '/dev/zero' or a FIFO cannot hold the interpreter.
+_SCENE_FILE_MAX_BYTES = 16 << 20
+# render.spp's range (core/scene.c) and what the limits struct can hold.
+_SPP_MAX = 1 << 24
+
+
+def _read_scene_file(path):
+    """The text of a scene file: a regular file of at most 16 MiB, opened
+    without blocking (a FIFO is refused, not waited on)."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+    except OSError as e:
+        raise Error("%s: cannot read the scene file: %s" % (path, e.strerror), "io") from None
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise Error("%s: cannot read the scene file: not a regular file" % path, "io")
+        if st.st_size > _SCENE_FILE_MAX_BYTES:
+            raise Error("%s: the scene file is larger than 16 MiB" % path, "limit")
+        os.set_blocking(fd, True)
+        with os.fdopen(fd, "rb") as f:
+            fd = -1
+            data = f.read(_SCENE_FILE_MAX_BYTES + 1)
+    except OSError as e:
+        raise Error("%s: cannot read the scene file: %s" % (path, e.strerror), "io") from None
+    finally:
+        if fd >= 0:
+            os.close(fd)
+    if len(data) > _SCENE_FILE_MAX_BYTES:
+        raise Error("%s: the scene file is larger than 16 MiB" % path, "limit")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise Error("%s: not UTF-8 text (byte %d)" % (path, e.start), "format") from None
+
+
+def _check_count(what, value, lo, hi):
+    """An int (not a bool, not a float) in [lo, hi], checked before any
+    ctypes conversion (which would wrap -1 to 2^32 - 1 or truncate 2^40)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise TypeError("%s: expected an integer, got %r" % (what, value))
+    if not lo <= int(value) <= hi:
+        raise Error("%s: must be in [%d, %d], got %d" % (what, lo, hi, int(value)), "invalid")
+    return int(value)
+
+
+def _check_ms(what, value):
+    """A finite number of milliseconds ≥ 0 (0 = no limit)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError("%s: expected a number, got %r" % (what, value))
+    v = float(value)
+    if not math.isfinite(v) or v < 0.0:
+        raise Error("%s: must be a finite number ≥ 0, got %r" % (what, value), "invalid")
+    return v
+
+
 def _jsonable(o):
     if isinstance(o, np.generic):
         return o.item()
@@ -246,11 +305,7 @@ class Scene:
             if s.lstrip().startswith("{"):
                 text, base, name = s, ".", "<string>"
             else:
-                try:
-                    with open(s, encoding="utf-8") as f:
-                        text = f.read()
-                except OSError as e:
-                    raise Error("%s: cannot read the scene file: %s" % (s, e.strerror), "io") from None
+                text = _read_scene_file(s)
                 base, name = os.path.dirname(os.path.abspath(s)), s
         else:
             raise TypeError("Scene.from_json: expected a dict, a JSON string or a path, got %s" % type(obj).__name__)
@@ -296,6 +351,7 @@ class Scene:
         item = "%s=%s" % (path, json.dumps(value, default=_jsonable))
         touches_volume = path == "volume" or path.startswith("volume.")
         with self._lock:
+            self._check_open("set")
             if touches_volume and self._volume is not None:
                 raise Error("%s: %s: this scene's volume was given as volume=; make a new Volume instead"
                             % (self._name, path))
@@ -310,6 +366,7 @@ class Scene:
     @property
     def settings(self):
         """The render settings as a dict (width, height, spp, technique, ...)."""
+        self._check_open("settings")
         r = _lib.volux_scene_render(self._handle).contents
         return {"width": r.width, "height": r.height, "spp": r.spp, "step": r.step, "seed": r.seed,
                 "max_depth": r.max_depth, "exposure": r.exposure, "threads": r.threads,
@@ -321,7 +378,12 @@ class Scene:
         progress(task, fraction) is called as the render advances (from a
         worker thread, never concurrently); a true return value cancels.
         Raises Cancelled when cancelled, Error on failure."""
+        if spp is not None:
+            spp = _check_count("render: spp", spp, 1, _SPP_MAX)
+        if time_ms is not None:
+            time_ms = _check_ms("render: time_ms", time_ms)
         with self._lock:
+            self._check_open("render")
             r = _lib.volux_scene_render(self._handle).contents
             name = technique or r.technique.decode()
             t = self._techniques.get(name)
@@ -369,6 +431,11 @@ class Scene:
                                 "rel_error": report.rel_error}
             return out
 
+    def _check_open(self, what):
+        """A closed scene never reaches the library (its handles are freed)."""
+        if not getattr(self, "_handle", None):
+            raise Error("%s: the scene is closed" % what, "invalid")
+
     def cancel(self):
         """Stops the render running in another thread (it raises Cancelled);
         if none runs, the next render is cancelled."""
@@ -376,6 +443,7 @@ class Scene:
 
     def memory_bytes(self):
         """Bytes the scene's context holds (scene, caches of its techniques)."""
+        self._check_open("memory_bytes")
         return int(_lib.volux_context_bytes_in_use(self._ctx.handle))
 
     def close(self):
@@ -436,7 +504,7 @@ def save_image(path, image, exposure=0.0):
         ctx.close()
 
 
-_KINDS = {0: "number", 1: "int", 2: "bool", 3: "string"}
+_KINDS = {0: "number", 1: "int", 2: "bool", 3: "string", 4: "file"}
 
 
 def techniques():
@@ -452,7 +520,7 @@ def techniques():
             p = info.params[k]
             kind = _KINDS.get(p.kind, "number")
             entry = {"kind": kind, "doc": (p.doc or b"").decode()}
-            if kind == "string":
+            if kind in ("string", "file"):
                 entry["default"] = (p.def_string or b"").decode()
             else:
                 conv = bool if kind == "bool" else int if kind == "int" else float

@@ -41,6 +41,23 @@ volux_status volux_image_compare(volux_context *ctx, const volux_image *a, const
         return volux_error(ctx, VOLUX_ERR_INVALID, "image sizes differ: %dx%d vs %dx%d", a->width, a->height,
                            ref->width, ref->height);
     size_t n = (size_t)a->width * (size_t)a->height * 3;
+    /* A NaN or an infinity makes every metric meaningless (NaN fails each
+     * comparison below, so a NaN pixel would otherwise read as a perfect
+     * match): refuse, naming the image and the first such pixel. */
+    for (int which = 0; which < 2; which++) {
+        const volux_image *img = which ? ref : a;
+        size_t bad = 0, first = 0;
+        for (size_t i = 0; i < n; i++)
+            if (!isfinite(img->rgb[i]) && bad++ == 0) first = i;
+        if (bad) {
+            size_t px = first / 3;
+            return volux_error(ctx, VOLUX_ERR_INVALID,
+                               "%s image has %zu non-finite value%s (first at pixel %zu,%zu): no error metric is "
+                               "defined",
+                               which ? "the reference" : "the test", bad, bad == 1 ? "" : "s",
+                               px % (size_t)a->width, px / (size_t)a->width);
+        }
+    }
     double se = 0.0, rel = 0.0, max_abs = 0.0, peak = 0.0;
     for (size_t i = 0; i < n; i++) {
         double x = a->rgb[i], r = ref->rgb[i], d = x - r;

@@ -19,6 +19,8 @@
 
 #include "cache_folder.h"
 #include "core/context_internal.h"
+#include "file_open.h"
+#include "output_file.h"
 
 #define TABLE_MAGIC "VXAMBTAB"
 #define TABLE_HEADER_BYTES 128
@@ -227,12 +229,13 @@ static int write_floats(FILE *f, const float *v, size_t n, uint64_t *h) {
     return 1;
 }
 
-static volux_status write_table(const volux_ambient_table *t, const char *path, why_buf *why) {
-    char tmp[4200];
-    if (snprintf(tmp, sizeof tmp, "%s.tmp%ld", path, (long)getpid()) >= (int)sizeof tmp)
-        return fail(why, VOLUX_ERR_WRITE, "%s: path too long", path);
-    FILE *f = fopen(tmp, "wb");
-    if (!f) return fail(why, VOLUX_ERR_WRITE, "%s: cannot write: %s", path, strerror(errno));
+/* Writes the table through io/output_file.h (admitted path, nothing left
+ * behind on failure). */
+static volux_status write_table(volux_context *ctx, const volux_ambient_table *t, const char *path) {
+    volux_output_file out;
+    volux_status st = volux_output_begin(ctx, path, &out);
+    if (st) return st;
+    FILE *f = out.f;
     unsigned char h[TABLE_HEADER_BYTES];
     encode_header(t, h);
     uint64_t sum = fnv1a(FNV_OFFSET, h, sizeof h);
@@ -250,19 +253,16 @@ static volux_status write_table(const volux_ambient_table *t, const char *path, 
     unsigned char tail[8];
     put_u64(tail, sum);
     ok = ok && fwrite(tail, 1, 8, f) == 8;
-    ok = (fclose(f) == 0) && ok;
-    if (!ok || rename(tmp, path) != 0) {
+    if (!ok) {
         int e = errno;
-        remove(tmp);
-        return fail(why, VOLUX_ERR_WRITE, "%s: cannot write: %s", path, strerror(e));
+        volux_output_abort(ctx, &out);
+        return volux_error(ctx, VOLUX_ERR_WRITE, "%s: cannot write: %s", path, strerror(e));
     }
-    return VOLUX_OK;
+    return volux_output_commit(ctx, &out);
 }
 
 volux_status volux_ambient_table_save(volux_context *ctx, const volux_ambient_table *t, const char *path) {
-    why_buf why;
-    volux_status st = write_table(t, path, &why);
-    return st ? volux_error(ctx, st, "%s", why.text) : VOLUX_OK;
+    return write_table(ctx, t, path);
 }
 
 /* ------------------------------------------------------------------ read */
@@ -354,6 +354,22 @@ static volux_status read_stream(volux_context *ctx, FILE *f, const char *path, v
         for (int i = 0; i < d.n_albedo; i++) d.albedo[i] = get_f64(a + 8 * i);
     }
     if ((st = check_header_desc(&d, path, why))) goto done;
+    /* The bytes the header promises must be there before anything is
+     * allocated for them: a 128-byte header can claim gigabytes. */
+    uint64_t values = volux_ambient_table_values(&d), remaining = 0;
+    uint64_t promised = values * 4u * ((flags & TABLE_FLAG_ERRORS) ? 2u : 1u) + 8u;
+    long here = ftell(f), end = -1;
+    if (here >= 0 && fseek(f, 0, SEEK_END) == 0) end = ftell(f);
+    if (here < 0 || end < here || fseek(f, here, SEEK_SET) != 0) {
+        st = fail(why, VOLUX_ERR_IO, "%s: cannot determine the ambient table's size", path);
+        goto done;
+    }
+    remaining = (uint64_t)(end - here);
+    if (remaining < promised) {
+        st = fail(why, VOLUX_ERR_FORMAT, "%s: truncated ambient table (the header promises %llu more bytes, %llu left)",
+                  path, (unsigned long long)promised, (unsigned long long)remaining);
+        goto done;
+    }
     if (!volux_ambient_table_alloc(ctx, &d, (flags & TABLE_FLAG_ERRORS) != 0, &t)) {
         st = fail(why, VOLUX_ERR_NOMEM, "%s: out of memory for the ambient table (%zu values)", path,
                   volux_ambient_table_values(&d));
@@ -394,8 +410,13 @@ done:
 }
 
 static volux_status read_table(volux_context *ctx, const char *path, volux_ambient_table *out, why_buf *why) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return fail(why, VOLUX_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    int fd, code = volux_file_open_regular(path, &fd, NULL);
+    if (code) return fail(why, VOLUX_ERR_IO, "%s: cannot open: %s", path, volux_file_open_why(code));
+    FILE *f = fdopen(fd, "rb");
+    if (!f) {
+        close(fd);
+        return fail(why, VOLUX_ERR_NOMEM, "%s: cannot open: out of memory", path);
+    }
     return read_stream(ctx, f, path, out, why);
 }
 
@@ -445,13 +466,26 @@ int volux_ambient_table_cache_load(volux_context *ctx, const volux_ambient_table
         volux_ambient_table_free(ctx, &t);
         return 0;
     }
+    volux_cache_file_touch(path); /* recently used: evicted last */
     *out = t;
     return 1;
 }
 
 int volux_ambient_table_cache_store(volux_context *ctx, const volux_ambient_table *t) {
     char path[4400];
-    why_buf ignored; /* an unwritable cache folder is not an error */
-    return volux_ambient_table_cache_path(ctx, &t->desc, path, sizeof path) && volux_cache_folder_create(ctx) &&
-           write_table(t, path, &ignored) == VOLUX_OK;
+    /* The folder is capped (cache_folder.h): the least recently used
+     * tables make room, and a table larger than the cap is not stored. */
+    uint64_t bytes = (uint64_t)volux_ambient_table_values(&t->desc) * 4u * (t->rel_error ? 2u : 1u) + 4096u;
+    if (!volux_ambient_table_cache_path(ctx, &t->desc, path, sizeof path) || !volux_cache_folder_create(ctx) ||
+        !volux_cache_folder_make_room(ctx, bytes))
+        return 0;
+    /* An unwritable cache folder is not an error: keep the context's
+     * error state as it was. */
+    volux_status saved_status = ctx->error_status;
+    char saved[VOLUX_ERROR_MAX];
+    memcpy(saved, ctx->error, sizeof saved);
+    int ok = write_table(ctx, t, path) == VOLUX_OK;
+    ctx->error_status = saved_status;
+    memcpy(ctx->error, saved, sizeof saved);
+    return ok;
 }

@@ -12,7 +12,9 @@
 #include <unistd.h>
 
 #include "core/context_internal.h"
+#include "file_open.h"
 #include "image_formats.h"
+#include "output_file.h"
 #include "volux/io.h"
 
 typedef enum image_format { FORMAT_UNKNOWN, FORMAT_PNG, FORMAT_PFM, FORMAT_EXR, FORMAT_HDR } image_format;
@@ -63,19 +65,16 @@ volux_status volux_io_image_alloc(volux_context *ctx, const char *name, const ch
  * block of *alloc bytes (free with volux_free(ctx, *data, *alloc)). */
 static volux_status read_file(volux_context *ctx, const char *path, unsigned char **data, size_t *size,
                               size_t *alloc) {
-    int fd = open(path, O_RDONLY | O_CLOEXEC);
-    if (fd < 0) return volux_error(ctx, VOLUX_ERR_IO, "cannot open '%s': %s", path, strerror(errno));
-    struct stat st;
-    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    int fd;
+    uint64_t file_size;
+    volux_status status = volux_file_open_read_fd(ctx, path, &fd, &file_size);
+    if (status) return status;
+    if (file_size > volux_context_max_bytes(ctx) || file_size > SIZE_MAX / 2) {
         close(fd);
-        return volux_error(ctx, VOLUX_ERR_IO, "'%s' is not a readable regular file", path);
+        return volux_error(ctx, VOLUX_ERR_LIMIT, "'%s': file of %llu bytes is over the memory cap of %llu", path,
+                           (unsigned long long)file_size, (unsigned long long)volux_context_max_bytes(ctx));
     }
-    if ((uint64_t)st.st_size > volux_context_max_bytes(ctx) || (uint64_t)st.st_size > SIZE_MAX / 2) {
-        close(fd);
-        return volux_error(ctx, VOLUX_ERR_LIMIT, "'%s': file of %lld bytes is over the memory cap of %llu", path,
-                           (long long)st.st_size, (unsigned long long)volux_context_max_bytes(ctx));
-    }
-    size_t cap = (size_t)st.st_size, n = 0;
+    size_t cap = (size_t)file_size, n = 0;
     unsigned char *buf = volux_malloc(ctx, cap + 1);
     if (!buf) {
         close(fd);
@@ -120,32 +119,7 @@ volux_status volux_image_load(volux_context *ctx, const char *path, volux_image 
     return st;
 }
 
-/* ---- atomic save ---- */
-
-/* Creates "PATH.tmp-XXXXXX" exclusively, with the umask applied as for any
- * new file (mkstemp would force mode 0600 on the final file). The suffix
- * mixes time, pid and a counter through splitmix64; a clash just retries. */
-static int create_temp(char *tmp, size_t tmp_size, const char *path) {
-    static const char alphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789";
-    static unsigned counter;
-    struct timespec ts;
-    clock_gettime(CLOCK_REALTIME, &ts);
-    uint64_t seed = (uint64_t)ts.tv_nsec ^ ((uint64_t)ts.tv_sec << 30) ^ ((uint64_t)getpid() << 16);
-    for (int attempt = 0; attempt < 64; attempt++) {
-        uint64_t z = seed + 0x9e3779b97f4a7c15ull * (uint64_t)(__atomic_add_fetch(&counter, 1, __ATOMIC_RELAXED));
-        z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-        z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-        z ^= z >> 31;
-        char suffix[7];
-        for (int i = 0; i < 6; i++, z /= 62) suffix[i] = alphabet[z % 62];
-        suffix[6] = 0;
-        snprintf(tmp, tmp_size, "%s.tmp-%s", path, suffix);
-        int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-        if (fd >= 0 || errno != EEXIST) return fd;
-    }
-    errno = EEXIST;
-    return -1;
-}
+/* ---- save: io/output_file.h ---- */
 
 static volux_status write_format(volux_context *ctx, image_format fmt, const char *path, FILE *f,
                                  const volux_image *img, float exposure, const volux_image_meta *meta) {
@@ -199,24 +173,7 @@ volux_status volux_image_check_output(volux_context *ctx, const char *path) {
     if (fmt == FORMAT_UNKNOWN || fmt == FORMAT_HDR)
         return volux_error(ctx, VOLUX_ERR_INVALID, "'%s': cannot write this extension (supported: " WRITE_EXTENSIONS ")",
                            path);
-    struct stat sb;
-    if (stat(path, &sb) == 0 && S_ISDIR(sb.st_mode))
-        return volux_error(ctx, VOLUX_ERR_IO, "cannot write '%s': it is a folder", path);
-    const char *slash = strrchr(path, '/');
-    char dir[4096];
-    if (!slash) snprintf(dir, sizeof dir, ".");
-    else if (slash == path) snprintf(dir, sizeof dir, "/");
-    else if ((size_t)(slash - path) < sizeof dir) snprintf(dir, sizeof dir, "%.*s", (int)(slash - path), path);
-    else return volux_error(ctx, VOLUX_ERR_IO, "cannot write '%s': path too long", path);
-    if (stat(dir, &sb) != 0)
-        return volux_error(ctx, VOLUX_ERR_IO, "cannot write '%s': folder '%s': %s", path, dir, strerror(errno));
-    if (!S_ISDIR(sb.st_mode))
-        return volux_error(ctx, VOLUX_ERR_IO, "cannot write '%s': '%s' is not a folder", path, dir);
-    /* The file is created as a temporary beside the target: the folder
-     * needs write and search permission. */
-    if (access(dir, W_OK | X_OK) != 0)
-        return volux_error(ctx, VOLUX_ERR_IO, "cannot write '%s': folder '%s': %s", path, dir, strerror(errno));
-    return VOLUX_OK;
+    return volux_file_check_output(ctx, path);
 }
 
 volux_status volux_image_save_meta(volux_context *ctx, const char *path, const volux_image *img, float exposure,
@@ -231,34 +188,15 @@ volux_status volux_image_save_meta(volux_context *ctx, const char *path, const v
     if (fmt == FORMAT_PNG && !isfinite(exposure))
         return volux_error(ctx, VOLUX_ERR_INVALID, "'%s': exposure must be finite", path);
 
-    size_t tmp_size = strlen(path) + sizeof ".tmp-XXXXXX";
-    char *tmp = volux_alloc_or_error(ctx, tmp_size, "a temporary file name");
-    if (!tmp) return VOLUX_ERR_NOMEM;
-    volux_status st = VOLUX_OK;
-    int fd = create_temp(tmp, tmp_size, path);
-    if (fd < 0) {
-        st = volux_error(ctx, VOLUX_ERR_WRITE, "cannot write '%s': %s", path, strerror(errno));
-        goto done;
+    volux_output_file out;
+    volux_status st = volux_output_begin(ctx, path, &out);
+    if (st) return st;
+    st = write_format(ctx, fmt, path, out.f, img, exposure, meta);
+    if (st) {
+        volux_output_abort(ctx, &out);
+        return st;
     }
-    FILE *f = fdopen(fd, "wb");
-    if (!f) {
-        st = volux_error(ctx, VOLUX_ERR_WRITE, "cannot write '%s': %s", path, strerror(errno));
-        close(fd);
-        unlink(tmp);
-        goto done;
-    }
-    st = write_format(ctx, fmt, path, f, img, exposure, meta);
-    /* Flush and sync before the rename, so the name never points at a file
-     * whose data is still only in a cache that a crash could lose. */
-    if (!st && (fflush(f) != 0 || fsync(fileno(f)) != 0))
-        st = volux_error(ctx, VOLUX_ERR_WRITE, "cannot write '%s': %s", path, strerror(errno));
-    if (fclose(f) != 0 && !st) st = volux_error(ctx, VOLUX_ERR_WRITE, "cannot write '%s': %s", path, strerror(errno));
-    if (!st && rename(tmp, path) != 0)
-        st = volux_error(ctx, VOLUX_ERR_WRITE, "cannot write '%s': rename failed: %s", path, strerror(errno));
-    if (st) unlink(tmp);
-done:
-    volux_free(ctx, tmp, tmp_size);
-    return st;
+    return volux_output_commit(ctx, &out);
 }
 
 /* ---- in memory ---- */

@@ -7,6 +7,7 @@
 #include <sys/stat.h>
 
 #include "core/context_internal.h"
+#include "file_open.h"
 #include "json_reader.h"
 
 #define JSON_MAX_BYTES (16u << 20) /* cJSON needs ~30× the text for arrays of numbers */
@@ -23,20 +24,17 @@ volux_status volux_json_error(volux_json_reader *r, volux_status st, const char 
 }
 
 volux_status volux_json_read_file(volux_context *ctx, const char *path, char **buf, size_t *n) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return volux_error(ctx, VOLUX_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-    /* fstat, not fseek/ftell: a directory opens fine on Linux and ftell
-     * then reports LONG_MAX ("larger than 16 MiB"); pipes cannot seek. */
-    struct stat sb;
-    if (fstat(fileno(f), &sb) != 0 || !S_ISREG(sb.st_mode)) {
-        fclose(f);
-        return volux_error(ctx, VOLUX_ERR_IO, "%s: not a regular file", path);
-    }
-    if ((uint64_t)sb.st_size > JSON_MAX_BYTES) {
+    /* Regular files only, checked on the descriptor: a directory opens
+     * fine on Linux (ftell then says LONG_MAX), a FIFO would block. */
+    FILE *f;
+    uint64_t file_size;
+    volux_status st = volux_file_open_read(ctx, path, &f, &file_size);
+    if (st) return st;
+    if (file_size > JSON_MAX_BYTES) {
         fclose(f);
         return volux_error(ctx, VOLUX_ERR_LIMIT, "%s: larger than 16 MiB", path);
     }
-    size_t size = (size_t)sb.st_size;
+    size_t size = (size_t)file_size;
     char *b = volux_malloc(ctx, size + 1);
     if (!b) {
         fclose(f);

@@ -2,11 +2,13 @@
 #include "merl.h"
 
 #include <errno.h>
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
 
 #include "core/context_internal.h"
+#include "file_open.h"
 
 #define MERL_MAX_BINS 1024
 #define PI_D 3.14159265358979323846
@@ -60,16 +62,16 @@ volux_status volux_merl_parse(volux_context *ctx, const uint8_t *data, size_t si
 }
 
 volux_status volux_merl_load(volux_context *ctx, const char *path, volux_merl *out) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return volux_error(ctx, VOLUX_ERR_IO, "%s: %s", path, strerror(errno));
-    volux_status st = VOLUX_OK;
+    FILE *f;
+    uint64_t file_size;
+    volux_status st = volux_file_open_read(ctx, path, &f, &file_size);
+    if (st) return st;
     uint8_t *buf = NULL;
-    long len = -1;
-    if (fseek(f, 0, SEEK_END) == 0) len = ftell(f);
-    if (len < 0 || fseek(f, 0, SEEK_SET) != 0) {
+    if (file_size > (uint64_t)LONG_MAX) {
         fclose(f);
-        return volux_error(ctx, VOLUX_ERR_IO, "%s: cannot determine the file size", path);
+        return volux_error(ctx, VOLUX_ERR_LIMIT, "%s: file too large", path);
     }
+    long len = (long)file_size;
     /* The float copy is half the doubles: a file over twice the cap cannot fit. */
     if (ctx->max_bytes && (uint64_t)len / 2 > ctx->max_bytes) {
         fclose(f);

@@ -248,6 +248,22 @@ volux_status volux_nifti_parse_header(volux_context *ctx, const unsigned char *b
                            volux_scalar_type_name(h.type));
 
     int sform = f.sform_code > 0;
+    if (sform) {
+        /* A declared sform that is not a transform (a NaN, or an all-zero
+         * matrix) is ignored, and said so, rather than read as one. */
+        int finite = 1, nonzero = 0;
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 4; j++) {
+                finite &= isfinite(f.srow[i][j]) != 0;
+                nonzero |= j < 3 && f.srow[i][j] != 0.0;
+            }
+        if (!finite || !nonzero) {
+            volux_warn(ctx, "%s: sform_code %d but the sform is %s: ignored (orientation and origin from the qform "
+                            "or pixdim)",
+                       name, f.sform_code, finite ? "all zero" : "not finite");
+            sform = 0;
+        }
+    }
     for (int a = 0; a < 3; a++) {
         double s = f.pixdim[a + 1];
         if (!isfinite(s))
@@ -310,10 +326,9 @@ volux_status volux_nifti_parse_header(volux_context *ctx, const unsigned char *b
         up[0] = 2.0 * (b * d - a * c);
         up[1] = 2.0 * (c * d + a * b);
         up[2] = qfac * (a * a + d * d - b * b - c * c);
-    } else if (i16(&r, O_SFORM_CODE) > 0) {
+    } else if (sform && i16(&r, O_SFORM_CODE) > 0) {
         for (int col = 0; col < 3; col++) {
-            double x = f32(&r, O_SROW + 4 * (size_t)col), y = f32(&r, O_SROW + 16 + 4 * (size_t)col),
-                   z = f32(&r, O_SROW + 32 + 4 * (size_t)col);
+            double x = f.srow[0][col], y = f.srow[1][col], z = f.srow[2][col];
             double len = sqrt(x * x + y * y + z * z);
             up[col] = len > 0.0 ? z / len : 0.0;
         }

@@ -239,11 +239,20 @@ static volux_status parse_spacing(parser *p, int ndim, const int axes[3], volux_
             return volux_error(p->ctx, VOLUX_ERR_FORMAT, "%s: spacings: more than %d values", p->name, ndim);
         for (int a = 0; a < 3; a++) {
             double v = s[axes[a]];
-            if (isnan(v)) v = 1.0; /* NaN means "unknown" in NRRD */
+            if (isnan(v)) { /* NaN means "unknown" in NRRD: assumed 1, and said so */
+                volux_warn(p->ctx, "%s: spacings: axis %d is NaN (unknown): 1 assumed", p->name, axes[a]);
+                v = 1.0;
+            }
             if (!isfinite(v) || v == 0.0)
                 return volux_error(p->ctx, VOLUX_ERR_FORMAT, "%s: spacings: axis %d spacing must be nonzero and finite, got %g",
                                    p->name, axes[a], v);
-            h->spacing[a] = fabs(v); /* a negative spacing only flips the axis direction */
+            /* A negative spacing means the axis runs the other way; volux
+             * grids are not mirrored, so the image would be a mirror image
+             * of what the file means: say so. */
+            if (v < 0.0)
+                volux_warn(p->ctx, "%s: spacings: axis %d is negative (%g): rendered unmirrored, as if %g", p->name,
+                           axes[a], v, -v);
+            h->spacing[a] = fabs(v);
         }
     }
     if (p->present[F_SPACE_DIRECTIONS]) {

@@ -38,7 +38,9 @@ typedef struct scene_reader {
     char tf_file[4096];
     volux_volume *supplied; /* the caller's volume: "volume" is not read */
     const volux_scene_files *files; /* NULL: names are used as given */
-    int untrusted_volume;           /* set by resolve_path for volume.file */
+    int untrusted_volume;           /* set by resolve_path: a volume file (file,
+                                       files[i], pattern) the loaded document
+                                       did not name */
 } scene_reader;
 
 #define DATA_PREFIX "$VOLUX_DATA/"
@@ -76,17 +78,22 @@ static volux_status resolve_path(scene_reader *sr, const char *base_dir, const c
     const volux_scene_files *f = sr->files;
     if (!f || (!f->record && !f->root)) return VOLUX_OK;
     char real[PATH_MAX];
+    /* Under a data root (the viewer) a missing file and one outside the
+     * root get the same message: a client must not learn which names
+     * exist outside it. */
     if (!realpath(out, real)) {
         if (!f->root) return VOLUX_OK; /* recording: the loader reports it */
-        return volux_json_error(&sr->json, VOLUX_ERR_IO, key, "%s: cannot open: %s", out, strerror(errno));
+        return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "'%s' is not available in the data root %s", name,
+                                f->root);
     }
     if (f->record && volux_path_list_add(sr->json.ctx, f->record, real))
         return volux_json_error(&sr->json, VOLUX_ERR_NOMEM, key, "out of memory");
     if (!f->root) return VOLUX_OK;
     int trusted = f->trusted && volux_path_list_has(f->trusted, real);
     if (!trusted && !volux_path_inside(real, f->root))
-        return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "'%s' is outside the data root %s", name, f->root);
-    if (!strcmp(key, "volume.file")) sr->untrusted_volume = !trusted;
+        return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "'%s' is not available in the data root %s", name,
+                                f->root);
+    if (!strncmp(key, "volume.", 7) && !trusted) sr->untrusted_volume = 1;
     /* Open the name that was checked (no symlink left to swap). */
     if (strlen(real) >= n) return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "path too long");
     strcpy(out, real);
@@ -151,6 +158,18 @@ static volux_status read_frames(scene_reader *sr, const cJSON *obj, frame_list *
         if (!cJSON_IsString(c)) return volux_json_error(r, VOLUX_ERR_INVALID, p, "expected a file name");
         if ((st = add_frame(sr, f, c->valuestring, p))) return st;
     }
+    return VOLUX_OK;
+}
+
+/* A volume file the loaded document did not name (an edit): its detached
+ * data must stay in the data root too, whether it is one file, a list of
+ * time steps or a pattern. */
+static volux_status confine_untrusted_volume(scene_reader *sr, int allow_outside, volux_volume_load_options *opt) {
+    if (!sr->untrusted_volume) return VOLUX_OK;
+    if (allow_outside)
+        return volux_json_error(&sr->json, VOLUX_ERR_INVALID, "volume.allow_outside_dir",
+                                "not allowed for a file outside the loaded scene (data root %s)", sr->files->root);
+    opt->data_root = sr->files->root;
     return VOLUX_OK;
 }
 
@@ -316,7 +335,8 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
             }
             dir[o] = 0;
             if ((st = read_range(sr, obj, range)) ||
-                (st = resolve_path(sr, dir, pattern, "volume.pattern", resolved, sizeof resolved)))
+                (st = resolve_path(sr, dir, pattern, "volume.pattern", resolved, sizeof resolved)) ||
+                (st = confine_untrusted_volume(sr, allow_outside, &opt)))
                 return st;
             st = volux_sequence_load_pattern(r->ctx, resolved, range[0], range[1], range[2], &opt, cache_bytes, &seq);
             if (st) volux_error_prefix(r->ctx, "%s: volume.pattern: ", r->file);
@@ -333,15 +353,7 @@ static volux_status read_volume(scene_reader *sr, const cJSON *obj) {
                 free_frame_list(r->ctx, &frames);
                 return volux_scene_set_volume(sr->scene, o->volume);
             }
-            if (!st && single && sr->untrusted_volume) {
-                /* A header the loaded document did not name: its detached
-                 * data must stay in the data root too. */
-                if (allow_outside)
-                    st = volux_json_error(r, VOLUX_ERR_INVALID, "volume.allow_outside_dir",
-                                          "not allowed for a file outside the loaded scene (data root %s)",
-                                          sr->files->root);
-                else opt.data_root = sr->files->root;
-            }
+            if (!st) st = confine_untrusted_volume(sr, allow_outside, &opt);
             if (!st && single) {
                 st = volux_volume_load(r->ctx, frames.paths[0], &opt, &vol);
                 if (st) volux_error_prefix(r->ctx, "%s: volume.file: ", r->file); /* the loader names the file */
@@ -889,6 +901,16 @@ static volux_status read_time_step(scene_reader *sr, const cJSON *render) {
     return st;
 }
 
+/* 1 if techniques.<tech>.<name> names a file. io sits below the technique
+ * registry and cannot look the kind up, so the rule is in the name: a
+ * parameter is VOLUX_PARAM_FILE exactly when its name ends in "_file"
+ * (tests/invariants/test_technique_matrix.c checks every technique). */
+static int is_file_param(const char *tech, const char *name) {
+    (void)tech;
+    size_t n = strlen(name);
+    return n >= 5 && !strcmp(name + n - 5, "_file");
+}
+
 static volux_status read_techniques(scene_reader *sr, const cJSON *obj) {
     volux_json_reader *r = &sr->json;
     if (!obj) return VOLUX_OK;
@@ -909,8 +931,18 @@ static volux_status read_techniques(scene_reader *sr, const cJSON *obj) {
         for (const cJSON *p = t->child; p; p = p->next) {
             if (cJSON_IsNumber(p)) st = volux_scene_set_param(sr->scene, t->string, p->string, p->valuedouble, NULL);
             else if (cJSON_IsBool(p)) st = volux_scene_set_param(sr->scene, t->string, p->string, cJSON_IsTrue(p), NULL);
-            else if (cJSON_IsString(p)) st = volux_scene_set_param(sr->scene, t->string, p->string, 0, p->valuestring);
-            else {
+            else if (cJSON_IsString(p)) {
+                /* A file parameter names a file like any other reference:
+                 * resolved here, inside the data root when there is one. */
+                const char *value = p->valuestring;
+                char path[4096], key[192];
+                if (*value && is_file_param(t->string, p->string)) {
+                    snprintf(key, sizeof key, "%s.%.48s", P, p->string);
+                    if ((st = resolve_path(sr, sr->base_dir, value, key, path, sizeof path))) return st;
+                    value = path;
+                }
+                st = volux_scene_set_param(sr->scene, t->string, p->string, 0, value);
+            } else {
                 char pp[192];
                 snprintf(pp, sizeof pp, "%s.%.48s", P, p->string);
                 return volux_json_error(r, VOLUX_ERR_INVALID, pp, "expected a number, boolean or string");
@@ -1048,6 +1080,10 @@ static void rebase_names(cJSON *root, const char *base_dir, const char *tf_file,
     cJSON *l;
     cJSON_ArrayForEach(l, cJSON_GetObjectItemCaseSensitive(root, "lights"))
     rebase_name(cJSON_GetObjectItemCaseSensitive(l, "file"), base_dir, to_dir, data_root);
+    cJSON *t, *p;
+    cJSON_ArrayForEach(t, cJSON_GetObjectItemCaseSensitive(root, "techniques"))
+    cJSON_ArrayForEach(p, t) if (cJSON_IsString(p) && *p->valuestring && t->string && p->string &&
+                                 is_file_param(t->string, p->string)) rebase_name(p, base_dir, to_dir, data_root);
 }
 
 /* A growable text buffer in context memory. */

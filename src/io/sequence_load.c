@@ -23,6 +23,7 @@ typedef struct file_frames {
     char **paths;
     volux_volume_load_options options;
     volux_raw_desc raw; /* options.raw points here when the frames are raw */
+    char *data_root;    /* options.data_root points here: frames load later */
 } file_frames;
 
 static void free_frames(volux_context *ctx, void *user) {
@@ -30,6 +31,7 @@ static void free_frames(volux_context *ctx, void *user) {
     if (!f) return;
     for (int i = 0; i < f->n; i++) volux_strfree(ctx, f->paths[i]);
     volux_free(ctx, f->paths, sizeof *f->paths * (size_t)f->n);
+    if (f->data_root) volux_strfree(ctx, f->data_root);
     volux_free(ctx, f, sizeof *f);
 }
 
@@ -92,6 +94,13 @@ static file_frames *new_frames(volux_context *ctx, int n, const volux_volume_loa
         if (options->raw) {
             f->raw = *options->raw;
             f->options.raw = &f->raw;
+        }
+        /* Frames load at time-step changes, long after the caller's root
+         * string is gone: keep a copy. */
+        if (options->data_root && !(f->options.data_root = f->data_root = volux_strdup(ctx, options->data_root))) {
+            f->n = 0;
+            free_frames(ctx, f);
+            return NULL;
         }
     }
     return f;

@@ -14,6 +14,7 @@
 #include <zlib.h>
 
 #include "core/volume_internal.h"
+#include "file_open.h"
 #include "volume_formats.h"
 
 #define CHUNK (256u << 10) /* decoded bytes per step; a multiple of 8 */
@@ -90,14 +91,7 @@ volux_status volux_volume_header_check(volux_context *ctx, const char *name, con
 volux_status volux_source_open(volux_context *ctx, const char *path, volux_source *out) {
     memset(out, 0, sizeof *out);
     out->name = path;
-    struct stat st;
-    if (stat(path, &st) != 0)
-        return volux_error(ctx, VOLUX_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-    if (!S_ISREG(st.st_mode)) return volux_error(ctx, VOLUX_ERR_IO, "%s: not a regular file", path);
-    out->file = fopen(path, "rb");
-    if (!out->file) return volux_error(ctx, VOLUX_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-    out->size = (uint64_t)st.st_size;
-    return VOLUX_OK;
+    return volux_file_open_read(ctx, path, &out->file, &out->size);
 }
 
 void volux_source_memory(const void *bytes, size_t n, const char *name, volux_source *out) {

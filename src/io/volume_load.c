@@ -157,11 +157,10 @@ static volux_status check_containment(volux_context *ctx, const char *header_pat
  * success `path` holds the resolved name. */
 static volux_status check_data_root(volux_context *ctx, const char *header, const char *data_file, const char *root,
                                     char *path, size_t cap) {
+    /* Missing and outside read the same: no existence oracle. */
     char real[PATH_MAX];
-    if (!realpath(path, real))
-        return volux_error(ctx, VOLUX_ERR_IO, "%s: data file: %s: cannot open: %s", header, path, strerror(errno));
-    if (!volux_path_inside(real, root))
-        return volux_error(ctx, VOLUX_ERR_INVALID, "%s: data file: '%s' is outside the data root %s", header,
+    if (!realpath(path, real) || !volux_path_inside(real, root))
+        return volux_error(ctx, VOLUX_ERR_INVALID, "%s: data file: '%s' is not available in the data root %s", header,
                            data_file, root);
     if (strlen(real) >= cap) return volux_error(ctx, VOLUX_ERR_LIMIT, "%s: data file: path is too long", header);
     strcpy(path, real);
@@ -398,6 +397,17 @@ volux_status volux_volume_probe(volux_context *ctx, const char *path, const volu
         st = parse_header(ctx, k, &src, &h);
         volux_source_close(&src);
         if (st) return st;
+        if (h.data_file[0] && h.file_count == 0) {
+            /* A frame's detached data follows the same policy as a load
+             * (folder, data root) now, not when its time step is shown. */
+            char data[MAX_PATH_BYTES];
+            int allow_outside = options && options->allow_outside_dir;
+            if ((st = resolve_data_path(ctx, path, h.data_file, allow_outside, data, sizeof data)) ||
+                (options && options->data_root &&
+                 (st = check_data_root(ctx, path, h.data_file, options->data_root, data, sizeof data))) ||
+                (!allow_outside && (st = check_containment(ctx, path, h.data_file, data))))
+                return st;
+        }
     }
     memcpy(out->dims, h.dims, sizeof out->dims);
     memcpy(out->spacing, h.spacing, sizeof out->spacing);

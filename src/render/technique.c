@@ -90,10 +90,11 @@ volux_status volux_technique_check_param(volux_context *ctx, const volux_techniq
     const char *tech = info->name;
     const volux_param_info *p = find_param(info, name);
     if (!p) return unknown_param(ctx, info, name);
-    if ((p->kind == VOLUX_PARAM_STRING) != (string != NULL))
+    int text = p->kind == VOLUX_PARAM_STRING || p->kind == VOLUX_PARAM_FILE;
+    if (text != (string != NULL))
         return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.%s.%s: expected a %s", tech, name,
-                           p->kind == VOLUX_PARAM_STRING ? "string" : "number");
-    if (p->kind == VOLUX_PARAM_STRING) return VOLUX_OK;
+                           p->kind == VOLUX_PARAM_FILE ? "file name" : text ? "string" : "number");
+    if (text) return VOLUX_OK;
     if ((p->kind == VOLUX_PARAM_INT || p->kind == VOLUX_PARAM_BOOL) && number != floor(number))
         return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.%s.%s: expected an integer, got %g", tech, name, number);
     if (number < p->min || number > p->max)

@@ -270,7 +270,15 @@ static double nearby(const volux_param_info *p, double v) {
 static void check_params(const volux_technique_class *cls) {
     const char *name = cls->info.name;
     for (const volux_param_info *p = cls->info.params; p && p->name; p++) {
-        if (p->kind == VOLUX_PARAM_STRING) continue; /* choices are technique-specific */
+        /* The scene reader resolves (and confines to the data root) the
+         * parameters whose names end in "_file": that must be exactly the
+         * VOLUX_PARAM_FILE ones. */
+        size_t len = strlen(p->name);
+        int named_file = len >= 5 && !strcmp(p->name + len - 5, "_file");
+        if (named_file != (p->kind == VOLUX_PARAM_FILE))
+            fail_msg("techniques.%s.%s: a file parameter is VOLUX_PARAM_FILE and named *_file (both or neither)",
+                     name, p->name);
+        if (p->kind == VOLUX_PARAM_STRING || p->kind == VOLUX_PARAM_FILE) continue; /* technique-specific */
         volux_context *ctx = tu_context(1);
         volux_scene *s = load(ctx, name);
         volux_technique *t = NULL;

@@ -579,19 +579,29 @@ static void test_data_root_contains_files(void **state) {
 
     edit_ok(doc, "volume.file=inside.nhdr", NULL);
     edit_ok(doc, "volume.file=../doc_outside/trusted.nhdr", NULL); /* named by the loaded scene */
-    expect_rejected(ctx, doc, NULL, "volume.file=../doc_outside/other.nhdr", "outside the data root");
+    expect_rejected(ctx, doc, NULL, "volume.file=../doc_outside/other.nhdr", "not available in the data root");
     snprintf(p, sizeof p, "volume.file=%s/other.nhdr", outside);
-    expect_rejected(ctx, doc, NULL, p, "outside the data root");
-    expect_rejected(ctx, doc, NULL, "volume.file=link.nhdr", "outside the data root");
-    expect_rejected(ctx, doc, NULL, "volume.file=sneaky.nhdr", "outside the data root");
+    expect_rejected(ctx, doc, NULL, p, "not available in the data root");
+    expect_rejected(ctx, doc, NULL, "volume.file=link.nhdr", "not available in the data root");
+    expect_rejected(ctx, doc, NULL, "volume.file=sneaky.nhdr", "not available in the data root");
     expect_rejected(ctx, doc, NULL, "volume={\"file\":\"inside.nhdr\",\"allow_outside_dir\":true}",
                     "volume.allow_outside_dir");
-    expect_rejected(ctx, doc, NULL, "volume.file=/etc/passwd", "outside the data root");
-    expect_rejected(ctx, doc, NULL, "volume.file=missing.nhdr", "cannot open");
+    expect_rejected(ctx, doc, NULL, "volume.file=/etc/passwd", "not available in the data root");
+    /* missing and outside read the same (no existence oracle) */
+    expect_rejected(ctx, doc, NULL, "volume.file=missing.nhdr", "'missing.nhdr' is not available in the data root");
+    expect_rejected(ctx, doc, NULL, "volume.file=/etc/shadow-missing", "not available in the data root");
+    /* a time sequence is confined like one file (its detached data too) */
+    expect_rejected(ctx, doc, NULL, "volume={\"files\":[\"sneaky.nhdr\"],\"allow_outside_dir\":true}",
+                    "volume.allow_outside_dir");
+    expect_rejected(ctx, doc, NULL, "volume={\"files\":[\"inside.nhdr\",\"sneaky.nhdr\"]}", "not available in the data root");
+    /* a technique's file parameter too */
+    expect_rejected(ctx, doc, NULL, "techniques.ambient.table_file=\"/etc/passwd\"", "not available in the data root");
+    expect_rejected(ctx, doc, NULL, "techniques.ambient.table_file=\"../doc_outside/other.raw\"",
+                    "not available in the data root");
     expect_rejected(ctx, doc, NULL, "lights.0={\"type\":\"environment\",\"file\":\"/etc/hostname\"}",
-                    "outside the data root");
-    expect_rejected(ctx, doc, NULL, "transfer_function=\"../doc_outside/other.nhdr\"", "outside the data root");
-    expect_rejected(ctx, doc, NULL, "transfer_function.preset=\"/etc/passwd\"", "outside the data root");
+                    "not available in the data root");
+    expect_rejected(ctx, doc, NULL, "transfer_function=\"../doc_outside/other.nhdr\"", "not available in the data root");
+    expect_rejected(ctx, doc, NULL, "transfer_function.preset=\"/etc/passwd\"", "not available in the data root");
     volux_scene_doc_destroy(doc);
     assert_int_equal(volux_context_bytes_in_use(ctx), 0);
     volux_context_destroy(ctx);

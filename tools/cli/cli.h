@@ -81,5 +81,8 @@ void cli_ramp_color(double t, float *linear_rgb);
 /* Checks that `path` can be created (its folder exists and is writable,
  * it is not a folder); else 0 with "OPTION PATH: why" in msg. */
 int cli_check_writable(const char *option, const char *path, char *msg, size_t msg_size);
+/* 1 if the two output names are one file: the same folder (links
+ * resolved) and the same name, or one existing file. */
+int cli_same_file(const char *a, const char *b);
 
 #endif

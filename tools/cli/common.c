@@ -47,7 +47,10 @@ typedef struct progress_state {
 static volatile sig_atomic_t stop_signal;
 
 static void on_interrupt(int sig) {
-    if (stop_signal) _exit(128 + sig); /* the second one: at once */
+    if (stop_signal) { /* the second one: at once, leaving no temporary file */
+        volux_file_abandon_writes();
+        _exit(128 + sig);
+    }
     stop_signal = sig;
     static const char msg[] = "\nvolux: stopping; an image in progress is written with what it has "
                               "(press Ctrl-C again to abort at once)\n";
@@ -231,22 +234,34 @@ volux_status cli_procedural(volux_context *ctx, const char *cmd, const char *spe
 }
 
 int cli_check_writable(const char *option, const char *path, char *msg, size_t msg_size) {
-    struct stat sb;
-    if (stat(path, &sb) == 0 && S_ISDIR(sb.st_mode)) {
-        snprintf(msg, msg_size, "%s %s: is a folder", option, path);
+    /* The library's rules for every output (volux_file_check_output). */
+    volux_context *ctx = NULL;
+    if (volux_context_create(NULL, &ctx) != VOLUX_OK) {
+        snprintf(msg, msg_size, "%s %s: out of memory", option, path);
         return 0;
     }
+    volux_status st = volux_file_check_output(ctx, path);
+    if (st) snprintf(msg, msg_size, "%s: %s", option, volux_context_error(ctx));
+    volux_context_destroy(ctx);
+    return st == VOLUX_OK;
+}
+
+/* "folder/name" with the folder resolved (the name may not exist yet). */
+static int canonical_output(const char *path, char *out, size_t n) {
     const char *slash = strrchr(path, '/');
-    char dir[4096];
+    char dir[4096], real[4096];
     if (!slash) snprintf(dir, sizeof dir, ".");
     else if (slash == path) snprintf(dir, sizeof dir, "/");
     else snprintf(dir, sizeof dir, "%.*s", (int)(slash - path) < 4000 ? (int)(slash - path) : 4000, path);
-    if (stat(dir, &sb) != 0 || !S_ISDIR(sb.st_mode) || access(dir, W_OK | X_OK) != 0) {
-        snprintf(msg, msg_size, "%s %s: folder '%s' %s", option, path, dir,
-                 stat(dir, &sb) != 0 ? "does not exist" : !S_ISDIR(sb.st_mode) ? "is not a folder" : "is not writable");
-        return 0;
-    }
-    return 1;
+    if (!realpath(dir, real)) return 0;
+    return snprintf(out, n, "%s/%s", real, slash ? slash + 1 : path) < (int)n;
+}
+
+int cli_same_file(const char *a, const char *b) {
+    struct stat sa, sb;
+    if (stat(a, &sa) == 0 && stat(b, &sb) == 0) return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+    char ca[8200], cb[8200];
+    return canonical_output(a, ca, sizeof ca) && canonical_output(b, cb, sizeof cb) && !strcmp(ca, cb);
 }
 
 /* A viridis-like ramp (after matplotlib's viridis, van der Walt & Smith

@@ -25,7 +25,8 @@ static void usage(FILE *f) {
             "  --raw-spacing X Y Z  voxel spacing (default 1 1 1)\n"
             "  --raw-skip N         bytes to skip at the start of the file\n"
             "  --file-origin        report the origin stored in the file instead of the centred one\n"
-            "  --allow-nonfinite    map NaN/Inf float values to the lowest value (with a warning)\n"
+            "  --allow-nonfinite    map NaN/Inf float values to the lowest value (with a warning);\n"
+            "                       images: statistics of the finite values, NaN/Inf counted\n"
             "  --bins N             histogram bins (default 16)\n"
             "  --seed S             seed for procedural volumes (default 1)\n",
             volux_procedural_names());
@@ -121,25 +122,47 @@ static int is_image(const char *path) {
     return got == 2 && magic[0] == '#' && magic[1] == '?';
 }
 
-static int print_image_info(volux_context *ctx, const char *file) {
+static int print_image_info(volux_context *ctx, const char *file, int allow_nonfinite) {
     volux_image img = {0};
     volux_image_meta meta;
     volux_status st = volux_image_load_meta(ctx, file, &img, &meta);
     if (st) return cli_fail(CMD, ctx, st);
     size_t n = (size_t)img.width * (size_t)img.height;
+    /* Statistics over the finite values; NaN/Inf are counted apart (they
+     * would otherwise print "min inf, max -inf" or a NaN mean). */
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY}, sum[3] = {0, 0, 0};
+    size_t finite[3] = {0, 0, 0}, nan_count = 0, inf_count = 0;
     for (size_t i = 0; i < n; i++)
         for (int c = 0; c < 3; c++) {
             double v = img.rgb[3 * i + (size_t)c];
+            if (isnan(v)) {
+                nan_count++;
+                continue;
+            }
+            if (isinf(v)) {
+                inf_count++;
+                continue;
+            }
             if (v < lo[c]) lo[c] = v;
             if (v > hi[c]) hi[c] = v;
             sum[c] += v;
+            finite[c]++;
         }
+    if ((nan_count || inf_count) && !allow_nonfinite) {
+        cli_eprintf("volux " CMD ": %s: %zu NaN and %zu infinite values (give --allow-nonfinite to see the "
+                    "statistics of the finite ones)\n",
+                    file, nan_count, inf_count);
+        volux_image_free(ctx, &img);
+        return CLI_USAGE;
+    }
     const char *dot = strrchr(file, '.');
     printf("file      %s\n", file);
     printf("image     %d x %d, %s, linear RGB\n", img.width, img.height, dot ? dot + 1 : "?");
-    for (int c = 0; c < 3; c++)
-        printf("%c         min %g, max %g, mean %g\n", "RGB"[c], lo[c], hi[c], sum[c] / (double)n);
+    for (int c = 0; c < 3; c++) {
+        if (finite[c]) printf("%c         min %g, max %g, mean %g\n", "RGB"[c], lo[c], hi[c], sum[c] / (double)finite[c]);
+        else printf("%c         no finite value\n", "RGB"[c]);
+    }
+    if (nan_count || inf_count) printf("nonfinite %zu NaN, %zu infinite (not in the statistics)\n", nan_count, inf_count);
     for (int i = 0; i < meta.count; i++) printf("meta      %s = %s\n", meta.key[i], meta.value[i]);
     volux_image_free(ctx, &img);
     return CLI_OK;
@@ -218,7 +241,7 @@ int cli_info(int argc, char **argv) {
     volux_context *ctx = cli_context(0);
     if (!ctx) return CLI_FAIL;
     if (!o.has_raw && is_image(o.file)) {
-        rc = print_image_info(ctx, o.file);
+        rc = print_image_info(ctx, o.file, o.allow_nonfinite);
         volux_context_destroy(ctx);
         return rc;
     }

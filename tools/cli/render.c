@@ -144,6 +144,11 @@ int cli_render(int argc, char **argv) {
     int rc = dist_agree("render", ctx, st);
     if (rc) goto done;
     rc = args.dump_path && !cli_check_writable("--dump-scene", args.dump_path, msg, sizeof msg) ? CLI_USAGE : CLI_OK;
+    if (!rc && args.dump_path && out_path && cli_same_file(args.dump_path, out_path)) {
+        snprintf(msg, sizeof msg, "--dump-scene %s: the same file as -o (the scene would replace the image)",
+                 args.dump_path);
+        rc = CLI_USAGE;
+    }
     if ((rc = dist_agree_msg("render", rc, msg))) goto done;
     /* One process: Ctrl-C keeps the image so far. Under mpirun the ranks
      * would have to agree on where to stop; the job ends as mpirun ends it. */

@@ -127,24 +127,6 @@ static void dir_of(const char *path, char *out, size_t n) {
     else snprintf(out, n, "%.*s", (int)(slash - path), path);
 }
 
-/* Writes text to path through a temporary file and a rename; on failure
- * the reason goes to msg. */
-static int write_text(const char *path, const char *text, char *msg, size_t msg_size) {
-    char tmp[4200];
-    snprintf(tmp, sizeof tmp, "%s.tmp-%ld", path, (long)getpid());
-    FILE *f = fopen(tmp, "w");
-    int ok = f && fputs(text, f) >= 0;
-    int err = ok ? 0 : errno;
-    if (f && (fflush(f) != 0 || fsync(fileno(f)) != 0) && ok) ok = 0, err = errno;
-    if (f && fclose(f) != 0 && ok) ok = 0, err = errno;
-    if (ok && rename(tmp, path) != 0) ok = 0, err = errno;
-    if (!ok) {
-        unlink(tmp);
-        snprintf(msg, msg_size, "--dump-scene %s: cannot write: %s", path, strerror(err));
-    }
-    return ok;
-}
-
 /* The context's message (or the status name) into msg; the exit status. */
 static int context_failure(volux_context *ctx, volux_status st, char *msg, size_t msg_size) {
     const char *e = volux_context_error(ctx);
@@ -251,7 +233,8 @@ int cli_load_scene_quiet(const char *cmd, volux_context *ctx, const cli_scene_ar
     volux_scene_json_free(ctx, json);
     volux_volume_release(vol);
     if (st) return context_failure(ctx, st, msg, msg_size);
-    if (dump && !write_text(a->dump_path, dump, msg, msg_size)) {
+    if (dump && (st = volux_file_save(ctx, a->dump_path, dump, strlen(dump)))) {
+        snprintf(msg, msg_size, "--dump-scene: %s", volux_context_error(ctx));
         volux_scene_json_free(ctx, dump);
         volux_scene_destroy(scene);
         return CLI_FAIL;

@@ -11,6 +11,7 @@ static const char *kind_name(volux_param_kind k) {
     case VOLUX_PARAM_INT: return "integer";
     case VOLUX_PARAM_BOOL: return "bool";
     case VOLUX_PARAM_STRING: return "string";
+    case VOLUX_PARAM_FILE: return "file";
     }
     return "?";
 }
@@ -19,7 +20,7 @@ static void print_technique(const volux_technique_info *c, int brief) {
     printf("%-12s %s%s\n", c->name, c->summary, c->progressive ? " [progressive]" : "");
     if (brief) return;
     for (const volux_param_info *p = c->params; p && p->name; p++) {
-        if (p->kind == VOLUX_PARAM_STRING)
+        if (p->kind == VOLUX_PARAM_STRING || p->kind == VOLUX_PARAM_FILE)
             printf("    %-20s %-7s default \"%s\"\n", p->name, kind_name(p->kind), p->def_string ? p->def_string : "");
         else if (p->kind == VOLUX_PARAM_BOOL)
             printf("    %-20s %-7s default %s\n", p->name, kind_name(p->kind), p->def != 0 ? "true" : "false");

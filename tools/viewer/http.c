@@ -4,7 +4,9 @@
  *
  * One thread per connection (a stream blocks until the next frame), at
  * most `max_connections` of them; a connection idle for `timeout_s`
- * seconds is closed (slow clients cannot hold threads); headers are
+ * seconds is closed, and so is one whose request (headers and body) is not
+ * complete `timeout_s` seconds after it connected: a client trickling one
+ * byte every few seconds is never idle, but cannot hold a slot; headers are
  * bounded by the connection memory limit, bodies by MAX_BODY; nothing a
  * client sends can stop the server: every failure is a status code.
  *
@@ -19,11 +21,14 @@
 #include <arpa/inet.h>
 #include <cjson/cJSON.h>
 #include <microhttpd.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <sys/socket.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "tools/cli/cli.h"
 #include "viewer.h"
@@ -35,9 +40,118 @@
 typedef struct request {
     char *body;
     size_t len, cap;
-    int rejected; /* a response was queued early */
+    int rejected;  /* a response was queued early */
+    int too_large; /* the body passed MAX_BODY: discarded, 413 at its end */
     double t0, cpu0;
 } request;
+
+/* ------------------------------------------------------------------ slow clients */
+
+/* MHD's timeout is an idle time. A watchdog thread shuts down the socket of
+ * every connection whose request is still incomplete `timeout_s` seconds
+ * after it connected (MHD then closes it as the peer's). Slots are indexed
+ * by the connection's socket context; the lock orders a shutdown before
+ * MHD's close of the same descriptor (MHD reports CLOSED first). */
+#define SLOW_SLOTS 1024
+
+typedef struct slow_slot {
+    int fd;          /* −1: free */
+    int complete;    /* the request is in: streams may last as they like */
+    double start_ms;
+} slow_slot;
+
+struct slow_clients {
+    pthread_mutex_t lock;
+    pthread_cond_t wake;
+    pthread_t thread;
+    int quit;
+    double limit_ms;
+    slow_slot slot[SLOW_SLOTS];
+};
+
+static void *slow_watchdog(void *arg) {
+    struct slow_clients *s = arg;
+    pthread_mutex_lock(&s->lock);
+    while (!s->quit) {
+        double now = viewer_now_ms();
+        for (int i = 0; i < SLOW_SLOTS; i++) {
+            slow_slot *t = &s->slot[i];
+            if (t->fd >= 0 && !t->complete && now - t->start_ms > s->limit_ms) {
+                shutdown(t->fd, SHUT_RDWR);
+                t->complete = 1; /* once */
+            }
+        }
+        struct timespec until;
+        clock_gettime(CLOCK_REALTIME, &until);
+        until.tv_nsec += 200 * 1000 * 1000;
+        if (until.tv_nsec >= 1000000000L) until.tv_sec++, until.tv_nsec -= 1000000000L;
+        pthread_cond_timedwait(&s->wake, &s->lock, &until);
+    }
+    pthread_mutex_unlock(&s->lock);
+    return NULL;
+}
+
+static void on_connection(void *cls, struct MHD_Connection *c, void **socket_context,
+                          enum MHD_ConnectionNotificationCode code) {
+    viewer *v = cls;
+    struct slow_clients *s = v->slow;
+    if (!s) return;
+    pthread_mutex_lock(&s->lock);
+    if (code == MHD_CONNECTION_NOTIFY_STARTED) {
+        const union MHD_ConnectionInfo *info = MHD_get_connection_info(c, MHD_CONNECTION_INFO_CONNECTION_FD);
+        *socket_context = NULL;
+        for (int i = 0; info && i < SLOW_SLOTS; i++)
+            if (s->slot[i].fd < 0) {
+                s->slot[i].fd = info->connect_fd;
+                s->slot[i].complete = 0;
+                s->slot[i].start_ms = viewer_now_ms();
+                *socket_context = &s->slot[i];
+                break;
+            }
+    } else if (*socket_context) {
+        ((slow_slot *)*socket_context)->fd = -1;
+        *socket_context = NULL;
+    }
+    pthread_mutex_unlock(&s->lock);
+}
+
+/* The request on `c` is complete: its connection is no longer timed. */
+static void request_complete(viewer *v, struct MHD_Connection *c) {
+    struct slow_clients *s = v->slow;
+    const union MHD_ConnectionInfo *info = MHD_get_connection_info(c, MHD_CONNECTION_INFO_SOCKET_CONTEXT);
+    if (!s || !info || !info->socket_context) return;
+    pthread_mutex_lock(&s->lock);
+    ((slow_slot *)info->socket_context)->complete = 1;
+    pthread_mutex_unlock(&s->lock);
+}
+
+static struct slow_clients *slow_clients_start(double limit_ms) {
+    struct slow_clients *s = calloc(1, sizeof *s);
+    if (!s) return NULL;
+    for (int i = 0; i < SLOW_SLOTS; i++) s->slot[i].fd = -1;
+    s->limit_ms = limit_ms;
+    pthread_mutex_init(&s->lock, NULL);
+    pthread_cond_init(&s->wake, NULL);
+    if (pthread_create(&s->thread, NULL, slow_watchdog, s) != 0) {
+        pthread_cond_destroy(&s->wake);
+        pthread_mutex_destroy(&s->lock);
+        free(s);
+        return NULL;
+    }
+    return s;
+}
+
+static void slow_clients_stop(struct slow_clients *s) {
+    if (!s) return;
+    pthread_mutex_lock(&s->lock);
+    s->quit = 1;
+    pthread_cond_signal(&s->wake);
+    pthread_mutex_unlock(&s->lock);
+    pthread_join(s->thread, NULL);
+    pthread_cond_destroy(&s->wake);
+    pthread_mutex_destroy(&s->lock);
+    free(s);
+}
 
 /* ------------------------------------------------------------------ replies */
 
@@ -118,13 +232,22 @@ static int loopback_host(const char *host) {
     char name[256];
     size_t n = strlen(host);
     if (!n || n >= sizeof name) return 0;
+    const char *port;
     if (host[0] == '[') {
         const char *end = strchr(host, ']');
         if (!end) return 0;
         snprintf(name, sizeof name, "%.*s", (int)(end - host - 1), host + 1);
+        port = end + 1;
     } else {
         const char *colon = strchr(host, ':');
         snprintf(name, sizeof name, "%.*s", (int)(colon ? (size_t)(colon - host) : n), host);
+        port = colon ? colon : host + n;
+    }
+    /* Nothing may follow the name but ":" and 1-5 digits: "localhost:80@evil.com"
+     * is not a loopback name. */
+    if (*port) {
+        size_t digits = strspn(port + 1, "0123456789");
+        if (port[0] != ':' || digits < 1 || digits > 5 || port[1 + digits]) return 0;
     }
     if (!strcasecmp(name, "localhost")) return 1;
     struct in_addr a4;
@@ -451,6 +574,40 @@ static enum MHD_Result serve_asset(viewer *v, struct MHD_Connection *c, const ch
     return ok;
 }
 
+/* "application/json", alone or with parameters ("; charset=utf-8"). */
+static int json_media_type(const char *type) {
+    static const char want[] = "application/json";
+    if (strncasecmp(type, want, sizeof want - 1)) return 0;
+    const char *rest = type + sizeof want - 1;
+    rest += strspn(rest, " \t");
+    return !*rest || *rest == ';';
+}
+
+/* The Origin of a same-origin request: "http://" or "https://" and
+ * exactly the Host it was sent to. "null" (a sandboxed or file: page) and
+ * other schemes are cross-origin. */
+static int same_origin(const char *origin, const char *host) {
+    if (!host) return 0;
+    const char *rest = !strncasecmp(origin, "http://", 7) ? origin + 7 : !strncasecmp(origin, "https://", 8) ? origin + 8 : NULL;
+    return rest && !strcmp(rest, host);
+}
+
+/* Every Content-Length header must agree: two that differ make the body's
+ * end ambiguous (request smuggling through a proxy). */
+typedef struct length_headers {
+    const char *first;
+    int conflict;
+} length_headers;
+
+static enum MHD_Result collect_length(void *cls, enum MHD_ValueKind kind, const char *key, const char *value) {
+    (void)kind;
+    length_headers *l = cls;
+    if (strcasecmp(key, "Content-Length")) return MHD_YES;
+    if (!l->first) l->first = value;
+    else if (strcmp(l->first, value)) l->conflict = 1;
+    return MHD_YES;
+}
+
 /* Checks that apply before the body is read; returns a queued rejection
  * (MHD_YES/NO) through *handled. */
 static enum MHD_Result precheck(viewer *v, struct MHD_Connection *c, const char *url, const char *method,
@@ -467,16 +624,16 @@ static enum MHD_Result precheck(viewer *v, struct MHD_Connection *c, const char 
     if (is_post) {
         if (strcmp(url, "/api/edit")) return reply_error(v, c, 405, "invalid", "only /api/edit takes POST");
         const char *type = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Content-Type");
-        if (!type || strncasecmp(type, "application/json", 16))
+        if (!type || !json_media_type(type))
             return reply_error(v, c, 415, "invalid", "an edit must be sent as application/json");
         const char *origin = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Origin");
         const char *host = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Host");
-        if (origin && strcmp(origin, "null")) {
-            const char *o = strstr(origin, "://");
-            if (!host || !o || strcmp(o + 3, host))
-                return reply_error(v, c, 403, "invalid", "cross-origin edits are refused");
-        }
-        const char *len = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Content-Length");
+        if (origin && !same_origin(origin, host))
+            return reply_error(v, c, 403, "invalid", "cross-origin edits are refused");
+        length_headers lengths = {NULL, 0};
+        MHD_get_connection_values(c, MHD_HEADER_KIND, collect_length, &lengths);
+        if (lengths.conflict) return reply_error(v, c, 400, "invalid", "conflicting Content-Length headers");
+        const char *len = lengths.first;
         if (len && strtoull(len, NULL, 10) > MAX_BODY)
             return reply_error(v, c, 413, "limit", "request body larger than 4 MiB");
     } else if (!strcmp(url, "/api/edit")) {
@@ -502,6 +659,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
         enum MHD_Result res = precheck(v, c, url, method, &handled);
         if (handled) {
             rq->rejected = 1;
+            request_complete(v, c);
             return res;
         }
         return MHD_YES; /* headers done; the body (if any) follows */
@@ -510,11 +668,23 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
         *upload_size = 0; /* discard what still arrives */
         return MHD_YES;
     }
+    if (rq->too_large) {
+        /* A body without a declared length (chunked) that passed the
+         * limit: read and dropped to its end, then the documented 413
+         * (a response cannot be queued mid-upload; the per-client time
+         * limit bounds how long this may take). */
+        if (*upload_size) {
+            *upload_size = 0;
+            return MHD_YES;
+        }
+        rq->rejected = 1;
+        return reply_error(v, c, 413, "limit", "request body larger than 4 MiB");
+    }
     if (*upload_size) {
         if (rq->len + *upload_size > MAX_BODY) {
-            rq->rejected = 1;
+            rq->too_large = 1;
             *upload_size = 0;
-            return reply_error(v, c, 413, "limit", "request body larger than 4 MiB");
+            return MHD_YES;
         }
         if (rq->len + *upload_size + 1 > rq->cap) {
             size_t cap = rq->cap ? rq->cap : 4096;
@@ -530,6 +700,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
         *upload_size = 0;
         return MHD_YES;
     }
+    request_complete(v, c);
     rq->t0 = viewer_now_ms();
     rq->cpu0 = viewer_cpu_ms();
     if (!strcmp(method, "POST")) return serve_edit(v, c, rq);
@@ -572,6 +743,9 @@ int viewer_http_start(viewer *v) {
     struct sockaddr_storage addr;
     memset(&addr, 0, sizeof addr);
     unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_THREAD_PER_CONNECTION | MHD_USE_ERROR_LOG;
+    /* Before the daemon: its first connection may come at once. Without
+     * the watchdog (no thread), only the idle timeout applies. */
+    v->slow = slow_clients_start(1000.0 * v->opt.timeout_s);
     const char *bind = !strcmp(v->opt.bind, "localhost") ? "127.0.0.1" : v->opt.bind;
     struct sockaddr_in *a4 = (struct sockaddr_in *)&addr;
     struct sockaddr_in6 *a6 = (struct sockaddr_in6 *)&addr;
@@ -584,15 +758,20 @@ int viewer_http_start(viewer *v) {
         flags |= MHD_USE_IPv6;
     } else {
         cli_eprintf("volux serve: --bind %s: expected an IPv4 or IPv6 address\n", v->opt.bind);
+        slow_clients_stop(v->slow);
+        v->slow = NULL;
         return 0;
     }
     v->daemon = MHD_start_daemon(flags, (uint16_t)v->opt.port, NULL, NULL, on_request, v, MHD_OPTION_EXTERNAL_LOGGER,
                                  on_log, v, MHD_OPTION_SOCK_ADDR, (struct sockaddr *)&addr, MHD_OPTION_CONNECTION_LIMIT,
                                  (unsigned)v->opt.max_connections, MHD_OPTION_CONNECTION_TIMEOUT,
                                  (unsigned)v->opt.timeout_s, MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)(64 * 1024),
-                                 MHD_OPTION_NOTIFY_COMPLETED, on_completed, v, MHD_OPTION_END);
+                                 MHD_OPTION_NOTIFY_COMPLETED, on_completed, v, MHD_OPTION_NOTIFY_CONNECTION,
+                                 on_connection, v, MHD_OPTION_END);
     if (!v->daemon) {
         cli_eprintf("volux serve: cannot listen on %s port %d (in use?)\n", v->opt.bind, v->opt.port);
+        slow_clients_stop(v->slow);
+        v->slow = NULL;
         return 0;
     }
     const union MHD_DaemonInfo *info = MHD_get_daemon_info(v->daemon, MHD_DAEMON_INFO_BIND_PORT);
@@ -609,4 +788,6 @@ void viewer_http_stop(viewer *v) {
     pthread_mutex_unlock(&v->frame_lock);
     MHD_stop_daemon(v->daemon);
     v->daemon = NULL;
+    slow_clients_stop(v->slow);
+    v->slow = NULL;
 }

@@ -184,7 +184,7 @@ int viewer_snapshot(viewer *v) {
 }
 
 char *viewer_techniques_json(void) {
-    static const char *const kinds[] = {"number", "int", "bool", "string"};
+    static const char *const kinds[] = {"number", "int", "bool", "string", "file"};
     cJSON *list = cJSON_CreateArray();
     for (int i = 0; i < volux_technique_count(); i++) {
         const volux_technique_info *t = volux_technique_info_at(i);
@@ -197,7 +197,7 @@ char *viewer_techniques_json(void) {
             cJSON *q = cJSON_CreateObject();
             cJSON_AddStringToObject(q, "name", p->name);
             cJSON_AddStringToObject(q, "kind", kinds[p->kind]);
-            if (p->kind == VOLUX_PARAM_STRING) {
+            if (p->kind == VOLUX_PARAM_STRING || p->kind == VOLUX_PARAM_FILE) {
                 cJSON_AddStringToObject(q, "default", p->def_string ? p->def_string : "");
             } else if (p->kind == VOLUX_PARAM_BOOL) {
                 cJSON_AddBoolToObject(q, "default", p->def != 0);

@@ -2,9 +2,12 @@
  * tools/viewer/view.c — `volux view VOLUME|SCENE.json [serve options]`:
  * the quick look (issue 18) in the web viewer. A volume's default scene
  * (the one `volux render VOLUME` renders) is written to a private
- * temporary folder and served from there, with the volume's own folder as
- * the data root unless --data-root says otherwise; a scene file is served
- * as `volux serve` would.
+ * temporary folder and served from there, with that folder as the data
+ * root unless --data-root says otherwise: it holds only what is served
+ * (the volume the scene names is trusted as the scene's own file), so an
+ * edit cannot open anything else — not the volume's neighbours, and not
+ * the current folder for a procedural volume. A scene file is served as
+ * `volux serve` would.
  */
 #include <limits.h>
 #include <stdio.h>
@@ -68,16 +71,6 @@ int cli_view(int argc, char **argv) {
     /* serve SCENE [--data-root VOLUME'S FOLDER] [the caller's options] */
     int has_root = 0;
     for (int i = 2; i < argc; i++) has_root |= !strcmp(argv[i], "--data-root");
-    char root[PATH_MAX] = ".";
-    if (!has_root && !cli_is_procedural(in)) {
-        char *real = realpath(in, NULL);
-        if (real) {
-            char *slash = strrchr(real, '/');
-            if (slash == real) snprintf(root, sizeof root, "/");
-            else if (slash) snprintf(root, sizeof root, "%.*s", (int)(slash - real), real);
-            free(real);
-        }
-    }
     char **args = calloc((size_t)argc + 3, sizeof *args);
     if (!args) {
         unlink(scene_path);
@@ -89,7 +82,7 @@ int cli_view(int argc, char **argv) {
     args[k++] = scene_path;
     if (!has_root) {
         args[k++] = "--data-root";
-        args[k++] = root;
+        args[k++] = dir;
     }
     for (int i = 2; i < argc; i++) args[k++] = argv[i];
     rc = cli_serve(k, args);

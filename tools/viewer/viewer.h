@@ -146,6 +146,7 @@ typedef struct viewer {
 
     pthread_t render_thread;
     struct MHD_Daemon *daemon;
+    struct slow_clients *slow; /* http.c: the whole-request time limit */
     int port;
 } viewer;
 

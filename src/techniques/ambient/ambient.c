@@ -89,7 +89,7 @@ static const volux_param_info ambient_params[] = {
     {"phase_cache", VOLUX_PARAM_BOOL, 1, 0, 1, NULL,
      "keep each radiance cache's g-independent part (4 bytes per cache node and light) so that a phase "
      "edit only re-sums the new extinction factors"},
-    {"table_file", VOLUX_PARAM_STRING, 0, 0, 0, "",
+    {"table_file", VOLUX_PARAM_FILE, 0, 0, 0, "",
      "preintegration table to load (`volux ambient-table`); empty: the one the table_* parameters describe "
      "(the defaults: the table built into the library; others are built on first use and cached)"},
     {"table_theta", VOLUX_PARAM_INT, 64, 2, 4096, NULL, "table entries in theta (built-in: 64; paper: 256)"},

@@ -173,6 +173,22 @@ score_all(float *restrict acc, const float *restrict cos_t, const float *restric
     }
 }
 
+/* Progress after `columns` columns (fractional: within one), from one
+ * thread at a time; a cancel from the callback stops every column at its
+ * next check. */
+static void report_progress(build_job *job, double columns) {
+    const volux_ambient_table_desc *d = job->d;
+    if (!job->ctx->progress || __atomic_exchange_n(&job->busy, 1, __ATOMIC_ACQUIRE)) return;
+    double f = columns / ((double)d->n_sigma * (double)d->n_g * (double)d->n_albedo);
+    if (volux_progress(job->ctx, "ambient table", f < 1.0 ? f : 0.999))
+        __atomic_store_n(&job->cancelled, 1, __ATOMIC_RELAXED);
+    __atomic_store_n(&job->busy, 0, __ATOMIC_RELEASE);
+}
+
+/* Walks between checks for a cancel inside one column: a column of 10^9
+ * walks (table_paths allows it) must still stop within ~100 ms. */
+#define CANCEL_CHECK_WALKS 1024u
+
 static void build_column(void *user, int64_t index, int thread) {
     build_job *job = user;
     if (__atomic_load_n(&job->cancelled, __ATOMIC_RELAXED)) return;
@@ -197,6 +213,10 @@ static void build_column(void *user, int64_t index, int thread) {
     const double p_collide = -expm1(-2.0 * sigma); /* 1 − e^{−2σ̃t} */
     if (sigma > 0.0 && albedo > 0.0) {
         for (uint64_t p = 0; p < paths; p++) {
+            if (p % CANCEL_CHECK_WALKS == CANCEL_CHECK_WALKS - 1) {
+                report_progress(job, __atomic_load_n(&job->done, __ATOMIC_RELAXED) + (double)p / (double)paths);
+                if (__atomic_load_n(&job->cancelled, __ATOMIC_RELAXED)) return;
+            }
             volux_rng rng = volux_rng_make(d->seed, (uint64_t)index, p, 0);
             memset(acc, 0, sizeof(float) * (size_t)nt);
             /* Forced first collision on the diameter from the pole. */
@@ -257,13 +277,7 @@ static void build_column(void *user, int64_t index, int thread) {
         job->data[at] = (float)value;
         job->rel_error[at] = value > 0.0 ? (float)(se / value) : 0.0f;
     }
-    int done = __atomic_add_fetch(&job->done, 1, __ATOMIC_RELAXED);
-    if (job->ctx->progress && !__atomic_exchange_n(&job->busy, 1, __ATOMIC_ACQUIRE)) {
-        double f = (double)done / ((double)d->n_sigma * (double)d->n_g * (double)d->n_albedo);
-        if (volux_progress(job->ctx, "ambient table", f < 1.0 ? f : 0.999))
-            __atomic_store_n(&job->cancelled, 1, __ATOMIC_RELAXED);
-        __atomic_store_n(&job->busy, 0, __ATOMIC_RELEASE);
-    }
+    report_progress(job, __atomic_add_fetch(&job->done, 1, __ATOMIC_RELAXED));
 }
 
 static double now_ms(void) {

@@ -195,7 +195,7 @@ function refreshTechnique() {
       input.type = 'checkbox';
       input.checked = !!value;
       input.onchange = () => edit([{ path: `techniques.${name}.${p.name}`, value: input.checked }]);
-    } else if (p.kind === 'string') {
+    } else if (p.kind === 'string' || p.kind === 'file') {
       input = document.createElement('input');
       input.type = 'text';
       input.value = value;
