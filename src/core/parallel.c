@@ -16,8 +16,44 @@ int volux_parallel_max_threads(void) {
 #endif
 }
 
+/* libgomp ends the process with its own message (exit 1) when it cannot
+ * create a thread, e.g. under a small `ulimit -v`. So before OpenMP is
+ * asked for a team, that many threads are started once with the default
+ * attributes (libgomp's, unless OMP_STACKSIZE says otherwise) and joined;
+ * a team is never larger than what was shown to start. Images do not
+ * depend on the thread count, so fewer threads only take longer. */
+#define MAX_TEAM 1024
+static atomic_int team_proven = 1; /* a team of this size starts        */
+static atomic_int team_limit = MAX_TEAM; /* one of this size did not     */
+
+static void *idle_thread(void *arg) { return arg; }
+
+int volux_parallel_usable_threads(int want) {
+    if (want > MAX_TEAM) want = MAX_TEAM;
+    if (want <= atomic_load(&team_proven)) return want;
+    static pthread_mutex_t lock = PTHREAD_MUTEX_INITIALIZER;
+    pthread_mutex_lock(&lock);
+    int limit = atomic_load(&team_limit), proven = atomic_load(&team_proven);
+    if (want > limit) want = limit;
+    if (want > proven) {
+        pthread_t t[MAX_TEAM];
+        int started = 0;
+        while (started < want - 1 && pthread_create(&t[started], NULL, idle_thread, NULL) == 0) started++;
+        for (int i = 0; i < started; i++) pthread_join(t[i], NULL);
+        int ok = started + 1;
+        if (ok < want) {
+            atomic_store(&team_limit, ok);
+            want = ok;
+        }
+        if (ok > proven) atomic_store(&team_proven, ok);
+    }
+    pthread_mutex_unlock(&lock);
+    return want;
+}
+
 void volux_parallel_for(int threads, int64_t n, volux_parallel_fn fn, void *user) {
     if (threads <= 0) threads = volux_parallel_max_threads();
+    threads = volux_parallel_usable_threads(threads);
     if (threads == 1 || n <= 1) {
         for (int64_t i = 0; i < n; i++) fn(user, i, 0);
         return;
@@ -87,6 +123,7 @@ static int phase_chunk(int64_t n_items, int threads) {
 static void run_phases(int threads, int n_phases, volux_phase_fn begin, volux_phase_item_fn fn, void *user,
                        int overlap) {
     if (threads <= 0) threads = volux_parallel_max_threads();
+    threads = volux_parallel_usable_threads(threads);
 #ifdef _OPENMP
     if (threads > 1 && n_phases > 0) {
         spin_barrier bar;

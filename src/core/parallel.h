@@ -37,5 +37,8 @@ typedef void (*volux_phase_item_fn)(void *user, int phase, int64_t index, int th
 void volux_parallel_phases_overlapped(int threads, int n_phases, volux_phase_fn begin, volux_phase_item_fn fn,
                                       void *user);
 int volux_parallel_max_threads(void);
+/* `want` clamped to a team size that is known to start (tried once with
+ * pthreads, cached): OpenMP ends the process when it cannot create one. */
+int volux_parallel_usable_threads(int want);
 
 #endif
