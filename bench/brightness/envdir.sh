@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# bench/brightness/envdir.sh — issue 28: `ao` and `ambient` with the
-# environment per direction (defaults) against their previous model
-# (ao directional=false, ambient env_directions=0: the isotropic occlusion
-# times the environment's mean radiance), and `single`, on the scenes and
+# bench/brightness/envdir.sh — issue 28: `ambient` with the environment
+# per direction (default) against its previous model (env_directions=0:
+# the isotropic occlusion times the environment's mean radiance), `ao`
+# (isotropic, default) against its opt-in directional occlusion
+# (directional=true), and `single`, on the scenes and
 # lightings of run.sh (same references, same file names: an OUTDIR of
 # run.sh is reused). Per image: mean luminance / pathtrace (all orders and
 # max_depth 1), rel_mse against both (volux compare's metric), and the
@@ -24,7 +25,7 @@ jsonl="$out/envdir.jsonl"
 : > "$jsonl"
 common=(--width "$size" --height "$size" --quiet)
 env_light="{\"type\": \"environment\", \"file\": \"$envmap\", \"intensity\": 1.0, \"visible\": false}"
-variants=("single|single|" "ao|ao|" "ao_old|ao|techniques.ao.directional=false"
+variants=("single|single|" "ao|ao|" "ao_directional|ao|techniques.ao.directional=true"
           "ambient|ambient|" "ambient_old|ambient|techniques.ambient.env_directions=0")
 for scene in ${SCENES:-bonsai engine aneurism}; do
   json="$here/../ambient/$scene.json"
