@@ -467,7 +467,7 @@ static float env_entry_visibility(const void *user, volux_vec3 node, volux_vec3 
  * ρ_c and κ as the scene's lights) into one scratch cache, then read at the
  * nodes' entry points. Depends on the medium, the radius, the table slice
  * (κ) and K — not on the environment's colour, intensity, rotation or map. */
-static volux_status build_env_vis(ambient_state *st) {
+static volux_status build_env_vis(ambient_state *st, int kappa_only) {
     volux_raycaster *rc = &st->b.rc;
     const int K = st->env_dirs;
     float scale = st->cache_scale * st->env_scale < 0.05f ? 0.05f : st->cache_scale * st->env_scale;
@@ -475,8 +475,11 @@ static volux_status build_env_vis(ambient_state *st) {
     if (!s) s = scatter_grid_alloc(rc->ctx, rc->volume, scale, &st->env_scratch, "ambient: environment cache");
     if (!s) s = scatter_grid_alloc(rc->ctx, rc->volume, scale, &st->env_rho, "ambient: environment cache");
     if (s) return s;
-    scatter_grid_resample(rc->threads, &st->rho, &st->env_rho);
+    int resum = kappa_only && st->phase_cache && st->env_geo_ok;
+    if (!resum) scatter_grid_resample(rc->threads, &st->rho, &st->env_rho);
+    st->env_geo_ok = 0;
     scatter_dirvis_zero(rc->threads, &st->env_vis);
+    size_t nodes = (size_t)st->env_scratch.dims[0] * (size_t)st->env_scratch.dims[1] * (size_t)st->env_scratch.dims[2];
     tube_input in = {&st->env_rho, st->kappa, st->table.desc.n_sigma, (float)st->table.desc.sigma_max, st->radius,
                      rc->threads, 0, NULL};
     env_vis_job job = {&st->env_scratch, st->radius};
@@ -487,9 +490,18 @@ static volux_status build_env_vis(ambient_state *st) {
         l.slot = -1;
         l.travel = v3_scale(volux_fibonacci_dir(k, K), -1.0f);
         l.power = v3(1, 1, 1);
-        if ((s = tube_march(rc->ctx, &in, &l, &st->env_scratch))) return s;
+        /* as a light's cache (build_cache): a phase edit re-sums from the
+         * kept geometry, bit-identical to a march with the new κ */
+        in.geo = NULL;
+        if (st->phase_cache) {
+            if (!resum && (s = tube_geometry_alloc(rc->ctx, nodes, &st->env_geo[k]))) return s;
+            in.geo = &st->env_geo[k];
+        }
+        if ((s = resum ? tube_resum(rc->ctx, &in, &l, &st->env_scratch) : tube_march(rc->ctx, &in, &l, &st->env_scratch)))
+            return s;
         scatter_dirvis_add(rc->threads, &st->env_vis, K, volux_fibonacci_dir(k, K), env_entry_visibility, &job);
     }
+    st->env_geo_ok = st->phase_cache;
     st->stats.env_vis_builds++;
     return VOLUX_OK;
 }
@@ -498,22 +510,11 @@ static void env_free(ambient_state *st) {
     scatter_dirvis_free(st->b.rc.ctx, &st->env_vis);
     scatter_grid_free(st->b.rc.ctx, &st->env_scratch);
     scatter_grid_free(st->b.rc.ctx, &st->env_rho);
+    for (int k = 0; k < SCATTER_ENV_MAX_DIRS; k++) tube_geometry_free(st->b.rc.ctx, &st->env_geo[k]);
+    st->env_geo_ok = 0;
     volux_free(st->b.rc.ctx, st->env_m, st->env_m_bytes);
     st->env_m = NULL;
     st->env_m_bytes = 0;
-}
-
-/* L̃o at σ̃t node `is` of albedo block ia (the slice if there is no slab),
- * linear in θ. */
-static inline float table_at_node(const ambient_state *st, int ia, int is, float ut) {
-    int nt = st->table.desc.n_theta, ns = st->table.desc.n_sigma;
-    if (ut > (float)(nt - 1)) ut = (float)(nt - 1);
-    if (ut < 0.0f) ut = 0.0f;
-    int it = (int)ut;
-    if (it > nt - 2) it = nt - 2;
-    float ft = ut - (float)it;
-    const float *a = (st->slab ? st->slab + (size_t)ia * (size_t)ns * (size_t)nt : st->slice) + (size_t)is * (size_t)nt + (size_t)it;
-    return a[0] + (a[1] - a[0]) * ft;
 }
 
 typedef struct env_table_job {
@@ -527,7 +528,9 @@ static void env_table_row(void *user, int64_t j, int thread) {
     (void)thread;
     ambient_state *st = ((env_table_job *)user)->st;
     const scatter_env *e = &st->env;
-    int ns = st->table.desc.n_sigma, na = st->env_m_alb;
+    const int ns = st->table.desc.n_sigma, nt = st->table.desc.n_theta, na = st->env_m_alb;
+    const size_t block = (size_t)ns * (size_t)nt; /* one albedo block of the slab */
+    const float *src = st->slab ? st->slab : st->slice;
     for (int i = 0; i < SCATTER_ENV_OCT + 2; i++) {
         volux_vec3 w = scatter_oct_texel_dir(i, (int)j);
         float *out = st->env_m + ((size_t)j * (SCATTER_ENV_OCT + 2) + (size_t)i) * (size_t)ns * (size_t)na * 12;
@@ -535,13 +538,22 @@ static void env_table_row(void *user, int64_t j, int thread) {
         for (int k = 0; k < e->K; k++) {
             volux_vec3 d = e->from[k], E = e->E[k];
             if (E.x <= 0.0f && E.y <= 0.0f && E.z <= 0.0f) continue;
+            /* θ_k and its two table columns, once per direction (table_at_node's arithmetic) */
             float ut = volux_acos_deg3(-v3_dot(d, w)) * st->u_theta;
+            if (ut > (float)(nt - 1)) ut = (float)(nt - 1);
+            if (ut < 0.0f) ut = 0.0f;
+            int it = (int)ut;
+            if (it > nt - 2) it = nt - 2;
+            const float ft = ut - (float)it;
+            float f[12];
             const float Ek[3] = {E.x, E.y, E.z}, dk[4] = {1.0f, d.x, d.y, d.z};
+            for (int c = 0; c < 3; c++)
+                for (int m = 0; m < 4; m++) f[4 * c + m] = Ek[c] * dk[m];
             for (int is = 0; is < ns; is++)
                 for (int ia = 0; ia < na; ia++) {
-                    float Lo = table_at_node(st, ia, is, ut), *o = out + ((size_t)is * (size_t)na + (size_t)ia) * 12;
-                    for (int c = 0; c < 3; c++)
-                        for (int m = 0; m < 4; m++) o[4 * c + m] += Ek[c] * Lo * dk[m];
+                    const float *a = src + (size_t)ia * block + (size_t)is * (size_t)nt + (size_t)it;
+                    float Lo = a[0] + (a[1] - a[0]) * ft, *o = out + ((size_t)is * (size_t)na + (size_t)ia) * 12;
+                    for (int m = 0; m < 12; m++) o[m] += Lo * f[m];
                 }
         }
     }
@@ -562,6 +574,7 @@ static volux_status build_env_table(ambient_state *st) {
     st->env_m_alb = na;
     env_table_job job = {st};
     volux_parallel_for(rc->threads, SCATTER_ENV_OCT + 2, env_table_row, &job);
+    memcpy(st->env_E_table, st->env.E, sizeof st->env.E);
     st->stats.env_table_builds++;
     return VOLUX_OK;
 }
@@ -687,9 +700,16 @@ static volux_status ambient_update(void *state, const volux_scene *scene, const 
     }
     int new_env = st->env.K == 0 || !st->env_m;
     if (new_env || (c->what & VOLUX_CHANGE_LIGHTS)) scatter_env_prepare(&st->env, ls, st->env_dirs);
+    if (st->phase_cache == 0 && st->env_geo_ok) { /* phase_cache switched off: drop the kept geometry */
+        for (int k = 0; k < SCATTER_ENV_MAX_DIRS; k++) tube_geometry_free(b->rc.ctx, &st->env_geo[k]);
+        st->env_geo_ok = 0;
+    }
     if (new_env || all_caches || !st->env_vis.c[0].v)
-        if ((s = build_env_vis(st))) return s;
-    if (new_env || need_slice || (c->what & VOLUX_CHANGE_LIGHTS)) return build_env_table(st);
+        if ((s = build_env_vis(st, kappa_only && !new_env && st->env_vis.c[0].v))) return s;
+    /* a light edit that left the environment's E_k as they were (a key
+     * light moved) keeps the table */
+    int same_E = !new_env && memcmp(st->env_E_table, st->env.E, sizeof st->env.E) == 0;
+    if (new_env || need_slice || ((c->what & VOLUX_CHANGE_LIGHTS) && !same_E)) return build_env_table(st);
     return VOLUX_OK;
 }
 
@@ -730,6 +750,7 @@ static size_t ambient_memory_bytes(const void *state) {
         n += values * sizeof(float) * (st->table.rel_error ? 2 : 1); /* data (+ error block) */
     }
     n += scatter_dirvis_bytes(&st->env_vis) + st->env_scratch.bytes + st->env_rho.bytes + st->env_m_bytes;
+    for (int k = 0; k < SCATTER_ENV_MAX_DIRS; k++) n += st->env_geo[k].bytes;
     n += sizeof *st->slot * (size_t)st->slot_cap;
     for (int i = 0; i < st->slot_cap; i++) n += st->slot[i].cache.bytes + st->slot[i].geo.bytes;
     for (int i = 0; i < st->ln_n; i++)

@@ -80,6 +80,10 @@ typedef struct ambient_state {
     scatter_grid env_scratch;     /* one direction's radiance cache          */
     scatter_grid env_rho;         /* ρ at env_scratch's nodes (tube marching) */
     float env_scale;              /* their resolution relative to the volume */
+    tube_geometry env_geo[SCATTER_ENV_MAX_DIRS]; /* per direction (phase_cache): a phase
+                                     edit re-sums instead of re-marching */
+    int env_geo_ok;               /* env_geo matches env_rho, radius, table  */
+    volux_vec3 env_E_table[SCATTER_ENV_MAX_DIRS]; /* E_k the light table was built from */
     float *env_m;                 /* [texel][σ node][albedo block][3][4]     */
     size_t env_m_bytes;
     int env_m_alb;                /* albedo blocks in env_m (1: the slice)   */
