@@ -82,8 +82,15 @@ static const volux_param_info ambient_params[] = {
      "1 − e^{−2ρ}: in a thick sphere its last collision is the view sample's own scattering, which σs already "
      "weights (needs the tinted albedo axis; docs/techniques/ambient.md, section 8)"},
     {"ao", VOLUX_PARAM_NUMBER, 0, 0, 1e6, NULL,
-     "radiance of a white ambient light added through SAT ambient occlusion (0 = off; environment lights are "
-     "always added this way)"},
+     "radiance of a white ambient light added through SAT ambient occlusion (0 = off; with env_directions 0 "
+     "environment lights are added this way too)"},
+    {"env_directions", VOLUX_PARAM_INT, 16, 0, SCATTER_ENV_MAX_DIRS, NULL,
+     "environment lights as this many directions (cells of the map), each tube-marched like a directional light "
+     "and read through the table; their visibilities are kept per cache node as w0 + w1·d (docs/techniques/"
+     "ambient.md, section 1); 0 = the environment's mean radiance through the AO term (before issue 28)"},
+    {"env_scale", VOLUX_PARAM_NUMBER, 0.5, 0.1, 1, NULL,
+     "resolution of the environment's visibility fit and of its tube marches relative to cache_scale (the "
+     "sky's light is smooth over the volume; 0.5: one eighth of a light's march per direction)"},
     {"ao_radius", VOLUX_PARAM_NUMBER, 0, 0, 128, NULL, "occlusion radius in voxels (0 = the ambient radius)"},
     {"ao_shells", VOLUX_PARAM_INT, 3, 1, 8, NULL, "nested SAT boxes of the occlusion term"},
     {"phase_cache", VOLUX_PARAM_BOOL, 1, 0, 1, NULL,
@@ -440,6 +447,138 @@ static volux_status build_cache(ambient_state *st, const volux_prepared_light *l
     return VOLUX_OK;
 }
 
+/* ------------------------------------------------------------------ environment (issue 28) */
+
+/* V_k at the point where direction k enters the ambient sphere of `node`
+ * (x_j = x + r d_k, as a direct light's x_j = x − r ω_j), from the
+ * direction's radiance cache in env_scratch. */
+typedef struct env_vis_job {
+    const scatter_grid *D;
+    float radius;
+} env_vis_job;
+
+static float env_entry_visibility(const void *user, volux_vec3 node, volux_vec3 dir) {
+    const env_vis_job *j = user;
+    return volux_exp_nonpos_t6(-scatter_grid_sample(j->D, v3_madd(node, dir, j->radius)));
+}
+
+/* The fit w0 + w1·d of the K directions' visibilities at the cache nodes:
+ * each direction is tube-marched as a directional light (the same sweep,
+ * ρ_c and κ as the scene's lights) into one scratch cache, then read at the
+ * nodes' entry points. Depends on the medium, the radius, the table slice
+ * (κ) and K — not on the environment's colour, intensity, rotation or map. */
+static volux_status build_env_vis(ambient_state *st, int kappa_only) {
+    volux_raycaster *rc = &st->b.rc;
+    const int K = st->env_dirs;
+    float scale = st->cache_scale * st->env_scale < 0.05f ? 0.05f : st->cache_scale * st->env_scale;
+    volux_status s = scatter_dirvis_alloc(rc->ctx, rc->volume, scale, &st->env_vis);
+    if (!s) s = scatter_grid_alloc(rc->ctx, rc->volume, scale, &st->env_scratch, "ambient: environment cache");
+    if (!s) s = scatter_grid_alloc(rc->ctx, rc->volume, scale, &st->env_rho, "ambient: environment cache");
+    if (s) return s;
+    int resum = kappa_only && st->phase_cache && st->env_geo_ok;
+    if (!resum) scatter_grid_resample(rc->threads, &st->rho, &st->env_rho);
+    st->env_geo_ok = 0;
+    scatter_dirvis_zero(rc->threads, &st->env_vis);
+    size_t nodes = (size_t)st->env_scratch.dims[0] * (size_t)st->env_scratch.dims[1] * (size_t)st->env_scratch.dims[2];
+    tube_input in = {&st->env_rho, st->kappa, st->table.desc.n_sigma, (float)st->table.desc.sigma_max, st->radius,
+                     rc->threads, 0, NULL};
+    env_vis_job job = {&st->env_scratch, st->radius};
+    for (int k = 0; k < K; k++) {
+        volux_prepared_light l;
+        memset(&l, 0, sizeof l);
+        l.type = VOLUX_LIGHT_DIRECTIONAL;
+        l.slot = -1;
+        l.travel = v3_scale(volux_fibonacci_dir(k, K), -1.0f);
+        l.power = v3(1, 1, 1);
+        /* as a light's cache (build_cache): a phase edit re-sums from the
+         * kept geometry, bit-identical to a march with the new κ */
+        in.geo = NULL;
+        if (st->phase_cache) {
+            if (!resum && (s = tube_geometry_alloc(rc->ctx, nodes, &st->env_geo[k]))) return s;
+            in.geo = &st->env_geo[k];
+        }
+        if ((s = resum ? tube_resum(rc->ctx, &in, &l, &st->env_scratch) : tube_march(rc->ctx, &in, &l, &st->env_scratch)))
+            return s;
+        scatter_dirvis_add(rc->threads, &st->env_vis, K, volux_fibonacci_dir(k, K), env_entry_visibility, &job);
+    }
+    st->env_geo_ok = st->phase_cache;
+    st->stats.env_vis_builds++;
+    return VOLUX_OK;
+}
+
+static void env_free(ambient_state *st) {
+    scatter_dirvis_free(st->b.rc.ctx, &st->env_vis);
+    scatter_grid_free(st->b.rc.ctx, &st->env_scratch);
+    scatter_grid_free(st->b.rc.ctx, &st->env_rho);
+    for (int k = 0; k < SCATTER_ENV_MAX_DIRS; k++) tube_geometry_free(st->b.rc.ctx, &st->env_geo[k]);
+    st->env_geo_ok = 0;
+    volux_free(st->b.rc.ctx, st->env_m, st->env_m_bytes);
+    st->env_m = NULL;
+    st->env_m_bytes = 0;
+}
+
+typedef struct env_table_job {
+    ambient_state *st;
+} env_table_job;
+
+/* One row of texels of the environment's light table:
+ * M[t][is][ia][c] = Σ_k E_k,c L̃o(θ_k, σ̃t_is, albedo_ia)·(1, d_k),
+ * θ_k = ∠(−d_k, ω_t) (the light of cell k travels along −d_k). */
+static void env_table_row(void *user, int64_t j, int thread) {
+    (void)thread;
+    ambient_state *st = ((env_table_job *)user)->st;
+    const scatter_env *e = &st->env;
+    const int ns = st->table.desc.n_sigma, nt = st->table.desc.n_theta, na = st->env_m_alb;
+    const size_t block = (size_t)ns * (size_t)nt; /* one albedo block of the slab */
+    const float *src = st->slab ? st->slab : st->slice;
+    for (int i = 0; i < SCATTER_ENV_OCT + 2; i++) {
+        volux_vec3 w = scatter_oct_texel_dir(i, (int)j);
+        float *out = st->env_m + ((size_t)j * (SCATTER_ENV_OCT + 2) + (size_t)i) * (size_t)ns * (size_t)na * 12;
+        memset(out, 0, (size_t)ns * (size_t)na * 12 * sizeof(float));
+        for (int k = 0; k < e->K; k++) {
+            volux_vec3 d = e->from[k], E = e->E[k];
+            if (E.x <= 0.0f && E.y <= 0.0f && E.z <= 0.0f) continue;
+            /* θ_k and its two table columns, once per direction (table_at_node's arithmetic) */
+            float ut = volux_acos_deg3(-v3_dot(d, w)) * st->u_theta;
+            if (ut > (float)(nt - 1)) ut = (float)(nt - 1);
+            if (ut < 0.0f) ut = 0.0f;
+            int it = (int)ut;
+            if (it > nt - 2) it = nt - 2;
+            const float ft = ut - (float)it;
+            float f[12];
+            const float Ek[3] = {E.x, E.y, E.z}, dk[4] = {1.0f, d.x, d.y, d.z};
+            for (int c = 0; c < 3; c++)
+                for (int m = 0; m < 4; m++) f[4 * c + m] = Ek[c] * dk[m];
+            for (int is = 0; is < ns; is++)
+                for (int ia = 0; ia < na; ia++) {
+                    const float *a = src + (size_t)ia * block + (size_t)is * (size_t)nt + (size_t)it;
+                    float Lo = a[0] + (a[1] - a[0]) * ft, *o = out + ((size_t)is * (size_t)na + (size_t)ia) * 12;
+                    for (int m = 0; m < 12; m++) o[m] += Lo * f[m];
+                }
+        }
+    }
+}
+
+/* The environment as K directions and its light table (no volume work). */
+static volux_status build_env_table(ambient_state *st) {
+    volux_raycaster *rc = &st->b.rc;
+    int na = st->slab ? st->table.desc.n_albedo : 1;
+    size_t bytes = (size_t)SCATTER_ENV_OCT_TEXELS * (size_t)st->table.desc.n_sigma * (size_t)na * 12 * sizeof(float);
+    if (bytes != st->env_m_bytes) {
+        volux_free(rc->ctx, st->env_m, st->env_m_bytes);
+        st->env_m_bytes = 0;
+        if (!(st->env_m = volux_malloc(rc->ctx, bytes)))
+            return volux_error(rc->ctx, VOLUX_ERR_NOMEM, "ambient: out of memory for the environment table");
+        st->env_m_bytes = bytes;
+    }
+    st->env_m_alb = na;
+    env_table_job job = {st};
+    volux_parallel_for(rc->threads, SCATTER_ENV_OCT + 2, env_table_row, &job);
+    memcpy(st->env_E_table, st->env.E, sizeof st->env.E);
+    st->stats.env_table_builds++;
+    return VOLUX_OK;
+}
+
 static volux_status ambient_update(void *state, const volux_scene *scene, const volux_change_set *c) {
     ambient_state *st = state;
     scatter_base *b = &st->b;
@@ -462,6 +601,10 @@ static volux_status ambient_update(void *state, const volux_scene *scene, const 
         if (radius != st->radius || ao != st->ao || ao_r != st->ao_radius || shells != st->ao_shells) need_ext = 1;
         if (scale != st->cache_scale) all_caches = scale_changed = 1;
         st->radius = radius, st->cache_scale = scale, st->ao = ao, st->ao_radius = ao_r, st->ao_shells = shells;
+        int env_dirs = (int)volux_technique_param(scene, cls, "env_directions");
+        float env_scale = (float)volux_technique_param(scene, cls, "env_scale");
+        if (env_dirs != st->env_dirs || env_scale != st->env_scale) env_free(st);
+        st->env_dirs = env_dirs, st->env_scale = env_scale;
         st->specular = (int)volux_technique_param(scene, cls, "specular");
         st->phase_cache = (int)volux_technique_param(scene, cls, "phase_cache");
         st->offset = (float)volux_technique_param(scene, cls, "offset");
@@ -508,9 +651,11 @@ static volux_status ambient_update(void *state, const volux_scene *scene, const 
             need_slice = table_loaded = 1;
         }
     }
-    /* The occlusion volume exists iff the AO term is on (weight or an
-     * environment light); an environment light appearing turns it on. */
-    int want_occ = st->ao > 0.0f || ls->env_mean.x > 0.0f || ls->env_mean.y > 0.0f || ls->env_mean.z > 0.0f;
+    /* The occlusion volume exists iff the AO term is on (weight, or an
+     * environment light with env_directions 0); an environment light
+     * appearing turns it on. */
+    int has_env = ls->env_mean.x > 0.0f || ls->env_mean.y > 0.0f || ls->env_mean.z > 0.0f;
+    int want_occ = st->ao > 0.0f || (has_env && st->env_dirs == 0);
     if (want_occ != (st->occ.v != NULL)) need_ext = 1;
     if (need_slice) {
         if ((s = build_slice(st))) return s;
@@ -543,6 +688,28 @@ static volux_status ambient_update(void *state, const volux_scene *scene, const 
         if (all_caches || light_changed)
             if ((s = build_cache(st, l, kappa_only && !light_changed))) return s;
     }
+    /* The environment: its visibility fit is volume work (the medium, the
+     * slice's κ, the cache grid); its table follows the lights and the
+     * slice. A colour, intensity, rotation or map edit rebuilds the table
+     * only. */
+    int want_env = has_env && st->env_dirs > 0;
+    if (!want_env) {
+        env_free(st);
+        st->env.K = 0;
+        return VOLUX_OK;
+    }
+    int new_env = st->env.K == 0 || !st->env_m;
+    if (new_env || (c->what & VOLUX_CHANGE_LIGHTS)) scatter_env_prepare(&st->env, ls, st->env_dirs);
+    if (st->phase_cache == 0 && st->env_geo_ok) { /* phase_cache switched off: drop the kept geometry */
+        for (int k = 0; k < SCATTER_ENV_MAX_DIRS; k++) tube_geometry_free(b->rc.ctx, &st->env_geo[k]);
+        st->env_geo_ok = 0;
+    }
+    if (new_env || all_caches || !st->env_vis.c[0].v)
+        if ((s = build_env_vis(st, kappa_only && !new_env && st->env_vis.c[0].v))) return s;
+    /* a light edit that left the environment's E_k as they were (a key
+     * light moved) keeps the table */
+    int same_E = !new_env && memcmp(st->env_E_table, st->env.E, sizeof st->env.E) == 0;
+    if (new_env || need_slice || ((c->what & VOLUX_CHANGE_LIGHTS) && !same_E)) return build_env_table(st);
     return VOLUX_OK;
 }
 
@@ -565,6 +732,7 @@ static void ambient_release(void *state) {
     scatter_grid_free(ctx, &st->rho);
     scatter_grid_free(ctx, &st->rho_c);
     scatter_grid_free(ctx, &st->occ);
+    env_free(st);
     scatter_sat_free(ctx, &st->sat);
     free_ln_cols(st);
     if (st->have_table) volux_ambient_table_free(ctx, &st->table);
@@ -581,6 +749,8 @@ static size_t ambient_memory_bytes(const void *state) {
         size_t values = (size_t)st->table.desc.n_theta * (size_t)st->table.desc.n_sigma * (size_t)st->table.desc.n_g;
         n += values * sizeof(float) * (st->table.rel_error ? 2 : 1); /* data (+ error block) */
     }
+    n += scatter_dirvis_bytes(&st->env_vis) + st->env_scratch.bytes + st->env_rho.bytes + st->env_m_bytes;
+    for (int k = 0; k < SCATTER_ENV_MAX_DIRS; k++) n += st->env_geo[k].bytes;
     n += sizeof *st->slot * (size_t)st->slot_cap;
     for (int i = 0; i < st->slot_cap; i++) n += st->slot[i].cache.bytes + st->slot[i].geo.bytes;
     for (int i = 0; i < st->ln_n; i++)
@@ -658,6 +828,64 @@ static inline volux_vec3 tinted_lookup(const ambient_state *st, float ut, float 
     return v3(out[0], out[1], out[2]);
 }
 
+/* Σ_t wt_t Σ_σ w_σ (w0 M0 + w1·M1) of channel c, albedo block ia. */
+static inline float env_m_dot(const ambient_state *st, const int idx[4], const float wt[4], int is, float fs, int ia,
+                              int c, const float w[4]) {
+    size_t ns = (size_t)st->table.desc.n_sigma, na = (size_t)st->env_m_alb;
+    float v = 0.0f;
+    for (int t = 0; t < 4; t++) {
+        const float *a = st->env_m + (((size_t)idx[t] * ns + (size_t)is) * na + (size_t)ia) * 12 + 4 * c;
+        const float *b = a + na * 12; /* σ node is + 1 */
+        float va = w[0] * a[0] + w[1] * a[1] + w[2] * a[2] + w[3] * a[3];
+        float vb = w[0] * b[0] + w[1] * b[1] + w[2] * b[2] + w[3] * b[3];
+        v += wt[t] * (va + (vb - va) * fs);
+    }
+    return v;
+}
+
+/* The environment's in-scattering at one view sample (issue 28; per lane:
+ * reads the visibility fit at p and the light table at (to_eye, ρ, albedo·c)):
+ * Σ_k E_k V_k(x + r d_k) L̃o(θ_k, ρ(x)) with V_k ≈ w0 + w1·d_k, i.e.
+ * w0 M0 + w1·M1 (scatter/envdir.h), per channel at albedo·c as
+ * tinted_lookup, with the same albedo_once correction (linear in the
+ * table, so it applies to the sums). */
+static inline volux_vec3 env_light(const ambient_state *st, volux_vec3 p, volux_vec3 to_eye, float us,
+                                   const float albedo_c[3]) {
+    float w[4], wt[4], out[3];
+    int idx[4];
+    scatter_dirvis_sample(&st->env_vis, p, w);
+    scatter_oct_lookup(to_eye, idx, wt);
+    int ns = st->table.desc.n_sigma;
+    if (us > (float)(ns - 1)) us = (float)(ns - 1);
+    int is = (int)us;
+    if (is > ns - 2) is = ns - 2;
+    float fs = us - (float)is;
+    if (st->env_m_alb == 1) {
+        for (int c = 0; c < 3; c++) out[c] = env_m_dot(st, idx, wt, is, fs, 0, c, w);
+    } else {
+        int na = st->env_m_alb;
+        int unweight = st->albedo_once && st->table.desc.albedo[0] == 0.0;
+        float w_once = unweight ? 1.0f - volux_exp_nonpos_t6(-2.0f * us / st->u_sigma) : 0.0f;
+        for (int c = 0; c < 3; c++) {
+            float x = albedo_c[c] * (float)(AMBIENT_ALBEDO_LUT - 1);
+            x = x < 0.0f ? 0.0f : (x > (float)(AMBIENT_ALBEDO_LUT - 1) ? (float)(AMBIENT_ALBEDO_LUT - 1) : x);
+            int i = (int)x;
+            if (i > AMBIENT_ALBEDO_LUT - 2) i = AMBIENT_ALBEDO_LUT - 2;
+            float u = st->albedo_lut[i] + (st->albedo_lut[i + 1] - st->albedo_lut[i]) * (x - (float)i);
+            int ia = (int)u;
+            if (ia > na - 2) ia = na - 2;
+            float fa = u - (float)ia;
+            float v0 = env_m_dot(st, idx, wt, is, fs, ia, c, w), v1 = env_m_dot(st, idx, wt, is, fs, ia + 1, c, w);
+            out[c] = v0 + (v1 - v0) * fa;
+            if (unweight) {
+                float z = ia == 0 ? v0 : env_m_dot(st, idx, wt, is, fs, 0, c, w);
+                out[c] = z + (out[c] - z) * (1.0f + w_once * (1.0f / (albedo_c[c] > 0.02f ? albedo_c[c] : 0.02f) - 1.0f));
+            }
+        }
+    }
+    return v3(out[0] > 0.0f ? out[0] : 0.0f, out[1] > 0.0f ? out[1] : 0.0f, out[2] > 0.0f ? out[2] : 0.0f);
+}
+
 static inline __attribute__((always_inline)) void inscatter(const void *tech, const scatter_sample *smp,
                                                             volux_vec3 *Ls, volux_vec3 *extra) {
     const ambient_state *st = tech;
@@ -713,9 +941,12 @@ static inline __attribute__((always_inline)) void inscatter(const void *tech, co
         }
     }
     if (st->occ.v) {
+        /* the AO term: `ao`, and the environment's mean when env_directions is 0 */
         float A = scatter_grid_sample_index(&st->occ, smp->q.x, smp->q.y, smp->q.z);
-        L = v3_add(L, v3_scale(v3_add(rc->lights.env_mean, v3(st->ao, st->ao, st->ao)), A));
+        volux_vec3 amb = st->env_m ? v3(0, 0, 0) : rc->lights.env_mean;
+        L = v3_add(L, v3_scale(v3_add(amb, v3(st->ao, st->ao, st->ao)), A));
     }
+    if (st->env_m) L = v3_add(L, env_light(st, smp->p, smp->to_eye, us, albedo_c));
     *Ls = L;
     *extra = spec;
 }

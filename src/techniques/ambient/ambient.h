@@ -6,6 +6,7 @@
 #define VOLUX_AMBIENT_H
 
 #include "techniques/scatter/base.h"
+#include "techniques/scatter/envdir.h"
 #include "techniques/scatter/grid.h"
 #include "techniques/scatter/sat3d.h"
 #include "tube.h"
@@ -18,6 +19,7 @@ extern const volux_technique_class volux_ambient_class;
 typedef struct ambient_stats {
     uint64_t sat_builds, rho_builds, rho_c_builds, occ_builds, table_loads, slice_builds;
     uint64_t cache_builds, cache_resums; /* over all slots (per slot: ambient_slot) */
+    uint64_t env_vis_builds, env_table_builds; /* environment: tube-marched fit / light table */
 } ambient_stats;
 
 /* What ambient keeps per light slot. */
@@ -71,6 +73,20 @@ typedef struct ambient_state {
     ambient_slot *slot;           /* per light slot [slot_cap]               */
     int slot_cap;
     int phase_cache;              /* keep the g-independent tube geometry    */
+    /* environment light per direction (issue 28; scatter/envdir.h) */
+    int env_dirs;                 /* K (0: through the AO term, as before)   */
+    scatter_env env;              /* the environment as K directions         */
+    scatter_dirvis env_vis;       /* fit of V_k at the sphere's entry points  */
+    scatter_grid env_scratch;     /* one direction's radiance cache          */
+    scatter_grid env_rho;         /* ρ at env_scratch's nodes (tube marching) */
+    float env_scale;              /* their resolution relative to the volume */
+    tube_geometry env_geo[SCATTER_ENV_MAX_DIRS]; /* per direction (phase_cache): a phase
+                                     edit re-sums instead of re-marching */
+    int env_geo_ok;               /* env_geo matches env_rho, radius, table  */
+    volux_vec3 env_E_table[SCATTER_ENV_MAX_DIRS]; /* E_k the light table was built from */
+    float *env_m;                 /* [texel][σ node][albedo block][3][4]     */
+    size_t env_m_bytes;
+    int env_m_alb;                /* albedo blocks in env_m (1: the slice)   */
     ambient_stats stats;
 } ambient_state;
 

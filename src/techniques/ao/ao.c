@@ -3,15 +3,35 @@
  * Schlegel et al. 2011, the second baseline of Ament et al. 2013 (§5,
  * Table 1, Figs. 1b, 6b, 11a):
  *
- *     L_s(x) = A(x) · (Σ_j p_g(ω_j·ω) E_j(x) + L_amb)
+ *     L_s(x) = A(x) · (Σ_j p_g(ω_j·ω) E_j(x) + L_amb)          (directional = false)
  *
  * A(x) (techniques/scatter/occlusion.h) replaces the shadow transmittance:
  * soft, local, isotropic — no directional shadows. L_amb is the mean
  * radiance of the scene's environment lights plus the `ambient` parameter.
  *
+ * DIRECTIONAL OCCLUSION (`directional`, opt-in; issue 28). Inside dense
+ * material A → 0 for every direction, so a dense surface facing a bright
+ * sky (or a key light) renders black: A is the transmittance averaged over
+ * the sphere, half of which lies inside the object. With `directional` the
+ * local transmittance over the same radius R is taken per direction —
+ * W_k(x) = exp(−∫_0^R σt(x + t d_k) dt) for the K Fibonacci directions
+ * d_k, one byte each per node of a grid at vis_scale (scatter/envdir.h,
+ * scatter_dirw) — and
+ *
+ *     L_s(x) = Σ_j p_g(ω_j·ω) E_j(x) V_j(x) + Σ_k p_g(−d_k·ω) E_k W_k(x) + W̄ L_amb
+ *
+ * with the environment as K directions carrying the irradiance of their
+ * cells (volux_environment_cells, as `single` and `lightvol`) and V_j the
+ * W_k interpolated around light j's direction. Still local: shadows cast
+ * from farther than R are not seen, which makes it brighter than single
+ * scattering (README.md has the measurements; hence not the default).
+ *
  * Caches and what invalidates them:
- *   SAT, occlusion volume ← volume, extinction, density, radius, shells
- * Lights, phase, colour and camera edits need no cache work (Table 1: "−").
+ *   SAT, occlusion volume (isotropic) or the per-direction grid ← volume,
+ *       extinction, density, radius, shells / directional, env_directions,
+ *       vis_scale
+ *   E_k (directional) ← lights, env_directions (no volume work)
+ * Phase, colour, camera and light edits need no volume work (Table 1: "−").
  */
 #include <math.h>
 #include <string.h>
@@ -28,7 +48,84 @@ static const volux_param_info ao_params[] = {
     {"shells", VOLUX_PARAM_INT, 3, 1, 8, NULL, "nested SAT boxes per voxel (Ament et al.: at least 3)"},
     {"ambient", VOLUX_PARAM_NUMBER, 0, 0, 1e6, NULL,
      "radiance of a white ambient light seen through the occlusion (added to environment lights)"},
+    {"directional", VOLUX_PARAM_BOOL, 0, 0, 1, NULL,
+     "occlusion per direction: env_directions local transmittances over the radius per node (lights and the "
+     "environment's directions are seen through them), so a dense surface facing the light is lit; false: the "
+     "isotropic SAT occlusion A(x) of Schlegel et al. times every light and the environment's mean radiance "
+     "(src/techniques/ao/README.md)"},
+    {"env_directions", VOLUX_PARAM_INT, 16, 4, SCATTER_ENV_MAX_DIRS, NULL,
+     "directional: directions of the occlusion, and the environment's directions (cells of the map)"},
+    {"vis_scale", VOLUX_PARAM_NUMBER, 0.5, 0.05, 1, NULL,
+     "directional: resolution of the per-direction occlusion grid relative to the volume (K bytes per node)"},
     {NULL, 0, 0, 0, 0, NULL, NULL}};
+
+/* Local transmittance from `node` along unit `dir` over the radius R:
+ * midpoint rule on steps of h, h, 2h, 4h, ... (h = half the smallest
+ * voxel spacing; 5 steps for R = 8 voxels): fine where the occluder is
+ * near (the dense surface the node sits on), coarse farther out. Outside
+ * the volume is empty. */
+typedef struct vis_job {
+    const volux_volume *v;
+    const volux_transfer_lut *lut;
+    float R, h0;
+    const unsigned char *clear; /* per macrocell: every cell within R is empty (W = 1, no march) */
+    int cells[3];
+} vis_job;
+
+static float local_transmittance(const void *user, volux_vec3 node, volux_vec3 dir) {
+    const vis_job *j = user;
+    const volux_volume *v = j->v;
+    volux_vec3 q = volux_volume_to_index(v, node);
+    int c[3] = {(int)(q.x / (float)VOLUX_CELL_SIZE), (int)(q.y / (float)VOLUX_CELL_SIZE),
+                (int)(q.z / (float)VOLUX_CELL_SIZE)};
+    for (int a = 0; a < 3; a++) c[a] = c[a] < 0 ? 0 : (c[a] >= j->cells[a] ? j->cells[a] - 1 : c[a]);
+    if (j->clear[((size_t)c[2] * (size_t)j->cells[1] + (size_t)c[1]) * (size_t)j->cells[0] + (size_t)c[0]]) return 1.0f;
+    volux_vec3 dq = v3(dir.x * v->inv_spacing[0], dir.y * v->inv_spacing[1], dir.z * v->inv_spacing[2]);
+    float t = 0.0f, tau = 0.0f, h = j->h0;
+    for (int i = 0; t < j->R; i++) {
+        float len = j->R - t < h ? j->R - t : h;
+        volux_vec3 s = v3_madd(q, dq, t + 0.5f * len);
+        if (volux_volume_inside_index(v, s)) tau += volux_lut_sigma(j->lut, volux_volume_sample_index(v, s.x, s.y, s.z)) * len;
+        if (tau > 11.5f) return 0.0f;
+        t += len;
+        if (i >= 1) h *= 2.0f;
+    }
+    return expf(-tau);
+}
+
+static volux_status build_directional(ao_state *st) {
+    volux_raycaster *rc = &st->b.rc;
+    volux_status s = scatter_dirw_alloc(rc->ctx, rc->volume, st->vis_scale, st->n_dirs, &st->vis);
+    if (s) return s;
+    /* Empty space: a node whose macrocell has only empty cells within the
+     * radius (majorant grid, dilated by D cells) sees W = 1 everywhere. */
+    const volux_majorant_grid *mg = &rc->grid;
+    size_t n = (size_t)mg->cells[0] * (size_t)mg->cells[1] * (size_t)mg->cells[2];
+    unsigned char *clear = volux_malloc(rc->ctx, n ? n : 1);
+    if (!clear) return volux_error(rc->ctx, VOLUX_ERR_NOMEM, "ao: out of memory for the empty-space mask");
+    int D = (int)ceilf(st->radius / rc->min_spacing / (float)VOLUX_CELL_SIZE) + 1;
+    for (int z = 0; z < mg->cells[2]; z++)
+        for (int y = 0; y < mg->cells[1]; y++)
+            for (int x = 0; x < mg->cells[0]; x++) {
+                int empty = 1;
+                for (int cz = z - D; cz <= z + D && empty; cz++)
+                    for (int cy = y - D; cy <= y + D && empty; cy++)
+                        for (int cx = x - D; cx <= x + D && empty; cx++)
+                            if (cx >= 0 && cy >= 0 && cz >= 0 && cx < mg->cells[0] && cy < mg->cells[1] &&
+                                cz < mg->cells[2] &&
+                                mg->sigma_max[((size_t)cz * (size_t)mg->cells[1] + (size_t)cy) * (size_t)mg->cells[0] +
+                                              (size_t)cx] > 0.0f)
+                                empty = 0;
+                clear[((size_t)z * (size_t)mg->cells[1] + (size_t)y) * (size_t)mg->cells[0] + (size_t)x] =
+                    (unsigned char)empty;
+            }
+    vis_job job = {rc->volume, rc->lut, st->radius, 0.5f * rc->min_spacing, clear,
+                   {mg->cells[0], mg->cells[1], mg->cells[2]}};
+    scatter_dirw_build(rc->threads, &st->vis, local_transmittance, &job);
+    volux_free(rc->ctx, clear, n ? n : 1);
+    st->vis_builds++;
+    return VOLUX_OK;
+}
 
 static volux_status ao_update(void *state, const volux_scene *scene, const volux_change_set *c) {
     ao_state *st = state;
@@ -36,14 +133,32 @@ static volux_status ao_update(void *state, const volux_scene *scene, const volux
     volux_status s;
     scatter_base_update(&st->b, scene, c);
     int rebuild = (c->what & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY)) != 0;
+    int env = (c->what & (VOLUX_CHANGE_LIGHTS | VOLUX_CHANGE_PHASE)) != 0;
     if (c->what & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME)) {
         float radius = (float)volux_technique_param(scene, rc->cls, "radius") * rc->min_spacing;
         int shells = (int)volux_technique_param(scene, rc->cls, "shells");
-        if (radius != st->radius || shells != st->shells) rebuild = 1;
+        int directional = (int)volux_technique_param(scene, rc->cls, "directional");
+        int dirs = (int)volux_technique_param(scene, rc->cls, "env_directions");
+        float vis_scale = (float)volux_technique_param(scene, rc->cls, "vis_scale");
+        if (radius != st->radius || shells != st->shells || directional != st->directional || dirs != st->n_dirs ||
+            vis_scale != st->vis_scale)
+            rebuild = 1;
+        if (directional != st->directional || dirs != st->n_dirs) env = 1;
         st->radius = radius, st->shells = shells;
+        st->directional = directional, st->n_dirs = dirs, st->vis_scale = vis_scale;
         st->ambient = (float)volux_technique_param(scene, rc->cls, "ambient");
     }
+    if (env) { /* the environment as K directions: no volume work */
+        scatter_env_prepare(&st->env, &rc->lights, st->directional ? st->n_dirs : 0);
+        st->env_table_builds++;
+    }
     if (!rebuild) return VOLUX_OK;
+    if (st->directional) {
+        scatter_sat_free(rc->ctx, &st->sat);
+        scatter_grid_free(rc->ctx, &st->occ);
+        return build_directional(st);
+    }
+    scatter_dirw_free(rc->ctx, &st->vis);
     double sp[3];
     volux_volume_spacing(rc->volume, sp);
     if ((s = scatter_sat_build(rc->ctx, rc->threads, rc->volume, rc->lut, scatter_occlusion_max_box(st->radius, sp),
@@ -56,21 +171,72 @@ static volux_status ao_update(void *state, const volux_scene *scene, const volux
     return VOLUX_OK;
 }
 
+static void ao_init(void *state) {
+    ao_state *st = state;
+    st->directional = -1;
+}
+
 static void ao_release(void *state) {
     ao_state *st = state;
     scatter_sat_free(st->b.rc.ctx, &st->sat);
     scatter_grid_free(st->b.rc.ctx, &st->occ);
+    scatter_dirw_free(st->b.rc.ctx, &st->vis);
 }
 
 static size_t ao_memory_bytes(const void *state) {
     const ao_state *st = state;
-    return st->sat.bytes + st->occ.bytes;
+    return st->sat.bytes + st->occ.bytes + st->vis.bytes;
+}
+
+/* In-scattering of the directional model at one view sample (per lane:
+ * reads the K transmittances at p). Environment direction k: E_k W_k
+ * p_g(−d_k·ω) exactly; a direct light: W interpolated between the
+ * directions around its own with weights max(0, d·d_k)^8 (≈ 33° half
+ * width; the Fibonacci directions of K = 16 are ≈ 50° apart). */
+static inline __attribute__((always_inline)) volux_vec3 ao_directional_light(const ao_state *st, volux_vec3 p,
+                                                                             volux_vec3 to_eye) {
+    const volux_light_list *ls = &st->b.rc.lights;
+    const int K = st->vis.K;
+    const float g = st->b.rc.g;
+    float W[SCATTER_ENV_MAX_DIRS];
+    scatter_dirw_sample(&st->vis, p, W);
+    float mean = 0.0f;
+    for (int k = 0; k < K; k++) mean += W[k];
+    mean /= (float)K;
+    volux_vec3 L = v3(st->ambient * mean, st->ambient * mean, st->ambient * mean);
+    for (int i = 0; i < ls->n_direct; i++) {
+        volux_vec3 travel;
+        volux_vec3 E = volux_light_irradiance(&ls->direct[i], p, &travel);
+        float num = 0.0f, den = 0.0f;
+        for (int k = 0; k < K; k++) {
+            volux_vec3 d = st->env.from[k];
+            float c = -(travel.x * d.x + travel.y * d.y + travel.z * d.z);
+            c = c > 0.0f ? c : 0.0f;
+            c *= c, c *= c, c *= c;
+            num += c * W[k], den += c;
+        }
+        float V = den > 0.0f ? num / den : mean;
+        L = v3_add(L, v3_scale(E, V * volux_hg_eval(g, v3_dot(travel, to_eye))));
+    }
+    if (st->env.K) {
+        float r = 0.0f, gr = 0.0f, b = 0.0f;
+        for (int k = 0; k < K; k++) {
+            float f = W[k] * volux_hg_eval(g, -v3_dot(st->env.from[k], to_eye));
+            r += f * st->env.E[k].x, gr += f * st->env.E[k].y, b += f * st->env.E[k].z;
+        }
+        L = v3_add(L, v3(r, gr, b));
+    }
+    return L;
 }
 
 static inline __attribute__((always_inline)) void inscatter(const void *tech, const scatter_sample *smp,
                                                             volux_vec3 *Ls, volux_vec3 *extra) {
     (void)extra;
     const ao_state *st = tech;
+    if (st->directional) {
+        *Ls = ao_directional_light(st, smp->p, smp->to_eye);
+        return;
+    }
     const volux_light_list *ls = &st->b.rc.lights;
     float A = scatter_grid_sample_index(&st->occ, smp->q.x, smp->q.y, smp->q.z);
     volux_vec3 L = v3_add(ls->env_mean, v3(st->ambient, st->ambient, st->ambient));
@@ -88,7 +254,7 @@ const volux_technique_class volux_ao_class = {
     {"ao", "SAT ambient occlusion (Schlegel et al. 2011) lighting single scattering (Ament 2013 baseline)",
      ao_params, 0},
     sizeof(ao_state), 0, 0,
-    NULL, ao_update, ao_render_tile, ao_memory_bytes, ao_release,
+    ao_init, ao_update, ao_render_tile, ao_memory_bytes, ao_release,
     NULL, NULL, NULL, /* no refine, pending work or statistics */
     NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
     NULL, /* no per-frame budget (volux_technique_set_budget) */

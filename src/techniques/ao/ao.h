@@ -3,6 +3,7 @@
 #define VOLUX_AO_H
 
 #include "techniques/scatter/base.h"
+#include "techniques/scatter/envdir.h"
 #include "techniques/scatter/grid.h"
 #include "techniques/scatter/sat3d.h"
 
@@ -14,8 +15,14 @@ typedef struct ao_state {
     int shells;
     float ambient;       /* extra white ambient radiance */
     scatter_sat sat;
-    scatter_grid occ;    /* A(x) at the volume's nodes */
-    uint64_t sat_builds, occ_builds;
+    scatter_grid occ;    /* A(x) at the volume's nodes (directional = 0) */
+    /* directional occlusion (issue 28; scatter/envdir.h) */
+    int directional;     /* 1: W_k(x) per direction; 0: isotropic A(x) */
+    int n_dirs;          /* K: directions of the occlusion and of the environment */
+    float vis_scale;     /* resolution of the per-direction grid */
+    scatter_dirw vis;    /* W_k(x), K bytes per node */
+    scatter_env env;     /* the environment as K directions (E_k; K = 0: none) */
+    uint64_t sat_builds, occ_builds, vis_builds, env_table_builds;
 } ao_state;
 
 #endif
