@@ -52,7 +52,19 @@ typedef struct viewer_frame {
     double latency_ms; /* edit received → this frame published (first frame after an edit) */
     double cpu_ms;     /* CPU time the process spent meanwhile (all threads): a
                           figure a loaded machine inflates far less than latency_ms */
+    char stand_in[32]; /* "" or the cheaper technique that rendered this frame while
+                          the scene's own one prepares (renderer.c, do_stand_in) */
 } viewer_frame;
+
+/* Preparation in progress (the context's progress callback during an
+ * update: "preparing single", "sh projection", ...), for the page's busy
+ * indicator; task "" when none. Under frame_lock. */
+typedef struct viewer_busy {
+    char task[64];
+    double fraction;
+    double last_ms; /* when it was last published */
+    uint64_t seq;   /* increases on every published change */
+} viewer_busy;
 
 typedef struct viewer_options {
     const char *scene_path;
@@ -126,7 +138,9 @@ typedef struct viewer {
     struct {
         char technique[32];
         double ms_per_pixel; /* running estimate of a preview render's cost */
+        double update_ms;    /* its last update (or creation), ms           */
     } cost[16];
+    volux_technique *stand_in; /* `shaded`: frames of the new state while a slow update runs */
     uint64_t shown_version;  /* version of the last preview          */
     int refined;             /* final frame of shown_version published */
     int refine_steps_done;   /* deferred technique work finished     */
@@ -141,6 +155,7 @@ typedef struct viewer {
     pthread_mutex_t frame_lock;
     pthread_cond_t frame_cv;
     viewer_frame frame;
+    viewer_busy busy;
     viewer_stats stats;
     uint64_t start_rss_kb;
 
