@@ -71,6 +71,7 @@ static void set_busy(viewer *v, const char *task, double fraction) {
         b->fraction = fraction;
         b->last_ms = now;
         b->seq++;
+        if (task[0]) snprintf(v->stats.last_preparation, sizeof v->stats.last_preparation, "%s", task);
         pthread_cond_broadcast(&v->frame_cv);
     }
     pthread_mutex_unlock(&v->frame_lock);
@@ -162,6 +163,7 @@ static void publish(viewer *v, volux_image *img, frame_kind kind, uint64_t versi
     memset(img, 0, sizeof *img);
     viewer_stats *s = &v->stats;
     s->frames++;
+    if (f->stand_in[0]) s->stand_in_frames++;
     s->last_encode_ms = f->encode_ms;
     s->last_render_ms = render_ms;
     s->error[0] = 0;

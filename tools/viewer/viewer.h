@@ -108,6 +108,8 @@ typedef struct viewer_stats {
     int last_lights_changed;      /* light slots in the last update     */
     char technique[32];
     size_t technique_bytes;
+    uint64_t stand_in_frames;     /* frames a stand-in rendered (do_stand_in) */
+    char last_preparation[64];    /* the last preparation task reported ("preparing single") */
     char error[512];              /* last render failure, "" if none    */
 } viewer_stats;
 

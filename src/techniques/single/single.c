@@ -40,11 +40,11 @@ static const volux_param_info single_params[] = {
      "environment lights as this many shadowed directional lights (a Fibonacci set; each carries the "
      "environment's radiance over its cell and has a transmittance cache at half cache_scale); 0 = ignore "
      "environment lights (with a warning)"},
-    {"env_sweep", VOLUX_PARAM_NUMBER, 0.5, 0, 4, NULL,
+    {"env_sweep", VOLUX_PARAM_NUMBER, 1, 0, 4, NULL,
      "environment transmittance caches from a light-space sweep: parallel shadow rays this many cache cells "
      "apart (laterally and in depth), each marched once through the whole volume, their optical depth read "
-     "trilinearly at the cache nodes (about 10x faster at 0.5); 0 = one shadow ray from every node (exact, as "
-     "before)"},
+     "trilinearly at the cache nodes (bonsai 256^3: 16x less preparation at 1, 4x at 0.5); 0 = one shadow ray "
+     "from every node (as before)"},
     {NULL, 0, 0, 0, 0, NULL, NULL}};
 
 /* Optical depth from p along unit dir over [0, t_max) through the volume:
@@ -191,11 +191,12 @@ static volux_status build_grid(single_state *st, const volux_prepared_light *l, 
  * Why: a node's shadow ray and its neighbours' overlap almost entirely
  * (they are parallel); one ray per node marches the average remaining
  * chord (≈ half the mean chord 4V/S) per node, the sweep marches one
- * whole chord per lattice column: with s half a cache cell, ≈ 10× fewer
- * samples on a 64³ cache of a 256³ volume. The price is one more
- * interpolation of τ, over s (half the cache's own cell, whose trilinear
- * read already blurs T over a whole cell); docs/techniques/single.md
- * measures the image change. τ, not T, is interpolated: it is linear
+ * whole chord per lattice column: with s one cache cell (the default),
+ * ≈ 1/16 of the preparation CPU on bonsai 256³ (a 64³ cache), 1/4 at
+ * half a cell. The price is one more interpolation of τ, over s (the
+ * cache's trilinear read already blurs T over a whole cell); the image
+ * change is far below pathtrace's reference noise (src/techniques/single/
+ * README.md). τ, not T, is interpolated: it is linear
  * along a ray through homogeneous matter. */
 typedef struct sweep_job {
     const single_state *st;
