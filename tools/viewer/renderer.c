@@ -356,6 +356,12 @@ static void do_stand_in(viewer *v, uint64_t version, const volux_render_settings
     volux_render_settings small = *full;
     preview_size(v, full->width, full->height, &small.width, &small.height);
     double t0 = viewer_now_ms();
+    /* sized like a first frame: what the stand-in's measured cost fits in
+     * what is left of the preview budget */
+    if (v->need_latency) {
+        double left = RENDER_FILL * (v->opt.preview_budget_ms - (t0 - v->last_edit_ms) - PUBLISH_MARGIN_MS);
+        budget_size(v, *cost_of(v, STAND_IN_TECHNIQUE), left, &small.width, &small.height);
+    }
     volux_status st = VOLUX_OK;
     volux_image img = {0};
     volux_render_report rep = {0};
@@ -363,23 +369,38 @@ static void do_stand_in(viewer *v, uint64_t version, const volux_render_settings
     if (!v->stand_in) st = volux_technique_create(v->ctx, STAND_IN_TECHNIQUE, scene, &v->stand_in);
     if (!st) st = volux_scene_set_render(scene, &small);
     if (!st) st = volux_technique_update(v->stand_in, scene, NULL);
-    if (!st) st = ensure_fb(v, &v->fb_preview, small.width, small.height);
+    volux_framebuffer **slot = NULL;
+    int w0 = 0, h0 = 0;
+    preview_size(v, full->width, full->height, &w0, &h0);
+    slot = small.width != w0 || small.height != h0 ? &v->fb_first : &v->fb_preview;
+    if (!st) st = ensure_fb(v, slot, small.width, small.height);
+    double t1 = viewer_now_ms();
     if (!st) {
-        volux_framebuffer_reset(v->fb_preview);
-        st = volux_render(v->stand_in, scene, v->fb_preview, &one, &rep);
+        volux_framebuffer_reset(*slot);
+        st = volux_render(v->stand_in, scene, *slot, &one, &rep);
     }
-    if (!st) st = volux_framebuffer_resolve(v->fb_preview, &img);
+    if (!st) learn_cost(v, STAND_IN_TECHNIQUE, viewer_now_ms() - t1, small.width, small.height, 1);
+    if (!st) st = volux_framebuffer_resolve(*slot, &img);
     volux_scene_set_render(scene, full);
     volux_context_clear_error(v->ctx);
     if (st) {
         volux_image_free(v->ctx, &img);
         return;
     }
+    /* the edit's first frame; need_latency stays set, so the technique's
+     * own frame after the update is sized to the budget too (a reduced
+     * frame, then the --preview size), not rendered whole after a long
+     * preparation */
     double edit_t0 = v->need_latency ? v->last_edit_ms : -1;
-    v->need_latency = 0; /* this is the edit's first frame */
+    v->stand_in_edit_t0 = edit_t0;
     pthread_mutex_unlock(&v->lock);
     publish(v, &img, FRAME_PREVIEW, version, 1, full->exposure, 1.0f, 0, viewer_now_ms() - t0, edit_t0,
             v->last_edit_cpu_ms, PUB_FIRST, STAND_IN_TECHNIQUE);
+    if (edit_t0 > 0) {
+        pthread_mutex_lock(&v->frame_lock);
+        v->stats.last_stand_in_ms = viewer_now_ms() - edit_t0;
+        pthread_mutex_unlock(&v->frame_lock);
+    }
     pthread_mutex_lock(&v->lock);
 }
 
@@ -474,13 +495,21 @@ static void do_preview(viewer *v, uint64_t version) {
         if (!st) {
             double edit_t0 = v->need_latency ? v->last_edit_ms : -1;
             v->need_latency = 0;
+            unsigned first_flag = PUB_FIRST;
+            if (v->stand_in_edit_t0 > 0) { /* the own frame after a stand-in: not the edit's first */
+                pthread_mutex_lock(&v->frame_lock);
+                v->stats.last_own_frame_ms = viewer_now_ms() - v->stand_in_edit_t0;
+                pthread_mutex_unlock(&v->frame_lock);
+                v->stand_in_edit_t0 = 0;
+                first_flag = 0;
+            }
             v->refined = 0;
             v->upgrade = reduced;
             v->upgrade_smaller = smaller;
             if (v->fb_full) volux_framebuffer_reset(v->fb_full);
             pthread_mutex_unlock(&v->lock);
             publish(v, &img, FRAME_PREVIEW, version, 1, full.exposure, (float)step_scale, t1 - t0,
-                    viewer_now_ms() - t2, edit_t0, v->last_edit_cpu_ms, PUB_FIRST | (smaller ? 0u : PUB_FULL_PREVIEW), NULL);
+                    viewer_now_ms() - t2, edit_t0, v->last_edit_cpu_ms, first_flag | (smaller ? 0u : PUB_FULL_PREVIEW), NULL);
             pthread_mutex_lock(&v->lock);
             return;
         }

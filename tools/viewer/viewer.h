@@ -109,6 +109,8 @@ typedef struct viewer_stats {
     char technique[32];
     size_t technique_bytes;
     uint64_t stand_in_frames;     /* frames a stand-in rendered (do_stand_in) */
+    double last_stand_in_ms;      /* edit → the stand-in frame published      */
+    double last_own_frame_ms;     /* edit → the technique's own frame after a stand-in */
     char last_preparation[64];    /* the last preparation task reported ("preparing single") */
     char error[512];              /* last render failure, "" if none    */
 } viewer_stats;
@@ -143,6 +145,7 @@ typedef struct viewer {
         double update_ms;    /* its last update (or creation), ms           */
     } cost[16];
     volux_technique *stand_in; /* `shaded`: frames of the new state while a slow update runs */
+    double stand_in_edit_t0;   /* > 0: a stand-in showed the edit that arrived then */
     uint64_t shown_version;  /* version of the last preview          */
     int refined;             /* final frame of shown_version published */
     int refine_steps_done;   /* deferred technique work finished     */
