@@ -398,6 +398,7 @@ static enum MHD_Result serve_edit(viewer *v, struct MHD_Connection *c, request *
             v->last_edit_cpu_ms = rq->cpu0;
         }
         v->last_change_ms = rq->t0;
+        v->pending_changes |= changed;
         v->need_latency = v->need_final_latency = 1;
         if (!viewer_snapshot(v)) st = VOLUX_ERR_NOMEM, snprintf(msg, sizeof msg, "out of memory");
     }

@@ -255,14 +255,21 @@ static int cost_index(viewer *v, const char *technique) {
     if (free_slot < 0) free_slot = 0; /* more techniques than slots: forget one */
     snprintf(v->cost[free_slot].technique, sizeof v->cost[free_slot].technique, "%s", technique);
     v->cost[free_slot].ms_per_pixel = 0;
-    v->cost[free_slot].update_ms = 0;
+    v->cost[free_slot].update_ms[0] = v->cost[free_slot].update_ms[1] = 0;
     return free_slot;
 }
 
 static double *cost_of(viewer *v, const char *technique) { return &v->cost[cost_index(v, technique)].ms_per_pixel; }
 
-/* The last update (or creation) time of a technique, ms (0: not yet). */
-static double *update_of(viewer *v, const char *technique) { return &v->cost[cost_index(v, technique)].update_ms; }
+/* Edits that may reach a technique's caches (VOLUX_DOC_* sections: all but
+ * a camera-only edit, which costs most techniques nothing). */
+#define HEAVY_CHANGES (VOLUX_DOC_VOLUME | VOLUX_DOC_TRANSFER | VOLUX_DOC_LIGHTS | VOLUX_DOC_OTHER)
+
+/* The last update time of a technique for edits of this kind (`changes`),
+ * ms (0: not yet). */
+static double *update_of(viewer *v, const char *technique, uint32_t changes) {
+    return &v->cost[cost_index(v, technique)].update_ms[(changes & HEAVY_CHANGES) != 0];
+}
 
 /* The size of the first frame after an edit: the --preview size (pw, ph on
  * entry) shrunk, keeping the aspect, to what the technique's measured cost
@@ -418,10 +425,17 @@ static void do_preview(viewer *v, uint64_t version) {
     v->refined = 1; /* unless the preview succeeds */
     v->refine_steps_done = 0;
     const volux_render_settings full = *volux_scene_render(scene);
-    /* a slow update ahead (a new instance, or the last update was slow):
-     * a cheap frame of the new state first (not for the cheap ones) */
+    /* a slow update ahead (a new instance — its creation prepares
+     * everything — or the last update for edits of this kind was slow): a
+     * cheap frame of the new state first (not for the cheap ones) */
+    const int creating = needs_instance(v, full.technique);
+    /* back to the previous instance: it catches up on every edit made
+     * since it was current, which pending_changes does not record */
+    const int switching = v->tech && strcmp(volux_technique_info_of(v->tech)->name, full.technique);
+    const uint32_t changes = creating || switching ? (uint32_t)HEAVY_CHANGES : v->pending_changes;
+    v->pending_changes = 0;
     if (strcmp(full.technique, "ea") && strcmp(full.technique, STAND_IN_TECHNIQUE) &&
-        (needs_instance(v, full.technique) || *update_of(v, full.technique) > STAND_IN_UPDATE_MS))
+        (creating || *update_of(v, full.technique, changes) > STAND_IN_UPDATE_MS))
         do_stand_in(v, version, &full);
     double t0 = viewer_now_ms();
     volux_status st = ensure_technique(v, scene);
@@ -450,7 +464,9 @@ static void do_preview(viewer *v, uint64_t version) {
         st = volux_technique_update(v->tech, scene, &changed);
         double t1 = viewer_now_ms();
         set_busy(v, "", 1.0); /* preparation over (or failed) */
-        *update_of(v, full.technique) = t1 - t0;
+        /* a switch back records nothing: its catch-up says little about
+         * the next edit of either kind */
+        if (creating || !switching) *update_of(v, full.technique, changes) = t1 - t0;
         /* With a budget, the first frame gets what is left of it after the
          * update (the edit's own cost, which a smaller frame cannot save):
          * the preview size the measured cost per pixel fits in. The render

@@ -142,10 +142,13 @@ typedef struct viewer {
     struct {
         char technique[32];
         double ms_per_pixel; /* running estimate of a preview render's cost */
-        double update_ms;    /* its last update (or creation), ms           */
+        double update_ms[2]; /* its last update, ms: [0] camera-only edits, [1] the
+                                others (volume, TF, lights, render settings,
+                                parameters) or its creation             */
     } cost[16];
     volux_technique *stand_in; /* `shaded`: frames of the new state while a slow update runs */
     double stand_in_edit_t0;   /* > 0: a stand-in showed the edit that arrived then */
+    uint32_t pending_changes;  /* VOLUX_DOC_* sections of the edits not yet shown */
     uint64_t shown_version;  /* version of the last preview          */
     int refined;             /* final frame of shown_version published */
     int refine_steps_done;   /* deferred technique work finished     */
