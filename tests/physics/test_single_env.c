@@ -88,6 +88,17 @@ static void test_one_texel_map_energy(void **state) {
     double want = 7.0 * 2.0 * (2.0 * M_PI / W) * (M_PI / H) * sin((tj + 0.5) * M_PI / H);
     assert_near(st->env_E[best].x, want, 1e-5 * want);
     assert_near(st->env_E[best].z, want, 1e-5 * want);
+    /* an intensity edit re-derives the directions through the memo of cell
+     * integrals (a hit, no integration), to the bits of a fresh instance */
+    long hits = st->env_cells.hits;
+    assert_int_equal(volux_edit_apply(volux_edit_find("light_intensity"), s, 0), VOLUX_OK);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    assert_int_equal(st->env_cells.hits, hits + 1);
+    volux_technique *f = NULL;
+    assert_int_equal(volux_technique_create(ctx, "single", s, &f), VOLUX_OK);
+    const single_state *fs = volux_technique_state(f);
+    assert_memory_equal(fs->env_E, st->env_E, sizeof st->env_E);
+    volux_technique_destroy(f);
     volux_technique_destroy(t);
     volux_scene_destroy(s);
     volux_context_destroy(ctx);

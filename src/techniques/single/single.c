@@ -356,8 +356,12 @@ static void env_prepare(single_state *st) {
         st->env_travel[k] = v3_scale(from[k], -1.0f);
         st->env_E[k] = v3(0, 0, 0);
     }
+    /* through the memo shared with lightvol's code (render/lights.h): a
+     * light edit that keeps the map's texels, rotation and K costs a hash
+     * of the map, not its texel-by-texel integration; the same bits */
     for (int e = 0; e < ls->n_all; e++)
-        if (ls->all[e].type == VOLUX_LIGHT_ENVIRONMENT) volux_environment_cells(ls->all[e].desc, K, from, st->env_E);
+        if (ls->all[e].type == VOLUX_LIGHT_ENVIRONMENT)
+            volux_environment_cells_cached(&st->env_cells, ls->all[e].desc, K, st->env_E);
 }
 
 static void env_free_caches(single_state *st) {

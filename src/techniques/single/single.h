@@ -35,6 +35,7 @@ typedef struct single_state {
     volux_vec3 env_travel[SINGLE_MAX_ENV_DIRS]; /* unit travel direction   */
     volux_vec3 env_E[SINGLE_MAX_ENV_DIRS];  /* irradiance of the cell     */
     scatter_grid env_cache[SINGLE_MAX_ENV_DIRS];
+    volux_env_cells_cache env_cells;        /* memo of the cell integrals (render/lights.h) */
     uint64_t env_cache_builds;
 } single_state;
 
