@@ -142,6 +142,8 @@ static void test_each_edit_does_the_least_work(void **state) {
 static void test_no_environment_no_sweep(void **state) {
     (void)state;
     volux_context *ctx = tu_context(2);
+    tu_messages m = {0};
+    volux_context_set_message(ctx, tu_collect_messages, &m);
     volux_scene *s = tu_scene(ctx, "{\"volume\": {\"procedural\": \"cloud\", \"dims\": [20, 18, 16]},"
                                    " \"transfer_function\": {\"extinction\": [[0, 0], [40, 0], [255, 0.5]]},"
                                    " \"lights\": [{\"type\": \"directional\", \"direction\": [0, -1, 0.3], "
@@ -152,6 +154,10 @@ static void test_no_environment_no_sweep(void **state) {
     assert_int_equal(volux_technique_create(ctx, "guided", s, &t), VOLUX_OK);
     assert_int_equal(work_of(t).dirs, 0);
     assert_null(state_of(t)->grid.v);
+    /* said once, as a note (not a warning: nothing is wrong) */
+    assert_int_equal(m.notes, 1);
+    assert_int_equal(m.warnings, 0);
+    assert_non_null(strstr(m.last, "no visibility sweep"));
     volux_image g = tu_render_with(ctx, s, t);
     volux_image p = tu_render(ctx, s, "pathtrace");
     double d = tu_max_abs_diff(&g, &p);

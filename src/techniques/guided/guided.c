@@ -291,8 +291,9 @@ static volux_status guided_update(void *state, const volux_scene *scene, const v
     int needed = st->strategy != GUIDED_UNIFORM && st->strategy != GUIDED_ENVIRONMENT && st->env.present;
     if (st->env.present) st->noted_no_env = 0;
     else if (!st->noted_no_env) {
-        volux_warn(ctx, "guided: no environment light: no visibility sweep, renders as pathtrace would (same "
-                        "images); the sweep is built when an environment light is added");
+        volux_message(ctx, VOLUX_MESSAGE_NOTE,
+                      "guided: no environment light: no visibility sweep, renders as pathtrace would (same "
+                      "images); the sweep is built when an environment light is added");
         st->noted_no_env = 1;
     }
     if (!needed && !st->grid.v) return VOLUX_OK; /* allocated and swept when needed */
