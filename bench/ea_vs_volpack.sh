@@ -6,6 +6,7 @@
 #
 #   PEERS=/path/to/built/peers bench/ea_vs_volpack.sh            # bonsai
 #   VOL=.../aneurism_256x256x256_uint8.nhdr TF=$PEERS/tf/aneurism.json ROUNDS=5 bench/ea_vs_volpack.sh
+#   KERNELS="simd simd:bricked simd:corner_words" bench/ea_vs_volpack.sh   # volume_layout per kernel (default auto)
 #
 # Needs a Release build (VOLUX=build/volux), ../shared/peers built (`make`:
 # volpack_render; Debian's /usr/bin/python3 with numpy for img_convert.py)
@@ -31,14 +32,15 @@ export PEERS OMP_WAIT_POLICY=passive
 [ -f "$VOL" ] || { echo "ea_vs_volpack: no volume $VOL" >&2; exit 2; }
 mkdir -p "$OUT"
 
-scene() {  # scene STEP KERNEL -> path
-    local f="$OUT/ea_$1_$2.json"
+scene() {  # scene STEP KERNEL[:LAYOUT] -> path (LAYOUT: volume_layout, default auto)
+    local f="$OUT/ea_$1_$2.json" kernel=${2%%:*} layout=auto
+    [ "$kernel" != "$2" ] && layout=${2#*:}
     cat > "$f" <<EOF
 {"volume": {"file": "$VOL"}, "transfer_function": "$TF",
  "camera": {"type": "orthographic", "orbit": {"azimuth": 30, "elevation": 20}, "fov_y": 30},
  "background": [0, 0, 0],
  "render": {"technique": "ea", "width": 512, "height": 512, "step": $1},
- "techniques": {"ea": {"kernel": "$2"}}}
+ "techniques": {"ea": {"kernel": "$kernel", "volume_layout": "$layout"}}}
 EOF
     echo "$f"
 }

@@ -384,6 +384,7 @@ static void test_corner_words_are_bit_identical(void **state) {
                 for (int k = 0; k < nk; k++) {
                     volux_scene *s = make_scene_t(ctx, techs[tech], &storages[0], file, 0, preint, 1, 0.002);
                     assert_int_equal(volux_scene_set_param(s, techs[tech], "kernel", 0, kernels[k]), VOLUX_OK);
+                    assert_int_equal(volux_scene_set_param(s, techs[tech], "volume_layout", 0, "bricked"), VOLUX_OK);
                     volux_technique *t = NULL;
                     assert_int_equal(volux_technique_create(ctx, techs[tech], s, &t), VOLUX_OK);
                     volux_image a = tu_render_with(ctx, s, t);
@@ -403,6 +404,63 @@ static void test_corner_words_are_bit_identical(void **state) {
                     volux_scene_destroy(s);
                 }
     }
+    g_step = 0.45;
+    volux_context_destroy(ctx);
+}
+
+/* `volume_layout: "auto"` (the default): the rule of dvr.c — corner words
+ * on Intel CPUs from DVR_CORNER_WORDS_MIN_STEP voxels, the bricked copy
+ * elsewhere — decides, on this CPU, at a fine and a coarse step and when
+ * an edit moves the step across the threshold (the layout follows
+ * RENDER): the technique holds the corner words exactly when the rule
+ * says so, and renders the same bits as the explicit layouts. */
+static void test_auto_layout_follows_the_rule(void **state) {
+    (void)state;
+    assert_int_equal(volux_dvr_auto_corner_words(1, 4.0f), 1);
+    assert_int_equal(volux_dvr_auto_corner_words(1, DVR_CORNER_WORDS_MIN_STEP), 1);
+    assert_int_equal(volux_dvr_auto_corner_words(1, 0.5f), 0);
+    assert_int_equal(volux_dvr_auto_corner_words(0, 4.0f), 0);
+    assert_int_equal(volux_dvr_auto_corner_words(0, 0.5f), 0);
+    if (!simd_or_skip()) skip();
+    const int intel = volux_dvr_cpu_is_intel();
+    printf("  this CPU: %s\n", intel ? "Intel" : "not Intel");
+    volux_context *ctx = tu_context(2);
+    const char *file = write_volume(&storages[0]); /* uint8 */
+    const size_t words = (size_t)((NX - 1 + 7) / 8) * ((NY - 1 + 7) / 8) * ((NZ - 1 + 7) / 8) * 512 * 8;
+    static const double steps[] = {0.45, 4.0};
+    g_step = steps[0];
+    volux_scene *s = make_scene_t(ctx, "ea", &storages[0], file, 0, 1, 1, 0.002);
+    volux_technique *t = NULL;
+    assert_int_equal(volux_technique_create(ctx, "ea", s, &t), VOLUX_OK); /* auto, the default */
+    const size_t base = volux_technique_memory_bytes(t) -
+                        (volux_dvr_auto_corner_words(intel, (float)steps[0]) ? words : 0);
+    for (int i = 0; i < 2; i++) {
+        volux_render_settings rs = *volux_scene_render(s);
+        rs.step = (float)steps[i];
+        assert_int_equal(volux_scene_set_render(s, &rs), VOLUX_OK);
+        assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+        const int want = volux_dvr_auto_corner_words(intel, (float)steps[i]);
+        assert_int_equal(volux_technique_memory_bytes(t), base + (want ? words : 0));
+        volux_image a = tu_render_with(ctx, s, t);
+        for (int l = 0; l < 2; l++) {
+            assert_int_equal(volux_scene_set_param(s, "ea", "volume_layout", 0, l ? "corner_words" : "bricked"),
+                             VOLUX_OK);
+            volux_image b = tu_render(ctx, s, "ea");
+            if (memcmp(a.rgb, b.rgb, sizeof(float) * 3 * W * H))
+                fail_msg("step %g: auto and %s differ", steps[i], l ? "corner_words" : "bricked");
+            volux_image_free(ctx, &b);
+        }
+        assert_int_equal(volux_scene_set_param(s, "ea", "volume_layout", 0, "auto"), VOLUX_OK);
+        assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+        volux_image_free(ctx, &a);
+    }
+    /* a bad value names the parameter */
+    assert_int_equal(volux_scene_set_param(s, "ea", "volume_layout", 0, "diagonal"), VOLUX_OK);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_ERR_INVALID);
+    assert_non_null(strstr(volux_context_error(ctx), "volume_layout"));
+    volux_context_clear_error(ctx);
+    volux_technique_destroy(t);
+    volux_scene_destroy(s);
     g_step = 0.45;
     volux_context_destroy(ctx);
 }
@@ -539,6 +597,7 @@ int main(void) {
         cmocka_unit_test(test_simd_shaded_matches_scalar),
         cmocka_unit_test(test_simd_shaded_cached_gradient_matches_scalar),
         cmocka_unit_test(test_corner_words_are_bit_identical),
+        cmocka_unit_test(test_auto_layout_follows_the_rule),
         cmocka_unit_test(test_cell_gradient_of_linear_field),
         cmocka_unit_test(test_shaded_with_point_light_uses_scalar),
         cmocka_unit_test(test_simd_is_thread_count_independent),

@@ -75,6 +75,9 @@ static void test_each_edit_does_the_least_work(void **state) {
          * environment off); the material channel: nothing */
         {"light_rotate_env", 0, 1}, {"light_color", 0, 1}, {"material", 0, 0},
         {"light_last", 0, 0}, {"light_toggle", 0, 1},
+        /* ... and back on (without an environment light nothing reads the
+         * grid: see test_no_environment_no_sweep) */
+        {"light_toggle", 0, 1},
         {"light_add", 0, 0}, {"tf", -1, 0},       {"density", -1, 0}, {"time_step", -1, 0},
     };
     for (size_t i = 0; i < sizeof expect / sizeof expect[0]; i++) {
@@ -122,6 +125,74 @@ static void test_each_edit_does_the_least_work(void **state) {
     assert_int_equal(volux_scene_set_param(s, "guided", "strategy", 0, "two_step"), 0);
     assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
     assert_int_equal(work_of(t).dirs - before.dirs, (uint64_t)D);
+    volux_technique_destroy(t);
+    volux_scene_destroy(s);
+    assert_int_equal(volux_context_bytes_in_use(ctx), 0);
+    volux_context_destroy(ctx);
+}
+
+/* ------------------------------------------------------------------ no environment light */
+
+/* Without an environment light nothing reads the visibility grid (only the
+ * environment's light sample does): `guided` neither allocates nor sweeps
+ * it, and renders exactly `pathtrace`'s image. The grid is swept when an
+ * environment light appears, and an edit made while it was not needed
+ * still reaches it (a volume edit between removing and re-adding the
+ * environment sweeps every direction again: no stale grid). */
+static void test_no_environment_no_sweep(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(2);
+    tu_messages m = {0};
+    volux_context_set_message(ctx, tu_collect_messages, &m);
+    volux_scene *s = tu_scene(ctx, "{\"volume\": {\"procedural\": \"cloud\", \"dims\": [20, 18, 16]},"
+                                   " \"transfer_function\": {\"extinction\": [[0, 0], [40, 0], [255, 0.5]]},"
+                                   " \"lights\": [{\"type\": \"directional\", \"direction\": [0, -1, 0.3], "
+                                   "\"irradiance\": 2}],"
+                                   " \"render\": {\"technique\": \"guided\", \"width\": 12, \"height\": 12, "
+                                   "\"spp\": 4}}");
+    volux_technique *t;
+    assert_int_equal(volux_technique_create(ctx, "guided", s, &t), VOLUX_OK);
+    assert_int_equal(work_of(t).dirs, 0);
+    assert_null(state_of(t)->grid.v);
+    /* said once, as a note (not a warning: nothing is wrong) */
+    assert_int_equal(m.notes, 1);
+    assert_int_equal(m.warnings, 0);
+    assert_non_null(strstr(m.last, "no visibility sweep"));
+    volux_image g = tu_render_with(ctx, s, t);
+    volux_image p = tu_render(ctx, s, "pathtrace");
+    double d = tu_max_abs_diff(&g, &p);
+    if (d != 0.0) fail_msg("guided without an environment differs from pathtrace by %g", d);
+    volux_image_free(ctx, &g);
+    volux_image_free(ctx, &p);
+    /* a TF edit: still nothing to sweep */
+    assert_int_equal(volux_edit_apply(volux_edit_find("tf"), s, 0), VOLUX_OK);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    assert_int_equal(work_of(t).dirs, 0);
+    /* an environment light: every direction swept, once */
+    volux_light_desc l;
+    volux_light_desc_defaults(&l, VOLUX_LIGHT_ENVIRONMENT);
+    l.radiance = 1.0f;
+    assert_int_equal(volux_scene_set_light(s, 1, &l), VOLUX_OK);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    const uint64_t D = (uint64_t)state_of(t)->grid.dirs;
+    assert_true(D > 0);
+    assert_int_equal(work_of(t).dirs, D);
+    /* off, a density edit, on again: the grid is swept again */
+    assert_int_equal(volux_scene_set_light_enabled(s, 1, 0), VOLUX_OK);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    assert_int_equal(volux_edit_apply(volux_edit_find("density"), s, 0), VOLUX_OK);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    assert_int_equal(work_of(t).dirs, D);
+    assert_int_equal(volux_scene_set_light_enabled(s, 1, 1), VOLUX_OK);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    assert_int_equal(work_of(t).dirs, 2 * D);
+    /* ... to what a fresh instance computes */
+    volux_technique *f;
+    assert_int_equal(volux_technique_create(ctx, "guided", s, &f), VOLUX_OK);
+    const guided_grid *a = &state_of(t)->grid, *b = &state_of(f)->grid;
+    assert_int_equal(a->bytes, b->bytes);
+    if (memcmp(a->v, b->v, a->bytes) != 0) fail_msg("the grid swept after the environment came back is stale");
+    volux_technique_destroy(f);
     volux_technique_destroy(t);
     volux_scene_destroy(s);
     assert_int_equal(volux_context_bytes_in_use(ctx), 0);
@@ -310,6 +381,7 @@ static void test_failed_lazy_update_recovers(void **state) {
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_each_edit_does_the_least_work),
+        cmocka_unit_test(test_no_environment_no_sweep),
         cmocka_unit_test(test_env_resolution_auto_follows_the_map),
         cmocka_unit_test(test_lazy_updates_equal_a_fresh_instance),
         cmocka_unit_test(test_failed_lazy_update_recovers),

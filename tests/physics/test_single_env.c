@@ -88,6 +88,17 @@ static void test_one_texel_map_energy(void **state) {
     double want = 7.0 * 2.0 * (2.0 * M_PI / W) * (M_PI / H) * sin((tj + 0.5) * M_PI / H);
     assert_near(st->env_E[best].x, want, 1e-5 * want);
     assert_near(st->env_E[best].z, want, 1e-5 * want);
+    /* an intensity edit re-derives the directions through the memo of cell
+     * integrals (a hit, no integration), to the bits of a fresh instance */
+    long hits = st->env_cells.hits;
+    assert_int_equal(volux_edit_apply(volux_edit_find("light_intensity"), s, 0), VOLUX_OK);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    assert_int_equal(st->env_cells.hits, hits + 1);
+    volux_technique *f = NULL;
+    assert_int_equal(volux_technique_create(ctx, "single", s, &f), VOLUX_OK);
+    const single_state *fs = volux_technique_state(f);
+    assert_memory_equal(fs->env_E, st->env_E, sizeof st->env_E);
+    volux_technique_destroy(f);
     volux_technique_destroy(t);
     volux_scene_destroy(s);
     volux_context_destroy(ctx);
@@ -124,11 +135,166 @@ static void test_ignored_sky_warns_once(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* ------------------------------------------------------------------ light-space sweep */
+
+static volux_scene *cloud_scene(volux_context *ctx, double sweep) {
+    char json[1024];
+    snprintf(json, sizeof json,
+             "{\"volume\": {\"procedural\": \"cloud\", \"dims\": [48, 40, 36]},"
+             " \"transfer_function\": {\"extinction\": [[0, 0], [30, 0], [255, 0.35]], \"albedo\": 0.8},"
+             " \"lights\": [{\"type\": \"environment\", \"radiance\": 1}],"
+             " \"render\": {\"width\": 16, \"height\": 16},"
+             " \"techniques\": {\"single\": {\"cache_scale\": 1, \"env_sweep\": %g}}}",
+             sweep);
+    volux_scene *s = NULL;
+    if (volux_scene_load_string(ctx, json, tu_temp_path(""), "sweep.json", NULL, 0, &s))
+        fail_msg("scene: %s", volux_context_error(ctx));
+    return s;
+}
+
+/* env_sweep > 0 builds the environment caches from parallel shadow rays
+ * read back trilinearly in light space; env_sweep 0 marches one shadow ray
+ * per node (the reference). Over a cloud whose transmittance spans 0–1
+ * the two agree per node to the interpolation the sweep adds: mean |ΔT|
+ * below 0.01 and every node within 0.2 at half a cell (measured 0.0032 and
+ * 0.133), 0.02 and 0.3 at one cell, the default (measured 0.0100 and 0.278: the
+ * largest differences sit at shadow edges, where τ changes fastest across
+ * the lattice),
+ * for every one of the 16 directions (an axis or sign mistake in the
+ * lattice would put the shadows on the wrong side: |ΔT| ~ 0.5). The
+ * reference itself spans a wide range, so the comparison is not vacuous. */
+static void test_env_sweep_matches_shadow_rays(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(2);
+    /* spacing (cache cells), bounds on the worst direction's mean and max |ΔT| */
+    static const struct {
+        double sweep, mean, max;
+    } cases[] = {{0.5, 0.01, 0.2}, {1.0, 0.02, 0.3}};
+    volux_scene *sr = cloud_scene(ctx, 0), *ss = NULL;
+    volux_technique *tr = NULL, *ts = NULL;
+    assert_int_equal(volux_technique_create(ctx, "single", sr, &tr), VOLUX_OK);
+    const single_state *a = volux_technique_state(tr), *b = NULL;
+    assert_int_equal(a->n_env_dirs, 16);
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        if (ts) volux_technique_destroy(ts);
+        if (ss) volux_scene_destroy(ss);
+        ss = cloud_scene(ctx, cases[c].sweep);
+        assert_int_equal(volux_technique_create(ctx, "single", ss, &ts), VOLUX_OK);
+        b = volux_technique_state(ts);
+        double worst_mean = 0, worst_max = 0, t_min = 1;
+        for (int k = 0; k < a->n_env_dirs; k++) {
+            const scatter_grid *ga = &a->env_cache[k], *gb = &b->env_cache[k];
+            assert_non_null(ga->v);
+            assert_non_null(gb->v);
+            assert_memory_equal(ga->dims, gb->dims, sizeof ga->dims);
+            size_t n = (size_t)ga->dims[0] * ga->dims[1] * ga->dims[2];
+            double sum = 0, mx = 0;
+            for (size_t i = 0; i < n; i++) {
+                double d = fabs((double)ga->v[i] - gb->v[i]);
+                sum += d;
+                if (d > mx) mx = d;
+                if (ga->v[i] < t_min) t_min = ga->v[i];
+            }
+            if (sum / n > worst_mean) worst_mean = sum / n;
+            if (mx > worst_max) worst_max = mx;
+        }
+        printf("  env_sweep %.1f vs shadow rays: worst mean |dT| %.4f, worst max |dT| %.4f, darkest node T %.3f\n",
+               cases[c].sweep, worst_mean, worst_max, t_min);
+        assert_true(t_min < 0.3);
+        if (worst_mean > cases[c].mean || worst_max > cases[c].max)
+            fail_msg("env_sweep %.1f vs shadow rays: mean |dT| %.4f, max %.4f", cases[c].sweep, worst_mean, worst_max);
+    }
+    /* the parameter rebuilds the caches the other way */
+    uint64_t builds = b->env_cache_builds;
+    assert_int_equal(volux_scene_set_param(ss, "single", "env_sweep", 0, NULL), VOLUX_OK);
+    assert_int_equal(volux_technique_update(ts, ss, NULL), VOLUX_OK);
+    assert_int_equal(b->env_cache_builds, builds + 1);
+    for (int k = 0; k < a->n_env_dirs; k++)
+        assert_memory_equal(a->env_cache[k].v, b->env_cache[k].v, a->env_cache[k].bytes);
+    volux_technique_destroy(tr);
+    volux_technique_destroy(ts);
+    volux_scene_destroy(sr);
+    volux_scene_destroy(ss);
+    assert_int_equal(volux_context_bytes_in_use(ctx), 0);
+    volux_context_destroy(ctx);
+}
+
+/* ------------------------------------------------------------------ progress */
+
+typedef struct progress_log {
+    int calls, other, backwards, cancel_after;
+    double last;
+} progress_log;
+
+static int log_progress(void *user, const char *task, double fraction) {
+    progress_log *l = user;
+    if (strcmp(task, "preparing single")) {
+        l->other++;
+        return 0;
+    }
+    if (fraction < l->last) l->backwards++;
+    l->last = fraction;
+    l->calls++;
+    return l->cancel_after > 0 && l->calls >= l->cancel_after;
+}
+
+/* The preparation reports "preparing single" from 0 to 1, never going
+ * back; a callback that answers nonzero cancels it (VOLUX_ERR_CANCELLED,
+ * nothing leaked, no cache left half built: the next update builds them
+ * all and equals a fresh instance). */
+static void test_preparation_reports_progress_and_cancels(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(2);
+    progress_log log = {0};
+    volux_context_set_progress(ctx, log_progress, &log);
+    volux_scene *s = cloud_scene(ctx, 0.5);
+    volux_technique *t = NULL;
+    assert_int_equal(volux_technique_create(ctx, "single", s, &t), VOLUX_OK);
+    printf("  progress: %d reports, last %.3f\n", log.calls, log.last);
+    assert_true(log.calls >= 16);
+    assert_int_equal(log.backwards, 0);
+    assert_true(log.last == 1.0);
+    volux_technique_destroy(t);
+    /* cancel half-way through the environment caches */
+    progress_log cancel = {0};
+    cancel.cancel_after = log.calls / 2;
+    volux_context_set_progress(ctx, log_progress, &cancel);
+    const uint64_t scene_bytes = volux_context_bytes_in_use(ctx);
+    assert_int_equal(volux_technique_create(ctx, "single", s, &t), VOLUX_ERR_CANCELLED);
+    volux_context_clear_error(ctx);
+    assert_int_equal(volux_context_bytes_in_use(ctx), scene_bytes);
+    /* an instance cancelled in an update recovers on the next one */
+    volux_context_set_progress(ctx, NULL, NULL);
+    assert_int_equal(volux_technique_create(ctx, "single", s, &t), VOLUX_OK);
+    assert_int_equal(volux_edit_apply(volux_edit_find("tf"), s, 0), VOLUX_OK);
+    progress_log again = {0};
+    again.cancel_after = 3;
+    volux_context_set_progress(ctx, log_progress, &again);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_ERR_CANCELLED);
+    volux_context_clear_error(ctx);
+    volux_context_set_progress(ctx, NULL, NULL);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_OK);
+    volux_technique *f = NULL;
+    assert_int_equal(volux_technique_create(ctx, "single", s, &f), VOLUX_OK);
+    const single_state *a = volux_technique_state(t), *b = volux_technique_state(f);
+    for (int k = 0; k < a->n_env_dirs; k++) {
+        assert_non_null(a->env_cache[k].v);
+        assert_memory_equal(a->env_cache[k].v, b->env_cache[k].v, a->env_cache[k].bytes);
+    }
+    volux_technique_destroy(f);
+    volux_technique_destroy(t);
+    volux_scene_destroy(s);
+    assert_int_equal(volux_context_bytes_in_use(ctx), 0);
+    volux_context_destroy(ctx);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_constant_sky_energy),
         cmocka_unit_test(test_one_texel_map_energy),
         cmocka_unit_test(test_ignored_sky_warns_once),
+        cmocka_unit_test(test_env_sweep_matches_shadow_rays),
+        cmocka_unit_test(test_preparation_reports_progress_and_cancels),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

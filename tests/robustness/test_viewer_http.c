@@ -553,6 +553,58 @@ static void first_preview_size(int port, const char *edit, int *w, int *h, doubl
     tu_reply_free(&r);
 }
 
+/* Switching to a technique that has to prepare (a new `single` instance
+ * builds its transmittance cache) shows a frame of the new state from the
+ * `shaded` stand-in first, labelled as such in the event stream, and the
+ * preparation's progress is reported ("preparing single"); switching back
+ * to `shaded` needs no stand-in. Fails without the stand-in / the
+ * progress hook (stand_in_frames stays 0, last_preparation ""). */
+static void test_stand_in_while_preparing(void **state) {
+    (void)state;
+    int fd = tu_connect(server.port);
+    assert_true(fd >= 0);
+    const char *req = "GET /api/events HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n";
+    assert_true(send(fd, req, strlen(req), MSG_NOSIGNAL) > 0);
+    tu_reply r = get("/api/stats");
+    double before = stat_number(r.body, "stand_in_frames");
+    tu_reply_free(&r);
+    r = post("[{\"path\": \"render.technique\", \"value\": \"single\"}]");
+    assert_int_equal(r.status, 200);
+    tu_reply_free(&r);
+    r = get("/api/frame?wait=final&format=png&timeout=60000");
+    assert_int_equal(r.status, 200);
+    tu_reply_free(&r);
+    r = get("/api/stats");
+    double after = stat_number(r.body, "stand_in_frames");
+    assert_contains(r.body, "\"last_preparation\":\"preparing single\"");
+    tu_reply_free(&r);
+    if (after != before + 1) fail_msg("stand-in frames %g -> %g after switching to single", before, after);
+    /* the stream carried the labelled stand-in */
+    struct timeval tv = {5, 0};
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    size_t cap = 1 << 22, len = 0;
+    char *buf = malloc(cap + 1);
+    assert_non_null(buf);
+    buf[0] = 0;
+    while (len < cap && !strstr(buf, "\"stand_in\":\"shaded\"")) {
+        ssize_t got = recv(fd, buf + len, cap - len, 0);
+        if (got <= 0) break;
+        len += (size_t)got;
+        buf[len] = 0;
+    }
+    close(fd);
+    assert_contains(buf, "\"stand_in\":\"shaded\"");
+    free(buf);
+    r = post("[{\"path\": \"render.technique\", \"value\": \"shaded\"}]");
+    assert_int_equal(r.status, 200);
+    tu_reply_free(&r);
+    r = get("/api/frame?wait=final&format=png&timeout=60000");
+    tu_reply_free(&r);
+    r = get("/api/stats");
+    assert_int_equal(stat_number(r.body, "stand_in_frames"), after);
+    tu_reply_free(&r);
+}
+
 static void test_preview_budget(void **state) {
     (void)state;
     /* an unmeetable budget (the step coarsened as far as allowed, then the
@@ -679,7 +731,7 @@ int main(void) {
         cmocka_unit_test(test_trickling_client_is_cut_off), cmocka_unit_test(test_event_stream),
         cmocka_unit_test(test_concurrent_edits),  cmocka_unit_test(test_token),
         cmocka_unit_test(test_bad_command_lines), cmocka_unit_test(test_preview_budget),
-        cmocka_unit_test(test_lightvol_budget_converges),
+        cmocka_unit_test(test_lightvol_budget_converges), cmocka_unit_test(test_stand_in_while_preparing),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -263,6 +263,7 @@ typedef struct stream {
     viewer *v;
     uint64_t last_frame;
     uint64_t last_scene;
+    uint64_t last_busy;
     char *pending;
     size_t len, off;
     int done;
@@ -286,6 +287,21 @@ static char *next_event(stream *s) {
             char buf[96];
             snprintf(buf, sizeof buf, "event: scene\ndata: {\"version\":%llu}\n\n", (unsigned long long)scene_version);
             event = strdup(buf);
+            break;
+        }
+        if (v->busy.seq != s->last_busy) { /* a preparation's progress (renderer.c, set_busy) */
+            s->last_busy = v->busy.seq;
+            cJSON *o = cJSON_CreateObject();
+            cJSON_AddStringToObject(o, "task", v->busy.task);
+            cJSON_AddNumberToObject(o, "percent", (int)(v->busy.fraction * 100.0));
+            char *t = cJSON_PrintUnformatted(o);
+            cJSON_Delete(o);
+            if (t) {
+                size_t n = strlen(t) + 32;
+                event = malloc(n);
+                if (event) snprintf(event, n, "event: busy\ndata: %s\n\n", t);
+                cJSON_free(t);
+            }
             break;
         }
         if (v->frame.id != s->last_frame) {
@@ -312,10 +328,10 @@ static char *next_event(stream *s) {
             int hn = snprintf(head, sizeof head,
                               "event: frame\ndata: {\"id\":%llu,\"version\":%llu,\"kind\":\"%s\",\"spp\":%u,"
                               "\"width\":%d,\"height\":%d,\"format\":\"%s\",\"bytes\":%zu,\"update_ms\":%.3f,"
-                              "\"render_ms\":%.3f,\"encode_ms\":%.3f,\"latency_ms\":%.3f,\"cpu_ms\":%.3f,\"step_scale\":%.3f,\"data\":\"",
+                              "\"render_ms\":%.3f,\"encode_ms\":%.3f,\"latency_ms\":%.3f,\"cpu_ms\":%.3f,\"step_scale\":%.3f,\"stand_in\":\"%s\",\"data\":\"",
                               (unsigned long long)f->id, (unsigned long long)f->version, kinds[f->kind], f->spp,
                               f->width, f->height, f->format, f->size, f->update_ms, f->render_ms, f->encode_ms,
-                              f->latency_ms, f->cpu_ms, (double)f->step_scale);
+                              f->latency_ms, f->cpu_ms, (double)f->step_scale, f->stand_in);
             event = malloc((size_t)hn + n64 + 8);
             if (event) {
                 memcpy(event, head, (size_t)hn);
@@ -505,6 +521,7 @@ static enum MHD_Result serve_edit(viewer *v, struct MHD_Connection *c, request *
             v->last_edit_cpu_ms = rq->cpu0;
         }
         v->last_change_ms = rq->t0;
+        v->pending_changes |= changed;
         v->need_latency = v->need_final_latency = 1;
         if (!viewer_snapshot(v)) st = VOLUX_ERR_NOMEM, snprintf(msg, sizeof msg, "out of memory");
     }

@@ -58,11 +58,31 @@ void viewer_unlock(viewer *v, int edited) {
     pthread_mutex_unlock(&v->lock);
 }
 
-/* The frame loop asks between tiles; nonzero cancels. */
+/* Busy indicator: a preparation's progress is published at most every
+ * BUSY_EVERY_MS (and on a change of task) to the event streams. */
+#define BUSY_EVERY_MS 100.0
+
+static void set_busy(viewer *v, const char *task, double fraction) {
+    pthread_mutex_lock(&v->frame_lock);
+    viewer_busy *b = &v->busy;
+    double now = viewer_now_ms();
+    if (strcmp(b->task, task) || (now - b->last_ms >= BUSY_EVERY_MS && fraction != b->fraction)) {
+        snprintf(b->task, sizeof b->task, "%s", task);
+        b->fraction = fraction;
+        b->last_ms = now;
+        b->seq++;
+        if (task[0]) snprintf(v->stats.last_preparation, sizeof v->stats.last_preparation, "%s", task);
+        pthread_cond_broadcast(&v->frame_cv);
+    }
+    pthread_mutex_unlock(&v->frame_lock);
+}
+
+/* The frame loop asks between tiles; nonzero cancels. A technique's
+ * preparation reports here too (any task but "render"): the busy
+ * indicator. */
 static int on_progress(void *user, const char *task, double fraction) {
-    (void)task;
-    (void)fraction;
     viewer *v = user;
+    if (strcmp(task, "render")) set_busy(v, fraction >= 1.0 ? "" : task, fraction);
     return atomic_load(&v->quit) || (atomic_load(&v->cancellable) && atomic_load(&v->edit_waiters) > 0);
 }
 
@@ -90,7 +110,7 @@ enum {
  * without `lock`. `since_edit_t0` <= 0: no latency to report. */
 static void publish(viewer *v, volux_image *img, frame_kind kind, uint64_t version, uint32_t spp, float exposure,
                     float step_scale, double update_ms, double render_ms, double since_edit_t0, double since_edit_cpu,
-                    unsigned flags) {
+                    unsigned flags, const char *stand_in) {
     double t0 = viewer_now_ms();
     unsigned char *data = NULL;
     size_t size = 0;
@@ -134,6 +154,7 @@ static void publish(viewer *v, volux_image *img, frame_kind kind, uint64_t versi
     f->image = *img;
     f->exposure = exposure;
     f->step_scale = step_scale;
+    snprintf(f->stand_in, sizeof f->stand_in, "%s", stand_in ? stand_in : "");
     f->update_ms = update_ms;
     f->render_ms = render_ms;
     f->encode_ms = t1 - t0;
@@ -142,6 +163,7 @@ static void publish(viewer *v, volux_image *img, frame_kind kind, uint64_t versi
     memset(img, 0, sizeof *img);
     viewer_stats *s = &v->stats;
     s->frames++;
+    if (f->stand_in[0]) s->stand_in_frames++;
     s->last_encode_ms = f->encode_ms;
     s->last_render_ms = render_ms;
     s->error[0] = 0;
@@ -224,16 +246,29 @@ static void preview_size(const viewer *v, int w, int h, int *pw, int *ph) {
 
 /* The running cost estimate of a technique's preview render (ms/pixel;
  * 0 until measured). */
-static double *cost_of(viewer *v, const char *technique) {
+static int cost_index(viewer *v, const char *technique) {
     int n = (int)(sizeof v->cost / sizeof v->cost[0]), free_slot = -1;
     for (int i = 0; i < n; i++) {
-        if (!strcmp(v->cost[i].technique, technique)) return &v->cost[i].ms_per_pixel;
+        if (!strcmp(v->cost[i].technique, technique)) return i;
         if (free_slot < 0 && !v->cost[i].technique[0]) free_slot = i;
     }
     if (free_slot < 0) free_slot = 0; /* more techniques than slots: forget one */
     snprintf(v->cost[free_slot].technique, sizeof v->cost[free_slot].technique, "%s", technique);
     v->cost[free_slot].ms_per_pixel = 0;
-    return &v->cost[free_slot].ms_per_pixel;
+    v->cost[free_slot].update_ms[0] = v->cost[free_slot].update_ms[1] = 0;
+    return free_slot;
+}
+
+static double *cost_of(viewer *v, const char *technique) { return &v->cost[cost_index(v, technique)].ms_per_pixel; }
+
+/* Edits that may reach a technique's caches (VOLUX_DOC_* sections: all but
+ * a camera-only edit, which costs most techniques nothing). */
+#define HEAVY_CHANGES (VOLUX_DOC_VOLUME | VOLUX_DOC_TRANSFER | VOLUX_DOC_LIGHTS | VOLUX_DOC_OTHER)
+
+/* The last update time of a technique for edits of this kind (`changes`),
+ * ms (0: not yet). */
+static double *update_of(viewer *v, const char *technique, uint32_t changes) {
+    return &v->cost[cost_index(v, technique)].update_ms[(changes & HEAVY_CHANGES) != 0];
 }
 
 /* The size of the first frame after an edit: the --preview size (pw, ph on
@@ -312,6 +347,76 @@ static void learn_cost(viewer *v, const char *technique, double render_ms, int w
     *c = *c > 0 ? 0.5 * *c + 0.5 * now : now;
 }
 
+/* A stand-in comes first when the scene's technique has no instance yet
+ * (its creation prepares everything) or its last update took longer than
+ * this: a frame of the new state within the 150 ms the page aims at. */
+#define STAND_IN_UPDATE_MS 100.0
+#define STAND_IN_TECHNIQUE "shaded"
+
+/* Before a slow update: the new state rendered by `shaded` (its caches
+ * follow any edit in milliseconds) at the preview size, published as a
+ * labelled stand-in; the scene's own technique then prepares (the busy
+ * indicator shows its progress) and its frame follows. Best effort: a
+ * failure just skips the stand-in. Called and returns with `lock` held. */
+static void do_stand_in(viewer *v, uint64_t version, const volux_render_settings *full) {
+    volux_scene *scene = volux_scene_doc_scene(v->doc);
+    volux_render_settings small = *full;
+    preview_size(v, full->width, full->height, &small.width, &small.height);
+    double t0 = viewer_now_ms();
+    /* sized like a first frame: what the stand-in's measured cost fits in
+     * what is left of the preview budget */
+    if (v->need_latency) {
+        double left = RENDER_FILL * (v->opt.preview_budget_ms - (t0 - v->last_edit_ms) - PUBLISH_MARGIN_MS);
+        budget_size(v, *cost_of(v, STAND_IN_TECHNIQUE), left, &small.width, &small.height);
+    }
+    volux_status st = VOLUX_OK;
+    volux_image img = {0};
+    volux_render_report rep = {0};
+    volux_render_limits one = {1, 0, 0};
+    if (!v->stand_in) st = volux_technique_create(v->ctx, STAND_IN_TECHNIQUE, scene, &v->stand_in);
+    if (!st) st = volux_scene_set_render(scene, &small);
+    if (!st) st = volux_technique_update(v->stand_in, scene, NULL);
+    volux_framebuffer **slot = NULL;
+    int w0 = 0, h0 = 0;
+    preview_size(v, full->width, full->height, &w0, &h0);
+    slot = small.width != w0 || small.height != h0 ? &v->fb_first : &v->fb_preview;
+    if (!st) st = ensure_fb(v, slot, small.width, small.height);
+    double t1 = viewer_now_ms();
+    if (!st) {
+        volux_framebuffer_reset(*slot);
+        st = volux_render(v->stand_in, scene, *slot, &one, &rep);
+    }
+    if (!st) learn_cost(v, STAND_IN_TECHNIQUE, viewer_now_ms() - t1, small.width, small.height, 1);
+    if (!st) st = volux_framebuffer_resolve(*slot, &img);
+    volux_scene_set_render(scene, full);
+    volux_context_clear_error(v->ctx);
+    if (st) {
+        volux_image_free(v->ctx, &img);
+        return;
+    }
+    /* the edit's first frame; need_latency stays set, so the technique's
+     * own frame after the update is sized to the budget too (a reduced
+     * frame, then the --preview size), not rendered whole after a long
+     * preparation */
+    double edit_t0 = v->need_latency ? v->last_edit_ms : -1;
+    v->stand_in_edit_t0 = edit_t0;
+    pthread_mutex_unlock(&v->lock);
+    publish(v, &img, FRAME_PREVIEW, version, 1, full->exposure, 1.0f, 0, viewer_now_ms() - t0, edit_t0,
+            v->last_edit_cpu_ms, PUB_FIRST, STAND_IN_TECHNIQUE);
+    if (edit_t0 > 0) {
+        pthread_mutex_lock(&v->frame_lock);
+        v->stats.last_stand_in_ms = viewer_now_ms() - edit_t0;
+        pthread_mutex_unlock(&v->frame_lock);
+    }
+    pthread_mutex_lock(&v->lock);
+}
+
+/* 1 if the scene's technique has no instance (switching to it creates one). */
+static int needs_instance(const viewer *v, const char *name) {
+    return !(v->tech && !strcmp(volux_technique_info_of(v->tech)->name, name)) &&
+           !(v->spare && !strcmp(volux_technique_info_of(v->spare)->name, name));
+}
+
 /* The first frame after an edit. Called and returns with `lock` held. */
 static void do_preview(viewer *v, uint64_t version) {
     volux_scene *scene = volux_scene_doc_scene(v->doc);
@@ -320,9 +425,22 @@ static void do_preview(viewer *v, uint64_t version) {
     v->refined = 1; /* unless the preview succeeds */
     v->refine_steps_done = 0;
     const volux_render_settings full = *volux_scene_render(scene);
+    /* a slow update ahead (a new instance — its creation prepares
+     * everything — or the last update for edits of this kind was slow): a
+     * cheap frame of the new state first (not for the cheap ones) */
+    const int creating = needs_instance(v, full.technique);
+    /* back to the previous instance: it catches up on every edit made
+     * since it was current, which pending_changes does not record */
+    const int switching = v->tech && strcmp(volux_technique_info_of(v->tech)->name, full.technique);
+    const uint32_t changes = creating || switching ? (uint32_t)HEAVY_CHANGES : v->pending_changes;
+    v->pending_changes = 0;
+    if (strcmp(full.technique, "ea") && strcmp(full.technique, STAND_IN_TECHNIQUE) &&
+        (creating || *update_of(v, full.technique, changes) > STAND_IN_UPDATE_MS))
+        do_stand_in(v, version, &full);
     double t0 = viewer_now_ms();
     volux_status st = ensure_technique(v, scene);
     if (st) {
+        set_busy(v, "", 1.0);
         render_failed(v, "technique", st);
         return;
     }
@@ -345,6 +463,10 @@ static void do_preview(viewer *v, uint64_t version) {
     if (!(st = volux_scene_set_render(scene, &small))) {
         st = volux_technique_update(v->tech, scene, &changed);
         double t1 = viewer_now_ms();
+        set_busy(v, "", 1.0); /* preparation over (or failed) */
+        /* a switch back records nothing: its catch-up says little about
+         * the next edit of either kind */
+        if (creating || !switching) *update_of(v, full.technique, changes) = t1 - t0;
         /* With a budget, the first frame gets what is left of it after the
          * update (the edit's own cost, which a smaller frame cannot save):
          * the preview size the measured cost per pixel fits in. The render
@@ -389,13 +511,21 @@ static void do_preview(viewer *v, uint64_t version) {
         if (!st) {
             double edit_t0 = v->need_latency ? v->last_edit_ms : -1;
             v->need_latency = 0;
+            unsigned first_flag = PUB_FIRST;
+            if (v->stand_in_edit_t0 > 0) { /* the own frame after a stand-in: not the edit's first */
+                pthread_mutex_lock(&v->frame_lock);
+                v->stats.last_own_frame_ms = viewer_now_ms() - v->stand_in_edit_t0;
+                pthread_mutex_unlock(&v->frame_lock);
+                v->stand_in_edit_t0 = 0;
+                first_flag = 0;
+            }
             v->refined = 0;
             v->upgrade = reduced;
             v->upgrade_smaller = smaller;
             if (v->fb_full) volux_framebuffer_reset(v->fb_full);
             pthread_mutex_unlock(&v->lock);
             publish(v, &img, FRAME_PREVIEW, version, 1, full.exposure, (float)step_scale, t1 - t0,
-                    viewer_now_ms() - t2, edit_t0, v->last_edit_cpu_ms, PUB_FIRST | (smaller ? 0u : PUB_FULL_PREVIEW));
+                    viewer_now_ms() - t2, edit_t0, v->last_edit_cpu_ms, first_flag | (smaller ? 0u : PUB_FULL_PREVIEW), NULL);
             pthread_mutex_lock(&v->lock);
             return;
         }
@@ -451,7 +581,7 @@ static void do_upgrade(viewer *v) {
     uint64_t version = v->shown_version;
     pthread_mutex_unlock(&v->lock);
     publish(v, &img, FRAME_PREVIEW, version, 1, full.exposure, 1.0f, 0, render_ms, v->last_edit_ms,
-            v->last_edit_cpu_ms, smaller ? PUB_FULL_PREVIEW : 0u);
+            v->last_edit_cpu_ms, smaller ? PUB_FULL_PREVIEW : 0u, NULL);
     pthread_mutex_lock(&v->lock);
 }
 
@@ -523,7 +653,7 @@ static void do_refine(viewer *v) {
     float exposure = rs->exposure;
     pthread_mutex_unlock(&v->lock);
     publish(v, &img, final ? FRAME_FINAL : FRAME_REFINE, version, spp, exposure, 1.0f, 0, now - t0, edit_t0,
-            v->last_edit_cpu_ms, 0);
+            v->last_edit_cpu_ms, 0, NULL);
     pthread_mutex_lock(&v->lock);
 }
 
@@ -576,6 +706,8 @@ void viewer_render_stop(viewer *v) {
     pthread_join(v->render_thread, NULL);
     volux_technique_destroy(v->tech);
     volux_technique_destroy(v->spare);
+    volux_technique_destroy(v->stand_in);
+    v->stand_in = NULL;
     volux_framebuffer_destroy(v->fb_preview);
     volux_framebuffer_destroy(v->fb_first);
     volux_framebuffer_destroy(v->fb_full);

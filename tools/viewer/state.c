@@ -259,6 +259,10 @@ char *viewer_stats_json(viewer *v) {
     cJSON_AddNumberToObject(o, "edits_rejected", (double)s.edits_rejected);
     cJSON_AddNumberToObject(o, "frames", (double)s.frames);
     cJSON_AddNumberToObject(o, "cancelled", (double)s.cancelled);
+    cJSON_AddNumberToObject(o, "stand_in_frames", (double)s.stand_in_frames);
+    cJSON_AddNumberToObject(o, "edit_to_stand_in_ms", s.last_stand_in_ms);
+    cJSON_AddNumberToObject(o, "edit_to_own_frame_ms", s.last_own_frame_ms);
+    cJSON_AddStringToObject(o, "last_preparation", s.last_preparation);
     cJSON_AddNumberToObject(o, "requests", (double)s.requests);
     cJSON_AddNumberToObject(o, "requests_rejected", (double)s.requests_rejected);
     uint64_t rss = 0;

@@ -52,7 +52,19 @@ typedef struct viewer_frame {
     double latency_ms; /* edit received → this frame published (first frame after an edit) */
     double cpu_ms;     /* CPU time the process spent meanwhile (all threads): a
                           figure a loaded machine inflates far less than latency_ms */
+    char stand_in[32]; /* "" or the cheaper technique that rendered this frame while
+                          the scene's own one prepares (renderer.c, do_stand_in) */
 } viewer_frame;
+
+/* Preparation in progress (the context's progress callback during an
+ * update: "preparing single", "sh projection", ...), for the page's busy
+ * indicator; task "" when none. Under frame_lock. */
+typedef struct viewer_busy {
+    char task[64];
+    double fraction;
+    double last_ms; /* when it was last published */
+    uint64_t seq;   /* increases on every published change */
+} viewer_busy;
 
 typedef struct viewer_options {
     const char *scene_path;
@@ -96,6 +108,10 @@ typedef struct viewer_stats {
     int last_lights_changed;      /* light slots in the last update     */
     char technique[32];
     size_t technique_bytes;
+    uint64_t stand_in_frames;     /* frames a stand-in rendered (do_stand_in) */
+    double last_stand_in_ms;      /* edit → the stand-in frame published      */
+    double last_own_frame_ms;     /* edit → the technique's own frame after a stand-in */
+    char last_preparation[64];    /* the last preparation task reported ("preparing single") */
     char error[512];              /* last render failure, "" if none    */
 } viewer_stats;
 
@@ -126,7 +142,13 @@ typedef struct viewer {
     struct {
         char technique[32];
         double ms_per_pixel; /* running estimate of a preview render's cost */
+        double update_ms[2]; /* its last update, ms: [0] camera-only edits, [1] the
+                                others (volume, TF, lights, render settings,
+                                parameters) or its creation             */
     } cost[16];
+    volux_technique *stand_in; /* `shaded`: frames of the new state while a slow update runs */
+    double stand_in_edit_t0;   /* > 0: a stand-in showed the edit that arrived then */
+    uint32_t pending_changes;  /* VOLUX_DOC_* sections of the edits not yet shown */
     uint64_t shown_version;  /* version of the last preview          */
     int refined;             /* final frame of shown_version published */
     int refine_steps_done;   /* deferred technique work finished     */
@@ -141,6 +163,7 @@ typedef struct viewer {
     pthread_mutex_t frame_lock;
     pthread_cond_t frame_cv;
     viewer_frame frame;
+    viewer_busy busy;
     viewer_stats stats;
     uint64_t start_rss_kb;
 

@@ -23,11 +23,13 @@ static volux_status read_params(dvr_state *st, const volux_scene *scene) {
                            "techniques.%s.kernel: expected \"auto\", \"scalar\", \"simd\" or \"avx2\", got \"%s\"",
                            cls->info.name, kernel);
     const char *layout = volux_technique_param_string(scene, cls, "volume_layout");
-    if (!strcmp(layout, "bricked")) st->corner_words = 0;
-    else if (!strcmp(layout, "corner_words")) st->corner_words = 1;
+    if (!strcmp(layout, "bricked")) st->layout = DVR_LAYOUT_BRICKED;
+    else if (!strcmp(layout, "corner_words")) st->layout = DVR_LAYOUT_CORNER_WORDS;
+    else if (!strcmp(layout, "auto")) st->layout = DVR_LAYOUT_AUTO;
     else
         return volux_error(st->rc.ctx, VOLUX_ERR_INVALID,
-                           "techniques.%s.volume_layout: expected \"bricked\" or \"corner_words\", got \"%s\"",
+                           "techniques.%s.volume_layout: expected \"auto\", \"bricked\" or \"corner_words\", got "
+                           "\"%s\"",
                            cls->info.name, layout);
     if (st->shaded) {
         st->grad_ref = volux_raycaster_gradient_ref(&st->rc, volux_technique_param(scene, cls, "gradient_threshold"));
@@ -241,6 +243,42 @@ static volux_status resolve_kernel(dvr_state *st) {
     return VOLUX_OK;
 }
 
+/* ------------------------------------------------------------------ layout per CPU */
+
+int volux_dvr_cpu_is_intel(void) {
+#if defined(__x86_64__) || defined(__i386__)
+    __builtin_cpu_init();
+    return __builtin_cpu_is("intel") != 0;
+#else
+    return 0;
+#endif
+}
+
+/* volume_layout "auto": corner words on Intel CPUs at steps of at least
+ * DVR_CORNER_WORDS_MIN_STEP voxels, the bricked copy everywhere else.
+ * Measured (bonsai 512², 1 thread, AVX-512, docs/BENCHMARKS.md "Volume
+ * layout per CPU"): on an Intel Xeon (family 6 model 207) corner words
+ * took 0.68× the bricked time at step 4 and 1.71× at step 0.5 (its gathers
+ * cost more per element, so one 64-bit element beats four 32-bit ones
+ * once the samples are far enough apart that the bricked copy's line
+ * sharing is lost); on the AMD Zen 4 they were slower at every step (1.07–
+ * 1.33×: cheap gathers, and the 8× copy overflows the L3 the bricked copy
+ * fits). The Intel crossover between 0.5 and 4 was not measured; 2 is
+ * their geometric middle. Images are the same bits either way. */
+int volux_dvr_auto_corner_words(int intel, float step_voxels) {
+    return intel && step_voxels >= DVR_CORNER_WORDS_MIN_STEP;
+}
+
+static void resolve_layout(dvr_state *st) {
+    if (st->layout == DVR_LAYOUT_AUTO) {
+        static int intel = -1; /* the CPU does not change within a process */
+        if (intel < 0) intel = volux_dvr_cpu_is_intel();
+        st->corner_words = volux_dvr_auto_corner_words(intel, st->rc.step / st->rc.min_spacing);
+    } else {
+        st->corner_words = st->layout == DVR_LAYOUT_CORNER_WORDS;
+    }
+}
+
 void volux_dvr_init(void *state) {
     dvr_state *st = state;
     st->shaded = st->rc.cls == &volux_shaded_class;
@@ -273,8 +311,11 @@ volux_status volux_dvr_update(void *state, const volux_scene *scene, const volux
     if (w & VOLUX_CHANGE_LIGHTS) st->ambient = rc->lights.n_env ? rc->lights.env_mean : v3(1, 1, 1);
     if (w & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_LIGHTS))
         if ((s = resolve_kernel(st))) return s;
-    if (w & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_LIGHTS))
+    /* the layout follows the step under "auto" (RENDER) */
+    if (w & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_LIGHTS | VOLUX_CHANGE_RENDER)) {
+        resolve_layout(st);
         if ((s = volux_dvr_corner_words_update(st, (w & VOLUX_CHANGE_VOLUME) != 0))) return s;
+    }
     return VOLUX_OK;
 }
 

@@ -33,6 +33,10 @@
 #define DVR_CORNER_WORDS_MAX_BYTES ((size_t)256 << 20)
 
 typedef enum dvr_kernel { DVR_KERNEL_AUTO, DVR_KERNEL_SCALAR, DVR_KERNEL_SIMD, DVR_KERNEL_AVX2 } dvr_kernel;
+typedef enum dvr_layout { DVR_LAYOUT_AUTO, DVR_LAYOUT_BRICKED, DVR_LAYOUT_CORNER_WORDS } dvr_layout;
+/* volume_layout "auto" picks corner words on Intel CPUs from this step
+ * (voxels) up (volux_dvr_auto_corner_words, dvr.c) */
+#define DVR_CORNER_WORDS_MIN_STEP 2.0f
 
 extern const volux_technique_class volux_ea_class;
 extern const volux_technique_class volux_shaded_class;
@@ -75,7 +79,8 @@ typedef struct dvr_state {
     /* Corner words (dvr_corners.c): per cell of an 8-bit volume one 64-bit
      * word with its 8 corners, so a SIMD sample gathers one element instead
      * of four. NULL: the kernel gathers from the bricked copy. */
-    int corner_words;              /* `volume_layout` "corner_words"       */
+    dvr_layout layout;             /* `volume_layout` parameter            */
+    int corner_words;              /* resolved: corner words wanted        */
     uint64_t *corners;
     size_t corner_bytes;
 } dvr_state;
@@ -90,6 +95,11 @@ void volux_dvr_render_tile_avx2(const dvr_state *st, const volux_scene *scene, c
                                 volux_tile_stats *stats);
 void volux_dvr_render_tile_avx512(const dvr_state *st, const volux_scene *scene, const volux_tile *tile, float *rgb,
                                   volux_tile_stats *stats);
+
+/* 1 on an Intel CPU (the vendor the "auto" layout rule distinguishes). */
+int volux_dvr_cpu_is_intel(void);
+/* The "auto" layout rule: 1 = corner words (dvr.c). */
+int volux_dvr_auto_corner_words(int intel, float step_voxels);
 
 /* (Re)builds or frees the corner words after the kernel choice: built
  * when wanted and missing or the volume changed; fails never (when the

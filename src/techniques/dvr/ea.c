@@ -8,10 +8,11 @@
          "\"auto\" (SIMD when the CPU has AVX2+FMA, 16-lane AVX-512 packets where it has those too; shaded: with " \
          "at most 4 lights, all directional), \"scalar\" (portable reference), \"simd\" (as auto; error if "     \
          "unavailable) or \"avx2\" (8-lane packets only, the same image); same image up to float rounding"},        \
-        {"volume_layout", VOLUX_PARAM_STRING, 0, 0, 0, "bricked",                                                \
-         "\"bricked\" (the volume's bricked copy) or \"corner_words\" (SIMD kernel, 8-bit volumes: a per-cell "  \
-         "copy with the 8 corners in one 64-bit word, 8 bytes per voxel, up to 256 MiB; slower where gathers are " \
-         "cheap, see docs/BENCHMARKS.md); the same image"}
+        {"volume_layout", VOLUX_PARAM_STRING, 0, 0, 0, "auto",                                                   \
+         "\"auto\" (corner_words on Intel CPUs at render.step >= 2 voxels, else bricked: the per-CPU rule of "      \
+         "docs/BENCHMARKS.md), \"bricked\" (the volume's bricked copy) or \"corner_words\" (SIMD kernel, 8-bit "   \
+         "volumes: a per-cell copy with the 8 corners in one 64-bit word, 8 bytes per voxel, up to 256 MiB; "     \
+         "slower where gathers are cheap); the same image"}
 
 static const volux_param_info ea_params[] = {DVR_COMMON_PARAMS, {NULL, 0, 0, 0, 0, NULL, NULL}};
 

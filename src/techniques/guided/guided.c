@@ -196,6 +196,8 @@ static volux_status refresh(guided_state *st, const volux_scene *scene, const in
     volux_sequence *seq = volux_scene_sequence(scene);
     int current = volux_scene_time_step(scene);
     volux_status s = VOLUX_OK;
+    int total = 0, swept = 0;
+    for (int d = 0; d < D; d++) total += g->src[d] != want[d];
     for (;;) {
         /* the smallest source step still to do */
         int step = -1;
@@ -224,17 +226,27 @@ static volux_status refresh(guided_state *st, const volux_scene *scene, const in
                                 (float)fmin(sp[0], fmin(sp[1], sp[2])), &lut);
         if (!s) {
             for (int i = 0; i < n; i++) g->src[list[i]] = -1;
-            s = guided_compute_directions(ctx, st->rc.threads, g, v, &lut, &st->vis, list, n);
-            volux_transfer_lut_free(ctx, &lut);
-            if (!s) {
-                for (int i = 0; i < n; i++) g->src[list[i]] = step;
-                st->swept_directions += (uint64_t)n;
+            /* in chunks of about 1/16 of the directions, with progress
+             * ("preparing guided") and cancellation between them; a
+             * cancelled chunk stays invalid (src −1) and is swept next time */
+            int chunk = (n + 15) / 16;
+            for (int i = 0; i < n && !s; i += chunk) {
+                int m = n - i < chunk ? n - i : chunk;
+                s = guided_compute_directions(ctx, st->rc.threads, g, v, &lut, &st->vis, list + i, m);
+                if (s) break;
+                for (int k = i; k < i + m; k++) g->src[list[k]] = step;
+                st->swept_directions += (uint64_t)m;
+                swept += m;
+                if (volux_progress(ctx, "preparing guided", fmin(0.999, (double)swept / (double)total)))
+                    s = volux_error(ctx, VOLUX_ERR_CANCELLED, "guided: visibility sweep cancelled");
             }
+            volux_transfer_lut_free(ctx, &lut);
         }
         volux_volume_release(v);
         if (s) break;
     }
     volux_free(ctx, list, list_bytes);
+    if (!s && total > 0) volux_progress(ctx, "preparing guided", 1.0);
     return s;
 }
 
@@ -269,7 +281,22 @@ static volux_status guided_update(void *state, const volux_scene *scene, const v
         st->n_env = st->rc.lights.n_env;
     }
 
-    /* visibility grid */
+    /* visibility grid. Only an environment light's sample reads it
+     * (integrator.c: guided_event_build runs when env.present): without
+     * one, `guided` is `pathtrace` (same estimator, same images) and a
+     * sweep would cost seconds for nothing — the grid is neither allocated
+     * nor swept until an environment light appears (a grid that exists is
+     * still invalidated below, so it cannot come back stale). uniform and
+     * environment sampling never read the grid either. */
+    int needed = st->strategy != GUIDED_UNIFORM && st->strategy != GUIDED_ENVIRONMENT && st->env.present;
+    if (st->env.present) st->noted_no_env = 0;
+    else if (!st->noted_no_env) {
+        volux_message(ctx, VOLUX_MESSAGE_NOTE,
+                      "guided: no environment light: no visibility sweep, renders as pathtrace would (same "
+                      "images); the sweep is built when an environment light is added");
+        st->noted_no_env = 1;
+    }
+    if (!needed && !st->grid.v) return VOLUX_OK; /* allocated and swept when needed */
     volux_sequence *seq = volux_scene_sequence(scene);
     uint64_t seq_id = seq ? volux_sequence_id(seq) : 0;
     int dims[3];
@@ -291,10 +318,8 @@ static volux_status guided_update(void *state, const volux_scene *scene, const v
     guided_vis_params sched = st->vis;
     if (!seq) sched.lazy = GUIDED_LAZY_OFF;
     s = guided_lazy_sources(ctx, &sched, st->grid.dirs, &st->env, LAZY_SEED, volux_scene_time_step(scene), want);
-    /* uniform and environment sampling never read the grid: leave it
-     * stale (it is brought up to date when a strategy that reads it is
-     * chosen) */
-    int needed = st->strategy != GUIDED_UNIFORM && st->strategy != GUIDED_ENVIRONMENT;
+    /* not read now: leave it stale (brought up to date when a strategy
+     * that reads it is chosen or an environment light appears) */
     if (!s && needed) s = refresh(st, scene, want);
     volux_free(ctx, want, want_bytes);
     return s;

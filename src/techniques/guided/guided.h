@@ -116,6 +116,7 @@ typedef struct guided_state {
     /* work done by updates so far (tests and benchmarks check that an edit
      * does the least work) */
     uint64_t swept_directions; /* directions computed (sweeps or rays)    */
+    int noted_no_env;          /* the "renders as pathtrace" note was given */
     uint64_t env_builds;       /* environment quadtree builds              */
     uint64_t steps_loaded;     /* other time steps acquired for lazy updates */
 } guided_state;

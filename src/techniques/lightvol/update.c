@@ -305,7 +305,7 @@ static volux_status run_job(lightvol_state *st, int *did) {
             j->pass++;
             j->step = 0;
         }
-        if (volux_progress(ctx, "lightvol", 1.0 - (double)j->left / (double)(j->left + 1 + (uint64_t)j->step))) {
+        if (volux_progress(ctx, "preparing lightvol", 1.0 - (double)j->left / (double)(j->left + 1 + (uint64_t)j->step))) {
             s = volux_error(ctx, VOLUX_ERR_CANCELLED, "lightvol: propagation cancelled");
             break;
         }

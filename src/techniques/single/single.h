@@ -30,9 +30,12 @@ typedef struct single_state {
      * light carrying the environments' radiance over its cell (single.c) */
     int n_env_dirs;                         /* env_directions parameter    */
     int env_active;                         /* n_env_dirs > 0 and an environment is on */
+    float env_sweep;                        /* env_sweep parameter: light-space lattice spacing in
+                                               cache cells, 0 = one shadow ray per node */
     volux_vec3 env_travel[SINGLE_MAX_ENV_DIRS]; /* unit travel direction   */
     volux_vec3 env_E[SINGLE_MAX_ENV_DIRS];  /* irradiance of the cell     */
     scatter_grid env_cache[SINGLE_MAX_ENV_DIRS];
+    volux_env_cells_cache env_cells;        /* memo of the cell integrals (render/lights.h) */
     uint64_t env_cache_builds;
 } single_state;
 

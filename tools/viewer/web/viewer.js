@@ -103,7 +103,9 @@ function connect() {
     if (window.volux.frames.length > 200) window.volux.frames.shift();
     // a first frame may march at a coarser step than render.step (--preview-step)
     const coarse = f.step_scale > 1 ? `, step ×${f.step_scale}` : '';
-    $('st-kind').textContent = `${f.kind} ${f.width}×${f.height}${coarse}, ${f.spp} spp, frame ${f.id}`;
+    // a stand-in: a cheaper technique's frame of the new state while the scene's own one prepares
+    const standIn = f.stand_in ? `stand-in (${f.stand_in}) · ` : '';
+    $('st-kind').textContent = `${standIn}${f.kind} ${f.width}×${f.height}${coarse}, ${f.spp} spp, frame ${f.id}`;
     $('st-server').textContent = `render ${f.render_ms.toFixed(0)} ms, encode ${f.encode_ms.toFixed(1)} ms (${f.format}, ${(f.bytes / 1024).toFixed(0)} KiB)`;
   });
   es.addEventListener('scene', (ev) => {
@@ -111,6 +113,14 @@ function connect() {
     if (!state || v !== state.version) loadState();
   });
   es.addEventListener('failure', (ev) => showError(JSON.parse(ev.data).error));
+  // preparation in progress ("preparing single: 40 %"); task "" when done
+  es.addEventListener('busy', (ev) => {
+    const b = JSON.parse(ev.data);
+    window.volux.busy = b;
+    const el = $('st-busy');
+    el.hidden = !b.task;
+    el.textContent = b.task ? `${b.task}: ${b.percent} %` : '';
+  });
   es.onerror = () => { $('st-kind').textContent = 'reconnecting…'; };
 }
 
