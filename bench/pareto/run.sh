@@ -30,6 +30,7 @@ scenes=${SCENES:-"bonsai engine aneurism"}
 lightings=${LIGHTS:-"key env"}
 limit=${TIMEOUT:-3600}
 envmap=${ENVMAP:-/work/shared/data/envmaps/venice_sunset_1k.hdr}
+export VOLUX_DATA=${VOLUX_DATA:-/work/shared/data}
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
 mkdir -p "$out"
 jsonl="$out/pareto.jsonl"

@@ -17,6 +17,7 @@
  *     1/spp past the ends).
  *
  * Output: `volux bench --json` lines (DESIGN §4). Metrics:
+ * Times (ms) are process CPU time by default (--clock).
  *   pathtrace: pareto_reference_ms, pareto_series (value rel_mse; spp, ms,
  *     max_depth), pareto_ref_floor (the reference's own noise in rel_mse,
  *     ≈ rel_mse(1 spp)/(ref_spp+1): errors near it are bounded by it);
@@ -25,7 +26,8 @@
  *     the series) per point, and for its best point pareto_speedup (S),
  *     pareto_speedup_full (S against the all-orders series with rel_mse_full:
  *     how long pathtrace takes to the technique's error against the true
- *     image), rel_mse_own, rel_mse_full.
+ *     image), pareto_speedup_frame (render times only, both prepared: the
+ *     speed-up of a camera orbit), rel_mse_own, rel_mse_full.
  * --reference-dir DIR keeps the references as PFM files and reuses them.
  */
 #include <math.h>
@@ -33,6 +35,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 
 #include "pareto_math.h"
 #include "scene_args.h"
@@ -41,7 +44,7 @@
 #define MAX_TECHS 16
 
 typedef struct pareto_opts {
-    int json, ref_spp, series_spp, tech_spp;
+    int json, ref_spp, series_spp, tech_spp, cpu_clock;
     const char *techniques;
     const char *ref_dir;
 } pareto_opts;
@@ -64,6 +67,18 @@ static void emit(const pareto_out *o, const char *technique, const char *metric,
     fflush(stdout);
 }
 
+/* The clock every time of the plane is read on: the process's CPU time
+ * (all threads; --clock cpu, the default: robust against other jobs on a
+ * shared machine, and the same thread count for every technique keeps the
+ * ratios) or the wall clock (--clock wall). */
+static int use_cpu_clock = 1;
+static double clock_now_ms(void) {
+    if (!use_cpu_clock) return cli_now_ms();
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
+}
+
 /* The model a technique's own error is measured against: 1 = single
  * scattering, 0 = all orders (issue 26). */
 static int own_single(const char *t) {
@@ -74,7 +89,7 @@ static int own_single(const char *t) {
 static volux_status set_render(volux_scene *scene, const volux_render_settings *base, const char *technique,
                                int max_depth, int spp, uint64_t seed) {
     volux_render_settings rs = *base;
-    snprintf(rs.technique, sizeof rs.technique, "%s", technique);
+    snprintf(rs.technique, sizeof rs.technique, "%.*s", (int)sizeof rs.technique - 1, technique);
     rs.max_depth = max_depth;
     rs.spp = spp;
     rs.seed = seed;
@@ -86,10 +101,10 @@ static volux_status set_render(volux_scene *scene, const volux_render_settings *
 /* Creates t and finishes its deferred work; *ms the wall time of both. */
 static volux_status prepare(volux_context *ctx, volux_scene *scene, const char *name, volux_technique **t,
                             double *ms) {
-    double t0 = cli_now_ms();
+    double t0 = clock_now_ms();
     volux_status st = volux_technique_create(ctx, name, scene, t);
     for (int more = 1; !st && more;) st = volux_technique_refine(*t, scene, NULL, &more);
-    *ms = cli_now_ms() - t0;
+    *ms = clock_now_ms() - t0;
     return st;
 }
 
@@ -102,7 +117,7 @@ static volux_status render_to(volux_context *ctx, volux_technique *t, volux_scen
     volux_render_report rep;
     volux_status st = volux_render(t, scene, fb, &lim, &rep);
     if (st) return st;
-    *ms += rep.ms;
+    *ms += use_cpu_clock ? rep.cpu_ms : rep.ms;
     volux_image img = {0};
     if ((st = volux_framebuffer_resolve(fb, &img))) return st;
     volux_image_error err;
@@ -134,7 +149,7 @@ static volux_status reference(volux_context *ctx, volux_scene *scene, const volu
     if (!st) {
         char extra[64];
         snprintf(extra, sizeof extra, "\"max_depth\":%d,\"spp\":%d", depth, p->ref_spp);
-        emit(o, "pathtrace", "pareto_reference_ms", prep + ms, "ms", extra);
+        emit(o, "pathtrace", "pareto_reference_ms", prep + ms, use_cpu_clock ? "cpu_ms" : "ms", extra);
     }
     if (!st && path[0]) st = volux_image_save(ctx, path, out, 0.0f);
     volux_framebuffer_destroy(fb);
@@ -194,25 +209,34 @@ static volux_status measure(volux_context *ctx, volux_scene *scene, const volux_
     if (!st) st = prepare(ctx, scene, name, &t, &prep);
     if (!st) st = volux_framebuffer_create(ctx, base->width, base->height, &fb);
     if (st) goto out;
-    emit(o, name, "prepare_ms", prep, "ms", NULL);
-    double ms = prep, best = -2.0, best_full = -1.0, best_own = 0.0, best_e_full = 0.0, best_ms = 0.0;
+    emit(o, name, "prepare_ms", prep, use_cpu_clock ? "cpu_ms" : "ms", NULL);
+    double ms = prep, best = -2.0, best_full = -1.0, best_frame = -1.0, best_own = 0.0, best_e_full = 0.0,
+           best_ms = 0.0;
     uint32_t best_spp = 0;
     for (uint32_t spp = 1; spp <= (uint32_t)max_spp; spp *= 2) {
         double e_own = 0.0, e_full = 0.0;
         if ((st = render_to(ctx, t, scene, fb, spp, &ms, own, &e_own, reff, &e_full, NULL))) break;
-        if (spp == 1) emit(o, name, "first_image_ms", ms - prep, "ms", NULL);
-        int where = 0, where_full = 0;
+        if (spp == 1) emit(o, name, "first_image_ms", ms - prep, use_cpu_clock ? "cpu_ms" : "ms", NULL);
+        int where = 0, where_full = 0, where_frame = 0;
         double S = pareto_speedup(so->p, so->n, so->prepare_ms, e_own, ms, &where);
+        /* Per frame, once both are prepared (a camera orbit): render times
+         * only, pathtrace's series without its preparation. */
+        pareto_point frames[MAX_SERIES];
+        for (int k = 0; k < so->n; k++)
+            frames[k] = (pareto_point){so->p[k].spp, so->p[k].ms - so->prepare_ms, so->p[k].rel_mse};
+        double S_frame = pareto_speedup(frames, so->n, 0.0, e_own, ms - prep, &where_frame);
         double S_full = pareto_speedup(sf->p, sf->n, sf->prepare_ms, e_full, ms, &where_full);
-        char extra[320];
+        char extra[384];
         snprintf(extra, sizeof extra,
                  "\"spp\":%u,\"ms\":%.3f,\"rel_mse_own\":%.6g,\"rel_mse_full\":%.6g,\"own_depth\":%d,"
-                 "\"pathtrace_ms\":%.3f,\"where\":%d,\"speedup_full\":%.6g",
-                 spp, ms, e_own, e_full, single ? 1 : base->max_depth, S > 0 ? S * ms : -1.0, where, S_full);
+                 "\"pathtrace_ms\":%.3f,\"where\":%d,\"speedup_full\":%.6g,\"speedup_frame\":%.6g",
+                 spp, ms, e_own, e_full, single ? 1 : base->max_depth, S > 0 ? S * ms : -1.0, where, S_full,
+                 S_frame);
         emit(o, name, "pareto_point", S, "x", extra);
         if (S > best) {
             best = S;
             best_full = S_full;
+            best_frame = S_frame;
             best_own = e_own;
             best_e_full = e_full;
             best_ms = ms;
@@ -224,6 +248,7 @@ static volux_status measure(volux_context *ctx, volux_scene *scene, const volux_
         snprintf(extra, sizeof extra, "\"spp\":%u,\"ms\":%.3f", best_spp, best_ms);
         emit(o, name, "pareto_speedup", best, "x", extra);
         emit(o, name, "pareto_speedup_full", best_full, "x", extra);
+        emit(o, name, "pareto_speedup_frame", best_frame, "x", extra);
         emit(o, name, "rel_mse_own", best_own, "", extra);
         emit(o, name, "rel_mse_full", best_e_full, "", extra);
     }
@@ -235,19 +260,20 @@ out:
 
 static void usage(FILE *f) {
     fprintf(f, "usage: volux bench SCENE.json --pareto [--json] [--techniques LIST] [--ref-spp N]\n"
-               "                   [--series-spp N] [--tech-spp N] [--reference-dir DIR]\n"
+               "                   [--series-spp N] [--tech-spp N] [--reference-dir DIR] [--clock cpu|wall]\n"
                "                   [scene options as for render]\n"
                "The error-time plane (issue 26, docs/CHOOSING.md): pathtrace references (single\n"
                "scattering and all orders, --ref-spp, default 1024), pathtrace's convergence series\n"
                "(spp 1, 2, 4, ... --series-spp, default 64), and per technique (default: ea shaded\n"
                "single ao ambient lightvol sh manylights guided) its prepare + first-image time, its\n"
                "error against its own model and the full one, and the equal-error speed-up S.\n"
-               "Progressive techniques are measured up to --tech-spp (default 16).\n");
+               "Progressive techniques are measured up to --tech-spp (default 16). Times are process\n"
+               "CPU ms (all threads; --clock cpu, the default: robust on a shared machine) or wall ms.\n");
 }
 
 int cli_bench_pareto(int argc, char **argv) {
     cli_scene_args args = {0};
-    pareto_opts p = {0, 1024, 64, 16, "ea,shaded,single,ao,ambient,lightvol,sh,manylights,guided", NULL};
+    pareto_opts p = {0, 1024, 64, 16, 1, "ea,shaded,single,ao,ambient,lightvol,sh,manylights,guided", NULL};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         long v;
@@ -261,6 +287,13 @@ int cli_bench_pareto(int argc, char **argv) {
         } else if (!strcmp(a, "--ref-spp") || !strcmp(a, "--series-spp") || !strcmp(a, "--tech-spp")) {
             if (!cli_parse_int("bench", a, i + 1 < argc ? argv[++i] : NULL, 1, 1 << 20, &v)) return CLI_USAGE;
             *(a[2] == 'r' ? &p.ref_spp : a[2] == 's' ? &p.series_spp : &p.tech_spp) = (int)v;
+        } else if (!strcmp(a, "--clock")) {
+            const char *c = i + 1 < argc ? argv[++i] : "";
+            if (strcmp(c, "cpu") && strcmp(c, "wall")) {
+                cli_eprintf("volux bench: --clock: expected 'cpu' or 'wall', got '%s'\n", c);
+                return CLI_USAGE;
+            }
+            p.cpu_clock = !strcmp(c, "cpu");
         } else if (!strcmp(a, "--techniques") || !strcmp(a, "--reference-dir")) {
             if (++i >= argc) {
                 cli_eprintf("volux bench: %s needs a value\n", a);
@@ -312,6 +345,7 @@ int cli_bench_pareto(int argc, char **argv) {
             return CLI_USAGE;
         }
     }
+    use_cpu_clock = p.cpu_clock;
     volux_context *ctx = cli_context(0);
     if (!ctx) return CLI_FAIL;
     volux_scene *scene = NULL;

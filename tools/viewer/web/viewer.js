@@ -169,14 +169,34 @@ function refresh() {
 
 // ---------------------------------------------------------------- technique
 
+// Which technique when, in one line each (measured: docs/CHOOSING.md).
+const TECHNIQUE_HINTS = {
+  ea: 'when: structure at a glance, every edit instant; no lighting at all',
+  shaded: 'when: instant surface-like shading; no shadows, no scattering',
+  pathtrace: 'when: the true image (all scattering); noisy at first, converges with time',
+  single: 'when: crisp one-bounce shadows after a short prepare; misses multiple scattering',
+  ao: 'when: a cheap soft-shadow look; occlusion only, darker than the truth',
+  ambient: 'when: soft multiple-scattering look at ray-casting speed; approximate brightness',
+  lightvol: 'when: many coloured lights edited live; one bounce through a light volume',
+  sh: 'when: light/camera edits re-render only (SH); long prepare, soft shadows',
+  manylights: 'when: multiple scattering noise-free at low spp; long preparation',
+  guided: 'when: environment-lit scenes, less noise than pathtrace per sample',
+};
+
 function refreshTechnique() {
   const sel = $('technique');
   if (!sel.options.length)
-    for (const t of techniques) sel.add(new Option(t.name, t.name));
+    for (const t of techniques) {
+      const o = new Option(t.name, t.name);
+      if (TECHNIQUE_HINTS[t.name]) o.title = TECHNIQUE_HINTS[t.name];
+      sel.add(o);
+    }
   const name = state.resolved.render.technique;
   sel.value = name;
   const info = techniques.find((t) => t.name === name);
-  $('technique-summary').textContent = info ? info.summary : '';
+  const hint = TECHNIQUE_HINTS[name];
+  $('technique-summary').textContent =
+    (info ? info.summary : '') + (hint ? ` — ${hint} (docs/CHOOSING.md)` : '');
   const box = $('params');
   box.replaceChildren();
   if (!info) return;
