@@ -160,6 +160,76 @@ static void test_bench_pareto_rejects_bad_technique(void **state) {
     assert_non_null(strstr(err, "'nope'"));
 }
 
+/* The rule on a table of its own: more budget never means a larger
+ * expected error, a choice that fits is predicted within the budget, and
+ * nothing fitting gives the fastest row. */
+static void test_auto_rule(void **state) {
+    (void)state;
+    const pareto_auto_row rows[] = {
+        {"pathtrace", 1.0, 1000.0, 0.1, 1}, /* 1 ms/Mvoxel, 1 s per Mpixel and pass */
+        {"cheap", 5.0, 100.0, 0.05, 0},
+        {"slow", 100.0, 500.0, 0.002, 0},
+    };
+    pareto_auto_choice c;
+    assert_int_equal(pareto_auto_choose(rows, 3, 0.0, 1e6, 1e6, 64, &c), 0); /* no budget */
+    /* 1 Mvoxel, 1 Mpixel: cheap = 105 ms, slow = 600 ms, pathtrace = 1 + 1000·spp */
+    assert_int_equal(pareto_auto_choose(rows, 3, 50.0, 1e6, 1e6, 64, &c), 1);
+    assert_string_equal(c.technique, "cheap"); /* nothing fits: the fastest */
+    assert_int_equal(c.fits, 0);
+    pareto_auto_choose(rows, 3, 200.0, 1e6, 1e6, 64, &c);
+    assert_string_equal(c.technique, "cheap");
+    assert_int_equal(c.fits, 1);
+    pareto_auto_choose(rows, 3, 700.0, 1e6, 1e6, 64, &c);
+    assert_string_equal(c.technique, "slow");
+    /* 0.1/spp < 0.002 from 51 spp on: 51 passes = 51 001 ms */
+    pareto_auto_choose(rows, 3, 51001.0, 1e6, 1e6, 64, &c);
+    assert_string_equal(c.technique, "pathtrace");
+    assert_int_equal(c.spp, 51);
+    assert_true(c.predicted_ms <= 51001.0);
+    pareto_auto_choose(rows, 3, 1e9, 1e6, 1e6, 64, &c);
+    assert_int_equal(c.spp, 64); /* capped */
+    double last = INFINITY;
+    for (double b = 10.0; b < 1e8; b *= 1.7) {
+        pareto_auto_choose(rows, 3, b, 1e6, 1e6, 1 << 20, &c);
+        if (c.fits) assert_true(c.predicted_ms <= b);
+        assert_true(c.expected_error <= last);
+        last = c.expected_error;
+    }
+}
+
+/* `--technique auto` on the shipped scenes that need no data (scenes/
+ * demo.json, cloud_animation.json) with the measured table: the choice is
+ * a note; as the budget grows its expected error never rises and its
+ * predicted time stays within the budget; a huge budget gets pathtrace;
+ * no budget is a usage error naming render.time_ms. */
+static void test_auto_on_shipped_scenes(void **state) {
+    (void)state;
+    const char *scenes[] = {"demo.json", "cloud_animation.json"};
+    for (int k = 0; k < 2; k++) {
+        char args[4096];
+        const char *err = NULL;
+        double last = INFINITY;
+        const char *dump = tu_temp_path("auto_dump.json");
+        for (double b = 1.0; b <= 1e8; b *= 100.0) {
+            snprintf(args, sizeof args, "render '%s/scenes/%s' --technique auto --time-ms %g --dump-scene '%s'",
+                     VOLUX_SOURCE_DIR, scenes[k], b, dump);
+            assert_int_equal(tu_run_cli(args, &err), 0);
+            const char *note = strstr(err, "auto: chose ");
+            if (!note) fail_msg("no auto note: %s", err);
+            double predicted = after(note, "(predicted "), e = after(note, "expected rel_mse ");
+            assert_true(predicted > 0.0 && e > 0.0);
+            if (!strstr(note, "nothing fits")) assert_true(predicted <= b);
+            assert_true(e <= last * (1.0 + 1e-9));
+            last = e;
+            if (b == 1e8) assert_non_null(strstr(note, "auto: chose pathtrace"));
+        }
+        snprintf(args, sizeof args, "render '%s/scenes/%s' --technique auto -o '%s'", VOLUX_SOURCE_DIR, scenes[k],
+                 tu_temp_path("auto.png"));
+        assert_int_equal(tu_run_cli(args, &err), 2);
+        assert_non_null(strstr(err, "render.time_ms"));
+    }
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_loglog_interpolation_is_exact_on_a_power_law),
@@ -170,6 +240,8 @@ int main(void) {
         cmocka_unit_test(test_render_budget_counts_preparation),
         cmocka_unit_test(test_bench_pareto_runs),
         cmocka_unit_test(test_bench_pareto_rejects_bad_technique),
+        cmocka_unit_test(test_auto_rule),
+        cmocka_unit_test(test_auto_on_shipped_scenes),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
