@@ -179,6 +179,16 @@ def table(groups):
         cells = [fmt(metric(groups[k], t, "pareto_speedup_full")["value"], 2)
                  if metric(groups[k], t, "pareto_speedup_full") else "—" for t in techs]
         lines.append("| %s | %s | %s |" % (k[0], k[1], " | ".join(cells)))
+    lines += ["", "**Per frame, both prepared** (render times only: what a camera orbit sees once the "
+              "technique's caches exist; pathtrace's series without its preparation):", "",
+              "| scene | light | " + " | ".join("`%s`" % t for t in techs) + " |",
+              "|---|---|" + "---|" * len(techs)]
+    for k in keys:
+        cells = []
+        for t in techs:
+            r = metric(groups[k], t, "pareto_speedup_frame")
+            cells.append("—" if not r else ("**%s**" if r["value"] >= TARGET else "%s") % fmt(r["value"], 2))
+        lines.append("| %s | %s | %s |" % (k[0], k[1], " | ".join(cells)))
     lines += ["", "**Errors and times** (rel_mse own / full; prepare ms + first image ms):", "",
               "| scene | light | technique | rel_mse own | rel_mse full | prepare ms | first image ms | S |",
               "|---|---|---|---|---|---|---|---|"]
