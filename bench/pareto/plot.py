@@ -88,8 +88,9 @@ def svg_chart(key, rows, path):
     for e in range(y0, y1 + 1):
         o.append('<line x1="%d" y1="%.1f" x2="%d" y2="%.1f" stroke="#ddd"/>' % (L, Y(10 ** e), W - R, Y(10 ** e)))
         o.append('<text x="%d" y="%.1f" text-anchor="end">1e%d</text>' % (L - 5, Y(10 ** e) + 4, e))
-    o.append('<text x="%d" y="%d" text-anchor="middle">time: prepare + render (ms, log)</text>'
-             % ((L + W - R) // 2, H - 12))
+    unit = next((r["unit"] for r in rows if r["metric"] == "prepare_ms"), "ms").replace("_", " ")
+    o.append('<text x="%d" y="%d" text-anchor="middle">time: prepare + render (%s, log)</text>'
+             % ((L + W - R) // 2, H - 12, unit))
     o.append('<text x="15" y="%d" transform="rotate(-90 15 %d)" text-anchor="middle">rel_mse (log)</text>'
              % ((T + H - B) // 2, (T + H - B) // 2))
     o.append('<rect x="%d" y="%d" width="%d" height="%d" fill="none" stroke="#444"/>' % (L, T, W - L - R, H - T - B))
@@ -257,7 +258,7 @@ def auto_table(groups, path, commit):
             continue
         lines.append('    {"%s", %.4g, %.4g, %.4g, %d},' % (
             t, max(d["prep"]) if d["prep"] else 0.0, max(d["pass"]), statistics.median(d["err"]),
-            1 if t == "pathtrace" else 0))
+            1 if t in ("pathtrace", "guided") else 0))
     lines += ["};", "const int pareto_auto_table_rows = (int)(sizeof pareto_auto_table / sizeof pareto_auto_table[0]);", ""]
     with open(path, "w") as f:
         f.write("\n".join(lines))
