@@ -37,7 +37,7 @@ def load(path):
 def group(rows):
     g = {}
     for r in rows:
-        g.setdefault((r["name"], r["lighting"]), []).append(r)
+        g.setdefault((r["name"], r["lighting"], r["width"]), []).append(r)
     return g
 
 
@@ -81,7 +81,7 @@ def svg_chart(key, rows, path):
 
     o = ['<svg xmlns="http://www.w3.org/2000/svg" width="%d" height="%d" font-family="sans-serif" font-size="11">'
          % (W, H), '<rect width="100%" height="100%" fill="white"/>',
-         '<text x="%d" y="18" font-size="13">%s, %s light: error against time</text>' % (L, key[0], key[1])]
+         '<text x="%d" y="18" font-size="13">%s, %s light, %d²: error against time</text>' % (L, key[0], key[1], key[2])]
     for e in range(x0, x1 + 1):
         o.append('<line x1="%.1f" y1="%d" x2="%.1f" y2="%d" stroke="#ddd"/>' % (X(10 ** e), T, X(10 ** e), H - B))
         o.append('<text x="%.1f" y="%d" text-anchor="middle">%s</text>' % (X(10 ** e), H - B + 15, fmt(10 ** e)))
@@ -137,8 +137,8 @@ def svg_chart(key, rows, path):
 
 
 def table(groups):
-    keys = sorted(groups, key=lambda k: (["bonsai", "engine", "aneurism"].index(k[0])
-                                         if k[0] in ("bonsai", "engine", "aneurism") else 9, k[0], k[1]))
+    keys = sorted(groups, key=lambda k: (k[2], ["bonsai", "engine", "aneurism"].index(k[0])
+                                         if k[0] in ("bonsai", "engine", "aneurism") else 9, k[0], k[1] != "key", k[1]))
     techs = [t for t in ORDER if any(r["technique"] == t for k in keys for r in groups[k])]
 
     def metric(rows, t, m):
@@ -150,8 +150,8 @@ def table(groups):
     lines = ["**Equal-error speed-up S** = T_pathtrace(e) / T_technique, e the technique's error against "
              "a converged pathtrace of its own model (bold: S ≥ %g; ^: the error lies below pathtrace's "
              "measured series, extrapolated as 1/spp; v: above its 1-spp point, a fractional spp)." % TARGET, "",
-             "| scene | light | " + " | ".join("`%s`" % t for t in techs) + " |",
-             "|---|---|" + "---|" * len(techs)]
+             "| scene | light | size | " + " | ".join("`%s`" % t for t in techs) + " |",
+             "|---|---|---|" + "---|" * len(techs)]
     met = total = 0
     for k in keys:
         cells = []
@@ -170,29 +170,29 @@ def table(groups):
                 if r["value"] >= TARGET:
                     met += 1
             cells.append("**%s**" % s if r["value"] >= TARGET else s)
-        lines.append("| %s | %s | %s |" % (k[0], k[1], " | ".join(cells)))
+        lines.append("| %s | %s | %d² | %s |" % (k[0], k[1], k[2], " | ".join(cells)))
     lines += ["", "Met (S ≥ %g, ea/shaded excepted): %d of %d." % (TARGET, met, total), ""]
     lines += ["**S against the full multiple-scattering image** (the technique's error against the "
               "all-orders reference; pathtrace's all-orders series):", "",
-              "| scene | light | " + " | ".join("`%s`" % t for t in techs) + " |",
-              "|---|---|" + "---|" * len(techs)]
+              "| scene | light | size | " + " | ".join("`%s`" % t for t in techs) + " |",
+              "|---|---|---|" + "---|" * len(techs)]
     for k in keys:
         cells = [fmt(metric(groups[k], t, "pareto_speedup_full")["value"], 2)
                  if metric(groups[k], t, "pareto_speedup_full") else "—" for t in techs]
-        lines.append("| %s | %s | %s |" % (k[0], k[1], " | ".join(cells)))
+        lines.append("| %s | %s | %d² | %s |" % (k[0], k[1], k[2], " | ".join(cells)))
     lines += ["", "**Per frame, both prepared** (render times only: what a camera orbit sees once the "
               "technique's caches exist; pathtrace's series without its preparation):", "",
-              "| scene | light | " + " | ".join("`%s`" % t for t in techs) + " |",
-              "|---|---|" + "---|" * len(techs)]
+              "| scene | light | size | " + " | ".join("`%s`" % t for t in techs) + " |",
+              "|---|---|---|" + "---|" * len(techs)]
     for k in keys:
         cells = []
         for t in techs:
             r = metric(groups[k], t, "pareto_speedup_frame")
             cells.append("—" if not r else ("**%s**" if r["value"] >= TARGET else "%s") % fmt(r["value"], 2))
-        lines.append("| %s | %s | %s |" % (k[0], k[1], " | ".join(cells)))
+        lines.append("| %s | %s | %d² | %s |" % (k[0], k[1], k[2], " | ".join(cells)))
     lines += ["", "**Errors and times** (rel_mse own / full; prepare ms + first image ms):", "",
-              "| scene | light | technique | rel_mse own | rel_mse full | prepare ms | first image ms | S |",
-              "|---|---|---|---|---|---|---|---|"]
+              "| scene | light | size | technique | rel_mse own | rel_mse full | prepare ms | first image ms | S |",
+              "|---|---|---|---|---|---|---|---|---|"]
     for k in keys:
         for t in techs:
             s = metric(groups[k], t, "pareto_speedup")
@@ -200,15 +200,15 @@ def table(groups):
                 continue
             p = metric(groups[k], t, "prepare_ms")
             f = metric(groups[k], t, "first_image_ms")
-            lines.append("| %s | %s | `%s` | %s | %s | %.0f | %.0f | %s |" % (
-                k[0], k[1], t, fmt(metric(groups[k], t, "rel_mse_own")["value"]),
+            lines.append("| %s | %s | %d² | `%s` | %s | %s | %.0f | %.0f | %s |" % (
+                k[0], k[1], k[2], t, fmt(metric(groups[k], t, "rel_mse_own")["value"]),
                 fmt(metric(groups[k], t, "rel_mse_full")["value"]), p["value"] if p else -1,
                 f["value"] if f else -1, fmt(s["value"], 2)))
         pt = [r for r in groups[k] if r["technique"] == "pathtrace" and r["metric"] == "pareto_series"]
         for depth in sorted({r["max_depth"] for r in pt}):
             s = sorted((r["spp"], r["ms"], r["value"]) for r in pt if r["max_depth"] == depth)
-            lines.append("| %s | %s | pathtrace d%d | %s | | | | series: %s |" % (
-                k[0], k[1], depth, fmt(s[0][2]), ", ".join("%d spp %.0f ms %.2g" % x for x in s)))
+            lines.append("| %s | %s | %d² | pathtrace d%d | %s | | | | series: %s |" % (
+                k[0], k[1], k[2], depth, fmt(s[0][2]), ", ".join("%d spp %.0f ms %.2g" % x for x in s)))
     return "\n".join(lines) + "\n", keys
 
 
@@ -222,7 +222,7 @@ def auto_table(groups, path, commit):
     against the all-orders reference (pathtrace: its 1-spp point)."""
     import statistics
     per = {}
-    for (name, lighting), rows in groups.items():
+    for (name, lighting, _), rows in groups.items():
         mv = VOXELS.get(name, 0) * 1e-6
         for r in rows:
             mp = r["width"] * r["height"] * 1e-6
@@ -272,7 +272,7 @@ def main():
     groups = group(load(os.path.join(out, "pareto.jsonl")))
     charts = []
     for k, rows in groups.items():
-        p = os.path.join(out, "%s_%s.svg" % k)
+        p = os.path.join(out, "%s_%s_%d.svg" % k)
         if svg_chart(k, rows, p):
             charts.append(p)
     md, keys = table(groups)
@@ -294,7 +294,7 @@ def main():
         if a in text and b in text:
             run = open(os.path.join(out, "run.txt")).read().strip() if os.path.exists(
                 os.path.join(out, "run.txt")) else ""
-            pics = "\n".join("![%s, %s](images/choosing/%s_%s.svg)" % (k[0], k[1], k[0], k[1]) for k in keys)
+            pics = "\n".join("![%s, %s, %d²](images/choosing/%s_%s_%d.svg)" % (k + k) for k in keys)
             body = "```\n%s\n```\n\n%s\n\n%s" % (run, md, pics)
             text = text[:text.index(a) + len(a)] + "\n" + body + "\n" + text[text.index(b):]
             with open(doc, "w") as f:
