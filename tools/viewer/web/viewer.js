@@ -173,14 +173,14 @@ function refresh() {
 const TECHNIQUE_HINTS = {
   ea: 'when: structure at a glance, every edit instant; no lighting at all',
   shaded: 'when: instant surface-like shading; no shadows, no scattering',
-  pathtrace: 'when: the true image (all scattering); noisy at first, converges with time',
-  single: 'when: crisp one-bounce shadows after a short prepare; misses multiple scattering',
+  pathtrace: 'when: one image or frequent TF edits; the truth, noise falls with time (no preparation)',
+  single: 'when: orbiting a fixed scene with crisp one-bounce shadows; seconds to prepare',
   ao: 'when: a cheap soft-shadow look; occlusion only, darker than the truth',
-  ambient: 'when: soft multiple-scattering look at ray-casting speed; approximate brightness',
-  lightvol: 'when: many coloured lights edited live; one bounce through a light volume',
-  sh: 'when: light/camera edits re-render only (SH); long prepare, soft shadows',
-  manylights: 'when: multiple scattering noise-free at low spp; long preparation',
-  guided: 'when: environment-lit scenes, less noise than pathtrace per sample',
+  ambient: 'when: orbiting with a multiple-scattering look; fast to prepare, approximate brightness',
+  lightvol: 'when: orbiting or editing lights; the best per-frame speed-up measured',
+  sh: 'when: many light/camera edits on a fixed TF; seconds to prepare',
+  manylights: 'when: a noise-free multiple-scattering still; slowest to prepare',
+  guided: 'when: HDR-lit scenes over many passes; with only a key light it is pathtrace',
 };
 
 function refreshTechnique() {
