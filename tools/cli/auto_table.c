@@ -20,6 +20,5 @@ const pareto_auto_row pareto_auto_table[] = {
     {"lightvol", 263.5, 5173, 0.008394, 0},
     {"sh", 434.9, 5339, 0.009152, 0},
     {"manylights", 4178, 2.685e+05, 0.01969, 0},
-    {"guided", 248.9, 1892, 0.1821, 1},
 };
 const int pareto_auto_table_rows = (int)(sizeof pareto_auto_table / sizeof pareto_auto_table[0]);
