@@ -82,6 +82,7 @@ static void emit_warnings(const bench_out *o, const bench_messages *m) {
 static void usage(FILE *f) {
     fprintf(f, "usage: volux bench SCENE.json [--technique T] [--repeat N] [--edit KIND]... [--json]\n"
                "                   [--reference IMG] [scene options as for render]\n"
+               "       volux bench SCENE.json --pareto ...  (the error-time plane; --pareto --help)\n"
                "                   [--distribute image|data] (under mpirun: distributed frame timings;\n"
                "                   data: also the bytes of the volume each rank holds)\n"
                "edits (default: tf camera; 'all' for every one):\n");
@@ -138,6 +139,8 @@ int cli_bench(int argc, char **argv) {
         if (!strcmp(argv[i], "--distribute") && !dist_parse_mode("bench", i + 1 < argc ? argv[i + 1] : NULL, &distribute))
             return CLI_USAGE;
     if (distribute || dist_launched()) return cli_bench_distributed(argc, argv, distribute);
+    for (int i = 1; i < argc; i++)
+        if (!strcmp(argv[i], "--pareto")) return cli_bench_pareto(argc, argv);
     cli_scene_args args = {0};
     const volux_edit *edits[MAX_EDITS];
     int n_edits = 0, json = 0, repeat = 5;

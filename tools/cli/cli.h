@@ -24,6 +24,8 @@ int cli_bench(int argc, char **argv);
 /* `volux bench` under mpirun / --distribute (bench_distributed.c);
  * distribute_mode is a dist_mode (tools/mpi/distribute.h). */
 int cli_bench_distributed(int argc, char **argv, int distribute_mode);
+/* `volux bench --pareto` (bench_pareto.c): the error-time plane, issue 26. */
+int cli_bench_pareto(int argc, char **argv);
 int cli_techniques(int argc, char **argv);
 int cli_ambient_table(int argc, char **argv);
 int cli_serve(int argc, char **argv); /* tools/viewer/serve.c */

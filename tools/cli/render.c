@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "tools/mpi/distribute.h"
+#include "pareto_math.h"
 #include "scene_args.h"
 
 static void usage(FILE *f) {
@@ -20,6 +21,8 @@ static void usage(FILE *f) {
             "scene: a transfer function from the histogram, an orbit camera, one key light, `shaded`.\n"
             "--dump-scene writes the scene as read (after --set and defaults) as JSON; without -o it\n"
             "only writes that.\n"
+            "--time-ms counts the technique's preparation (creating or updating its caches) too:\n"
+            "the render gets what is left of the budget, or one pass when preparing spent it.\n"
             "Non-progressive techniques (ea, shaded, ...) give the same image for every sample: spp > 1\n"
             "renders that many jittered passes (anti-aliasing). Ctrl-C (or SIGTERM) stops a render and\n"
             "writes the samples so far (spp in the message and in PNG/EXR metadata), exit 130 (143);\n"
@@ -195,7 +198,25 @@ int cli_render(int argc, char **argv) {
         }
         if ((rc = dist_agree("render", ctx, st))) goto done;
         dist_timing timing;
-        st = mode == DIST_DATA ? dist_render_data(tech, scene, fb, &timing) : dist_render_image(tech, scene, fb, &timing);
+        /* --time-ms covers the preparation above too (issue 26: a 120 s
+         * budget once ran 222 s): the render gets what is left of it, and
+         * one complete pass when the preparation used it all. Under mpirun
+         * the time limit does not apply (see usage). */
+        int one_pass = 0;
+        double left_ms = pareto_remaining_budget(rs->time_ms, prepare_ms, &one_pass);
+        if (rs->time_ms > 0.0 && mode == DIST_NONE && dist_size() == 1) {
+            volux_render_limits lim = {one_pass ? 1u : (uint32_t)rs->spp, left_ms, rs->target_error};
+            if (one_pass && !args.quiet)
+                cli_eprintf("volux render: note: preparing took %.0f ms of the %g ms budget; rendering one pass\n",
+                        prepare_ms, rs->time_ms);
+            memset(&timing, 0, sizeof timing);
+            volux_render_report rep = {0};
+            st = volux_render(tech, scene, fb, &lim, &rep);
+            timing.render_ms = timing.rank_render_ms_min = timing.rank_render_ms_max = rep.ms;
+        } else {
+            st = mode == DIST_DATA ? dist_render_data(tech, scene, fb, &timing)
+                                   : dist_render_image(tech, scene, fb, &timing);
+        }
         int stopped = st == VOLUX_ERR_CANCELLED && cli_interrupted();
         if (stopped && volux_framebuffer_spp(fb) == 0) {
             cli_eprintf("volux render: interrupted before the first sample of every pixel; nothing written\n");
@@ -247,6 +268,9 @@ int cli_render(int argc, char **argv) {
                 if (all_steps) cli_eprintf("step %d/%d: ", step, last + 1);
                 cli_eprintf("%s %dx%d, %u spp%s, %s %.1f ms, render %.1f ms", rs->technique, rs->width,
                         rs->height, spp, what, step == first ? "prepare" : "update", prepare_ms, timing.render_ms);
+                if (rs->time_ms > 0.0 && dist_size() == 1)
+                    cli_eprintf(" (budget %g ms: %.1f ms left after preparing%s)", rs->time_ms, left_ms,
+                            one_pass ? ", spent: one pass" : "");
                 if (dist_size() > 1)
                     cli_eprintf(" (%d ranks, %.1f-%.1f ms each, composite %.1f ms)", dist_size(),
                             timing.rank_render_ms_min, timing.rank_render_ms_max, timing.composite_ms);

@@ -241,6 +241,14 @@ int cli_load_scene_quiet(const char *cmd, volux_context *ctx, const cli_scene_ar
     }
     volux_scene_json_free(ctx, dump);
     const char *tech = volux_scene_render(scene)->technique;
+    if (!strcmp(tech, "auto")) {
+        int rc = cli_resolve_auto(scene, in, msg, msg_size);
+        if (rc) {
+            volux_scene_destroy(scene);
+            return rc;
+        }
+        tech = volux_scene_render(scene)->technique;
+    }
     if (!volux_technique_info_find(tech)) {
         char names[256];
         cli_technique_names(names, sizeof names);

@@ -39,6 +39,10 @@ int cli_load_scene(const char *cmd, volux_context *ctx, const cli_scene_args *a,
 int cli_load_scene_quiet(const char *cmd, volux_context *ctx, const cli_scene_args *a, volux_scene **out,
                          char *msg, size_t msg_size);
 /* The scene's notes, one "volux CMD: note: ..." line each, on stderr. */
+/* render.technique "auto" (auto.c): replaces it with the technique and spp
+ * of least expected error for render.time_ms and adds a note saying so.
+ * CLI_USAGE (message) without a budget. */
+int cli_resolve_auto(volux_scene *scene, const char *in, char *msg, size_t msg_size);
 void cli_print_notes(const char *cmd, const volux_scene *scene);
 
 /* All registered technique names, comma-separated (the nearest one to a

@@ -179,14 +179,34 @@ function refresh() {
 
 // ---------------------------------------------------------------- technique
 
+// Which technique when, in one line each (measured: docs/CHOOSING.md).
+const TECHNIQUE_HINTS = {
+  ea: 'when: structure at a glance, every edit instant; no lighting at all',
+  shaded: 'when: instant surface-like shading; no shadows, no scattering',
+  pathtrace: 'when: one image or frequent TF edits; the truth, noise falls with time (no preparation)',
+  single: 'when: orbiting a fixed scene with crisp one-bounce shadows; seconds to prepare',
+  ao: 'when: a cheap soft-shadow look; occlusion only, darker than the truth',
+  ambient: 'when: orbiting with a multiple-scattering look; fast to prepare, approximate brightness',
+  lightvol: 'when: orbiting or editing lights; the best per-frame speed-up measured',
+  sh: 'when: many light/camera edits on a fixed TF; seconds to prepare',
+  manylights: 'when: a noise-free multiple-scattering still; slowest to prepare',
+  guided: 'when: HDR-lit scenes over many passes; with only a key light it is pathtrace',
+};
+
 function refreshTechnique() {
   const sel = $('technique');
   if (!sel.options.length)
-    for (const t of techniques) sel.add(new Option(t.name, t.name));
+    for (const t of techniques) {
+      const o = new Option(t.name, t.name);
+      if (TECHNIQUE_HINTS[t.name]) o.title = TECHNIQUE_HINTS[t.name];
+      sel.add(o);
+    }
   const name = state.resolved.render.technique;
   sel.value = name;
   const info = techniques.find((t) => t.name === name);
-  $('technique-summary').textContent = info ? info.summary : '';
+  const hint = TECHNIQUE_HINTS[name];
+  $('technique-summary').textContent =
+    (info ? info.summary : '') + (hint ? ` — ${hint} (docs/CHOOSING.md)` : '');
   const box = $('params');
   box.replaceChildren();
   if (!info) return;
