@@ -56,8 +56,9 @@ volux_status volux_framebuffer_create(volux_context *ctx, int width, int height,
         volux_mm_format_bytes(limit, l, sizeof l);
         return volux_error(ctx, VOLUX_ERR_LIMIT,
                            "framebuffer %dx%d: it and its image need an estimated %s, with the %s already allocated "
-                           "more than the memory limit of %s (%llu bytes); lower the image size or raise the limit",
-                           width, height, a, b, l, (unsigned long long)limit);
+                           "more than the memory limit of %s (%llu bytes%s); lower the image size or raise the limit",
+                           width, height, a, b, l, (unsigned long long)limit,
+                           volux_context_memory_limit_is_default(ctx) ? ", 80% of physical memory" : "");
     }
     volux_framebuffer *fb = volux_calloc(ctx, 1, sizeof *fb);
     if (!fb) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for a framebuffer");

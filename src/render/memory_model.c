@@ -106,6 +106,8 @@ void volux_mm_format_bytes(uint64_t b, char *out, size_t n) {
     else snprintf(out, n, "%llu bytes", (unsigned long long)b);
 }
 
+int volux_context_memory_limit_is_default(const volux_context *ctx) { return ctx->memory_limit == 0; }
+
 volux_status volux_memory_check(volux_context *ctx, const char *who, const volux_memory_estimate *e) {
     uint64_t limit = volux_context_memory_limit(ctx);
     if (e->total <= limit) return VOLUX_OK;
@@ -120,5 +122,5 @@ volux_status volux_memory_check(volux_context *ctx, const char *who, const volux
                        "framebuffer and image %s), more than the memory limit of %s (%llu bytes%s); lower the "
                        "image size or the technique's cache resolution, or raise the limit",
                        who, t, (unsigned long long)e->total, vol, tech, fb, l, (unsigned long long)limit,
-                       ctx->memory_limit ? "" : ", 80% of physical memory");
+                       volux_context_memory_limit_is_default(ctx) ? ", 80% of physical memory" : "");
 }

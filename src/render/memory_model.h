@@ -51,6 +51,8 @@ int volux_mm_lut_entries(const volux_scene *scene);
 /* Macrocells of the volume (8³ cells each). */
 uint64_t volux_mm_macrocells(const int dims[3]);
 
+/* 1 while the context uses the default limit (for messages). */
+int volux_context_memory_limit_is_default(const volux_context *ctx);
 /* "12.3 GB" (decimal units). */
 void volux_mm_format_bytes(uint64_t bytes, char *out, size_t n);
 

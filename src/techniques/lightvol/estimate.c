@@ -6,6 +6,8 @@
  * the largest slice per light of the largest pass), three medium slices,
  * per-thread rows, the bricked copy of the volume, the gradient cache with
  * local shading, the per-slot records. */
+#include <string.h>
+
 #include "core/parallel.h"
 #include "lightvol.h"
 #include "render/memory_model.h"
@@ -34,11 +36,28 @@ uint64_t volux_lightvol_estimate_bytes(const volux_scene *scene, const volux_tec
     if (a12 > area) area = a12;
     int mmax = m[0] > m[1] ? m[0] : m[1];
     if (m[2] > mmax) mmax = m[2];
+    /* slice buffers for the largest pass: coherent propagation sweeps the
+     * lights of one group together (at most max_lights_per_pass), so count
+     * the lights per group; a positional light may reach every group */
     volux_mm_lights l = volux_mm_count_lights(scene);
     int env_dirs = (int)volux_technique_param(scene, cls, "env_directions");
-    int items = l.direct + (l.env && env_dirs > 0 ? env_dirs : 0);
+    int per_group[LV_GROUPS] = {0};
+    float f[LV_GROUPS];
+    for (int slot = 0; slot < l.slots; slot++) {
+        const volux_light_desc *ld = volux_scene_light(scene, slot);
+        if (!ld || !ld->enabled || ld->type == VOLUX_LIGHT_ENVIRONMENT) continue;
+        unsigned mask = ld->type == VOLUX_LIGHT_DIRECTIONAL ? lv_face_weights(v3_normalize(ld->direction), f) : 0x3fu;
+        for (int g = 0; g < LV_GROUPS; g++) per_group[g] += (mask >> g) & 1u;
+    }
+    for (int k = 0; l.env && k < env_dirs; k++) {
+        unsigned mask = lv_face_weights(v3_scale(volux_fibonacci_dir(k, env_dirs), -1.0f), f);
+        for (int g = 0; g < LV_GROUPS; g++) per_group[g] += (mask >> g) & 1u;
+    }
+    int entries = 0;
+    for (int g = 0; g < LV_GROUPS; g++) entries = per_group[g] > entries ? per_group[g] : entries;
     int per_pass = (int)volux_technique_param(scene, cls, "max_lights_per_pass");
-    int entries = items < per_pass ? items : per_pass;
+    if (strcmp(volux_technique_param_string(scene, cls, "propagation"), "coherent") != 0) per_pass = 1;
+    if (entries > per_pass) entries = per_pass;
     if (entries > 0) {
         const volux_render_settings *rs = volux_scene_render(scene);
         uint64_t threads = (uint64_t)(rs->threads > 0 ? rs->threads : volux_parallel_max_threads());
