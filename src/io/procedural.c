@@ -318,7 +318,7 @@ static void fill_u8(volux_volume *v, const int n[3], const int lo[3], field_fn f
 }
 
 static volux_status procedural(volux_context *ctx, const char *name, const int dims[3], uint64_t seed, double time,
-                               const volux_volume_region *region, volux_volume **out) {
+                               const volux_volume_region *region, int exhaustive, volux_volume **out) {
     int which = -1;
     for (size_t i = 0; name && i < sizeof fields / sizeof fields[0]; i++)
         if (strcmp(name, fields[i].name) == 0) which = (int)i;
@@ -351,7 +351,7 @@ static volux_status procedural(volux_context *ctx, const char *name, const int d
     }
     if (fn) {
         field_params fp = {seed, time};
-        fill_u8(v, dims, lo, fn, fields[which].spans, &fp, volux_context_threads(ctx));
+        fill_u8(v, dims, lo, fn, exhaustive ? NULL : fields[which].spans, &fp, volux_context_threads(ctx));
     } else {
         size_t count = (size_t)sub[0] * (size_t)sub[1] * (size_t)sub[2];
         float *f = v->data;
@@ -371,13 +371,18 @@ static volux_status procedural(volux_context *ctx, const char *name, const int d
 
 volux_status volux_volume_procedural_at(volux_context *ctx, const char *name, const int dims[3], uint64_t seed,
                                         double time, volux_volume **out) {
-    return procedural(ctx, name, dims, seed, time, NULL, out);
+    return procedural(ctx, name, dims, seed, time, NULL, 0, out);
 }
 
 volux_status volux_volume_procedural_region(volux_context *ctx, const char *name, const int dims[3], uint64_t seed,
                                             const volux_volume_region *region, volux_volume **out) {
     if (!region) return volux_error(ctx, VOLUX_ERR_INVALID, "procedural: region is NULL");
-    return procedural(ctx, name, dims, seed, 0.0, region, out);
+    return procedural(ctx, name, dims, seed, 0.0, region, 0, out);
+}
+
+volux_status volux_procedural_exhaustive(volux_context *ctx, const char *name, const int dims[3], uint64_t seed,
+                                         const volux_volume_region *region, volux_volume **out) {
+    return procedural(ctx, name, dims, seed, 0.0, region, 1, out);
 }
 
 volux_status volux_volume_procedural(volux_context *ctx, const char *name, const int dims[3], uint64_t seed,
