@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Tables, fitted exponents and the log-log plot of bench/scale/run.sh output.
 
 Usage: tables.py SCALE.jsonl [PLOT.png]
