@@ -141,6 +141,20 @@ VOLUX_API int volux_context_threads(const volux_context *ctx);
 VOLUX_API void volux_context_set_progress(volux_context *ctx, volux_progress_fn fn, void *user);
 VOLUX_API void volux_context_set_message(volux_context *ctx, volux_message_fn fn, void *user);
 VOLUX_API uint64_t volux_context_max_bytes(const volux_context *ctx);
+/* The memory budget of a render (docs/SCALE.md): before a technique
+ * instance allocates anything, volux_technique_create estimates what the
+ * render will hold (volume, base, technique caches, framebuffer and
+ * resolved image at the scene's render size) and refuses with
+ * VOLUX_ERR_LIMIT, naming the estimate and the limit, when it exceeds this
+ * many bytes; volux_framebuffer_create checks what the context already
+ * holds plus the framebuffer likewise. 0 selects the default, 80 % of
+ * physical memory (volux_context_default_memory_limit); UINT64_MAX turns
+ * the check off. Separate from max_bytes, the cap on one allocation. */
+VOLUX_API void volux_context_set_memory_limit(volux_context *ctx, uint64_t bytes);
+/* The limit in force (the default resolved). */
+VOLUX_API uint64_t volux_context_memory_limit(const volux_context *ctx);
+/* 80 % of this machine's physical memory (UINT64_MAX if unknown). */
+VOLUX_API uint64_t volux_context_default_memory_limit(void);
 /* Bytes currently allocated through the context (for memory reports); the
  * context's own storage (itself, its cache folder name) is not counted. */
 VOLUX_API uint64_t volux_context_bytes_in_use(const volux_context *ctx);

@@ -133,6 +133,21 @@ VOLUX_API int volux_technique_stats(const volux_technique *t, volux_technique_st
 VOLUX_API const volux_technique_info *volux_technique_info_of(const volux_technique *t);
 /* Bytes held by the instance's state and caches. */
 VOLUX_API size_t volux_technique_memory_bytes(const volux_technique *t);
+
+/* What a render of `scene` with technique `name` (NULL: the scene's
+ * render.technique) will hold, estimated from the scene before anything
+ * is allocated (docs/SCALE.md): the volume as stored, the instance (state
+ * and shared base), the technique's own caches, the framebuffer and the
+ * resolved image at render.width × height. instance + technique is the
+ * model of volux_technique_memory_bytes after creation. volux_technique_create
+ * refuses (VOLUX_ERR_LIMIT) a render whose total exceeds the context's
+ * memory limit (volux_context_set_memory_limit). */
+typedef struct volux_memory_estimate {
+    uint64_t volume, instance, technique, framebuffer, image;
+    uint64_t total; /* their sum */
+} volux_memory_estimate;
+VOLUX_API volux_status volux_technique_estimate_memory(volux_context *ctx, const char *name, const volux_scene *scene,
+                                                       volux_memory_estimate *out);
 VOLUX_API void volux_technique_destroy(volux_technique *t);
 
 #ifdef __cplusplus

@@ -4,6 +4,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 #include <sys/mman.h>
 
 #include "context_internal.h"
@@ -124,6 +125,22 @@ void volux_context_set_message(volux_context *ctx, volux_message_fn fn, void *us
     ctx->message_user = user;
 }
 uint64_t volux_context_max_bytes(const volux_context *ctx) { return ctx->max_bytes; }
+void volux_context_set_memory_limit(volux_context *ctx, uint64_t bytes) { ctx->memory_limit = bytes; }
+
+uint64_t volux_context_default_memory_limit(void) {
+    /* 80 % of physical memory: the rest is the OS, the page cache the
+     * volume file was read through, and allocator slack the model does not
+     * count (docs/SCALE.md). MemAvailable is not used: it moves with every
+     * other process, so the same render would pass or fail by chance. */
+    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    if (pages <= 0 || page <= 0) return UINT64_MAX;
+    return (uint64_t)((double)pages * (double)page * 0.8);
+}
+
+uint64_t volux_context_memory_limit(const volux_context *ctx) {
+    return ctx->memory_limit ? ctx->memory_limit : volux_context_default_memory_limit();
+}
+
 uint64_t volux_context_bytes_in_use(const volux_context *ctx) {
     return __atomic_load_n(&ctx->bytes_in_use, __ATOMIC_RELAXED);
 }

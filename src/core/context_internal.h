@@ -30,6 +30,7 @@ struct volux_context {
     char *cache_dir;       /* never NULL; "" = no disk cache. Allocated with
                               `alloc` but not counted in bytes_in_use, like
                               the context itself */
+    uint64_t memory_limit; /* 0: the default (volux_context_memory_limit) */
 };
 
 /* Allocations (NULL on failure, no message set: callers report). */

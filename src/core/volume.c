@@ -3,6 +3,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "parallel.h"
 #include "vecmath.h"
 #include "volume_internal.h"
 
@@ -144,6 +145,32 @@ volux_status volux_volume_create_storage(volux_context *ctx, const int dims[3], 
     return volume_new(ctx, dims, spacing, type, 0, out);
 }
 
+/* One z slab of macrocells: the nodes k ∈ [8·cz, 8·cz + 8] (a cell's
+ * closed range). Slabs write disjoint cells, so they run in parallel; a
+ * min/max is exact, so the cells are the same for any thread count. */
+static void macrocell_slab(void *user, int64_t cz64, int thread) {
+    (void)thread;
+    volux_volume *v = user;
+    const int *nc = v->cells, cz = (int)cz64;
+    int k0 = cz << VOLUX_CELL_SHIFT, k1 = k0 + VOLUX_CELL_SIZE;
+    if (k1 > v->dims[2] - 1) k1 = v->dims[2] - 1;
+    for (int k = k0; k <= k1; k++)
+        for (int j = 0; j < v->dims[1]; j++) {
+            int cy0 = (j - 1) >> VOLUX_CELL_SHIFT, cy1 = j >> VOLUX_CELL_SHIFT;
+            size_t row = volux_volume_index(v, 0, j, k);
+            for (int i = 0; i < v->dims[0]; i++) {
+                float s = volux_volume_raw_at(v, row + (size_t)i) + v->value_offset;
+                int cx0 = (i - 1) >> VOLUX_CELL_SHIFT, cx1 = i >> VOLUX_CELL_SHIFT;
+                for (int cy = cy0 < 0 ? 0 : cy0; cy <= cy1 && cy < nc[1]; cy++)
+                    for (int cx = cx0 < 0 ? 0 : cx0; cx <= cx1 && cx < nc[0]; cx++) {
+                        size_t c = ((size_t)cz * (size_t)nc[1] + (size_t)cy) * (size_t)nc[0] + (size_t)cx;
+                        if (s < v->cell_min[c]) v->cell_min[c] = s;
+                        if (s > v->cell_max[c]) v->cell_max[c] = s;
+                    }
+            }
+        }
+}
+
 static void build_macrocells(volux_volume *v) {
     int nc[3];
     for (int a = 0; a < 3; a++) {
@@ -157,24 +184,7 @@ static void build_macrocells(volux_volume *v) {
         v->cell_max[c] = -FLT_MAX;
     }
     /* Each node belongs to every cell whose closed range contains it. */
-    for (int k = 0; k < v->dims[2]; k++) {
-        int cz0 = (k - 1) >> VOLUX_CELL_SHIFT, cz1 = k >> VOLUX_CELL_SHIFT;
-        for (int j = 0; j < v->dims[1]; j++) {
-            int cy0 = (j - 1) >> VOLUX_CELL_SHIFT, cy1 = j >> VOLUX_CELL_SHIFT;
-            size_t row = volux_volume_index(v, 0, j, k);
-            for (int i = 0; i < v->dims[0]; i++) {
-                float s = volux_volume_raw_at(v, row + (size_t)i) + v->value_offset;
-                int cx0 = (i - 1) >> VOLUX_CELL_SHIFT, cx1 = i >> VOLUX_CELL_SHIFT;
-                for (int cz = cz0 < 0 ? 0 : cz0; cz <= cz1 && cz < nc[2]; cz++)
-                    for (int cy = cy0 < 0 ? 0 : cy0; cy <= cy1 && cy < nc[1]; cy++)
-                        for (int cx = cx0 < 0 ? 0 : cx0; cx <= cx1 && cx < nc[0]; cx++) {
-                            size_t c = ((size_t)cz * (size_t)nc[1] + (size_t)cy) * (size_t)nc[0] + (size_t)cx;
-                            if (s < v->cell_min[c]) v->cell_min[c] = s;
-                            if (s > v->cell_max[c]) v->cell_max[c] = s;
-                        }
-            }
-        }
-    }
+    volux_parallel_for(volux_context_threads(v->ctx), nc[2], macrocell_slab, v);
 }
 
 /* The bricked layout's shape, fixed at creation so that concurrent

@@ -14,6 +14,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "core/parallel.h"
 #include "core/rng.h"
 #include "core/volume_internal.h"
 #include "volume_formats.h"
@@ -166,6 +167,70 @@ static double cloud(double x, double y, double z, double vox, const void *user) 
     return 255.0 * clamp01((fbm - 0.36) * 3.0) * envelope;
 }
 
+/* ---------------------------------------------------------------- row intervals */
+
+/* Where a field can be nonzero along one row (fixed y, z): up to
+ * ROW_SPANS closed x intervals (normalized coordinates) outside which the
+ * field is exactly 0, so the generator writes 0 there without evaluating
+ * it. Conservative by construction: an interval may be too wide, never too
+ * narrow, so the volume is bit-identical to evaluating every node. */
+#define ROW_SPANS 6
+typedef int (*row_span_fn)(double y, double z, double vox, double span[ROW_SPANS][2]);
+
+/* The x interval of a ball of radius r about c on the row, or 0 if the row
+ * misses it: |p − c| ≤ r ⇔ |x − cx| ≤ √(r² − (y−cy)² − (z−cz)²). */
+static int ball_span(double y, double z, const double c[3], double r, double span[2]) {
+    double h = r * r - (y - c[1]) * (y - c[1]) - (z - c[2]) * (z - c[2]);
+    if (h < 0.0) return 0;
+    h = sqrt(h);
+    span[0] = c[0] - h;
+    span[1] = c[0] + h;
+    return 1;
+}
+
+/* Skin margin: shell() is exactly 0 at d ≥ 2 voxels; a little more for the
+ * rounding of the distances (|coordinates| ≤ 1, errors ~1e−15). */
+static double skin(double vox) { return 2.0 * vox + 1e-9; }
+
+/* phantom: each object's value is 0 where its distance exceeds the skin,
+ * and fmax(v, 0) = v, so outside every object's interval the value is 0.
+ * Torus about +Y (radii 0.45/0.16): at height y the tube's cross-section
+ * is the annulus 0.45 ± w, w = √((0.16+m)² − y²), in the xz plane. */
+static int phantom_spans(double y, double z, double vox, double span[ROW_SPANS][2]) {
+    double m = skin(vox);
+    int n = 0;
+    double w2 = (0.16 + m) * (0.16 + m) - y * y;
+    if (w2 >= 0.0) {
+        double w = sqrt(w2), ro = 0.45 + w, ri = 0.45 - w;
+        double ho = ro * ro - z * z;
+        if (ho >= 0.0) {
+            double xo = sqrt(ho), hi = ri > 0.0 ? ri * ri - z * z : -1.0;
+            if (hi > 0.0) { /* the hole splits the row in two */
+                double xi = sqrt(hi);
+                span[n][0] = -xo, span[n++][1] = -xi;
+                span[n][0] = xi, span[n++][1] = xo;
+            } else {
+                span[n][0] = -xo, span[n++][1] = xo;
+            }
+        }
+    }
+    static const double c1[3] = {0.72, 0.0, 0.0}, c2[3] = {0.0, 0.72, 0.0};
+    n += ball_span(y, z, c1, 0.2 + m, span[n]);
+    n += ball_span(y, z, c2, 0.12 + m, span[n]);
+    /* cube at (0, 0, 0.72), half size 0.12: its distance exceeds the
+     * largest axis excess, so outside the slab box it is beyond the skin */
+    double hc = 0.12 + m;
+    if (fabs(y) <= hc && fabs(z - 0.72) <= hc) span[n][0] = -hc, span[n++][1] = hc;
+    return n;
+}
+
+/* cloud: the envelope 1 − smoothstep((r − 0.5)/0.45) is exactly 0 for
+ * r ≥ 0.95, and 255·clamp01(·)·0 = 0. */
+static int cloud_spans(double y, double z, double vox, double span[ROW_SPANS][2]) {
+    static const double c[3] = {0.0, 0.0, 0.0};
+    return ball_span(y, z, c, 0.95 + skin(vox), span[0]);
+}
+
 /* ---------------------------------------------------------------- driver */
 
 typedef double (*field_fn)(double x, double y, double z, double vox, const void *user);
@@ -173,8 +238,10 @@ typedef double (*field_fn)(double x, double y, double z, double vox, const void 
 static const struct {
     const char *name;
     field_fn fn;
+    row_span_fn spans; /* NULL: evaluate every node */
 } fields[] = {
-    {"sphere", sphere}, {"marschner_lobb", marschner_lobb}, {"cloud", cloud}, {"phantom", phantom}, {"constant", NULL},
+    {"sphere", sphere, NULL},   {"marschner_lobb", marschner_lobb, NULL}, {"cloud", cloud, cloud_spans},
+    {"phantom", phantom, phantom_spans}, {"constant", NULL, NULL},
 };
 
 /* The fields that change with time (the others ignore it). */
@@ -182,35 +249,76 @@ static int animated(field_fn fn) { return fn == cloud; }
 
 const char *volux_procedural_names(void) { return "sphere, marschner_lobb, cloud, phantom, constant"; }
 
-/* Fills uint8 storage with round(fn) clamped to 0..255: v holds the nodes
- * from `lo` of a whole grid of n nodes (a brick, or the whole at 0). */
-static void fill_u8(volux_volume *v, const int n[3], const int lo[3], field_fn fn, const void *user) {
-    double step[3];
-    for (int a = 0; a < 3; a++) step[a] = n[a] > 1 ? 2.0 / (n[a] - 1) : 0.0;
-    /* Skin widths are in voxels of the finest axis (all equal for N³). */
-    double vox = 2.0;
-    for (int a = 0; a < 3; a++)
-        if (n[a] > 1 && step[a] < vox) vox = step[a];
-    uint8_t *d = v->data;
-    for (int kk = 0; kk < v->dims[2]; kk++) {
-        int k = lo[2] + kk;
-        double z = n[2] > 1 ? -1.0 + k * step[2] : 0.0;
-        for (int jj = 0; jj < v->dims[1]; jj++) {
-            int j = lo[1] + jj;
-            double y = n[1] > 1 ? -1.0 + j * step[1] : 0.0;
-            uint8_t *row = d + volux_volume_index(v, 0, jj, kk);
-            for (int ii = 0; ii < v->dims[0]; ii++) {
-                int i = lo[0] + ii;
-                double x = n[0] > 1 ? -1.0 + i * step[0] : 0.0;
-                long w = lround(fn(x, y, z, vox, user));
-                row[ii] = (uint8_t)(w < 0 ? 0 : w > 255 ? 255 : w);
-            }
+/* One row, slice or whole volume of uint8 nodes: the nodes from `lo` of a
+ * whole grid of n nodes (a brick, or the whole at 0), filled with
+ * round(fn) clamped to 0..255. */
+typedef struct fill_job {
+    volux_volume *v;
+    int n[3], lo[3];
+    double step[3], vox;
+    field_fn fn;
+    row_span_fn spans;
+    const void *user;
+} fill_job;
+
+static void fill_node(const fill_job *jb, uint8_t *row, int ii, double y, double z) {
+    int i = jb->lo[0] + ii;
+    double x = jb->n[0] > 1 ? -1.0 + i * jb->step[0] : 0.0;
+    long w = lround(jb->fn(x, y, z, jb->vox, jb->user));
+    row[ii] = (uint8_t)(w < 0 ? 0 : w > 255 ? 255 : w);
+}
+
+/* One slice kk: every node is a pure function of its index, so slices run
+ * in any order on any number of threads with the same bytes. */
+static void fill_slice(void *user, int64_t kk, int thread) {
+    (void)thread;
+    const fill_job *jb = user;
+    volux_volume *v = jb->v;
+    int nx = v->dims[0];
+    int k = jb->lo[2] + (int)kk;
+    double z = jb->n[2] > 1 ? -1.0 + k * jb->step[2] : 0.0;
+    for (int jj = 0; jj < v->dims[1]; jj++) {
+        int j = jb->lo[1] + jj;
+        double y = jb->n[1] > 1 ? -1.0 + j * jb->step[1] : 0.0;
+        uint8_t *row = (uint8_t *)v->data + volux_volume_index(v, 0, jj, (int)kk);
+        if (!jb->spans || jb->n[0] < 2) {
+            for (int ii = 0; ii < nx; ii++) fill_node(jb, row, ii, y, z);
+            continue;
+        }
+        /* mark the nodes inside any interval (one node of slack each side),
+         * zero the rest */
+        double span[ROW_SPANS][2];
+        int ns = jb->spans(y, z, jb->vox, span);
+        memset(row, 0, (size_t)nx);
+        for (int s = 0; s < ns; s++) {
+            /* x = −1 + i·step: i = (x + 1)/step */
+            double a = floor((span[s][0] + 1.0) / jb->step[0]) - 1.0 - jb->lo[0];
+            double b = ceil((span[s][1] + 1.0) / jb->step[0]) + 1.0 - jb->lo[0];
+            int i0 = a < 0.0 ? 0 : a > nx ? nx : (int)a;
+            int i1 = b < 0.0 ? -1 : b > nx - 1 ? nx - 1 : (int)b;
+            /* overlapping intervals evaluate a node twice: same value */
+            for (int ii = i0; ii <= i1; ii++) fill_node(jb, row, ii, y, z);
         }
     }
 }
 
+static void fill_u8(volux_volume *v, const int n[3], const int lo[3], field_fn fn, row_span_fn spans,
+                    const void *user, int threads) {
+    fill_job jb = {.v = v, .fn = fn, .spans = spans, .user = user};
+    for (int a = 0; a < 3; a++) {
+        jb.n[a] = n[a];
+        jb.lo[a] = lo[a];
+        jb.step[a] = n[a] > 1 ? 2.0 / (n[a] - 1) : 0.0;
+    }
+    /* Skin widths are in voxels of the finest axis (all equal for N³). */
+    jb.vox = 2.0;
+    for (int a = 0; a < 3; a++)
+        if (n[a] > 1 && jb.step[a] < jb.vox) jb.vox = jb.step[a];
+    volux_parallel_for(threads, v->dims[2], fill_slice, &jb);
+}
+
 static volux_status procedural(volux_context *ctx, const char *name, const int dims[3], uint64_t seed, double time,
-                               const volux_volume_region *region, volux_volume **out) {
+                               const volux_volume_region *region, int exhaustive, volux_volume **out) {
     int which = -1;
     for (size_t i = 0; name && i < sizeof fields / sizeof fields[0]; i++)
         if (strcmp(name, fields[i].name) == 0) which = (int)i;
@@ -243,7 +351,7 @@ static volux_status procedural(volux_context *ctx, const char *name, const int d
     }
     if (fn) {
         field_params fp = {seed, time};
-        fill_u8(v, dims, lo, fn, &fp);
+        fill_u8(v, dims, lo, fn, exhaustive ? NULL : fields[which].spans, &fp, volux_context_threads(ctx));
     } else {
         size_t count = (size_t)sub[0] * (size_t)sub[1] * (size_t)sub[2];
         float *f = v->data;
@@ -263,13 +371,18 @@ static volux_status procedural(volux_context *ctx, const char *name, const int d
 
 volux_status volux_volume_procedural_at(volux_context *ctx, const char *name, const int dims[3], uint64_t seed,
                                         double time, volux_volume **out) {
-    return procedural(ctx, name, dims, seed, time, NULL, out);
+    return procedural(ctx, name, dims, seed, time, NULL, 0, out);
 }
 
 volux_status volux_volume_procedural_region(volux_context *ctx, const char *name, const int dims[3], uint64_t seed,
                                             const volux_volume_region *region, volux_volume **out) {
     if (!region) return volux_error(ctx, VOLUX_ERR_INVALID, "procedural: region is NULL");
-    return procedural(ctx, name, dims, seed, 0.0, region, out);
+    return procedural(ctx, name, dims, seed, 0.0, region, 0, out);
+}
+
+volux_status volux_procedural_exhaustive(volux_context *ctx, const char *name, const int dims[3], uint64_t seed,
+                                         const volux_volume_region *region, volux_volume **out) {
+    return procedural(ctx, name, dims, seed, 0.0, region, 1, out);
 }
 
 volux_status volux_volume_procedural(volux_context *ctx, const char *name, const int dims[3], uint64_t seed,

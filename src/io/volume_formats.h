@@ -274,4 +274,10 @@ volux_status volux_volume_load_memory(volux_context *ctx, const void *bytes, siz
                                       volux_volume_format format, const volux_volume_load_options *options,
                                       volux_volume **out);
 
+/* The procedural volume with every node evaluated (no row intervals), as
+ * the generator did before they existed: for the test that the intervals
+ * change no byte. region may be NULL (the whole volume). */
+volux_status volux_procedural_exhaustive(volux_context *ctx, const char *name, const int dims[3], uint64_t seed,
+                                         const volux_volume_region *region, volux_volume **out);
+
 #endif

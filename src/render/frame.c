@@ -13,6 +13,7 @@
 
 #include "core/context_internal.h"
 #include "core/parallel.h"
+#include "memory_model.h"
 #include "raycaster.h"
 #include "technique_class.h"
 #include "volux/render.h"
@@ -42,6 +43,23 @@ volux_status volux_framebuffer_create(volux_context *ctx, int width, int height,
         return volux_error(ctx, VOLUX_ERR_INVALID, "framebuffer size %dx%d is outside [1, %d]", width, height,
                            VOLUX_MAX_IMAGE_DIM);
     size_t n = (size_t)width * (size_t)height;
+    /* The memory budget (docs/SCALE.md): what the context holds already
+     * (volume, technique caches) plus this framebuffer and the image it
+     * resolves to. */
+    uint64_t held = volux_context_bytes_in_use(ctx),
+             need = (uint64_t)n * (VOLUX_MM_FRAMEBUFFER_PER_PIXEL + VOLUX_MM_IMAGE_PER_PIXEL),
+             limit = volux_context_memory_limit(ctx);
+    if (held + need > limit) {
+        char a[32], b[32], l[32];
+        volux_mm_format_bytes(need, a, sizeof a);
+        volux_mm_format_bytes(held, b, sizeof b);
+        volux_mm_format_bytes(limit, l, sizeof l);
+        return volux_error(ctx, VOLUX_ERR_LIMIT,
+                           "framebuffer %dx%d: it and its image need an estimated %s, with the %s already allocated "
+                           "more than the memory limit of %s (%llu bytes%s); lower the image size or raise the limit",
+                           width, height, a, b, l, (unsigned long long)limit,
+                           volux_context_memory_limit_is_default(ctx) ? ", 80% of physical memory" : "");
+    }
     volux_framebuffer *fb = volux_calloc(ctx, 1, sizeof *fb);
     if (!fb) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for a framebuffer");
     fb->ctx = ctx;

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "core/context_internal.h"
+#include "memory_model.h"
 #include "raycaster.h"
 #include "technique_class.h"
 
@@ -144,6 +145,10 @@ volux_status volux_technique_create_class(volux_context *ctx, const volux_techni
     if (!volux_scene_volume(scene)) return volux_error(ctx, VOLUX_ERR_INVALID, "%s: the scene has no volume", name);
     volux_status st = check_class_params(ctx, cls, scene);
     if (st) return st;
+    /* The memory budget, before anything is allocated (docs/SCALE.md). */
+    volux_memory_estimate est;
+    volux_memory_estimate_class(cls, scene, &est);
+    if ((st = volux_memory_check(ctx, name, &est))) return st;
     volux_technique *t = volux_calloc(ctx, 1, sizeof *t);
     void *state = volux_calloc(ctx, 1, cls->state_size);
     if (!t || !state) {

@@ -41,7 +41,8 @@ typedef struct volux_tile_stats {
     uint64_t vertices;  /* path vertices (stochastic techniques)             */
 } volux_tile_stats;
 
-typedef struct volux_technique_class {
+typedef struct volux_technique_class volux_technique_class;
+struct volux_technique_class {
     volux_technique_info info;      /* name, summary, params, progressive  */
     /* Bytes of the state block; it starts with a volux_raycaster. */
     size_t state_size;
@@ -100,7 +101,15 @@ typedef struct volux_technique_class {
      * budget for updates and refine steps in ms (0 = the scene's setting).
      * NULL: the technique never defers work. */
     void (*set_budget)(void *state, double ms);
-} volux_technique_class;
+    /* Optional (the memory budget, docs/SCALE.md): the bytes memory_bytes
+     * will report once an instance is created for `scene`, from the scene
+     * alone (dims, parameters, lights), before anything is allocated; the
+     * frame loop's and the base's memory are counted by the caller
+     * (render/memory_model.h has helpers for the shared caches). Adds to
+     * *volume_added what the technique makes the volume hold (its bricked
+     * copy, volux_mm_bricks_to_build). NULL: 0. */
+    uint64_t (*estimate_bytes)(const volux_scene *scene, const volux_technique_class *cls, uint64_t *volume_added);
+};
 
 /* Creates an instance of `cls` for the scene (registry.c resolves names). */
 volux_status volux_technique_create_class(volux_context *ctx, const volux_technique_class *cls,

@@ -5,6 +5,7 @@
 
 #include "core/context_internal.h"
 #include "registry.h"
+#include "render/memory_model.h"
 
 extern const volux_technique_class volux_ea_class;
 extern const volux_technique_class volux_shaded_class;
@@ -61,6 +62,15 @@ volux_status volux_technique_validate_params(volux_context *ctx, const volux_sce
         volux_status st = volux_technique_check_param(ctx, &cls->info, name, number, string);
         if (st) return st;
     }
+    return VOLUX_OK;
+}
+
+volux_status volux_technique_estimate_memory(volux_context *ctx, const char *name, const volux_scene *scene,
+                                             volux_memory_estimate *out) {
+    if (!name) name = volux_scene_render(scene)->technique;
+    const volux_technique_class *cls = volux_technique_class_find(name);
+    if (!cls) return volux_error(ctx, VOLUX_ERR_INVALID, "render.technique: unknown technique '%s'", name);
+    volux_memory_estimate_class(cls, scene, out);
     return VOLUX_OK;
 }
 

@@ -6,6 +6,8 @@
 #include <math.h>
 #include <string.h>
 
+#include "core/volume_internal.h"
+#include "io/volume_formats.h"
 #include "test_util.h"
 
 static volux_volume *make(volux_context *ctx, const char *name, int nx, int ny, int nz, uint64_t seed) {
@@ -129,6 +131,63 @@ static void test_bad_names_and_dims(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* The threaded generator with its row intervals (the phantom's objects,
+ * the cloud's envelope) writes exactly the bytes of evaluating every node
+ * on one thread — the generator before either existed — for any thread
+ * count, odd and non-cubic dims, and for bricks of a region. */
+static void same_bytes(const volux_volume *a, const volux_volume *b, const char *what) {
+    int da[3], db[3];
+    volux_volume_dims(a, da);
+    volux_volume_dims(b, db);
+    assert_memory_equal(da, db, sizeof da);
+    for (int k = 0; k < da[2]; k++)
+        for (int j = 0; j < da[1]; j++)
+            for (int i = 0; i < da[0]; i++)
+                if (volux_volume_value_at(a, i, j, k) != volux_volume_value_at(b, i, j, k))
+                    fail_msg("%s: node (%d, %d, %d): %g vs %g", what, i, j, k, volux_volume_value_at(a, i, j, k),
+                             volux_volume_value_at(b, i, j, k));
+}
+
+static void test_threads_and_intervals_change_no_byte(void **state) {
+    (void)state;
+    static const char *names[] = {"phantom", "cloud", "sphere"};
+    static const int shapes[][3] = {{97, 97, 97}, {61, 44, 53}, {128, 3, 40}, {2, 70, 70}};
+    volux_context *one = tu_context(1);
+    for (size_t f = 0; f < sizeof names / sizeof names[0]; f++)
+        for (size_t s = 0; s < sizeof shapes / sizeof shapes[0]; s++) {
+            volux_volume *ref = NULL;
+            assert_int_equal(volux_procedural_exhaustive(one, names[f], shapes[s], 5, NULL, &ref), VOLUX_OK);
+            for (int threads = 1; threads <= 3; threads++) {
+                volux_context *ctx = tu_context(threads);
+                volux_volume *v = NULL;
+                assert_int_equal(volux_volume_procedural(ctx, names[f], shapes[s], 5, &v), VOLUX_OK);
+                char what[96];
+                snprintf(what, sizeof what, "%s %dx%dx%d, %d threads", names[f], shapes[s][0], shapes[s][1],
+                         shapes[s][2], threads);
+                same_bytes(v, ref, what);
+                /* the macrocells (built in parallel slabs) too */
+                assert_int_equal(v->cell_bytes, ref->cell_bytes);
+                assert_memory_equal(v->cell_min, ref->cell_min, ref->cell_bytes);
+                assert_memory_equal(v->cell_max, ref->cell_max, ref->cell_bytes);
+                volux_volume_release(v);
+                volux_context_destroy(ctx);
+            }
+            volux_volume_release(ref);
+        }
+    /* a brick: the intervals are in whole-grid coordinates */
+    int dims[3] = {90, 90, 90};
+    for (int index = 0; index < 4; index++) {
+        volux_volume_region r = {4, index, 0};
+        volux_volume *a = NULL, *b = NULL;
+        assert_int_equal(volux_volume_procedural_region(one, "phantom", dims, 1, &r, &a), VOLUX_OK);
+        assert_int_equal(volux_procedural_exhaustive(one, "phantom", dims, 1, &r, &b), VOLUX_OK);
+        same_bytes(a, b, "phantom brick");
+        volux_volume_release(a);
+        volux_volume_release(b);
+    }
+    volux_context_destroy(one);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_marschner_lobb_matches_the_formula),
@@ -137,6 +196,7 @@ int main(void) {
         cmocka_unit_test(test_cloud_is_deterministic_per_seed),
         cmocka_unit_test(test_constant_is_float_one),
         cmocka_unit_test(test_bad_names_and_dims),
+        cmocka_unit_test(test_threads_and_intervals_change_no_byte),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

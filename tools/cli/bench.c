@@ -3,7 +3,9 @@
  * [--edit KIND]... [--json] [--reference IMG]`.
  *
  * Metrics (DESIGN §4): prepare_ms (technique creation = building every
- * cache), render_ms (median), samples_per_s / vertices_per_s, memory_bytes,
+ * cache), render_ms (median), samples_per_s / vertices_per_s, memory_bytes
+ * (with the memory model's "estimate" of it; also memory_estimate_bytes,
+ * memory_estimate_total_bytes for the whole render, peak_rss_bytes),
  * warnings (how many the technique's creation gave, with their text:
  * lights it ignores), update_ms.<edit> (median time of volux_technique_update after the edit;
  * for a progressive technique its first state), refine_ms.<edit> (the
@@ -20,6 +22,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 
 #include "tools/mpi/distribute.h"
 #include "scene_args.h"
@@ -219,6 +222,10 @@ int cli_bench(int argc, char **argv) {
         goto done;
     }
 
+    /* The memory model's estimate (docs/SCALE.md), before the first
+     * creation: what memory_bytes should come to, and the whole render. */
+    volux_memory_estimate est;
+    if ((st = volux_technique_estimate_memory(ctx, rs->technique, scene, &est))) goto fail;
     /* prepare_ms: building every cache from scratch. */
     for (int k = 0; k < repeat; k++) {
         volux_technique_destroy(tech);
@@ -269,7 +276,15 @@ int cli_bench(int argc, char **argv) {
     /* pixel samples (camera paths for a path tracer) per second */
     emit(&o, "pixel_samples_per_s",
          (double)rs->width * rs->height * rep.spp / (cli_median(times, repeat) * 1e-3), "1/s", NULL);
-    emit(&o, "memory_bytes", (double)(volux_technique_memory_bytes(tech)), "bytes", NULL);
+    /* memory_bytes and the model's estimate of it side by side, then the
+     * whole render's estimate (volume, caches, framebuffer, image) and the
+     * process's peak resident memory (all of it, the volume's load too). */
+    snprintf(extra, sizeof extra, "\"estimate\":%.0f", (double)(est.instance + est.technique));
+    emit(&o, "memory_bytes", (double)(volux_technique_memory_bytes(tech)), "bytes", extra);
+    emit(&o, "memory_estimate_bytes", (double)(est.instance + est.technique), "bytes", NULL);
+    emit(&o, "memory_estimate_total_bytes", (double)est.total, "bytes", NULL);
+    struct rusage ru;
+    if (getrusage(RUSAGE_SELF, &ru) == 0) emit(&o, "peak_rss_bytes", (double)ru.ru_maxrss * 1024.0, "bytes", NULL);
 
     /* Convergence before the edits: they leave the scene changed. */
     if (reference && (st = convergence(ctx, tech, scene, fb, &ref, &o))) goto fail;

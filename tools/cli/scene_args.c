@@ -31,6 +31,37 @@ static int add_override(const char *cmd, cli_scene_args *a, const char *fmt, con
     return 1;
 }
 
+/* --memory-limit SIZE: a byte count with an optional binary suffix
+ * (K, M, G, T: KiB ... TiB; "8G", "512M", "1.5G") or "none". 1 on success. */
+static int parse_memory_limit(const char *cmd, const char *value, uint64_t *out) {
+    if (!strcmp(value, "none")) {
+        *out = UINT64_MAX;
+        return 1;
+    }
+    char *end = NULL;
+    errno = 0;
+    double x = strtod(value, &end);
+    double unit = 1.0;
+    if (end && end != value && *end) {
+        static const char units[] = "KMGT";
+        const char *u = strchr(units, end[0] >= 'a' && end[0] <= 'z' ? end[0] - 32 : end[0]);
+        if (u && end[0]) {
+            for (const char *k = units; k <= u; k++) unit *= 1024.0;
+            end++;
+            if (*end == 'i' && end[1] == 'B') end += 2; /* "GiB" */
+            else if (*end == 'B') end++;                /* "GB": the same binary unit */
+        }
+    }
+    if (!end || end == value || *end || errno || !(x * unit >= 1.0) || x * unit > 1.8e19) {
+        cli_eprintf("volux %s: --memory-limit %s: expected a size such as 8G, 512M, 1.5G or a byte count "
+                    "(at least 1), or none\n",
+                    cmd, value);
+        return 0;
+    }
+    *out = (uint64_t)(x * unit);
+    return 1;
+}
+
 int cli_scene_arg(const char *cmd, cli_scene_args *a, int argc, char **argv, int *i) {
     static const struct {
         const char *opt, *fmt;
@@ -44,6 +75,13 @@ int cli_scene_arg(const char *cmd, cli_scene_args *a, int argc, char **argv, int
         {"--set", "%s"},
     };
     const char *arg = argv[*i];
+    if (!strcmp(arg, "--memory-limit")) {
+        if (*i + 1 >= argc) {
+            cli_eprintf("volux %s: --memory-limit needs a size (e.g. 8G)\n", cmd);
+            return -1;
+        }
+        return parse_memory_limit(cmd, argv[++*i], &a->memory_limit) ? 1 : -1;
+    }
     if (!strcmp(arg, "--dump-scene")) {
         if (*i + 1 >= argc) {
             cli_eprintf("volux %s: --dump-scene needs a file name\n", cmd);
@@ -145,6 +183,7 @@ void cli_technique_names(char *out, size_t n) {
 int cli_load_scene_quiet(const char *cmd, volux_context *ctx, const cli_scene_args *a, volux_scene **out,
                          char *msg, size_t msg_size) {
     msg[0] = 0;
+    if (a->memory_limit) volux_context_set_memory_limit(ctx, a->memory_limit);
     if (!a->scene_path) {
         snprintf(msg, msg_size, "missing SCENE.json (or a volume)");
         return CLI_USAGE;

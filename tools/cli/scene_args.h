@@ -8,6 +8,7 @@
 #define VOLUX_CLI_SCENE_ARGS_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #include "cli.h"
 
@@ -22,6 +23,9 @@ typedef struct cli_scene_args {
     int quiet;             /* no notes on stderr */
     /* --distribute data: load only this brick of the scene's volume */
     const volux_volume_region *region;
+    /* --memory-limit: the render's memory budget in bytes (0: the
+     * library's default, 80 % of physical memory; UINT64_MAX: none) */
+    uint64_t memory_limit;
 } cli_scene_args;
 
 /* If argv[*i] is a scene option, consumes it (and its value), returns 1;

@@ -90,4 +90,8 @@ typedef struct ambient_state {
     ambient_stats stats;
 } ambient_state;
 
+/* The memory model (estimate.c, docs/SCALE.md). */
+uint64_t volux_ambient_estimate_bytes(const volux_scene *scene, const volux_technique_class *cls,
+                                      uint64_t *volume_added);
+
 #endif

@@ -25,4 +25,7 @@ typedef struct ao_state {
     uint64_t sat_builds, occ_builds, vis_builds, env_table_builds;
 } ao_state;
 
+/* The memory model (estimate.c, docs/SCALE.md). */
+uint64_t volux_ao_estimate_bytes(const volux_scene *scene, const volux_technique_class *cls, uint64_t *volume_added);
+
 #endif

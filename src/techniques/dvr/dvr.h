@@ -117,6 +117,8 @@ void volux_dvr_render_tile(const void *state, const volux_scene *scene, const vo
 void volux_dvr_render_tile_part(const void *state, const volux_scene *scene, const volux_tile *tile, int background,
                                 float *rgbt, volux_tile_stats *stats);
 size_t volux_dvr_memory_bytes(const void *state);
+/* The memory model (estimate.c, docs/SCALE.md). */
+uint64_t volux_dvr_estimate_bytes(const volux_scene *scene, const volux_technique_class *cls, uint64_t *volume_added);
 void volux_dvr_release(void *state);
 
 #endif

@@ -357,4 +357,5 @@ const volux_technique_class volux_guided_class = {
     NULL, /* no pending-work measure, no statistics */
     NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
     NULL, /* no per-frame budget (volux_technique_set_budget) */
+    volux_guided_estimate_bytes,
 };

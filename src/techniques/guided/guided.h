@@ -30,6 +30,8 @@
 #include "render/raycaster.h"
 
 extern const volux_technique_class volux_guided_class;
+/* The memory model (estimate.c, docs/SCALE.md). */
+uint64_t volux_guided_estimate_bytes(const volux_scene *scene, const volux_technique_class *cls, uint64_t *volume_added);
 
 /* How the environment is sampled at a scattering event (§10's five
  * strategies). */

@@ -30,6 +30,9 @@
 #include "sample/gradient.h"
 
 extern const volux_technique_class volux_lightvol_class;
+/* The memory model (estimate.c, docs/SCALE.md). */
+uint64_t volux_lightvol_estimate_bytes(const volux_scene *scene, const volux_technique_class *cls,
+                                       uint64_t *volume_added);
 
 /* Propagation groups g = 2·axis + (sign < 0): light travelling towards +x
  * is group 0, −x group 1, +y 2, −y 3, +z 4, −z 5. Group g sweeps slices

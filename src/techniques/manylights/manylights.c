@@ -734,4 +734,5 @@ const volux_technique_class volux_manylights_class = {
     ml_refine, ml_pending, ml_stats,
     NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
     NULL, /* no per-frame budget (volux_technique_set_budget) */
+    volux_manylights_estimate_bytes,
 };

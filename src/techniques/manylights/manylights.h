@@ -35,6 +35,8 @@
 #include "sample/envmap.h"
 
 extern const volux_technique_class volux_manylights_class;
+/* The memory model (estimate.c, docs/SCALE.md). */
+uint64_t volux_manylights_estimate_bytes(const volux_scene *scene, const volux_technique_class *cls, uint64_t *volume_added);
 
 /* Longest stored light subpath (VL depth); max_depth − 1 is used when
  * smaller. */

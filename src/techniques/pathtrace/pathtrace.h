@@ -20,6 +20,8 @@
 #include "sample/envmap.h"
 
 extern const volux_technique_class volux_pathtrace_class;
+/* The memory model (estimate.c, docs/SCALE.md). */
+uint64_t volux_pathtrace_estimate_bytes(const volux_scene *scene, const volux_technique_class *cls, uint64_t *volume_added);
 
 typedef struct pt_state {
     volux_raycaster rc;  /* base: volume, LUT, majorant grid, camera, seed,

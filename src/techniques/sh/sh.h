@@ -24,6 +24,8 @@
 #include "shbasis.h"
 
 extern const volux_technique_class volux_sh_class;
+/* The memory model (estimate.c, docs/SCALE.md). */
+uint64_t volux_sh_estimate_bytes(const volux_scene *scene, const volux_technique_class *cls, uint64_t *volume_added);
 
 /* A node-centred grid over the volume: node i lies at fine index i·ratio
  * (the last node may sit past the last voxel; samples clamp). */

@@ -18,6 +18,10 @@ typedef struct single_slot {
     uint64_t cache_builds; /* times `cache` was built (tests, stats) */
 } single_slot;
 
+/* The memory model (estimate.c, docs/SCALE.md). */
+uint64_t volux_single_estimate_bytes(const volux_scene *scene, const volux_technique_class *cls,
+                                     uint64_t *volume_added);
+
 typedef struct single_state {
     scatter_base b;
     int use_cache;
