@@ -50,6 +50,14 @@ add_dependencies(volux_dist_static ${VOLUX_LAYER_TARGET_LIST})
 # fail with its undefined symbols otherwise.
 set(VOLUX_STATIC_DEP_FILES ${OpenMP_C_LIBRARIES} ${PNG_LIBRARIES} ${ZLIB_LIBRARIES} ${CJSON_LINK_LIBRARIES} ${EXPAT_LINK_LIBRARIES}
     ${OPENEXR_CORE_LIB} ${MATH_LIB})
+if(VOLUX_HAVE_GDCM)
+  # the DICOM adapter (src/io/dicom_gdcm.cxx): GDCM and the C++ runtime
+  foreach(lib gdcmMSFF gdcmDSED gdcmCommon)
+    find_library(VOLUX_${lib}_FILE ${lib} HINTS ${GDCM_LIBRARY_DIRS})
+    list(APPEND VOLUX_STATIC_DEP_FILES ${VOLUX_${lib}_FILE})
+  endforeach()
+  list(APPEND VOLUX_STATIC_DEP_FILES stdc++)
+endif()
 list(REMOVE_DUPLICATES VOLUX_STATIC_DEP_FILES)
 set(VOLUX_PC_LIBS_PRIVATE "")
 foreach(lib ${VOLUX_STATIC_DEP_FILES})

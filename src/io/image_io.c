@@ -216,7 +216,21 @@ volux_status volux_image_check_output(volux_context *ctx, const char *path) {
      * needs write and search permission. */
     if (access(dir, W_OK | X_OK) != 0)
         return volux_error(ctx, VOLUX_ERR_IO, "cannot write '%s': folder '%s': %s", path, dir, strerror(errno));
-    return VOLUX_OK;
+    /* Permission bits do not tell everything (root passes access() on
+     * /proc, a read-only mount, a full quota): create the temporary file
+     * the save will create, and remove it. */
+    size_t n = strlen(path) + sizeof ".tmp-XXXXXX";
+    char *tmp = volux_alloc_or_error(ctx, n, "a temporary file name");
+    if (!tmp) return VOLUX_ERR_NOMEM;
+    int fd = create_temp(tmp, n, path);
+    volux_status st = VOLUX_OK;
+    if (fd < 0) st = volux_error(ctx, VOLUX_ERR_IO, "cannot write '%s': %s", path, strerror(errno));
+    else {
+        close(fd);
+        unlink(tmp);
+    }
+    volux_free(ctx, tmp, n);
+    return st;
 }
 
 volux_status volux_image_save_meta(volux_context *ctx, const char *path, const volux_image *img, float exposure,

@@ -28,6 +28,8 @@ if [ -n "$port" ]; then
   exec 3>&-
   check "grep -q '200 OK' '$T/scene' && grep -q 'marschner_lobb' '$T/scene'" "the quick-look scene is served"
   check "[ \$(ls '$TMPDIR' | wc -l) = 1 ]" "one temporary scene folder while serving"
+  check "grep -q 'scene_path\": *\"procedural:marschner_lobb:24 (quick look)' '$T/scene'" "the page names the volume"
+  check "! grep -q 'volux-view-' '$T/scene' '$T/err'" "the temporary scene path is shown nowhere"
 fi
 kill -TERM "$pid"
 wait "$pid"; rc=$?

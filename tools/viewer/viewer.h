@@ -56,6 +56,7 @@ typedef struct viewer_frame {
 
 typedef struct viewer_options {
     const char *scene_path;
+    const char *scene_name; /* what messages and the page call it (volux view: the volume) */
     const char *const *overrides;
     int n_overrides;
     const char *bind;      /* address; default 127.0.0.1                */
