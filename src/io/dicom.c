@@ -37,6 +37,10 @@
 #include <dirent.h>
 #include <errno.h>
 #include <math.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -197,6 +201,89 @@ static volux_status add_file(dcm_set *s, char *path, const volux_dicom_info *inf
     return VOLUX_OK;
 }
 
+/* What reading one file's header gave. */
+typedef struct scan_result {
+    int status;
+    volux_dicom_info info;
+    char why[200];
+} scan_result;
+
+#define SCAN_TIMEOUT_MS 3000
+
+static int read_full(int fd, void *buf, size_t n) {
+    unsigned char *p = buf;
+    while (n) {
+        struct pollfd pfd = {fd, POLLIN, 0};
+        int r = poll(&pfd, 1, SCAN_TIMEOUT_MS);
+        if (r <= 0) return r == 0 ? -1 : 0; /* -1: timed out */
+        ssize_t got = read(fd, p, n);
+        if (got < 0 && errno == EINTR) continue;
+        if (got <= 0) return 0; /* the child ended: it aborted */
+        p += got;
+        n -= (size_t)got;
+    }
+    return 1;
+}
+
+/* The headers of `n` files, read by GDCM in a child process: GDCM 3.0
+ * aborts on some malformed objects (an assert in Debian's build) and loops
+ * forever on others (pydicom's SC_rgb_jpeg.dcm hangs gdcmdump too), and a
+ * folder scan must survive the odd file it did not ask for. A file the
+ * child does not finish within SCAN_TIMEOUT_MS, or dies on, is skipped
+ * with its reason; a new child goes on from the next one. Without fork
+ * the headers are read in this process. */
+static void scan_isolated(char **paths, int n, scan_result *res) {
+    int i = 0;
+    while (i < n) {
+        int fd[2];
+        if (pipe(fd) != 0) break;
+        fflush(NULL);
+        pid_t pid = fork();
+        if (pid < 0) {
+            close(fd[0]);
+            close(fd[1]);
+            break;
+        }
+        if (pid == 0) {
+            close(fd[0]);
+            for (int k = i; k < n; k++) {
+                scan_result r;
+                memset(&r, 0, sizeof r);
+                r.status = volux_dicom_adapter_info(paths[k], NULL, 0, &r.info, r.why, sizeof r.why);
+                const unsigned char *p = (const unsigned char *)&r;
+                size_t left = sizeof r;
+                while (left) {
+                    ssize_t w = write(fd[1], p, left);
+                    if (w < 0 && errno == EINTR) continue;
+                    if (w <= 0) _exit(1);
+                    p += w;
+                    left -= (size_t)w;
+                }
+            }
+            _exit(0);
+        }
+        close(fd[1]);
+        int k = i, how = 1;
+        while (k < n && (how = read_full(fd[0], &res[k], sizeof res[k])) == 1) k++;
+        close(fd[0]);
+        if (k < n) {
+            kill(pid, SIGKILL);
+            memset(&res[k], 0, sizeof res[k]);
+            res[k].status = VOLUX_DICOM_BAD;
+            snprintf(res[k].why, sizeof res[k].why, "GDCM %s reading this file (skipped)",
+                     how < 0 ? "did not finish within 3 s" : "aborted");
+            k++;
+        }
+        while (waitpid(pid, NULL, 0) < 0 && errno == EINTR) {
+        }
+        i = k;
+    }
+    for (; i < n; i++) {
+        memset(&res[i], 0, sizeof res[i]);
+        res[i].status = volux_dicom_adapter_info(paths[i], NULL, 0, &res[i].info, res[i].why, sizeof res[i].why);
+    }
+}
+
 /* Reads the headers of the DICOM images in `folder`. Files that are not
  * DICOM, or DICOM without an image (DICOMDIR, reports), are skipped; the
  * first unreadable DICOM image is remembered for the message when no
@@ -208,23 +295,31 @@ static volux_status scan_folder(dcm_set *s, const char *folder) {
     volux_status st = list_folder(ctx, folder, &names, &n, &subfolders);
     if (st) return st;
     char first_bad[300] = "";
+    /* Only files that say they are DICOM (the PS3.10 prefix, or .dcm) go
+     * to GDCM. */
+    int m = 0, listed = n;
+    for (int i = 0; i < n; i++) {
+        if (has_dicm_magic(names[i]) || volux_text_ends_with_ci(names[i], ".dcm")) names[m++] = names[i];
+        else free(names[i]);
+    }
+    n = m;
+    scan_result *res = n ? calloc((size_t)n, sizeof *res) : NULL;
+    if (n && !res) st = volux_error(ctx, VOLUX_ERR_NOMEM, "%s: out of memory for %d headers", folder, n);
+    if (res) scan_isolated(names, n, res);
     for (int i = 0; i < n && !st; i++) {
         char *path = names[i];
         names[i] = NULL;
-        if (!has_dicm_magic(path) && !volux_text_ends_with_ci(path, ".dcm")) {
+        if (res[i].status != VOLUX_DICOM_OK) {
+            if (res[i].status == VOLUX_DICOM_BAD && !first_bad[0])
+                snprintf(first_bad, sizeof first_bad, "%s: %s", base_name(path), res[i].why);
+            if (res[i].status == VOLUX_DICOM_BAD && strstr(res[i].why, "(skipped)"))
+                volux_warn(ctx, "%s: %s: %s", folder, base_name(path), res[i].why);
             free(path);
             continue;
         }
-        volux_dicom_info info;
-        char why[200] = "";
-        int r = volux_dicom_adapter_info(path, NULL, 0, &info, why, sizeof why);
-        if (r != VOLUX_DICOM_OK) {
-            if (r == VOLUX_DICOM_BAD && !first_bad[0]) snprintf(first_bad, sizeof first_bad, "%s: %s", base_name(path), why);
-            free(path);
-            continue;
-        }
-        st = add_file(s, path, &info);
+        st = add_file(s, path, &res[i].info);
     }
+    free(res);
     for (int i = 0; i < n; i++) free(names[i]);
     free(names);
     if (st) return st;
@@ -232,7 +327,7 @@ static volux_status scan_folder(dcm_set *s, const char *folder) {
         if (first_bad[0])
             return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: no readable DICOM image in the folder (%s)", folder,
                                first_bad);
-        return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: no DICOM image in the folder (%d files%s)", folder, n,
+        return volux_error(ctx, VOLUX_ERR_FORMAT, "%s: no DICOM image in the folder (%d files%s)", folder, listed,
                            subfolders ? "; its subfolders are not searched: pass one of them" : "");
     }
     return VOLUX_OK;
@@ -640,15 +735,16 @@ volux_status volux_dicom_load(volux_context *ctx, const char *path, const volux_
         set_free(&s);
         return st;
     }
-    volux_dicom_info info;
-    char why[200] = "";
     FILE *probe = fopen(path, "rb");
     if (!probe) return volux_error(ctx, VOLUX_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
     fclose(probe);
-    int r = volux_dicom_adapter_info(path, NULL, 0, &info, why, sizeof why);
-    if (r != VOLUX_DICOM_OK)
-        return volux_error(ctx, r == VOLUX_DICOM_NO_IMAGE ? VOLUX_ERR_UNSUPPORTED : VOLUX_ERR_FORMAT, "%s: %s", path,
-                           why);
+    scan_result one;
+    char *paths[1] = {(char *)path};
+    scan_isolated(paths, 1, &one);
+    if (one.status != VOLUX_DICOM_OK)
+        return volux_error(ctx, one.status == VOLUX_DICOM_NO_IMAGE ? VOLUX_ERR_UNSUPPORTED : VOLUX_ERR_FORMAT,
+                           "%s: %s", path, one.why);
+    volux_dicom_info info = one.info;
     if (!info.series_uid[0] || info.frames != 1) return load_one(ctx, path, &info, options, out);
     /* The series this file belongs to: the files beside it that share its
      * SeriesInstanceUID. */
@@ -662,15 +758,19 @@ volux_status volux_dicom_load(volux_context *ctx, const char *path, const volux_
             set_free(&s);
             return load_one(ctx, path, &info, options, out);
         }
+        int had_error = volux_context_error(ctx)[0] != 0;
         st = load_set(&s, options, out);
         int files = s.count;
         set_free(&s);
         if (st == VOLUX_ERR_FORMAT || st == VOLUX_ERR_UNSUPPORTED) {
             /* Files that share the UID but do not make one grid (copies of
              * one slice in other encodings, a broken sibling): the file the
-             * user named still opens, alone, with the reason. */
+             * user named still opens, alone, with the reason. The failed
+             * attempt is not the caller's error: its message is taken back
+             * (unless an earlier one was already recorded). */
             char reason[512];
             snprintf(reason, sizeof reason, "%s", volux_context_error(ctx));
+            if (!had_error) volux_context_clear_error(ctx);
             st = load_one(ctx, path, &info, options, out);
             if (!st)
                 volux_warn(ctx, "%s: loading this file alone: its series (%d files beside it) is not one grid: %s",

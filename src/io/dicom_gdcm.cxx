@@ -165,13 +165,67 @@ int info(const char *path, const void *mem, size_t n, volux_dicom_info *out, cha
             }
         }
     }
-    std::vector<double> sp = gdcm::ImageHelper::GetSpacingValue(file);
-    for (size_t i = 0; i < 3; i++) out->spacing[i] = i < sp.size() && std::isfinite(sp[i]) ? sp[i] : 0.0;
-    if (out->frames <= 1) out->spacing[2] = 0.0;
+    /* Pixel Spacing is row spacing (y), then column spacing (x). GDCM's
+     * GetSpacingValue asserts (aborts) on some single-frame objects that
+     * lack NumberOfFrames (Debian's build keeps asserts): it is only asked
+     * for multi-frame files, which have that attribute. */
+    double ps[2];
+    if (numbers(text(ds, 0x0028, 0x0030), 2, ps) || numbers(text(ds, 0x0018, 0x1164), 2, ps)) {
+        out->spacing[0] = ps[1];
+        out->spacing[1] = ps[0];
+    }
+    if (out->frames > 1 && ds.FindDataElement(gdcm::Tag(0x0028, 0x0008))) {
+        std::vector<double> sp = gdcm::ImageHelper::GetSpacingValue(file);
+        for (size_t i = 0; i < 3; i++)
+            if (i < sp.size() && std::isfinite(sp[i]) && sp[i] > 0 && (i == 2 || out->spacing[i] <= 0))
+                out->spacing[i] = sp[i];
+    }
     std::vector<double> is = gdcm::ImageHelper::GetRescaleInterceptSlopeValue(file);
     out->intercept = is.size() == 2 ? is[0] : 0.0;
     out->slope = is.size() == 2 ? is[1] : 1.0;
     return VOLUX_DICOM_OK;
+}
+
+/* Whether the native Pixel Data element of length `vl` runs past the end
+ * of the file. GDCM does not say where the element starts, so this finds
+ * its header — the tag (7FE0,0010) in either byte order followed by an
+ * explicit VR (OB/OW, 2 reserved bytes) or by the 4-byte length itself —
+ * whose length field is `vl`, searching from the end (the element is last
+ * but for optional padding). No header found: nothing to say. */
+bool native_cut(const char *path, const void *mem, size_t n, unsigned long long vl, unsigned long long *have) {
+    std::vector<unsigned char> own;
+    const unsigned char *b = static_cast<const unsigned char *>(mem);
+    if (!mem) {
+        std::FILE *f = std::fopen(path, "rb");
+        if (!f) return false;
+        unsigned char chunk[65536];
+        size_t got;
+        while ((got = std::fread(chunk, 1, sizeof chunk, f)) > 0) own.insert(own.end(), chunk, chunk + got);
+        std::fclose(f);
+        b = own.data();
+        n = own.size();
+    }
+    auto u32 = [](const unsigned char *p, bool big) {
+        return big ? (unsigned long long)p[0] << 24 | (unsigned long long)p[1] << 16 | (unsigned long long)p[2] << 8 | p[3]
+                   : (unsigned long long)p[3] << 24 | (unsigned long long)p[2] << 16 | (unsigned long long)p[1] << 8 | p[0];
+    };
+    for (size_t i = n >= 8 ? n - 8 : 0; n >= 8; i--) {
+        bool le = b[i] == 0xE0 && b[i + 1] == 0x7F && b[i + 2] == 0x10 && b[i + 3] == 0x00;
+        bool be = b[i] == 0x7F && b[i + 1] == 0xE0 && b[i + 2] == 0x00 && b[i + 3] == 0x10;
+        if (le || be) {
+            size_t start = 0;
+            if (i + 12 <= n && b[i + 4] == 'O' && (b[i + 5] == 'B' || b[i + 5] == 'W') && u32(b + i + 8, be) == vl)
+                start = i + 12;
+            else if (u32(b + i + 4, be) == vl)
+                start = i + 8;
+            if (start) {
+                *have = n - start;
+                return start + vl > n;
+            }
+        }
+        if (i == 0) break;
+    }
+    return false;
 }
 
 int pixels(const char *path, const void *mem, size_t n, void *buf, size_t bytes, char *msg, size_t msg_size) {
@@ -189,6 +243,20 @@ int pixels(const char *path, const void *mem, size_t n, void *buf, size_t bytes,
         return VOLUX_DICOM_BAD;
     }
     const gdcm::Image &image = reader.GetImage();
+    /* Native pixel data cut short: GDCM keeps the declared length and
+     * reads what is there without a word (the rest stays zero). */
+    const gdcm::ByteValue *native = image.GetDataElement().GetByteValue();
+    if (native) {
+        unsigned long long vl = native->GetLength(), have = 0;
+        if (vl < bytes || native_cut(path, mem, n, vl, &have)) {
+            char text_msg[200];
+            std::snprintf(text_msg, sizeof text_msg,
+                          "pixel data is truncated: %llu of its %llu bytes are in the file (the image needs %zu)",
+                          vl < bytes ? vl : have, vl, bytes);
+            say(msg, msg_size, text_msg);
+            return VOLUX_DICOM_BAD;
+        }
+    }
     unsigned long len = image.GetBufferLength();
     if (len != bytes) {
         char text_msg[160];

@@ -133,6 +133,8 @@ int viewer_snapshot(viewer *v) {
     cJSON_AddNumberToObject(r, "spp", rs->spp);
     cJSON_AddNumberToObject(r, "exposure", rs->exposure);
     cJSON_AddNumberToObject(r, "step", rs->step);
+    cJSON_AddNumberToObject(r, "target_error", rs->target_error);
+    cJSON_AddNumberToObject(r, "time_ms", rs->time_ms);
     const volux_camera_desc *cam = volux_scene_camera_desc(s);
     cJSON *c = cJSON_AddObjectToObject(res, "camera");
     cJSON_AddBoolToObject(c, "orbit", cam->use_orbit);

@@ -130,6 +130,8 @@ typedef struct viewer {
     } cost[16];
     uint64_t shown_version;  /* version of the last preview          */
     int refined;             /* final frame of shown_version published */
+    double refine_t0;        /* when the first full-size wave of shown_version started
+                                (render.time_ms counts from here)          */
     int refine_steps_done;   /* deferred technique work finished     */
 
     pthread_mutex_t snap_lock;
