@@ -24,7 +24,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <set>
-#include <sstream>
+#include <istream>
+#include <streambuf>
 #include <string>
 #include <vector>
 
@@ -38,6 +39,24 @@ void quiet() {
     gdcm::Trace::SetWarning(false);
     gdcm::Trace::SetError(false);
 }
+
+/* A read-only stream over the caller's bytes (no copy; std::istringstream
+ * would also instantiate string-buffer code into libvolux.so's symbols). */
+struct memory_buf : std::streambuf {
+    memory_buf(const void *p, size_t n) {
+        char *b = const_cast<char *>(static_cast<const char *>(p));
+        setg(b, b, b + n);
+    }
+    pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode) override {
+        char *target = dir == std::ios_base::beg ? eback() + off : dir == std::ios_base::cur ? gptr() + off : egptr() + off;
+        if (target < eback() || target > egptr()) return pos_type(off_type(-1));
+        setg(eback(), target, egptr());
+        return pos_type(target - eback());
+    }
+    pos_type seekpos(pos_type pos, std::ios_base::openmode mode) override {
+        return seekoff(off_type(pos), std::ios_base::beg, mode);
+    }
+};
 
 void say(char *msg, size_t n, const char *text) {
     if (msg && n) std::snprintf(msg, n, "%s", text);
@@ -82,10 +101,8 @@ bool numbers(const std::string &s, int count, double *out) {
     return true;
 }
 
-bool read_file(gdcm::Reader &reader, const char *path, const void *mem, size_t n, std::istringstream &ss,
-               bool up_to_pixels) {
-    if (mem) {
-        ss.str(std::string(static_cast<const char *>(mem), n));
+bool read_file(gdcm::Reader &reader, const char *path, std::istream &ss, bool up_to_pixels) {
+    if (!path) {
         reader.SetStream(ss);
     } else {
         reader.SetFileName(path);
@@ -98,8 +115,9 @@ int info(const char *path, const void *mem, size_t n, volux_dicom_info *out, cha
     quiet();
     std::memset(out, 0, sizeof *out);
     gdcm::Reader reader;
-    std::istringstream ss;
-    if (!read_file(reader, path, mem, n, ss, true)) {
+    memory_buf mb(mem ? mem : "", mem ? n : 0);
+    std::istream ss(&mb);
+    if (!read_file(reader, mem ? nullptr : path, ss, true)) {
         say(msg, msg_size, "not a DICOM file (GDCM cannot parse it)");
         return VOLUX_DICOM_NOT_DICOM;
     }
@@ -231,9 +249,9 @@ bool native_cut(const char *path, const void *mem, size_t n, unsigned long long 
 int pixels(const char *path, const void *mem, size_t n, void *buf, size_t bytes, char *msg, size_t msg_size) {
     quiet();
     gdcm::ImageReader reader;
-    std::istringstream ss;
+    memory_buf mb(mem ? mem : "", mem ? n : 0);
+    std::istream ss(&mb);
     if (mem) {
-        ss.str(std::string(static_cast<const char *>(mem), n));
         reader.SetStream(ss);
     } else {
         reader.SetFileName(path);
