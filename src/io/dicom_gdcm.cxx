@@ -211,15 +211,25 @@ int info(const char *path, const void *mem, size_t n, volux_dicom_info *out, cha
  * whose length field is `vl`, searching from the end (the element is last
  * but for optional padding). No header found: nothing to say. */
 bool native_cut(const char *path, const void *mem, size_t n, unsigned long long vl, unsigned long long *have) {
+    /* Only the file's tail can hold the element: its last vl + 64 KiB. */
     std::vector<unsigned char> own;
     const unsigned char *b = static_cast<const unsigned char *>(mem);
+    unsigned long long base = 0, total = n;
     if (!mem) {
         std::FILE *f = std::fopen(path, "rb");
         if (!f) return false;
-        unsigned char chunk[65536];
-        size_t got;
-        while ((got = std::fread(chunk, 1, sizeof chunk, f)) > 0) own.insert(own.end(), chunk, chunk + got);
+        if (std::fseek(f, 0, SEEK_END) != 0) {
+            std::fclose(f);
+            return false;
+        }
+        long end = std::ftell(f);
+        total = end > 0 ? (unsigned long long)end : 0;
+        unsigned long long window = vl + 65536 < total ? vl + 65536 : total;
+        base = total - window;
+        own.resize((size_t)window);
+        bool ok = std::fseek(f, (long)base, SEEK_SET) == 0 && std::fread(own.data(), 1, own.size(), f) == own.size();
         std::fclose(f);
+        if (!ok) return false;
         b = own.data();
         n = own.size();
     }
@@ -237,8 +247,8 @@ bool native_cut(const char *path, const void *mem, size_t n, unsigned long long 
             else if (u32(b + i + 4, be) == vl)
                 start = i + 8;
             if (start) {
-                *have = n - start;
-                return start + vl > n;
+                *have = total - (base + start);
+                return base + start + vl > total;
             }
         }
         if (i == 0) break;

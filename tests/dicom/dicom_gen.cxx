@@ -8,7 +8,7 @@
  * The volume of every case: value(i,j,k) = (7i + 13j + 101k) mod 4000
  * (stored, 12 bits in 16), 20x16x12, pixel spacing 0.7 (x) / 0.8 (y),
  * slices 2.5 mm apart, origin (-10, -20, 30), CT, rescale 1/-1024. Files
- * are named so that name order is not slice order (s%02d = 5k mod 12) and
+ * are named so that name order is not slice order (s%02d = 7k mod 12) and
  * InstanceNumber runs backwards, so only positions give the order.
  * Cases: ct, ct-rle, ct-jpegls, ct-j2k, ct-jpeg (lossless), sag (row
  * (0,1,0), column (0,0,-1)), scale (signed 16 bit, slope 0.5, intercept
@@ -127,7 +127,7 @@ bool write_image(const Series &s, const std::string &path, int first_k, int fram
 
 std::string name_of(const Series &s, const std::string &dir, int k) {
     char b[32];
-    std::snprintf(b, sizeof b, "%s%02d.dcm", s.prefix.c_str(), (5 * k) % s.nz);
+    std::snprintf(b, sizeof b, "%s%02d.dcm", s.prefix.c_str(), (7 * k) % s.nz); /* a permutation: 7 is prime to 12 and 300 */
     return dir + "/" + b;
 }
 

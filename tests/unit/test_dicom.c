@@ -187,7 +187,7 @@ static void malformed(void **state) {
     expect_refused("mixed", VOLUX_ERR_FORMAT, "mixed sizes in one series");
     expect_refused("tilt", VOLUX_ERR_UNSUPPORTED, "gantry tilt");
     expect_refused("dup", VOLUX_ERR_FORMAT, "two slices at the same position");
-    expect_refused("truncated", VOLUX_ERR_FORMAT, "s06.dcm: pixel data is truncated"); /* slice 6 is file 5·6 mod 12 */
+    expect_refused("truncated", VOLUX_ERR_FORMAT, "s06.dcm: pixel data is truncated"); /* slice 6 is file 7·6 mod 12 */
 }
 
 /* A folder with no DICOM at all, and a file that only claims to be one. */
