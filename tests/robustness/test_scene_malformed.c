@@ -511,6 +511,21 @@ static void test_cli_exit_status_and_messages(void **state) {
         assert_int_equal(tu_run_cli(args, &err), 0);
         assert_null(strstr(err, "fully transparent")); /* a visible one does not */
     }
+    /* A progressive technique on a quick look accumulates (to a target
+     * error or a time budget), never ending on one sample; one-pass
+     * techniques keep one. */
+    {
+        const char *err = NULL;
+        snprintf(args, sizeof args, "render procedural:sphere:16 --technique pathtrace --width 16 --height 16 -o '%s'",
+                 tu_temp_path("cli_ql_pt.png"));
+        assert_int_equal(tu_run_cli(args, &err), 0);
+        const char *at = strstr(err, "pathtrace 16x16, ");
+        if (!at || atoi(at + strlen("pathtrace 16x16, ")) < 2) fail_msg("quick-look pathtrace stopped early: %s", err);
+        snprintf(args, sizeof args, "render procedural:sphere:16 --width 16 --height 16 -o '%s'",
+                 tu_temp_path("cli_ql_sh.png"));
+        assert_int_equal(tu_run_cli(args, &err), 0);
+        if (!strstr(err, "shaded 16x16, 1 spp")) fail_msg("quick-look shaded: %s", err);
+    }
     /* An option typo names the option it resembles. */
     snprintf(args, sizeof args, "render '%s' --widht 8", good);
     cli_case(args, 2, (const char *const[]){"unknown option '--widht'; did you mean '--width'?", NULL});
