@@ -192,7 +192,9 @@ class Volume:
 
     @classmethod
     def load(cls, path, *, use_file_origin=False, allow_outside_dir=False, data_root=None, allow_nonfinite=False):
-        """Reads a volume file (.nrrd .nhdr .mhd .mha .nii .nii.gz .hdr .vti).
+        """Reads a volume file (.nrrd .nhdr .mhd .mha .nii .nii.gz .hdr .vti), or
+        DICOM: a folder (its largest series) or one file of a series (that
+        series), in HU when the files rescale (needs a build with GDCM).
 
         use_file_origin: place it at the header's origin (else centred);
         allow_outside_dir: a detached header's data file may lie outside the
