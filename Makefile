@@ -7,7 +7,7 @@
 # Other targets: build, asan, fuzz, bench, clean.
 
 PACKAGES := build-essential cmake pkg-config clang libpng-dev zlib1g-dev libcjson-dev libexpat1-dev \
-            libopenexr-dev libcmocka-dev libmicrohttpd-dev libjpeg-dev
+            libopenexr-dev libcmocka-dev libmicrohttpd-dev libjpeg-dev libgdcm-dev
 # Only the tests need these: `locales` has the de_DE sources a test compiles
 # into a temporary decimal-comma locale (header numbers must not follow it);
 # python3-numpy for the Python package's tests (python/), python3-pip and
@@ -16,8 +16,10 @@ PACKAGES := build-essential cmake pkg-config clang libpng-dev zlib1g-dev libcjso
 # MPI whenever it is installed); `chromium` runs the viewer's browser test,
 # driven by playwright-core from npm (tests/browser/package-lock.json;
 # Debian's nodejs + npm unless a node is already installed). Without them
-# that one test is skipped.
-TEST_PACKAGES := locales python3-numpy python3-pip python3-setuptools libopenmpi-dev openmpi-bin chromium
+# that one test is skipped. python3-pydicom's test files are real DICOM
+# objects the Python tests compare against pydicom's own decoding.
+TEST_PACKAGES := locales python3-numpy python3-pip python3-setuptools libopenmpi-dev openmpi-bin chromium \
+                 python3-pydicom
 NODE_PACKAGES := nodejs npm
 JOBS     ?= $(shell nproc 2>/dev/null || echo 2)
 BUILD    ?= build

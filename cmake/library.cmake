@@ -13,6 +13,12 @@ target_include_directories(volux_shared PUBLIC $<BUILD_INTERFACE:${CMAKE_SOURCE_
 # The same dependencies as the internal archive, whatever a later change adds
 # to it (read at generate time).
 target_link_libraries(volux_shared PRIVATE $<TARGET_PROPERTY:volux,INTERFACE_LINK_LIBRARIES>)
+if(VOLUX_HAVE_GDCM)
+  # The C++ adapter instantiates inline functions of GDCM's and the C++
+  # library's headers with default visibility: only volux_* is exported.
+  file(WRITE ${CMAKE_BINARY_DIR}/volux_exports.map "{ global: volux_*; local: *; };\n")
+  target_link_options(volux_shared PRIVATE -Wl,--version-script=${CMAKE_BINARY_DIR}/volux_exports.map)
+endif()
 if(NOT VOLUX_FUZZ)
   # Every dependency is named at link time, so `ldd` tells the whole story.
   target_link_options(volux_shared PRIVATE -Wl,--no-undefined)
@@ -32,6 +38,10 @@ add_custom_command(
   COMMAND ${CMAKE_COMMAND} -E rm -f ${VOLUX_DIST_STATIC} ${VOLUX_DIST_DIR}/volux_all.o
   COMMAND ${CMAKE_LINKER} -r -o ${VOLUX_DIST_DIR}/volux_all.o ${VOLUX_OBJECTS}
   COMMAND ${CMAKE_OBJCOPY} --localize-hidden ${VOLUX_DIST_DIR}/volux_all.o
+  # (with the DICOM adapter: inline GDCM/C++ header functions it instantiates
+  # have default visibility; only the ABI's symbols stay global)
+  COMMAND ${CMAKE_OBJCOPY} $<$<BOOL:${VOLUX_HAVE_GDCM}>:--keep-global-symbols=${CMAKE_SOURCE_DIR}/abi/volux.symbols>
+          ${VOLUX_DIST_DIR}/volux_all.o
   COMMAND ${CMAKE_AR} qc ${VOLUX_DIST_STATIC} ${VOLUX_DIST_DIR}/volux_all.o
   COMMAND ${CMAKE_RANLIB} ${VOLUX_DIST_STATIC}
   DEPENDS ${VOLUX_OBJECTS}
@@ -50,6 +60,14 @@ add_dependencies(volux_dist_static ${VOLUX_LAYER_TARGET_LIST})
 # fail with its undefined symbols otherwise.
 set(VOLUX_STATIC_DEP_FILES ${OpenMP_C_LIBRARIES} ${PNG_LIBRARIES} ${ZLIB_LIBRARIES} ${CJSON_LINK_LIBRARIES} ${EXPAT_LINK_LIBRARIES}
     ${OPENEXR_CORE_LIB} ${MATH_LIB})
+if(VOLUX_HAVE_GDCM)
+  # the DICOM adapter (src/io/dicom_gdcm.cxx): GDCM and the C++ runtime
+  foreach(lib gdcmMSFF gdcmDSED gdcmCommon)
+    find_library(VOLUX_${lib}_FILE ${lib} HINTS ${GDCM_LIBRARY_DIRS})
+    list(APPEND VOLUX_STATIC_DEP_FILES ${VOLUX_${lib}_FILE})
+  endforeach()
+  list(APPEND VOLUX_STATIC_DEP_FILES stdc++)
+endif()
 list(REMOVE_DUPLICATES VOLUX_STATIC_DEP_FILES)
 set(VOLUX_PC_LIBS_PRIVATE "")
 foreach(lib ${VOLUX_STATIC_DEP_FILES})

@@ -78,10 +78,12 @@ typedef struct volux_volume_load_options {
 
 /* The file-name extensions volux_volume_load recognises by themselves (raw
  * files, ".raw", need a description), as one string for help texts and
- * messages. */
-#define VOLUX_VOLUME_EXTENSIONS ".nrrd .nhdr .mhd .mha .nii .nii.gz .hdr .vti"
+ * messages. DICOM (.dcm, a file with the PS3.10 "DICM" prefix, or a folder
+ * of a series) needs a build with GDCM (without it, loading one says so). */
+#define VOLUX_VOLUME_EXTENSIONS ".nrrd .nhdr .mhd .mha .nii .nii.gz .hdr .vti .dcm or a DICOM folder"
 
-/* 1 if path ends (case-insensitively) in one of VOLUX_VOLUME_EXTENSIONS. */
+/* 1 if path ends (case-insensitively) in one of VOLUX_VOLUME_EXTENSIONS,
+ * or is a folder, or a file that starts like DICOM (PS3.10 prefix). */
 VOLUX_API int volux_volume_path_is_known(const char *path);
 
 /* Loads a volume file, choosing the reader by extension (VOLUX_VOLUME_EXTENSIONS,
@@ -167,9 +169,11 @@ VOLUX_API volux_status volux_image_save_meta(volux_context *ctx, const char *pat
 VOLUX_API volux_status volux_image_load_meta(volux_context *ctx, const char *path, volux_image *out,
                                              volux_image_meta *meta);
 /* Checks, before any work, that an image can be written at `path`: a
- * writable extension (.png .pfm .exr) and volux_file_check_output's rules.
+ * writable extension (.png .pfm .exr) and volux_file_check_output's rules,
+ * then creates and drops the unnamed file the save would write (permission
+ * bits do not tell everything: /proc, a read-only mount, a full quota).
  * VOLUX_ERR_INVALID for the extension, VOLUX_ERR_IO otherwise, with the
- * reason. Writes nothing. */
+ * reason. Leaves nothing behind. */
 VOLUX_API volux_status volux_image_check_output(volux_context *ctx, const char *path);
 
 /* Output files (images, scenes, tables: every file volux writes).
@@ -343,6 +347,12 @@ enum {
 VOLUX_API volux_status volux_scene_doc_load(volux_context *ctx, const char *path, const char *const *overrides,
                                             int n_overrides, const volux_scene_doc_options *options,
                                             volux_scene_doc **out);
+/* The same, with `name` (NULL: path) standing for the file in every
+ * message: `volux view` serves a generated scene from a temporary file
+ * and names it after the volume the user gave. */
+VOLUX_API volux_status volux_scene_doc_load_named(volux_context *ctx, const char *path, const char *name,
+                                                  const char *const *overrides, int n_overrides,
+                                                  const volux_scene_doc_options *options, volux_scene_doc **out);
 VOLUX_API void volux_scene_doc_destroy(volux_scene_doc *doc);
 /* The live scene, owned by the document (valid until it is destroyed). */
 VOLUX_API volux_scene *volux_scene_doc_scene(const volux_scene_doc *doc);

@@ -223,6 +223,93 @@ class Errors(unittest.TestCase):
             lo, hi = volux.Volume.load(path, allow_nonfinite=True).range
             self.assertEqual((lo, hi), (0.0, 26.0))  # the NaN became the lowest value
 
+    def test_numpy_nonfinite_refused_like_files(self):
+        data = np.arange(27, dtype=np.float32).reshape(3, 3, 3)
+        data[1, 2, 0] = np.nan
+        data[2, 0, 1] = np.inf
+        for copy in (True, False):
+            with self.assertRaises(volux.Error) as e:
+                volux.Volume.from_numpy(data, copy=copy)
+            self.assertIn("2 non-finite values", str(e.exception))
+            self.assertIn("voxel (0, 2, 1)", str(e.exception))  # (x, y, z) of [1, 2, 0]
+        import warnings
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            lo, hi = volux.Volume.from_numpy(data, allow_nonfinite=True).range
+        self.assertEqual((lo, hi), (0.0, 26.0))
+        self.assertTrue(any("non-finite" in str(x.message) for x in w))
+
+    def test_messages_read_well(self):
+        vol = volux.Volume.from_numpy(sphere(16, 6.0))
+        bad = lit_scene()
+        bad["render"]["spp"] = 0
+        with self.assertRaises(volux.Error) as e:
+            volux.Scene.from_json(bad, volume=vol)
+        msg = str(e.exception)
+        self.assertNotIn("<dict>", msg)
+        self.assertTrue(msg.startswith("scene dict: render.spp: 0 is outside [1, 16777216]"), msg)
+        bad = lit_scene()
+        bad["render"]["widht"] = 8
+        with self.assertRaises(volux.Error) as e:
+            volux.Scene.from_json(bad, volume=vol)
+        self.assertIn("did you mean 'width'?", str(e.exception))
+
+
+PYDICOM_FILES = "/usr/lib/python3/dist-packages/pydicom/data/test_files"
+
+
+@unittest.skipUnless(os.path.isdir(PYDICOM_FILES), "python3-pydicom's test files are not installed")
+class RealDicom(unittest.TestCase):
+    """Real files from Debian's python3-pydicom, read by GDCM through volux
+    and by pydicom (an independent reader): the same HU, exactly."""
+
+    def expected(self, name):
+        try:
+            import pydicom
+        except ImportError:
+            self.skipTest("pydicom is not importable")
+        d = pydicom.dcmread(os.path.join(PYDICOM_FILES, name))
+        a = d.pixel_array.astype(np.float64) * float(d.get("RescaleSlope", 1)) + float(d.get("RescaleIntercept", 0))
+        return d, a
+
+    @staticmethod
+    def voxels(v):
+        """Every voxel of slice 0 through volux_volume_value_at, [y, x]."""
+        import ctypes
+        f = volux._lib.volux_volume_value_at
+        f.restype, f.argtypes = ctypes.c_float, [ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_int]
+        nx, ny, _ = v.dims
+        return np.array([[f(v._handle, i, j, 0) for i in range(nx)] for j in range(ny)], np.float64)
+
+    def load(self, name):
+        try:
+            return volux.Volume.load(os.path.join(PYDICOM_FILES, name))
+        except volux.Error as e:
+            if "without DICOM support" in str(e):
+                self.skipTest("volux was built without GDCM")
+            raise
+
+    def test_ct_small_in_hounsfield_units(self):
+        d, want = self.expected("CT_small.dcm")
+        v = self.load("CT_small.dcm")
+        self.assertEqual(v.dims, (128, 128, 1))
+        self.assertAlmostEqual(v.spacing[0], float(d.PixelSpacing[1]), places=6)
+        self.assertAlmostEqual(v.spacing[1], float(d.PixelSpacing[0]), places=6)
+        self.assertTrue(np.array_equal(self.voxels(v), want))
+
+    def test_compressed_mr_equals_uncompressed(self):
+        _, want = self.expected("MR_small.dcm")
+        for name in ("MR_small.dcm", "MR_small_RLE.dcm", "MR_small_jpeg_ls_lossless.dcm",
+                     "MR_small_jp2klossless.dcm", "MR_small_bigendian.dcm", "MR_small_implicit.dcm"):
+            v = self.load(name)
+            self.assertEqual(v.dims, (64, 64, 1), name)
+            self.assertTrue(np.array_equal(self.voxels(v), want), name)
+
+    def test_truncated_file_is_refused_with_its_name(self):
+        with self.assertRaises(volux.Error) as e:
+            self.load("MR_truncated.dcm")
+        self.assertIn("MR_truncated.dcm", str(e.exception))
+
 
 class Resources(unittest.TestCase):
     def test_no_leak_across_1000_renders(self):

@@ -28,6 +28,7 @@ import math
 import os
 import stat
 import threading
+import warnings
 
 import numpy as np
 
@@ -130,7 +131,7 @@ class Volume:
         self._handle = _handle
 
     @classmethod
-    def from_numpy(cls, array, spacing=(1.0, 1.0, 1.0), origin=None, copy=True):
+    def from_numpy(cls, array, spacing=(1.0, 1.0, 1.0), origin=None, copy=True, allow_nonfinite=False):
         """A volume from a 3-D array indexed [z, y, x] (C order: x fastest).
 
         dtype: uint8, int8, uint16, int16, float32, float64 or a 32/64-bit
@@ -138,10 +139,12 @@ class Volume:
         float64 and the wide integers are kept as float32, exact for
         integers up to 2^24). spacing and origin are
         (x, y, z) in world units; origin None centres the volume at 0.
-        copy=True copies (any strides, NaN/inf become 0); copy=False lends the
-        array to volux without a copy (uint8/uint16/float32, C-contiguous,
-        finite): the Volume keeps a reference, and the array must not be
-        written while any scene uses the volume.
+        copy=True copies (any strides); copy=False lends the array to volux
+        without a copy (uint8/uint16/float32, C-contiguous): the Volume keeps
+        a reference, and the array must not be written while any scene uses
+        the volume. NaN/Inf values are refused as in files (Error naming
+        their count and first voxel) unless allow_nonfinite=True, which maps
+        them to the lowest finite value with a warning (in a copy).
         """
         a = np.asarray(array)
         if a.ndim != 3:
@@ -151,6 +154,18 @@ class Volume:
         if a.dtype not in _TYPES:
             raise Error("Volume.from_numpy: dtype %s is not one of uint8, int8, uint16, int16, float32, float64, "
                         "int32, uint32, int64, uint64" % a.dtype, "unsupported")
+        if a.dtype.kind == "f":
+            finite = np.isfinite(a)
+            if not finite.all():
+                bad = int(a.size - np.count_nonzero(finite))
+                z, y, x = (int(i) for i in np.argwhere(~finite)[0])
+                if not allow_nonfinite:
+                    raise Error("Volume.from_numpy: %d non-finite values (NaN/Inf), the first at voxel (%d, %d, %d) "
+                                "(x, y, z); allow_nonfinite=True maps them to the lowest value" % (bad, x, y, z))
+                lowest = a[finite].min() if finite.any() else 0
+                warnings.warn("Volume.from_numpy: %d non-finite values (NaN/Inf) mapped to the lowest value %g"
+                              % (bad, lowest))
+                a = np.where(finite, a, lowest).astype(a.dtype)
         if any(s == 0 and n > 1 for s, n in zip(a.strides, a.shape)):
             if not copy:
                 raise Error("Volume.from_numpy: cannot borrow a broadcast array (zero strides); copy it",
@@ -179,7 +194,9 @@ class Volume:
 
     @classmethod
     def load(cls, path, *, use_file_origin=False, allow_outside_dir=False, data_root=None, allow_nonfinite=False):
-        """Reads a volume file (.nrrd .nhdr .mhd .mha .nii .nii.gz .hdr .vti).
+        """Reads a volume file (.nrrd .nhdr .mhd .mha .nii .nii.gz .hdr .vti), or
+        DICOM: a folder (its largest series) or one file of a series (that
+        series), in HU when the files rescale (needs a build with GDCM).
 
         use_file_origin: place it at the header's origin (else centred);
         allow_outside_dir: a detached header's data file may lie outside the
@@ -299,11 +316,11 @@ class Scene:
         Volume used instead of the scene's "volume" key (which may then be
         absent). threads: worker threads (0 = all cores)."""
         if isinstance(obj, dict):
-            text, base, name = json.dumps(obj, default=_jsonable), ".", "<dict>"
+            text, base, name = json.dumps(obj, default=_jsonable), ".", "scene dict"
         elif isinstance(obj, (str, bytes, os.PathLike)):
             s = os.fsdecode(obj)
             if s.lstrip().startswith("{"):
-                text, base, name = s, ".", "<string>"
+                text, base, name = s, ".", "scene string"
             else:
                 text = _read_scene_file(s)
                 base, name = os.path.dirname(os.path.abspath(s)), s

@@ -173,7 +173,19 @@ volux_status volux_image_check_output(volux_context *ctx, const char *path) {
     if (fmt == FORMAT_UNKNOWN || fmt == FORMAT_HDR)
         return volux_error(ctx, VOLUX_ERR_INVALID, "'%s': cannot write this extension (supported: " WRITE_EXTENSIONS ")",
                            path);
-    return volux_file_check_output(ctx, path);
+    volux_status st = volux_file_check_output(ctx, path);
+    if (st) return st;
+    /* Permission bits do not tell everything (root passes access() on
+     * /proc, a read-only mount, a full quota): open the file the save
+     * would write, and drop it (unnamed: nothing is left, even if killed). */
+    volux_output_file probe;
+    if ((st = volux_output_begin(ctx, path, &probe))) {
+        volux_context_clear_error(ctx);
+        return volux_error(ctx, VOLUX_ERR_IO, "cannot write '%s': %s", path,
+                           "the folder does not take new files here (read-only or a special file system)");
+    }
+    volux_output_abort(ctx, &probe);
+    return VOLUX_OK;
 }
 
 volux_status volux_image_save_meta(volux_context *ctx, const char *path, const volux_image *img, float exposure,

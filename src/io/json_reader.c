@@ -7,6 +7,7 @@
 #include <sys/stat.h>
 
 #include "core/context_internal.h"
+#include "core/name_guess.h"
 #include "file_open.h"
 #include "json_reader.h"
 
@@ -215,11 +216,17 @@ volux_status volux_json_check_keys(volux_json_reader *r, const cJSON *obj, const
             char p[256];
             join(p, sizeof p, path, c->string ? c->string : "?");
             char list[512] = "";
+            volux_name_guess g = {0};
             for (const char *const *a = allowed; *a; a++) {
-                if (strlen(list) + strlen(*a) + 3 >= sizeof list) break;
+                if (c->string) volux_name_guess_try(&g, c->string, *a);
+                if (strlen(list) + strlen(*a) + 3 >= sizeof list) continue;
                 if (*list) strcat(list, ", ");
                 strcat(list, *a);
             }
+            const char *guess = c->string ? volux_name_guess_best(&g, c->string) : NULL;
+            if (guess)
+                return volux_json_error(r, VOLUX_ERR_INVALID, p, "unknown key; did you mean '%s'? (expected one of: %s)",
+                                        guess, list);
             return volux_json_error(r, VOLUX_ERR_INVALID, p, "unknown key (expected one of: %s)", list);
         }
         /* cJSON keeps duplicate keys; the second would be silently ignored.
@@ -236,6 +243,14 @@ volux_status volux_json_check_keys(volux_json_reader *r, const cJSON *obj, const
     return VOLUX_OK;
 }
 
+/* A bound as people write it: integers in full (16777216, not
+ * 1.67772e+07), other numbers with %g. */
+static const char *bound(char buf[32], double v) {
+    if (v == floor(v) && fabs(v) < 1e15) snprintf(buf, 32, "%.0f", v);
+    else snprintf(buf, 32, "%g", v);
+    return buf;
+}
+
 volux_status volux_json_number(volux_json_reader *r, const cJSON *obj, const char *path, const char *key, double lo,
                                double hi, double *out) {
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
@@ -244,8 +259,11 @@ volux_status volux_json_number(volux_json_reader *r, const cJSON *obj, const cha
     join(p, sizeof p, path, key);
     if (!cJSON_IsNumber(v)) return volux_json_error(r, VOLUX_ERR_INVALID, p, "expected a number");
     double d = v->valuedouble;
-    if (!isfinite(d) || d < lo || d > hi)
-        return volux_json_error(r, VOLUX_ERR_INVALID, p, "%g is outside [%g, %g]", d, lo, hi);
+    if (!isfinite(d) || d < lo || d > hi) {
+        char a[32], b[32], c[32];
+        return volux_json_error(r, VOLUX_ERR_INVALID, p, "%s is outside [%s, %s]", bound(c, d), bound(a, lo),
+                                bound(b, hi));
+    }
     *out = d;
     return VOLUX_OK;
 }
@@ -311,7 +329,9 @@ volux_status volux_json_vec3(volux_json_reader *r, const cJSON *obj, const char 
         if (!cJSON_IsNumber(c) || !isfinite(c->valuedouble) || c->valuedouble < lo || c->valuedouble > hi) {
             char pi[280];
             snprintf(pi, sizeof pi, "%s[%d]", p, i);
-            return volux_json_error(r, VOLUX_ERR_INVALID, pi, "must be a number in [%g, %g]", lo, hi);
+            char a[32], b[32];
+            return volux_json_error(r, VOLUX_ERR_INVALID, pi, "must be a number in [%s, %s]", bound(a, lo),
+                                    bound(b, hi));
         }
         tmp[i] = (float)c->valuedouble;
     }

@@ -97,17 +97,24 @@ void volux_scene_doc_destroy(volux_scene_doc *doc) {
 
 volux_status volux_scene_doc_load(volux_context *ctx, const char *path, const char *const *overrides,
                                   int n_overrides, const volux_scene_doc_options *options, volux_scene_doc **out) {
+    return volux_scene_doc_load_named(ctx, path, path, overrides, n_overrides, options, out);
+}
+
+volux_status volux_scene_doc_load_named(volux_context *ctx, const char *path, const char *name,
+                                        const char *const *overrides, int n_overrides,
+                                        const volux_scene_doc_options *options, volux_scene_doc **out) {
+    if (!name) name = path;
     volux_scene_doc *doc = volux_calloc(ctx, 1, sizeof *doc);
     if (!doc) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for a scene document");
     doc->ctx = ctx;
-    volux_json_reader r = {ctx, path};
+    volux_json_reader r = {ctx, name};
     char *text = NULL;
     size_t n = 0;
     volux_status st = volux_json_read_file(ctx, path, &text, &n);
     if (st) goto fail;
-    if (!(doc->name = volux_strdup(ctx, path))) goto nomem;
+    if (!(doc->name = volux_strdup(ctx, name))) goto nomem;
     if (!(doc->base_dir = absolute_dir_of(ctx, path))) {
-        st = volux_error(ctx, VOLUX_ERR_IO, "%s: cannot resolve the scene's folder: %s", path, strerror(errno));
+        st = volux_error(ctx, VOLUX_ERR_IO, "%s: cannot resolve the scene's folder: %s", name, strerror(errno));
         goto fail;
     }
     const char *root = options && options->data_root ? options->data_root : doc->base_dir;
@@ -132,16 +139,16 @@ volux_status volux_scene_doc_load(volux_context *ctx, const char *path, const ch
     /* The files of the loaded document are trusted (the user chose them on
      * the command line); edits may name those or files in the data root. */
     volux_scene_files files = {&doc->trusted, NULL, NULL};
-    if ((st = volux_scene_read_tree(ctx, doc->tree, doc->base_dir, path, &files, doc->scene))) goto fail;
+    if ((st = volux_scene_read_tree(ctx, doc->tree, doc->base_dir, name, &files, doc->scene))) goto fail;
     if (doc->validate && (st = doc->validate(doc->validate_user, ctx, doc->scene))) {
-        volux_error_prefix(ctx, "%s: ", path);
+        volux_error_prefix(ctx, "%s: ", name);
         goto fail;
     }
     volux_free(ctx, text, n + 1);
     *out = doc;
     return VOLUX_OK;
 nomem:
-    st = volux_error(ctx, VOLUX_ERR_NOMEM, "%s: out of memory", path);
+    st = volux_error(ctx, VOLUX_ERR_NOMEM, "%s: out of memory", name);
 fail:
     if (text) volux_free(ctx, text, n + 1);
     volux_scene_doc_destroy(doc);

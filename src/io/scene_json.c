@@ -1362,6 +1362,21 @@ volux_status volux_scene_read_edit(volux_context *ctx, const cJSON *root, const 
     return VOLUX_OK;
 }
 
+/* A transfer function with no extinction anywhere over the volume's values
+ * renders nothing but the background: legal, but almost never meant. */
+static void warn_if_transparent(volux_context *ctx, const volux_scene *s, const char *name) {
+    const volux_transfer_lut *lut = volux_scene_transfer_lut(s);
+    const volux_volume *v = volux_scene_volume(s);
+    if (!lut || !v || !lut->sigma_t || lut->n < 2) return;
+    double lo, hi;
+    volux_volume_range(v, &lo, &hi);
+    if (volux_transfer_lut_max_sigma(lut, (float)lo, (float)hi) > 0.0f) return;
+    volux_warn(ctx,
+               "%s: transfer_function: fully transparent over the volume's values [%g, %g] (opacity 0 everywhere): "
+               "the image will show only the background",
+               name ? name : "scene", lo, hi);
+}
+
 static volux_status parse_with(volux_context *ctx, const char *text, size_t n, const volux_scene_load_options *o,
                                const char *base_dir, const char *name, unsigned flags, volux_volume *supplied,
                                volux_scene **out) {
@@ -1402,6 +1417,7 @@ static volux_status parse_with(volux_context *ctx, const char *text, size_t n, c
         volux_scene_destroy(sr.scene);
         return st;
     }
+    warn_if_transparent(ctx, sr.scene, name);
     *out = sr.scene;
     return VOLUX_OK;
 }

@@ -254,6 +254,17 @@ typedef struct volux_volume_shape {
 volux_status volux_volume_probe(volux_context *ctx, const char *path, const volux_volume_load_options *options,
                                 volux_volume_shape *out);
 
+/* DICOM (dicom.c over the GDCM adapter): 1 if `path` is a folder, ends in
+ * .dcm/.dicom or starts with the PS3.10 preamble and "DICM". */
+int volux_dicom_path_is_dicom(const char *path);
+/* A folder (its largest series, or the one a file names) or one file's
+ * series as a volume; see dicom.c for the rules. */
+volux_status volux_dicom_load(volux_context *ctx, const char *path, const volux_volume_load_options *options,
+                              volux_volume **out);
+/* One DICOM file held in memory (fuzzing, tests). */
+volux_status volux_dicom_load_memory(volux_context *ctx, const void *bytes, size_t n, const char *name,
+                                     const volux_volume_load_options *options, volux_volume **out);
+
 /* ------------------------------------------------------------------ */
 /* Whole-file loading from memory (fuzzing, tests)                     */
 /* ------------------------------------------------------------------ */

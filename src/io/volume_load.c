@@ -16,7 +16,7 @@
 
 #define MAX_PATH_BYTES 4096
 
-typedef enum kind { K_NRRD, K_METAIMAGE, K_NIFTI, K_NIFTI_GZ, K_VTI, K_RAW, K_UNKNOWN } kind;
+typedef enum kind { K_NRRD, K_METAIMAGE, K_NIFTI, K_NIFTI_GZ, K_VTI, K_RAW, K_DICOM, K_UNKNOWN } kind;
 
 static kind kind_from_extension(const char *path) {
     static const struct {
@@ -25,6 +25,7 @@ static kind kind_from_extension(const char *path) {
     } exts[] = {
         {".nrrd", K_NRRD}, {".nhdr", K_NRRD},   {".mhd", K_METAIMAGE}, {".mha", K_METAIMAGE},
         {".nii.gz", K_NIFTI_GZ}, {".nii", K_NIFTI}, {".hdr", K_NIFTI},  {".vti", K_VTI}, {".raw", K_RAW},
+        {".dcm", K_DICOM}, {".dicom", K_DICOM},
     };
     for (size_t i = 0; i < sizeof exts / sizeof exts[0]; i++)
         if (volux_text_ends_with_ci(path, exts[i].ext)) return exts[i].k;
@@ -33,11 +34,13 @@ static kind kind_from_extension(const char *path) {
 
 int volux_volume_path_is_known(const char *path) {
     kind k = path ? kind_from_extension(path) : K_UNKNOWN;
+    if (k == K_UNKNOWN && path) return volux_dicom_path_is_dicom(path); /* a folder, or the DICM magic */
     return k != K_UNKNOWN && k != K_RAW;
 }
 
 /* For unknown extensions: recognise a format by its first bytes. */
 static kind kind_from_bytes(const unsigned char *b, size_t n) {
+    if (n >= 132 && memcmp(b + 128, "DICM", 4) == 0) return K_DICOM; /* PS3.10 preamble + prefix */
     if (n >= 7 && memcmp(b, "NRRD000", 7) == 0) return K_NRRD;
     if ((n >= 5 && memcmp(b, "<?xml", 5) == 0) || (n >= 8 && memcmp(b, "<VTKFile", 8) == 0)) return K_VTI;
     if (n >= 2 && b[0] == 0x1f && b[1] == 0x8b) return K_NIFTI_GZ;
@@ -334,7 +337,7 @@ static volux_status open_volume(volux_context *ctx, const char *path, volux_sour
     volux_status st = volux_source_open(ctx, path, src);
     if (st) return st;
     if (k == K_UNKNOWN) {
-        unsigned char b[16];
+        unsigned char b[132];
         size_t got;
         if (!(st = volux_source_read(ctx, src, 0, b, sizeof b, &got))) {
             k = kind_from_bytes(b, got);
@@ -373,8 +376,17 @@ volux_status volux_volume_load(volux_context *ctx, const char *path, const volux
         volux_source_close(&src);
         return st;
     }
+    /* DICOM: a folder, a .dcm file or a file with the PS3.10 prefix
+     * (dicom.c reads the whole series). */
+    kind ke = kind_from_extension(path);
+    if (ke == K_DICOM || (ke == K_UNKNOWN && volux_dicom_path_is_dicom(path)))
+        return volux_dicom_load(ctx, path, options, out);
     kind k = K_UNKNOWN; /* set by open_volume on success */
     if ((st = open_volume(ctx, path, &src, &k))) return st;
+    if (k == K_DICOM) {
+        volux_source_close(&src);
+        return volux_dicom_load(ctx, path, options, out);
+    }
     st = load_from(ctx, k, &src, 0, options, out);
     volux_source_close(&src);
     return st;
@@ -393,7 +405,14 @@ volux_status volux_volume_probe(volux_context *ctx, const char *path, const volu
     } else {
         volux_source src;
         kind k = K_UNKNOWN;
+        kind ke = kind_from_extension(path);
+        if (ke == K_DICOM || (ke == K_UNKNOWN && volux_dicom_path_is_dicom(path)))
+            return volux_error(ctx, VOLUX_ERR_UNSUPPORTED, "%s: a DICOM series as a frame of a sequence", path);
         if ((st = open_volume(ctx, path, &src, &k))) return st;
+        if (k == K_DICOM) {
+            volux_source_close(&src);
+            return volux_error(ctx, VOLUX_ERR_UNSUPPORTED, "%s: a DICOM series as a frame of a sequence", path);
+        }
         st = parse_header(ctx, k, &src, &h);
         volux_source_close(&src);
         if (st) return st;

@@ -19,6 +19,7 @@
 /* The time budget of a render (render.time_ms), shared by every tile of
  * a wave: core/deadline.h. */
 #include "core/deadline.h"
+#include "core/name_guess.h"
 
 /* A rectangle of pixels for one sample index. */
 typedef struct volux_tile {
@@ -126,18 +127,7 @@ uint64_t volux_technique_generation(const volux_technique *t);
  * (VOLUX_ERR_INVALID naming "techniques.<tech>.<name>"). */
 volux_status volux_technique_check_param(volux_context *ctx, const volux_technique_info *info, const char *name,
                                          double number, const char *string);
-/* "Did you mean": feed every valid name to volux_name_guess_try, then
- * volux_name_guess_best gives the closest one when it is close enough to
- * be a typo of `name` (Levenshtein distance ≤ 2 for short names, about a
- * third of the length for long ones; a valid name that `name` begins,
- * from two letters on, counts as distance 1: "path" → "pathtrace"), else
- * NULL. */
-typedef struct volux_name_guess {
-    const char *best;
-    int distance;
-} volux_name_guess;
-void volux_name_guess_try(volux_name_guess *g, const char *name, const char *candidate);
-const char *volux_name_guess_best(const volux_name_guess *g, const char *name);
+/* "Did you mean": volux_name_guess (core/name_guess.h). */
 
 /* Value of a parameter from the scene, or the class default. */
 double volux_technique_param(const volux_scene *scene, const volux_technique_class *cls, const char *name);

@@ -70,11 +70,11 @@ static const malformed CASES[] = {
     {SCENE(", \"comment\": \"\\ud83d\\ude00 \xc3\xa9 \\u00e9\", \"render\": {\"step\": 0, \"width\": 1E+2}"),
      VOLUX_ERR_INVALID, "render.step"},
     /* unknown and duplicate keys, with their full path */
-    {SCENE(", \"lihgts\": []"), VOLUX_ERR_INVALID, "lihgts: unknown key (expected one of: volume,"},
-    {SCENE(", \"render\": {\"widht\": 64}"), VOLUX_ERR_INVALID, "render.widht: unknown key"},
+    {SCENE(", \"lihgts\": []"), VOLUX_ERR_INVALID, "lihgts: unknown key; did you mean 'lights'? (expected one of: volume,"},
+    {SCENE(", \"render\": {\"widht\": 64}"), VOLUX_ERR_INVALID, "render.widht: unknown key; did you mean 'width'?"},
     {SCENE(", \"render\": {\"width\": 64, \"width\": 32}"), VOLUX_ERR_INVALID, "render.width: duplicate key"},
     {SCENE(", \"render\": {}, \"render\": {}"), VOLUX_ERR_INVALID, "render: duplicate key"},
-    {SCENE(", \"camera\": {\"orbit\": {\"azimut\": 3}}"), VOLUX_ERR_INVALID, "camera.orbit.azimut: unknown key"},
+    {SCENE(", \"camera\": {\"orbit\": {\"azimut\": 3}}"), VOLUX_ERR_INVALID, "camera.orbit.azimut: unknown key; did you mean 'azimuth'?"},
     {SCENE_TF("{\"opacity\": [[0, 1]], \"colour\": []}"), VOLUX_ERR_INVALID, "transfer_function.colour: unknown key"},
     {SCENE(", \"techniques\": {\"ea\": {}, \"ea\": {}}"), VOLUX_ERR_INVALID, "techniques.ea: duplicate key"},
     {SCENE(", \"techniques\": {\"ea\": {\"a\": 1, \"a\": 2}}"), VOLUX_ERR_INVALID, "techniques.ea.a: duplicate key"},
@@ -474,7 +474,8 @@ static void test_cli_exit_status_and_messages(void **state) {
     snprintf(args, sizeof args, "render '%s'", tu_temp_path("cli_no_such_scene.json"));
     cli_case(args, 2, (const char *const[]){"cli_no_such_scene.json", NULL});
     snprintf(args, sizeof args, "render '%s'", tu_temp_path(""));
-    cli_case(args, 2, (const char *const[]){"not a regular file", NULL});
+    /* a folder may be a DICOM series: this one holds none */
+    cli_case(args, 2, (const char *const[]){"no DICOM image in the folder", NULL});
 
     /* Bad overrides. */
     snprintf(args, sizeof args, "render '%s' --set render.width=abc", good);
@@ -484,7 +485,52 @@ static void test_cli_exit_status_and_messages(void **state) {
     snprintf(args, sizeof args, "render '%s' --set lights.3.type=point", good);
     cli_case(args, 2, (const char *const[]){"cli_good.json", "--set lights.3", NULL});
     snprintf(args, sizeof args, "render '%s' --set 'render.widht=8'", good);
-    cli_case(args, 2, (const char *const[]){"render.widht: unknown key", NULL});
+    cli_case(args, 2, (const char *const[]){"render.widht: unknown key; did you mean 'width'?", NULL});
+    snprintf(args, sizeof args, "render '%s' --set 'camera.orbit.azimut=8'", good);
+    cli_case(args, 2, (const char *const[]){"camera.orbit.azimut: unknown key; did you mean 'azimuth'?", NULL});
+    /* An output that cannot be created fails the check before the render
+     * (root passes access() on /proc; creating the file does not). */
+    {
+        snprintf(args, sizeof args, "render '%s' -o /proc/volux_cannot_write.png", good);
+        const char *err = NULL;
+        int rc = tu_run_cli(args, &err);
+        if (rc != 2 || !strstr(err, "cannot write '/proc/volux_cannot_write.png'"))
+            fail_msg("volux %s: exit %d, stderr: %s", args, rc, err);
+    }
+    /* A fully transparent transfer function renders (exit 0) but warns. */
+    {
+        char clear[600];
+        snprintf(clear, sizeof clear, "%s",
+                 write_scene("cli_clear.json", "{\"volume\": {\"procedural\": \"sphere\", \"dims\": [8, 8, 8]},"
+                                               " \"transfer_function\": {\"opacity\": [[0, 0], [1, 0]]},"
+                                               " \"render\": {\"width\": 8, \"height\": 8}}"));
+        snprintf(args, sizeof args, "render '%s'", clear);
+        cli_case(args, 0, (const char *const[]){"cli_clear.json: transfer_function: fully transparent", NULL});
+        const char *err = NULL;
+        snprintf(args, sizeof args, "render '%s' -o '%s'", good, tu_temp_path("cli_good_out.png"));
+        assert_int_equal(tu_run_cli(args, &err), 0);
+        assert_null(strstr(err, "fully transparent")); /* a visible one does not */
+    }
+    /* A progressive technique on a quick look accumulates (to a target
+     * error or a time budget), never ending on one sample; one-pass
+     * techniques keep one. */
+    {
+        const char *err = NULL;
+        snprintf(args, sizeof args, "render procedural:sphere:16 --technique pathtrace --width 16 --height 16 -o '%s'",
+                 tu_temp_path("cli_ql_pt.png"));
+        assert_int_equal(tu_run_cli(args, &err), 0);
+        const char *at = strstr(err, "pathtrace 16x16, ");
+        if (!at || atoi(at + strlen("pathtrace 16x16, ")) < 2) fail_msg("quick-look pathtrace stopped early: %s", err);
+        snprintf(args, sizeof args, "render procedural:sphere:16 --width 16 --height 16 -o '%s'",
+                 tu_temp_path("cli_ql_sh.png"));
+        assert_int_equal(tu_run_cli(args, &err), 0);
+        if (!strstr(err, "shaded 16x16, 1 spp")) fail_msg("quick-look shaded: %s", err);
+    }
+    /* An option typo names the option it resembles. */
+    snprintf(args, sizeof args, "render '%s' --widht 8", good);
+    cli_case(args, 2, (const char *const[]){"unknown option '--widht'; did you mean '--width'?", NULL});
+    snprintf(args, sizeof args, "render '%s' --ouput x.png", good);
+    cli_case(args, 2, (const char *const[]){"unknown option '--ouput'; did you mean '--output'?", NULL});
     snprintf(args, sizeof args, "render '%s' --width 0", good);
     cli_case(args, 2, (const char *const[]){"render.width: 0 is outside", NULL});
     snprintf(args, sizeof args, "render '%s' --spp many", good);

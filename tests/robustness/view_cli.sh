@@ -28,6 +28,12 @@ if [ -n "$port" ]; then
   exec 3>&-
   check "grep -q '200 OK' '$T/scene' && grep -q 'marschner_lobb' '$T/scene'" "the quick-look scene is served"
   check "[ \$(ls '$TMPDIR' | wc -l) = 1 ]" "one temporary scene folder while serving"
+  exec 3<>"/dev/tcp/127.0.0.1/$port"
+  printf 'GET /api/state HTTP/1.1\r\nHost: 127.0.0.1:%s\r\nConnection: close\r\n\r\n' "$port" >&3
+  timeout 10 cat <&3 >"$T/state"
+  exec 3>&-
+  check "grep -q 'scene_path\": *\"procedural:marschner_lobb:24 (quick look)' '$T/state'" "the page names the volume"
+  check "! grep -q 'volux-view-' '$T/state' '$T/err'" "the temporary scene path is shown nowhere"
 fi
 kill -TERM "$pid"
 wait "$pid"; rc=$?

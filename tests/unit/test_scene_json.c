@@ -684,7 +684,7 @@ static void test_override_errors_name_the_assignment(void **state) {
          "render.technique: name too long"},
         {"render.width=0", VOLUX_ERR_INVALID, "render.width: 0 is outside [1, 32768]"},
         {"render.width=1e999", VOLUX_ERR_INVALID, "render.width: inf is outside"},
-        {"render.widht=3", VOLUX_ERR_INVALID, "render.widht: unknown key"},
+        {"render.widht=3", VOLUX_ERR_INVALID, "render.widht: unknown key; did you mean 'width'?"},
         {"lights.0.cone_angle=10", VOLUX_ERR_INVALID, "lights[0].cone_angle: unknown key"},
         {"lights.1.intensity=-1", VOLUX_ERR_INVALID, "lights[1].intensity: -1 is outside"},
         {"transfer_function.opacity.1.1=2", VOLUX_ERR_INVALID, "transfer_function.opacity[1]: 2 is outside [0, 1]"},

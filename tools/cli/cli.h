@@ -29,6 +29,9 @@ int cli_bench_pareto(int argc, char **argv);
 int cli_techniques(int argc, char **argv);
 int cli_ambient_table(int argc, char **argv);
 int cli_serve(int argc, char **argv); /* tools/viewer/serve.c */
+/* cli_serve with `display_name` standing for the scene file in messages
+ * and the page (volux view's generated scene; NULL: the file's name). */
+int cli_serve_named(int argc, char **argv, const char *display_name);
 int cli_view(int argc, char **argv);  /* tools/viewer/view.c: a volume's quick look in the viewer */
 
 /* Prints "volux CMD: <context error>" and returns the exit status for st. */
@@ -47,6 +50,9 @@ void cli_progress(const char *task, double fraction);
 /* No progress output from now on (--quiet); Ctrl-C still stops work. */
 void cli_quiet_progress(void);
 /* Parses a positive/non-negative integer option value; prints an error. */
+/* The candidate nearest to a mistyped `name` (Levenshtein distance ≤ 2,
+ * or a third of the length for long names), or NULL: "did you mean". */
+const char *cli_closest(const char *name, const char *const *candidates);
 int cli_parse_int(const char *cmd, const char *opt, const char *s, long lo, long hi, long *out);
 int cli_parse_double(const char *cmd, const char *opt, const char *s, double *out);
 /* Median of v[0..n) (n >= 1); sorts v in place. */

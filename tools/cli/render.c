@@ -100,7 +100,13 @@ int cli_render(int argc, char **argv) {
         int r = cli_scene_arg("render", &args, argc, argv, &i);
         if (r < 0) return CLI_USAGE;
         if (r == 0) {
-            cli_eprintf("volux render: unknown option '%s'\n", argv[i]);
+            static const char *const options[] = {"--output", "--distribute", "--quiet", "--all-steps", "--help",
+                                                  "--dump-scene", "--technique", "--spp", "--width", "--height",
+                                                  "--threads", "--seed", "--step", "--exposure", "--time-ms",
+                                                  "--target-error", "--max-depth", "--time-step", "--set", NULL};
+            const char *guess = cli_closest(argv[i], options);
+            cli_eprintf("volux render: unknown option '%s'%s%s%s\n", argv[i], guess ? "; did you mean '" : "",
+                        guess ? guess : "", guess ? "'?" : "");
             usage(stderr);
             return CLI_USAGE;
         }

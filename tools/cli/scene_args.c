@@ -180,6 +180,39 @@ void cli_technique_names(char *out, size_t n) {
     }
 }
 
+/* A quick look rendered with a progressive technique (--technique
+ * pathtrace) accumulates until a target relative error of 2 % or a 10 s
+ * budget (at most 4096 samples) instead of ending on one noisy sample,
+ * unless the command line sets any of those limits itself. The one-pass
+ * techniques keep one sample (more would only repeat jittered passes). */
+static void quick_look_limits(const cli_scene_args *a, const char **out, const char *const **overrides, int *n) {
+    const char *tech = "shaded";
+    char name[64];
+    for (int i = 0; i < a->n_overrides; i++) {
+        const char *o = a->overrides[i];
+        if (!strncmp(o, "render.spp=", 11) || !strncmp(o, "render.time_ms=", 15) ||
+            !strncmp(o, "render.target_error=", 20))
+            return;
+        if (!strncmp(o, "render.technique=", 17)) {
+            const char *v = o + 17;
+            if (*v == '"') v++;
+            snprintf(name, sizeof name, "%s", v);
+            size_t len = strlen(name);
+            if (len && name[len - 1] == '"') name[len - 1] = 0;
+            tech = name;
+        }
+    }
+    const volux_technique_info *info = volux_technique_info_find(tech);
+    if (!info || !info->progressive) return;
+    int k = 0;
+    out[k++] = "render.spp=4096";
+    out[k++] = "render.target_error=0.02";
+    out[k++] = "render.time_ms=10000";
+    for (int i = 0; i < a->n_overrides; i++) out[k++] = a->overrides[i];
+    *overrides = out;
+    *n = k;
+}
+
 int cli_load_scene_quiet(const char *cmd, volux_context *ctx, const cli_scene_args *a, volux_scene **out,
                          char *msg, size_t msg_size) {
     msg[0] = 0;
@@ -236,6 +269,7 @@ int cli_load_scene_quiet(const char *cmd, volux_context *ctx, const cli_scene_ar
     volux_volume *vol = NULL;
     char *json = NULL;
     volux_status st = VOLUX_OK;
+    const char *limits[CLI_MAX_OVERRIDES + 3];
     if (kind == INPUT_VOLUME) {
         /* A quick look: the default scene of the volume, loaded once. */
         char vjson[4200];
@@ -262,6 +296,7 @@ int cli_load_scene_quiet(const char *cmd, volux_context *ctx, const cli_scene_ar
         o.json = json;
         o.base_dir = ".";
         o.name = in;
+        quick_look_limits(a, limits, &o.overrides, &o.n_overrides);
         o.volume = vol;
         o.volume_file = cli_is_procedural(in) ? NULL : in;
     } else {

@@ -619,6 +619,7 @@ static void do_refine(viewer *v) {
         return;
     }
     uint32_t target = (uint32_t)rs->spp;
+    if (volux_framebuffer_spp(v->fb_full) == 0) v->refine_t0 = viewer_now_ms();
     volux_render_limits wave = {volux_framebuffer_spp(v->fb_full) + 1, 0, 0};
     volux_render_report rep = {0};
     static double last_publish;
@@ -636,8 +637,11 @@ static void do_refine(viewer *v) {
         return;
     }
     uint32_t spp = volux_framebuffer_spp(v->fb_full);
-    int final = spp >= target || (rs->target_error > 0 && spp >= 2 && rep.rel_error <= rs->target_error);
     double now = viewer_now_ms();
+    /* The limits `volux render` applies: spp, the target relative error
+     * and the time budget (render.time_ms, from the first full wave). */
+    int final = spp >= target || (rs->target_error > 0 && spp >= 2 && rep.rel_error <= rs->target_error) ||
+                (rs->time_ms > 0 && now - v->refine_t0 >= rs->time_ms);
     if (!final && now - last_publish < PUBLISH_EVERY_MS) return;
     last_publish = now;
     volux_image img = {0};

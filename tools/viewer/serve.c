@@ -67,7 +67,9 @@ static int loopback(const char *addr) {
     return !strncmp(addr, "127.", 4) || !strcmp(addr, "::1") || !strcmp(addr, "localhost");
 }
 
-int cli_serve(int argc, char **argv) {
+int cli_serve(int argc, char **argv) { return cli_serve_named(argc, argv, NULL); }
+
+int cli_serve_named(int argc, char **argv, const char *display_name) {
     cli_scene_args args = {0};
     viewer *v = calloc(1, sizeof *v);
     if (!v) return CLI_FAIL;
@@ -189,6 +191,7 @@ int cli_serve(int argc, char **argv) {
         goto out;
     }
     o->scene_path = args.scene_path;
+    o->scene_name = display_name ? display_name : args.scene_path;
     o->overrides = args.overrides;
     o->n_overrides = args.n_overrides;
 
@@ -215,7 +218,8 @@ int cli_serve(int argc, char **argv) {
     pthread_cond_init(&v->turn, NULL);
     pthread_cond_init(&v->frame_cv, NULL);
     volux_scene_doc_options dopt = {o->data_root, validate, v};
-    volux_status st = volux_scene_doc_load(v->ctx, o->scene_path, o->overrides, o->n_overrides, &dopt, &v->doc);
+    volux_status st =
+        volux_scene_doc_load_named(v->ctx, o->scene_path, o->scene_name, o->overrides, o->n_overrides, &dopt, &v->doc);
     if (st) {
         rc = cli_fail("serve", v->ctx, st);
         goto out;
@@ -248,7 +252,7 @@ int cli_serve(int argc, char **argv) {
     else printf("volux serve: http://[%s]:%d/%s%s\n", o->bind, v->port, o->token ? "?token=" : "",
                 o->token ? o->token : "");
     if (!o->quiet)
-        cli_eprintf("volux serve: %s (%s, %dx%d, %d threads); data root %s; Ctrl-C stops\n", o->scene_path,
+        cli_eprintf("volux serve: %s (%s, %dx%d, %d threads); data root %s; Ctrl-C stops\n", o->scene_name,
                 rs->technique, rs->width, rs->height, volux_context_threads(v->ctx),
                 volux_scene_doc_data_root(v->doc));
     fflush(stdout);

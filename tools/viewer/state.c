@@ -119,7 +119,8 @@ int viewer_snapshot(viewer *v) {
     cJSON *vol_info = v->vol_info;
     cJSON *o = cJSON_CreateObject();
     cJSON_AddNumberToObject(o, "version", (double)volux_scene_doc_version(v->doc));
-    cJSON_AddItemToObject(o, "scene_path", cJSON_CreateString(v->opt.scene_path));
+    const char *name = v->opt.scene_name ? v->opt.scene_name : v->opt.scene_path;
+    cJSON_AddItemToObject(o, "scene_path", cJSON_CreateString(name));
     cJSON_AddItemToObject(o, "data_root", cJSON_CreateString(volux_scene_doc_data_root(v->doc)));
     cJSON_AddItemToObject(o, "scene", cJSON_Parse(rel));
     cJSON *res = cJSON_AddObjectToObject(o, "resolved");
@@ -132,6 +133,8 @@ int viewer_snapshot(viewer *v) {
     cJSON_AddNumberToObject(r, "spp", rs->spp);
     cJSON_AddNumberToObject(r, "exposure", rs->exposure);
     cJSON_AddNumberToObject(r, "step", rs->step);
+    cJSON_AddNumberToObject(r, "target_error", rs->target_error);
+    cJSON_AddNumberToObject(r, "time_ms", rs->time_ms);
     const volux_camera_desc *cam = volux_scene_camera_desc(s);
     cJSON *c = cJSON_AddObjectToObject(res, "camera");
     cJSON_AddBoolToObject(c, "orbit", cam->use_orbit);

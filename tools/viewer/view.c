@@ -85,7 +85,10 @@ int cli_view(int argc, char **argv) {
         args[k++] = dir;
     }
     for (int i = 2; i < argc; i++) args[k++] = argv[i];
-    rc = cli_serve(k, args);
+    /* Messages and the page name the volume, not the temporary scene. */
+    char name[PATH_MAX + 32];
+    snprintf(name, sizeof name, "%s (quick look)", in);
+    rc = cli_serve_named(k, args, name);
     free(args);
     unlink(scene_path);
     rmdir(dir);

@@ -68,6 +68,7 @@ typedef struct viewer_busy {
 
 typedef struct viewer_options {
     const char *scene_path;
+    const char *scene_name; /* what messages and the page call it (volux view: the volume) */
     const char *const *overrides;
     int n_overrides;
     const char *bind;      /* address; default 127.0.0.1                */
@@ -151,6 +152,8 @@ typedef struct viewer {
     uint32_t pending_changes;  /* VOLUX_DOC_* sections of the edits not yet shown */
     uint64_t shown_version;  /* version of the last preview          */
     int refined;             /* final frame of shown_version published */
+    double refine_t0;        /* when the first full-size wave of shown_version started
+                                (render.time_ms counts from here)          */
     int refine_steps_done;   /* deferred technique work finished     */
 
     pthread_mutex_t snap_lock;

@@ -105,7 +105,10 @@ function connect() {
     const coarse = f.step_scale > 1 ? `, step ×${f.step_scale}` : '';
     // a stand-in: a cheaper technique's frame of the new state while the scene's own one prepares
     const standIn = f.stand_in ? `stand-in (${f.stand_in}) · ` : '';
-    $('st-kind').textContent = `${standIn}${f.kind} ${f.width}×${f.height}${coarse}, ${f.spp} spp, frame ${f.id}`;
+    const r = state && state.resolved ? state.resolved.render : null;
+    const limits = r && r.spp > 1 ? ` of ${r.spp}${r.target_error > 0 ? `, to ${r.target_error * 100}% error` : ''}${
+      r.time_ms > 0 ? `, ≤ ${r.time_ms / 1000} s` : ''}` : '';
+    $('st-kind').textContent = `${standIn}${f.kind} ${f.width}×${f.height}${coarse}, ${f.spp} spp${limits}, frame ${f.id}`;
     $('st-server').textContent = `render ${f.render_ms.toFixed(0)} ms, encode ${f.encode_ms.toFixed(1)} ms (${f.format}, ${(f.bytes / 1024).toFixed(0)} KiB)`;
   });
   es.addEventListener('scene', (ev) => {
@@ -258,7 +261,25 @@ function refreshTechnique() {
   }
 }
 
-$('technique').onchange = () => edit([{ path: 'render.technique', value: $('technique').value }]);
+// Progressive techniques never stop at one sample: switching to one from a
+// one-sample scene also sets the limits the quick look uses (a target error
+// and a time budget, shown in the status line); switching back to a
+// one-pass technique drops exactly those limits again.
+const AUTO_LIMITS = { spp: 4096, target_error: 0.02, time_ms: 10000 };
+function autoLimits(r) {
+  return r.spp === AUTO_LIMITS.spp && r.target_error === AUTO_LIMITS.target_error && r.time_ms === AUTO_LIMITS.time_ms;
+}
+$('technique').onchange = () => {
+  const name = $('technique').value;
+  const info = techniques.find((t) => t.name === name);
+  const r = state.resolved.render;
+  const edits = [{ path: 'render.technique', value: name }];
+  if (info && info.progressive && r.spp <= 1 && !(r.time_ms > 0) && !(r.target_error > 0))
+    for (const [k, v] of Object.entries(AUTO_LIMITS)) edits.push({ path: `render.${k}`, value: v });
+  else if (info && !info.progressive && autoLimits(r))
+    edits.push({ path: 'render.spp', value: 1 }, { path: 'render.target_error', value: 0 }, { path: 'render.time_ms', value: 0 });
+  edit(edits);
+};
 
 // ---------------------------------------------------------------- material
 
