@@ -30,7 +30,8 @@
 #define N 64
 static const char *json =
     "{\"volume\": {\"procedural\": \"sphere\", \"dims\": [48, 48, 48]},"
-    " \"transfer_function\": {\"opacity_unit_distance\": 0.05, \"opacity\": [[0, 0], [120, 0], [136, 0.95], [255, 0.95]],"
+    " \"transfer_function\": {\"opacity_unit_distance\": 0.05,"
+    "   \"opacity\": [[0, 0], [120, 0], [136, 0.95], [255, 0.95]],"
     "   \"color\": [[0, 0.9, 0.8, 0.7], [255, 0.9, 0.8, 0.7]], \"albedo\": 0.6, \"anisotropy\": 0},"
     " \"camera\": {\"orbit\": {\"azimuth\": 20, \"elevation\": 15}, \"fov_y\": 9},"
     " \"lights\": [{\"type\": \"directional\", \"direction\": [-0.7, -0.4, -0.6], \"irradiance\": 3.0}],"

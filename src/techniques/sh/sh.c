@@ -577,7 +577,8 @@ static inline void prod_lookup(const sh_state *st, volux_vec3 q, float P[3 * SH_
 enum { SH_MATERIALS = 1, SH_PREINT = 2, SH_PRODUCT = 32 };
 
 /* σt at fine index q, clamped into the volume. */
-static inline float sigma_q(const sh_state *st, float x, float y, float z, volux_storage storage) {
+static inline __attribute__((always_inline)) float sigma_q(const sh_state *st, float x, float y, float z,
+                                                           volux_storage storage) {
     const int *d = st->rc.volume->dims;
     x = x < 0.0f ? 0.0f : x > (float)(d[0] - 1) ? (float)(d[0] - 1) : x;
     y = y < 0.0f ? 0.0f : y > (float)(d[1] - 1) ? (float)(d[1] - 1) : y;
@@ -589,7 +590,8 @@ static inline float sigma_q(const sh_state *st, float x, float y, float z, volux
  * world units, by the trapezoid rule: fine near q (the light lives in the
  * first voxel of a dense surface), a voxel apart beyond; it stops where
  * σt falls to 0 (the medium ends). */
-static inline float depth_out(const sh_state *st, volux_vec3 q, volux_vec3 dq, float dist, volux_storage storage) {
+static inline __attribute__((always_inline)) float depth_out(const sh_state *st, volux_vec3 q, volux_vec3 dq,
+                                                             float dist, volux_storage storage) {
     const float h = st->rc.min_spacing;
     float D = 0.0f, t0 = 0.0f, s_prev = sigma_q(st, q.x, q.y, q.z, storage);
     for (float t = 0.25f * h; t0 < dist && s_prev > 0.0f; t = t0 < h ? 2.0f * t : t + h) {
@@ -603,7 +605,8 @@ static inline float depth_out(const sh_state *st, volux_vec3 q, volux_vec3 dq, f
 
 /* Issue 28. On a surface (a jump of σt across a coefficient cell) the
  * sample at q reads the grid at qr = q + w·surface_offset·h_c·n, n the
- * outward normal (−∇σt), w = min(1, |∇σt|·h_c²)·(1 − e^{−max σt·h})² (h: a voxel) — where the nodes around
+ * outward normal (−∇σt), w = min(1, |∇σt|·h_c²)·(1 − e^{−max σt·h})²
+ * (h: a voxel) — where the nodes around
  * qr cast their rays from the empty side and hold the surface's far
  * visibility — and the light between q and qr is taken from the fine
  * volume: D = ∫σt along the offset, and per light direction ω the
@@ -689,7 +692,8 @@ static inline __attribute__((always_inline)) int near_surface(const sh_state *st
         int i0 = u >= (float)(SH_KD_N - 1) ? SH_KD_N - 2 : (int)u;
         float f = u - (float)i0;
         if (f > 1.0f) f = 1.0f;
-        static const float lower[SH_MAX_BANDS] = {6.2831853f, -3.1415927f, 0.0f, 0.78539816f}; /* 2π ∫_{−1}^0 P_l */
+        /* 2π ∫_{−1}^0 P_l */
+        static const float lower[SH_MAX_BANDS] = {6.2831853f, -3.1415927f, 0.0f, 0.78539816f};
         for (int l = 0; l < SH_MAX_BANDS; l++)
             lam[l] = st->kdepth[i0][l] + f * (st->kdepth[i0 + 1][l] - st->kdepth[i0][l]) + (1.0f - wgt) * lower[l];
         sh_eval(4, n, y);
