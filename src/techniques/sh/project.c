@@ -59,6 +59,7 @@ typedef struct proj_job {
     sh_grid grid;
     int rays, bands, nc, ch;
     float h, hc, tau_max, t_stop, growth, phi_offset;
+    float offset;         /* surface_offset (cells) */
     float sp[3];          /* spacing per axis (world) */
     float *cell_sigma;    /* per coefficient cell: > 0 if any σt > 0 */
     int32_t *nonzero;     /* [lut.n + 1] prefix count of LUT entries with σt > 0 */
@@ -219,7 +220,9 @@ static inline __attribute__((always_inline)) float march(const proj_job *j, volu
             sample_level(j, l, qx, qy, qz, val);
         if (j->comps == 1) {
             tau += val[0] * len;
-            if (tau > j->tau_max) return 0.0f;
+            /* the transmittance left (≈ 1 − ray_opacity), as the bleeding
+             * branch returns: stopping must not darken (issue 28) */
+            if (tau > j->tau_max) return expf(-tau);
         } else if (val[0] > 0.0f) {
             float a = 1.0f - expf(-val[0] * len), wgt = T * a / val[0];
             C[0] += wgt * val[1], C[1] += wgt * val[2], C[2] += wgt * val[3];
@@ -265,17 +268,26 @@ static int project_node(const proj_job *j, int i, int k, int kk, float *out, flo
     }
     volux_vec3 q = v3(minf((float)(i * r), (float)(d[0] - 1)), minf((float)(k * r), (float)(d[1] - 1)),
                       minf((float)(kk * r), (float)(d[2] - 1)));
+    volux_vec3 q0 = q; /* where the rays start */
     /* Opacity of one coefficient voxel and its gradient (§4: τ and |∇τ|). */
     float o = 1.0f - expf(-sigma_at(j, q.x, q.y, q.z) * j->hc);
-    float g[3];
+    float g[3], gs2 = 0.0f, smax = 0.0f;
     const float qa[3] = {q.x, q.y, q.z};
     for (int a = 0; a < 3; a++) {
         float lo[3] = {qa[0], qa[1], qa[2]}, hi[3] = {qa[0], qa[1], qa[2]};
         lo[a] -= 1.0f, hi[a] += 1.0f;
-        float ol = 1.0f - expf(-sigma_at(j, lo[0], lo[1], lo[2]) * j->hc);
-        float oh = 1.0f - expf(-sigma_at(j, hi[0], hi[1], hi[2]) * j->hc);
+        float sl = sigma_at(j, lo[0], lo[1], lo[2]), sh = sigma_at(j, hi[0], hi[1], hi[2]);
+        float ol = 1.0f - expf(-sl * j->hc);
+        float oh = 1.0f - expf(-sh * j->hc);
         g[a] = (oh - ol) / (2.0f * j->sp[a]);
+        float gs = (sh - sl) / (2.0f * j->sp[a]);
+        gs2 += gs * gs;
+        smax = maxf(smax, maxf(sl, sh));
     }
+    /* surfaceness for issue 28's offsets, as the shading sample has it
+     * (sh.c, near_surface): the jump of σt·h_c across one cell */
+    const float oh = 1.0f - expf(-smax * j->h);
+    const float wsurf = j->offset > 0.0f ? minf(sqrtf(gs2) * j->hc * j->hc, 1.0f) * oh * oh : 0.0f;
     volux_vec3 grad = v3(g[0], g[1], g[2]);
     float gl = v3_length(grad);
     volux_vec3 n = v3(0, 0, 1);
@@ -283,6 +295,25 @@ static int project_node(const proj_job *j, int i, int k, int kk, float *out, flo
     if (gl > 0.0f) {
         n = v3_scale(grad, -1.0f / gl); /* towards lower opacity: out of the material */
         surface = minf(gl * j->hc, 1.0f);
+    }
+    /* Issue 28: on a surface the node's rays start on its empty side — up
+     * to surface_offset·h_c outward along the gradient, where the medium
+     * ends (per-voxel opacity below 1 %). Started inside, they measured the
+     * node's depth in the material, which the coarse grid cannot resolve:
+     * nodes a third of a cell apart read 0 and 1 and a trilinear lookup
+     * drew the grid's planes as contour rings. The shading sample adds the
+     * depth back from the fine volume (sh.c, near_surface). */
+    if (wsurf > 1e-3f && gl > 0.0f) {
+        float cap = j->offset * j->hc * wsurf, h = j->h;
+        volux_vec3 dn = v3(n.x / j->sp[0], n.y / j->sp[1], n.z / j->sp[2]);
+        for (float t = h; t <= cap + 1e-4f * h; t += h) {
+            if (sigma_at(j, q.x + dn.x * (t - h), q.y + dn.y * (t - h), q.z + dn.z * (t - h)) * h < 0.01f) break;
+            volux_vec3 e = v3(q.x + dn.x * t, q.y + dn.y * t, q.z + dn.z * t);
+            if (e.x < 0.0f || e.y < 0.0f || e.z < 0.0f || e.x > (float)(d[0] - 1) || e.y > (float)(d[1] - 1) ||
+                e.z > (float)(d[2] - 1))
+                break;
+            q0 = e;
+        }
     }
     /* Below-surface angle α: 0 on an opaque surface, π/2 (full sphere) when
      * transparent or without a gradient. */
@@ -298,7 +329,7 @@ static int project_node(const proj_job *j, int i, int k, int kk, float *out, flo
         ph = 2.0f * VOLUX_PI * (ph - floorf(ph));
         float sr = sqrtf(maxf(0.0f, 1.0f - u * u));
         volux_vec3 w = v3_add(v3_scale(n, u), v3_add(v3_scale(t, sr * cosf(ph)), v3_scale(b, sr * sinf(ph))));
-        float C[3], T = march(j, q, w, C);
+        float C[3], T = march(j, q0, w, C);
         sh_eval(j->bands, w, y);
         if (ch == 1) {
             float f = wgt * T;
@@ -307,6 +338,24 @@ static int project_node(const proj_job *j, int i, int k, int kk, float *out, flo
             for (int c = 0; c < 3; c++) {
                 float f = wgt * (T + C[c]);
                 for (int m = 0; m < nc; m++) out[c * nc + m] += f * y[m];
+            }
+    }
+    /* Issue 28: the region the rays leave out (the cap about −n beyond the
+     * below-surface ring) holds V = wsurf instead of 0 on a surface: the
+     * shading sample's half-space term K_D takes the material below the
+     * surface from the fine volume (K = 1 − w there), so the grid keeps
+     * only the smooth far field, not a hemisphere step whose 4-band
+     * projection rings past the terminator. Cap integral of Y_lm about −n
+     * by Funk–Hecke: 2π ∫_{sin α}^1 P_l(t) dt · Y_lm(−n). */
+    if (wsurf > 1e-3f && gl > 0.0f && sa < 1.0f) {
+        const float a1 = sa, a2 = a1 * a1, a3 = a2 * a1, a4 = a2 * a2;
+        const float cl[SH_MAX_BANDS] = {1.0f - a1, 0.5f * (1.0f - a2), 0.5f * (a1 - a3),
+                                        0.5f * (-0.25f - 1.25f * a4 + 1.5f * a2)};
+        sh_eval(j->bands, v3_scale(n, -1.0f), y);
+        for (int l = 0; l < j->bands; l++)
+            for (int m = l * l; m < (l + 1) * (l + 1); m++) {
+                float f = wsurf * 2.0f * VOLUX_PI * cl[l] * y[m];
+                for (int c = 0; c < ch; c++) out[c * nc + m] += f;
             }
     }
     *weight = o;
@@ -530,6 +579,7 @@ volux_status sh_project(sh_state *st, const sh_projection_params *p, int ratio, 
     j.tau_max = -logf(1.0f - p->ray_opacity);
     j.t_stop = 1.0f - p->ray_opacity;
     j.growth = p->step_growth;
+    j.offset = p->surface_offset;
     /* one fixed offset of the lattice (not the render seed: a seed edit
      * must not change the cached projection) */
     volux_rng rng = volux_rng_make(0x5348, 0, 1, 0);

@@ -58,6 +58,10 @@ static const volux_param_info sh_params[] = {
      "as in §4.3), which multiply the phase-weighted light by the mean visibility"},
     {"progressive", VOLUX_PARAM_BOOL, 0, 0, 1, NULL,
      "project coarse first (2x coarser grid, 1/8 of the rays) and refine in later steps (volux_technique_refine)"},
+    {"surface_offset", VOLUX_PARAM_NUMBER, 1, 0, 4, NULL,
+     "coefficient cells by which a surface's shading samples read the grid outward along the opacity gradient, and "
+     "its nodes start their rays (the depth on the way is taken from the volume per light direction); 0: at the "
+     "sample, which draws contour rings on dense surfaces (issue 28)"},
     VOLUX_PARAM_GRADIENT_THRESHOLD("BRDF shading is"),
     VOLUX_PARAM_PREINTEGRATE,
     VOLUX_PARAM_EARLY_TERMINATION,
@@ -80,6 +84,7 @@ static volux_status read_projection_params(sh_state *st, const volux_scene *scen
     p->scatter_scale = (float)volux_technique_param(scene, cls, "scatter_scale");
     p->neighbourhood = (float)volux_technique_param(scene, cls, "neighbourhood");
     p->progressive = (int)volux_technique_param(scene, cls, "progressive");
+    p->surface_offset = (float)volux_technique_param(scene, cls, "surface_offset");
     const char *name = volux_technique_param_string(scene, cls, "scatter_material");
     const sh_dipole_material *m = sh_dipole_find(name);
     if (!m)
@@ -249,6 +254,51 @@ static volux_status prepare_materials(sh_state *st, const volux_scene *scene) {
     return VOLUX_OK;
 }
 
+
+/* ------------------------------------------------------------------ surfaces (issue 28) */
+
+/* Legendre coefficients λ⁺_l(D) = 2π ∫_0^1 e^{−D/μ} P_l(μ) dμ of the
+ * zonal near-surface transmittance K_D(μ) = e^{−D/μ} for μ > 0 (leaving
+ * through optical depth D measured along the normal: a half-space); the
+ * shading adds (1 − w)·2π ∫_{−1}^0 P_l for μ ≤ 0 (into the material).
+ * Funk–Hecke: ∫ K_D(ω·n) L(ω) dω = Σ_lm λ_l L_lm Y_lm(n), exact for a
+ * band-limited L. */
+static void kdepth_init(float k[SH_KD_N][SH_MAX_BANDS]) {
+    enum { M = 4096 };
+    for (int i = 0; i < SH_KD_N; i++) {
+        double D = (double)SH_KD_MAX * i / (SH_KD_N - 1), acc[SH_MAX_BANDS] = {0, 0, 0, 0};
+        for (int s = 0; s < M; s++) {
+            double mu = (s + 0.5) / M, K = exp(-D / mu);
+            double P[SH_MAX_BANDS] = {1.0, mu, 0.5 * (3 * mu * mu - 1), 0.5 * (5 * mu * mu * mu - 3 * mu)};
+            for (int l = 0; l < SH_MAX_BANDS; l++) acc[l] += K * P[l] / M;
+        }
+        for (int l = 0; l < SH_MAX_BANDS; l++) k[i][l] = (float)(2.0 * VOLUX_PI * acc[l]);
+    }
+}
+
+/* The lights as the surface attenuation weighs them: every non-environment
+ * light as a direction seen from the volume's centre (as its SH probe,
+ * probe.c) with weight ∫L per colour; environments through st->le. */
+static void surface_lights(sh_state *st, volux_vec3 centre) {
+    const volux_light_list *ll = &st->rc.lights;
+    st->n_delta = 0;
+    for (int k = 0; k < 3; k++) st->delta_sum[k] = 0.0f, st->env_sum[k] = 3.5449077f * st->le[k][0];
+    for (int i = 0; i < ll->n_all && st->n_delta < SH_MAX_DELTA; i++) {
+        const volux_prepared_light *l = &ll->all[i];
+        if (l->type == VOLUX_LIGHT_ENVIRONMENT) continue;
+        volux_vec3 d = l->positional ? v3_sub(l->pos, centre) : v3_scale(l->travel, -1.0f);
+        float len = v3_length(d);
+        if (!(len > 0.0f)) continue;
+        int n = st->n_delta++;
+        st->delta_dir[n] = v3_scale(d, 1.0f / len);
+        for (int k = 0; k < 3; k++) {
+            float w = 3.5449077f * st->light_sh[l->slot].c[k][0];
+            st->delta_w[n][k] = w > 0.0f ? w : 0.0f;
+            st->delta_sum[k] += st->delta_w[n][k];
+        }
+    }
+}
+
 static volux_status sh_update(void *state, const volux_scene *scene, const volux_change_set *c) {
     sh_state *st = state;
     volux_raycaster *rc = &st->rc;
@@ -270,7 +320,16 @@ static volux_status sh_update(void *state, const volux_scene *scene, const volux
     }
     if (!st->have_triple) {
         sh_triple_init(&st->triple);
+        kdepth_init(st->kdepth);
         st->have_triple = 1;
+    }
+    if (w & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME)) {
+        st->surface_offset = (float)volux_technique_param(scene, cls, "surface_offset");
+        int ratio = (int)volux_technique_param(scene, cls, "downsample");
+        st->hc = (float)ratio * rc->min_spacing;
+        double sp[3];
+        volux_volume_spacing(rc->volume, sp);
+        for (int a = 0; a < 3; a++) st->sp_inv[a] = (float)(1.0 / sp[a]);
     }
     sh_projection_params p;
     if ((s = read_projection_params(st, scene, &p))) return s;
@@ -318,6 +377,7 @@ static volux_status sh_update(void *state, const volux_scene *scene, const volux
                 }
         }
         st->have_shade = st->have_light_tables = 0;
+        surface_lights(st, centre);
     }
     if (!st->have_shade) {
         st->product_on = st->env_product && (st->le[0][0] > 0.0f || st->le[1][0] > 0.0f || st->le[2][0] > 0.0f);
@@ -515,6 +575,147 @@ static inline void prod_lookup(const sh_state *st, volux_vec3 q, float P[3 * SH_
 }
 
 enum { SH_MATERIALS = 1, SH_PREINT = 2, SH_PRODUCT = 32 };
+
+/* σt at fine index q, clamped into the volume. */
+static inline __attribute__((always_inline)) float sigma_q(const sh_state *st, float x, float y, float z,
+                                                           volux_storage storage) {
+    const int *d = st->rc.volume->dims;
+    x = x < 0.0f ? 0.0f : x > (float)(d[0] - 1) ? (float)(d[0] - 1) : x;
+    y = y < 0.0f ? 0.0f : y > (float)(d[1] - 1) ? (float)(d[1] - 1) : y;
+    z = z < 0.0f ? 0.0f : z > (float)(d[2] - 1) ? (float)(d[2] - 1) : z;
+    return volux_lut_sigma(st->rc.lut, volux_volume_sample_bricked(st->rc.volume, x, y, z, storage));
+}
+
+/* ∫σt from fine index q along dq (index units per world unit) over dist
+ * world units, by the trapezoid rule: fine near q (the light lives in the
+ * first voxel of a dense surface), a voxel apart beyond; it stops where
+ * σt falls to 0 (the medium ends). */
+static inline __attribute__((always_inline)) float depth_out(const sh_state *st, volux_vec3 q, volux_vec3 dq,
+                                                             float dist, volux_storage storage) {
+    const float h = st->rc.min_spacing;
+    float D = 0.0f, t0 = 0.0f, s_prev = sigma_q(st, q.x, q.y, q.z, storage);
+    for (float t = 0.25f * h; t0 < dist && s_prev > 0.0f; t = t0 < h ? 2.0f * t : t + h) {
+        if (t > dist) t = dist;
+        float sv = sigma_q(st, q.x + dq.x * t, q.y + dq.y * t, q.z + dq.z * t, storage);
+        D += 0.5f * (s_prev + sv) * (t - t0);
+        s_prev = sv, t0 = t;
+    }
+    return D;
+}
+
+/* Issue 28. On a surface (a jump of σt across a coefficient cell) the
+ * sample at q reads the grid at qr = q + w·surface_offset·h_c·n, n the
+ * outward normal (−∇σt), w = min(1, |∇σt|·h_c²)·(1 − e^{−max σt·h})²
+ * (h: a voxel) — where the nodes around
+ * qr cast their rays from the empty side and hold the surface's far
+ * visibility — and the light between q and qr is taken from the fine
+ * volume: D = ∫σt along the offset, and per light direction ω the
+ * half-space transmittance K_D(ω·n) = e^{−D/(ω·n)}, 1 − w into the
+ * material (on a surface the material below blocks; the grid's nodes hold
+ * 1 there, project.c, so their 4 bands carry the smooth far field and the
+ * terminator is exact for delta lights). Ad: the weighted K of the lights S stands
+ * for (delta lights exactly; environments without the triple product by
+ * Funk–Hecke); Ae: the environments' (triple product). Returns 0 (qr = q,
+ * Ad = Ae = 1) off surfaces. */
+static inline __attribute__((always_inline)) int near_surface(const sh_state *st, volux_vec3 q, volux_vec3 seg,
+                                                              volux_storage storage, volux_vec3 *qr, float Ad[3],
+                                                              float Ae[3]) {
+    const int *dm = st->rc.volume->dims;
+    /* The march shades a segment [q − seg, q] at its end; in a dense
+     * surface that is its deepest point, while the light leaves from an
+     * exponential distribution of depths from its start. With τ ≈ σt(q)·ℓ
+     * the segment's optical depth, the emission-weighted mean sits at
+     * E[u]/τ of it, E[u] = (1 − (1 + τ)e^{−τ})/(1 − e^{−τ}); the delta
+     * lights below average K over that distribution exactly. */
+    const volux_vec3 qb = q, qa = v3_sub(q, seg);
+    const float tau = sigma_q(st, q.x, q.y, q.z, storage) * st->rc.step;
+    float back = 0.5f;
+    if (tau > 1e-3f) {
+        float e = expf(-tau);
+        back = 1.0f - (1.0f - (1.0f + tau) * e) / ((1.0f - e) * tau);
+    }
+    q = v3_madd(q, seg, -back);
+    /* central differences half a coefficient cell either side: a sample
+     * up to that deep below a sharp surface still sees it (a one-voxel
+     * stencil reads 0 just inside, where the light is) */
+    const float rs = 0.5f * (float)st->grid.ratio;
+    float g[3], smax = 0.0f;
+    for (int a = 0; a < 3; a++) {
+        float lo[3] = {q.x, q.y, q.z}, hi[3] = {q.x, q.y, q.z};
+        lo[a] -= rs, hi[a] += rs;
+        float sh = sigma_q(st, hi[0], hi[1], hi[2], storage), sl = sigma_q(st, lo[0], lo[1], lo[2], storage);
+        g[a] = (sh - sl) * st->sp_inv[a] / (2.0f * rs);
+        smax = sh > smax ? sh : smax;
+        smax = sl > smax ? sl : smax;
+    }
+    float gl = sqrtf(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+    /* w: a jump of σt·h_c across a cell into a medium that is opaque
+     * within a voxel (a translucent cloud keeps the grid's own
+     * below-surface light: its half-space model would darken it) */
+    float wgt = gl * st->hc * st->hc;
+    if (wgt > 1.0f) wgt = 1.0f;
+    const float oh = 1.0f - expf(-smax * st->rc.min_spacing);
+    wgt *= oh * oh;
+    if (!(wgt > 1e-3f)) return 0;
+    volux_vec3 n = v3(-g[0] / gl, -g[1] / gl, -g[2] / gl); /* world, out of the material */
+    const float dist = wgt * st->surface_offset * st->hc;
+    volux_vec3 dq = v3(n.x * st->sp_inv[0], n.y * st->sp_inv[1], n.z * st->sp_inv[2]); /* per world unit */
+    /* optical depth along n out of the medium from the segment's ends */
+    const float Da = depth_out(st, qa, dq, dist, storage), Db = depth_out(st, qb, dq, dist, storage);
+    const float D = Da + (1.0f - back) * (Db - Da); /* at the mean */
+    volux_vec3 r = v3_madd(q, dq, dist);
+    r.x = r.x < 0.0f ? 0.0f : r.x > (float)(dm[0] - 1) ? (float)(dm[0] - 1) : r.x;
+    r.y = r.y < 0.0f ? 0.0f : r.y > (float)(dm[1] - 1) ? (float)(dm[1] - 1) : r.y;
+    r.z = r.z < 0.0f ? 0.0f : r.z > (float)(dm[2] - 1) ? (float)(dm[2] - 1) : r.z;
+    *qr = r;
+    /* delta lights: K_D(μ) = e^{−D/μ} averaged over the emission along the
+     * segment, D = Da + u·ΔD/τ, u ~ e^{−u} on [0, τ]:
+     * e^{−Da/μ}·(1 − e^{−τ(1+ρ)})/((1 + ρ)(1 − e^{−τ})), ρ = ΔD/(τμ) */
+    const float dD = Db > Da ? Db - Da : 0.0f, eT = expf(-tau);
+    float kd[3] = {0, 0, 0};
+    for (int i = 0; i < st->n_delta; i++) {
+        float mu = v3_dot(n, st->delta_dir[i]), K = 1.0f - wgt;
+        if (mu > 0.0f) {
+            float im = 1.0f / mu;
+            if (tau > 1e-3f) {
+                float rho = dD * im / tau;
+                K = expf(-Da * im) * (1.0f - eT * expf(-tau * rho)) / ((1.0f + rho) * (1.0f - eT));
+            } else
+                K = expf(-D * im);
+        }
+        for (int k = 0; k < 3; k++) kd[k] += st->delta_w[i][k] * K;
+    }
+    /* environments: Funk–Hecke with λ_l(D) */
+    float ke[3] = {0, 0, 0};
+    if (st->env_sum[0] > 0.0f || st->env_sum[1] > 0.0f || st->env_sum[2] > 0.0f) {
+        float u = D * ((float)(SH_KD_N - 1) / SH_KD_MAX), y[SH_MAX_COEFFS], lam[SH_MAX_BANDS];
+        int i0 = u >= (float)(SH_KD_N - 1) ? SH_KD_N - 2 : (int)u;
+        float f = u - (float)i0;
+        if (f > 1.0f) f = 1.0f;
+        /* 2π ∫_{−1}^0 P_l */
+        static const float lower[SH_MAX_BANDS] = {6.2831853f, -3.1415927f, 0.0f, 0.78539816f};
+        for (int l = 0; l < SH_MAX_BANDS; l++)
+            lam[l] = st->kdepth[i0][l] + f * (st->kdepth[i0 + 1][l] - st->kdepth[i0][l]) + (1.0f - wgt) * lower[l];
+        sh_eval(4, n, y);
+        for (int k = 0; k < 3; k++) {
+            float acc = 0.0f;
+            for (int l = 0; l < SH_MAX_BANDS; l++) {
+                float b = 0.0f;
+                for (int j = l * l; j < (l + 1) * (l + 1); j++) b += st->le[k][j] * y[j];
+                acc += lam[l] * b;
+            }
+            ke[k] = acc > 0.0f ? acc : 0.0f;
+        }
+    }
+    for (int k = 0; k < 3; k++) {
+        float de = st->product_on ? st->delta_sum[k] : st->delta_sum[k] + st->env_sum[k];
+        float nu = st->product_on ? kd[k] : kd[k] + ke[k];
+        Ad[k] = de > 1e-20f ? nu / de : 1.0f;
+        Ae[k] = st->env_sum[k] > 1e-20f ? ke[k] / st->env_sum[k] : 1.0f;
+    }
+    return 1;
+}
+
 /* storage in bits 2–4 */
 #define SH_VARIANT(mat, preint, storage, product)                                                                  \
     ((mat) | (preint) << 1 | (int)(storage) << 2 | ((product) ? SH_PRODUCT : 0))
@@ -531,10 +732,17 @@ static inline __attribute__((always_inline)) void shade_at(const void *tech, con
                                                             float c[3], int variant) {
     const sh_ray *ry = tech;
     const sh_state *st = ry->st;
-    volux_vec3 q = v3_madd(ray->q0, ray->dq, t);
-    float S[4], P[3 * SH_MAX_COEFFS];
-    shade_lookup(st, q, S);
-    if (variant & SH_PRODUCT) prod_lookup(st, q, P);
+    volux_vec3 q = v3_madd(ray->q0, ray->dq, t), qr = q;
+    float S[4], P[3 * SH_MAX_COEFFS], Ad[3] = {1, 1, 1}, Ae[3] = {1, 1, 1};
+    if (st->surface_offset > 0.0f)
+        near_surface(st, q, v3_scale(ray->dq, st->rc.step), SH_STORAGE(variant), &qr, Ad, Ae);
+    shade_lookup(st, qr, S);
+    for (int k = 0; k < 3; k++) S[k] *= Ad[k];
+    if (variant & SH_PRODUCT) {
+        prod_lookup(st, qr, P);
+        for (int k = 0; k < 3; k++)
+            for (int j = 0; j < SH_MAX_COEFFS; j++) P[k * SH_MAX_COEFFS + j] *= Ae[k];
+    }
     const float *a = ry->a_def, *h = ry->h_def;
     if (variant & SH_MATERIALS) {
         float sv = volux_volume_sample_bricked(st->rc.volume, q.x, q.y, q.z, SH_STORAGE(variant));

@@ -46,11 +46,15 @@ typedef struct sh_layout {
 typedef struct sh_projection_params {
     int bands, chroma_bands, downsample, rays, bleeding, scattering, scatter_preset, progressive;
     float step_growth, ray_opacity, neighbourhood, scatter_scale;
+    float surface_offset; /* coefficient cells: a surface node's rays start on its empty side (issue 28) */
 } sh_projection_params;
 
 #define SH_MAX_MATERIALS (VOLUX_TF_MAX_MATERIALS + 1)
 #define SH_TABLE_THETA 32 /* material SH tables: θ_o samples over [0, π/2] */
 #define SH_OCTA 16        /* material–light tables: octahedral n and ω_o   */
+#define SH_MAX_DELTA 16   /* delta lights the surface attenuation weighs one by one */
+#define SH_KD_N 129       /* kdepth: D = 0 … SH_KD_MAX in 128 steps        */
+#define SH_KD_MAX 16.0f
 
 /* One material of the channel, prepared. */
 typedef struct sh_material {
@@ -111,6 +115,19 @@ typedef struct sh_state {
     volux_gradient_cache grad;
     int have_grad;
     size_t table_bytes;
+    /* surfaces (issue 28, `surface_offset`): a shading sample on a surface
+     * reads the grid surface_offset cells outward along the opacity
+     * gradient and attenuates it by the optical depth D crossed on the way,
+     * per light direction: delta lights exactly (directions from the
+     * volume's centre, weights their ∫L per colour), environments by
+     * Funk–Hecke with the zonal kernel's Legendre coefficients kdepth */
+    float surface_offset;
+    int n_delta;
+    volux_vec3 delta_dir[SH_MAX_DELTA];
+    float delta_w[SH_MAX_DELTA][3];
+    float delta_sum[3], env_sum[3];
+    float kdepth[SH_KD_N][SH_MAX_BANDS];
+    float hc, sp_inv[3];
     /* statistics (tests, bench) */
     uint64_t projections, bakes, light_projections;
     uint64_t rays_cast;       /* projection rays, all projections so far */
