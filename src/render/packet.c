@@ -231,7 +231,8 @@ volux_status volux_packet_kernel_choose(volux_context *ctx, const volux_scene *s
     else if (!strcmp(k, "avx2")) kernel = VOLUX_PACKET_AVX2;
     else
         return volux_error(ctx, VOLUX_ERR_INVALID,
-                           "techniques.%s.march_kernel: expected \"auto\", \"scalar\", \"simd\" or \"avx2\", got \"%s\"",
+                           "techniques.%s.march_kernel: expected \"auto\", \"scalar\", \"simd\" or \"avx2\", "
+                           "got \"%s\"",
                            cls->info.name, k);
     const int cpu = volux_packet_avx2_available();
     if ((kernel == VOLUX_PACKET_SIMD || kernel == VOLUX_PACKET_AVX2) && !(cpu && usable))

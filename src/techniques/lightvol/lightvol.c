@@ -262,7 +262,8 @@ static void lightvol_release(void *state) {
 
 static size_t lightvol_memory_bytes(const void *state) {
     const lightvol_state *st = state;
-    return volux_packet_tables_bytes(&st->pk) + st->vol_bytes + st->medium_bytes + volux_lightvol_scratch_bytes(st) + st->grad.bytes +
+    return volux_packet_tables_bytes(&st->pk) + st->vol_bytes + st->medium_bytes + volux_lightvol_scratch_bytes(st) +
+           st->grad.bytes +
            st->job.items_bytes + st->job.passes_bytes + st->job.idx_bytes +
            sizeof *st->applied * (size_t)st->applied_cap;
 }
