@@ -98,7 +98,7 @@ static const tech_case techs[] = {
 enum { N_TECHS = sizeof techs / sizeof techs[0] };
 
 static int g_point_light = 0; /* add a point light (ao: the per-lane scalar hook) */
-static double g_aniso = 0.3;  /* HG g of the TF (lightvol: g = 0 reads RGB only, by row loads) */
+static double g_aniso = 0.3;  /* HG g of the TF (lightvol: g = 0 reads only the RGB channels) */
 
 static volux_scene *make_scene(volux_context *ctx, const tech_case *tc, const storage_case *sc, const char *file,
                                int ortho, int preint, int skip, double early) {
@@ -197,8 +197,8 @@ static void simd_matches_scalar(const tech_case *tc) {
 static void test_lightvol_simd_matches_scalar(void **state) {
     (void)state;
     if (!simd_or_skip()) skip();
-    simd_matches_scalar(&techs[0]); /* g ≠ 0: 6 channels by gathers */
-    g_aniso = 0.0;                  /* g = 0: RGB by row loads (lv_illum_rgb6) */
+    simd_matches_scalar(&techs[0]); /* g ≠ 0: all 6 channels (RGB + mean light direction) */
+    g_aniso = 0.0;                  /* g = 0: the RGB channels only */
     simd_matches_scalar(&techs[0]);
     g_aniso = 0.3;
 }
