@@ -651,6 +651,11 @@ static volux_status ambient_update(void *state, const volux_scene *scene, const 
             need_slice = table_loaded = 1;
         }
     }
+    /* The packet march has no lagged transmittance: it serves offset 0
+     * only (lag 0), with inscatter called per lane. */
+    if ((s = scatter_base_packet_update(b, scene, c, st->offset == 0.0f,
+                                        "techniques.ambient.offset 0 (the packet march has no lagged transmittance)")))
+        return s;
     /* The occlusion volume exists iff the AO term is on (weight, or an
      * environment light with env_directions 0); an environment light
      * appearing turns it on. */
@@ -739,6 +744,7 @@ static void ambient_release(void *state) {
     volux_free(ctx, st->slice, st->slice_bytes);
     volux_free(ctx, st->slab, st->slab_bytes);
     volux_free(ctx, st->kappa, st->kappa_bytes);
+    scatter_base_packet_release(&st->b);
 }
 
 static size_t ambient_memory_bytes(const void *state) {
@@ -756,7 +762,7 @@ static size_t ambient_memory_bytes(const void *state) {
     for (int i = 0; i < st->ln_n; i++)
         if (st->ln_col[i]) n += (size_t)st->table.desc.n_sigma * (size_t)st->table.desc.n_theta * sizeof(double);
     n += (size_t)st->ln_n * sizeof *st->ln_col;
-    return n;
+    return n + volux_packet_tables_bytes(&st->b.pk);
 }
 
 /* ------------------------------------------------------------------ render */
@@ -980,7 +986,26 @@ static inline __attribute__((always_inline)) float ambient_lag(const void *tech,
     return lag;
 }
 
-SCATTER_RENDER_TILE(ambient_render_tile, ambient_state, st->offset * st->radius, ambient_lag, inscatter)
+SCATTER_RENDER_TILE(ambient_render_tile_scalar, ambient_state, st->offset * st->radius, ambient_lag, inscatter)
+
+void volux_ambient_shade_lane(const void *tech, const volux_packet_lane *in, float c[3]) {
+    const ambient_state *st = tech;
+    scatter_sample smp;
+    scatter_sample_of_lane(in, c, &smp);
+    volux_vec3 Ls = v3(0, 0, 0), Lx = v3(0, 0, 0);
+    if (st->b.rc.albedo > 0.0f && (c[0] > 0.0f || c[1] > 0.0f || c[2] > 0.0f)) inscatter(tech, &smp, &Ls, &Lx);
+    scatter_emit(&st->b, c, Ls, Lx);
+}
+
+/* The packet march (march_avx2.c, march_avx512.c: inscatter per lane) when
+ * march_kernel resolved to SIMD, which needs offset 0; else scatter_march. */
+static void ambient_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
+                                volux_tile_stats *stats) {
+    const ambient_state *st = state;
+    if (st->b.march_lanes)
+        scatter_packet_tile(&st->b, st, scene, tile, rgb, stats, volux_ambient_march_avx2, volux_ambient_march_avx512);
+    else ambient_render_tile_scalar(state, scene, tile, rgb, stats);
+}
 
 const volux_technique_class volux_ambient_class = {
     {"ambient", "ambient volume scattering: preintegrated multiple scattering in a sphere (Ament et al. 2013)",

@@ -93,5 +93,12 @@ typedef struct ambient_state {
 /* The memory model (estimate.c, docs/SCALE.md). */
 uint64_t volux_ambient_estimate_bytes(const volux_scene *scene, const volux_technique_class *cls,
                                       uint64_t *volume_added);
+/* The camera march as packets (render/packet_impl.h), for offset 0 (no
+ * lag); the shading stays scalar, called per lane (volux_ambient_shade_lane). */
+void volux_ambient_march_avx2(const volux_packet_march *pm, const void *tech, const volux_scene *scene,
+                              const volux_tile *tile, float *rgb, volux_tile_stats *stats);
+void volux_ambient_march_avx512(const volux_packet_march *pm, const void *tech, const volux_scene *scene,
+                                const volux_tile *tile, float *rgb, volux_tile_stats *stats);
+void volux_ambient_shade_lane(const void *tech, const volux_packet_lane *in, float c[3]);
 
 #endif

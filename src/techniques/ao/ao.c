@@ -132,6 +132,12 @@ static volux_status ao_update(void *state, const volux_scene *scene, const volux
     volux_raycaster *rc = &st->b.rc;
     volux_status s;
     scatter_base_update(&st->b, scene, c);
+    /* The lane hook (march_lanes.h) shades the isotropic model only; the
+     * directional one runs the scalar march. */
+    int lanes_usable = !(int)volux_technique_param(scene, rc->cls, "directional");
+    if ((s = scatter_base_packet_update(&st->b, scene, c, lanes_usable,
+                                        "the directional occlusion model is shaded by the scalar march")))
+        return s;
     int rebuild = (c->what & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY)) != 0;
     int env = (c->what & (VOLUX_CHANGE_LIGHTS | VOLUX_CHANGE_PHASE)) != 0;
     if (c->what & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME)) {
@@ -181,11 +187,12 @@ static void ao_release(void *state) {
     scatter_sat_free(st->b.rc.ctx, &st->sat);
     scatter_grid_free(st->b.rc.ctx, &st->occ);
     scatter_dirw_free(st->b.rc.ctx, &st->vis);
+    scatter_base_packet_release(&st->b);
 }
 
 static size_t ao_memory_bytes(const void *state) {
     const ao_state *st = state;
-    return st->sat.bytes + st->occ.bytes + st->vis.bytes;
+    return st->sat.bytes + st->occ.bytes + st->vis.bytes + volux_packet_tables_bytes(&st->b.pk);
 }
 
 /* In-scattering of the directional model at one view sample (per lane:
@@ -248,7 +255,25 @@ static inline __attribute__((always_inline)) void inscatter(const void *tech, co
     *Ls = v3_scale(L, A);
 }
 
-SCATTER_RENDER_TILE(ao_render_tile, ao_state, 0.0f, NULL, inscatter)
+SCATTER_RENDER_TILE(ao_render_tile_scalar, ao_state, 0.0f, NULL, inscatter)
+
+void volux_ao_shade_lane(const void *tech, const volux_packet_lane *in, float c[3]) {
+    const ao_state *st = tech;
+    scatter_sample smp;
+    scatter_sample_of_lane(in, c, &smp);
+    volux_vec3 Ls = v3(0, 0, 0), Lx = v3(0, 0, 0);
+    inscatter(tech, &smp, &Ls, &Lx);
+    scatter_emit(&st->b, c, Ls, Lx);
+}
+
+/* The packet march (march_lanes.h) when march_kernel resolved to SIMD. */
+static void ao_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
+                           volux_tile_stats *stats) {
+    const ao_state *st = state;
+    if (st->b.march_lanes)
+        scatter_packet_tile(&st->b, st, scene, tile, rgb, stats, volux_ao_march_avx2, volux_ao_march_avx512);
+    else ao_render_tile_scalar(state, scene, tile, rgb, stats);
+}
 
 const volux_technique_class volux_ao_class = {
     {"ao", "SAT ambient occlusion (Schlegel et al. 2011) lighting single scattering (Ament 2013 baseline)",

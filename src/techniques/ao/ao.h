@@ -27,5 +27,12 @@ typedef struct ao_state {
 
 /* The memory model (estimate.c, docs/SCALE.md). */
 uint64_t volux_ao_estimate_bytes(const volux_scene *scene, const volux_technique_class *cls, uint64_t *volume_added);
+/* The camera march as packets (march_lanes.h over render/packet_impl.h). */
+void volux_ao_march_avx2(const volux_packet_march *pm, const void *tech, const volux_scene *scene,
+                         const volux_tile *tile, float *rgb, volux_tile_stats *stats);
+void volux_ao_march_avx512(const volux_packet_march *pm, const void *tech, const volux_scene *scene,
+                           const volux_tile *tile, float *rgb, volux_tile_stats *stats);
+/* The scalar shading of one packet lane (positional lights, flat volumes). */
+void volux_ao_shade_lane(const void *tech, const volux_packet_lane *in, float c[3]);
 
 #endif

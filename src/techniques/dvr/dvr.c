@@ -44,184 +44,6 @@ static volux_status read_params(dvr_state *st, const volux_scene *scene) {
     return VOLUX_OK;
 }
 
-/* The SIMD kernel's float copy of the pre-integration integrals (layout in
- * dvr.h). P is rounded once from the double table; D is the float
- * difference of the rounded P, so P[i+1] − P[i] − D[i] is exactly 0 in
- * float and a segment straddling one node boundary loses nothing to
- * cancellation. Intervals where σt is 0 keep D = 0 exactly (equal doubles
- * round to equal floats), so empty space stays exactly empty. */
-static volux_status build_float_tables(dvr_state *st) {
-    const volux_transfer_lut *lut = st->rc.lut;
-    size_t bytes = (size_t)lut->n * 8 * sizeof(float);
-    if (bytes != st->pre_bytes) {
-        if (st->pre_f) volux_free_aligned(st->rc.ctx, st->pre_f, st->pre_bytes);
-        st->pre_bytes = 0;
-        st->pre_f = volux_alloc_aligned(st->rc.ctx, bytes);
-        if (!st->pre_f) return volux_error(st->rc.ctx, VOLUX_ERR_NOMEM, "out of memory for the pre-integration table");
-        st->pre_bytes = bytes;
-    }
-    for (int i = 0; i < lut->n; i++) {
-        float *r = st->pre_f + 8 * (size_t)i;
-        r[0] = (float)lut->int_sigma[i];
-        for (int c = 0; c < 3; c++) r[1 + c] = (float)lut->int_sigma_c[3 * i + c];
-    }
-    for (int i = 0; i < lut->n; i++) {
-        float *r = st->pre_f + 8 * (size_t)i;
-        for (int c = 0; c < 4; c++) r[4 + c] = i + 1 < lut->n ? r[8 + c] - r[c] : 0.0f;
-    }
-    return VOLUX_OK;
-}
-
-/* Value range of every skip cell (DVR_SKIP_CELL³ cells, nodes inclusive,
- * so the trilinear field inside a cell lies in its range): TF-independent,
- * built with the volume. Finer than the 8³ macrocells because in real data
- * most samples of a non-empty macrocell still have zero opacity (bonsai:
- * 2.3 M of 14 M samples contribute), and a 4³ cell is empty much more often. */
-static volux_status build_skip_ranges(dvr_state *st) {
-    const volux_volume *v = st->rc.volume;
-    int *c = st->skip_cells;
-    size_t n = 1;
-    for (int a = 0; a < 3; a++) {
-        c[a] = (v->dims[a] - 1 + DVR_SKIP_CELL - 1) / DVR_SKIP_CELL;
-        if (c[a] < 1) c[a] = 1;
-        n *= (size_t)c[a];
-    }
-    size_t bytes = 2 * n * sizeof(float);
-    if (bytes != st->range_bytes) {
-        if (st->skip_range) volux_free(st->rc.ctx, st->skip_range, st->range_bytes);
-        st->range_bytes = 0;
-        st->skip_range = volux_malloc(st->rc.ctx, bytes);
-        if (!st->skip_range) return volux_error(st->rc.ctx, VOLUX_ERR_NOMEM, "out of memory for the skip cells");
-        st->range_bytes = bytes;
-    }
-    for (size_t i = 0; i < n; i++) st->skip_range[2 * i] = INFINITY, st->skip_range[2 * i + 1] = -INFINITY;
-    /* every node updates the (up to 8) cells it bounds */
-    for (int k = 0; k < v->dims[2]; k++)
-        for (int j = 0; j < v->dims[1]; j++)
-            for (int i = 0; i < v->dims[0]; i++) {
-                float val = volux_volume_raw_at(v, volux_volume_index(v, i, j, k)) + v->value_offset;
-                int idx[3] = {i, j, k}, lo[3], hi[3];
-                for (int a = 0; a < 3; a++) {
-                    hi[a] = idx[a] / DVR_SKIP_CELL;
-                    lo[a] = idx[a] % DVR_SKIP_CELL == 0 && hi[a] > 0 ? hi[a] - 1 : hi[a];
-                    if (hi[a] > c[a] - 1) hi[a] = c[a] - 1;
-                }
-                for (int z = lo[2]; z <= hi[2]; z++)
-                    for (int y = lo[1]; y <= hi[1]; y++)
-                        for (int x = lo[0]; x <= hi[0]; x++) {
-                            size_t cell = ((size_t)z * (size_t)c[1] + (size_t)y) * (size_t)c[0] + (size_t)x;
-                            float *r = st->skip_range + 2 * cell;
-                            if (val < r[0]) r[0] = val;
-                            if (val > r[1]) r[1] = val;
-                        }
-            }
-    return VOLUX_OK;
-}
-
-/* Chessboard (L∞) distance, in skip cells, from every skip cell to the
- * nearest cell of the other kind, stored signed: d ≥ 1 for an empty cell
- * (σt = 0 on every table node bracketing its value range, the majorant
- * grid's test; all cells within d − 1 of it are empty too), d ≤ −1 for a
- * non-empty one (−d − 1 rings around it hold no empty cell); capped at 127.
- * Why: one lookup tells the SIMD kernel how far a ray can go before the
- * emptiness can change — a whole cube of empty cells to skip, or a cube of
- * non-empty cells to march without checking again — instead of one cell
- * per lookup. Two raster passes of the 3×3×3 chamfer with unit weights
- * give the exact chessboard distance. Rebuilt when extinction changes. */
-static volux_status build_skip_distance(dvr_state *st) {
-    volux_context *ctx = st->rc.ctx;
-    const volux_transfer_lut *lut = st->rc.lut;
-    const int nx = st->skip_cells[0], ny = st->skip_cells[1], nz = st->skip_cells[2];
-    size_t n = (size_t)nx * (size_t)ny * (size_t)nz, bytes = n + 3;
-    if (bytes != st->skip_bytes) {
-        if (st->skip_dist) volux_free(ctx, st->skip_dist, st->skip_bytes);
-        st->skip_bytes = 0;
-        st->skip_dist = volux_malloc(ctx, bytes);
-        if (!st->skip_dist) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for the skip distances");
-        st->skip_bytes = bytes;
-    }
-    memset(st->skip_dist + n, 0, 3); /* padding read (and discarded) by the 32-bit gathers */
-    /* nonzero[i] = number of table nodes below i with σt > 0: a node range
-     * [i0, i1] is empty iff nonzero[i1 + 1] == nonzero[i0] (O(1) per cell) */
-    size_t nz_bytes = ((size_t)lut->n + 1) * sizeof(int32_t);
-    int32_t *nonzero = volux_malloc(ctx, nz_bytes);
-    if (!nonzero) return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for the skip distances");
-    nonzero[0] = 0;
-    for (int i = 0; i < lut->n; i++) nonzero[i + 1] = nonzero[i] + (lut->sigma_t[i] > 0.0f);
-    const int last = lut->n - 1;
-    for (size_t c = 0; c < n; c++) {
-        /* the majorant grid's bracketing: floor of the low end, ceil of the high */
-        float u0 = (st->skip_range[2 * c] - lut->s_min) * lut->inv_ds;
-        float u1 = (st->skip_range[2 * c + 1] - lut->s_min) * lut->inv_ds;
-        int i0 = (int)floorf(u0), i1 = (int)ceilf(u1);
-        if (i0 < 0) i0 = 0;
-        if (i0 > last) i0 = last;
-        if (i1 > last) i1 = last;
-        if (i1 < i0) i1 = i0;
-        st->skip_dist[c] = (int8_t)(nonzero[i1 + 1] == nonzero[i0]); /* 1: empty, 0: not (for now) */
-    }
-    volux_free(ctx, nonzero, nz_bytes);
-    /* Chamfer on a grid padded by one cell of CAP (never a source), so the
-     * 13 causal neighbours are fixed offsets without bounds tests. */
-    enum { CAP = 127 };
-    const size_t px = (size_t)nx + 2, py = (size_t)ny + 2, pz = (size_t)nz + 2, pn = px * py * pz;
-    size_t tmp_bytes = pn * sizeof(int32_t);
-    int32_t *tmp = volux_malloc(ctx, tmp_bytes);
-    unsigned char *flag = volux_malloc(ctx, n);
-    if (!tmp || !flag) {
-        volux_free(ctx, tmp, tmp_bytes);
-        volux_free(ctx, flag, n);
-        return volux_error(ctx, VOLUX_ERR_NOMEM, "out of memory for the skip distances");
-    }
-    for (size_t c = 0; c < n; c++) flag[c] = (unsigned char)st->skip_dist[c];
-    ptrdiff_t off[13];
-    int no = 0;
-    for (int dz = -1; dz <= 0; dz++)
-        for (int dy = -1; dy <= 1; dy++)
-            for (int dx = -1; dx <= 1; dx++)
-                if (!(dz == 0 && (dy > 0 || (dy == 0 && dx >= 0))))
-                    off[no++] = ((ptrdiff_t)dz * (ptrdiff_t)py + dy) * (ptrdiff_t)px + dx;
-    for (int kind = 0; kind < 2; kind++) { /* 0: empty cells, 1: non-empty cells */
-        /* distance from each cell of this kind to the nearest of the other */
-        for (size_t i = 0; i < pn; i++) tmp[i] = CAP;
-        for (int z = 0; z < nz; z++)
-            for (int y = 0; y < ny; y++)
-                for (int x = 0; x < nx; x++) {
-                    size_t c = ((size_t)z * (size_t)ny + (size_t)y) * (size_t)nx + (size_t)x;
-                    tmp[(((size_t)z + 1) * py + (size_t)y + 1) * px + (size_t)x + 1] =
-                        (flag[c] != 0) == (kind == 0) ? CAP : 0;
-                }
-        for (int pass = 0; pass < 2; pass++) {
-            const ptrdiff_t dir = pass ? -1 : 1;
-            for (int zi = 0; zi < nz; zi++)
-                for (int yi = 0; yi < ny; yi++) {
-                    int z = pass ? nz - zi : zi + 1, y = pass ? ny - yi : yi + 1;
-                    int32_t *row = tmp + ((size_t)z * py + (size_t)y) * px;
-                    for (int xi = 0; xi < nx; xi++) {
-                        int32_t *t = row + (pass ? nx - xi : xi + 1);
-                        int32_t best = *t;
-                        if (!best) continue;
-                        for (int o = 0; o < 13; o++) {
-                            int32_t v = t[dir * off[o]] + 1;
-                            if (v < best) best = v;
-                        }
-                        *t = best;
-                    }
-                }
-        }
-        for (int z = 0; z < nz; z++)
-            for (int y = 0; y < ny; y++)
-                for (int x = 0; x < nx; x++) {
-                    size_t c = ((size_t)z * (size_t)ny + (size_t)y) * (size_t)nx + (size_t)x;
-                    int32_t d = tmp[(((size_t)z + 1) * py + (size_t)y + 1) * px + (size_t)x + 1];
-                    if ((flag[c] != 0) == (kind == 0)) st->skip_dist[c] = (int8_t)(kind == 0 ? d : -d);
-                }
-    }
-    volux_free(ctx, tmp, tmp_bytes);
-    volux_free(ctx, flag, n);
-    return VOLUX_OK;
-}
-
 /* Chooses the kernel from the `kernel` parameter, the CPU and (shaded) the
  * lights: the SIMD shading handles up to DVR_SIMD_MAX_LIGHTS directional
  * lights and the ambient term; point, spot and sphere lights (or more
@@ -290,12 +112,13 @@ volux_status volux_dvr_update(void *state, const volux_scene *scene, const volux
     const uint32_t w = c->what;
     volux_status s;
     if (w & VOLUX_CHANGE_VOLUME) {
-        if ((s = volux_volume_build_bricks(rc->volume)) || (s = build_skip_ranges(st))) return s;
+        if ((s = volux_volume_build_bricks(rc->volume)) || (s = volux_packet_skip_ranges(rc->ctx, rc->volume, &st->pk)))
+            return s;
     }
     if (w & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY | VOLUX_CHANGE_COLOR))
-        if ((s = build_float_tables(st))) return s;
+        if ((s = volux_packet_pre_table(rc->ctx, rc->lut, &st->pk))) return s;
     if (w & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY))
-        if ((s = build_skip_distance(st))) return s;
+        if ((s = volux_packet_skip_distance(rc->ctx, rc->lut, &st->pk))) return s;
     if (w & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME)) {
         if ((s = read_params(st, scene))) return s;
         /* the gradient cache only for `gradient: "cached"` (4 bytes per node) */
@@ -321,7 +144,7 @@ volux_status volux_dvr_update(void *state, const volux_scene *scene, const volux
 
 size_t volux_dvr_memory_bytes(const void *state) {
     const dvr_state *st = state;
-    return st->grad.bytes + st->pre_bytes + st->skip_bytes + st->range_bytes + st->corner_bytes;
+    return st->grad.bytes + volux_packet_tables_bytes(&st->pk) + st->corner_bytes;
 }
 
 void volux_dvr_release(void *state) {
@@ -329,9 +152,7 @@ void volux_dvr_release(void *state) {
     volux_context *ctx = st->rc.ctx;
     volux_gradient_cache_free(ctx, &st->grad);
     volux_dvr_corner_words_free(st);
-    if (st->pre_f) volux_free_aligned(ctx, st->pre_f, st->pre_bytes);
-    if (st->skip_dist) volux_free(ctx, st->skip_dist, st->skip_bytes);
-    if (st->skip_range) volux_free(ctx, st->skip_range, st->range_bytes);
+    volux_packet_tables_free(ctx, &st->pk);
 }
 
 /* ------------------------------------------------------------------ kernel */

@@ -24,11 +24,12 @@
 #ifndef VOLUX_DVR_H
 #define VOLUX_DVR_H
 
+#include "render/packet.h"
 #include "render/raycaster.h"
 #include "sample/gradient.h"
 
 #define DVR_SIMD_MAX_LIGHTS 4 /* directional lights the SIMD shading takes */
-#define DVR_SKIP_CELL 4       /* SIMD skip cells: 4³ voxels (macrocells are 8³) */
+#define DVR_SKIP_CELL VOLUX_PACKET_SKIP_CELL /* SIMD skip cells: 4³ voxels (macrocells are 8³) */
 /* largest corner-word copy `volume_layout: "corner_words"` builds (≈ 320³) */
 #define DVR_CORNER_WORDS_MAX_BYTES ((size_t)256 << 20)
 
@@ -59,23 +60,9 @@ typedef struct dvr_state {
      * (central differences from the 10-bit cache) */
     int grad_cell;
     volux_vec3 ambient;            /* environment mean, or white 1 (VTK)   */
-    /* Float pre-integration table for the SIMD kernel: per table node i,
-     * 8 floats {P_σ, P_σr, P_σg, P_σb, D_σ, D_σr, D_σg, D_σb} where P is the
-     * running integral rounded to float and D[i] = P[i+1] − P[i] computed in
-     * float (so adjacent-interval differences cancel exactly, see
-     * dvr_avx2.c). 32 bytes: one unaligned 256-bit load per lane. */
-    float *pre_f;
-    size_t pre_bytes;
-    /* Signed chessboard distance per skip cell to the nearest cell of the
-     * other kind (empty > 0, non-empty < 0, |d| ≤ 127); see
-     * build_skip_distance. One byte per cell (+3 bytes of padding, so a
-     * 32-bit gather at any cell stays inside): 256 KiB at 256³ fits the L2
-     * cache where int32 (1 MiB) did not. */
-    int8_t *skip_dist;
-    size_t skip_bytes;
-    float *skip_range;             /* [2·cells] min, max per skip cell     */
-    size_t range_bytes;
-    int skip_cells[3];
+    /* the SIMD kernel's tables (render/packet.h): float pre-integration
+     * table, 4³ skip-cell ranges and skip distances */
+    volux_packet_tables pk;
     /* Corner words (dvr_corners.c): per cell of an 8-bit volume one 64-bit
      * word with its 8 corners, so a SIMD sample gathers one element instead
      * of four. NULL: the kernel gathers from the bricked copy. */

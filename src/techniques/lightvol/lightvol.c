@@ -60,6 +60,7 @@ static const volux_param_info lightvol_params[] = {
     VOLUX_PARAM_PREINTEGRATE,
     VOLUX_PARAM_EARLY_TERMINATION,
     VOLUX_PARAM_SKIP_EMPTY,
+    VOLUX_PARAM_PACKET_KERNEL,
     {"kernel", VOLUX_PARAM_STRING, 0, 0, 0, "auto",
      "propagation row kernels: auto (AVX2+FMA where the CPU has them, AVX-512 steps where it has those too), "
      "scalar (portable reference), simd (as auto; error if unavailable) or avx2 (AVX2 only); same volume up to "
@@ -221,6 +222,10 @@ static volux_status lightvol_update(void *state, const volux_scene *scene, const
             if (!reason) reason = "colour or albedo changed (forward scattering)";
         }
     }
+    if (w & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME))
+        if ((s = volux_packet_kernel_choose(ctx, scene, rc->cls, 1, "", &st->march_lanes))) return s;
+    if (st->march_lanes && (s = volux_packet_tables_update(ctx, rc->volume, rc->lut, w, &st->pk))) return s;
+    if (!st->march_lanes) volux_packet_tables_free(ctx, &st->pk);
     if (full || !st->valid) return volux_lightvol_update_lights(st, scene, c, 1, reason);
     if (w & VOLUX_CHANGE_LIGHTS) return volux_lightvol_update_lights(st, scene, c, 0, NULL);
     /* any other edit also advances a propagation in progress (§7.3: so much
@@ -246,6 +251,7 @@ static void lightvol_set_budget(void *state, double ms) { ((lightvol_state *)sta
 
 static void lightvol_release(void *state) {
     lightvol_state *st = state;
+    volux_packet_tables_free(st->rc.ctx, &st->pk);
     volux_lightvol_free_buffers(st);
     volux_lightvol_drop_job(st);
     volux_gradient_cache_free(st->rc.ctx, &st->grad);
@@ -256,7 +262,8 @@ static void lightvol_release(void *state) {
 
 static size_t lightvol_memory_bytes(const void *state) {
     const lightvol_state *st = state;
-    return st->vol_bytes + st->medium_bytes + volux_lightvol_scratch_bytes(st) + st->grad.bytes +
+    return volux_packet_tables_bytes(&st->pk) + st->vol_bytes + st->medium_bytes + volux_lightvol_scratch_bytes(st) +
+           st->grad.bytes +
            st->job.items_bytes + st->job.passes_bytes + st->job.idx_bytes +
            sizeof *st->applied * (size_t)st->applied_cap;
 }
@@ -367,6 +374,13 @@ static inline __attribute__((always_inline)) void shade_at(const void *tech, con
     c[0] = S[0], c[1] = S[1], c[2] = S[2];
 }
 
+void volux_lightvol_shade_lane(const void *tech, const volux_packet_lane *in, float c[3]) {
+    const lightvol_state *st = tech;
+    float S[3];
+    scatter(st, in->p, in->q, in->d, c, S, st->p.local_shading > 0.0f && st->grad.grad);
+    c[0] = S[0], c[1] = S[1], c[2] = S[2];
+}
+
 static inline __attribute__((always_inline)) volux_vec3 integrate(const void *tech, const volux_ray *ray,
                                                                    float jitter, float *T, uint64_t *samples,
                                                                    int variant) {
@@ -379,6 +393,13 @@ static inline __attribute__((always_inline)) volux_vec3 integrate(const void *te
 static void lightvol_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
                                  volux_tile_stats *stats) {
     const lightvol_state *st = state;
+    if (st->march_lanes) { /* the packet march (march_lanes.h) */
+        const volux_packet_march pm = {&st->rc, st->rc.lut, &st->pk, st->p.t_min, st->p.skip_empty,
+                                       st->p.preintegrate};
+        if (st->march_lanes == 16) volux_lightvol_march_avx512(&pm, st, scene, tile, rgb, stats);
+        else volux_lightvol_march_avx2(&pm, st, scene, tile, rgb, stats);
+        return;
+    }
     int local = st->p.local_shading > 0.0f && st->grad.grad;
     if (st->p.preintegrate && local)
         volux_raycaster_tile(&st->rc, st, scene, tile, rgb, stats, integrate, LV_PREINT | LV_LOCAL);

@@ -26,6 +26,7 @@
 
 #include "core/simd.h"
 #include "render/lights.h"
+#include "render/packet.h"
 #include "render/raycaster.h"
 #include "sample/gradient.h"
 
@@ -309,7 +310,22 @@ typedef struct lightvol_state {
     double frame_budget_ms;        /* volux_technique_set_budget (0: the
                                       scene's budget_ms / budget_slices)  */
     lv_stats stats;
+    /* the camera march (march_kernel): 0 scalar volux_ea_march, else the
+     * packet march's lanes (8/16, march_avx2.c / march_avx512.c) and its
+     * tables */
+    int march_lanes;
+    volux_packet_tables pk;
 } lightvol_state;
+
+/* The camera march as packets (march_lanes.h); the same contract as a
+ * tile renderer. */
+void volux_lightvol_march_avx2(const volux_packet_march *pm, const void *tech, const volux_scene *scene,
+                               const volux_tile *tile, float *rgb, volux_tile_stats *stats);
+void volux_lightvol_march_avx512(const volux_packet_march *pm, const void *tech, const volux_scene *scene,
+                                 const volux_tile *tile, float *rgb, volux_tile_stats *stats);
+/* The scalar march's shading (shade_at) of one packet lane: the hook of
+ * the lanes that keep it (local shading, show: "illumination"). */
+void volux_lightvol_shade_lane(const void *tech, const volux_packet_lane *in, float c[3]);
 
 /* The budget in force: the front end's per-frame budget when set (it wins
  * over the scene's), else budget_slices (wins) or budget_ms; *slices and

@@ -22,11 +22,12 @@
 #define VOLUX_SCATTER_BASE_H
 
 #include "core/simd.h"
+#include "render/packet.h"
 #include "render/raycaster.h"
 
 /* Parameters every scattering technique has. */
 #define SCATTER_COMMON_PARAMS                                                                                    \
-    VOLUX_PARAM_EARLY_TERMINATION, VOLUX_PARAM_SKIP_EMPTY,                                                       \
+    VOLUX_PARAM_EARLY_TERMINATION, VOLUX_PARAM_SKIP_EMPTY, VOLUX_PARAM_PACKET_KERNEL,                            \
         {"emission", VOLUX_PARAM_NUMBER, 0, 0, 1e6, NULL,                                                        \
          "emitted radiance L_e = emission·c(s) of the absorbing part σa (Eq. 19); 0 = no emission"}
 
@@ -36,7 +37,46 @@ typedef struct scatter_base {
     int skip_empty;
     int lag_window;                /* 1: weight ∫σt T(t − lag) dt over the
                                       segment; 0: T(e − lag)·α (see march) */
+    /* march_kernel: 0 the scalar scatter_march, else the lanes (8/16) of
+     * the packet march (render/packet_impl.h) and its tables */
+    int march_lanes;
+    volux_packet_tables pk;
 } scatter_base;
+
+/* The packet march of a scattering technique at one width (its
+ * march_avx2.c / march_avx512.c; the contract of a tile renderer). */
+typedef void (*scatter_packet_fn)(const volux_packet_march *pm, const void *tech, const volux_scene *scene,
+                                  const volux_tile *tile, float *rgb, volux_tile_stats *stats);
+
+/* Resolves march_kernel (`usable` 0: the technique's settings have no
+ * packet path, `why` says what it needs) and keeps the packet tables up to
+ * date; call from the technique's update after the base's. */
+volux_status scatter_base_packet_update(scatter_base *b, const volux_scene *scene, const volux_change_set *c,
+                                        int usable, const char *why);
+void scatter_base_packet_release(scatter_base *b);
+
+/* The packet march of a scattering technique with lag 0: volux_ea_march
+ * point-sampled (scatter_march has no pre-integration) with the hook
+ * turning c into scatter_emit's radiance. */
+static inline void scatter_packet_tile(const scatter_base *b, const void *tech, const volux_scene *scene,
+                                       const volux_tile *tile, float *rgb, volux_tile_stats *stats,
+                                       scatter_packet_fn avx2, scatter_packet_fn avx512) {
+    const volux_packet_march pm = {&b->rc, b->rc.lut, &b->pk, b->t_min, b->skip_empty, 0};
+    (b->march_lanes == 16 ? avx512 : avx2)(&pm, tech, scene, tile, rgb, stats);
+}
+
+/* The radiance a lag-0 sample of colour c emits per unit opacity (what
+ * scatter_march adds divided by T·α): albedo·c·L_s + L_x + L_e with
+ * L_e = emission·(1 − albedo·c)·c (Eqs. 18–19). In place. */
+static inline void scatter_emit(const scatter_base *b, float c[3], volux_vec3 Ls, volux_vec3 Lx) {
+    const float a = b->rc.albedo, e = b->emission, ls[3] = {Ls.x, Ls.y, Ls.z}, lx[3] = {Lx.x, Lx.y, Lx.z};
+    for (int k = 0; k < 3; k++) {
+        float out = a * c[k] * ls[k] + lx[k];
+        if (e > 0.0f) out += e * (1.0f - a * c[k]) * c[k];
+        c[k] = out;
+    }
+}
+
 
 /* Reads the common parameters (on a PARAMS or VOLUME change). */
 void scatter_base_update(scatter_base *b, const volux_scene *scene, const volux_change_set *c);
@@ -59,6 +99,17 @@ typedef void (*scatter_inscatter_fn)(const void *tech, const scatter_sample *smp
 /* The camera-transmittance lag of a sample, in [0, max_lag] (world units;
  * x_o = x + lag·ω). Called only for samples that scatter. */
 typedef float (*scatter_lag_fn)(const void *tech, const scatter_sample *smp);
+
+/* One packet lane as scatter_sample (σt: the segment's τ/len, the point
+ * value scatter_march passes). */
+static inline void scatter_sample_of_lane(const volux_packet_lane *in, const float c[3], scatter_sample *smp) {
+    smp->p = in->p;
+    smp->q = in->q;
+    smp->to_eye = v3_scale(in->d, -1.0f);
+    smp->s = in->s;
+    smp->sigma_t = in->len > 0.0f ? in->tau / in->len : 0.0f;
+    smp->rgb[0] = c[0], smp->rgb[1] = c[1], smp->rgb[2] = c[2];
+}
 
 /* Past segments of the ray, for T(x_o) at a lag behind the current point:
  * (t0, t1, T before, T after); T is linear within a segment (one march

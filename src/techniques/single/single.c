@@ -399,6 +399,8 @@ static volux_status single_update(void *state, const volux_scene *scene, const v
     single_state *st = state;
     volux_raycaster *rc = &st->b.rc;
     scatter_base_update(&st->b, scene, c);
+    volux_status s;
+    if ((s = scatter_base_packet_update(&st->b, scene, c, 1, ""))) return s;
     int all = (c->what & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY)) != 0;
     int env = (c->what & VOLUX_CHANGE_LIGHTS) != 0;
     if (c->what & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME)) {
@@ -417,7 +419,6 @@ static volux_status single_update(void *state, const volux_scene *scene, const v
         }
         st->use_cache = use, st->cache_scale = scale, st->shadow_step = step, st->n_env_dirs = dirs;
     }
-    volux_status s;
     if (env) {
         env_prepare(st);
         if ((s = volux_raycaster_warn_unused_lights(rc, st->n_env_dirs ? 0u : 1u << VOLUX_LIGHT_ENVIRONMENT,
@@ -472,7 +473,7 @@ static size_t single_memory_bytes(const void *state) {
     size_t n = sizeof *st->slot * (size_t)st->slot_cap;
     for (int i = 0; i < st->slot_cap; i++) n += st->slot[i].cache.bytes;
     for (int k = 0; k < SINGLE_MAX_ENV_DIRS; k++) n += st->env_cache[k].bytes;
-    return n;
+    return n + volux_packet_tables_bytes(&st->b.pk);
 }
 
 static void single_release(void *state) {
@@ -482,6 +483,7 @@ static void single_release(void *state) {
     st->slot = NULL;
     st->slot_cap = 0;
     env_free_caches(st);
+    scatter_base_packet_release(&st->b);
 }
 
 /* ------------------------------------------------------------------ render */
@@ -515,7 +517,27 @@ static inline __attribute__((always_inline)) void inscatter(const void *tech, co
     *Ls = L;
 }
 
-SCATTER_RENDER_TILE(single_render_tile, single_state, 0.0f, NULL, inscatter)
+SCATTER_RENDER_TILE(single_render_tile_scalar, single_state, 0.0f, NULL, inscatter)
+
+void volux_single_shade_lane(const void *tech, const volux_packet_lane *in, float c[3]) {
+    const single_state *st = tech;
+    scatter_sample smp;
+    scatter_sample_of_lane(in, c, &smp);
+    volux_vec3 Ls = v3(0, 0, 0), Lx = v3(0, 0, 0);
+    /* scatter_march's test: no shadow lookups where nothing scatters */
+    if (st->b.rc.albedo > 0.0f && (c[0] > 0.0f || c[1] > 0.0f || c[2] > 0.0f)) inscatter(tech, &smp, &Ls, &Lx);
+    scatter_emit(&st->b, c, Ls, Lx);
+}
+
+/* The packet march when march_kernel resolved to SIMD (march_avx2.c,
+ * march_avx512.c), else scatter_march. */
+static void single_render_tile(const void *state, const volux_scene *scene, const volux_tile *tile, float *rgb,
+                               volux_tile_stats *stats) {
+    const single_state *st = state;
+    if (st->b.march_lanes)
+        scatter_packet_tile(&st->b, st, scene, tile, rgb, stats, volux_single_march_avx2, volux_single_march_avx512);
+    else single_render_tile_scalar(state, scene, tile, rgb, stats);
+}
 
 const volux_technique_class volux_single_class = {
     {"single", "single scattering with shadow rays and an optional transmittance cache (Ament 2013 baseline)",

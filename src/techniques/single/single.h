@@ -43,4 +43,13 @@ typedef struct single_state {
     uint64_t env_cache_builds;
 } single_state;
 
+/* The camera march as packets (march_avx2.c, march_avx512.c over
+ * render/packet_impl.h); the per-sample shading stays scalar, called per
+ * lane through volux_single_shade_lane. */
+void volux_single_march_avx2(const volux_packet_march *pm, const void *tech, const volux_scene *scene,
+                             const volux_tile *tile, float *rgb, volux_tile_stats *stats);
+void volux_single_march_avx512(const volux_packet_march *pm, const void *tech, const volux_scene *scene,
+                               const volux_tile *tile, float *rgb, volux_tile_stats *stats);
+void volux_single_shade_lane(const void *tech, const volux_packet_lane *in, float c[3]);
+
 #endif

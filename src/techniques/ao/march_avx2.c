@@ -1,0 +1,22 @@
+/* techniques/ao/march_avx2.c — ao's camera march as 8-lane AVX2+FMA packets
+ * (march_lanes.h over render/packet_impl.h), chosen at run time
+ * (render/packet.h). */
+#include <math.h>
+#include <string.h>
+
+#include "ao.h"
+
+#if VOLUX_X86_GNUC
+#include "render/lanes_avx2.h"
+#include "march_lanes.h"
+
+void volux_ao_march_avx2(const volux_packet_march *pm, const void *tech, const volux_scene *scene,
+                          const volux_tile *tile, float *rgb, volux_tile_stats *stats) {
+    ao_packet_tile(pm, tech, scene, tile, rgb, stats);
+}
+#else
+void volux_ao_march_avx2(const volux_packet_march *pm, const void *tech, const volux_scene *scene,
+                          const volux_tile *tile, float *rgb, volux_tile_stats *stats) {
+    (void)pm, (void)tech, (void)scene, (void)tile, (void)rgb, (void)stats;
+}
+#endif

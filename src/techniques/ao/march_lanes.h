@@ -1,0 +1,49 @@
+/*
+ * techniques/ao/march_lanes.h — ao's shading hook over lanes for the
+ * shared packet march (render/packet_impl.h): the inscatter of ao.c per
+ * lane, L_s = A(x)·(Σ_j p_g(ω_j·ω) E_j + L_amb), with the occlusion-volume
+ * lookup as gathers; then the radiance per unit opacity of scatter_emit
+ * (albedo·c·L_s + emission·(1 − albedo·c)·c). Not a normal header:
+ * march_avx2.c and march_avx512.c include it after the lane vocabulary.
+ *
+ * Positional lights (irradiance and direction vary with the position) and
+ * a flat volume keep the scalar per-sample function, called per lane.
+ */
+#include "ao.h"
+#include "render/packet_impl.h"
+
+DI void ao_hook(const void *tech, const pk_lanes *L, vm lit, vf c[3]) {
+    const ao_state *st = tech;
+    const volux_light_list *ls = &st->b.rc.lights;
+    int scalar = st->occ.dims[0] < 2 || st->occ.dims[1] < 2 || st->occ.dims[2] < 2;
+    for (int i = 0; i < ls->n_direct; i++) scalar |= ls->direct[i].positional;
+    if (scalar) {
+        pk_shade_per_lane(tech, L, lit, c, volux_ao_shade_lane);
+        return;
+    }
+    vf A;
+    pk_grid_trilinear(st->occ.v, st->occ.dims, 1, L->q[0], L->q[1], L->q[2], lit, 0, 1, &A);
+    vf Ls[3] = {f_set(ls->env_mean.x + st->ambient), f_set(ls->env_mean.y + st->ambient),
+                f_set(ls->env_mean.z + st->ambient)};
+    const float g = st->b.rc.g;
+    const vf to_eye[3] = {f_neg(L->d[0]), f_neg(L->d[1]), f_neg(L->d[2])};
+    for (int i = 0; i < ls->n_direct; i++) {
+        const volux_prepared_light *l = &ls->direct[i];
+        const vf tr[3] = {f_set(l->travel.x), f_set(l->travel.y), f_set(l->travel.z)};
+        /* volux_hg_eval(g, travel·to_eye) */
+        vf ct = dot3(tr, to_eye);
+        vf den = f_sub(f_set(1.0f + g * g), f_mul(f_set(2.0f * g), ct));
+        den = f_max(den, f_set(1e-12f));
+        vf ph = f_div(f_set(VOLUX_INV_4PI * (1.0f - g * g)), f_mul(den, f_sqrt(den)));
+        const float E[3] = {l->power.x, l->power.y, l->power.z};
+        for (int k = 0; k < 3; k++) Ls[k] = f_add(Ls[k], f_mul(f_set(E[k]), ph));
+    }
+    const vf a = f_set(st->b.rc.albedo), e = f_set(st->b.emission), one = f_set(1.0f);
+    for (int k = 0; k < 3; k++) {
+        vf out = f_mul(f_mul(a, c[k]), f_mul(Ls[k], A));
+        if (st->b.emission > 0.0f) out = f_add(out, f_mul(f_mul(e, f_sub(one, f_mul(a, c[k]))), c[k]));
+        c[k] = out;
+    }
+}
+
+VOLUX_PACKET_TILE(ao_packet_tile, ao_hook)
