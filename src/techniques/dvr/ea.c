@@ -24,6 +24,7 @@ const volux_technique_class volux_ea_class = {
     NULL, NULL, NULL, /* no refine, pending work or statistics */
     volux_dvr_render_tile_part,
     NULL, /* no per-frame budget: nothing to defer */
+    NULL, /* nothing per pass */
 };
 
 static const volux_param_info shaded_params[] = {
@@ -45,4 +46,5 @@ const volux_technique_class volux_shaded_class = {
     NULL, NULL, NULL, /* no refine, pending work or statistics */
     volux_dvr_render_tile_part,
     NULL, /* no per-frame budget: nothing to defer */
+    NULL, /* nothing per pass */
 };

@@ -332,4 +332,5 @@ const volux_technique_class volux_guided_class = {
     NULL, /* no pending-work measure, no statistics */
     NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
     NULL, /* no per-frame budget (volux_technique_set_budget) */
+    NULL, /* nothing per pass */
 };

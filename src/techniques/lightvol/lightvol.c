@@ -397,4 +397,5 @@ const volux_technique_class volux_lightvol_class = {
     lightvol_refine, lightvol_pending, NULL, /* §7.3 budget; no statistics */
     NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
     lightvol_set_budget,
+    NULL, /* nothing per pass */
 };

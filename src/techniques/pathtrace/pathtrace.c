@@ -89,4 +89,5 @@ const volux_technique_class volux_pathtrace_class = {
     NULL, NULL, NULL, /* no refine, pending work or statistics */
     NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
     NULL, /* no per-frame budget (volux_technique_set_budget) */
+    NULL, /* nothing per pass */
 };

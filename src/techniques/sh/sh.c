@@ -666,4 +666,5 @@ const volux_technique_class volux_sh_class = {
     NULL, NULL, /* no pending-work measure, no statistics */
     NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
     NULL, /* no per-frame budget (volux_technique_set_budget) */
+    NULL, /* nothing per pass */
 };
