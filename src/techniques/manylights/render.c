@@ -135,16 +135,11 @@ static inline __attribute__((always_inline)) volux_vec3 gather_vls(const ml_stat
         float dist = sqrtf(d2);
         float u = v->cone_u + off.u;
         u = u >= 1.0f ? u - 1.0f : u;
-        float ct, G;
-        if (ball && iso) {
-            /* the phase functions do not look at the direction: the
-             * kernel's mean itself, no sampling noise */
-            G = ml_ball_geometry(dist, r);
-            ct = 1.0f;
-        } else if (ball) {
-            float wv = v->cone_w + off.w, s_unused;
+        float ct, G, s = 0.0f;
+        if (ball) {
+            float wv = v->cone_w + off.w;
             wv = wv >= 1.0f ? wv - 1.0f : wv;
-            G = ml_vsl_ball(dist, r, u, wv, &ct, &s_unused);
+            G = ml_vsl_ball(dist, r, u, wv, &ct, &s);
         } else {
             float omc = d2 > r2 ? (r2 / d2) / (1.0f + sqrtf(1.0f - r2 / d2)) : 1.0f;
             ct = 1.0f - u * omc;
@@ -152,24 +147,33 @@ static inline __attribute__((always_inline)) volux_vec3 gather_vls(const ml_stat
         }
         /* ω_s: cosine ct to the axis x → VL, the pattern's azimuth */
         volux_vec3 ws = v3(0, 0, 0);
-        if (!iso) {
+        if (!iso || (ball && tmode == ML_T_RAYMARCH)) {
             volux_vec3 a = v3_scale(vj, -1.0f / dist), t, b;
             v3_basis(a, &t, &b);
             float stt = sqrtf(fmaxf(0.0f, 1.0f - ct * ct));
             float cp = v->cone_c * off.c - v->cone_s * off.s, sp = v->cone_s * off.c + v->cone_c * off.s;
             ws = v3_add(v3_scale(a, ct), v3_add(v3_scale(t, stt * cp), v3_scale(b, stt * sp)));
         }
-        /* Transmittance from the VL's centre for both kernels: the VSL
-         * spreads where the light is *emitted* (the geometry term), not the
-         * medium it crosses, so the AVSM — a map from the centre — holds
-         * exactly what the model needs and `raymarch` checks the cache, not
-         * a different model (issue 27: the ball kernel took T from its
-         * sampled point, which the AVSM could only approximate: 10 %
-         * AVSM-vs-marched difference). */
         float T;
-        if (tmode == ML_T_AVSM) T = ml_avsm_point(st, v->avsm, vj, dist);
-        else if (tmode == ML_T_AVSM_LINEAR) T = ml_avsm_trilinear(st, v->avsm, vj, dist);
-        else T = ml_raymarch_T(st, v3(v->px, v->py, v->pz), vj, dist);
+        if (!ball) {
+            /* Eq. 5: towards the VL's centre */
+            if (tmode == ML_T_AVSM) T = ml_avsm_point(st, v->avsm, vj, dist);
+            else if (tmode == ML_T_AVSM_LINEAR) T = ml_avsm_trilinear(st, v->avsm, vj, dist);
+            else T = ml_raymarch_T(st, v3(v->px, v->py, v->pz), vj, dist);
+        } else if (tmode == ML_T_RAYMARCH) {
+            T = ml_raymarch_T(st, v3_madd(x, ws, s), v3_scale(ws, -s), s); /* from y = x + s·ω_s */
+        } else {
+            /* from y: on the VL's texel ray, between the depths of x and of
+             * y's projection onto it */
+            float dy = fmaxf(dist - s * ct, 0.0f), lo = fminf(dist, dy), hi = fmaxf(dist, dy);
+            if (tmode == ML_T_AVSM) {
+                T = ml_avsm_between(st, v->avsm, vj, lo, hi);
+            } else {
+                float th = ml_avsm_trilinear(st, v->avsm, vj, hi);
+                float tl = lo > 0.0f ? ml_avsm_trilinear(st, v->avsm, vj, lo) : 1.0f;
+                T = tl > 0.0f ? fminf(th / tl, 1.0f) : 0.0f;
+            }
+        }
         if (!(T > 0.0f)) continue;
         float f;
         if (iso) {
