@@ -26,6 +26,9 @@
  * offset (Cranley–Patterson), so a VL's cone sample is uniform per pixel
  * sample at the cost of two random numbers per x_t instead of per VL.
  *
+ * The VLs gathered are st->draw: set 0, or the pass set begin_pass built
+ * for this pixel sample (manylights.c).
+ *
  * Random numbers: stream (seed, pixel, sample index, 1) — independent of
  * the thread and tile order.
  */
