@@ -264,6 +264,7 @@ static volux_status render_waves(volux_technique *t, const volux_scene *scene, v
     uint64_t samples = 0, vertices = 0;
     while (fb->spp < lim.spp) {
         job.sample_index = fb->spp;
+        if ((st = volux_technique_begin_pass(t, scene, job.sample_index))) break;
         done = 0;
         uint32_t waves = lim.spp - start_spp;
         job.progress_base = waves ? (double)(fb->spp - start_spp) / waves : 0.0;

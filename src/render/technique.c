@@ -24,6 +24,9 @@ static uint64_t next_generation = 1;
 static uint64_t new_generation(void) { return __atomic_fetch_add(&next_generation, 1, __ATOMIC_RELAXED); }
 
 const void *volux_technique_state(const volux_technique *t) { return t->state; }
+volux_status volux_technique_begin_pass(volux_technique *t, const volux_scene *scene, uint32_t sample_index) {
+    return t->cls->begin_pass ? t->cls->begin_pass(t->state, scene, sample_index) : VOLUX_OK;
+}
 const volux_technique_class *volux_technique_class_of(const volux_technique *t) { return t->cls; }
 const volux_technique_info *volux_technique_info_of(const volux_technique *t) { return &t->cls->info; }
 uint64_t volux_technique_generation(const volux_technique *t) { return t->generation; }

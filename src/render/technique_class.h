@@ -110,6 +110,14 @@ struct volux_technique_class {
      * *volume_added what the technique makes the volume hold (its bricked
      * copy, volux_mm_bricks_to_build). NULL: 0. */
     uint64_t (*estimate_bytes)(const volux_scene *scene, const volux_technique_class *cls, uint64_t *volume_added);
+    /* Optional (progressive techniques whose estimator changes per pixel
+     * sample, e.g. `manylights`' fresh virtual-light set per pass): called
+     * by the frame loop before every wave with that wave's sample index,
+     * never concurrently with render_tile. The state it leaves must be a
+     * pure function of (scene, sample_index) so images stay independent of
+     * how waves are split between calls; it must not change what update
+     * made of the scene (no generation change). NULL: nothing per pass. */
+    volux_status (*begin_pass)(void *state, const volux_scene *scene, uint32_t sample_index);
 };
 
 /* Creates an instance of `cls` for the scene (registry.c resolves names). */
@@ -118,6 +126,8 @@ volux_status volux_technique_create_class(volux_context *ctx, const volux_techni
 const volux_technique_class *volux_technique_class_of(const volux_technique *t);
 /* The class's state, read-only (for the frame loop and white-box tests). */
 const void *volux_technique_state(const volux_technique *t);
+/* Calls the class's begin_pass hook (if any) before a wave of `sample_index`. */
+volux_status volux_technique_begin_pass(volux_technique *t, const volux_scene *scene, uint32_t sample_index);
 /* Increases whenever an update or a refinement step applied a change (the
  * frame loop compares it with what a framebuffer's samples were rendered
  * from). */

@@ -1016,4 +1016,5 @@ const volux_technique_class volux_ambient_class = {
     NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
     NULL, /* no per-frame budget (volux_technique_set_budget) */
     volux_ambient_estimate_bytes,
+    NULL, /* nothing per pass */
 };

@@ -26,6 +26,7 @@ const volux_technique_class volux_ea_class = {
     volux_dvr_render_tile_part,
     NULL, /* no per-frame budget: nothing to defer */
     volux_dvr_estimate_bytes,
+    NULL, /* nothing per pass */
 };
 
 static const volux_param_info shaded_params[] = {
@@ -48,4 +49,5 @@ const volux_technique_class volux_shaded_class = {
     volux_dvr_render_tile_part,
     NULL, /* no per-frame budget: nothing to defer */
     volux_dvr_estimate_bytes,
+    NULL, /* nothing per pass */
 };

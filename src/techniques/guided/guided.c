@@ -358,4 +358,5 @@ const volux_technique_class volux_guided_class = {
     NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
     NULL, /* no per-frame budget (volux_technique_set_budget) */
     volux_guided_estimate_bytes,
+    NULL, /* nothing per pass */
 };

@@ -419,4 +419,5 @@ const volux_technique_class volux_lightvol_class = {
     NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
     lightvol_set_budget,
     volux_lightvol_estimate_bytes,
+    NULL, /* nothing per pass */
 };

@@ -17,6 +17,12 @@
  * T = exp(−ξ·τ1) through a table over the τ1 codes, W13 §5.1's
  * T_old^(ξ_new/ξ_old) for every map at once).
  *
+ * With avsm_cone > 0 the step grows with the distance from the VL as the
+ * texel's width does (max(shadow step, avsm_cone·2/R·distance)): the
+ * transmittance a texel stores is an estimate for its whole footprint
+ * anyway, and the far half of a ray then costs a handful of samples
+ * instead of hundreds (issue 27: ≈ 25 ms CPU per VL at 40² before).
+ *
  * Look-ups: `point` takes the texel the direction falls in; `trilinear`
  * blends the four nearest texels of the face (bilinear, clamped at the
  * face's edge) — both interpolate linearly in depth along the polyline
@@ -141,6 +147,8 @@ void ml_avsm_build_face(const ml_state *st, volux_vec3 p, int face, uint32_t *ou
     const volux_volume *vol = st->rc.volume;
     int R = lay->res, m = lay->nodes, a = face >> 1, b = (a + 1) % 3, c = (a + 2) % 3;
     float sign = (face & 1) ? -1.0f : 1.0f, h = st->h;
+    /* a texel spans 2/R of the face at unit distance */
+    float cone = st->avsm_cone * 2.0f / (float)R;
     for (int j = 0; j < R; j++)
         for (int i = 0; i < R; i++) {
             float dir3[3];
@@ -161,6 +169,23 @@ void ml_avsm_build_face(const ml_state *st, volux_vec3 p, int face, uint32_t *ou
                 while (tau <= ML_TAU_STOP && volux_march_next(&it, &iv)) {
                     if (!(iv.sigma_max > 0.0f)) continue;
                     add_point(&l, iv.t0, tau); /* end of the empty stretch before */
+                    if (cone > 0.0f) {
+                        /* steps that follow the texel's footprint (its
+                         * width grows as cone·distance): as many samples
+                         * per texel width far away as near, instead of a
+                         * voxel step out to the far side of the volume */
+                        for (float s0 = iv.t0; s0 < iv.t1;) {
+                            float st_len = fmaxf(h, cone * s0), s1 = fminf(s0 + st_len, iv.t1);
+                            volux_vec3 q = v3_madd(ray.q0, ray.dq, 0.5f * (s0 + s1));
+                            float s = vol->bricks ? volux_volume_sample_bricked(vol, q.x, q.y, q.z, vol->storage)
+                                                  : volux_volume_sample_index(vol, q.x, q.y, q.z);
+                            tau += volux_lut_sigma(&st->lut1, s) * (s1 - s0);
+                            add_point(&l, s1, tau);
+                            if (tau > ML_TAU_STOP || !(s1 > s0)) break;
+                            s0 = s1;
+                        }
+                        continue;
+                    }
                     for (int k = (int)floorf(iv.t0 / h);; k++) {
                         float s0 = (float)k * h, s1 = s0 + h;
                         if (s0 >= iv.t1) break;

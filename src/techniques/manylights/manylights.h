@@ -128,6 +128,9 @@ typedef struct ml_state {
     /* parameters */
     int vl_count, samples, avsm_res, avsm_nodes, budget, tmode, single_on, multi_on, iso_phase, view_uniform;
     int ball;                /* VSL kernel: 0 cone (Eq. 5), 1 ball          */
+    int passes_per_set;      /* K: pixel sample p uses VL set p / K (0: set 0 always) */
+    float eq6_log_bound;     /* ln of the Eq. 6 re-weighting bound (INFINITY: none) */
+    float avsm_cone;         /* AVSM ray step grows as avsm_cone·(2/res)·distance */
     float radius_vox, rr_survival, dmin, dmax, shadow_vox, t_min;
     /* derived */
     float radius, h;         /* VSL radius, shadow-march step (world)         */
@@ -148,11 +151,21 @@ typedef struct ml_state {
     int env_cap;
     ml_set *sets;              /* per light slot [sets_cap]                 */
     int sets_cap;
-    ml_rvl *rvl;
+    ml_rvl *rvl;             /* set 0 (the interactive set)                    */
     int n_rvl, cap_rvl;
+    /* Pass set k ≥ 1 (fresh VLs and AVSMs for the current scene, built by
+     * begin_pass when a wave needs it; pass_k 0: none held) */
+    ml_set *psets;           /* per light slot [psets_cap]                    */
+    int psets_cap, pass_k;
+    ml_rvl *prvl;
+    int n_prvl, cap_prvl;
+    const ml_rvl *draw;      /* what render_tile gathers: rvl or prvl          */
+    int n_draw;
     /* statistics of the last update or step */
     double avsm_ms, trace_ms;
     int avsm_built, traced; /* AVSMs built, VLs traced */
+    double pass_avsm_ms, pass_trace_ms; /* the last pass set's build */
+    int pass_avsm_built;
 } ml_state;
 
 enum {
@@ -161,10 +174,12 @@ enum {
 };
 
 /* vl.c */
-/* Traces the light's stream from path *paths on, appending to *list until
+/* Traces the light's stream of VL set `set_index` (0: the interactive set,
+ * k ≥ 1: pass set k) from path *paths on, appending to *list until
  * it holds ≥ quota VLs (or the stream's path cap); *paths becomes the
  * stream paths started and every VL of the list gets 1/paths. */
-volux_status ml_trace(const ml_state *st, const volux_prepared_light *l, int quota, ml_list *list, int *paths);
+volux_status ml_trace(const ml_state *st, const volux_prepared_light *l, int set_index, int quota, ml_list *list,
+                      int *paths);
 /* Every VL of a pure stream prefix gets 1/paths. */
 void ml_set_paths(ml_list *list, int paths);
 /* Eq. 6 preparation: τ1 and σ1 of every stored segment under the current

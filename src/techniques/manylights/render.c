@@ -26,6 +26,9 @@
  * offset (Cranley–Patterson), so a VL's cone sample is uniform per pixel
  * sample at the cost of two random numbers per x_t instead of per VL.
  *
+ * The VLs gathered are st->draw: set 0, or the pass set begin_pass built
+ * for this pixel sample (manylights.c).
+ *
  * Random numbers: stream (seed, pixel, sample index, 1) — independent of
  * the thread and tile order.
  */
@@ -127,8 +130,8 @@ static inline __attribute__((always_inline)) volux_vec3 gather_vls(const ml_stat
     float acc_r = 0.0f, acc_g = 0.0f, acc_b = 0.0f;
     const float iso_f = VOLUX_INV_4PI * VOLUX_INV_4PI;
     const float clamp = st->clamp_fg;
-    for (int j = 0; j < st->n_rvl; j++) {
-        const ml_rvl *v = &st->rvl[j];
+    for (int j = 0; j < st->n_draw; j++) {
+        const ml_rvl *v = &st->draw[j];
         volux_vec3 vj = v3(x.x - v->px, x.y - v->py, x.z - v->pz); /* VL → x */
         float d2 = v3_dot(vj, vj);
         if (!(d2 > 0.0f)) continue;
@@ -298,7 +301,7 @@ static volux_vec3 integrate(const ml_state *st, const volux_ray *ray, float jitt
             volux_vec3 Ls = v3(0, 0, 0);
             float u = volux_rng_float(rng), phi = 2.0f * VOLUX_PI * volux_rng_float(rng), uw = volux_rng_float(rng);
             if (st->single_on) Ls = single_scatter(st, x, ray->d, rng);
-            if (st->multi_on && st->n_rvl > 0) {
+            if (st->multi_on && st->n_draw > 0) {
                 gather_offset off = {u, cosf(phi), sinf(phi), uw};
                 Ls = v3_add(Ls, gather(st, x, ray->d, off));
             }

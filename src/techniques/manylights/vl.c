@@ -284,8 +284,11 @@ static volux_status grow(volux_context *ctx, ml_list *l, int need) {
 }
 
 /* Appends the VLs of stream path p (at most max_len; room is reserved). */
-static void trace_path(const ml_state *st, const volux_prepared_light *l, int p, int max_len, ml_list *list) {
-    volux_rng rng = volux_rng_make(st->rc.seed ^ ML_SEED_SALT, (uint64_t)l->slot, (uint64_t)p, 3);
+static void trace_path(const ml_state *st, const volux_prepared_light *l, int set_index, int p, int max_len,
+                       ml_list *list) {
+    /* stream 3 for set 0 (the interactive set), 3 + 256·k for pass set k */
+    volux_rng rng = volux_rng_make(st->rc.seed ^ ML_SEED_SALT, (uint64_t)l->slot, (uint64_t)p,
+                                   3 + ((uint64_t)set_index << 8));
     volux_vec3 o, d, w0;
     if (!sample_emission(st, l, &rng, &o, &d, &w0)) return;
     float cos_prev = 1.0f, pdf_w = 1.0f, rr = 1.0f;
@@ -332,7 +335,8 @@ static void trace_path(const ml_state *st, const volux_prepared_light *l, int p,
     }
 }
 
-volux_status ml_trace(const ml_state *st, const volux_prepared_light *l, int quota, ml_list *list, int *paths) {
+volux_status ml_trace(const ml_state *st, const volux_prepared_light *l, int set_index, int quota, ml_list *list,
+                      int *paths) {
     int max_len = st->rc.max_depth - 1;
     if (max_len > ML_MAX_PATH) max_len = ML_MAX_PATH;
     if (max_len < 1 || quota <= 0) return VOLUX_OK;
@@ -340,7 +344,7 @@ volux_status ml_trace(const ml_state *st, const volux_prepared_light *l, int quo
     for (int p = *paths; list->n < quota && p < cap; p++) {
         volux_status s = grow(st->rc.ctx, list, list->n + max_len);
         if (s) return s;
-        trace_path(st, l, p, max_len, list);
+        trace_path(st, l, set_index, p, max_len, list);
         *paths = p + 1;
     }
     ml_set_paths(list, *paths);
@@ -372,7 +376,19 @@ void ml_weights(const ml_state *st, const volux_prepared_light *l, ml_list *list
             beta = v3_scale(beta, f / (v->pdf_w * v->rr));
         }
         /* ξσ1·e^{−ξτ1}/p(t), in logs (σ1 or ξ = 0 gives 0) */
-        double lw = log_xi + log((double)v->sigma1) - (double)st->xi * (double)v->tau1 - log_pdf_t(st, v);
+        double lp = log_pdf_t(st, v);
+        double lw = log_xi + log((double)v->sigma1) - (double)st->xi * (double)v->tau1 - lp;
+        /* Eq. 6 bound: a segment re-weighted for an edited extinction
+         * (σ1, τ1 no longer those it was sampled with) gets at most
+         * eq6_bound times the weight it had for the medium it was sampled
+         * in. A VL placed where the old medium was thin but the new one is
+         * dense otherwise carries σ1_new/σ1_old ≫ 1 — the outliers that made
+         * the first frames after a strong edit worse than the image before
+         * the edit. Only stale segments are bounded: a fresh set is exact. */
+        if (st->eq6_log_bound < INFINITY && (v->sigma1 != v->sigma1_s || v->tau1 != v->tau1_s)) {
+            double lw_s = log_xi + log((double)v->sigma1_s) - (double)st->xi * (double)v->tau1_s - lp;
+            if (lw > lw_s + st->eq6_log_bound) lw = lw_s + st->eq6_log_bound;
+        }
         float w = (float)exp(lw);
         volux_vec3 beta_in = v3_scale(beta, isfinite(w) ? w : 0.0f);
         float rgba[4];

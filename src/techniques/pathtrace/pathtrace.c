@@ -90,4 +90,5 @@ const volux_technique_class volux_pathtrace_class = {
     NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
     NULL, /* no per-frame budget (volux_technique_set_budget) */
     volux_pathtrace_estimate_bytes,
+    NULL, /* nothing per pass */
 };

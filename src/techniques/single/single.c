@@ -548,4 +548,5 @@ const volux_technique_class volux_single_class = {
     NULL, /* no bricks: its light leaves the camera ray (scattering, shadows) */
     NULL, /* no per-frame budget (volux_technique_set_budget) */
     volux_single_estimate_bytes,
+    NULL, /* nothing per pass */
 };
