@@ -1,11 +1,13 @@
 /* render/memory_model.c — see memory_model.h. */
 #include <math.h>
 #include <stdio.h>
+#include <string.h>
 
 #include "core/context_internal.h"
 #include "core/volume_internal.h"
 #include "lights.h"
 #include "memory_model.h"
+#include "packet.h"
 #include "volux/render.h"
 
 void volux_mm_dims(const volux_scene *scene, int dims[3]) {
@@ -57,6 +59,27 @@ volux_mm_lights volux_mm_count_lights(const volux_scene *scene) {
 uint64_t volux_mm_bricks_to_build(const volux_scene *scene) {
     const volux_volume *v = volux_scene_volume(scene);
     return v && !v->bricks ? v->brick_bytes : 0;
+}
+
+uint64_t volux_mm_packet_tables_bytes(const volux_scene *scene) {
+    int d[3];
+    volux_mm_dims(scene, d);
+    uint64_t cells = 1;
+    for (int a = 0; a < 3; a++) {
+        int c = (d[a] - 1 + VOLUX_PACKET_SKIP_CELL - 1) / VOLUX_PACKET_SKIP_CELL;
+        cells *= (uint64_t)(c < 1 ? 1 : c);
+    }
+    return (uint64_t)volux_mm_lut_entries(scene) * 8 * sizeof(float) + cells * 2 * sizeof(float) + cells + 3;
+}
+
+uint64_t volux_mm_packet_march_bytes(const volux_scene *scene, const volux_technique_class *cls, int usable,
+                                     uint64_t *volume_added) {
+    /* volux_packet_kernel_choose's rule, without a context to report to */
+    if (!usable || !volux_packet_avx2_available() ||
+        !strcmp(volux_technique_param_string(scene, cls, "march_kernel"), "scalar"))
+        return 0;
+    if (volume_added) *volume_added += volux_mm_bricks_to_build(scene);
+    return volux_mm_packet_tables_bytes(scene);
 }
 
 int volux_mm_lut_entries(const volux_scene *scene) {

@@ -46,6 +46,17 @@ volux_mm_lights volux_mm_count_lights(const volux_scene *scene);
 /* The bricked copy of the volume (volux_volume_build_bricks) if it is not
  * built yet: 9³ nodes per 8³ cells, ≈ 1.42× the volume. */
 uint64_t volux_mm_bricks_to_build(const volux_scene *scene);
+/* The packet march's tables (render/packet.h): the float pre-integration
+ * table (8 floats per TF entry), the value range and skip distance of
+ * every 4³ skip cell (9 B each). */
+uint64_t volux_mm_packet_tables_bytes(const volux_scene *scene);
+/* What the packet march adds to a scattering technique when its
+ * `march_kernel` will resolve to SIMD on this CPU (`usable`: the
+ * technique can march packets with these parameters): the tables, and the
+ * bricked copy of the volume into *volume_added (NULL: the caller counts
+ * it already). 0 for the scalar march. */
+uint64_t volux_mm_packet_march_bytes(const volux_scene *scene, const volux_technique_class *cls, int usable,
+                                     uint64_t *volume_added);
 /* Entries of the scene's baked TF table (0 if not baked). */
 int volux_mm_lut_entries(const volux_scene *scene);
 /* Macrocells of the volume (8³ cells each). */

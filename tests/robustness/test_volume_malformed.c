@@ -390,7 +390,17 @@ static void test_raw_and_dispatch_errors(void **state) {
 
     expect_failure(tu_temp_path("missing.nrrd"), NULL, VOLUX_ERR_IO, "missing.nrrd");
     expect_failure(tu_write_file("what.xyz", "hello world", 11), NULL, VOLUX_ERR_UNSUPPORTED, "unknown volume format");
-    expect_failure(tu_temp_path(""), NULL, VOLUX_ERR_IO, "volux-test");
+    /* a folder is read as a DICOM series: one without DICOM images is a
+     * format error naming it (without DICOM support: unsupported) */
+    {
+        volux_context *ctx = tu_context(1);
+        volux_volume *v = NULL;
+        volux_status st = volux_volume_load(ctx, tu_temp_path(""), NULL, &v);
+        assert_true(st == VOLUX_ERR_FORMAT || st == VOLUX_ERR_UNSUPPORTED);
+        assert_null(v);
+        tu_assert_error_mentions(ctx, "volux-test", (const char *)NULL);
+        volux_context_destroy(ctx);
+    }
 }
 
 /* Every allocation failure inside a gzip load is reported as NOMEM and

@@ -224,6 +224,10 @@ int cli_serve_named(int argc, char **argv, const char *display_name) {
         rc = cli_fail("serve", v->ctx, st);
         goto out;
     }
+    /* `volux view` serves from its private temporary folder (the data root
+     * holds only the quick look's own scene): never show that path. */
+    o->data_root_shown = display_name ? "the quick look's own files (--data-root DIR opens others)"
+                                      : volux_scene_doc_data_root(v->doc);
     const volux_render_settings *rs = volux_scene_render(volux_scene_doc_scene(v->doc));
     if (rs->threads > 0) volux_context_set_threads(v->ctx, rs->threads);
     if (!viewer_snapshot(v)) {
@@ -245,7 +249,7 @@ int cli_serve_named(int argc, char **argv, const char *display_name) {
                          : "volux serve: WARNING: listening on %s without authentication: anyone who can reach "
                            "this address can view the scene and make this process read files in %s; give "
                            "--token to require one\n",
-                o->bind, volux_scene_doc_data_root(v->doc));
+                o->bind, o->data_root_shown);
     const char *host = strchr(o->bind, ':') ? NULL : o->bind;
     if (host) printf("volux serve: http://%s:%d/%s%s\n", host, v->port, o->token ? "?token=" : "",
                      o->token ? o->token : "");
@@ -253,8 +257,7 @@ int cli_serve_named(int argc, char **argv, const char *display_name) {
                 o->token ? o->token : "");
     if (!o->quiet)
         cli_eprintf("volux serve: %s (%s, %dx%d, %d threads); data root %s; Ctrl-C stops\n", o->scene_name,
-                rs->technique, rs->width, rs->height, volux_context_threads(v->ctx),
-                volux_scene_doc_data_root(v->doc));
+                rs->technique, rs->width, rs->height, volux_context_threads(v->ctx), o->data_root_shown);
     fflush(stdout);
     int sig = 0;
     sigwait(&stop, &sig);

@@ -121,7 +121,8 @@ int viewer_snapshot(viewer *v) {
     cJSON_AddNumberToObject(o, "version", (double)volux_scene_doc_version(v->doc));
     const char *name = v->opt.scene_name ? v->opt.scene_name : v->opt.scene_path;
     cJSON_AddItemToObject(o, "scene_path", cJSON_CreateString(name));
-    cJSON_AddItemToObject(o, "data_root", cJSON_CreateString(volux_scene_doc_data_root(v->doc)));
+    cJSON_AddItemToObject(o, "data_root", cJSON_CreateString(v->opt.data_root_shown ? v->opt.data_root_shown
+                                                                                    : volux_scene_doc_data_root(v->doc)));
     cJSON_AddItemToObject(o, "scene", cJSON_Parse(rel));
     cJSON *res = cJSON_AddObjectToObject(o, "resolved");
     cJSON_AddItemToObject(res, "transfer_function", resolved_tf(s));

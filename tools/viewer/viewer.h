@@ -75,6 +75,9 @@ typedef struct viewer_options {
     int port;              /* 0 = any free port                         */
     const char *token;     /* NULL = no authentication                  */
     const char *data_root; /* NULL = the scene's folder                 */
+    const char *data_root_shown; /* what messages and the page call it
+                                    (NULL: the resolved path; volux view:
+                                    "the quick look's own files") */
     int preview_max;       /* longest side of a preview, pixels         */
     double preview_budget_ms; /* > 0: the first frame after an edit is sized to
                                  arrive within this time (then the preview_max

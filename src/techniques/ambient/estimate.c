@@ -8,6 +8,7 @@
  * (≈ 1.2 MB for the built-in 64×64×10×12 table). */
 #include "ambient.h"
 #include "render/memory_model.h"
+#include "techniques/scatter/envdir.h"
 #include "techniques/scatter/occlusion.h"
 
 static uint64_t sat_bytes(uint64_t voxels, uint64_t max_box) {
@@ -30,7 +31,9 @@ uint64_t volux_ambient_estimate_bytes(const volux_scene *scene, const volux_tech
     volux_mm_lights l = volux_mm_count_lights(scene);
     double r = volux_technique_param(scene, cls, "radius") * min_sp;
     double ao = volux_technique_param(scene, cls, "ao"), ao_r = volux_technique_param(scene, cls, "ao_radius");
-    int occ = ao > 0.0 || l.env > 0;
+    /* the occlusion volume: the AO term, or an environment with
+     * env_directions 0 (ambient.c) */
+    int occ = ao > 0.0 || (l.env > 0 && (int)volux_technique_param(scene, cls, "env_directions") == 0);
     /* the sphere's equal-volume box bounds the SAT's largest box; the AO
      * boxes may be larger */
     uint64_t max_box = (uint64_t)(4.2 * r * r * r / (sp[0] * sp[1] * sp[2])) + 8;
@@ -53,5 +56,21 @@ uint64_t volux_ambient_estimate_bytes(const volux_scene *scene, const volux_tech
     bytes += nt * ns * ng * sizeof(float) + ns * nt * sizeof(float) + ns * sizeof(float) +
              na * ng * sizeof(double *) + 2 * na * ns * nt * sizeof(double) +
              (tinted && na > 1 ? na * ns * nt * sizeof(float) : 0);
+    /* the environment as K directions (ambient.c build_env_vis /
+     * build_env_table): 4 visibility grids, a scratch and a ρ grid at
+     * cache_scale · env_scale, with phase_cache each direction's march
+     * geometry (5 B per node), and the light table over the octahedral
+     * directions */
+    int env_dirs = (int)volux_technique_param(scene, cls, "env_directions");
+    if (l.env > 0 && env_dirs > 0) {
+        double es = volux_technique_param(scene, cls, "cache_scale") * volux_technique_param(scene, cls, "env_scale");
+        uint64_t m = volux_mm_grid_nodes(d, (float)(es < 0.05 ? 0.05 : es));
+        bytes += 6 * m * sizeof(float);
+        if (phase_cache) bytes += (uint64_t)env_dirs * (m * (sizeof(float) + 1) + 16) /* tube.c VAC_PAD */;
+        bytes += (uint64_t)SCATTER_ENV_OCT_TEXELS * ns * na * 12 * sizeof(float);
+    }
+    /* the packet march serves offset 0 only (no lagged transmittance); its
+     * bricked copy is counted above */
+    bytes += volux_mm_packet_march_bytes(scene, cls, volux_technique_param(scene, cls, "offset") == 0.0, NULL);
     return bytes;
 }

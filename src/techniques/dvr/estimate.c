@@ -14,13 +14,12 @@ uint64_t volux_dvr_estimate_bytes(const volux_scene *scene, const volux_techniqu
     int d[3];
     volux_mm_dims(scene, d);
     *volume_added += volux_mm_bricks_to_build(scene);
-    uint64_t cells = 1, bricks = 1;
+    uint64_t bricks = 1;
     for (int a = 0; a < 3; a++) {
-        int c = (d[a] - 1 + DVR_SKIP_CELL - 1) / DVR_SKIP_CELL, b = (d[a] - 1 + VOLUX_BRICK_CELLS - 1) / VOLUX_BRICK_CELLS;
-        cells *= (uint64_t)(c < 1 ? 1 : c);
+        int b = (d[a] - 1 + VOLUX_BRICK_CELLS - 1) / VOLUX_BRICK_CELLS;
         bricks *= (uint64_t)(b < 1 ? 1 : b);
     }
-    uint64_t n = (uint64_t)volux_mm_lut_entries(scene) * 8 * sizeof(float) + cells * 2 * sizeof(float) + cells + 3;
+    uint64_t n = volux_mm_packet_tables_bytes(scene);
     if (cls == &volux_shaded_class && !strcmp(volux_technique_param_string(scene, cls, "gradient"), "cached"))
         n += volux_mm_gradient_bytes(d);
     const volux_volume *v = volux_scene_volume(scene);

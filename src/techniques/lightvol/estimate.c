@@ -66,5 +66,6 @@ uint64_t volux_lightvol_estimate_bytes(const volux_scene *scene, const volux_tec
                  ((uint64_t)ROW_FLOATS * (uint64_t)mmax + 64) * threads * sizeof(float);
     }
     if (volux_technique_param(scene, cls, "local_shading") > 0.0) bytes += volux_mm_gradient_bytes(d);
+    bytes += volux_mm_packet_march_bytes(scene, cls, 1, NULL); /* its bricked copy is counted above */
     return bytes + (uint64_t)(volux_mm_lut_entries(scene) + 1) * sizeof(int) + (uint64_t)l.slots * sizeof(lv_applied);
 }

@@ -2,17 +2,17 @@
  * (docs/SCALE.md): with the transmittance cache, one float grid at
  * cache_scale per enabled non-environment light (4·scale³ B/voxel each)
  * and, when an environment is lit, env_directions grids at half that
- * scale; the per-slot records. */
+ * scale; the per-slot records; the packet march's tables (and bricked
+ * copy) when it marches packets. */
 #include "render/memory_model.h"
 #include "single.h"
 
 uint64_t volux_single_estimate_bytes(const volux_scene *scene, const volux_technique_class *cls,
                                      uint64_t *volume_added) {
-    (void)volume_added;
     int d[3];
     volux_mm_dims(scene, d);
     volux_mm_lights l = volux_mm_count_lights(scene);
-    uint64_t n = (uint64_t)l.slots * sizeof(single_slot);
+    uint64_t n = (uint64_t)l.slots * sizeof(single_slot) + volux_mm_packet_march_bytes(scene, cls, 1, volume_added);
     if (!(int)volux_technique_param(scene, cls, "transmittance_cache")) return n;
     double scale = volux_technique_param(scene, cls, "cache_scale");
     n += (uint64_t)l.direct * volux_mm_grid_nodes(d, (float)scale) * sizeof(float);
