@@ -78,6 +78,7 @@ volux_status volux_context_create(const volux_context_desc *desc, volux_context 
     ctx->alloc_user = user;
     ctx->threads = desc && desc->threads > 0 ? desc->threads : 0;
     ctx->max_bytes = desc && desc->max_bytes ? desc->max_bytes : VOLUX_DEFAULT_MAX_BYTES;
+    ctx->budget = volux_context_default_memory_limit();
     ctx->progress = desc ? desc->progress : NULL;
     ctx->progress_user = desc ? desc->progress_user : NULL;
     ctx->message = desc ? desc->message : NULL;
@@ -111,6 +112,7 @@ volux_status volux_context_error_status(const volux_context *ctx) { return ctx->
 void volux_context_clear_error(volux_context *ctx) {
     ctx->error[0] = 0;
     ctx->error_status = VOLUX_OK;
+    __atomic_store_n(&ctx->budget_refused, 0, __ATOMIC_RELAXED); /* the next refusal is said again */
 }
 void volux_context_set_threads(volux_context *ctx, int threads) { ctx->threads = threads > 0 ? threads : 0; }
 int volux_context_threads(const volux_context *ctx) {
@@ -125,7 +127,11 @@ void volux_context_set_message(volux_context *ctx, volux_message_fn fn, void *us
     ctx->message_user = user;
 }
 uint64_t volux_context_max_bytes(const volux_context *ctx) { return ctx->max_bytes; }
-void volux_context_set_memory_limit(volux_context *ctx, uint64_t bytes) { ctx->memory_limit = bytes; }
+void volux_context_set_memory_limit(volux_context *ctx, uint64_t bytes) {
+    ctx->memory_limit = bytes;
+    ctx->budget = volux_context_memory_limit(ctx);
+    __atomic_store_n(&ctx->budget_refused, 0, __ATOMIC_RELAXED);
+}
 
 uint64_t volux_context_default_memory_limit(void) {
     /* 80 % of physical memory: the rest is the OS, the page cache the
@@ -150,8 +156,40 @@ static void account(volux_context *ctx, size_t added, size_t removed) {
     if (removed) __atomic_sub_fetch(&ctx->bytes_in_use, (uint64_t)removed, __ATOMIC_RELAXED);
 }
 
+/* "12.3 GB" (decimal units, as `free -h` and file managers print). */
+void volux_format_bytes(uint64_t b, char *out, size_t n) {
+    double x = (double)b;
+    if (x >= 1e9) snprintf(out, n, "%.1f GB", x / 1e9);
+    else if (x >= 1e6) snprintf(out, n, "%.1f MB", x / 1e6);
+    else if (x >= 1e3) snprintf(out, n, "%.1f kB", x / 1e3);
+    else snprintf(out, n, "%llu bytes", (unsigned long long)b);
+}
+
+/* The memory limit is a budget over everything the context holds (issue
+ * 34 D5), not only the estimate volux_technique_create checks up front: a
+ * cache an edit grows, a volume an edit loads, a frame buffer all count.
+ * Concurrent allocations can overshoot by what they ask at the same time;
+ * the refusal happens before the allocator is called. */
+static int over_budget(volux_context *ctx, size_t added) {
+    uint64_t in_use = __atomic_load_n(&ctx->bytes_in_use, __ATOMIC_RELAXED);
+    if (ctx->budget == UINT64_MAX || (added <= ctx->budget && in_use <= ctx->budget - added)) return 0;
+    if (!__atomic_exchange_n(&ctx->budget_refused, 1, __ATOMIC_RELAXED)) {
+        char want[32], have[32], lim[32];
+        volux_format_bytes((uint64_t)added, want, sizeof want);
+        volux_format_bytes(in_use, have, sizeof have);
+        volux_format_bytes(ctx->budget, lim, sizeof lim);
+        volux_error(ctx, VOLUX_ERR_LIMIT,
+                    "memory limit reached: %s more (%zu bytes) on top of the %s in use would pass the limit of %s "
+                    "(%llu bytes%s); lower the volume, image or cache sizes, or raise the limit",
+                    want, added, have, lim, (unsigned long long)ctx->budget,
+                    ctx->memory_limit ? "" : ", 80% of physical memory");
+    }
+    return 1;
+}
+
 void *volux_malloc(volux_context *ctx, size_t n) {
     if (n == 0) n = 1;
+    if (over_budget(ctx, n)) return NULL;
     void *p = ctx->alloc(ctx->alloc_user, NULL, 0, n);
     if (p) account(ctx, n, 0);
     return p;
@@ -168,6 +206,7 @@ void *volux_calloc(volux_context *ctx, size_t count, size_t size) {
 void *volux_realloc(volux_context *ctx, void *p, size_t old_n, size_t new_n) {
     if (!p) return volux_malloc(ctx, new_n);
     if (new_n == 0) new_n = 1;
+    if (new_n > old_n && over_budget(ctx, new_n - old_n)) return NULL;
     void *q = ctx->alloc(ctx->alloc_user, p, old_n, new_n);
     if (q) account(ctx, new_n, old_n);
     return q;

@@ -31,9 +31,19 @@ struct volux_context {
                               `alloc` but not counted in bytes_in_use, like
                               the context itself */
     uint64_t memory_limit; /* 0: the default (volux_context_memory_limit) */
+    uint64_t budget;       /* memory_limit resolved: what volux_malloc holds
+                              bytes_in_use under (UINT64_MAX: no limit) */
+    int budget_refused;    /* set atomically by the first refusal */
 };
 
-/* Allocations (NULL on failure, no message set: callers report). */
+/* "12.3 GB" (decimal units, as `free -h` and file managers print). */
+void volux_format_bytes(uint64_t bytes, char *out, size_t n);
+
+/* Allocations (NULL on failure). Out of memory sets no message: callers
+ * report. An allocation that would take the context's bytes in use past
+ * its memory limit is refused before it is made; that refusal records
+ * VOLUX_ERR_LIMIT naming the limit (once; the first error wins), so the
+ * caller's "out of memory" report follows the real reason. */
 void *volux_malloc(volux_context *ctx, size_t n);
 void *volux_calloc(volux_context *ctx, size_t count, size_t size);
 void *volux_realloc(volux_context *ctx, void *p, size_t old_n, size_t new_n);

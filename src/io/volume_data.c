@@ -517,6 +517,20 @@ static volux_status locate_part(volux_context *ctx, const volux_volume_header *h
 }
 
 /* Decodes part `k` (voxels [first, first + count)) from src into v. */
+/* A file named by a client under a data root (the viewer) gets no message
+ * that states its size or where its data stops: the sizes would tell a
+ * browser about files it cannot read (issue 34 D8). The header's own
+ * dimensions are the client's to know. */
+static volux_status withhold_sizes(volux_context *ctx, const char *name, const volux_volume_header *h,
+                                   int had_error) {
+    if (had_error) return VOLUX_ERR_FORMAT; /* an earlier message stands (the first wins) */
+    volux_context_clear_error(ctx);
+    return volux_error(ctx, VOLUX_ERR_FORMAT,
+                       "%s: the data does not match the %dx%dx%d %s the header describes (sizes are not reported "
+                       "for files named under a data root)",
+                       name, h->dims[0], h->dims[1], h->dims[2], volux_scalar_type_name(h->type));
+}
+
 static volux_status read_part(volux_context *ctx, const volux_volume_header *h, volux_source *src, uint64_t begin,
                               volux_volume *v, size_t first, size_t count, size_t total, unsigned char *buf) {
     const char *name = src->name;
@@ -588,12 +602,14 @@ volux_status volux_volume_read_parts(volux_context *ctx, const volux_volume_head
     }
     /* Every part's size is checked before the volume is allocated; one
      * file is open at a time (a stack may have thousands). */
+    int had_error = volux_context_error_status(ctx) != VOLUX_OK;
     for (int k = 0; k < parts; k++) {
         if ((st = ps->open(ps->user, k, &src))) goto fail;
         open = 1;
         st = locate_part(ctx, h, &src, k, parts, need, buf, &begin[k]);
         ps->close(ps->user, &src);
         open = 0;
+        if (st && options && options->data_root) st = withhold_sizes(ctx, name, h, had_error);
         if (st && parts > 1) volux_error_prefix(ctx, "%s: data file %d of %d: ", name, k + 1, parts);
         if (st) goto fail;
     }
@@ -705,7 +721,11 @@ static volux_status read_region(volux_context *ctx, const volux_volume_header *h
     memset(&s, 0, sizeof s);
     uint64_t begin;
     /* the whole file's size is checked, as for a whole load */
-    if ((st = locate_part(ctx, h, src, 0, 1, need, buf, &begin))) goto fail;
+    int had_error = volux_context_error_status(ctx) != VOLUX_OK;
+    if ((st = locate_part(ctx, h, src, 0, 1, need, buf, &begin))) {
+        if (options->data_root) st = withhold_sizes(ctx, src->name, h, had_error);
+        goto fail;
+    }
     /* Only the brick's storage is allocated (and checked against the cap). */
     st = volux_volume_create_storage(ctx, sub, h->spacing, stored_type(h), &v);
     if (st) {

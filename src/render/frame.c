@@ -51,9 +51,9 @@ volux_status volux_framebuffer_create(volux_context *ctx, int width, int height,
              limit = volux_context_memory_limit(ctx);
     if (held + need > limit) {
         char a[32], b[32], l[32];
-        volux_mm_format_bytes(need, a, sizeof a);
-        volux_mm_format_bytes(held, b, sizeof b);
-        volux_mm_format_bytes(limit, l, sizeof l);
+        volux_format_bytes(need, a, sizeof a);
+        volux_format_bytes(held, b, sizeof b);
+        volux_format_bytes(limit, l, sizeof l);
         return volux_error(ctx, VOLUX_ERR_LIMIT,
                            "framebuffer %dx%d: it and its image need an estimated %s, with the %s already allocated "
                            "more than the memory limit of %s (%llu bytes%s); lower the image size or raise the limit",

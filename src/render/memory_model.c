@@ -120,26 +120,17 @@ void volux_memory_estimate_class(const volux_technique_class *cls, const volux_s
     out->total = out->volume + out->instance + out->technique + out->framebuffer + out->image;
 }
 
-/* "12.3 GB" (decimal units, as `free -h` and file managers print). */
-void volux_mm_format_bytes(uint64_t b, char *out, size_t n) {
-    double x = (double)b;
-    if (x >= 1e9) snprintf(out, n, "%.1f GB", x / 1e9);
-    else if (x >= 1e6) snprintf(out, n, "%.1f MB", x / 1e6);
-    else if (x >= 1e3) snprintf(out, n, "%.1f kB", x / 1e3);
-    else snprintf(out, n, "%llu bytes", (unsigned long long)b);
-}
-
 int volux_context_memory_limit_is_default(const volux_context *ctx) { return ctx->memory_limit == 0; }
 
 volux_status volux_memory_check(volux_context *ctx, const char *who, const volux_memory_estimate *e) {
     uint64_t limit = volux_context_memory_limit(ctx);
     if (e->total <= limit) return VOLUX_OK;
     char t[32], l[32], vol[32], tech[32], fb[32];
-    volux_mm_format_bytes(e->total, t, sizeof t);
-    volux_mm_format_bytes(limit, l, sizeof l);
-    volux_mm_format_bytes(e->volume, vol, sizeof vol);
-    volux_mm_format_bytes(e->instance + e->technique, tech, sizeof tech);
-    volux_mm_format_bytes(e->framebuffer + e->image, fb, sizeof fb);
+    volux_format_bytes(e->total, t, sizeof t);
+    volux_format_bytes(limit, l, sizeof l);
+    volux_format_bytes(e->volume, vol, sizeof vol);
+    volux_format_bytes(e->instance + e->technique, tech, sizeof tech);
+    volux_format_bytes(e->framebuffer + e->image, fb, sizeof fb);
     return volux_error(ctx, VOLUX_ERR_LIMIT,
                        "%s: the render needs an estimated %s (%llu bytes: volume %s, technique caches %s, "
                        "framebuffer and image %s), more than the memory limit of %s (%llu bytes%s); lower the "

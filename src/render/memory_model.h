@@ -64,8 +64,6 @@ uint64_t volux_mm_macrocells(const int dims[3]);
 
 /* 1 while the context uses the default limit (for messages). */
 int volux_context_memory_limit_is_default(const volux_context *ctx);
-/* "12.3 GB" (decimal units). */
-void volux_mm_format_bytes(uint64_t bytes, char *out, size_t n);
 
 /* Fills *out for a render of `scene` with class `cls` (framebuffer and
  * image at the scene's render.width × height). */

@@ -343,6 +343,74 @@ static void test_compare_refuses_nonfinite(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* The memory limit is a budget over everything the context holds (D5),
+ * not only the estimate a render checks up front: with 32 MiB, one 20 MiB
+ * volume fits, a second does not (each alone is under the one-allocation
+ * cap), and the refusal comes before the allocator is asked, with a message
+ * naming the limit. The context never holds more than the limit. */
+static void test_memory_limit_is_a_budget(void **state) {
+    (void)state;
+    tu_alloc_stats stats = {0};
+    volux_context *ctx = tu_context_counting(0, &stats);
+    const uint64_t limit = 32u << 20;
+    volux_context_set_memory_limit(ctx, limit);
+    volux_volume_desc d = {.dims = {256, 256, 320}, .type = VOLUX_UINT8}; /* 20 MiB */
+    volux_volume *a = NULL, *b = NULL;
+    assert_int_equal(volux_volume_create(ctx, &d, &a), VOLUX_OK);
+    size_t largest_before = stats.largest;
+    assert_int_not_equal(volux_volume_create(ctx, &d, &b), VOLUX_OK);
+    assert_int_equal(volux_context_error_status(ctx), VOLUX_ERR_LIMIT); /* the first error: the budget */
+    assert_null(b);
+    assert_non_null(strstr(volux_context_error(ctx), "memory limit"));
+    assert_int_equal(stats.largest, largest_before); /* refused before allocating */
+    assert_true(volux_context_bytes_in_use(ctx) <= limit);
+    assert_true(stats.live <= limit);
+    /* Freeing makes room again, and the refusal is said again afterwards. */
+    volux_volume_release(a);
+    volux_context_clear_error(ctx);
+    assert_int_equal(volux_volume_create(ctx, &d, &b), VOLUX_OK);
+    volux_volume_release(b);
+    /* A scene whose procedural volume alone passes the limit (512³ u8). */
+    volux_scene *scene = NULL;
+    volux_context_clear_error(ctx);
+    const char *json = "{\"volume\": {\"procedural\": \"phantom\", \"dims\": [512, 512, 512]}}";
+    assert_int_not_equal(volux_scene_load_string(ctx, json, NULL, "budget.json", NULL, 0, &scene), VOLUX_OK);
+    assert_null(scene);
+    assert_non_null(strstr(volux_context_error(ctx), "memory limit"));
+    assert_true(stats.live <= limit);
+    volux_context_clear_error(ctx);
+    volux_context_destroy(ctx);
+}
+
+/* Under a data root (the viewer) a volume whose data does not fit its
+ * header gets no message that states the file's size (D8); outside one, the
+ * CLI user is told the sizes that help fix the header. */
+static void test_sizes_withheld_under_data_root(void **state) {
+    (void)state;
+    const char *dir = fresh_dir("withheld");
+    char data[64], header[64];
+    snprintf(data, sizeof data, "withheld/d.raw");
+    snprintf(header, sizeof header, "withheld/h.nhdr");
+    unsigned char bytes[1000] = {0};
+    tu_write_file(data, bytes, 300); /* 8³ u8 needs 512 */
+    const char *text = "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 8 8 8\nencoding: raw\ndata file: d.raw\n\n";
+    const char *path = tu_write_file(header, text, strlen(text));
+    volux_context *ctx = tu_context(1);
+    volux_volume *v = NULL;
+    assert_int_not_equal(volux_volume_load(ctx, path, NULL, &v), VOLUX_OK);
+    assert_non_null(strstr(volux_context_error(ctx), "300")); /* the CLI's message helps */
+    volux_context_clear_error(ctx);
+    char root[1024];
+    assert_non_null(realpath(dir, root));
+    volux_volume_load_options o = {.data_root = root};
+    assert_int_not_equal(volux_volume_load(ctx, path, &o, &v), VOLUX_OK);
+    const char *msg = volux_context_error(ctx);
+    assert_null(strstr(msg, "300"));
+    assert_non_null(strstr(msg, "8x8x8 uint8"));
+    assert_null(v);
+    volux_context_destroy(ctx);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_killed_writer_leaves_nothing),
@@ -354,6 +422,8 @@ int main(void) {
         cmocka_unit_test(test_compare_refuses_nonfinite),
         cmocka_unit_test(test_cache_folder_is_capped),
         cmocka_unit_test(test_header_values_not_honoured_are_said),
+        cmocka_unit_test(test_memory_limit_is_a_budget),
+        cmocka_unit_test(test_sizes_withheld_under_data_root),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -29,6 +29,10 @@ int cli_exit_status(volux_status st) {
 int cli_fail(const char *cmd, volux_context *ctx, volux_status st) {
     const char *msg = ctx ? volux_context_error(ctx) : "";
     cli_eprintf("volux %s: %s\n", cmd, msg && *msg ? msg : volux_status_name(st));
+    /* An allocation the memory limit refused surfaces as "out of memory"
+     * from its caller; the message printed is the limit's, and so is the
+     * exit status (2: a size to lower, not a machine failure). */
+    if (st == VOLUX_ERR_NOMEM && ctx && volux_context_error_status(ctx) == VOLUX_ERR_LIMIT) st = VOLUX_ERR_LIMIT;
     return cli_exit_status(st);
 }
 

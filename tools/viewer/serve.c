@@ -87,6 +87,7 @@ int cli_serve_named(int argc, char **argv, const char *display_name) {
     o->token = getenv("VOLUX_SERVE_TOKEN");
     if (o->token && !*o->token) o->token = NULL;
     long max_mb = 2048;
+    int max_mb_given = 0;
     int rc = CLI_USAGE;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -171,6 +172,7 @@ int cli_serve_named(int argc, char **argv, const char *display_name) {
                 o->timeout_s = (int)n;
             } else if (!strcmp(a, "--max-mb")) {
                 if (!cli_parse_int("serve", a, val, 1, 1 << 20, &max_mb)) goto out;
+                max_mb_given = 1;
             } else if (!strcmp(a, "--max-connections")) {
                 if (!cli_parse_int("serve", a, val, 4, 1024, &n)) goto out;
                 o->max_connections = (int)n;
@@ -184,6 +186,10 @@ int cli_serve_named(int argc, char **argv, const char *display_name) {
             usage(stderr);
             goto out;
         }
+    }
+    if (max_mb_given && args.memory_limit) {
+        cli_eprintf("volux serve: --max-mb and --memory-limit set the same budget: give one\n");
+        goto out;
     }
     if (!args.scene_path) {
         fprintf(stderr, "volux serve: missing SCENE.json\n");
@@ -204,13 +210,19 @@ int cli_serve_named(int argc, char **argv, const char *display_name) {
     sigaddset(&stop, SIGTERM);
     pthread_sigmask(SIG_BLOCK, &stop, NULL);
 
+    /* One budget (issue 34 D5): --max-mb (or --memory-limit, the render
+     * command's spelling) is the context's memory limit, which every
+     * allocation through it is held under, and the cap on one allocation. */
+    uint64_t budget = args.memory_limit ? args.memory_limit : (uint64_t)max_mb << 20;
     volux_context_desc cd = {0};
-    cd.max_bytes = (uint64_t)max_mb << 20;
+    cd.max_bytes = budget;
     if (volux_context_create(&cd, &v->ctx) || volux_context_create(&cd, &v->enc_ctx)) {
         fprintf(stderr, "volux serve: out of memory\n");
         rc = CLI_FAIL;
         goto out;
     }
+    volux_context_set_memory_limit(v->ctx, budget);
+    volux_context_set_memory_limit(v->enc_ctx, budget);
     pthread_mutex_init(&v->lock, NULL);
     pthread_mutex_init(&v->snap_lock, NULL);
     pthread_mutex_init(&v->frame_lock, NULL);
