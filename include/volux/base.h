@@ -56,6 +56,13 @@ typedef enum volux_status {
 
 /* Short stable name of a status ("invalid", "io", ...). Never NULL. */
 VOLUX_API const char *volux_status_name(volux_status s);
+/* "Did you mean": the entry of the NULL-terminated `candidates` closest to
+ * a misspelt `name` (Levenshtein distance ≤ 2 for short names, about a
+ * third of the length for long ones; a candidate that `name` begins, from
+ * two letters on, counts as distance 1), NULL when none is close. The
+ * library's own messages use the same rule; front ends use it for their
+ * options. Returns one of `candidates`. */
+VOLUX_API const char *volux_name_closest(const char *name, const char *const *candidates);
 /* Copies `in` into out (cap bytes, NUL-terminated, cut at a whole
  * character) with control characters other than newline and tab, DEL and
  * bytes that are not valid UTF-8 written as \xHH. Every error and warning

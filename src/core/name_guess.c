@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "name_guess.h"
+#include "volux/base.h"
 
 /* Levenshtein distance (capped at 99 for long names), for "did you mean". */
 static int edit_distance(const char *a, const char *b) {
@@ -38,3 +39,9 @@ const char *volux_name_guess_best(const volux_name_guess *g, const char *name) {
     return len > 0 && g->best && g->distance <= (len < 6 ? 2 : len / 3 + 1) ? g->best : NULL;
 }
 
+
+const char *volux_name_closest(const char *name, const char *const *candidates) {
+    volux_name_guess g = {NULL, 0};
+    for (const char *const *c = candidates; *c; c++) volux_name_guess_try(&g, name, *c);
+    return volux_name_guess_best(&g, name);
+}

@@ -50,9 +50,6 @@ void cli_progress(const char *task, double fraction);
 /* No progress output from now on (--quiet); Ctrl-C still stops work. */
 void cli_quiet_progress(void);
 /* Parses a positive/non-negative integer option value; prints an error. */
-/* The candidate nearest to a mistyped `name` (Levenshtein distance ≤ 2,
- * or a third of the length for long names), or NULL: "did you mean". */
-const char *cli_closest(const char *name, const char *const *candidates);
 int cli_parse_int(const char *cmd, const char *opt, const char *s, long lo, long hi, long *out);
 int cli_parse_double(const char *cmd, const char *opt, const char *s, double *out);
 /* Median of v[0..n) (n >= 1); sorts v in place. */

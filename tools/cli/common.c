@@ -290,32 +290,3 @@ void cli_ramp_color(double t, float *linear_rgb) {
     }
 }
 
-/* Levenshtein distance, capped for long strings (a typo is short). */
-static int cli_edit_distance(const char *a, const char *b) {
-    size_t n = strlen(a), m = strlen(b);
-    if (n > 63 || m > 63) return 99;
-    int row[64];
-    for (size_t j = 0; j <= m; j++) row[j] = (int)j;
-    for (size_t i = 1; i <= n; i++) {
-        int diag = row[0];
-        row[0] = (int)i;
-        for (size_t j = 1; j <= m; j++) {
-            int above = row[j], best = diag + (a[i - 1] != b[j - 1]);
-            if (above + 1 < best) best = above + 1;
-            if (row[j - 1] + 1 < best) best = row[j - 1] + 1;
-            row[j] = best;
-            diag = above;
-        }
-    }
-    return row[m];
-}
-
-const char *cli_closest(const char *name, const char *const *candidates) {
-    const char *best = NULL;
-    int best_d = 99, len = (int)strlen(name);
-    for (const char *const *c = candidates; *c; c++) {
-        int d = cli_edit_distance(name, *c);
-        if (d < best_d) best = *c, best_d = d;
-    }
-    return len > 0 && best && best_d <= (len < 6 ? 2 : len / 3 + 1) ? best : NULL;
-}

@@ -104,7 +104,7 @@ int cli_render(int argc, char **argv) {
                                                   "--dump-scene", "--technique", "--spp", "--width", "--height",
                                                   "--threads", "--seed", "--step", "--exposure", "--time-ms",
                                                   "--target-error", "--max-depth", "--time-step", "--set", NULL};
-            const char *guess = cli_closest(argv[i], options);
+            const char *guess = volux_name_closest(argv[i], options);
             cli_eprintf("volux render: unknown option '%s'%s%s%s\n", argv[i], guess ? "; did you mean '" : "",
                         guess ? guess : "", guess ? "'?" : "");
             usage(stderr);
