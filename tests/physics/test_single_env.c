@@ -288,12 +288,69 @@ static void test_preparation_reports_progress_and_cancels(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* light_sweep does for a directional light's cache what env_sweep does for
+ * the environment's: parallel rays read back in light space. Against one
+ * shadow ray per node, at the default spacing (one cache cell), for three
+ * oblique directions: the same bounds as the environment's (the same
+ * interpolation), and switching the parameter off rebuilds the cache
+ * bit-identical to the rays. */
+static void test_light_sweep_matches_shadow_rays(void **state) {
+    (void)state;
+    volux_context *ctx = tu_context(2);
+    static const double dirs[][3] = {{-0.5, -0.7, -0.5}, {0.9, -0.2, 0.1}, {0.1, 0.3, 0.95}};
+    for (size_t d = 0; d < sizeof dirs / sizeof dirs[0]; d++) {
+        volux_scene *sc[2] = {NULL, NULL};
+        volux_technique *t[2] = {NULL, NULL};
+        for (int k = 0; k < 2; k++) {
+            char json[1024];
+            snprintf(json, sizeof json,
+                     "{\"volume\": {\"procedural\": \"cloud\", \"dims\": [48, 40, 36]},"
+                     " \"transfer_function\": {\"extinction\": [[0, 0], [30, 0], [255, 0.35]], \"albedo\": 0.8},"
+                     " \"lights\": [{\"type\": \"directional\", \"direction\": [%g, %g, %g]}],"
+                     " \"render\": {\"width\": 16, \"height\": 16},"
+                     " \"techniques\": {\"single\": {\"cache_scale\": 1, \"light_sweep\": %d}}}",
+                     dirs[d][0], dirs[d][1], dirs[d][2], k);
+            if (volux_scene_load_string(ctx, json, tu_temp_path(""), "sweep.json", NULL, 0, &sc[k]))
+                fail_msg("scene: %s", volux_context_error(ctx));
+            assert_int_equal(volux_technique_create(ctx, "single", sc[k], &t[k]), VOLUX_OK);
+        }
+        const single_state *a = volux_technique_state(t[0]), *b = volux_technique_state(t[1]);
+        const scatter_grid *ga = &a->slot[0].cache, *gb = &b->slot[0].cache;
+        assert_non_null(ga->v);
+        assert_non_null(gb->v);
+        assert_memory_equal(ga->dims, gb->dims, sizeof ga->dims);
+        size_t n = (size_t)ga->dims[0] * ga->dims[1] * ga->dims[2];
+        double sum = 0, mx = 0, t_min = 1;
+        for (size_t i = 0; i < n; i++) {
+            double e = fabs((double)ga->v[i] - gb->v[i]);
+            sum += e;
+            if (e > mx) mx = e;
+            if (ga->v[i] < t_min) t_min = ga->v[i];
+        }
+        printf("  light_sweep 1 vs shadow rays, direction %zu: mean |dT| %.4f, max |dT| %.4f, darkest node T %.3f\n", d,
+               sum / n, mx, t_min);
+        assert_true(t_min < 0.5);
+        if (sum / n > 0.02 || mx > 0.3) fail_msg("light_sweep 1 vs shadow rays: mean |dT| %.4f, max %.4f", sum / n, mx);
+        if (d == 0) { /* back to rays: the same cache as the rays' instance */
+            assert_int_equal(volux_scene_set_param(sc[1], "single", "light_sweep", 0, NULL), VOLUX_OK);
+            assert_int_equal(volux_technique_update(t[1], sc[1], NULL), VOLUX_OK);
+            assert_memory_equal(ga->v, b->slot[0].cache.v, ga->bytes);
+        }
+        for (int k = 0; k < 2; k++) {
+            volux_technique_destroy(t[k]);
+            volux_scene_destroy(sc[k]);
+        }
+    }
+    volux_context_destroy(ctx);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_constant_sky_energy),
         cmocka_unit_test(test_one_texel_map_energy),
         cmocka_unit_test(test_ignored_sky_warns_once),
         cmocka_unit_test(test_env_sweep_matches_shadow_rays),
+        cmocka_unit_test(test_light_sweep_matches_shadow_rays),
         cmocka_unit_test(test_preparation_reports_progress_and_cancels),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

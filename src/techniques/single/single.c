@@ -45,6 +45,10 @@ static const volux_param_info single_params[] = {
      "apart (laterally and in depth), each marched once through the whole volume, their optical depth read "
      "trilinearly at the cache nodes (bonsai 256^3: 16x less preparation at 1, 4x at 0.5); 0 = one shadow ray "
      "from every node (as before)"},
+    {"light_sweep", VOLUX_PARAM_NUMBER, 1, 0, 4, NULL,
+     "directional lights' transmittance caches from the same light-space sweep as env_sweep (parallel shadow "
+     "rays this many cache cells apart); 0 = one shadow ray from every node (as before). Point, spot and "
+     "sphere lights always use one ray per node"},
     {NULL, 0, 0, 0, 0, NULL, NULL}};
 
 /* Optical depth from p along unit dir over [0, t_max) through the volume:
@@ -329,8 +333,14 @@ static volux_status build_grid_sweep(single_state *st, volux_vec3 travel, scatte
     return VOLUX_OK;
 }
 
+/* A light's cache: a directional light's parallel shadow rays make the
+ * light-space sweep exact up to its interpolation (see above); positional
+ * lights' rays fan out, so they keep one ray per node. */
 static volux_status build_cache(single_state *st, const volux_prepared_light *l, prep_progress *pr) {
-    volux_status s = build_grid(st, l, &st->slot[l->slot].cache, st->cache_scale, pr);
+    scatter_grid *g = &st->slot[l->slot].cache;
+    volux_status s = l->type == VOLUX_LIGHT_DIRECTIONAL && st->light_sweep > 0.0f
+                         ? build_grid_sweep(st, l->travel, g, st->cache_scale, st->light_sweep, pr)
+                         : build_grid(st, l, g, st->cache_scale, pr);
     if (!s) st->slot[l->slot].cache_builds++;
     return s;
 }
@@ -412,6 +422,9 @@ static volux_status single_update(void *state, const volux_scene *scene, const v
         if (sweep != st->env_sweep) env_free_caches(st); /* built the other way: again */
         st->env_sweep = sweep;
         st->near_field = (float)volux_technique_param(scene, rc->cls, "near_field");
+        float light_sweep = (float)volux_technique_param(scene, rc->cls, "light_sweep");
+        if (light_sweep != st->light_sweep) all = 1; /* the lights' caches, built the other way */
+        st->light_sweep = light_sweep;
         if (use != st->use_cache || scale != st->cache_scale || step != st->shadow_step) all = 1;
         if (dirs != st->n_env_dirs) {
             env_free_caches(st); /* other directions */
@@ -466,6 +479,7 @@ static void single_init(void *state) {
     single_state *st = state;
     st->use_cache = -1;
     st->n_env_dirs = -1;
+    st->light_sweep = -1.0f;
 }
 
 static size_t single_memory_bytes(const void *state) {

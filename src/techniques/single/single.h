@@ -28,6 +28,8 @@ typedef struct single_state {
     float cache_scale;
     float shadow_step;                      /* world units */
     float near_field;                       /* cache cells marched before the cache is read */
+    float light_sweep;                      /* light_sweep parameter: directional lights' caches by
+                                               the light-space sweep at this spacing (0: rays) */
     single_slot *slot;                      /* per light slot [slot_cap] */
     int slot_cap;
     /* environment lights: n_env_dirs directions, each a shadowed directional
