@@ -62,6 +62,19 @@ for v in 512M 0.5G 524288K 512MiB none 536870912; do
   rm -f "$tmp/ok.png"
 done
 
+# ---- the limit is a budget over every allocation (issue 34 D5): a volume
+# the estimate never sees (here the scene's own, 128³ = 2 MiB) is refused by
+# the allocator with the limit's message, exit 2; the viewer's --max-mb is
+# the same budget (before, serve ignored --memory-limit and --max-mb capped
+# one allocation only)
+expect 2 "memory limit reached" "$volux" render procedural:phantom:128 --technique ea --width 16 --height 16 \
+  --memory-limit 1M -o "$tmp/budget.png"
+no_output budget.png "a render over the budget"
+expect 2 "1048576 bytes" timeout 20 "$volux" view procedural:phantom:128 --port 0 --max-mb 1
+expect 2 "1048576 bytes" timeout 20 "$volux" view procedural:phantom:128 --port 0 --memory-limit 1M
+expect 2 "memory limit reached" timeout 20 "$volux" view procedural:phantom:96 --port 0 --max-mb 1
+expect 2 "give one" timeout 20 "$volux" view procedural:phantom:128 --port 0 --memory-limit 1M --max-mb 1
+
 # ---- bench: memory_bytes with the estimate beside it
 "$volux" bench $vol --technique lightvol --width 16 --height 16 --repeat 1 --edit camera --json >"$tmp/b.jsonl" 2>/dev/null ||
   bad "bench failed"

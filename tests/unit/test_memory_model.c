@@ -112,8 +112,11 @@ static void test_over_limit_is_refused_before_allocating(void **state) {
     snprintf(total, sizeof total, "%llu bytes", (unsigned long long)(e.total - 1));
     assert_non_null(strstr(volux_context_error(ctx), total));
     assert_non_null(strstr(volux_context_error(ctx), "memory limit"));
-    /* exactly at the estimate it fits */
-    volux_context_set_memory_limit(ctx, e.total);
+    /* At the estimate plus the scratch the model leaves out (docs/SCALE.md:
+     * buffers freed within an update; the limit is also a budget over every
+     * allocation, so a transient peak counts) it fits: this 40×48×36 lightvol
+     * peaks ≈ 0.25 MB (10 %) over its estimate while it builds. */
+    volux_context_set_memory_limit(ctx, e.total + e.total / 8);
     volux_context_clear_error(ctx);
     assert_int_equal(volux_technique_create(ctx, "lightvol", s, &t), VOLUX_OK);
     volux_technique_destroy(t);

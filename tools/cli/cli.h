@@ -36,6 +36,9 @@ int cli_view(int argc, char **argv);  /* tools/viewer/view.c: a volume's quick l
 
 /* Prints "volux CMD: <context error>" and returns the exit status for st. */
 int cli_fail(const char *cmd, volux_context *ctx, volux_status st);
+/* The exit status for st failing on ctx: the memory limit's refusal (the
+ * context's first error) is exit 2 whatever its caller returned. */
+int cli_context_exit_status(volux_context *ctx, volux_status st);
 /* Exit status for a library status. */
 /* fprintf(stderr, ...) with the result escaped (volux_escape_text): the
  * arguments quoted in messages may hold terminal escape sequences or

@@ -26,14 +26,19 @@ int cli_exit_status(volux_status st) {
     return volux_status_is_input_error(st) ? CLI_USAGE : CLI_FAIL;
 }
 
+int cli_context_exit_status(volux_context *ctx, volux_status st) {
+    /* An allocation the memory limit refused surfaces as "out of memory"
+     * (or a reader's failure) from its caller; the message printed is the
+     * limit's, and so is the exit status (2: a size to lower, not a machine
+     * failure). */
+    if (st != VOLUX_OK && ctx && volux_context_error_status(ctx) == VOLUX_ERR_LIMIT) st = VOLUX_ERR_LIMIT;
+    return cli_exit_status(st);
+}
+
 int cli_fail(const char *cmd, volux_context *ctx, volux_status st) {
     const char *msg = ctx ? volux_context_error(ctx) : "";
     cli_eprintf("volux %s: %s\n", cmd, msg && *msg ? msg : volux_status_name(st));
-    /* An allocation the memory limit refused surfaces as "out of memory"
-     * from its caller; the message printed is the limit's, and so is the
-     * exit status (2: a size to lower, not a machine failure). */
-    if (st == VOLUX_ERR_NOMEM && ctx && volux_context_error_status(ctx) == VOLUX_ERR_LIMIT) st = VOLUX_ERR_LIMIT;
-    return cli_exit_status(st);
+    return cli_context_exit_status(ctx, st);
 }
 
 /* Progress on stderr. On a terminal: a one-line bar with the time left,

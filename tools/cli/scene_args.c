@@ -169,7 +169,7 @@ static void dir_of(const char *path, char *out, size_t n) {
 static int context_failure(volux_context *ctx, volux_status st, char *msg, size_t msg_size) {
     const char *e = volux_context_error(ctx);
     snprintf(msg, msg_size, "%s", e && *e ? e : volux_status_name(st));
-    return cli_exit_status(st);
+    return cli_context_exit_status(ctx, st);
 }
 
 void cli_technique_names(char *out, size_t n) {

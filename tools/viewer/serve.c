@@ -86,7 +86,7 @@ int cli_serve_named(int argc, char **argv, const char *display_name) {
     o->timeout_s = 10;
     o->token = getenv("VOLUX_SERVE_TOKEN");
     if (o->token && !*o->token) o->token = NULL;
-    long max_mb = 2048;
+    long max_mb = 0; /* 0: the context's default limit, 80 % of physical memory */
     int max_mb_given = 0;
     int rc = CLI_USAGE;
     for (int i = 1; i < argc; i++) {
@@ -213,9 +213,11 @@ int cli_serve_named(int argc, char **argv, const char *display_name) {
     /* One budget (issue 34 D5): --max-mb (or --memory-limit, the render
      * command's spelling) is the context's memory limit, which every
      * allocation through it is held under, and the cap on one allocation. */
-    uint64_t budget = args.memory_limit ? args.memory_limit : (uint64_t)max_mb << 20;
+    uint64_t budget = args.memory_limit ? args.memory_limit
+                      : max_mb           ? (uint64_t)max_mb << 20
+                                         : volux_context_default_memory_limit();
     volux_context_desc cd = {0};
-    cd.max_bytes = budget;
+    cd.max_bytes = budget < VOLUX_DEFAULT_MAX_BYTES ? budget : 0; /* 0: the library's per-allocation cap */
     if (volux_context_create(&cd, &v->ctx) || volux_context_create(&cd, &v->enc_ctx)) {
         fprintf(stderr, "volux serve: out of memory\n");
         rc = CLI_FAIL;
