@@ -576,13 +576,19 @@ static inline void prod_lookup(const sh_state *st, volux_vec3 q, float P[3 * SH_
 
 enum { SH_MATERIALS = 1, SH_PREINT = 2, SH_PRODUCT = 32 };
 
-/* σt at fine index q, clamped into the volume. */
+/* σt at fine index q; 0 outside the volume's box [0, dims − 1] (issue 28):
+ * the medium ends there, as for `pathtrace`, so a volume cut through
+ * dense material (the bonsai pot, the engine block) is a surface facing
+ * out of the box. Clamped, the cut had no gradient across it and the
+ * surface term took its normal from the structure just below: the pot's
+ * cut face got dark patches and a bright rim, the engine's front face its
+ * back light (the blue tint). */
 static inline __attribute__((always_inline)) float sigma_q(const sh_state *st, float x, float y, float z,
                                                            volux_storage storage) {
     const int *d = st->rc.volume->dims;
-    x = x < 0.0f ? 0.0f : x > (float)(d[0] - 1) ? (float)(d[0] - 1) : x;
-    y = y < 0.0f ? 0.0f : y > (float)(d[1] - 1) ? (float)(d[1] - 1) : y;
-    z = z < 0.0f ? 0.0f : z > (float)(d[2] - 1) ? (float)(d[2] - 1) : z;
+    if (!(x >= 0.0f && y >= 0.0f && z >= 0.0f && x <= (float)(d[0] - 1) && y <= (float)(d[1] - 1) &&
+          z <= (float)(d[2] - 1)))
+        return 0.0f;
     return volux_lut_sigma(st->rc.lut, volux_volume_sample_bricked(st->rc.volume, x, y, z, storage));
 }
 
