@@ -141,7 +141,8 @@ static void test_sh_back_phase(void **state) {
     volux_scene *s = tu_scene(ctx, json_forward);
     volux_light_desc d;
     volux_light_desc_defaults(&d, VOLUX_LIGHT_DIRECTIONAL);
-    d.direction.x = -0.814f, d.direction.y = -0.342f, d.direction.z = -0.470f; /* from azimuth 60, elevation 20; the camera at 30, 20 */
+    /* from azimuth 60, elevation 20; the camera at 30, 20 */
+    d.direction.x = -0.814f, d.direction.y = -0.342f, d.direction.z = -0.470f;
     d.irradiance = 3.0f;
     assert_int_equal(volux_scene_set_light(s, 0, &d), VOLUX_OK);
     volux_render_settings rs = *volux_scene_render(s);
