@@ -236,12 +236,13 @@ static inline __attribute__((always_inline)) float march(const proj_job *j, volu
     return j->comps == 1 ? expf(-tau) : T;
 }
 
-/* σt at fine index q (clamped into the volume). */
+/* σt at fine index q; 0 outside the volume's box (the medium ends there:
+ * a cut through dense material is a surface, as in sh.c's sigma_q). */
 static inline float sigma_at(const proj_job *j, float x, float y, float z) {
     const int *d = j->v->dims;
-    x = minf(maxf(x, 0.0f), (float)(d[0] - 1));
-    y = minf(maxf(y, 0.0f), (float)(d[1] - 1));
-    z = minf(maxf(z, 0.0f), (float)(d[2] - 1));
+    if (!(x >= 0.0f && y >= 0.0f && z >= 0.0f && x <= (float)(d[0] - 1) && y <= (float)(d[1] - 1) &&
+          z <= (float)(d[2] - 1)))
+        return 0.0f;
     return volux_lut_sigma(j->lut, volux_volume_sample_index(j->v, x, y, z));
 }
 

@@ -291,6 +291,7 @@ static void surface_lights(sh_state *st, volux_vec3 centre) {
         if (!(len > 0.0f)) continue;
         int n = st->n_delta++;
         st->delta_dir[n] = v3_scale(d, 1.0f / len);
+        st->delta_exact[n] = l->type != VOLUX_LIGHT_SPHERE; /* a sphere is a cap in its probe */
         for (int k = 0; k < 3; k++) {
             float w = 3.5449077f * st->light_sh[l->slot].c[k][0];
             st->delta_w[n][k] = w > 0.0f ? w : 0.0f;
@@ -493,6 +494,34 @@ static inline void phase_factor(float albedo, float g, const float b[3][SH_MAX_B
         out[c] = albedo * (b[c][0] + gl[1] * b[c][1] + gl[2] * b[c][2] + gl[3] * b[c][3]);
 }
 
+/* Henyey–Greenstein p_g(c), c the cosine between the direction to the
+ * light and the camera ray's direction (forward scattering at c = 1),
+ * and its 4-band truncation Σ_{l<4} (2l+1)/(4π) g^l P_l(c) — what the
+ * Funk–Hecke form below gives for a delta light. */
+static inline float hg_exact(float g, float c) {
+    float d = 1.0f + g * g - 2.0f * g * c;
+    return (1.0f - g * g) / (12.566371f * d * sqrtf(d));
+}
+static inline float hg_bands(float g, float c) {
+    const float p2 = 0.5f * (3.0f * c * c - 1.0f), p3 = 0.5f * c * (5.0f * c * c - 3.0f);
+    return (1.0f + g * (3.0f * c + g * (5.0f * p2 + 7.0f * g * p3))) * 0.07957747f;
+}
+
+/* Issue 28: the first factor of Eq. 3 for delta lights exactly. At 4
+ * bands an HG lobe with g = 0.6 is a quarter of itself in back-scattering
+ * (and goes negative, i.e. black after clamping, near 150°) and 0.6 of it
+ * forward: the engine's key light came out dark over half the block and
+ * its back light too strong relative to it (the blue tint). A delta light
+ * contributes E_i·p_g(ω_i·d) exactly; out += albedo·E_i·(p − p₄) swaps
+ * its 4-band term for the exact one (the band sums keep every other light). */
+static inline void phase_delta_exact(const sh_state *st, float albedo, float g, volux_vec3 d, float out[3]) {
+    for (int i = 0; i < st->n_delta; i++) {
+        if (!st->delta_exact[i]) continue;
+        const float c = v3_dot(st->delta_dir[i], d), f = albedo * (hg_exact(g, c) - hg_bands(g, c));
+        for (int k = 0; k < 3; k++) out[k] += f * st->delta_w[i][k];
+    }
+}
+
 /* Σ_m L_lm Y_lm(d) per colour and band, for the lights li. */
 static inline void band_sums(const float li[3][SH_MAX_COEFFS], const float y[SH_MAX_COEFFS],
                              float b[3][SH_MAX_BANDS]) {
@@ -576,13 +605,19 @@ static inline void prod_lookup(const sh_state *st, volux_vec3 q, float P[3 * SH_
 
 enum { SH_MATERIALS = 1, SH_PREINT = 2, SH_PRODUCT = 32 };
 
-/* σt at fine index q, clamped into the volume. */
+/* σt at fine index q; 0 outside the volume's box [0, dims − 1] (issue 28):
+ * the medium ends there, as for `pathtrace`, so a volume cut through
+ * dense material (the bonsai pot, the engine block) is a surface facing
+ * out of the box. Clamped, the cut had no gradient across it and the
+ * surface term took its normal from the structure just below: the pot's
+ * cut face got dark patches and a bright rim, the engine's front face its
+ * back light (the blue tint). */
 static inline __attribute__((always_inline)) float sigma_q(const sh_state *st, float x, float y, float z,
                                                            volux_storage storage) {
     const int *d = st->rc.volume->dims;
-    x = x < 0.0f ? 0.0f : x > (float)(d[0] - 1) ? (float)(d[0] - 1) : x;
-    y = y < 0.0f ? 0.0f : y > (float)(d[1] - 1) ? (float)(d[1] - 1) : y;
-    z = z < 0.0f ? 0.0f : z > (float)(d[2] - 1) ? (float)(d[2] - 1) : z;
+    if (!(x >= 0.0f && y >= 0.0f && z >= 0.0f && x <= (float)(d[0] - 1) && y <= (float)(d[1] - 1) &&
+          z <= (float)(d[2] - 1)))
+        return 0.0f;
     return volux_lut_sigma(st->rc.lut, volux_volume_sample_bricked(st->rc.volume, x, y, z, storage));
 }
 
@@ -814,16 +849,19 @@ static inline __attribute__((always_inline)) volux_vec3 integrate(const void *te
         band_sums((const float(*)[SH_MAX_COEFFS])st->li, y, b);
     }
     phase_factor(st->rc.albedo, st->rc.g, b, ry.a_def);
+    phase_delta_exact(st, st->rc.albedo, st->rc.g, ray->d, ry.a_def);
     if (variant & SH_MATERIALS) {
         for (int i = 0; i < st->n_materials; i++)
             if (!st->mat[i].brdf) {
                 phase_factor(st->rc.albedo, st->mat[i].g, b, ry.a_mat[i]);
+                phase_delta_exact(st, st->rc.albedo, st->mat[i].g, ray->d, ry.a_mat[i]);
                 if (variant & SH_PRODUCT) phase_kernel(st->rc.albedo, st->mat[i].g, y, ry.h_mat[i]);
             }
         if (variant & SH_PRODUCT) {
             float bt[3][SH_MAX_BANDS];
             band_sums((const float(*)[SH_MAX_COEFFS])st->li, y, bt);
             phase_factor(st->rc.albedo, st->rc.g, bt, ry.a_tot);
+            phase_delta_exact(st, st->rc.albedo, st->rc.g, ray->d, ry.a_tot);
         } else {
             for (int k = 0; k < 3; k++) ry.a_tot[k] = ry.a_def[k];
         }

@@ -125,6 +125,9 @@ typedef struct sh_state {
     int n_delta;
     volux_vec3 delta_dir[SH_MAX_DELTA];
     float delta_w[SH_MAX_DELTA][3];
+    /* 1: a true delta (directional, point, spot), whose phase function the
+     * first factor of Eq. 3 evaluates exactly instead of at 4 bands */
+    unsigned char delta_exact[SH_MAX_DELTA];
     float delta_sum[3], env_sum[3];
     float kdepth[SH_KD_N][SH_MAX_BANDS];
     float hc, sp_inv[3];
