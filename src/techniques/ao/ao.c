@@ -9,27 +9,30 @@
  * soft, local, isotropic — no directional shadows. L_amb is the mean
  * radiance of the scene's environment lights plus the `ambient` parameter.
  *
- * DIRECTIONAL OCCLUSION (`directional`, opt-in; issue 28). Inside dense
- * material A → 0 for every direction, so a dense surface facing a bright
- * sky (or a key light) renders black: A is the transmittance averaged over
- * the sphere, half of which lies inside the object. With `directional` the
- * local transmittance over the same radius R is taken per direction —
- * W_k(x) = exp(−∫_0^R σt(x + t d_k) dt) for the K Fibonacci directions
- * d_k, one byte each per node of a grid at vis_scale (scatter/envdir.h,
- * scatter_dirw) — and
+ * DIRECTIONAL OCCLUSION (`directional`, the default since issue 28).
+ * Inside dense material A → 0 for every direction, so a dense surface
+ * facing a bright sky (or a key light) renders black: A is the
+ * transmittance averaged over the sphere, half of which lies inside the
+ * object. With `directional` the transmittance is taken per direction —
+ * W_k(x) = exp(−∫_0^R σt(x + t d_k) dt) for the K Fibonacci directions d_k
+ * (near field, one byte each per node of a grid at vis_scale;
+ * scatter/envdir.h, scatter_dirw) times F_k(x), the far field from R to
+ * the volume's edge, cone-traced over a pyramid of σt means on a coarse
+ * grid (`far_field`; see build_far) — and
  *
- *     L_s(x) = Σ_j p_g(ω_j·ω) E_j(x) V_j(x) + Σ_k p_g(−d_k·ω) E_k W_k(x) + W̄ L_amb
+ *     L_s(x) = Σ_j p_g(ω_j·ω) E_j(x) V_j(x) + Σ_k p_g(−d_k·ω) E_k W_k F_k(x) + mean_k(W_k F_k) L_amb
  *
  * with the environment as K directions carrying the irradiance of their
  * cells (volux_environment_cells, as `single` and `lightvol`) and V_j the
- * W_k interpolated around light j's direction. Still local: shadows cast
- * from farther than R are not seen, which makes it brighter than single
- * scattering (README.md has the measurements; hence not the default).
+ * W_k F_k interpolated around light j's direction. Near field alone (the
+ * first version) misses every shadow cast from farther than R: 1.19–2.40×
+ * single-scattering `pathtrace` on docs/lights.md's rows; with the far
+ * field 0.93–1.13 (README.md).
  *
  * Caches and what invalidates them:
- *   SAT, occlusion volume (isotropic) or the per-direction grid ← volume,
+ *   SAT, occlusion volume (isotropic) or the near and far grids ← volume,
  *       extinction, density, radius, shells / directional, env_directions,
- *       vis_scale
+ *       vis_scale, far_field
  *   E_k (directional) ← lights, env_directions (no volume work)
  * Phase, colour, camera and light edits need no volume work (Table 1: "−").
  */
