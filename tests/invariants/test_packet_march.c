@@ -92,7 +92,7 @@ typedef struct tech_case {
 static const tech_case techs[] = {
     {"lightvol", 1, "\"scale\": 0.5, \"env_directions\": 4"},
     {"single", 0, "\"env_directions\": 4, \"emission\": 0.3"},
-    {"ao", 0, "\"radius\": 4, \"emission\": 0.3"},
+    {"ao", 0, "\"radius\": 4, \"directional\": false, \"emission\": 0.3"}, /* the packet march shades the isotropic model */
     {"ambient", 0, "\"offset\": 0, \"radius\": 4, \"emission\": 0.3"}, /* lag 0 only */
 };
 enum { N_TECHS = sizeof techs / sizeof techs[0] };

@@ -49,7 +49,7 @@
  *   lightvol_two_lights_isotropic  SINGLE 16², 4×2048   0.060  0.08    −0.008  0.02    0.023
  *   lightvol_one_light_hg          SINGLE 16², 4×2048   0.075  0.10    −0.004  0.02    0.025
  *   ambient_thin_limit             THIN 16², 4×8192     0.047  0.06    +0.018  0.03    0.018
- *   ao_thin_sky                    THIN_ENV 16², 4×8192 0.048  0.075   +0.017  0.03    0.037
+ *   ao_thin_sky                    THIN_ENV 16², 4×8192 0.037  0.075   −0.010  0.03    0.037
  *   single_sky                     THIN_ENV 16², 4×8192 0.038  0.075   −0.010  0.03    0.037
  *   lightvol_sky                   THIN_ENV 16², 4×8192 0.034  0.075   −0.005  0.03    0.037
  *   ambient_thin (all orders)      THIN 16², 4×8192     0.170  0.20    +0.051  0.07    0.025
@@ -303,12 +303,14 @@ static const ref_case CASES[] = {
      {"techniques.ambient.radius=0.5", "techniques.ambient.cache_scale=1", "techniques.ambient.table_albedo=0.001",
       TINY_TABLE, NULL},
      REF_PATHTRACE, {NULL}, 8192, 1, 0.06, 0.03, 0},
-    /* ao, sky only, very thin medium: A(x) ≈ the mean transmittance to the
-     * sky (radius 16 voxels = 8 world units, the blobs' scale), everything
-     * else single scattering. ao has no directional shadows, so it is not
-     * tested with a directional light (+15 % in THIN).
-     * Measured 0.048 / +0.017 (noise 0.037). Bounds 0.075 / 0.03.
-     * Caught: radiance ×1.1 (0.224); occlusion ignored, A = 1 (0.178). */
+    /* ao, sky only, very thin medium: the default directional occlusion
+     * (16 directions, near field over radius 16 voxels = 8 world units,
+     * the blobs' scale, and the cone-traced far field beyond), everything
+     * else single scattering. Measured 0.037 / −0.010 (noise 0.037; the
+     * isotropic A(x) before issue 28: 0.048 / +0.017). Bounds 0.075 / 0.03
+     * (not tightened: the harness needs the reference's noise, 0.037, well
+     * below the bound).
+     * Caught (isotropic): radiance ×1.1 (0.224); occlusion ignored, A = 1 (0.178). */
     {"ao_thin_sky", "ao", THIN_ENV, {"techniques.ao.radius=16", NULL}, REF_PATHTRACE, {NULL}, 8192, 1, 0.075, 0.03,
      0},
     /* single, sky only (THIN_ENV): the environment as env_directions

@@ -31,6 +31,10 @@ typedef struct ambient_slot {
     uint64_t cache_resums; /* phase edits: re-sums from the kept geometry   */
 } ambient_slot;
 
+/* Environment directions tube-marched at once, one per thread, each
+ * single-threaded (ambient.c build_env_vis). */
+#define AMBIENT_ENV_BATCH 2
+
 typedef struct ambient_state {
     scatter_base b;
     /* parameters */
@@ -77,7 +81,7 @@ typedef struct ambient_state {
     int env_dirs;                 /* K (0: through the AO term, as before)   */
     scatter_env env;              /* the environment as K directions         */
     scatter_dirvis env_vis;       /* fit of V_k at the sphere's entry points  */
-    scatter_grid env_scratch;     /* one direction's radiance cache          */
+    scatter_grid env_scratch[AMBIENT_ENV_BATCH]; /* radiance caches of the directions marched together */
     scatter_grid env_rho;         /* ρ at env_scratch's nodes (tube marching) */
     float env_scale;              /* their resolution relative to the volume */
     tube_geometry env_geo[SCATTER_ENV_MAX_DIRS]; /* per direction (phase_cache): a phase

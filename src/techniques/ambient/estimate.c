@@ -57,7 +57,7 @@ uint64_t volux_ambient_estimate_bytes(const volux_scene *scene, const volux_tech
              na * ng * sizeof(double *) + 2 * na * ns * nt * sizeof(double) +
              (tinted && na > 1 ? na * ns * nt * sizeof(float) : 0);
     /* the environment as K directions (ambient.c build_env_vis /
-     * build_env_table): 4 visibility grids, a scratch and a ρ grid at
+     * build_env_table): 4 visibility grids, AMBIENT_ENV_BATCH scratch grids and a ρ grid at
      * cache_scale · env_scale, with phase_cache each direction's march
      * geometry (5 B per node), and the light table over the octahedral
      * directions */
@@ -65,7 +65,7 @@ uint64_t volux_ambient_estimate_bytes(const volux_scene *scene, const volux_tech
     if (l.env > 0 && env_dirs > 0) {
         double es = volux_technique_param(scene, cls, "cache_scale") * volux_technique_param(scene, cls, "env_scale");
         uint64_t m = volux_mm_grid_nodes(d, (float)(es < 0.05 ? 0.05 : es));
-        bytes += 6 * m * sizeof(float);
+        bytes += (5 + (env_dirs < AMBIENT_ENV_BATCH ? env_dirs : AMBIENT_ENV_BATCH)) * m * sizeof(float);
         if (phase_cache) bytes += (uint64_t)env_dirs * (m * (sizeof(float) + 1) + 16) /* tube.c VAC_PAD */;
         bytes += (uint64_t)SCATTER_ENV_OCT_TEXELS * ns * na * 12 * sizeof(float);
     }

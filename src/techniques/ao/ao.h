@@ -9,6 +9,8 @@
 
 extern const volux_technique_class volux_ao_class;
 
+#define AO_MIP_MAX 12
+
 typedef struct ao_state {
     scatter_base b;
     float radius;        /* world */
@@ -20,9 +22,15 @@ typedef struct ao_state {
     int directional;     /* 1: W_k(x) per direction; 0: isotropic A(x) */
     int n_dirs;          /* K: directions of the occlusion and of the environment */
     float vis_scale;     /* resolution of the per-direction grid */
-    scatter_dirw vis;    /* W_k(x), K bytes per node */
+    scatter_dirw vis;    /* W_k(x), K bytes per node (near field: 0 .. R) */
+    int far_field;       /* 1: also the transmittance beyond R (far grid) */
+    scatter_dirw far;    /* F_k(x): transmittance from R to the box exit, coarse grid */
+    int mip_levels;      /* σt means over cubes of 2, 4, 8 ... voxels (the far march's cones) */
+    int mip_dims[AO_MIP_MAX][3];
+    float *mip[AO_MIP_MAX];
+    size_t mip_bytes[AO_MIP_MAX];
     scatter_env env;     /* the environment as K directions (E_k; K = 0: none) */
-    uint64_t sat_builds, occ_builds, vis_builds, env_table_builds;
+    uint64_t sat_builds, occ_builds, vis_builds, far_builds, env_table_builds;
 } ao_state;
 
 /* The memory model (estimate.c, docs/SCALE.md). */
