@@ -97,7 +97,9 @@ static inline int volux_direct_sample(volux_tracker *p, const volux_prepared_lig
         float dc;
         float omc = volux_sphere_cone(x, l, &axis, &dc);
         if (!(omc > 0.0f)) return 0;
-        s->w = volux_sample_cone(axis, omc, volux_tracker_rnd(p), volux_tracker_rnd(p));
+        float u0, u1;
+        if (volux_tracker_ld2(p, VOLUX_LD_LIGHT, &u0, &u1)) s->w = volux_sample_cone(axis, omc, u0, u1);
+        else s->w = volux_sample_cone(axis, omc, volux_tracker_rnd(p), volux_tracker_rnd(p));
         /* Distance to the near surface; the sampled direction is inside the
          * cone, so clamp the discriminant against rounding. */
         float b = -v3_dot(v3_scale(axis, dc), s->w);

@@ -20,6 +20,12 @@
  * Camera rays that leave the volume unscattered see the escape radiance
  * (visible environments or the background).
  *
+ * Random numbers come from the tracker: its stream, or with the "sobol"
+ * sampler (sample/sampler.h) one padded Sobol pair per use at each of the
+ * first VOLUX_LD_DEPTH events (event k: the flight from the k-th scattering
+ * vertex and the draws at the vertex it ends in). The hooks draw through
+ * the same tracker (volux_tracker_ld2 at the current event).
+ *
  * The hooks are static functions of the caller, passed as constants into
  * this always-inline function, so the compiler calls (or inlines) them
  * directly: no indirect call per vertex (pathtrace's instruction count is
@@ -61,8 +67,13 @@ volux_path_trace(volux_tracker *tr, const volux_raycaster *rc, const volux_scene
     for (;;) {
         /* Free flight to the next real collision (or out of the volume). */
         volux_ray r;
-        float t_hit = INFINITY;
+        float t_hit = INFINITY, u_scatter = -1.0f;
+        /* Sampler "sobol": this event's pair stratifies the first tracking
+         * step (handed to the tracker) and the scatter/absorb decision. */
+        volux_tracker_ld_event(tr, depth);
+        tr->ld_pending = volux_tracker_ld2(tr, VOLUX_LD_FLIGHT, &tr->ld_next, &u_scatter);
         int collided = volux_ray_clip(rc->volume, o, d, &r) && volux_delta_track(tr, &r, r.t0, r.t1, &t_hit);
+        tr->ld_pending = 0;
         if (tr->stopped) break; /* out of time: the path ends here */
         if (depth == 0) {
             if (!collided) {
@@ -87,7 +98,7 @@ volux_path_trace(volux_tracker *tr, const volux_raycaster *rc, const volux_scene
         volux_tracker_sigma(tr, &r, t_hit, c);
         volux_vec3 rho = v3(rc->albedo * c[0], rc->albedo * c[1], rc->albedo * c[2]);
         float P = v3_max_comp(rho);
-        if (!(P > 0.0f) || (P < 1.0f && volux_tracker_rnd(tr) >= P)) break;
+        if (!(P > 0.0f) || (P < 1.0f && (u_scatter >= 0.0f ? u_scatter : volux_tracker_rnd(tr)) >= P)) break;
         beta = v3_mul(beta, v3_scale(rho, 1.0f / P));
         depth++;
         (*vertices)++;
@@ -99,7 +110,9 @@ volux_path_trace(volux_tracker *tr, const volux_raycaster *rc, const volux_scene
         if (depth >= rr_depth) {
             float q = v3_max_comp(beta);
             if (q < 1.0f) {
-                if (volux_tracker_rnd(tr) >= q) break;
+                float u_rr, unused;
+                if (!volux_tracker_ld2(tr, VOLUX_LD_RR, &u_rr, &unused)) u_rr = volux_tracker_rnd(tr);
+                if (u_rr >= q) break;
                 beta = v3_scale(beta, 1.0f / q);
             }
         }
@@ -116,7 +129,9 @@ volux_path_trace(volux_tracker *tr, const volux_raycaster *rc, const volux_scene
             if (!(weight > 0.0f)) break;
             beta = v3_scale(beta, weight);
         } else {
-            d = volux_hg_sample(rc->g, d, volux_tracker_rnd(tr), volux_tracker_rnd(tr), &pdf_phase);
+            float u1, u2;
+            if (volux_tracker_ld2(tr, VOLUX_LD_PHASE, &u1, &u2)) d = volux_hg_sample(rc->g, d, u1, u2, &pdf_phase);
+            else d = volux_hg_sample(rc->g, d, volux_tracker_rnd(tr), volux_tracker_rnd(tr), &pdf_phase);
         }
         o = x;
     }

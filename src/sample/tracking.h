@@ -40,6 +40,7 @@
 #include "core/vecmath.h"
 #include "medium.h"
 #include "regular_tracking.h"
+#include "sampler.h"
 #include "core/deadline.h"
 
 /* Ratio tracking: below this running weight, Russian roulette with survival
@@ -68,9 +69,46 @@ typedef struct volux_tracker {
     uint64_t samples;        /* volume lookups */
     volux_deadline *deadline; /* the render's (NULL: no time budget)     */
     int stopped;             /* the time budget ran out: end the path    */
+    /* Low-discrepancy draws (sample/sampler.h); all zero: independent. */
+    volux_sampler ld;
+    int ld_event;      /* the path's current event (scattering events so far) */
+    unsigned ld_used;  /* uses of that event already drawn (bit per use)      */
+    int ld_pending;    /* 1: the next volux_tracker_rnd returns ld_next       */
+    float ld_next;
 } volux_tracker;
 
-static inline float volux_tracker_rnd(volux_tracker *p) { return volux_rng_float(&p->rng); }
+static inline float volux_tracker_rnd(volux_tracker *p) {
+    if (__builtin_expect(p->ld_pending, 0)) { /* a sequence number handed to the trackers */
+        p->ld_pending = 0;
+        return p->ld_next;
+    }
+    return volux_rng_float(&p->rng);
+}
+
+/* Starts event k of the path: its uses are fresh. */
+static inline void volux_tracker_ld_event(volux_tracker *p, int k) {
+    p->ld_event = k;
+    p->ld_used = 0;
+}
+
+/* The pair of `use` at the current event, as 32-bit fixed point: 1 when the
+ * sampler is on, the event below VOLUX_LD_DEPTH and the use not yet drawn
+ * at this event; else 0 and the caller draws from the stream (exactly the
+ * draws of the independent sampler). */
+static inline int volux_tracker_ld2_u32(volux_tracker *p, int use, uint32_t *x, uint32_t *y) {
+    if (!p->ld.on || p->ld_event >= VOLUX_LD_DEPTH || (p->ld_used & (1u << use))) return 0;
+    p->ld_used |= 1u << use;
+    volux_sampler_2d_u32(&p->ld, volux_sampler_slot(p->ld_event, use), x, y);
+    return 1;
+}
+
+static inline int volux_tracker_ld2(volux_tracker *p, int use, float *u, float *v) {
+    uint32_t x, y;
+    if (!volux_tracker_ld2_u32(p, use, &x, &y)) return 0;
+    *u = volux_u32_to_float(x);
+    *v = volux_u32_to_float(y);
+    return 1;
+}
 
 /* Exponential step with rate sigma_max: −ln(1 − u)/σ̄, u ∈ [0,1). */
 static inline float volux_exp_step(volux_tracker *p, float inv_sigma_max) {
