@@ -16,8 +16,8 @@
  * bits turns "above" into "below", and any chain of x += seed and
  * x ^= x·c with even c flips each bit by a function of the lower bits only
  * (carries and products with an even constant move information upwards),
- * so reverse → hash → reverse is a nested uniform scramble; the constants
- * are the improved Laine–Karras hash of Burley's Listing 2. The scrambled
+ * so reverse → hash → reverse is a nested uniform scramble (the constants
+ * are those of Burley's laine_karras_permutation). The scrambled
  * point is uniform in [0, 1)² whatever the index (unbiasedness) and the net
  * property survives (stratification).
  *
@@ -25,8 +25,7 @@
  * §4): a bit of the result depends on that bit and the bits above it, so
  * indices below 2^m keep one common high part and their low m bits map one
  * to one — the first 2^m shuffled indices are one aligned block, a net, but
- * each
- * pixel (and each pair of dimensions, "padding", §5) sees its own order.
+ * each pixel (and each pair of dimensions, "padding", §5) sees its own order.
  * That decorrelates the pairs a path uses at its events from one another.
  *
  * Pure functions of their arguments: thread count and render order do not
@@ -37,15 +36,6 @@
 
 #include <stdint.h>
 
-/* Dimension 1's direction numbers v_1 … v_32 (v_1 = 2^31,
- * v_k = v_{k−1} ^ (v_{k−1} >> 1)); tests/unit/test_sobol.c rebuilds them
- * from the recurrence. */
-static const uint32_t volux_sobol_v1[32] = {
-    0x80000000u, 0xc0000000u, 0xa0000000u, 0xf0000000u, 0x88000000u, 0xcc000000u, 0xaa000000u, 0xff000000u,
-    0x80800000u, 0xc0c00000u, 0xa0a00000u, 0xf0f00000u, 0x88880000u, 0xcccc0000u, 0xaaaa0000u, 0xffff0000u,
-    0x80008000u, 0xc000c000u, 0xa000a000u, 0xf000f000u, 0x88008800u, 0xcc00cc00u, 0xaa00aa00u, 0xff00ff00u,
-    0x80808080u, 0xc0c0c0c0u, 0xa0a0a0a0u, 0xf0f0f0f0u, 0x88888888u, 0xccccccccu, 0xaaaaaaaau, 0xffffffffu};
-
 static inline uint32_t volux_reverse32(uint32_t x) {
     x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
     x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
@@ -54,42 +44,53 @@ static inline uint32_t volux_reverse32(uint32_t x) {
     return (x >> 16) | (x << 16);
 }
 
-/* Dimension 0 (van der Corput) and 1 of Sobol's sequence, 32-bit fixed
- * point in [0, 1). */
-static inline uint32_t volux_sobol0(uint32_t i) { return volux_reverse32(i); }
-
-static inline uint32_t volux_sobol1(uint32_t i) {
-    uint32_t x = 0;
-    for (int k = 0; i; i >>= 1, k++) x ^= (0u - (i & 1u)) & volux_sobol_v1[k];
-    return x;
+/* Dimension 1 of Sobol's sequence, bit-reversed (bit j holds the digit of
+ * 2^−(j+1)). Its generator matrix is Pascal's triangle mod 2: digit j is
+ * the XOR of index bits k with C(k, j) odd, i.e. (Lucas) with j ⊆ k as bit
+ * sets — a superset sum over the 5-bit positions, five shift-mask-XOR
+ * steps instead of a loop over the 32 direction numbers
+ * v_k = v_{k−1} ^ (v_{k−1} >> 1) (tests/unit/test_sobol.c checks the two
+ * agree). Dimension 0 (van der Corput), bit-reversed, is the index itself. */
+static inline uint32_t volux_sobol1_reversed(uint32_t i) {
+    i ^= (i >> 1) & 0x55555555u;
+    i ^= (i >> 2) & 0x33333333u;
+    i ^= (i >> 4) & 0x0f0f0f0fu;
+    i ^= (i >> 8) & 0x00ff00ffu;
+    i ^= (i >> 16) & 0x0000ffffu;
+    return i;
 }
 
-/* Nested uniform scramble of a 32-bit fixed-point value (Burley 2020,
- * Listings 1–2): reverse, the Laine–Karras-style hash, reverse. */
-static inline uint32_t volux_owen_scramble(uint32_t x, uint32_t seed) {
-    x = volux_reverse32(x);
+/* The Laine–Karras-style hash of Burley 2020 (the constants of its
+ * laine_karras_permutation listing) on a
+ * bit-reversed value: bit k of the result is bit k of x flipped by a
+ * function of the seed and bits 0 … k−1 only. */
+static inline uint32_t volux_lk_hash(uint32_t x, uint32_t seed) {
     x += seed;
     x ^= x * 0x6c50b47cu;
     x ^= x * 0xb82f1e52u;
     x ^= x * 0xc7afe638u;
     x ^= x * 0x8d22f6e6u;
-    return volux_reverse32(x);
+    return x;
 }
 
-/* 32-bit hash of a 64-bit key (for deriving scrambling seeds). */
-static inline uint32_t volux_sobol_hash(uint64_t z) {
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return (uint32_t)((z ^ (z >> 31)) >> 32);
+/* Nested uniform scramble of a 32-bit fixed-point value (Burley 2020):
+ * reverse, hash, reverse. */
+static inline uint32_t volux_owen_scramble(uint32_t x, uint32_t seed) {
+    return volux_reverse32(volux_lk_hash(volux_reverse32(x), seed));
 }
 
-/* The index-th point of the 2-D Sobol sequence shuffled and Owen-scrambled
- * under key (Burley 2020, shuffled_scrambled_sobol2d): three independent
- * seeds from the key — the index shuffle and one scramble per dimension. */
-static inline void volux_sobol2d_scrambled(uint32_t index, uint64_t key, uint32_t *x, uint32_t *y) {
-    uint32_t i = volux_owen_scramble(index, volux_sobol_hash(key ^ 0x5bd1e995a1b2c3d4ull));
-    *x = volux_owen_scramble(volux_sobol0(i), volux_sobol_hash(key + 0x9e3779b97f4a7c15ull));
-    *y = volux_owen_scramble(volux_sobol1(i), volux_sobol_hash(key + 0x3c6ef372fe94f82aull));
+/* The index-th point of the 2-D Sobol sequence, shuffled and Owen-scrambled
+ * under seed (Burley 2020's shuffled_scrambled_sobol, two dimensions): three
+ * independent 32-bit seeds derived from it — the index shuffle and one
+ * scramble per dimension. Written in the bit-reversed domain, where both
+ * Sobol dimensions and the hash live, so only four bit reversals remain.
+ * 32-bit fixed point in [0, 1). */
+static inline void volux_sobol2d_scrambled(uint32_t index, uint64_t seed, uint32_t *x, uint32_t *y) {
+    uint64_t z = (seed ^ (seed >> 29)) * 0xbf58476d1ce4e5b9ull;
+    uint32_t s1 = (uint32_t)(seed >> 32), s2 = (uint32_t)(z >> 32);
+    uint32_t i = volux_reverse32(volux_lk_hash(volux_reverse32(index), (uint32_t)seed)); /* shuffled index */
+    *x = volux_reverse32(volux_lk_hash(i, s1));
+    *y = volux_reverse32(volux_lk_hash(volux_sobol1_reversed(i), s2));
 }
 
 /* 32-bit fixed point to a float in [0, 1) (24 bits: never rounds up to 1). */

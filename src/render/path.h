@@ -71,7 +71,7 @@ volux_path_trace(volux_tracker *tr, const volux_raycaster *rc, const volux_scene
         /* Sampler "sobol": this event's pair stratifies the first tracking
          * step (handed to the tracker) and the scatter/absorb decision. */
         volux_tracker_ld_event(tr, depth);
-        tr->ld_pending = volux_tracker_ld2(tr, VOLUX_LD_FLIGHT, &tr->ld_next, &u_scatter);
+        tr->ld_pending = volux_tracker_ld2(tr, VOLUX_LD_FLIGHT, &tr->ld_next[0], &u_scatter);
         int collided = volux_ray_clip(rc->volume, o, d, &r) && volux_delta_track(tr, &r, r.t0, r.t1, &t_hit);
         tr->ld_pending = 0;
         if (tr->stopped) break; /* out of time: the path ends here */

@@ -73,15 +73,14 @@ typedef struct volux_tracker {
     volux_sampler ld;
     int ld_event;      /* the path's current event (scattering events so far) */
     unsigned ld_used;  /* uses of that event already drawn (bit per use)      */
-    int ld_pending;    /* 1: the next volux_tracker_rnd returns ld_next       */
-    float ld_next;
+    int ld_pending;    /* n > 0: the next n volux_tracker_rnd return
+                          ld_next[n − 1], …, ld_next[0]                       */
+    float ld_next[2];
 } volux_tracker;
 
 static inline float volux_tracker_rnd(volux_tracker *p) {
-    if (__builtin_expect(p->ld_pending, 0)) { /* a sequence number handed to the trackers */
-        p->ld_pending = 0;
-        return p->ld_next;
-    }
+    if (__builtin_expect(p->ld_pending, 0)) /* sequence numbers handed to the trackers */
+        return p->ld_next[--p->ld_pending];
     return volux_rng_float(&p->rng);
 }
 
@@ -108,6 +107,18 @@ static inline int volux_tracker_ld2(volux_tracker *p, int use, float *u, float *
     *u = volux_u32_to_float(x);
     *v = volux_u32_to_float(y);
     return 1;
+}
+
+/* Hands the pair of `use` to the next two draws of the trackers
+ * (volux_tracker_rnd), if the sampler gives one: the first two steps of a
+ * delta- or ratio-tracking walk. The caller clears ld_pending after the
+ * walk, so numbers it did not take go nowhere else. */
+static inline void volux_tracker_ld_walk(volux_tracker *p, int use) {
+    float u, v;
+    if (!volux_tracker_ld2(p, use, &u, &v)) return;
+    p->ld_next[1] = u;
+    p->ld_next[0] = v;
+    p->ld_pending = 2;
 }
 
 /* Exponential step with rate sigma_max: −ln(1 − u)/σ̄, u ∈ [0,1). */
