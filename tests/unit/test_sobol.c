@@ -181,6 +181,39 @@ static void test_padded_slots_are_uncorrelated(void **state) {
             }
 }
 
+/* Padding within a pixel: two slots' coordinates over the pixel's 256
+ * samples fill the 16 × 16 strata of their joint square about as
+ * independent points do (χ² mean 255, sd 23; the index shuffles of
+ * Burley §4 pair the two sets with a little more spread than a uniformly
+ * random pairing would: mean ≈ 241, sd ≈ 50, largest of 2400 ≈ 500).
+ * Without a shuffle of its own per slot, one slot's coordinate would be a
+ * fixed nested permutation of the other's and every row's 16 points would
+ * share one cell (χ² ≈ 3840). */
+static void test_padded_slots_pair_randomly_within_a_pixel(void **state) {
+    (void)state;
+    enum { N = 256 };
+    float a[2][N], b[2][N];
+    double sum = 0.0;
+    int n = 0;
+    for (uint64_t pixel = 0; pixel < 6; pixel++)
+        for (uint32_t slot = 0; slot < 12; slot++) {
+            for (uint32_t s = 0; s < N; s++) {
+                volux_sampler ld = volux_sampler_make(VOLUX_SAMPLER_SOBOL, 5, pixel, s);
+                volux_sampler_2d(&ld, slot, &a[0][s], &a[1][s]);
+                volux_sampler_2d(&ld, slot + 1, &b[0][s], &b[1][s]);
+            }
+            for (int ca = 0; ca < 2; ca++)
+                for (int cb = 0; cb < 2; cb++) {
+                    double c = chi2_strata(a[ca], b[cb], N, 16);
+                    sum += c, n++;
+                    if (!(c < 800.0))
+                        fail_msg("pixel %u slots %u/%u coords %d/%d: chi2 %.0f", (unsigned)pixel, slot, slot + 1, ca,
+                                 cb, c);
+                }
+        }
+    if (!(sum / n < 270.0)) fail_msg("mean chi2 of slot pairs %.1f (independent points: 255)", sum / n);
+}
+
 static void test_parameter_names(void **state) {
     (void)state;
     assert_int_equal(volux_sampler_parse("sobol"), VOLUX_SAMPLER_SOBOL);
@@ -202,6 +235,7 @@ int main(void) {
         cmocka_unit_test(test_slots_are_stratified_and_independent_is_not),
         cmocka_unit_test(test_estimates_are_unbiased),
         cmocka_unit_test(test_padded_slots_are_uncorrelated),
+        cmocka_unit_test(test_padded_slots_pair_randomly_within_a_pixel),
         cmocka_unit_test(test_parameter_names),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
