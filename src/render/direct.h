@@ -134,7 +134,7 @@ static inline volux_vec3 volux_direct_shadowed(volux_tracker *p, const volux_lig
                                                volux_vec3 x, const volux_light_sample *s) {
     if (!(s->weight > 0.0f) || !(v3_max_comp(s->le) > 0.0f)) return v3(0, 0, 0);
     if (lights->n_sphere > 0 && volux_sphere_blocks(lights, x, s->w, s->dist, skip)) return v3(0, 0, 0);
-    volux_tracker_ld_walk(p, VOLUX_LD_SHADOW); /* sampler "sobol": the first shadow ray's first steps */
+    volux_tracker_ld_shadow(p); /* sampler "sobol": the first shadow ray's first step */
     float T = volux_ratio_track(p, x, s->w, s->dist);
     p->ld_pending = 0;
     return T != 0.0f ? v3_scale(s->le, s->weight * T) : v3(0, 0, 0);

@@ -67,11 +67,12 @@ volux_path_trace(volux_tracker *tr, const volux_raycaster *rc, const volux_scene
     for (;;) {
         /* Free flight to the next real collision (or out of the volume). */
         volux_ray r;
-        float t_hit = INFINITY, u_scatter = -1.0f;
-        /* Sampler "sobol": this event's pair stratifies the first tracking
-         * step (handed to the tracker) and the scatter/absorb decision. */
+        float t_hit = INFINITY, u_roulette[2] = {-1.0f, -1.0f};
+        /* Sampler "sobol": this event's flight pair stratifies the first
+         * tracking step (handed to the tracker) jointly with the first step
+         * of the first shadow ray from the vertex it reaches. */
         volux_tracker_ld_event(tr, depth);
-        tr->ld_pending = volux_tracker_ld2(tr, VOLUX_LD_FLIGHT, &tr->ld_next[0], &u_scatter);
+        tr->ld_pending = volux_tracker_ld2(tr, VOLUX_LD_FLIGHT, &tr->ld_next[0], &tr->ld_shadow);
         int collided = volux_ray_clip(rc->volume, o, d, &r) && volux_delta_track(tr, &r, r.t0, r.t1, &t_hit);
         tr->ld_pending = 0;
         if (tr->stopped) break; /* out of time: the path ends here */
@@ -98,7 +99,8 @@ volux_path_trace(volux_tracker *tr, const volux_raycaster *rc, const volux_scene
         volux_tracker_sigma(tr, &r, t_hit, c);
         volux_vec3 rho = v3(rc->albedo * c[0], rc->albedo * c[1], rc->albedo * c[2]);
         float P = v3_max_comp(rho);
-        if (!(P > 0.0f) || (P < 1.0f && (u_scatter >= 0.0f ? u_scatter : volux_tracker_rnd(tr)) >= P)) break;
+        volux_tracker_ld2(tr, VOLUX_LD_ROULETTE, &u_roulette[0], &u_roulette[1]); /* (scatter, RR) */
+        if (!(P > 0.0f) || (P < 1.0f && (u_roulette[0] >= 0.0f ? u_roulette[0] : volux_tracker_rnd(tr)) >= P)) break;
         beta = v3_mul(beta, v3_scale(rho, 1.0f / P));
         depth++;
         (*vertices)++;
@@ -110,9 +112,7 @@ volux_path_trace(volux_tracker *tr, const volux_raycaster *rc, const volux_scene
         if (depth >= rr_depth) {
             float q = v3_max_comp(beta);
             if (q < 1.0f) {
-                float u_rr, unused;
-                if (!volux_tracker_ld2(tr, VOLUX_LD_RR, &u_rr, &unused)) u_rr = volux_tracker_rnd(tr);
-                if (u_rr >= q) break;
+                if ((u_roulette[1] >= 0.0f ? u_roulette[1] : volux_tracker_rnd(tr)) >= q) break;
                 beta = v3_scale(beta, 1.0f / q);
             }
         }

@@ -5,7 +5,7 @@
  *
  * Dimensions are assigned per path event, two at a time (a "slot"):
  *   slot 0                     the pixel position (box filter jitter)
- *   slot 1 + 6·k + use         event k (k scattering events so far, k below
+ *   slot 1 + 5·k + use         event k (k scattering events so far, k below
  *                              VOLUX_LD_DEPTH), use one of volux_ld_use.
  * Each slot has its own index shuffle and scrambles (Burley §5, padding), so
  * the pairs of a path are independent of one another while each pair is
@@ -36,12 +36,13 @@
 
 /* What an event's pair of dimensions is for. */
 enum volux_ld_use {
-    VOLUX_LD_FLIGHT, /* free flight: (first tracking step, scatter/absorb) */
-    VOLUX_LD_LIGHT,  /* next-event direction (the first light that needs two) */
-    VOLUX_LD_PHASE,  /* continuation direction */
-    VOLUX_LD_RR,     /* Russian roulette on the throughput */
-    VOLUX_LD_CHOICE, /* a technique's strategy choice (guided's mixture) */
-    VOLUX_LD_SHADOW, /* the first two ratio-tracking steps of the first shadow ray */
+    VOLUX_LD_FLIGHT,   /* (first free-flight step, first step of the first shadow
+                          ray at the vertex it reaches): jointly stratified, as
+                          single scattering's integrand depends on both      */
+    VOLUX_LD_LIGHT,    /* next-event direction (the first light that needs two) */
+    VOLUX_LD_PHASE,    /* continuation direction */
+    VOLUX_LD_ROULETTE, /* (scatter/absorb at the vertex, Russian roulette) */
+    VOLUX_LD_CHOICE,   /* a technique's strategy choice (guided's mixture) */
     VOLUX_LD_USES
 };
 

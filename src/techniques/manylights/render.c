@@ -322,7 +322,7 @@ static volux_vec3 integrate(const ml_state *st, const volux_ray *ray, float jitt
             volux_vec3 rho = v3_scale(v3(rgba[0], rgba[1], rgba[2]), st->rc.albedo * weight);
             volux_vec3 Ls = v3(0, 0, 0);
             float u, phi, uw, unused;
-            if (ld2(ld, k, VOLUX_LD_PHASE, &u, &phi) && ld2(ld, k, VOLUX_LD_RR, &uw, &unused)) {
+            if (ld2(ld, k, VOLUX_LD_PHASE, &u, &phi) && ld2(ld, k, VOLUX_LD_ROULETTE, &uw, &unused)) {
                 phi *= 2.0f * VOLUX_PI;
             } else {
                 u = volux_rng_float(rng), phi = 2.0f * VOLUX_PI * volux_rng_float(rng), uw = volux_rng_float(rng);
