@@ -23,7 +23,11 @@ case $what in
                  run bench/classical_metrics.sh; run bench/vtk_compare.sh ;;&
   pathtrace|all) { run build/volux bench bench/scenes/pt_bonsai_env.json --repeat 3 --spp 16 --width 128 --height 128 --json
                    run build/volux bench bench/scenes/pt_bonsai_env.json --repeat 3 --spp 16 --width 128 --height 128 --json \
-                       --set techniques.pathtrace.majorant=global; } | tee "$BENCH_OUT/pathtrace.jsonl" ;;&
+                       --set techniques.pathtrace.majorant=global; } | tee "$BENCH_OUT/pathtrace.jsonl"
+                 # sampler sobol vs independent: variance·spp (docs/techniques/pathtrace.md "Sampling")
+                 VOLUX=build/volux run python3 bench/sampler/measure.py --seeds 4 --spp 4,16,64 \
+                     bench/sampler/cube_sun.json bench/sampler/cube_env.json bench/scenes/pt_bonsai_sun.json \
+                     bench/scenes/pt_bonsai_env.json | tee "$BENCH_OUT/sampler.txt" ;;&
   ambient|all)   run bench/ambient/run.sh ;;&
   lightvol|all)  run bench/lightvol/run.sh ;;&
   classical|pathtrace|ambient|lightvol|all) ;;

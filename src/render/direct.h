@@ -97,7 +97,9 @@ static inline int volux_direct_sample(volux_tracker *p, const volux_prepared_lig
         float dc;
         float omc = volux_sphere_cone(x, l, &axis, &dc);
         if (!(omc > 0.0f)) return 0;
-        s->w = volux_sample_cone(axis, omc, volux_tracker_rnd(p), volux_tracker_rnd(p));
+        float u0, u1;
+        if (volux_tracker_ld2(p, VOLUX_LD_LIGHT, &u0, &u1)) s->w = volux_sample_cone(axis, omc, u0, u1);
+        else s->w = volux_sample_cone(axis, omc, volux_tracker_rnd(p), volux_tracker_rnd(p));
         /* Distance to the near surface; the sampled direction is inside the
          * cone, so clamp the discriminant against rounding. */
         float b = -v3_dot(v3_scale(axis, dc), s->w);
@@ -132,7 +134,9 @@ static inline volux_vec3 volux_direct_shadowed(volux_tracker *p, const volux_lig
                                                volux_vec3 x, const volux_light_sample *s) {
     if (!(s->weight > 0.0f) || !(v3_max_comp(s->le) > 0.0f)) return v3(0, 0, 0);
     if (lights->n_sphere > 0 && volux_sphere_blocks(lights, x, s->w, s->dist, skip)) return v3(0, 0, 0);
+    volux_tracker_ld_shadow(p); /* sampler "sobol": the first shadow ray's first step */
     float T = volux_ratio_track(p, x, s->w, s->dist);
+    p->ld_pending = 0;
     return T != 0.0f ? v3_scale(s->le, s->weight * T) : v3(0, 0, 0);
 }
 

@@ -20,6 +20,12 @@
  * Camera rays that leave the volume unscattered see the escape radiance
  * (visible environments or the background).
  *
+ * Random numbers come from the tracker: its stream, or with the "sobol"
+ * sampler (sample/sampler.h) one padded Sobol pair per use at each of the
+ * first VOLUX_LD_DEPTH events (event k: the flight from the k-th scattering
+ * vertex and the draws at the vertex it ends in). The hooks draw through
+ * the same tracker (volux_tracker_ld2 at the current event).
+ *
  * The hooks are static functions of the caller, passed as constants into
  * this always-inline function, so the compiler calls (or inlines) them
  * directly: no indirect call per vertex (pathtrace's instruction count is
@@ -61,8 +67,14 @@ volux_path_trace(volux_tracker *tr, const volux_raycaster *rc, const volux_scene
     for (;;) {
         /* Free flight to the next real collision (or out of the volume). */
         volux_ray r;
-        float t_hit = INFINITY;
+        float t_hit = INFINITY, u_roulette[2] = {-1.0f, -1.0f};
+        /* Sampler "sobol": this event's flight pair stratifies the first
+         * tracking step (handed to the tracker) jointly with the first step
+         * of the first shadow ray from the vertex it reaches. */
+        volux_tracker_ld_event(tr, depth);
+        tr->ld_pending = volux_tracker_ld2(tr, VOLUX_LD_FLIGHT, &tr->ld_next[0], &tr->ld_shadow);
         int collided = volux_ray_clip(rc->volume, o, d, &r) && volux_delta_track(tr, &r, r.t0, r.t1, &t_hit);
+        tr->ld_pending = 0;
         if (tr->stopped) break; /* out of time: the path ends here */
         if (depth == 0) {
             if (!collided) {
@@ -87,7 +99,8 @@ volux_path_trace(volux_tracker *tr, const volux_raycaster *rc, const volux_scene
         volux_tracker_sigma(tr, &r, t_hit, c);
         volux_vec3 rho = v3(rc->albedo * c[0], rc->albedo * c[1], rc->albedo * c[2]);
         float P = v3_max_comp(rho);
-        if (!(P > 0.0f) || (P < 1.0f && volux_tracker_rnd(tr) >= P)) break;
+        volux_tracker_ld2(tr, VOLUX_LD_ROULETTE, &u_roulette[0], &u_roulette[1]); /* (scatter, RR) */
+        if (!(P > 0.0f) || (P < 1.0f && (u_roulette[0] >= 0.0f ? u_roulette[0] : volux_tracker_rnd(tr)) >= P)) break;
         beta = v3_mul(beta, v3_scale(rho, 1.0f / P));
         depth++;
         (*vertices)++;
@@ -99,7 +112,7 @@ volux_path_trace(volux_tracker *tr, const volux_raycaster *rc, const volux_scene
         if (depth >= rr_depth) {
             float q = v3_max_comp(beta);
             if (q < 1.0f) {
-                if (volux_tracker_rnd(tr) >= q) break;
+                if ((u_roulette[1] >= 0.0f ? u_roulette[1] : volux_tracker_rnd(tr)) >= q) break;
                 beta = v3_scale(beta, 1.0f / q);
             }
         }
@@ -116,7 +129,9 @@ volux_path_trace(volux_tracker *tr, const volux_raycaster *rc, const volux_scene
             if (!(weight > 0.0f)) break;
             beta = v3_scale(beta, weight);
         } else {
-            d = volux_hg_sample(rc->g, d, volux_tracker_rnd(tr), volux_tracker_rnd(tr), &pdf_phase);
+            float u1, u2;
+            if (volux_tracker_ld2(tr, VOLUX_LD_PHASE, &u1, &u2)) d = volux_hg_sample(rc->g, d, u1, u2, &pdf_phase);
+            else d = volux_hg_sample(rc->g, d, volux_tracker_rnd(tr), volux_tracker_rnd(tr), &pdf_phase);
         }
         o = x;
     }

@@ -40,6 +40,7 @@
 #include "core/vecmath.h"
 #include "medium.h"
 #include "regular_tracking.h"
+#include "sampler.h"
 #include "core/deadline.h"
 
 /* Ratio tracking: below this running weight, Russian roulette with survival
@@ -68,9 +69,58 @@ typedef struct volux_tracker {
     uint64_t samples;        /* volume lookups */
     volux_deadline *deadline; /* the render's (NULL: no time budget)     */
     int stopped;             /* the time budget ran out: end the path    */
+    /* Low-discrepancy draws (sample/sampler.h); all zero: independent. */
+    volux_sampler ld;
+    int ld_event;      /* the path's current event (scattering events so far) */
+    unsigned ld_used;  /* uses of that event already drawn (bit per use)      */
+    int ld_pending;    /* n > 0: the next n volux_tracker_rnd return
+                          ld_next[n − 1], …, ld_next[0]                       */
+    float ld_next[2];
+    float ld_shadow;   /* ≥ 0: the first step of the event's first shadow ray */
 } volux_tracker;
 
-static inline float volux_tracker_rnd(volux_tracker *p) { return volux_rng_float(&p->rng); }
+static inline float volux_tracker_rnd(volux_tracker *p) {
+    if (__builtin_expect(p->ld_pending, 0)) /* sequence numbers handed to the trackers */
+        return p->ld_next[--p->ld_pending];
+    return volux_rng_float(&p->rng);
+}
+
+/* Starts event k of the path: its uses are fresh. */
+static inline void volux_tracker_ld_event(volux_tracker *p, int k) {
+    p->ld_event = k;
+    p->ld_used = 0;
+    p->ld_shadow = -1.0f;
+}
+
+/* The pair of `use` at the current event, as 32-bit fixed point: 1 when the
+ * sampler is on, the event below VOLUX_LD_DEPTH and the use not yet drawn
+ * at this event; else 0 and the caller draws from the stream (exactly the
+ * draws of the independent sampler). */
+static inline int volux_tracker_ld2_u32(volux_tracker *p, int use, uint32_t *x, uint32_t *y) {
+    if (!p->ld.on || p->ld_event >= VOLUX_LD_DEPTH || (p->ld_used & (1u << use))) return 0;
+    p->ld_used |= 1u << use;
+    volux_sampler_2d_u32(&p->ld, volux_sampler_slot(p->ld_event, use), x, y);
+    return 1;
+}
+
+static inline int volux_tracker_ld2(volux_tracker *p, int use, float *u, float *v) {
+    uint32_t x, y;
+    if (!volux_tracker_ld2_u32(p, use, &x, &y)) return 0;
+    *u = volux_u32_to_float(x);
+    *v = volux_u32_to_float(y);
+    return 1;
+}
+
+/* Hands the event's shadow-ray number (from its VOLUX_LD_FLIGHT pair) to
+ * the next draw of the trackers (volux_tracker_rnd) — the first step of a
+ * ratio-tracking walk — once per event. The caller clears ld_pending after
+ * the walk, so a number it did not take goes nowhere else. */
+static inline void volux_tracker_ld_shadow(volux_tracker *p) {
+    if (!(p->ld_shadow >= 0.0f)) return;
+    p->ld_next[0] = p->ld_shadow;
+    p->ld_pending = 1;
+    p->ld_shadow = -1.0f;
+}
 
 /* Exponential step with rate sigma_max: −ln(1 − u)/σ̄, u ∈ [0,1). */
 static inline float volux_exp_step(volux_tracker *p, float inv_sigma_max) {
@@ -134,6 +184,15 @@ static inline int volux_delta_track_regular(volux_tracker *p, const volux_ray *r
     return 0;
 }
 
+/* volux_track_carry — with the "sobol" sampler (p->ld.on) a tentative step
+ * that crosses an interval's end is not redrawn in the next interval: its
+ * optical depth beyond the end, σ̄₁·(t − t₁), is Exp(1) given the crossing
+ * and independent of the past (memorylessness), so (t − t₁)·σ̄₁/σ̄₂ is the
+ * next interval's Exp(σ̄₂) step. Same distribution as a fresh draw, but one
+ * stratified number then places the first tentative collision along the
+ * whole ray instead of only inside the first macrocell. The independent
+ * sampler keeps its draws (and images) as they were. */
+
 /* Delta tracking over [ta, tb] of the clipped ray r: returns 1 and the
  * distance of the first real collision, or 0 if the ray gets through (or
  * the time budget ended the path: p->stopped). Every loop advances t or
@@ -141,17 +200,23 @@ static inline int volux_delta_track_regular(volux_tracker *p, const volux_ray *r
 static inline int volux_delta_track(volux_tracker *p, const volux_ray *r, float ta, float tb, float *t_hit) {
     volux_track_iter it;
     volux_interval iv;
+    float carry = -1.0f; /* optical depth left of a step that crossed an interval's end */
     volux_track_iter_init(&it, p->m, r, ta, tb);
     while (volux_track_iter_next(&it, &iv) && !p->stopped) {
         if (!(iv.sigma_max > 0.0f)) continue; /* empty space: no collisions */
         if (volux_track_needs_regular(iv.sigma_max, iv.t0, iv.t1)) {
+            carry = -1.0f;
             if (volux_delta_track_regular(p, r, iv.t0, iv.t1, t_hit)) return 1;
             continue;
         }
         float inv = 1.0f / iv.sigma_max, t = iv.t0;
         while (!p->stopped) {
-            float tn = t + volux_exp_step(p, inv);
-            if (tn >= iv.t1) break; /* memoryless: restart at the next interval */
+            float tn = t + (carry >= 0.0f ? carry * inv : volux_exp_step(p, inv));
+            carry = -1.0f;
+            if (tn >= iv.t1) { /* memoryless: restart at the next interval */
+                if (p->ld.on) carry = (tn - iv.t1) * iv.sigma_max; /* see volux_track_carry */
+                break;
+            }
             if (!(tn > t) && volux_track_stalled(t, inv)) { /* steps below half an ulp of t */
                 if (volux_delta_track_regular(p, r, t, iv.t1, t_hit)) return 1;
                 break;
@@ -196,17 +261,23 @@ static inline float volux_ratio_track(volux_tracker *p, volux_vec3 o, volux_vec3
     float T = 1.0f;
     volux_track_iter it;
     volux_interval iv;
+    float carry = -1.0f; /* as in volux_delta_track */
     volux_track_iter_init(&it, m, &r, r.t0, tb);
     while (volux_track_iter_next(&it, &iv) && !p->stopped) {
         if (!(iv.sigma_max > 0.0f)) continue;
         if (volux_track_needs_regular(iv.sigma_max, iv.t0, iv.t1)) {
+            carry = -1.0f;
             if (!volux_ratio_track_regular(p, &r, iv.t0, iv.t1, &T)) return 0.0f;
             continue;
         }
         float inv = 1.0f / iv.sigma_max, t = iv.t0;
         while (!p->stopped) {
-            float tn = t + volux_exp_step(p, inv);
-            if (tn >= iv.t1) break;
+            float tn = t + (carry >= 0.0f ? carry * inv : volux_exp_step(p, inv));
+            carry = -1.0f;
+            if (tn >= iv.t1) {
+                if (p->ld.on) carry = (tn - iv.t1) * iv.sigma_max;
+                break;
+            }
             if (!(tn > t) && volux_track_stalled(t, inv)) { /* steps below half an ulp of t */
                 if (!volux_ratio_track_regular(p, &r, t, iv.t1, &T)) return 0.0f;
                 break;

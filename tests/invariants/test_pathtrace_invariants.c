@@ -2,7 +2,7 @@
  * pathtrace invariants beyond the technique × edit matrix: the edits of
  * pathtrace's own state — an environment map's sampling table (per slot),
  * removed slots among sphere/spot/point lights, its string parameters
- * (classification, majorant), seed and max_depth — keep incremental ==
+ * (classification, majorant, sampler), seed and max_depth — keep incremental ==
  * fresh, bit for bit. The scene exercises every light type, an environment
  * map, a colour TF and a heterogeneous volume spanning several macrocells
  * and tiles.
@@ -94,6 +94,10 @@ static void edit_params(volux_context *ctx, volux_scene *s) {
     assert_int_equal(volux_scene_set_param(s, "pathtrace", "rr_depth", 1, NULL), VOLUX_OK);
     assert_int_equal(volux_scene_set_param(s, "pathtrace", "majorant", 0, "global"), VOLUX_OK);
 }
+static void edit_sampler(volux_context *ctx, volux_scene *s) {
+    (void)ctx;
+    assert_int_equal(volux_scene_set_param(s, "pathtrace", "sampler", 0, "independent"), VOLUX_OK);
+}
 static void edit_render(volux_context *ctx, volux_scene *s) {
     (void)ctx;
     volux_render_settings rs = *volux_scene_render(s);
@@ -114,7 +118,8 @@ static void test_incremental_update_equals_fresh_create(void **state) {
         const char *name;
         edit_fn fn;
     } edits[] = {{"env map", edit_env_map}, {"light toggle/remove", edit_light_toggle_and_remove},
-                 {"params", edit_params},   {"render", edit_render}};
+                 {"params", edit_params},   {"sampler", edit_sampler},
+                 {"render", edit_render}};
     volux_image before, inc, fresh;
     render(ctx, t, s, 2, &before);
     for (size_t e = 0; e < sizeof edits / sizeof edits[0]; e++) {
@@ -139,6 +144,11 @@ static void test_incremental_update_equals_fresh_create(void **state) {
     volux_context_clear_error(ctx);
     assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_ERR_INVALID);
     assert_non_null(strstr(volux_context_error(ctx), "techniques.pathtrace.classification"));
+    assert_int_equal(volux_scene_set_param(s, "pathtrace", "classification", 0, "post"), VOLUX_OK);
+    assert_int_equal(volux_scene_set_param(s, "pathtrace", "sampler", 0, "halton"), VOLUX_OK);
+    volux_context_clear_error(ctx);
+    assert_int_equal(volux_technique_update(t, s, NULL), VOLUX_ERR_INVALID);
+    assert_non_null(strstr(volux_context_error(ctx), "techniques.pathtrace.sampler"));
     volux_technique_destroy(t);
     volux_scene_destroy(s);
     volux_volume_release(v);

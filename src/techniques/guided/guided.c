@@ -20,6 +20,7 @@
 
 #include "core/context_internal.h"
 #include "guided.h"
+#include "sample/sampler.h"
 #include "sweep_kernels.h"
 
 static const volux_param_info guided_params[] = {
@@ -66,6 +67,9 @@ static const volux_param_info guided_params[] = {
     {"kernel", VOLUX_PARAM_STRING, 0, 0, 0, "auto",
      "sweep row loops: auto (AVX-512 where the CPU has it and ray_spacing is 1), scalar (portable reference) or "
      "simd (AVX-512; an error where unavailable); the same grid up to float rounding"},
+    {"sampler", VOLUX_PARAM_STRING, 0, 0, 0, "sobol",
+     "\"sobol\": pixel position and the draws of the first 8 path events from padded Owen-scrambled Sobol pairs "
+     "(Burley 2020); \"independent\": independent random numbers throughout"},
     {NULL, 0, 0, 0, 0, NULL, NULL}};
 
 static int is_pow2(int x) { return x > 0 && (x & (x - 1)) == 0; }
@@ -108,6 +112,11 @@ static volux_status read_params(guided_state *st, const volux_scene *scene) {
     } else
         return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.guided.kernel: expected auto, scalar or simd, got \"%s\"",
                            s);
+    s = volux_technique_param_string(scene, cls, "sampler");
+    int sampler = volux_sampler_parse(s);
+    if (sampler < 0)
+        return volux_error(ctx, VOLUX_ERR_INVALID,
+                           "techniques.guided.sampler: expected \"sobol\" or \"independent\", got \"%s\"", s);
     int n = (int)volux_technique_param(scene, cls, "directions");
     if (!is_pow2(n))
         return volux_error(ctx, VOLUX_ERR_INVALID, "techniques.guided.directions: %d is not a power of two", n);
@@ -138,6 +147,7 @@ static volux_status read_params(guided_state *st, const volux_scene *scene) {
     st->mis = (int)volux_technique_param(scene, cls, "mis");
     st->guide_depth = (int)volux_technique_param(scene, cls, "guide_depth");
     st->rr_depth = (int)volux_technique_param(scene, cls, "rr_depth");
+    st->sampler = sampler;
     st->continuation = (float)volux_technique_param(scene, cls, "guide_continuation");
     return VOLUX_OK;
 }

@@ -101,6 +101,7 @@ typedef struct guided_state {
     int guide_depth;    /* scattering events guided (0 = all)             */
     float continuation; /* α: continuation drawn from the event's density  */
     int rr_depth;
+    int sampler;        /* enum volux_sampler_kind (sample/sampler.h)      */
     float epsilon;      /* ε added to V before the product (§6)           */
     int env_res_param;  /* env_resolution as set (0: auto)                */
     int env_res;        /* M of the environment quadtree built            */

@@ -184,7 +184,12 @@ static volux_vec3 direct_light(gd_path *p, const guided_event *ev, volux_vec3 x,
     }
     if (st->env.present) {
         volux_light_sample s;
-        double u = volux_rng_double(&p->tr.rng), v = volux_rng_double(&p->tr.rng);
+        double u, v;
+        uint32_t ux, uy;
+        if (volux_tracker_ld2_u32(&p->tr, VOLUX_LD_LIGHT, &ux, &uy))
+            u = volux_u32_to_double(ux), v = volux_u32_to_double(uy);
+        else
+            u = volux_rng_double(&p->tr.rng), v = volux_rng_double(&p->tr.rng);
         float pdf = guided_event_sample(st, ev, u, v, &s.w);
         if (pdf > 0.0f) {
             s.dist = INFINITY;
@@ -235,14 +240,22 @@ static volux_vec3 continue_hook(void *self, volux_vec3 d, int depth, float *pdf_
     const guided_state *st = p->st;
     const float g = st->rc.g, a = st->continuation;
     volux_vec3 w;
-    if (rnd(p) < a) {
-        double u = volux_rng_double(&p->tr.rng), v = volux_rng_double(&p->tr.rng);
+    float choice, unused;
+    if (!volux_tracker_ld2(&p->tr, VOLUX_LD_CHOICE, &choice, &unused)) choice = rnd(p);
+    uint32_t ux, uy;
+    int ld = volux_tracker_ld2_u32(&p->tr, VOLUX_LD_PHASE, &ux, &uy);
+    if (choice < a) {
+        double u, v;
+        if (ld) u = volux_u32_to_double(ux), v = volux_u32_to_double(uy);
+        else u = volux_rng_double(&p->tr.rng), v = volux_rng_double(&p->tr.rng);
         if (!(guided_event_sample(st, p->ev, u, v, &w) > 0.0f)) {
             *weight = 0.0f;
             return d;
         }
     } else {
-        float u1 = rnd(p), u2 = rnd(p), pdf;
+        float u1, u2, pdf;
+        if (ld) u1 = volux_u32_to_float(ux), u2 = volux_u32_to_float(uy);
+        else u1 = rnd(p), u2 = rnd(p);
         w = volux_hg_sample(g, d, u1, u2, &pdf);
     }
     float f = volux_hg_eval(g, v3_dot(w, d));
@@ -258,7 +271,7 @@ void guided_render_tile(const void *state, const volux_scene *scene, const volux
     const volux_camera *cam = &st->rc.camera;
     const volux_medium medium = {st->rc.volume, st->rc.lut, &st->rc.grid, 0, 0, st->rc.min_spacing};
     guided_event ev;
-    gd_path p = {st, {&medium, {0, 0}, 0, tile->deadline, 0}, 0, 0, &ev};
+    gd_path p = {st, {.m = &medium, .deadline = tile->deadline}, 0, 0, &ev};
     p.n_area = st->rc.lights.n_sphere + (st->env.present && st->mis ? 1 : 0);
     ev.kind = st->strategy;
     const int guided = st->continuation > 0.0f && st->env.present;
@@ -267,7 +280,10 @@ void guided_render_tile(const void *state, const volux_scene *scene, const volux
             int px = tile->x0 + x, py = tile->y0 + y;
             uint64_t pixel = (uint64_t)py * (uint64_t)cam->width + (uint64_t)px;
             p.tr.rng = volux_rng_make(st->rc.seed, pixel, tile->sample_index, 0);
-            float jx = rnd(&p), jy = rnd(&p);
+            p.tr.ld = volux_sampler_make(st->sampler, st->rc.seed, pixel, tile->sample_index);
+            float jx, jy;
+            if (p.tr.ld.on) volux_sampler_2d(&p.tr.ld, 0, &jx, &jy);
+            else jx = rnd(&p), jy = rnd(&p);
             volux_vec3 o, dir;
             volux_camera_ray(cam, (float)px + jx, (float)py + jy, &o, &dir);
             /* two inlined copies of the loop: without the mixture it is

@@ -128,6 +128,7 @@ typedef struct ml_state {
     /* parameters */
     int vl_count, samples, avsm_res, avsm_nodes, budget, tmode, single_on, multi_on, iso_phase, view_uniform;
     int ball;                /* VSL kernel: 0 cone (Eq. 5), 1 ball          */
+    int sampler;             /* enum volux_sampler_kind (sample/sampler.h)  */
     int passes_per_set;      /* K: pixel sample p uses VL set p / K (0: set 0 always) */
     float eq6_log_bound;     /* ln of the Eq. 6 re-weighting bound (INFINITY: none) */
     float avsm_cone;         /* AVSM ray step grows as avsm_cone·(2/res)·distance */

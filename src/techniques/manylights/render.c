@@ -30,13 +30,27 @@
  * for this pixel sample (manylights.c).
  *
  * Random numbers: stream (seed, pixel, sample index, 1) — independent of
- * the thread and tile order.
+ * the thread and tile order. With sampler = "sobol" (sample/sampler.h) the
+ * pixel position (slot 0), the march jitter and, for each of the first
+ * VOLUX_LD_DEPTH view samples k, its stratum offset, its first two-number
+ * light draw and its VL-pattern offset come from padded Sobol pairs of
+ * event k instead.
  */
 #include <math.h>
 
 #include "core/rng.h"
 #include "avsm.h"
 #include "sample/phase.h"
+#include "sample/sampler.h"
+
+/* The pair of `use` for view sample k (sampler "sobol", k below
+ * VOLUX_LD_DEPTH): 1 and the pair, else 0 and the caller draws from the
+ * stream (the independent sampler's draws exactly). */
+static inline int ld2(const volux_sampler *ld, int k, int use, float *u, float *v) {
+    if (!ld->on || k >= VOLUX_LD_DEPTH) return 0;
+    volux_sampler_2d(ld, volux_sampler_slot(k, use), u, v);
+    return 1;
+}
 
 /* ------------------------------------------------------------------ single scattering */
 
@@ -47,8 +61,10 @@ static inline float shadow_T(const ml_state *st, volux_vec3 x, volux_vec3 w, flo
 
 /* In-scattered radiance per unit σs at x from the real lights, for light
  * leaving towards the camera along −d. */
-static volux_vec3 single_scatter(const ml_state *st, volux_vec3 x, volux_vec3 d, volux_rng *rng) {
+static volux_vec3 single_scatter(const ml_state *st, volux_vec3 x, volux_vec3 d, volux_rng *rng,
+                                 const volux_sampler *ld, int k) {
     volux_vec3 L = v3(0, 0, 0);
+    int ld_light = 0; /* the first light that draws two numbers takes the pair */
     float g = st->rc.g;
     for (int i = 0; i < st->rc.lights.n_all; i++) {
         const volux_prepared_light *l = &st->rc.lights.all[i];
@@ -68,7 +84,8 @@ static volux_vec3 single_scatter(const ml_state *st, volux_vec3 x, volux_vec3 d,
             /* one direction uniform in the cone of the sphere */
             volux_vec3 to = v3_sub(l->pos, x);
             float d2 = v3_dot(to, to), r2 = l->radius * l->radius;
-            float u0 = volux_rng_float(rng), u1 = volux_rng_float(rng);
+            float u0, u1;
+            if (ld_light++ || !ld2(ld, k, VOLUX_LD_LIGHT, &u0, &u1)) u0 = volux_rng_float(rng), u1 = volux_rng_float(rng);
             if (d2 <= r2) break;
             float dc = sqrtf(d2), sin2 = r2 / d2, omc = sin2 / (1.0f + sqrtf(1.0f - sin2));
             volux_vec3 axis = v3_scale(to, 1.0f / dc);
@@ -80,7 +97,8 @@ static volux_vec3 single_scatter(const ml_state *st, volux_vec3 x, volux_vec3 d,
             break;
         }
         case VOLUX_LIGHT_ENVIRONMENT: {
-            float u0 = volux_rng_float(rng), u1 = volux_rng_float(rng), pdf;
+            float u0, u1, pdf;
+            if (ld_light++ || !ld2(ld, k, VOLUX_LD_LIGHT, &u0, &u1)) u0 = volux_rng_float(rng), u1 = volux_rng_float(rng);
             volux_vec3 w;
             if (l->desc->map) {
                 pdf = volux_envmap_sample(&st->env[l->slot], l->desc, u0, u1, &w);
@@ -240,8 +258,8 @@ static inline int next_segment(const ml_state *st, march_state *m, const volux_r
 
 /* Radiance scattered towards the camera along the clipped ray; *T_out is
  * the camera ray's transmittance (for the escape radiance). */
-static volux_vec3 integrate(const ml_state *st, const volux_ray *ray, float jitter, volux_rng *rng, float *T_out,
-                            uint64_t *samples) {
+static volux_vec3 integrate(const ml_state *st, const volux_ray *ray, float jitter, volux_rng *rng,
+                            const volux_sampler *ld, float *T_out, uint64_t *samples) {
     const volux_majorant_grid *grid = &st->rc.grid;
     march_state m;
     float a, b, sigma, T = 1.0f, t_first = -1.0f, t_last = 0.0f;
@@ -261,7 +279,11 @@ static volux_vec3 integrate(const ml_state *st, const volux_ray *ray, float jitt
     int S = st->samples;
     float target[ML_MAX_SAMPLES];
     float span = st->view_uniform ? t_last - t_first : alpha;
-    for (int k = 0; k < S; k++) target[k] = span * ((float)k + volux_rng_float(rng)) / (float)S;
+    for (int k = 0; k < S; k++) {
+        float u, unused;
+        if (!ld2(ld, k, VOLUX_LD_FLIGHT, &u, &unused)) u = volux_rng_float(rng);
+        target[k] = span * ((float)k + u) / (float)S;
+    }
 
     /* Pass 2: the same segments; each target lands in one of them. */
     volux_vec3 C = v3(0, 0, 0);
@@ -299,8 +321,13 @@ static volux_vec3 integrate(const ml_state *st, const volux_ray *ray, float jitt
             volux_lut_rgba(st->rc.lut, volux_volume_sample_index(st->rc.volume, q.x, q.y, q.z), rgba);
             volux_vec3 rho = v3_scale(v3(rgba[0], rgba[1], rgba[2]), st->rc.albedo * weight);
             volux_vec3 Ls = v3(0, 0, 0);
-            float u = volux_rng_float(rng), phi = 2.0f * VOLUX_PI * volux_rng_float(rng), uw = volux_rng_float(rng);
-            if (st->single_on) Ls = single_scatter(st, x, ray->d, rng);
+            float u, phi, uw, unused;
+            if (ld2(ld, k, VOLUX_LD_PHASE, &u, &phi) && ld2(ld, k, VOLUX_LD_ROULETTE, &uw, &unused)) {
+                phi *= 2.0f * VOLUX_PI;
+            } else {
+                u = volux_rng_float(rng), phi = 2.0f * VOLUX_PI * volux_rng_float(rng), uw = volux_rng_float(rng);
+            }
+            if (st->single_on) Ls = single_scatter(st, x, ray->d, rng, ld, k);
             if (st->multi_on && st->n_draw > 0) {
                 gather_offset off = {u, cosf(phi), sinf(phi), uw};
                 Ls = v3_add(Ls, gather(st, x, ray->d, off));
@@ -321,7 +348,17 @@ void ml_render_tile(const void *state, const volux_scene *scene, const volux_til
     for (int y = 0; y < tile->h; y++)
         for (int x = 0; x < tile->w; x++) {
             int px = tile->x0 + x, py = tile->y0 + y;
-            volux_primary pr = volux_primary_ray(cam, st->rc.seed, px, py, tile->sample_index);
+            uint64_t pixel = (uint64_t)py * (uint64_t)cam->width + (uint64_t)px;
+            volux_sampler ld = volux_sampler_make(st->sampler, st->rc.seed, pixel, tile->sample_index);
+            volux_primary pr;
+            if (ld.on) { /* every sample uniform over the pixel, sample 0 too */
+                float jx, jy, unused;
+                volux_sampler_2d(&ld, 0, &jx, &jy);
+                volux_camera_ray(cam, (float)px + jx, (float)py + jy, &pr.o, &pr.d);
+                ld2(&ld, 0, VOLUX_LD_CHOICE, &pr.jitter, &unused);
+            } else {
+                pr = volux_primary_ray(cam, st->rc.seed, px, py, tile->sample_index);
+            }
             volux_vec3 bg = volux_scene_escape_radiance(scene, pr.d);
             float *out = &rgb[3 * (y * tile->w + x)];
             volux_ray ray;
@@ -329,10 +366,9 @@ void ml_render_tile(const void *state, const volux_scene *scene, const volux_til
                 out[0] = bg.x, out[1] = bg.y, out[2] = bg.z;
                 continue;
             }
-            uint64_t pixel = (uint64_t)py * (uint64_t)cam->width + (uint64_t)px;
             volux_rng rng = volux_rng_make(st->rc.seed, pixel, tile->sample_index, 1);
             float T;
-            volux_vec3 c = integrate(st, &ray, pr.jitter, &rng, &T, &samples);
+            volux_vec3 c = integrate(st, &ray, pr.jitter, &rng, &ld, &T, &samples);
             out[0] = c.x + T * bg.x;
             out[1] = c.y + T * bg.y;
             out[2] = c.z + T * bg.z;

@@ -56,7 +56,10 @@
  * weight of an escaping continuation ray as its hooks.
  *
  * Random numbers: one counter-based stream per (seed, pixel, sample index),
- * so images are bit-identical for any thread count. No allocation.
+ * so images are bit-identical for any thread count; with the parameter
+ * sampler = "sobol" the pixel position and each of the first path events'
+ * draws come from padded Owen-scrambled Sobol pairs instead
+ * (sample/sampler.h). No allocation.
  */
 #include <math.h>
 #include <string.h>
@@ -87,7 +90,11 @@ static volux_vec3 direct_light(pt_path *p, volux_vec3 x, volux_vec3 d) {
         const volux_prepared_light *l = &st->rc.lights.all[i];
         volux_light_sample s;
         if (l->type == VOLUX_LIGHT_ENVIRONMENT) {
-            float pdf_l = volux_envmap_sample(&st->env[l->slot], l->desc, rnd(p), rnd(p), &s.w);
+            float pdf_l, u0, u1;
+            if (volux_tracker_ld2(&p->tr, VOLUX_LD_LIGHT, &u0, &u1))
+                pdf_l = volux_envmap_sample(&st->env[l->slot], l->desc, u0, u1, &s.w);
+            else
+                pdf_l = volux_envmap_sample(&st->env[l->slot], l->desc, rnd(p), rnd(p), &s.w);
             if (!(pdf_l > 0.0f)) continue;
             s.dist = INFINITY;
             s.le = volux_environment_radiance(l->desc, s.w);
@@ -136,14 +143,17 @@ void volux_pathtrace_render_tile(const void *state, const volux_scene *scene, co
     const volux_camera *cam = &st->rc.camera;
     const volux_medium medium = {st->rc.volume,  st->rc.lut, &st->rc.grid, st->pre, st->global_majorant,
                                  st->rc.min_spacing};
-    pt_path p = {st, {&medium, {0, 0}, 0, tile->deadline, 0}, 0};
+    pt_path p = {st, {.m = &medium, .deadline = tile->deadline}, 0};
     for (int y = 0; y < tile->h; y++)
         for (int x = 0; x < tile->w; x++) {
             int px = tile->x0 + x, py = tile->y0 + y;
             uint64_t pixel = (uint64_t)py * (uint64_t)cam->width + (uint64_t)px;
             p.tr.rng = volux_rng_make(st->rc.seed, pixel, tile->sample_index, 0);
+            p.tr.ld = volux_sampler_make(st->sampler, st->rc.seed, pixel, tile->sample_index);
             /* Box filter: uniform over the pixel square, for every sample. */
-            float jx = rnd(&p), jy = rnd(&p);
+            float jx, jy;
+            if (p.tr.ld.on) volux_sampler_2d(&p.tr.ld, 0, &jx, &jy);
+            else jx = rnd(&p), jy = rnd(&p);
             volux_vec3 o, d;
             volux_camera_ray(cam, (float)px + jx, (float)py + jy, &o, &d);
             volux_vec3 L = trace(&p, scene, o, d);

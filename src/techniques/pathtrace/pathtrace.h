@@ -31,6 +31,7 @@ typedef struct pt_state {
     int rr_depth;
     int pre;             /* classification: 0 post (DESIGN), 1 pre          */
     int global_majorant; /* 1: one majorant for the whole box (benchmark)   */
+    int sampler;         /* enum volux_sampler_kind (sample/sampler.h)      */
     int n_area;          /* lights a phase-sampled ray can reach (sphere,
                             environment)                                    */
     volux_envmap_sampler *env; /* per light slot [env_cap] */
