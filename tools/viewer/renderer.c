@@ -99,6 +99,9 @@ static int on_progress(void *user, const char *task, double fraction) {
         return 0;
     }
     if (atomic_load(&v->cancellable)) return 1;
+    /* an edit's own work (a volume it loads) is never cancelled by the
+     * next edit: only the render thread's first frame */
+    if (!atomic_load(&v->first_frame)) return 0;
     double now = viewer_now_ms();
     if (v->edit_wait_seen_ms <= 0) v->edit_wait_seen_ms = now;
     return now - v->edit_wait_seen_ms >= FIRST_FRAME_EDIT_WAIT_MS;
@@ -426,6 +429,7 @@ static void do_stand_in(viewer *v, uint64_t version, const volux_render_settings
      * preparation */
     double edit_t0 = v->need_latency ? v->last_edit_ms : -1;
     v->stand_in_edit_t0 = edit_t0;
+    atomic_store(&v->first_frame, 0); /* the lock is an editor's meanwhile */
     pthread_mutex_unlock(&v->lock);
     publish(v, &img, FRAME_PREVIEW, version, 1, full->exposure, 1.0f, 0, viewer_now_ms() - t0, edit_t0,
             v->last_edit_cpu_ms, PUB_FIRST, STAND_IN_TECHNIQUE);
@@ -435,6 +439,7 @@ static void do_stand_in(viewer *v, uint64_t version, const volux_render_settings
         pthread_mutex_unlock(&v->frame_lock);
     }
     pthread_mutex_lock(&v->lock);
+    atomic_store(&v->first_frame, 1);
 }
 
 /* 1 if the scene's technique has no instance (switching to it creates one). */
@@ -461,7 +466,13 @@ static void preview_cancelled(viewer *v, uint32_t changes) {
 
 /* The first frame after an edit. Called and returns with `lock` held;
  * cancelled by an edit that waits FIRST_FRAME_EDIT_WAIT_MS (on_progress). */
+static void do_preview_body(viewer *v, uint64_t version);
 static void do_preview(viewer *v, uint64_t version) {
+    do_preview_body(v, version);
+    atomic_store(&v->first_frame, 0);
+}
+
+static void do_preview_body(viewer *v, uint64_t version) {
     volux_scene *scene = volux_scene_doc_scene(v->doc);
     volux_context_clear_error(v->ctx);
     v->shown_version = version;
@@ -477,6 +488,7 @@ static void do_preview(viewer *v, uint64_t version) {
     const int switching = v->tech && strcmp(volux_technique_info_of(v->tech)->name, full.technique);
     const uint32_t changes = creating || switching ? (uint32_t)HEAVY_CHANGES : v->pending_changes;
     v->pending_changes = 0;
+    atomic_store(&v->first_frame, 1); /* until published: on_progress */
     if (strcmp(full.technique, "ea") && strcmp(full.technique, STAND_IN_TECHNIQUE) &&
         (creating || *update_of(v, full.technique, changes) > STAND_IN_UPDATE_MS))
         do_stand_in(v, version, &full);
@@ -570,6 +582,7 @@ static void do_preview(viewer *v, uint64_t version) {
             v->upgrade = reduced;
             v->upgrade_smaller = smaller;
             if (v->fb_full) volux_framebuffer_reset(v->fb_full);
+            atomic_store(&v->first_frame, 0);
             pthread_mutex_unlock(&v->lock);
             publish(v, &img, FRAME_PREVIEW, version, 1, full.exposure, (float)step_scale, t1 - t0,
                     viewer_now_ms() - t2, edit_t0, v->last_edit_cpu_ms, first_flag | (smaller ? 0u : PUB_FULL_PREVIEW), NULL);

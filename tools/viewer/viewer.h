@@ -160,6 +160,7 @@ typedef struct viewer {
     pthread_cond_t work; /* an edit happened / quit                   */
     pthread_cond_t turn; /* waiters went away                         */
     atomic_int waiters, edit_waiters, quit, cancellable;
+    atomic_int first_frame; /* the render thread is making an edit's first frame */
     double edit_wait_seen_ms; /* when the progress callback first saw an edit
                                  waiting (0: none); render thread only   */
     double last_edit_ms;    /* when the oldest edit not yet shown arrived */
