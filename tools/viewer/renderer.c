@@ -9,9 +9,10 @@
  *
  * A refinement frame (or the --preview size after a reduced first frame) in
  * flight is cancelled through the context's progress callback as soon as an
- * edit waits for the lock; the first frame after an edit is not (it is the
- * cheap immediate answer, and cancelling it while the user drags would show
- * nothing at all).
+ * edit waits for the lock; the first frame after an edit only once an edit
+ * has waited FIRST_FRAME_EDIT_WAIT_MS for it (it is the cheap immediate
+ * answer: cancelled at once, a drag would show nothing at all; never
+ * cancelled, 70 000 lights in `shaded` held the next edit for seconds).
  */
 #include <math.h>
 #include <stdio.h>

@@ -8,9 +8,10 @@
  *     The render thread holds it while it updates and renders; an edit
  *     (POST /api/edit) takes it to apply the edit. An editor announces
  *     itself in `edit_waiters` first: the frame loop's progress callback
- *     then cancels a refinement frame in flight (previews are short and
- *     run to the end, so dragging shows every other state), and the
- *     render thread yields the lock to every waiter (`waiters`, `turn`).
+ *     then cancels a refinement frame in flight at once and a first frame
+ *     once the edit has waited 50 ms (short previews run to the end, so
+ *     dragging shows every other state), and the render thread yields the
+ *     lock to every waiter (`waiters`, `turn`).
  *   - `snap_lock` guards the snapshot clients read without waiting for a
  *     frame: the scene JSON, the resolved TF, the volume's histogram.
  *   - `frame_lock` guards the latest frame and the statistics; `frame_cv`
