@@ -155,9 +155,29 @@ typedef struct wave_job {
     double progress_base, progress_span;
     volux_deadline *deadline; /* NULL: no time budget                      */
     int *truncated;           /* set when a tile's first sample was cut short */
+    int64_t next_poll_us;     /* volux_tile_cancelled: next callback poll     */
 } wave_job;
 
 int volux_tile_expired(const volux_tile *t) { return volux_deadline_expired(t->deadline); }
+
+static double now_ms(void);
+
+int volux_tile_cancelled(const volux_tile *t) {
+    wave_job *job = t->wave;
+    if (!job) return 0;
+    if (__atomic_load_n(job->cancelled, __ATOMIC_RELAXED)) return 1;
+    int64_t now = (int64_t)(now_ms() * 1e3);
+    if (now < __atomic_load_n(&job->next_poll_us, __ATOMIC_RELAXED)) return 0;
+    /* The callback is never called concurrently: whoever holds the flag. */
+    if (__atomic_exchange_n(job->progress_busy, 1, __ATOMIC_ACQUIRE)) return 0;
+    __atomic_store_n(&job->next_poll_us, now + 10000, __ATOMIC_RELAXED);
+    int done = __atomic_load_n(job->done_tiles, __ATOMIC_RELAXED);
+    double f = job->progress_base + job->progress_span * (double)done / (double)job->tiles_total;
+    int cancel = volux_progress(job->ctx, "render", f < 1.0 ? f : 0.999);
+    if (cancel) __atomic_store_n(job->cancelled, 1, __ATOMIC_RELAXED);
+    __atomic_store_n(job->progress_busy, 0, __ATOMIC_RELEASE);
+    return cancel;
+}
 
 static int deadline_expired(const volux_deadline *d) { return d && __atomic_load_n(&d->expired, __ATOMIC_RELAXED); }
 
@@ -181,10 +201,14 @@ static void render_one_tile(void *user, int64_t slot, int thread) {
     tile.h = fb->height - tile.y0 < VOLUX_TILE_SIZE ? fb->height - tile.y0 : VOLUX_TILE_SIZE;
     tile.sample_index = job->sample_index;
     tile.deadline = job->deadline;
+    tile.wave = job->ctx->progress ? job : NULL;
     float rgb[VOLUX_TILE_SIZE * VOLUX_TILE_SIZE * 3];
     memset(rgb, 0, sizeof rgb);
     volux_tile_stats *stats = &job->stats[slot];
     job->cls->render_tile(job->state, job->scene, &tile, rgb, stats);
+    /* cancelled inside the tile (volux_tile_cancelled): its pass may be
+     * unfinished; dropped like the rest of the wave */
+    if (__atomic_load_n(job->cancelled, __ATOMIC_RELAXED)) return;
     /* A pass is accumulated only when it finished: paths see the deadline
      * (volux_tile_expired, which sets the flag) and end early, so once it
      * has expired this tile's pass may be cut short and biased dark. It is
@@ -258,7 +282,7 @@ static volux_status render_waves(volux_technique *t, const volux_scene *scene, v
     volux_deadline deadline = {start + lim.time_ms, 0};
     wave_job job = {cls,   volux_technique_state(t), scene,      fb,  ctx, tiles_x, tile_first, tile_count, 0,
                     stats, &done,                    &busy,      &cancelled, 0.0, 1.0,
-                    lim.time_ms > 0.0 ? &deadline : NULL,        &truncated};
+                    lim.time_ms > 0.0 ? &deadline : NULL,        &truncated, 0};
     volux_status st = VOLUX_OK;
     uint32_t start_spp = fb->spp;
     uint64_t samples = 0, vertices = 0;
@@ -445,6 +469,8 @@ static void render_part_tile(void *user, int64_t index, int thread) {
     tile.w = job->width - tile.x0 < VOLUX_TILE_SIZE ? job->width - tile.x0 : VOLUX_TILE_SIZE;
     tile.h = job->height - tile.y0 < VOLUX_TILE_SIZE ? job->height - tile.y0 : VOLUX_TILE_SIZE;
     tile.sample_index = job->sample_index;
+    tile.deadline = NULL;
+    tile.wave = NULL;
     float one[VOLUX_TILE_SIZE * VOLUX_TILE_SIZE * 4];
     job->cls->render_tile_part(job->state, job->scene, &tile, job->background, one, &job->stats[index]);
     for (int y = 0; y < tile.h; y++)

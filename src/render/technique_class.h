@@ -26,6 +26,8 @@ typedef struct volux_tile {
     int x0, y0, w, h;        /* pixel rectangle                             */
     uint32_t sample_index;   /* which sample of the pixel (0, 1, ...)       */
     volux_deadline *deadline; /* NULL: no time budget                       */
+    void *wave;               /* the frame loop's wave (volux_tile_cancelled);
+                                 NULL: never cancelled                       */
 } volux_tile;
 
 /* 1 once the render's time budget is spent. A technique whose per-pixel
@@ -35,6 +37,15 @@ typedef struct volux_tile {
  * and reports it as cut short: volux_render_report.truncated). The clock
  * is read on each call until it has expired, so do not call it per sample. */
 int volux_tile_expired(const volux_tile *t);
+
+/* 1 once the caller asked to cancel the render (the context's progress
+ * callback returned nonzero). The frame loop asks between tiles; a
+ * technique whose per-pixel work can be long (one light loop per sample:
+ * `shaded` with 70 000 point lights takes ~4 ms a pixel) asks between
+ * rays, so a cancel lands within ~10 ms instead of a tile's seconds. The
+ * callback is polled at most every 10 ms (one clock read per call
+ * otherwise); the tile is then dropped, like one of a cancelled wave. */
+int volux_tile_cancelled(const volux_tile *t);
 
 /* Per-tile statistics a technique may report (for benchmarks). */
 typedef struct volux_tile_stats {

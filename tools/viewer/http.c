@@ -274,6 +274,9 @@ static char *next_event(stream *s) {
     viewer *v = s->v;
     static const char *const kinds[] = {"preview", "refine", "final"};
     char *event = NULL;
+    viewer_pixels *px = NULL;
+    char head[640];
+    int hn = 0;
     pthread_mutex_lock(&v->frame_lock);
     double deadline = viewer_now_ms() + KEEPALIVE_MS;
     for (;;) {
@@ -321,24 +324,14 @@ static char *next_event(stream *s) {
             }
             if (!v->frame.data) continue;
             const viewer_frame *f = &v->frame;
-            size_t n64 = 0;
-            char *b64 = viewer_base64(f->data, f->size, &n64);
-            if (!b64) break;
-            char head[640];
-            int hn = snprintf(head, sizeof head,
-                              "event: frame\ndata: {\"id\":%llu,\"version\":%llu,\"kind\":\"%s\",\"spp\":%u,"
-                              "\"width\":%d,\"height\":%d,\"format\":\"%s\",\"bytes\":%zu,\"update_ms\":%.3f,"
-                              "\"render_ms\":%.3f,\"encode_ms\":%.3f,\"latency_ms\":%.3f,\"cpu_ms\":%.3f,\"step_scale\":%.3f,\"stand_in\":\"%s\",\"data\":\"",
-                              (unsigned long long)f->id, (unsigned long long)f->version, kinds[f->kind], f->spp,
-                              f->width, f->height, f->format, f->size, f->update_ms, f->render_ms, f->encode_ms,
-                              f->latency_ms, f->cpu_ms, (double)f->step_scale, f->stand_in);
-            event = malloc((size_t)hn + n64 + 8);
-            if (event) {
-                memcpy(event, head, (size_t)hn);
-                memcpy(event + hn, b64, n64);
-                memcpy(event + (size_t)hn + n64, "\"}\n\n", 5);
-            }
-            free(b64);
+            hn = snprintf(head, sizeof head,
+                          "event: frame\ndata: {\"id\":%llu,\"version\":%llu,\"kind\":\"%s\",\"spp\":%u,"
+                          "\"width\":%d,\"height\":%d,\"format\":\"%s\",\"bytes\":%zu,\"update_ms\":%.3f,"
+                          "\"render_ms\":%.3f,\"encode_ms\":%.3f,\"latency_ms\":%.3f,\"cpu_ms\":%.3f,\"step_scale\":%.3f,\"stand_in\":\"%s\",\"data\":\"",
+                          (unsigned long long)f->id, (unsigned long long)f->version, kinds[f->kind], f->spp,
+                          f->width, f->height, f->format, f->size, f->update_ms, f->render_ms, f->encode_ms,
+                          f->latency_ms, f->cpu_ms, (double)f->step_scale, f->stand_in);
+            px = viewer_pixels_retain(f->px); /* base64 below, without the lock */
             break;
         }
         double now = viewer_now_ms();
@@ -354,6 +347,20 @@ static char *next_event(stream *s) {
         pthread_cond_timedwait(&v->frame_cv, &v->frame_lock, &ts);
     }
     pthread_mutex_unlock(&v->frame_lock);
+    if (px) {
+        size_t n64 = 0;
+        char *b64 = viewer_base64(px->data, px->size, &n64);
+        if (b64 && hn > 0 && (size_t)hn < sizeof head) {
+            event = malloc((size_t)hn + n64 + 8);
+            if (event) {
+                memcpy(event, head, (size_t)hn);
+                memcpy(event + hn, b64, n64);
+                memcpy(event + (size_t)hn + n64, "\"}\n\n", 5);
+            }
+        }
+        free(b64);
+        viewer_pixels_release(px);
+    }
     return event;
 }
 
@@ -400,6 +407,74 @@ static enum MHD_Result serve_events(viewer *v, struct MHD_Connection *c) {
 }
 
 /* ------------------------------------------------------------------ frame */
+
+/* Downloads of frames larger than this many pixels (a 512² PFM is 3 MiB)
+ * are "large": at most MAX_LARGE_DOWNLOADS of them are encoded or sent at
+ * once; another gets 503 with Retry-After (docs/VIEWER.md). */
+#define LARGE_DOWNLOAD_PIXELS (512.0 * 512.0)
+#define MAX_LARGE_DOWNLOADS 2
+#define RETRY_AFTER_S "1"
+
+/* One frame download: the bytes sent, and who owns them (the shared
+ * pixels, a malloc'ed JPEG or an encode of its own context). */
+typedef struct download {
+    viewer *v;
+    viewer_pixels *px;
+    unsigned char *own, *enc;
+    volux_context *ctx;
+    const unsigned char *data;
+    size_t size;
+    int large;
+} download;
+
+static ssize_t download_read(void *cls, uint64_t pos, char *buf, size_t max) {
+    download *d = cls;
+    if (pos >= d->size) return MHD_CONTENT_READER_END_OF_STREAM;
+    size_t n = d->size - (size_t)pos < max ? d->size - (size_t)pos : max;
+    memcpy(buf, d->data + pos, n);
+    return (ssize_t)n;
+}
+
+/* MHD's free callback: the response was sent, or the client went away. */
+static void download_free(void *cls) {
+    download *d = cls;
+    viewer_pixels_release(d->px);
+    free(d->own);
+    if (d->enc) volux_encoded_free(d->ctx, d->enc, d->size);
+    volux_context_destroy(d->ctx);
+    if (d->large) atomic_fetch_sub(&d->v->large_downloads, 1);
+    free(d);
+}
+
+/* 503 with Retry-After: every large-download slot is taken. Called with
+ * `frame_lock` released. */
+static enum MHD_Result reply_busy(viewer *v, struct MHD_Connection *c) {
+    char msg[160];
+    snprintf(msg, sizeof msg, "%d large frame downloads are in progress; retry after %s s", MAX_LARGE_DOWNLOADS,
+             RETRY_AFTER_S);
+    pthread_mutex_lock(&v->frame_lock);
+    v->stats.requests_rejected++;
+    pthread_mutex_unlock(&v->frame_lock);
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "error", msg);
+    cJSON_AddStringToObject(o, "status", "busy");
+    char *text = cJSON_PrintUnformatted(o);
+    cJSON_Delete(o);
+    char *copy = text ? strdup(text) : NULL;
+    cJSON_free(text);
+    if (!copy) return MHD_NO;
+    struct MHD_Response *r = MHD_create_response_from_buffer(strlen(copy), copy, MHD_RESPMEM_MUST_FREE);
+    if (!r) {
+        free(copy);
+        return MHD_NO;
+    }
+    MHD_add_response_header(r, "Content-Type", "application/json");
+    MHD_add_response_header(r, "Cache-Control", "no-store");
+    MHD_add_response_header(r, "Retry-After", RETRY_AFTER_S);
+    enum MHD_Result ok = MHD_queue_response(c, 503, r);
+    MHD_destroy_response(r);
+    return ok;
+}
 
 static double arg_number(struct MHD_Connection *c, const char *key, double fallback) {
     const char *s = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, key);
@@ -454,39 +529,64 @@ static enum MHD_Result serve_frame(viewer *v, struct MHD_Connection *c) {
         pthread_mutex_unlock(&v->frame_lock);
         return reply_error(v, c, v->stats.error[0] ? 500 : 503, "unavailable", msg);
     }
-    unsigned char *data = NULL;
-    size_t size = 0;
-    const char *type = "image/png";
-    int ok = 1;
-    if (!strcmp(format, f->format)) {
-        data = malloc(f->size);
-        if (data) memcpy(data, f->data, f->size);
-        size = f->size;
-        ok = data != NULL;
-        type = !strcmp(format, "jpeg") ? "image/jpeg" : "image/png";
-    } else if (!strcmp(format, "jpeg")) {
-        ok = viewer_encode_jpeg(&f->image, f->exposure, v->opt.jpeg_quality, &data, &size);
-        type = "image/jpeg";
-    } else {
-        unsigned char *enc = NULL;
-        volux_context_clear_error(v->enc_ctx);
-        ok = volux_image_encode(v->enc_ctx, &f->image, format, f->exposure, &enc, &size) == VOLUX_OK;
-        if (ok && (data = malloc(size))) memcpy(data, enc, size);
-        else ok = 0;
-        volux_encoded_free(v->enc_ctx, enc, size);
-        type = !strcmp(format, "png") ? "image/png" : "application/octet-stream";
-    }
     static const char *const kinds[] = {"preview", "refine", "final"};
     char id[32], version[32], spp[16];
     snprintf(id, sizeof id, "%llu", (unsigned long long)f->id);
     snprintf(version, sizeof version, "%llu", (unsigned long long)f->version);
     snprintf(spp, sizeof spp, "%u", f->spp);
     const char *kind = kinds[f->kind];
+    const int same = !strcmp(format, f->format);
+    const float exposure = f->exposure;
+    /* A large frame holds a slot from here until its response is freed
+     * (sent, or the client gone): at most MAX_LARGE_DOWNLOADS such
+     * encodes and buffers exist at once, whatever the number of clients. */
+    const int large = (double)f->width * f->height > LARGE_DOWNLOAD_PIXELS;
+    if (large && atomic_fetch_add(&v->large_downloads, 1) >= MAX_LARGE_DOWNLOADS) {
+        atomic_fetch_sub(&v->large_downloads, 1);
+        v->stats.downloads_refused++;
+        pthread_mutex_unlock(&v->frame_lock);
+        return reply_busy(v, c);
+    }
+    viewer_pixels *px = viewer_pixels_retain(f->px);
     pthread_mutex_unlock(&v->frame_lock);
-    if (!ok) return reply_error(v, c, 500, "nomem", "encoding the frame failed");
-    struct MHD_Response *r = MHD_create_response_from_buffer(size, data, MHD_RESPMEM_MUST_FREE);
+    /* Without the frame lock from here on: publishing, /api/stats and the
+     * event streams go on while this frame is encoded and sent. */
+    download *d = calloc(1, sizeof *d);
+    if (!d) {
+        viewer_pixels_release(px);
+        if (large) atomic_fetch_sub(&v->large_downloads, 1);
+        return reply_error(v, c, 500, "nomem", "out of memory");
+    }
+    d->v = v;
+    d->large = large;
+    const char *type = "image/png";
+    int ok = 1;
+    if (same) { /* the published encoding: sent from the shared pixels, no copy */
+        d->px = px;
+        d->data = px->data;
+        d->size = px->size;
+        type = !strcmp(format, "jpeg") ? "image/jpeg" : "image/png";
+    } else if (!strcmp(format, "jpeg")) {
+        ok = viewer_encode_jpeg(&px->image, exposure, v->opt.jpeg_quality, &d->own, &d->size);
+        d->data = d->own;
+        type = "image/jpeg";
+        viewer_pixels_release(px);
+    } else {
+        volux_context_desc cd = {0};
+        cd.max_bytes = volux_context_max_bytes(v->ctx);
+        ok = volux_context_create(&cd, &d->ctx) == VOLUX_OK &&
+             volux_image_encode(d->ctx, &px->image, format, exposure, &d->enc, &d->size) == VOLUX_OK;
+        d->data = d->enc;
+        type = !strcmp(format, "png") ? "image/png" : "application/octet-stream";
+        viewer_pixels_release(px);
+    }
+    if (!ok) {
+        download_free(d);
+        return reply_error(v, c, 500, "nomem", "encoding the frame failed");
+    }
+    struct MHD_Response *r = MHD_create_response_from_callback(d->size, 256 * 1024, download_read, d, download_free);
     if (!r) {
-        free(data);
+        download_free(d);
         return MHD_NO;
     }
     MHD_add_response_header(r, "Content-Type", type);

@@ -9,9 +9,10 @@
  *
  * A refinement frame (or the --preview size after a reduced first frame) in
  * flight is cancelled through the context's progress callback as soon as an
- * edit waits for the lock; the first frame after an edit is not (it is the
- * cheap immediate answer, and cancelling it while the user drags would show
- * nothing at all).
+ * edit waits for the lock; the first frame after an edit only once an edit
+ * has waited FIRST_FRAME_EDIT_WAIT_MS for it (it is the cheap immediate
+ * answer: cancelled at once, a drag would show nothing at all; never
+ * cancelled, 70 000 lights in `shaded` held the next edit for seconds).
  */
 #include <math.h>
 #include <stdio.h>
@@ -77,13 +78,34 @@ static void set_busy(viewer *v, const char *task, double fraction) {
     pthread_mutex_unlock(&v->frame_lock);
 }
 
-/* The frame loop asks between tiles; nonzero cancels. A technique's
+/* How long an edit may wait for the first frame of the previous one
+ * before that frame is cancelled. A first frame that is done sooner is
+ * shown (dragging then shows every other state); a slow one (a technique
+ * that prepares for seconds, 70 000 lights in `shaded`) never holds an
+ * edit longer than this plus the library's polling (≤ ~10 ms a check). */
+#define FIRST_FRAME_EDIT_WAIT_MS 50.0
+
+/* The library asks between tiles, between rays (volux_tile_cancelled) and
+ * in its long preparation loops; nonzero cancels. A refinement frame is
+ * cancelled by any waiting edit, the first frame after an edit by one that
+ * has waited FIRST_FRAME_EDIT_WAIT_MS, anything by shutdown. A technique's
  * preparation reports here too (any task but "render"): the busy
- * indicator. */
+ * indicator. Never called concurrently (volux_progress_fn). */
 static int on_progress(void *user, const char *task, double fraction) {
     viewer *v = user;
     if (strcmp(task, "render")) set_busy(v, fraction >= 1.0 ? "" : task, fraction);
-    return atomic_load(&v->quit) || (atomic_load(&v->cancellable) && atomic_load(&v->edit_waiters) > 0);
+    if (atomic_load(&v->quit)) return 1;
+    if (atomic_load(&v->edit_waiters) <= 0) {
+        v->edit_wait_seen_ms = 0;
+        return 0;
+    }
+    if (atomic_load(&v->cancellable)) return 1;
+    /* an edit's own work (a volume it loads) is never cancelled by the
+     * next edit: only the render thread's first frame */
+    if (!atomic_load(&v->first_frame)) return 0;
+    double now = viewer_now_ms();
+    if (v->edit_wait_seen_ms <= 0) v->edit_wait_seen_ms = now;
+    return now - v->edit_wait_seen_ms >= FIRST_FRAME_EDIT_WAIT_MS;
 }
 
 /* ------------------------------------------------------------------ frames */
@@ -116,7 +138,8 @@ static void publish(viewer *v, volux_image *img, frame_kind kind, uint64_t versi
     size_t size = 0;
     const char *format = "png";
     int ok;
-    pthread_mutex_lock(&v->frame_lock);
+    /* encoded before the frame lock is taken: readers of the latest frame
+     * (/api/stats, downloads, events) never wait for an encode */
     if (kind != FRAME_FINAL && !v->opt.preview_png) {
         format = "jpeg";
         ok = viewer_encode_jpeg(img, exposure, v->opt.jpeg_quality, &data, &size);
@@ -131,17 +154,23 @@ static void publish(viewer *v, volux_image *img, frame_kind kind, uint64_t versi
             volux_encoded_free(v->enc_ctx, enc, size);
         }
     }
+    viewer_pixels *px = ok ? calloc(1, sizeof *px) : NULL;
     double t1 = viewer_now_ms();
-    if (!ok) {
-        pthread_mutex_unlock(&v->frame_lock);
+    if (!px) {
         volux_image_free(v->ctx, img);
         free(data);
         render_failed(v, "encoding a frame", VOLUX_ERR_NOMEM);
         return;
     }
+    atomic_init(&px->refs, 1);
+    px->ctx = v->ctx;
+    px->image = *img;
+    px->data = data;
+    px->size = size;
+    pthread_mutex_lock(&v->frame_lock);
     viewer_frame *f = &v->frame;
-    free(f->data);
-    volux_image_free(v->ctx, &f->image);
+    viewer_pixels *old = f->px;
+    f->px = px;
     f->id++;
     f->version = version;
     f->kind = kind;
@@ -181,6 +210,7 @@ static void publish(viewer *v, volux_image *img, frame_kind kind, uint64_t versi
     if (kind == FRAME_FINAL && f->latency_ms >= 0) s->last_final_ms = f->latency_ms;
     pthread_cond_broadcast(&v->frame_cv);
     pthread_mutex_unlock(&v->frame_lock);
+    viewer_pixels_release(old); /* freed here unless a download still reads it */
 }
 
 /* ------------------------------------------------------------------ work */
@@ -400,6 +430,7 @@ static void do_stand_in(viewer *v, uint64_t version, const volux_render_settings
      * preparation */
     double edit_t0 = v->need_latency ? v->last_edit_ms : -1;
     v->stand_in_edit_t0 = edit_t0;
+    atomic_store(&v->first_frame, 0); /* the lock is an editor's meanwhile */
     pthread_mutex_unlock(&v->lock);
     publish(v, &img, FRAME_PREVIEW, version, 1, full->exposure, 1.0f, 0, viewer_now_ms() - t0, edit_t0,
             v->last_edit_cpu_ms, PUB_FIRST, STAND_IN_TECHNIQUE);
@@ -409,6 +440,7 @@ static void do_stand_in(viewer *v, uint64_t version, const volux_render_settings
         pthread_mutex_unlock(&v->frame_lock);
     }
     pthread_mutex_lock(&v->lock);
+    atomic_store(&v->first_frame, 1);
 }
 
 /* 1 if the scene's technique has no instance (switching to it creates one). */
@@ -417,8 +449,31 @@ static int needs_instance(const viewer *v, const char *name) {
            !(v->spare && !strcmp(volux_technique_info_of(v->spare)->name, name));
 }
 
-/* The first frame after an edit. Called and returns with `lock` held. */
+/* The first frame after an edit was cancelled (an edit waited, or
+ * shutdown): nothing is published, the next loop renders a first frame
+ * again (even when the waiting edit is refused and the version stays),
+ * and the technique's update — whose stamp moves only on success — is
+ * redone in full then. */
+static void preview_cancelled(viewer *v, uint32_t changes) {
+    v->shown_version = (uint64_t)-1;
+    v->pending_changes |= changes;
+    set_busy(v, "", 1.0);
+    volux_context_clear_error(v->ctx);
+    pthread_mutex_lock(&v->frame_lock);
+    v->stats.cancelled++;
+    v->stats.first_frames_cancelled++;
+    pthread_mutex_unlock(&v->frame_lock);
+}
+
+/* The first frame after an edit. Called and returns with `lock` held;
+ * cancelled by an edit that waits FIRST_FRAME_EDIT_WAIT_MS (on_progress). */
+static void do_preview_body(viewer *v, uint64_t version);
 static void do_preview(viewer *v, uint64_t version) {
+    do_preview_body(v, version);
+    atomic_store(&v->first_frame, 0);
+}
+
+static void do_preview_body(viewer *v, uint64_t version) {
     volux_scene *scene = volux_scene_doc_scene(v->doc);
     volux_context_clear_error(v->ctx);
     v->shown_version = version;
@@ -434,11 +489,16 @@ static void do_preview(viewer *v, uint64_t version) {
     const int switching = v->tech && strcmp(volux_technique_info_of(v->tech)->name, full.technique);
     const uint32_t changes = creating || switching ? (uint32_t)HEAVY_CHANGES : v->pending_changes;
     v->pending_changes = 0;
+    atomic_store(&v->first_frame, 1); /* until published: on_progress */
     if (strcmp(full.technique, "ea") && strcmp(full.technique, STAND_IN_TECHNIQUE) &&
         (creating || *update_of(v, full.technique, changes) > STAND_IN_UPDATE_MS))
         do_stand_in(v, version, &full);
     double t0 = viewer_now_ms();
     volux_status st = ensure_technique(v, scene);
+    if (st == VOLUX_ERR_CANCELLED) {
+        preview_cancelled(v, changes);
+        return;
+    }
     if (st) {
         set_busy(v, "", 1.0);
         render_failed(v, "technique", st);
@@ -466,7 +526,7 @@ static void do_preview(viewer *v, uint64_t version) {
         set_busy(v, "", 1.0); /* preparation over (or failed) */
         /* a switch back records nothing: its catch-up says little about
          * the next edit of either kind */
-        if (creating || !switching) *update_of(v, full.technique, changes) = t1 - t0;
+        if ((creating || !switching) && st != VOLUX_ERR_CANCELLED) *update_of(v, full.technique, changes) = t1 - t0;
         /* With a budget, the first frame gets what is left of it after the
          * update (the edit's own cost, which a smaller frame cannot save):
          * the preview size the measured cost per pixel fits in. The render
@@ -523,6 +583,7 @@ static void do_preview(viewer *v, uint64_t version) {
             v->upgrade = reduced;
             v->upgrade_smaller = smaller;
             if (v->fb_full) volux_framebuffer_reset(v->fb_full);
+            atomic_store(&v->first_frame, 0);
             pthread_mutex_unlock(&v->lock);
             publish(v, &img, FRAME_PREVIEW, version, 1, full.exposure, (float)step_scale, t1 - t0,
                     viewer_now_ms() - t2, edit_t0, v->last_edit_cpu_ms, first_flag | (smaller ? 0u : PUB_FULL_PREVIEW), NULL);
@@ -531,7 +592,8 @@ static void do_preview(viewer *v, uint64_t version) {
         }
     }
     volux_image_free(v->ctx, &img);
-    render_failed(v, "preview", st);
+    if (st == VOLUX_ERR_CANCELLED) preview_cancelled(v, changes);
+    else render_failed(v, "preview", st);
 }
 
 /* After a reduced first frame: the preview at the --preview size, at once

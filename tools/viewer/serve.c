@@ -9,9 +9,52 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
+#include <unistd.h>
 
 #include "tools/cli/scene_args.h"
 #include "viewer.h"
+
+/* ------------------------------------------------------------------ stop */
+
+/* After SIGINT/SIGTERM the server stops in order (the render thread's
+ * work is cancelled through the progress callback, connections end, the
+ * scene is freed) and exits 0. Should that not be over STOP_GRACE_MS after
+ * the signal (a step that never asks for cancellation), or should a second
+ * signal come, the process ends at once with STOP_FORCED_STATUS, after
+ * removing `volux view`'s temporary scene: SIGTERM always ends the server
+ * within 2 s (docs/VIEWER.md). */
+#define STOP_GRACE_MS 1500
+#define STOP_FORCED_STATUS 1
+
+static const char *exit_file, *exit_dir;
+static atomic_int stop_done;
+
+void viewer_exit_cleanup(const char *file, const char *dir) {
+    exit_file = file;
+    exit_dir = dir;
+}
+
+static void *stop_watchdog(void *arg) {
+    const sigset_t *set = arg;
+    struct timespec slice = {0, 50 * 1000 * 1000};
+    const char *why = "did not end within 1.5 s";
+    for (int waited = 0; waited < STOP_GRACE_MS; waited += 50) {
+        if (atomic_load(&stop_done)) return NULL;
+        if (sigtimedwait(set, NULL, &slice) > 0) {
+            why = "a second signal";
+            break;
+        }
+    }
+    if (atomic_load(&stop_done)) return NULL;
+    static const char head[] = "volux serve: stopping at once (";
+    (void)!write(2, head, sizeof head - 1);
+    (void)!write(2, why, strlen(why));
+    (void)!write(2, ")\n", 2);
+    if (exit_file) unlink(exit_file);
+    if (exit_dir) rmdir(exit_dir);
+    _exit(STOP_FORCED_STATUS);
+}
 
 static void usage(FILE *f) {
     fprintf(f,
@@ -275,9 +318,18 @@ int cli_serve_named(int argc, char **argv, const char *display_name) {
     fflush(stdout);
     int sig = 0;
     sigwait(&stop, &sig);
+    /* the render thread's work in flight is cancelled from here on */
+    atomic_store(&v->quit, 1);
+    pthread_t watchdog;
+    atomic_store(&stop_done, 0);
+    int watching = pthread_create(&watchdog, NULL, stop_watchdog, &stop) == 0;
     if (!o->quiet) fprintf(stderr, "volux serve: stopping (%s)\n", sig == SIGINT ? "SIGINT" : "SIGTERM");
     rc = CLI_OK;
     viewer_http_stop(v);
+    viewer_render_stop(v);
+    atomic_store(&stop_done, 1);
+    if (watching) pthread_join(watchdog, NULL);
+    goto out_doc;
 out_render:
     viewer_render_stop(v);
 out_doc:
@@ -287,8 +339,7 @@ out:
     free(v->scene_json);
     free(v->scene_json_abs);
     free(v->state_json);
-    free(v->frame.data);
-    if (v->ctx) volux_image_free(v->ctx, &v->frame.image);
+    viewer_pixels_release(v->frame.px); /* the last reference: every connection has ended */
     volux_context_destroy(v->enc_ctx);
     volux_context_destroy(v->ctx);
     free(v);

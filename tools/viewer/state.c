@@ -263,6 +263,8 @@ char *viewer_stats_json(viewer *v) {
     cJSON_AddNumberToObject(o, "edits_rejected", (double)s.edits_rejected);
     cJSON_AddNumberToObject(o, "frames", (double)s.frames);
     cJSON_AddNumberToObject(o, "cancelled", (double)s.cancelled);
+    cJSON_AddNumberToObject(o, "first_frames_cancelled", (double)s.first_frames_cancelled);
+    cJSON_AddNumberToObject(o, "downloads_refused", (double)s.downloads_refused);
     cJSON_AddNumberToObject(o, "stand_in_frames", (double)s.stand_in_frames);
     cJSON_AddNumberToObject(o, "edit_to_stand_in_ms", s.last_stand_in_ms);
     cJSON_AddNumberToObject(o, "edit_to_own_frame_ms", s.last_own_frame_ms);

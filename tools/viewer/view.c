@@ -16,6 +16,7 @@
 #include <unistd.h>
 
 #include "tools/cli/scene_args.h"
+#include "viewer.h"
 
 static void usage(FILE *f) {
     fprintf(f, "usage: volux view VOLUME|SCENE.json [volux serve options]\n"
@@ -88,7 +89,9 @@ int cli_view(int argc, char **argv) {
     /* Messages and the page name the volume, not the temporary scene. */
     char name[PATH_MAX + 32];
     snprintf(name, sizeof name, "%s (quick look)", in);
+    viewer_exit_cleanup(scene_path, dir);
     rc = cli_serve_named(k, args, name);
+    viewer_exit_cleanup(NULL, NULL);
     free(args);
     unlink(scene_path);
     rmdir(dir);

@@ -8,14 +8,18 @@
  *     The render thread holds it while it updates and renders; an edit
  *     (POST /api/edit) takes it to apply the edit. An editor announces
  *     itself in `edit_waiters` first: the frame loop's progress callback
- *     then cancels a refinement frame in flight (previews are short and
- *     run to the end, so dragging shows every other state), and the
- *     render thread yields the lock to every waiter (`waiters`, `turn`).
+ *     then cancels a refinement frame in flight at once and a first frame
+ *     once the edit has waited 50 ms (short previews run to the end, so
+ *     dragging shows every other state), and the render thread yields the
+ *     lock to every waiter (`waiters`, `turn`).
  *   - `snap_lock` guards the snapshot clients read without waiting for a
  *     frame: the scene JSON, the resolved TF, the volume's histogram.
  *   - `frame_lock` guards the latest frame and the statistics; `frame_cv`
- *     wakes the event streams when a frame is published. Encoding uses its
- *     own context `enc_ctx` under this lock.
+ *     wakes the event streams when a frame is published. Nothing is
+ *     encoded under it: the render thread encodes a frame (with `enc_ctx`,
+ *     its own) before publishing it, a download or an event takes a
+ *     reference to the frame's pixels (viewer_pixels) and encodes after
+ *     releasing the lock (a download with a context of its own).
  *
  * DOES NOT: render anything itself (the library does), touch the scene
  * outside the document API, or trust a request: every size is bounded and
@@ -26,6 +30,7 @@
 
 #include <pthread.h>
 #include <stdatomic.h>
+#include <stdlib.h>
 
 #include "volux/volux.h"
 
@@ -33,8 +38,32 @@
 
 typedef enum frame_kind { FRAME_PREVIEW, FRAME_REFINE, FRAME_FINAL } frame_kind;
 
+/* A published frame's pixels and their encoding for the event stream,
+ * shared by reference: a download or an event takes a reference under
+ * `frame_lock` and encodes or copies without it; the last reference
+ * frees (viewer_pixels_release). */
+typedef struct viewer_pixels {
+    atomic_int refs;
+    volux_context *ctx; /* the image's allocator (thread-safe frees) */
+    volux_image image;
+    unsigned char *data; /* malloc'ed */
+    size_t size;
+} viewer_pixels;
+
+static inline viewer_pixels *viewer_pixels_retain(viewer_pixels *p) {
+    if (p) atomic_fetch_add(&p->refs, 1);
+    return p;
+}
+static inline void viewer_pixels_release(viewer_pixels *p) {
+    if (!p || atomic_fetch_sub(&p->refs, 1) != 1) return;
+    volux_image_free(p->ctx, &p->image);
+    free(p->data);
+    free(p);
+}
+
 /* One published frame. `data` is the image encoded for the event stream
- * (JPEG or PNG); `image` keeps the linear pixels for other encodings. */
+ * (JPEG or PNG); `image` keeps the linear pixels for other encodings; both
+ * belong to `px` (views, valid while the frame is current). */
 typedef struct viewer_frame {
     uint64_t id;       /* increases by one per published frame          */
     uint64_t version;  /* document version the frame shows              */
@@ -45,6 +74,7 @@ typedef struct viewer_frame {
     unsigned char *data;
     size_t size;
     volux_image image;
+    viewer_pixels *px;
     float exposure;
     double render_ms, update_ms, encode_ms;
     float step_scale;  /* march step of this frame / the scene's render.step (> 1: a
@@ -96,6 +126,8 @@ typedef struct viewer_options {
 
 typedef struct viewer_stats {
     uint64_t edits, edits_rejected, frames, requests, requests_rejected, cancelled;
+    uint64_t first_frames_cancelled; /* of `cancelled`: first frames after an edit */
+    uint64_t downloads_refused;      /* 503: every large-download slot was busy    */
     double last_latency_ms;       /* edit → first preview published    */
     double last_latency_cpu_ms;   /* process CPU time over that interval */
     int last_first_w, last_first_h; /* size of that first preview          */
@@ -129,6 +161,9 @@ typedef struct viewer {
     pthread_cond_t work; /* an edit happened / quit                   */
     pthread_cond_t turn; /* waiters went away                         */
     atomic_int waiters, edit_waiters, quit, cancellable;
+    atomic_int first_frame; /* the render thread is making an edit's first frame */
+    double edit_wait_seen_ms; /* when the progress callback first saw an edit
+                                 waiting (0: none); render thread only   */
     double last_edit_ms;    /* when the oldest edit not yet shown arrived */
     double last_edit_cpu_ms; /* process CPU time then                   */
     double last_change_ms;  /* when the latest edit arrived (idle time) */
@@ -166,6 +201,7 @@ typedef struct viewer {
     struct cJSON *vol_info;       /* dims, range, histogram (under `lock`) */
     volux_scene_stamp vol_seen;   /* the scene when vol_info was made     */
 
+    atomic_int large_downloads; /* http.c: large frames being encoded or sent */
     pthread_mutex_t frame_lock;
     pthread_cond_t frame_cv;
     viewer_frame frame;
@@ -200,6 +236,11 @@ char *viewer_stats_json(viewer *v);
 char *viewer_base64(const unsigned char *data, size_t n, size_t *out_len);
 /* Names of the change bits ("volume, extinction, lights"...). */
 void viewer_change_names(uint32_t bits, char *out, size_t n);
+
+/* serve.c: what a forced stop (a second signal, or the orderly one taking
+ * longer than 1.5 s) removes before _exit: `volux view`'s temporary scene
+ * file and folder (NULL: nothing). */
+void viewer_exit_cleanup(const char *file, const char *dir);
 
 /* http.c: the server. */
 int viewer_http_start(viewer *v);

@@ -371,6 +371,9 @@ static inline __attribute__((always_inline)) void tile_pairs(const dvr_state *st
                 out[q][2] = r[q].C[2] + r[q].T * bg[q].z;
             }
             n = 0;
+            /* a pair can take milliseconds (one loop over every light per
+             * shaded sample): a cancel is asked for between pairs */
+            if (volux_tile_cancelled(tile)) return;
         }
     if (n) { /* an odd ray out */
         float a, b;

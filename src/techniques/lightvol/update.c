@@ -252,6 +252,9 @@ static double now_ms(void) {
     return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
 }
 
+/* Longest piece of an unbudgeted propagation between two cancel checks. */
+#define CANCEL_CHUNK_MS 40.0
+
 /* Runs slice steps of the current job: all (budget off), budget_slices, or
  * as many as budget_ms allows at the measured rate (at least one). The job
  * keeps its place after a cancellation. */
@@ -288,6 +291,13 @@ static volux_status run_job(lightvol_state *st, int *did) {
                 if (!first) break;
                 fit = 1; /* every call makes progress */
             }
+            if ((long)(s1 - j->step) > fit) s1 = j->step + (int)fit;
+        } else {
+            /* no budget: still in pieces of ~CANCEL_CHUNK_MS at the measured
+             * rate (one step until there is one), so that a cancel lands
+             * between them; the pieces give the same bits as one sweep */
+            long fit = j->ms_per_work > 0.0 ? (long)(CANCEL_CHUNK_MS / (j->ms_per_work * sw)) : 1;
+            if (fit < 1) fit = 1;
             if ((long)(s1 - j->step) > fit) s1 = j->step + (int)fit;
         }
         double t0 = now_ms();
