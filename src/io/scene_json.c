@@ -80,19 +80,18 @@ static volux_status resolve_path(scene_reader *sr, const char *base_dir, const c
     char real[PATH_MAX];
     /* Under a data root (the viewer) a missing file and one outside the
      * root get the same message: a client must not learn which names
-     * exist outside it. */
+     * exist outside it. The root itself is not named: `volux view`'s is a
+     * private temporary folder (the server shows the root at start-up). */
     if (!realpath(out, real)) {
         if (!f->root) return VOLUX_OK; /* recording: the loader reports it */
-        return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "'%s' is not available in the data root %s", name,
-                                f->root);
+        return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "'%s' is not available in the data root", name);
     }
     if (f->record && volux_path_list_add(sr->json.ctx, f->record, real))
         return volux_json_error(&sr->json, VOLUX_ERR_NOMEM, key, "out of memory");
     if (!f->root) return VOLUX_OK;
     int trusted = f->trusted && volux_path_list_has(f->trusted, real);
     if (!trusted && !volux_path_inside(real, f->root))
-        return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "'%s' is not available in the data root %s", name,
-                                f->root);
+        return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "'%s' is not available in the data root", name);
     if (!strncmp(key, "volume.", 7) && !trusted) sr->untrusted_volume = 1;
     /* Open the name that was checked (no symlink left to swap). */
     if (strlen(real) >= n) return volux_json_error(&sr->json, VOLUX_ERR_INVALID, key, "path too long");

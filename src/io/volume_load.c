@@ -163,8 +163,8 @@ static volux_status check_data_root(volux_context *ctx, const char *header, cons
     /* Missing and outside read the same: no existence oracle. */
     char real[PATH_MAX];
     if (!realpath(path, real) || !volux_path_inside(real, root))
-        return volux_error(ctx, VOLUX_ERR_INVALID, "%s: data file: '%s' is not available in the data root %s", header,
-                           data_file, root);
+        return volux_error(ctx, VOLUX_ERR_INVALID, "%s: data file: '%s' is not available in the data root", header,
+                           data_file);
     if (strlen(real) >= cap) return volux_error(ctx, VOLUX_ERR_LIMIT, "%s: data file: path is too long", header);
     strcpy(path, real);
     return VOLUX_OK;

@@ -249,7 +249,10 @@ static void attack_key(volux_scene_doc *doc, volux_context *ctx, const char *key
      * available; for it every unavailable name gets the same answer. For
      * other keys, names of the same form must too (an existing and a
      * missing file outside; a link out and a missing name inside). */
-    int file_key = st[4] != VOLUX_OK && strstr(msg[4], "not available in the data root");
+    const char *tail = strstr(msg[4], "not available in the data root");
+    int file_key = st[4] != VOLUX_OK && tail;
+    /* the root is not named (`volux view`'s is a private temporary folder) */
+    if (tail && strchr(tail, '/')) fail_msg("%s: the message names a folder: %s", key, msg[4]);
     static const int pairs[][2] = {{0, 5}, {2, 4}};
     for (int v = 1; v < 7; v++) {
         int compared = file_key;
