@@ -26,6 +26,11 @@ typedef struct volux_tile {
     int x0, y0, w, h;        /* pixel rectangle                             */
     uint32_t sample_index;   /* which sample of the pixel (0, 1, ...)       */
     volux_deadline *deadline; /* NULL: no time budget                       */
+    /* Non-NULL: the frame loop wants first-hit features too
+     * (volux_framebuffer_set_features): VOLUX_FEATURE_FLOATS per pixel at
+     * features[(y·w + x)·VOLUX_FEATURE_FLOATS] (render/features.h); a
+     * technique that writes them sets stats->features. */
+    float *features;
 } volux_tile;
 
 /* 1 once the render's time budget is spent. A technique whose per-pixel
@@ -40,6 +45,7 @@ int volux_tile_expired(const volux_tile *t);
 typedef struct volux_tile_stats {
     uint64_t samples;   /* volume samples taken (ray-march steps)            */
     uint64_t vertices;  /* path vertices (stochastic techniques)             */
+    uint64_t features;  /* pixels whose tile->features were written          */
 } volux_tile_stats;
 
 typedef struct volux_technique_class volux_technique_class;
