@@ -6,8 +6,8 @@
  *      luminance over the 7×7 pixels around it whose features match (SVGF
  *      §4.2's spatial estimate for a short history).
  *   2. Edge-avoiding à-trous levels i = 0 … levels−1 (Dammertz et al.
- *      2010): 5×5 taps of the B3 spline h = (1, 4, 6, 4, 1)/16 spaced 2^i
- *      apart, each weighted by
+ *      2010, with 3×3 taps of (1, 2, 1)/4 instead of their 5×5 B3 spline,
+ *      spaced 2^i apart), each weighted by
  *        w = h · exp(−|l_p − l_q| / (σ_l·√g(var_p) + ε)       (SVGF Eq. 5)
  *                    − Σ_f |f_p − f_q|² / σ_f²)               (Dammertz Eq. 7)
  *      with l the luminance at this level, g a 3×3 Gaussian of its
@@ -28,6 +28,8 @@
  * the parallel items, so the result is independent of the thread count.
  */
 #include <math.h>
+#include <stddef.h>
+#include <stdint.h>
 #include <string.h>
 
 #include "core/context_internal.h"
@@ -35,169 +37,230 @@
 #include "volux/denoise.h"
 
 #define GUIDES 8 /* coverage, depth, albedo ×3, normal ×3 (scaled by 1/σ) */
+#define SCRATCH 8 /* per-thread row arrays */
 
+/* Everything in planes (one float per pixel per quantity), so the tap
+ * loops run along a row over contiguous memory and vectorise. */
 typedef struct dn_job {
-    int w, h, levels, spatial;
+    int w, h, levels, spatial, blend;
     float sigma_l;
-    const float *raw;    /* 3 per pixel                                  */
-    const float *var_in; /* the accumulation's variance (may be < 0)      */
-    float *guide;        /* GUIDES per pixel, pre-scaled                  */
-    unsigned char *hit;  /* 1: the ray can collide (coverage > 0)        */
-    float *col[2];       /* ping-pong colour, 3 per pixel                */
-    float *var[2];       /* ping-pong variance                           */
-    float *var0;         /* the raw pixel's variance (after step 1)      */
-    float *bias;         /* max(0, Δl² − var) per pixel                  */
-    float *out;          /* 3 per pixel                                  */
-    int blend;
+    float *raw[3];        /* the raw mean                                 */
+    const float *var_in;  /* the accumulation's variance (may be < 0)     */
+    float *guide[GUIDES]; /* pre-scaled guides                            */
+    float *hit;           /* 1: the ray can collide (coverage > 0), else 0 */
+    float *col[2][3];     /* ping-pong colour                             */
+    float *var[2];        /* ping-pong variance                           */
+    float *var0;          /* the raw pixel's variance (after step 1)      */
+    float *vb0;           /* its 3×3 Gaussian                             */
+    float *bias;          /* max(0, Δl² − vb0) per pixel                  */
+    float *scratch;       /* SCRATCH·w per thread                         */
+    float *out;           /* 3 per pixel, interleaved                     */
 } dn_job;
 
-static inline float lum3(const float *c) { return 0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2]; }
-
 /* exp(x) for x ≤ 0 within 2e-3 relative (weights need no more): 2^k by the
- * exponent bits, 2^f by a cubic on [0, 1). Branch-free, so the tap loops
- * vectorise. */
+ * exponent bits, 2^f by a cubic on [0, 1). Branch-free (no floorf: y ≤ 0,
+ * so truncation rounds up and one compare corrects it), so the tap loops
+ * vectorise with plain SSE2. */
 static inline float exp_neg(float x) {
-    float y = fmaxf(x * 1.44269504f, -126.0f), k = floorf(y), f = y - k;
+    float y = x * 1.44269504f;
+    y = y < -126.0f ? -126.0f : y;
+    int32_t k = (int32_t)y;
+    k -= (float)k > y;
+    float f = y - (float)k;
     float p = 1.0f + f * (0.6958160f + f * (0.2260238f + f * 0.0781026f));
-    union {
-        float f;
-        int32_t i;
-    } u = {p};
-    u.i += (int32_t)k << 23;
-    return u.f;
+    int32_t bits = (k + 127) * (1 << 23);
+    float two_k;
+    memcpy(&two_k, &bits, sizeof two_k);
+    return p * two_k;
 }
 
-static inline float guide_dist(const dn_job *j, size_t p, size_t q) {
-    const float *a = &j->guide[GUIDES * p], *b = &j->guide[GUIDES * q];
-    float d = (a[0] - b[0]) * (a[0] - b[0]);
-    if (j->hit[p] && j->hit[q])
-        for (int k = 1; k < GUIDES; k++) d += (a[k] - b[k]) * (a[k] - b[k]);
-    else if (j->hit[p] != j->hit[q])
-        d += 16.0f; /* one ray can collide, the other cannot: an edge */
-    return d;
+/* The first and one-past-last x of a row whose neighbour at x + ox exists. */
+static inline void tap_span(int w, int ox, int *xs, int *xe) {
+    *xs = ox < 0 ? -ox : 0;
+    *xe = ox > 0 ? w - ox : w;
 }
+
+/* Squared guide distance of pixels p (row arrays at x) and q: coverage
+ * always; depth, albedo, normal only when both rays can collide; a pair
+ * where only one can is an edge (+16: weight e^-16). */
+#define GUIDE_DIST(j, p, q, x)                                                                                          \
+    ({                                                                                                                 \
+        float d0_ = (j)->guide[0][(p) + (x)] - (j)->guide[0][(q) + (x)], dg_ = 0.0f;                                   \
+        for (int k_ = 1; k_ < GUIDES; k_++) {                                                                          \
+            float e_ = (j)->guide[k_][(p) + (x)] - (j)->guide[k_][(q) + (x)];                                          \
+            dg_ += e_ * e_;                                                                                            \
+        }                                                                                                              \
+        float hp_ = (j)->hit[(p) + (x)], hq_ = (j)->hit[(q) + (x)];                                                    \
+        d0_ *d0_ + hp_ * hq_ * dg_ + 16.0f * (hp_ - hq_) * (hp_ - hq_);                                                \
+    })
 
 /* Phase 0, row y: the raw pixel variances (step 1). */
-static void variance_row(dn_job *j, int y) {
-    for (int x = 0; x < j->w; x++) {
-        size_t p = (size_t)y * (size_t)j->w + (size_t)x;
-        float v = j->var_in[p];
-        if (j->spatial || !(v >= 0.0f)) {
-            double s = 0.0, s2 = 0.0, n = 0.0;
-            for (int dy = -3; dy <= 3; dy++)
-                for (int dx = -3; dx <= 3; dx++) {
-                    int xx = x + dx, yy = y + dy;
-                    if (xx < 0 || yy < 0 || xx >= j->w || yy >= j->h) continue;
-                    size_t q = (size_t)yy * (size_t)j->w + (size_t)xx;
-                    if (guide_dist(j, p, q) > 1.0f) continue;
-                    double l = lum3(&j->raw[3 * q]);
-                    s += l, s2 += l * l, n += 1.0;
-                }
-            v = n > 1.0 ? (float)fmax(0.0, (s2 - s * s / n) / (n - 1.0)) : 0.0f;
-        }
-        j->var[0][p] = v;
+static void variance_row(dn_job *j, int y, float *sc) {
+    int w = j->w;
+    size_t row = (size_t)y * (size_t)w;
+    float *out = j->var[0] + row;
+    if (!j->spatial) {
+        for (int x = 0; x < w; x++) out[x] = j->var_in[row + (size_t)x];
+        int any_unknown = 0;
+        for (int x = 0; x < w; x++) any_unknown |= !(out[x] >= 0.0f);
+        if (!any_unknown) return;
     }
-}
-
-/* 3×3 Gaussian of the variance at p (SVGF's prefilter of the luminance
- * weight's denominator). */
-static inline float var_blur(const dn_job *j, const float *var, int x, int y) {
-    static const float k[3] = {0.25f, 0.5f, 0.25f};
-    float s = 0.0f, ws = 0.0f;
-    for (int dy = -1; dy <= 1; dy++)
-        for (int dx = -1; dx <= 1; dx++) {
-            int xx = x + dx, yy = y + dy;
-            if (xx < 0 || yy < 0 || xx >= j->w || yy >= j->h) continue;
-            float wk = k[dx + 1] * k[dy + 1];
-            s += wk * var[(size_t)yy * (size_t)j->w + (size_t)xx];
-            ws += wk;
-        }
-    return s / ws;
-}
-
-/* À-trous level `level`, row y: col/var[level & 1] → [(level + 1) & 1]. */
-static void atrous_row(dn_job *j, int level, int y) {
-    static const float hk[5] = {1.0f / 16, 1.0f / 4, 3.0f / 8, 1.0f / 4, 1.0f / 16};
-    const float *cin = j->col[level & 1], *vin = j->var[level & 1];
-    float *cout = j->col[(level + 1) & 1], *vout = j->var[(level + 1) & 1];
-    int step = 1 << level;
-    for (int x = 0; x < j->w; x++) {
-        size_t p = (size_t)y * (size_t)j->w + (size_t)x;
-        float lp = lum3(&cin[3 * p]);
-        float g = var_blur(j, vin, x, y);
-        /* ε: a floor of 1e-4 of the pixel's luminance keeps converged and
-         * noise-free pixels (background) from dividing by zero while still
-         * stopping at any visible difference. */
-        float inv = 1.0f / (j->sigma_l * sqrtf(g) + 1e-4f * fabsf(lp) + 1e-12f);
-        float sw = 0.0f, sw2v = 0.0f, s[3] = {0, 0, 0};
-        for (int dy = -2; dy <= 2; dy++) {
-            int yy = y + dy * step;
-            if (yy < 0 || yy >= j->h) continue;
-            for (int dx = -2; dx <= 2; dx++) {
-                int xx = x + dx * step;
-                if (xx < 0 || xx >= j->w) continue;
-                size_t q = (size_t)yy * (size_t)j->w + (size_t)xx;
-                const float *cq = &cin[3 * q];
-                float e = fabsf(lp - lum3(cq)) * inv + guide_dist(j, p, q);
-                float wq = hk[dx + 2] * hk[dy + 2] * exp_neg(-e);
-                sw += wq;
-                sw2v += wq * wq * vin[q];
-                s[0] += wq * cq[0], s[1] += wq * cq[1], s[2] += wq * cq[2];
+    /* The variance of the luminance over the 7×7 neighbours whose guides
+     * are within one σ (SVGF §4.2 for a short history). */
+    float *s1 = sc, *s2 = sc + w, *cnt = sc + 2 * w;
+    for (int x = 0; x < w; x++) s1[x] = s2[x] = cnt[x] = 0.0f;
+    for (int dy = -3; dy <= 3; dy++) {
+        int yy = y + dy;
+        if (yy < 0 || yy >= j->h) continue;
+        for (int dx = -3; dx <= 3; dx++) {
+            int xs, xe;
+            tap_span(w, dx, &xs, &xe);
+            size_t q = (size_t)yy * (size_t)w + (size_t)(ptrdiff_t)dx;
+            for (int x = xs; x < xe; x++) {
+                float d = GUIDE_DIST(j, row, q, (size_t)x);
+                float m = d <= 1.0f ? 1.0f : 0.0f;
+                float l = 0.2126f * j->raw[0][q + (size_t)x] + 0.7152f * j->raw[1][q + (size_t)x] +
+                          0.0722f * j->raw[2][q + (size_t)x];
+                s1[x] += m * l, s2[x] += m * l * l, cnt[x] += m;
             }
         }
-        /* sw ≥ h(0,0)² · 1 > 0: the centre tap always weighs exp(0). */
-        float r = 1.0f / sw;
-        for (int c = 0; c < 3; c++) cout[3 * p + (size_t)c] = s[c] * r;
-        vout[p] = sw2v * r * r;
+    }
+    for (int x = 0; x < w; x++) {
+        if (!j->spatial && out[x] >= 0.0f) continue;
+        float n = cnt[x];
+        out[x] = n > 1.0f ? fmaxf(0.0f, (s2[x] - s1[x] * s1[x] / n) / (n - 1.0f)) : 0.0f;
     }
 }
 
-/* Blend phase 1, row y: the per-pixel bias estimate. */
-static void bias_row(dn_job *j, const float *filt, int y) {
-    for (int x = 0; x < j->w; x++) {
-        size_t p = (size_t)y * (size_t)j->w + (size_t)x;
-        float d = lum3(&filt[3 * p]) - lum3(&j->raw[3 * p]);
-        j->bias[p] = fmaxf(0.0f, d * d - var_blur(j, j->var0, x, y));
+/* 3×3 Gaussian (1, 2, 1)/4 ⊗ (1, 2, 1)/4 of plane v along row y into out,
+ * borders replicated (SVGF's prefilter of the luminance weight). */
+static void blur_row(const dn_job *j, const float *v, int y, float *out) {
+    int w = j->w;
+    const float *r0 = v + (size_t)(y > 0 ? y - 1 : y) * (size_t)w, *r1 = v + (size_t)y * (size_t)w,
+                *r2 = v + (size_t)(y < j->h - 1 ? y + 1 : y) * (size_t)w;
+    for (int x = 0; x < w; x++) {
+        int a = x > 0 ? x - 1 : x, b = x < w - 1 ? x + 1 : x;
+        float c0 = r0[a] + 2.0f * r0[x] + r0[b], c1 = r1[a] + 2.0f * r1[x] + r1[b], c2 = r2[a] + 2.0f * r2[x] + r2[b];
+        out[x] = (c0 + 2.0f * c1 + c2) * (1.0f / 16.0f);
+    }
+}
+
+/* À-trous level `level`, row y: col/var[level & 1] → [(level + 1) & 1].
+ * 3×3 taps of (1, 2, 1)/4 per axis, 2^level apart: the B3 spline's 5×5
+ * of Dammertz et al. costs 25/9 as much for a footprint that, over five
+ * levels, is as wide (±31 pixels). */
+static void atrous_row(dn_job *j, int level, int y, float *sc) {
+    static const float hk[3] = {0.25f, 0.5f, 0.25f};
+    int w = j->w, step = 1 << level, in = level & 1, ou = (level + 1) & 1;
+    size_t row = (size_t)y * (size_t)w;
+    float *restrict lp = sc, *restrict inv = sc + w, *restrict sw = sc + 2 * w, *restrict sv = sc + 3 * w,
+          *restrict s0 = sc + 4 * w, *restrict s1 = sc + 5 * w, *restrict s2 = sc + 6 * w;
+    const float *c0 = j->col[in][0], *c1 = j->col[in][1], *c2 = j->col[in][2], *vin = j->var[in];
+    blur_row(j, vin, y, inv);
+    for (int x = 0; x < w; x++) {
+        size_t p = row + (size_t)x;
+        lp[x] = 0.2126f * c0[p] + 0.7152f * c1[p] + 0.0722f * c2[p];
+        /* ε: 1e-4 of the pixel's luminance keeps converged and noise-free
+         * pixels (background) from dividing by zero while still stopping
+         * at any visible difference. */
+        inv[x] = 1.0f / (j->sigma_l * sqrtf(inv[x]) + 1e-4f * fabsf(lp[x]) + 1e-12f);
+        sw[x] = sv[x] = s0[x] = s1[x] = s2[x] = 0.0f;
+    }
+    const float *restrict p0 = j->guide[0] + row, *restrict p1 = j->guide[1] + row, *restrict p2 = j->guide[2] + row,
+                          *restrict p3 = j->guide[3] + row, *restrict p4 = j->guide[4] + row,
+                          *restrict p5 = j->guide[5] + row, *restrict p6 = j->guide[6] + row,
+                          *restrict p7 = j->guide[7] + row, *restrict hp = j->hit + row;
+    for (int dy = -1; dy <= 1; dy++) {
+        int yy = y + dy * step;
+        if (yy < 0 || yy >= j->h) continue;
+        for (int dx = -1; dx <= 1; dx++) {
+            int ox = dx * step, xs, xe;
+            tap_span(w, ox, &xs, &xe);
+            float hw = hk[dx + 1] * hk[dy + 1];
+            size_t q = (size_t)yy * (size_t)w + (size_t)(ptrdiff_t)ox;
+            const float *restrict q0 = c0 + q, *restrict q1 = c1 + q, *restrict q2 = c2 + q, *restrict qv = vin + q;
+            const float *restrict g0 = j->guide[0] + q, *restrict g1 = j->guide[1] + q, *restrict g2 = j->guide[2] + q,
+                                  *restrict g3 = j->guide[3] + q, *restrict g4 = j->guide[4] + q,
+                                  *restrict g5 = j->guide[5] + q, *restrict g6 = j->guide[6] + q,
+                                  *restrict g7 = j->guide[7] + q, *restrict hq = j->hit + q;
+            /* the accumulators are distinct scratch rows (GCC's alias
+             * versioning gives up on this many streams) */
+#pragma GCC ivdep
+            for (int x = xs; x < xe; x++) {
+                float lq = 0.2126f * q0[x] + 0.7152f * q1[x] + 0.0722f * q2[x];
+                float e0 = p0[x] - g0[x], e1 = p1[x] - g1[x], e2 = p2[x] - g2[x], e3 = p3[x] - g3[x],
+                      e4 = p4[x] - g4[x], e5 = p5[x] - g5[x], e6 = p6[x] - g6[x], e7 = p7[x] - g7[x];
+                float dg = e1 * e1 + e2 * e2 + e3 * e3 + e4 * e4 + e5 * e5 + e6 * e6 + e7 * e7;
+                float hm = hp[x] - hq[x];
+                /* the guide distance: coverage always; depth, albedo,
+                 * normal where both rays can collide; +16 where only one
+                 * can (an edge) */
+                float e = fabsf(lp[x] - lq) * inv[x] + e0 * e0 + hp[x] * hq[x] * dg + 16.0f * hm * hm;
+                float wq = hw * exp_neg(-e);
+                sw[x] += wq;
+                sv[x] += wq * wq * qv[x];
+                s0[x] += wq * q0[x], s1[x] += wq * q1[x], s2[x] += wq * q2[x];
+            }
+        }
+    }
+    float *o0 = j->col[ou][0] + row, *o1 = j->col[ou][1] + row, *o2 = j->col[ou][2] + row, *ov = j->var[ou] + row;
+    for (int x = 0; x < w; x++) {
+        /* sw ≥ 1/4 · exp(0): the centre tap is always in. */
+        float r = 1.0f / sw[x];
+        o0[x] = s0[x] * r, o1[x] = s1[x] * r, o2[x] = s2[x] * r;
+        ov[x] = sv[x] * r * r;
+    }
+}
+
+/* Blend phase 1, row y: the raw variance's blur and the bias estimate. */
+static void bias_row(dn_job *j, int y) {
+    int w = j->w, f = j->levels & 1;
+    size_t row = (size_t)y * (size_t)w;
+    blur_row(j, j->var0, y, j->vb0 + row);
+    for (int x = 0; x < w; x++) {
+        size_t p = row + (size_t)x;
+        float d = 0.2126f * (j->col[f][0][p] - j->raw[0][p]) + 0.7152f * (j->col[f][1][p] - j->raw[1][p]) +
+                  0.0722f * (j->col[f][2][p] - j->raw[2][p]);
+        j->bias[p] = fmaxf(0.0f, d * d - j->vb0[p]);
     }
 }
 
 /* Blend phase 2, row y: the output. */
-static void blend_row(dn_job *j, const float *filt, int y) {
-    for (int x = 0; x < j->w; x++) {
-        size_t p = (size_t)y * (size_t)j->w + (size_t)x;
-        const float *r = &j->raw[3 * p], *f = &filt[3 * p];
+static void blend_row(dn_job *j, int y, float *sc) {
+    int w = j->w, f = j->levels & 1;
+    size_t row = (size_t)y * (size_t)w;
+    float *b2 = sc, *cnt = sc + w;
+    for (int x = 0; x < w; x++) b2[x] = cnt[x] = 0.0f;
+    for (int dy = -2; dy <= 2; dy++) {
+        int yy = y + dy;
+        if (yy < 0 || yy >= j->h) continue;
+        for (int dx = -2; dx <= 2; dx++) {
+            int xs, xe;
+            tap_span(w, dx, &xs, &xe);
+            const float *bq = j->bias + (size_t)yy * (size_t)w + (size_t)(ptrdiff_t)dx;
+            for (int x = xs; x < xe; x++) b2[x] += bq[x], cnt[x] += 1.0f;
+        }
+    }
+    for (int x = 0; x < w; x++) {
+        size_t p = row + (size_t)x;
+        float r[3] = {j->raw[0][p], j->raw[1][p], j->raw[2][p]};
+        float fl[3] = {j->col[f][0][p], j->col[f][1][p], j->col[f][2][p]};
         float *o = &j->out[3 * p];
         if (!j->blend) {
-            memcpy(o, f, 3 * sizeof(float));
+            o[0] = fl[0], o[1] = fl[1], o[2] = fl[2];
             continue;
         }
-        float b2 = 0.0f, n = 0.0f;
-        for (int dy = -2; dy <= 2; dy++)
-            for (int dx = -2; dx <= 2; dx++) {
-                int xx = x + dx, yy = y + dy;
-                if (xx < 0 || yy < 0 || xx >= j->w || yy >= j->h) continue;
-                b2 += j->bias[(size_t)yy * (size_t)j->w + (size_t)xx];
-                n += 1.0f;
-            }
-        b2 /= n;
-        float v = var_blur(j, j->var0, x, y);
-        float a = v > 0.0f ? v / (v + b2) : 0.0f;
-        float d[3] = {a * (f[0] - r[0]), a * (f[1] - r[1]), a * (f[2] - r[2])};
+        float v = j->vb0[p], bb = b2[x] / cnt[x];
+        float a = v > 0.0f ? v / (v + bb) : 0.0f;
+        float d[3] = {a * (fl[0] - r[0]), a * (fl[1] - r[1]), a * (fl[2] - r[2])};
         /* Within VOLUX_DENOISE_BAND standard errors of the raw mean. */
-        float dl = fabsf(lum3(d)), band = VOLUX_DENOISE_BAND * sqrtf(v);
-        float s = dl > band ? band / dl : 1.0f;
-        for (int c = 0; c < 3; c++) o[c] = r[c] + s * d[c];
+        float dl = fabsf(0.2126f * d[0] + 0.7152f * d[1] + 0.0722f * d[2]), band = VOLUX_DENOISE_BAND * sqrtf(v);
+        float sc2 = dl > band ? band / dl : 1.0f;
+        for (int c = 0; c < 3; c++) o[c] = r[c] + sc2 * d[c];
     }
 }
 
-/* Phases: 0 variance; 1 … levels à-trous; levels+1 the raw variance kept;
- * then bias, blend. */
-static int64_t dn_begin(void *user, int phase) {
-    dn_job *j = user;
-    if (phase == 1) memcpy(j->var0, j->var[0], (size_t)j->w * (size_t)j->h * sizeof(float));
-    return j->h;
-}
-
+/* Phases: 0 variance; 1 … levels à-trous; levels + 1 bias; levels + 2 blend. */
 typedef struct dn_phase {
     dn_job *j;
     int phase;
@@ -205,20 +268,21 @@ typedef struct dn_phase {
 
 static int64_t phase_begin(void *user, int phase) {
     dn_phase *ph = user;
+    dn_job *j = ph->j;
     ph->phase = phase;
-    return dn_begin(ph->j, phase);
+    if (phase == 1) memcpy(j->var0, j->var[0], (size_t)j->w * (size_t)j->h * sizeof(float));
+    return j->h;
 }
 
 static void phase_item(void *user, int64_t index, int thread) {
-    (void)thread;
     dn_phase *ph = user;
     dn_job *j = ph->j;
     int y = (int)index, phase = ph->phase;
-    const float *filt = j->col[j->levels & 1];
-    if (phase == 0) variance_row(j, y);
-    else if (phase <= j->levels) atrous_row(j, phase - 1, y);
-    else if (phase == j->levels + 1) bias_row(j, filt, y);
-    else blend_row(j, filt, y);
+    float *sc = j->scratch + (size_t)thread * SCRATCH * (size_t)j->w;
+    if (phase == 0) variance_row(j, y, sc);
+    else if (phase <= j->levels) atrous_row(j, phase - 1, y, sc);
+    else if (phase == j->levels + 1) bias_row(j, y);
+    else blend_row(j, y, sc);
 }
 
 volux_status volux_denoise(volux_context *ctx, const volux_image *color, const volux_features *guide, uint32_t spp,
@@ -240,28 +304,38 @@ volux_status volux_denoise(volux_context *ctx, const volux_image *color, const v
     if (!(s.sigma_coverage > 0.0f)) s.sigma_coverage = 0.1f;
     int w = color->width, h = color->height;
     size_t n = (size_t)w * (size_t)h;
+    int threads = s.threads > 0 ? s.threads : volux_context_threads(ctx);
+    if (threads <= 0) threads = volux_parallel_max_threads();
     volux_status st = volux_image_create(ctx, w, h, out);
     if (st) return st;
     dn_job j;
     memset(&j, 0, sizeof j);
     j.w = w, j.h = h, j.levels = s.levels, j.spatial = spp < 4, j.sigma_l = s.sigma_color, j.blend = !s.no_blend;
-    j.raw = color->rgb;
     j.var_in = guide->variance;
     j.out = out->rgb;
-    size_t fbytes = n * sizeof(float);
-    j.guide = volux_calloc(ctx, GUIDES * n, sizeof(float));
-    j.hit = volux_calloc(ctx, n, 1);
-    j.col[0] = volux_malloc(ctx, 3 * fbytes);
-    j.col[1] = volux_malloc(ctx, 3 * fbytes);
-    j.var[0] = volux_malloc(ctx, fbytes);
-    j.var[1] = volux_malloc(ctx, fbytes);
-    j.var0 = volux_malloc(ctx, fbytes);
-    j.bias = volux_malloc(ctx, fbytes);
-    if (!j.guide || !j.hit || !j.col[0] || !j.col[1] || !j.var[0] || !j.var[1] || !j.var0 || !j.bias) {
-        st = volux_error(ctx, VOLUX_ERR_NOMEM, "denoise: out of memory for a %dx%d image", w, h);
-        goto done;
+    /* One block: 3 raw + 8 guides + hit + 6 colour + 2 variance + var0,
+     * vb0, bias = 23 planes, then the threads' scratch rows. */
+    enum { PLANES = 23 };
+    size_t total = PLANES * n + (size_t)threads * SCRATCH * (size_t)w;
+    float *block = volux_calloc(ctx, total, sizeof(float));
+    if (!block) {
+        volux_image_free(ctx, out);
+        return volux_error(ctx, VOLUX_ERR_NOMEM, "denoise: out of memory for a %dx%d image", w, h);
     }
-    memcpy(j.col[0], color->rgb, 3 * fbytes);
+    float *b = block;
+    for (int c = 0; c < 3; c++, b += n) j.raw[c] = b;
+    for (int k = 0; k < GUIDES; k++, b += n) j.guide[k] = b;
+    j.hit = b, b += n;
+    for (int i = 0; i < 2; i++)
+        for (int c = 0; c < 3; c++, b += n) j.col[i][c] = b;
+    j.var[0] = b, b += n;
+    j.var[1] = b, b += n;
+    j.var0 = b, b += n;
+    j.vb0 = b, b += n;
+    j.bias = b, b += n;
+    j.scratch = b;
+    for (size_t p = 0; p < n; p++)
+        for (int c = 0; c < 3; c++) j.raw[c][p] = j.col[0][c][p] = color->rgb[3 * p + (size_t)c];
     /* The guides, scaled by 1/σ so a squared distance of 1 is "one σ". */
     if (guide->coverage && guide->depth && guide->albedo && guide->normal) {
         float zmin = INFINITY, zmax = -INFINITY;
@@ -272,29 +346,18 @@ volux_status volux_denoise(volux_context *ctx, const volux_image *color, const v
             }
         float zs = zmax > zmin ? 1.0f / ((zmax - zmin) * s.sigma_depth) : 0.0f;
         for (size_t p = 0; p < n; p++) {
-            float *g = &j.guide[GUIDES * p];
-            g[0] = guide->coverage[p] / s.sigma_coverage;
+            j.guide[0][p] = guide->coverage[p] / s.sigma_coverage;
             if (!(guide->coverage[p] > 0.0f) || !isfinite(guide->depth[p])) continue;
-            j.hit[p] = 1;
-            g[1] = (guide->depth[p] - zmin) * zs;
+            j.hit[p] = 1.0f;
+            j.guide[1][p] = (guide->depth[p] - zmin) * zs;
             for (int k = 0; k < 3; k++) {
-                g[2 + k] = guide->albedo[3 * p + (size_t)k] / s.sigma_albedo;
-                g[5 + k] = guide->normal[3 * p + (size_t)k] / s.sigma_normal;
+                j.guide[2 + k][p] = guide->albedo[3 * p + (size_t)k] / s.sigma_albedo;
+                j.guide[5 + k][p] = guide->normal[3 * p + (size_t)k] / s.sigma_normal;
             }
         }
     }
-    int threads = s.threads > 0 ? s.threads : volux_context_threads(ctx);
     dn_phase ph = {&j, 0};
     volux_parallel_phases(threads, s.levels + 3, phase_begin, phase_item, &ph);
-done:
-    volux_free(ctx, j.guide, GUIDES * fbytes);
-    volux_free(ctx, j.hit, n);
-    volux_free(ctx, j.col[0], 3 * fbytes);
-    volux_free(ctx, j.col[1], 3 * fbytes);
-    volux_free(ctx, j.var[0], fbytes);
-    volux_free(ctx, j.var[1], fbytes);
-    volux_free(ctx, j.var0, fbytes);
-    volux_free(ctx, j.bias, fbytes);
-    if (st) volux_image_free(ctx, out);
-    return st;
+    volux_free(ctx, block, total * sizeof(float));
+    return VOLUX_OK;
 }
