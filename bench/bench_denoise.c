@@ -72,6 +72,17 @@ int main(int argc, char **argv) {
         else return 2;
     }
     if (repeat < 1 || repeat > 99) repeat = 9;
+    /* Denoiser settings from the environment (studies): DN_LEVELS,
+     * DN_SIGMA_COLOR, DN_SIGMA_DEPTH, DN_SIGMA_ALBEDO, DN_SIGMA_NORMAL,
+     * DN_SIGMA_COVERAGE, DN_NO_BLEND. */
+    volux_denoise_settings ds = {0};
+    if (getenv("DN_LEVELS")) ds.levels = atoi(getenv("DN_LEVELS"));
+    if (getenv("DN_SIGMA_COLOR")) ds.sigma_color = (float)atof(getenv("DN_SIGMA_COLOR"));
+    if (getenv("DN_SIGMA_DEPTH")) ds.sigma_depth = (float)atof(getenv("DN_SIGMA_DEPTH"));
+    if (getenv("DN_SIGMA_ALBEDO")) ds.sigma_albedo = (float)atof(getenv("DN_SIGMA_ALBEDO"));
+    if (getenv("DN_SIGMA_NORMAL")) ds.sigma_normal = (float)atof(getenv("DN_SIGMA_NORMAL"));
+    if (getenv("DN_SIGMA_COVERAGE")) ds.sigma_coverage = (float)atof(getenv("DN_SIGMA_COVERAGE"));
+    if (getenv("DN_NO_BLEND")) ds.no_blend = 1;
     volux_context *ctx = NULL;
     if (volux_context_create(NULL, &ctx)) return die(NULL, "context");
     volux_context_set_threads(ctx, threads);
@@ -89,7 +100,7 @@ int main(int argc, char **argv) {
         for (int r = 0; r < repeat; r++) {
             volux_image img = {0};
             double t0 = clock_ms(CLOCK_MONOTONIC), c0 = clock_ms(CLOCK_PROCESS_CPUTIME_ID);
-            if (volux_framebuffer_denoise(fb, NULL, &img)) return die(ctx, "denoise");
+            if (volux_framebuffer_denoise(fb, &ds, &img)) return die(ctx, "denoise");
             ms[r] = clock_ms(CLOCK_MONOTONIC) - t0;
             cpu[r] = clock_ms(CLOCK_PROCESS_CPUTIME_ID) - c0;
             volux_image_free(ctx, &img);
@@ -131,7 +142,7 @@ int main(int argc, char **argv) {
             if (volux_render(tech, scene, fb, &l, &rep)) return die(ctx, "render");
             volux_image raw = {0}, den = {0};
             double d0 = clock_ms(CLOCK_MONOTONIC);
-            if (volux_framebuffer_resolve(fb, &raw) || volux_framebuffer_denoise(fb, NULL, &den))
+            if (volux_framebuffer_resolve(fb, &raw) || volux_framebuffer_denoise(fb, &ds, &den))
                 return die(ctx, "denoise");
             double dms = clock_ms(CLOCK_MONOTONIC) - d0;
             volux_image_error er, ed;
