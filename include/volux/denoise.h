@@ -36,10 +36,13 @@ typedef struct volux_denoise_settings {
     int levels;          /* à-trous levels, step 2^i (0 = 5)                 */
     float sigma_color;   /* σ_l of SVGF's luminance weight (0 = 4)           */
     float sigma_depth;   /* depth difference, fraction of the image's depth
-                            range (0 = 0.03)                                */
-    float sigma_albedo;  /* albedo difference (0 = 0.1)                      */
-    float sigma_normal;  /* normal difference |Δn| (0 = 0.5)                 */
+                            range (0 = 0.1)                                 */
+    float sigma_albedo;  /* albedo difference (0 = 0.3)                      */
+    float sigma_normal;  /* normal difference |Δn| (0 = 2: the normals from
+                            a noisy CT gradient guide only loosely)          */
     float sigma_coverage;/* coverage difference (0 = 0.1)                    */
+    /* (The defaults: the best of a few on bonsai at 16 spp, 256², against a
+     * 1024-spp reference; docs/techniques/pathtrace.md, "Denoising".) */
     int no_blend;        /* 1: the filtered image as it is (for studies)     */
     int threads;         /* 0 = the context's                                */
 } volux_denoise_settings;

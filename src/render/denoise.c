@@ -298,9 +298,9 @@ volux_status volux_denoise(volux_context *ctx, const volux_image *color, const v
     if (s.levels <= 0) s.levels = 5;
     if (s.levels > 10) s.levels = 10;
     if (!(s.sigma_color > 0.0f)) s.sigma_color = 4.0f;
-    if (!(s.sigma_depth > 0.0f)) s.sigma_depth = 0.03f;
-    if (!(s.sigma_albedo > 0.0f)) s.sigma_albedo = 0.1f;
-    if (!(s.sigma_normal > 0.0f)) s.sigma_normal = 0.5f;
+    if (!(s.sigma_depth > 0.0f)) s.sigma_depth = 0.1f;
+    if (!(s.sigma_albedo > 0.0f)) s.sigma_albedo = 0.3f;
+    if (!(s.sigma_normal > 0.0f)) s.sigma_normal = 2.0f;
     if (!(s.sigma_coverage > 0.0f)) s.sigma_coverage = 0.1f;
     int w = color->width, h = color->height;
     size_t n = (size_t)w * (size_t)h;
