@@ -9,8 +9,8 @@
  * (coverage, depth, albedo, normal), then blended back towards the raw
  * accumulation by each pixel's estimated error: the filtered value is
  * weighted by var / (var + bias²), with var the variance of the raw pixel
- * mean and bias² the filter's estimated squared bias (the local mean of
- * (filtered − raw)² − var), and the result never leaves the raw value's
+ * mean and bias² the filter's estimated squared bias (the square of the
+ * 5×5 mean of filtered − raw, less that mean's variance), and the result never leaves the raw value's
  * band of VOLUX_DENOISE_BAND standard errors. As samples accumulate, var
  * falls as 1/spp and the output converges to the unbiased raw image.
  *
