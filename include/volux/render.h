@@ -67,7 +67,7 @@ VOLUX_API double volux_framebuffer_rel_error(const volux_framebuffer *fb);
  * samples of a pixel only (the march depends only on the pixel jitter, so
  * more samples add little). Not carried by the distributed tile sums
  * (volux_framebuffer_read_tiles). */
-#define VOLUX_FEATURE_SAMPLES 16
+#define VOLUX_FEATURE_SAMPLES 4
 /* Turns feature accumulation on (allocating 9 doubles per pixel, checked
  * against the context's memory limit: VOLUX_ERR_LIMIT) or off (freeing
  * them). Turning it on drops the samples accumulated so far (the features
