@@ -163,6 +163,24 @@ VOLUX_API const char *volux_image_meta_get(const volux_image_meta *m, const char
 /* volux_image_save with metadata (NULL: none; ignored for PFM). */
 VOLUX_API volux_status volux_image_save_meta(volux_context *ctx, const char *path, const volux_image *img,
                                              float exposure, const volux_image_meta *meta);
+/* Extra layers of an OpenEXR file (AOVs, as OSPRay Studio writes them):
+ * `channels` floats per pixel, interleaved, rows from the top, written as
+ * float32 channels "<layer>.<names[k]>" — or names[k] alone when layer is
+ * NULL or empty (OpenEXR's conventional "Z" for depth). */
+typedef struct volux_image_layer {
+    const char *layer;    /* "albedo", "normal", "raw", ...; NULL: none    */
+    int channels;         /* 1 … 4                                        */
+    const char *names[4]; /* "R","G","B" / "X","Y","Z" / "Z" / "Y" ...    */
+    const float *data;    /* width·height·channels of the image's size    */
+} volux_image_layer;
+#define VOLUX_IMAGE_MAX_LAYERS 16
+/* volux_image_save_meta with n extra layers (borrowed for the call). n > 0
+ * needs an .exr path (else VOLUX_ERR_INVALID naming the file); a channel
+ * name repeated, too long (> 63 bytes) or clashing with R, G, B is
+ * VOLUX_ERR_INVALID. The main R, G, B are what volux_image_load reads. */
+VOLUX_API volux_status volux_image_save_layers(volux_context *ctx, const char *path, const volux_image *img,
+                                               float exposure, const volux_image_meta *meta,
+                                               const volux_image_layer *layers, int n);
 /* volux_image_load plus the file's metadata (PNG text chunks before the
  * pixels; EXR string, int, float and double attributes that are not part
  * of the format's required set). meta->count is 0 for PFM and HDR. */

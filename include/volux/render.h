@@ -51,6 +51,50 @@ VOLUX_API volux_status volux_framebuffer_resolve(const volux_framebuffer *fb, vo
 #define VOLUX_REL_ERROR_MIN_SPP 4
 VOLUX_API double volux_framebuffer_rel_error(const volux_framebuffer *fb);
 
+/* ---- first-hit features (AOVs) ----
+ *
+ * Asked for with volux_framebuffer_set_features(fb, 1) before rendering,
+ * the framebuffer also accumulates, per pixel, what the camera ray meets
+ * first — the expectation over the first real collision of delta tracking
+ * (a scattering or absorption event) of: its distance from the camera, the
+ * scattering albedo there (scene albedo × TF colour), a shading normal
+ * (−∇s/|∇s|, facing the camera) and the extinction σt; plus the coverage
+ * (the probability that the ray collides at all, 1 − T of the camera ray).
+ * Techniques that know them (`pathtrace`, `guided`) compute them by a
+ * deterministic march of each sample's camera ray (render/features.h): it
+ * takes no random number, so the colour image is bit-identical with or
+ * without features. They are taken for the first VOLUX_FEATURE_SAMPLES
+ * samples of a pixel only (the march depends only on the pixel jitter, so
+ * more samples add little). Not carried by the distributed tile sums
+ * (volux_framebuffer_read_tiles). */
+#define VOLUX_FEATURE_SAMPLES 4
+/* Turns feature accumulation on (allocating 9 doubles per pixel, checked
+ * against the context's memory limit: VOLUX_ERR_LIMIT) or off (freeing
+ * them). Turning it on drops the samples accumulated so far (the features
+ * must cover the same samples). */
+VOLUX_API volux_status volux_framebuffer_set_features(volux_framebuffer *fb, int on);
+/* 1 when features are on and the technique of the samples wrote them. */
+VOLUX_API int volux_framebuffer_has_features(const volux_framebuffer *fb);
+
+/* Resolved features (caller-owned arrays of width·height, rows from the
+ * top, freed with volux_features_free). Where no ray sample collided
+ * (coverage 0) depth is +inf and albedo, normal, density are 0. */
+typedef struct volux_features {
+    int width, height;
+    float *coverage; /* 1 per pixel: P(collision) ∈ [0, 1]                    */
+    float *depth;    /* 1 per pixel: E[distance to the first collision | one] */
+    float *albedo;   /* 3 per pixel                                          */
+    float *normal;   /* 3 per pixel (mean of unit normals: shorter where they
+                        disagree within the pixel)                          */
+    float *density;  /* 1 per pixel: σt at the first collision (1/world unit) */
+    float *variance; /* 1 per pixel: variance of the pixel's mean luminance
+                        (sample variance / spp; −1 below 2 samples)          */
+} volux_features;
+/* variance is always filled; the feature arrays are NULL when the
+ * framebuffer holds none (volux_framebuffer_has_features is 0). */
+VOLUX_API volux_status volux_framebuffer_resolve_features(const volux_framebuffer *fb, volux_features *out);
+VOLUX_API void volux_features_free(volux_context *ctx, volux_features *f);
+
 typedef struct volux_render_limits {
     uint32_t spp;          /* samples per pixel to reach (total); 0 = 1     */
     double time_ms;        /* stop adding waves after this, and end a wave

@@ -6,6 +6,7 @@
 #include "version.h"
 #include "ambient.h"
 #include "camera.h"
+#include "denoise.h"
 #include "edit.h"
 #include "image.h"
 #include "io.h"

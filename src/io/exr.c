@@ -496,28 +496,37 @@ static exr_result_t compress_or_store_raw(exr_encode_pipeline_t *enc) {
     return EXR_ERR_SUCCESS;
 }
 
-static exr_result_t write_chunks(exr_context_t exr, int part, const volux_image *img) {
-    static const char *const names[3] = {"R", "G", "B"};
+/* One written channel: its name and where its float of pixel (0, 0) is,
+ * `stride` floats between pixels. */
+typedef struct out_channel {
+    char name[64];
+    const float *base;
+    int stride;
+} out_channel;
+
+static exr_result_t write_chunks(exr_context_t exr, int part, int width, int height, const out_channel *chans,
+                                 int n_chans) {
     int32_t lines = 0;
     exr_result_t rv = exr_get_scanlines_per_chunk(exr, part, &lines);
     if (rv) return rv;
     exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
     compress_wrap wrap = {NULL};
     int initialized = 0;
-    for (int y = 0; y < img->height && !rv; y += lines) {
+    for (int y = 0; y < height && !rv; y += lines) {
         exr_chunk_info_t ci;
         rv = exr_write_scanline_chunk_info(exr, part, y, &ci);
         if (rv) break;
         rv = initialized ? exr_encoding_update(exr, part, &ci, &enc) : exr_encoding_initialize(exr, part, &ci, &enc);
         if (rv) break;
         initialized = 1;
-        const uint8_t *row = (const uint8_t *)(img->rgb + (size_t)y * (size_t)img->width * 3);
         for (int c = 0; c < enc.channel_count; c++) {
             exr_coding_channel_info_t *ch = &enc.channels[c];
-            for (int k = 0; k < 3; k++)
-                if (!strcmp(ch->channel_name, names[k])) ch->encode_from_ptr = row + k * sizeof(float);
-            ch->user_pixel_stride = 3 * sizeof(float);
-            ch->user_line_stride = (int32_t)(3 * sizeof(float) * (size_t)img->width);
+            for (int k = 0; k < n_chans; k++) {
+                if (strcmp(ch->channel_name, chans[k].name)) continue;
+                ch->encode_from_ptr = (const uint8_t *)(chans[k].base + (size_t)y * (size_t)width * (size_t)chans[k].stride);
+                ch->user_pixel_stride = (int32_t)((size_t)chans[k].stride * sizeof(float));
+                ch->user_line_stride = (int32_t)((size_t)chans[k].stride * sizeof(float) * (size_t)width);
+            }
             ch->user_bytes_per_element = sizeof(float);
             ch->user_data_type = EXR_PIXEL_FLOAT;
         }
@@ -535,6 +544,38 @@ static exr_result_t write_chunks(exr_context_t exr, int part, const volux_image 
 
 volux_status volux_exr_write_stream(volux_context *ctx, const char *name, FILE *f, const volux_image *img,
                                     const volux_image_meta *meta) {
+    return volux_exr_write_stream_layers(ctx, name, f, img, meta, NULL, 0);
+}
+
+volux_status volux_exr_write_stream_layers(volux_context *ctx, const char *name, FILE *f, const volux_image *img,
+                                           const volux_image_meta *meta, const volux_image_layer *layers, int n) {
+    out_channel chans[3 + 4 * VOLUX_IMAGE_MAX_LAYERS];
+    int nc = 0;
+    for (int k = 0; k < 3; k++, nc++) {
+        snprintf(chans[nc].name, sizeof chans[nc].name, "%s", (const char *[]){"R", "G", "B"}[k]);
+        chans[nc].base = img->rgb + k;
+        chans[nc].stride = 3;
+    }
+    for (int i = 0; i < n; i++) {
+        const volux_image_layer *l = &layers[i];
+        if (l->channels < 1 || l->channels > 4 || !l->data)
+            return volux_error(ctx, VOLUX_ERR_INVALID, "'%s': layer %d: %d channels (1 to 4, with data)", name, i,
+                               l->channels);
+        for (int k = 0; k < l->channels; k++, nc++) {
+            const char *cn = l->names[k];
+            int w = !cn || !*cn ? -1
+                    : l->layer && *l->layer ? snprintf(chans[nc].name, sizeof chans[nc].name, "%s.%s", l->layer, cn)
+                                            : snprintf(chans[nc].name, sizeof chans[nc].name, "%s", cn);
+            if (w < 0 || (size_t)w >= sizeof chans[nc].name)
+                return volux_error(ctx, VOLUX_ERR_INVALID, "'%s': layer %d: channel %d has no name or a name over 63 "
+                                   "bytes", name, i, k);
+            for (int j = 0; j < nc; j++)
+                if (!strcmp(chans[j].name, chans[nc].name))
+                    return volux_error(ctx, VOLUX_ERR_INVALID, "'%s': channel '%s' given twice", name, chans[nc].name);
+            chans[nc].base = l->data + k;
+            chans[nc].stride = l->channels;
+        }
+    }
     exr_job job;
     memset(&job, 0, sizeof job);
     job.ctx = ctx;
@@ -550,12 +591,11 @@ volux_status volux_exr_write_stream(volux_context *ctx, const char *name, FILE *
     if (!rv) rv = exr_add_part(exr, NULL, EXR_STORAGE_SCANLINE, &part);
     if (!rv) rv = exr_initialize_required_attr_simple(exr, part, img->width, img->height, EXR_COMPRESSION_ZIP);
     /* 32-bit float, not half: PFM and EXR must round-trip our radiance exactly. */
-    for (int k = 0; k < 3 && !rv; k++)
-        rv = exr_add_channel(exr, part, (const char *[]){"R", "G", "B"}[k], EXR_PIXEL_FLOAT,
-                             EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
+    for (int k = 0; k < nc && !rv; k++)
+        rv = exr_add_channel(exr, part, chans[k].name, EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
     for (int i = 0; meta && i < meta->count && !rv; i++) rv = exr_attr_set_string(exr, part, meta->key[i], meta->value[i]);
     if (!rv) rv = exr_write_header(exr);
-    if (!rv) rv = write_chunks(exr, part, img);
+    if (!rv) rv = write_chunks(exr, part, img->width, img->height, chans, nc);
     /* exr_finish writes the chunk offset table, so its result matters too. */
     exr_result_t fin = exr ? exr_finish(&exr) : EXR_ERR_SUCCESS;
     if (!rv) rv = fin;

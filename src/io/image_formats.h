@@ -73,6 +73,9 @@ volux_status volux_pfm_write_stream(volux_context *ctx, const char *name, FILE *
 /* Scanline, channels B,G,R as 32-bit float (exact round trip), ZIP. */
 volux_status volux_exr_write_stream(volux_context *ctx, const char *name, FILE *f, const volux_image *img,
                                     const volux_image_meta *meta);
+/* The same with extra layers (volux_image_save_layers; n may be 0). */
+volux_status volux_exr_write_stream_layers(volux_context *ctx, const char *name, FILE *f, const volux_image *img,
+                                           const volux_image_meta *meta, const volux_image_layer *layers, int n);
 /* The readers above with metadata (meta may be NULL; see io.h). */
 volux_status volux_png_read_memory_meta(volux_context *ctx, const char *name, const void *data, size_t size,
                                         volux_image *out, volux_image_meta *meta);

@@ -190,7 +190,17 @@ volux_status volux_image_check_output(volux_context *ctx, const char *path) {
 
 volux_status volux_image_save_meta(volux_context *ctx, const char *path, const volux_image *img, float exposure,
                                    const volux_image_meta *meta) {
+    return volux_image_save_layers(ctx, path, img, exposure, meta, NULL, 0);
+}
+
+volux_status volux_image_save_layers(volux_context *ctx, const char *path, const volux_image *img, float exposure,
+                                     const volux_image_meta *meta, const volux_image_layer *layers, int n) {
     image_format fmt = format_of(path);
+    if (n > 0 && fmt != FORMAT_EXR)
+        return volux_error(ctx, VOLUX_ERR_INVALID, "'%s': extra image layers (AOVs) need an .exr file", path);
+    if (n < 0 || n > VOLUX_IMAGE_MAX_LAYERS || (n > 0 && !layers))
+        return volux_error(ctx, VOLUX_ERR_INVALID, "'%s': %d extra layers (at most %d)", path, n,
+                           VOLUX_IMAGE_MAX_LAYERS);
     if (fmt == FORMAT_UNKNOWN || fmt == FORMAT_HDR)
         return volux_error(ctx, VOLUX_ERR_INVALID, "'%s': cannot write this extension (supported: " WRITE_EXTENSIONS ")",
                            path);
@@ -203,7 +213,8 @@ volux_status volux_image_save_meta(volux_context *ctx, const char *path, const v
     volux_output_file out;
     volux_status st = volux_output_begin(ctx, path, &out);
     if (st) return st;
-    st = write_format(ctx, fmt, path, out.f, img, exposure, meta);
+    st = n > 0 ? volux_exr_write_stream_layers(ctx, path, out.f, img, meta, layers, n)
+               : write_format(ctx, fmt, path, out.f, img, exposure, meta);
     if (st) {
         volux_output_abort(ctx, &out);
         return st;

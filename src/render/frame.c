@@ -13,9 +13,11 @@
 
 #include "core/context_internal.h"
 #include "core/parallel.h"
+#include "features.h"
 #include "memory_model.h"
 #include "raycaster.h"
 #include "technique_class.h"
+#include "volux/denoise.h"
 #include "volux/render.h"
 
 struct volux_framebuffer {
@@ -31,6 +33,11 @@ struct volux_framebuffer {
     uint32_t *tile_spp;
     int tiles_x, tiles;
     uint64_t generation; /* technique generation the samples came from (0: none) */
+    /* First-hit features (volux_framebuffer_set_features; NULL: off):
+     * VOLUX_FEATURE_FLOATS sums per pixel over its first
+     * min(spp, VOLUX_FEATURE_SAMPLES) samples (render/features.h). */
+    double *feat;
+    int feat_written; /* the technique wrote them (else they stay 0) */
 };
 
 static uint32_t pixel_spp(const volux_framebuffer *fb, size_t p) {
@@ -84,6 +91,7 @@ void volux_framebuffer_destroy(volux_framebuffer *fb) {
     volux_free(fb->ctx, fb->sum, 3 * n * sizeof(double));
     volux_free(fb->ctx, fb->sum_sq, n * sizeof(double));
     volux_free(fb->ctx, fb->tile_spp, (size_t)fb->tiles * sizeof(uint32_t));
+    volux_free(fb->ctx, fb->feat, VOLUX_FEATURE_FLOATS * n * sizeof(double));
     volux_free(fb->ctx, fb, sizeof *fb);
 }
 
@@ -92,9 +100,37 @@ void volux_framebuffer_reset(volux_framebuffer *fb) {
     memset(fb->sum, 0, 3 * n * sizeof(double));
     memset(fb->sum_sq, 0, n * sizeof(double));
     memset(fb->tile_spp, 0, (size_t)fb->tiles * sizeof(uint32_t));
+    if (fb->feat) memset(fb->feat, 0, VOLUX_FEATURE_FLOATS * n * sizeof(double));
+    fb->feat_written = 0;
     fb->spp = 0;
     fb->generation = 0;
 }
+
+volux_status volux_framebuffer_set_features(volux_framebuffer *fb, int on) {
+    size_t n = (size_t)fb->width * (size_t)fb->height, bytes = VOLUX_FEATURE_FLOATS * n * sizeof(double);
+    if (!on) {
+        volux_free(fb->ctx, fb->feat, bytes);
+        fb->feat = NULL;
+        fb->feat_written = 0;
+        return VOLUX_OK;
+    }
+    if (fb->feat) return VOLUX_OK;
+    uint64_t held = volux_context_bytes_in_use(fb->ctx), limit = volux_context_memory_limit(fb->ctx);
+    if (held + bytes > limit)
+        return volux_error(fb->ctx, VOLUX_ERR_LIMIT,
+                           "framebuffer %dx%d: its first-hit features need %llu bytes more than the memory limit "
+                           "of %llu bytes allows",
+                           fb->width, fb->height, (unsigned long long)(held + bytes - limit),
+                           (unsigned long long)limit);
+    fb->feat = volux_calloc(fb->ctx, VOLUX_FEATURE_FLOATS * n, sizeof(double));
+    if (!fb->feat) return volux_error(fb->ctx, VOLUX_ERR_NOMEM, "out of memory for %dx%d feature buffers", fb->width,
+                                      fb->height);
+    /* The features must cover the same samples as the colour. */
+    volux_framebuffer_reset(fb);
+    return VOLUX_OK;
+}
+
+int volux_framebuffer_has_features(const volux_framebuffer *fb) { return fb->feat && fb->feat_written; }
 
 uint32_t volux_framebuffer_spp(const volux_framebuffer *fb) { return fb->spp; }
 int volux_framebuffer_width(const volux_framebuffer *fb) { return fb->width; }
@@ -110,6 +146,77 @@ volux_status volux_framebuffer_resolve(const volux_framebuffer *fb, volux_image 
         for (int c = 0; c < 3; c++) out->rgb[3 * p + (size_t)c] = (float)(fb->sum[3 * p + (size_t)c] * inv);
     }
     return VOLUX_OK;
+}
+
+static void free_features(volux_context *ctx, volux_features *f) {
+    size_t n = (size_t)f->width * (size_t)f->height;
+    volux_free(ctx, f->coverage, n * sizeof(float));
+    volux_free(ctx, f->depth, n * sizeof(float));
+    volux_free(ctx, f->albedo, 3 * n * sizeof(float));
+    volux_free(ctx, f->normal, 3 * n * sizeof(float));
+    volux_free(ctx, f->density, n * sizeof(float));
+    volux_free(ctx, f->variance, n * sizeof(float));
+    memset(f, 0, sizeof *f);
+}
+
+void volux_features_free(volux_context *ctx, volux_features *f) {
+    if (f) free_features(ctx, f);
+}
+
+volux_status volux_framebuffer_resolve_features(const volux_framebuffer *fb, volux_features *out) {
+    memset(out, 0, sizeof *out);
+    out->width = fb->width;
+    out->height = fb->height;
+    size_t n = (size_t)fb->width * (size_t)fb->height;
+    int feat = volux_framebuffer_has_features(fb);
+    out->variance = volux_malloc(fb->ctx, n * sizeof(float));
+    if (feat) {
+        out->coverage = volux_malloc(fb->ctx, n * sizeof(float));
+        out->depth = volux_malloc(fb->ctx, n * sizeof(float));
+        out->albedo = volux_malloc(fb->ctx, 3 * n * sizeof(float));
+        out->normal = volux_malloc(fb->ctx, 3 * n * sizeof(float));
+        out->density = volux_malloc(fb->ctx, n * sizeof(float));
+    }
+    if (!out->variance ||
+        (feat && (!out->coverage || !out->depth || !out->albedo || !out->normal || !out->density))) {
+        free_features(fb->ctx, out);
+        return volux_error(fb->ctx, VOLUX_ERR_NOMEM, "out of memory for %dx%d feature images", fb->width, fb->height);
+    }
+    for (size_t p = 0; p < n; p++) {
+        double k = pixel_spp(fb, p);
+        const double *c = &fb->sum[3 * p];
+        double mean = (0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]) / (k > 0 ? k : 1);
+        double var = k >= 2 ? (fb->sum_sq[p] / k - mean * mean) * k / (k - 1.0) / k : -1.0;
+        out->variance[p] = (float)(var < 0.0 && k >= 2 ? 0.0 : var);
+        if (!feat) continue;
+        const double *f = &fb->feat[VOLUX_FEATURE_FLOATS * p];
+        double kf = k < VOLUX_FEATURE_SAMPLES ? k : VOLUX_FEATURE_SAMPLES, w = f[0];
+        out->coverage[p] = kf > 0 ? (float)(w / kf) : 0.0f;
+        double inv = w > 0.0 ? 1.0 / w : 0.0;
+        out->depth[p] = w > 0.0 ? (float)(f[1] * inv) : INFINITY;
+        for (int a = 0; a < 3; a++) {
+            out->albedo[3 * p + (size_t)a] = (float)(f[2 + a] * inv);
+            out->normal[3 * p + (size_t)a] = (float)(f[5 + a] * inv);
+        }
+        out->density[p] = (float)(f[8] * inv);
+    }
+    return VOLUX_OK;
+}
+
+volux_status volux_framebuffer_denoise(const volux_framebuffer *fb, const volux_denoise_settings *settings,
+                                       volux_image *out) {
+    volux_image raw = {0};
+    volux_features f;
+    volux_status st = volux_framebuffer_resolve(fb, &raw);
+    if (st) return st;
+    if ((st = volux_framebuffer_resolve_features(fb, &f))) {
+        volux_image_free(fb->ctx, &raw);
+        return st;
+    }
+    st = volux_denoise(fb->ctx, &raw, &f, fb->spp, settings, out);
+    volux_features_free(fb->ctx, &f);
+    volux_image_free(fb->ctx, &raw);
+    return st;
 }
 
 static double luminance(const double *c) { return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]; }
@@ -204,6 +311,8 @@ static void render_one_tile(void *user, int64_t slot, int thread) {
     tile.wave = job->ctx->progress ? job : NULL;
     float rgb[VOLUX_TILE_SIZE * VOLUX_TILE_SIZE * 3];
     memset(rgb, 0, sizeof rgb);
+    float feat[VOLUX_TILE_SIZE * VOLUX_TILE_SIZE * VOLUX_FEATURE_FLOATS];
+    tile.features = fb->feat && job->sample_index < VOLUX_FEATURE_SAMPLES ? feat : NULL;
     volux_tile_stats *stats = &job->stats[slot];
     job->cls->render_tile(job->state, job->scene, &tile, rgb, stats);
     /* cancelled inside the tile (volux_tile_cancelled): its pass may be
@@ -228,6 +337,15 @@ static void render_one_tile(void *user, int64_t slot, int thread) {
             fb->sum[3 * p + 2] += c[2];
             fb->sum_sq[p] += lum * lum;
         }
+    if (tile.features && stats->features) {
+        for (int y = 0; y < tile.h; y++)
+            for (int x = 0; x < tile.w; x++) {
+                size_t p = (size_t)(tile.y0 + y) * (size_t)fb->width + (size_t)(tile.x0 + x);
+                for (int k = 0; k < VOLUX_FEATURE_FLOATS; k++)
+                    fb->feat[VOLUX_FEATURE_FLOATS * p + (size_t)k] += feat[VOLUX_FEATURE_FLOATS * (y * tile.w + x) + k];
+            }
+        __atomic_store_n(&fb->feat_written, 1, __ATOMIC_RELAXED);
+    }
     fb->tile_spp[index] = job->sample_index + 1;
     int done = __atomic_add_fetch(job->done_tiles, 1, __ATOMIC_RELAXED);
     /* Progress from whichever thread gets the flag; never concurrently. */
@@ -421,6 +539,7 @@ volux_status volux_render_tiles(volux_technique *t, const volux_scene *scene, vo
             size_t p = (size_t)y * (size_t)fb->width + (size_t)x0;
             memset(&fb->sum[3 * p], 0, 3 * (size_t)w * sizeof(double));
             memset(&fb->sum_sq[p], 0, (size_t)w * sizeof(double));
+            if (fb->feat) memset(&fb->feat[VOLUX_FEATURE_FLOATS * p], 0, VOLUX_FEATURE_FLOATS * (size_t)w * sizeof(double));
         }
         fb->tile_spp[i] = 0;
     }
@@ -471,6 +590,7 @@ static void render_part_tile(void *user, int64_t index, int thread) {
     tile.sample_index = job->sample_index;
     tile.deadline = NULL;
     tile.wave = NULL;
+    tile.features = NULL;
     float one[VOLUX_TILE_SIZE * VOLUX_TILE_SIZE * 4];
     job->cls->render_tile_part(job->state, job->scene, &tile, job->background, one, &job->stats[index]);
     for (int y = 0; y < tile.h; y++)

@@ -28,6 +28,11 @@ typedef struct volux_tile {
     volux_deadline *deadline; /* NULL: no time budget                       */
     void *wave;               /* the frame loop's wave (volux_tile_cancelled);
                                  NULL: never cancelled                       */
+    /* Non-NULL: the frame loop wants first-hit features too
+     * (volux_framebuffer_set_features): VOLUX_FEATURE_FLOATS per pixel at
+     * features[(y·w + x)·VOLUX_FEATURE_FLOATS] (render/features.h); a
+     * technique that writes them sets stats->features. */
+    float *features;
 } volux_tile;
 
 /* 1 once the render's time budget is spent. A technique whose per-pixel
@@ -51,6 +56,7 @@ int volux_tile_cancelled(const volux_tile *t);
 typedef struct volux_tile_stats {
     uint64_t samples;   /* volume samples taken (ray-march steps)            */
     uint64_t vertices;  /* path vertices (stochastic techniques)             */
+    uint64_t features;  /* pixels whose tile->features were written          */
 } volux_tile_stats;
 
 typedef struct volux_technique_class volux_technique_class;

@@ -21,8 +21,8 @@ void pt_accumulate(volux_technique *t, volux_scene *scene, int spp, pt_stats *ou
         for (int y0 = 0; y0 < h; y0 += VOLUX_TILE_SIZE)
             for (int x0 = 0; x0 < w; x0 += VOLUX_TILE_SIZE) {
                 volux_tile tile = {x0, y0, w - x0 < VOLUX_TILE_SIZE ? w - x0 : VOLUX_TILE_SIZE,
-                                   h - y0 < VOLUX_TILE_SIZE ? h - y0 : VOLUX_TILE_SIZE, (uint32_t)s, NULL, NULL};
-                volux_tile_stats ts = {0, 0};
+                                   h - y0 < VOLUX_TILE_SIZE ? h - y0 : VOLUX_TILE_SIZE, (uint32_t)s, NULL, NULL, NULL};
+                volux_tile_stats ts = {0, 0, 0};
                 memset(rgb, 0, sizeof rgb);
                 cls->render_tile(state, scene, &tile, rgb, &ts);
                 for (int y = 0; y < tile.h; y++)

@@ -2,6 +2,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
+#include <strings.h>
 
 #include "tools/mpi/distribute.h"
 #include "pareto_math.h"
@@ -15,6 +16,7 @@ static void usage(FILE *f) {
             "                    [--time-step N | --all-steps] [--set dotted.path=JSON-value]...\n"
             "                    [--dump-scene OUT.json] [--quiet] [--memory-limit SIZE]\n"
             "                    [--distribute image|data]   (under mpirun; image is the default there)\n"
+            "                    [--denoise] [--aov LIST]\n"
             "Renders until the scene's spp, time budget or target relative error is reached and\n"
             "writes the image (PNG tone-mapped with render.exposure; PFM/EXR linear).\n"
             "VOLUME (" VOLUX_VOLUME_EXTENSIONS ", or procedural:NAME[:N]) renders its quick-look\n"
@@ -40,7 +42,14 @@ static void usage(FILE *f) {
             "--distribute data (ea, shaded; a scene file with its own transfer function): rank r\n"
             "loads only brick r of the volume (a k-d split into N bricks, 2 ghost layers), renders it\n"
             "on the whole volume's sample lattice, and the bricks are composited front to back in\n"
-            "visibility order (docs/DISTRIBUTED.md; matches one process within 2e-3).\n");
+            "visibility order (docs/DISTRIBUTED.md; matches one process within 2e-3).\n"
+            "--denoise writes the image through the denoiser (volux/denoise.h: an edge-avoiding a-trous\n"
+            "filter guided by first-hit features and the per-pixel variance, blended back to the raw\n"
+            "accumulation as its error falls); an EXR keeps the raw accumulation as layer raw.R/G/B.\n"
+            "--aov LIST (EXR only) adds first-hit feature layers, comma-separated from: depth (Z),\n"
+            "albedo (albedo.R/G/B), normal (normal.X/Y/Z), coverage (A), density (density.Y),\n"
+            "variance (variance.Y: of each pixel mean's luminance), or all. Features come from\n"
+            "pathtrace and guided; other techniques write variance only (docs/techniques/pathtrace.md).\n");
 }
 
 static void format_error(double e, char *out, size_t n) {
@@ -64,11 +73,73 @@ static int step_path(const char *out, int has_pattern, int step, char *buf, size
     return w >= 0 && (size_t)w < n;
 }
 
+/* --aov names → bits. */
+enum { AOV_DEPTH = 1, AOV_ALBEDO = 2, AOV_NORMAL = 4, AOV_COVERAGE = 8, AOV_DENSITY = 16, AOV_VARIANCE = 32 };
+static const char *const aov_names[] = {"depth", "albedo", "normal", "coverage", "density", "variance", NULL};
+
+static int parse_aovs(const char *list, unsigned *bits) {
+    *bits = 0;
+    char buf[256];
+    if (!list || snprintf(buf, sizeof buf, "%s", list) >= (int)sizeof buf) return 0;
+    for (char *save = NULL, *t = strtok_r(buf, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
+        if (!strcmp(t, "all")) {
+            *bits |= 63u;
+            continue;
+        }
+        int k = 0;
+        while (aov_names[k] && strcmp(aov_names[k], t)) k++;
+        if (!aov_names[k]) {
+            const char *guess = volux_name_closest(t, (const char *const *)aov_names);
+            cli_eprintf("volux render: --aov: unknown layer '%s'%s%s%s (known: depth, albedo, normal, coverage, "
+                        "density, variance, all)\n",
+                        t, guess ? "; did you mean '" : "", guess ? guess : "", guess ? "'?" : "");
+            return 0;
+        }
+        *bits |= 1u << k;
+    }
+    return *bits != 0;
+}
+
+/* Writes img (denoised when `denoised`) with the layers asked for. */
+static volux_status save_output(volux_context *ctx, const char *out, const volux_image *img, const volux_image *raw,
+                                volux_framebuffer *fb, unsigned aovs, float exposure, const volux_image_meta *meta) {
+    volux_image_layer layers[8];
+    int n = 0;
+    volux_features f;
+    memset(&f, 0, sizeof f);
+    volux_status st = VOLUX_OK;
+    if (raw) layers[n++] = (volux_image_layer){"raw", 3, {"R", "G", "B", NULL}, raw->rgb};
+    if (aovs) {
+        if ((st = volux_framebuffer_resolve_features(fb, &f))) return st;
+        if (!f.depth && (aovs & ~(unsigned)AOV_VARIANCE))
+            cli_eprintf("volux render: note: the technique records no first-hit features (pathtrace and guided "
+                        "do); of the --aov layers only variance is written\n");
+        if (f.depth && (aovs & AOV_DEPTH)) layers[n++] = (volux_image_layer){NULL, 1, {"Z", NULL, NULL, NULL}, f.depth};
+        if (f.albedo && (aovs & AOV_ALBEDO))
+            layers[n++] = (volux_image_layer){"albedo", 3, {"R", "G", "B", NULL}, f.albedo};
+        if (f.normal && (aovs & AOV_NORMAL))
+            layers[n++] = (volux_image_layer){"normal", 3, {"X", "Y", "Z", NULL}, f.normal};
+        if (f.coverage && (aovs & AOV_COVERAGE))
+            layers[n++] = (volux_image_layer){NULL, 1, {"A", NULL, NULL, NULL}, f.coverage};
+        if (f.density && (aovs & AOV_DENSITY))
+            layers[n++] = (volux_image_layer){"density", 1, {"Y", NULL, NULL, NULL}, f.density};
+        if (aovs & AOV_VARIANCE) layers[n++] = (volux_image_layer){"variance", 1, {"Y", NULL, NULL, NULL}, f.variance};
+    }
+    /* A PNG or PFM gets the image alone (the layers need EXR; checked
+     * before the render). */
+    const char *dot = strrchr(out, '.');
+    int exr = dot && !strcasecmp(dot, ".exr");
+    st = volux_image_save_layers(ctx, out, img, exposure, meta, layers, exr ? n : 0);
+    volux_features_free(ctx, &f);
+    return st;
+}
+
 int cli_render(int argc, char **argv) {
     cli_scene_args args;
     memset(&args, 0, sizeof args);
     const char *out_path = NULL;
-    int all_steps = 0, one_step = 0;
+    int all_steps = 0, one_step = 0, denoise = 0;
+    unsigned aovs = 0;
     dist_mode distribute = DIST_NONE;
     dist_quiet_followers();
     for (int i = 1; i < argc; i++) {
@@ -96,6 +167,18 @@ int cli_render(int argc, char **argv) {
             all_steps = 1;
             continue;
         }
+        if (!strcmp(argv[i], "--denoise")) {
+            denoise = 1;
+            continue;
+        }
+        if (!strcmp(argv[i], "--aov")) {
+            if (++i >= argc) {
+                cli_eprintf("volux render: --aov needs a list (depth,albedo,normal,coverage,density,variance|all)\n");
+                return CLI_USAGE;
+            }
+            if (!parse_aovs(argv[i], &aovs)) return CLI_USAGE;
+            continue;
+        }
         if (!strcmp(argv[i], "--time-step")) one_step = 1;
         int r = cli_scene_arg("render", &args, argc, argv, &i);
         if (r < 0) return CLI_USAGE;
@@ -103,7 +186,8 @@ int cli_render(int argc, char **argv) {
             static const char *const options[] = {"--output", "--distribute", "--quiet", "--all-steps", "--help",
                                                   "--dump-scene", "--technique", "--spp", "--width", "--height",
                                                   "--threads", "--seed", "--step", "--exposure", "--time-ms",
-                                                  "--target-error", "--max-depth", "--time-step", "--set", NULL};
+                                                  "--target-error", "--max-depth", "--time-step", "--set", "--denoise",
+                                                  "--aov", NULL};
             const char *guess = volux_name_closest(argv[i], options);
             cli_eprintf("volux render: unknown option '%s'%s%s%s\n", argv[i], guess ? "; did you mean '" : "",
                         guess ? guess : "", guess ? "'?" : "");
@@ -120,6 +204,13 @@ int cli_render(int argc, char **argv) {
     if (all_steps && one_step) {
         cli_eprintf("volux render: give --time-step or --all-steps, not both\n");
         return CLI_USAGE;
+    }
+    if (aovs && out_path) {
+        const char *dot = strrchr(out_path, '.');
+        if (!dot || strcasecmp(dot, ".exr")) {
+            cli_eprintf("volux render: --aov %s: feature layers need an OpenEXR output (-o OUT.exr)\n", out_path);
+            return CLI_USAGE;
+        }
     }
     int pattern = out_path ? volux_sequence_pattern_conversions(out_path) : 0; /* 1: a numbered output */
     if (pattern < 0 || pattern > 1 || (pattern && !all_steps)) {
@@ -198,8 +289,13 @@ int cli_render(int argc, char **argv) {
          * is the final result, not the first frame of an interactive session. */
         for (int more = 1; !st && more;) st = volux_technique_refine(tech, scene, NULL, &more);
         double prepare_ms = cli_now_ms() - t0;
-        if (!st && !fb) st = volux_framebuffer_create(ctx, rs->width, rs->height, &fb);
-        else if (!st) volux_framebuffer_reset(fb);
+        if (!st && !fb) {
+            st = volux_framebuffer_create(ctx, rs->width, rs->height, &fb);
+            /* First-hit features guide the denoiser and are the AOVs. */
+            if (!st && (denoise || aovs)) st = volux_framebuffer_set_features(fb, 1);
+        } else if (!st) {
+            volux_framebuffer_reset(fb);
+        }
         if (st == VOLUX_ERR_CANCELLED && cli_interrupted()) {
             cli_eprintf("volux render: interrupted while preparing; nothing written\n");
             rc = 128 + cli_interrupted();
@@ -256,9 +352,17 @@ int cli_render(int argc, char **argv) {
                 if (volux_scene_time_steps(scene) > 1) volux_image_meta_set(&meta, "volux.time_step", v);
                 /* A second Ctrl-C while the file is written waits for the
                  * rename, so it never leaves a temporary file behind. */
+                volux_image shown = {0};
+                if (denoise) {
+                    volux_image_meta_set(&meta, "volux.denoised", "true");
+                    st = volux_framebuffer_denoise(fb, NULL, &shown);
+                }
                 cli_hold_interrupts(1);
-                st = volux_image_save_meta(ctx, out, &img, rs->exposure, &meta);
+                if (!st)
+                    st = save_output(ctx, out, denoise ? &shown : &img, denoise ? &img : NULL, fb, aovs,
+                                     rs->exposure, &meta);
                 cli_hold_interrupts(0);
+                volux_image_free(ctx, &shown);
             }
             volux_image_free(ctx, &img);
             rc = st ? cli_fail("render", ctx, st) : CLI_OK;

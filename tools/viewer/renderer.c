@@ -243,7 +243,23 @@ static volux_status ensure_fb(viewer *v, volux_framebuffer **fb, int w, int h) {
     if (*fb && volux_framebuffer_width(*fb) == w && volux_framebuffer_height(*fb) == h) return VOLUX_OK;
     volux_framebuffer_destroy(*fb);
     *fb = NULL;
-    return volux_framebuffer_create(v->ctx, w, h, fb);
+    volux_status st = volux_framebuffer_create(v->ctx, w, h, fb);
+    /* First-hit features guide the denoiser; without them (memory limit)
+     * it still filters by colour and variance. */
+    if (!st && !v->opt.no_denoise && volux_framebuffer_set_features(*fb, 1)) volux_context_clear_error(v->ctx);
+    return st;
+}
+
+/* The frame shown: for the progressive Monte-Carlo techniques (their
+ * 1–16 spp frames are noisy) denoised unless --no-denoise (volux/
+ * denoise.h: blended back to the raw accumulation as its error falls, so
+ * the final frame converges to the unbiased image); else the raw mean. */
+static volux_status resolve_shown(viewer *v, const volux_framebuffer *fb, volux_image *img) {
+    const char *name = v->tech ? volux_technique_info_of(v->tech)->name : "";
+    if (!v->opt.no_denoise &&
+        (!strcmp(name, "pathtrace") || !strcmp(name, "guided") || !strcmp(name, "manylights")))
+        return volux_framebuffer_denoise(fb, NULL, img);
+    return volux_framebuffer_resolve(fb, img);
 }
 
 static void preview_size(const viewer *v, int w, int h, int *pw, int *ph) {
@@ -551,7 +567,7 @@ static void do_preview_body(viewer *v, uint64_t version) {
         volux_render_limits one = {1, 0, 0};
         double t2 = viewer_now_ms();
         if (!st) st = volux_render(v->tech, scene, fb, &one, &rep);
-        if (!st) st = volux_framebuffer_resolve(fb, &img);
+        if (!st) st = resolve_shown(v, fb, &img);
         if (!st) learn_cost(v, full.technique, viewer_now_ms() - t2, first.width, first.height, step_scale);
         volux_scene_set_render(scene, &full); /* cannot fail: the settings were valid */
         pthread_mutex_lock(&v->frame_lock);
@@ -622,7 +638,7 @@ static void do_upgrade(viewer *v) {
     st = volux_render(v->tech, scene, v->fb_preview, &one, &rep);
     atomic_store(&v->cancellable, 0);
     double render_ms = viewer_now_ms() - t0;
-    if (!st) st = volux_framebuffer_resolve(v->fb_preview, &img);
+    if (!st) st = resolve_shown(v, v->fb_preview, &img);
     volux_scene_set_render(scene, &full);
     if (st == VOLUX_ERR_CANCELLED) { /* an edit came: its first frame is next */
         pthread_mutex_lock(&v->frame_lock);
@@ -707,7 +723,7 @@ static void do_refine(viewer *v) {
     if (!final && now - last_publish < PUBLISH_EVERY_MS) return;
     last_publish = now;
     volux_image img = {0};
-    if ((st = volux_framebuffer_resolve(v->fb_full, &img))) {
+    if ((st = resolve_shown(v, v->fb_full, &img))) {
         v->refined = 1;
         render_failed(v, "refinement", st);
         return;

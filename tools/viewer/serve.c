@@ -61,7 +61,7 @@ static void usage(FILE *f) {
             "usage: volux serve SCENE.json [--port P] [--bind ADDR] [--token T] [--data-root DIR]\n"
             "                   [--preview N] [--preview-budget MS] [--preview-step K] [--idle-ms MS]\n"
             "                   [--max-image N]\n"
-            "                   [--jpeg-quality Q] [--preview-png]\n"
+            "                   [--jpeg-quality Q] [--preview-png] [--no-denoise]\n"
             "                   [--max-connections N] [--timeout S] [--max-mb MB] [--quiet]\n"
             "                   [--technique T] [--spp N] [--width W] [--height H] [--threads N]\n"
             "                   [--set dotted.path=JSON-value]...\n"
@@ -79,6 +79,8 @@ static void usage(FILE *f) {
             "                     render.step (1..8, default 4; 1 = never); refinement and the final\n"
             "                     frame always use render.step\n"
             "  --idle-ms MS       quiet time before refinement starts (default 100)\n"
+            "  --no-denoise       show pathtrace, guided and manylights frames raw (by default they\n"
+            "                     are denoised, blended back to the raw image as samples accumulate)\n"
             "  --max-image N      largest render.width/height an edit may set (default 4096)\n"
             "  --port 0           any free port (the URL printed says which)\n");
 }
@@ -143,6 +145,10 @@ int cli_serve_named(int argc, char **argv, const char *display_name) {
         }
         if (!strcmp(a, "--quiet")) {
             o->quiet = 1;
+            continue;
+        }
+        if (!strcmp(a, "--no-denoise")) {
+            o->no_denoise = 1;
             continue;
         }
         if (!strcmp(a, "--preview-png")) {

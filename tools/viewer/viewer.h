@@ -119,6 +119,7 @@ typedef struct viewer_options {
     int max_image;         /* largest render.width/height an edit may set */
     int jpeg_quality;
     int preview_png;       /* 1: previews as PNG instead of JPEG         */
+    int no_denoise;        /* 1: show pathtrace/guided/manylights raw    */
     int max_connections;
     int timeout_s;         /* idle connection timeout (slow clients)    */
     int quiet;

@@ -46,6 +46,7 @@
 #include "core/vecmath.h"
 #include "guided.h"
 #include "render/direct.h"
+#include "render/features.h"
 #include "render/path.h"
 #include "sample/octahedral.h"
 #include "sample/phase.h"
@@ -295,6 +296,7 @@ void guided_render_tile(const void *state, const volux_scene *scene, const volux
                                                   &p.vertices, direct_hook, environment_escaped, NULL, &p);
             float *out = &rgb[3 * (y * tile->w + x)];
             out[0] = L.x, out[1] = L.y, out[2] = L.z;
+            volux_tile_features(&p.tr, &st->rc, tile, x, y, o, dir, stats); /* AOVs, when asked */
         }
     stats->samples += p.tr.samples;
     stats->vertices += p.vertices;

@@ -69,6 +69,7 @@
 #include "core/vecmath.h"
 #include "pathtrace.h"
 #include "render/direct.h"
+#include "render/features.h"
 #include "render/path.h"
 #include "sample/phase.h"
 #include "sample/tracking.h"
@@ -159,6 +160,7 @@ void volux_pathtrace_render_tile(const void *state, const volux_scene *scene, co
             volux_vec3 L = trace(&p, scene, o, d);
             float *out = &rgb[3 * (y * tile->w + x)];
             out[0] = L.x, out[1] = L.y, out[2] = L.z;
+            volux_tile_features(&p.tr, &st->rc, tile, x, y, o, d, stats); /* AOVs, when asked */
         }
     stats->samples += p.tr.samples;
     stats->vertices += p.vertices;
