@@ -171,13 +171,15 @@ static void test_sh_cut_face(void **state) {
     print_message("cut pot: sh rel_mse %.5f over %d lit px, mean ratio %.4f, roughness %.4f (pathtrace %.4f)\n",
                   se / sr, n, ma / mr, ra, rr);
     assert_true(n > 400);
-    /* measured: rel_mse 0.039, ratio 0.843, roughness 0.294 (pathtrace
-     * 0.273); with σt clamped into the box (before the fix): 0.088, 0.824,
-     * 0.399. The remaining darkness is the soil's missing in-scattering
-     * depth (the half-space model), not patches. */
+    /* measured: rel_mse 0.037, ratio 0.840, roughness 0.293 against the
+     * reference's 0.220 with its default Sobol sampler (1.33×; 0.273 with
+     * independent samples: the reference's own noise is part of its
+     * roughness); with σt clamped into the box (before the fix): 0.088,
+     * 0.824, 0.399 (1.81×). The remaining darkness is the soil's missing
+     * in-scattering depth (the half-space model), not patches. */
     assert_true(se / sr < 0.06);
     assert_true(ma / mr > 0.75 && ma / mr < 1.1);
-    assert_true(ra < 1.25 * rr);
+    assert_true(ra < 1.5 * rr);
     volux_image_free(ctx, &a);
     volux_image_free(ctx, &ref);
     volux_scene_destroy(s);

@@ -45,7 +45,7 @@ static const volux_param_info single_params[] = {
      "apart (laterally and in depth), each marched once through the whole volume, their optical depth read "
      "trilinearly at the cache nodes (bonsai 256^3: 16x less preparation at 1, 4x at 0.5); 0 = one shadow ray "
      "from every node (as before)"},
-    {"light_sweep", VOLUX_PARAM_NUMBER, 1, 0, 4, NULL,
+    {"light_sweep", VOLUX_PARAM_NUMBER, 0.5, 0, 4, NULL,
      "directional lights' transmittance caches from the same light-space sweep as env_sweep (parallel shadow "
      "rays this many cache cells apart); 0 = one shadow ray from every node (as before). Point, spot and "
      "sphere lights always use one ray per node"},
