@@ -155,17 +155,24 @@ static void slow_clients_stop(struct slow_clients *s) {
 
 /* ------------------------------------------------------------------ replies */
 
-static enum MHD_Result reply(struct MHD_Connection *c, unsigned code, const char *type, const void *data,
-                             size_t n, enum MHD_ResponseMemoryMode mode) {
+/* Every reply's headers; retry_after (seconds, may be NULL) for a 503. */
+static enum MHD_Result reply_retry(struct MHD_Connection *c, unsigned code, const char *type, const void *data,
+                                   size_t n, enum MHD_ResponseMemoryMode mode, const char *retry_after) {
     struct MHD_Response *r = MHD_create_response_from_buffer(n, (void *)data, mode);
     if (!r) return MHD_NO;
     MHD_add_response_header(r, "Content-Type", type);
     MHD_add_response_header(r, "Cache-Control", "no-store");
     MHD_add_response_header(r, "X-Content-Type-Options", "nosniff");
     MHD_add_response_header(r, "Referrer-Policy", "no-referrer");
+    if (retry_after) MHD_add_response_header(r, "Retry-After", retry_after);
     enum MHD_Result ok = MHD_queue_response(c, code, r);
     MHD_destroy_response(r);
     return ok;
+}
+
+static enum MHD_Result reply(struct MHD_Connection *c, unsigned code, const char *type, const void *data,
+                             size_t n, enum MHD_ResponseMemoryMode mode) {
+    return reply_retry(c, code, type, data, n, mode, NULL);
 }
 
 static enum MHD_Result reply_json(struct MHD_Connection *c, unsigned code, char *json /* malloc'ed, taken */) {
@@ -460,19 +467,10 @@ static enum MHD_Result reply_busy(viewer *v, struct MHD_Connection *c) {
     cJSON_AddStringToObject(o, "status", "busy");
     char *text = cJSON_PrintUnformatted(o);
     cJSON_Delete(o);
-    char *copy = text ? strdup(text) : NULL;
+    if (!text) return MHD_NO;
+    enum MHD_Result ok =
+        reply_retry(c, 503, "application/json", text, strlen(text), MHD_RESPMEM_MUST_COPY, RETRY_AFTER_S);
     cJSON_free(text);
-    if (!copy) return MHD_NO;
-    struct MHD_Response *r = MHD_create_response_from_buffer(strlen(copy), copy, MHD_RESPMEM_MUST_FREE);
-    if (!r) {
-        free(copy);
-        return MHD_NO;
-    }
-    MHD_add_response_header(r, "Content-Type", "application/json");
-    MHD_add_response_header(r, "Cache-Control", "no-store");
-    MHD_add_response_header(r, "Retry-After", RETRY_AFTER_S);
-    enum MHD_Result ok = MHD_queue_response(c, 503, r);
-    MHD_destroy_response(r);
     return ok;
 }
 
