@@ -11,7 +11,8 @@
  *       with rel_mse of the raw and the denoised image, and the denoise ms.
  *   bench_denoise SCENE.json --time SIZE [--threads N] [--repeat R]
  *       Renders SIZE² at 4 spp and times volux_framebuffer_denoise R times
- *       (median wall ms, and CPU ms).
+ *       with the CPU's kernel and with the baseline one (`portable`),
+ *       interleaved (median wall ms, and CPU ms, of each).
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -96,20 +97,28 @@ int main(int argc, char **argv) {
             volux_framebuffer_create(ctx, time_size, time_size, &fb) || volux_framebuffer_set_features(fb, 1) ||
             volux_render(tech, scene, fb, &lim, NULL))
             return die(ctx, "render");
-        double ms[99], cpu[99];
-        for (int r = 0; r < repeat; r++) {
-            volux_image img = {0};
-            double t0 = clock_ms(CLOCK_MONOTONIC), c0 = clock_ms(CLOCK_PROCESS_CPUTIME_ID);
-            if (volux_framebuffer_denoise(fb, &ds, &img)) return die(ctx, "denoise");
-            ms[r] = clock_ms(CLOCK_MONOTONIC) - t0;
-            cpu[r] = clock_ms(CLOCK_PROCESS_CPUTIME_ID) - c0;
-            volux_image_free(ctx, &img);
+        /* The CPU's kernel and the baseline one, interleaved per repeat
+         * (a shared machine's load hits both alike). */
+        double ms[2][99], cpu[2][99];
+        for (int r = 0; r < repeat; r++)
+            for (int k = 0; k < 2; k++) {
+                volux_denoise_settings dk = ds;
+                dk.portable = k;
+                volux_image img = {0};
+                double t0 = clock_ms(CLOCK_MONOTONIC), c0 = clock_ms(CLOCK_PROCESS_CPUTIME_ID);
+                if (volux_framebuffer_denoise(fb, &dk, &img)) return die(ctx, "denoise");
+                ms[k][r] = clock_ms(CLOCK_MONOTONIC) - t0;
+                cpu[k][r] = clock_ms(CLOCK_PROCESS_CPUTIME_ID) - c0;
+                volux_image_free(ctx, &img);
+            }
+        for (int k = 0; k < 2; k++) {
+            qsort(ms[k], (size_t)repeat, sizeof(double), cmp_double);
+            qsort(cpu[k], (size_t)repeat, sizeof(double), cmp_double);
+            printf("{\"bench\":\"denoise_time\",\"kernel\":\"%s\",\"size\":%d,\"threads\":%d,\"features\":%d,"
+                   "\"median_ms\":%.2f,\"min_ms\":%.2f,\"median_cpu_ms\":%.2f}\n",
+                   k ? "portable" : "cpu", time_size, threads, volux_framebuffer_has_features(fb), ms[k][repeat / 2],
+                   ms[k][0], cpu[k][repeat / 2]);
         }
-        qsort(ms, (size_t)repeat, sizeof *ms, cmp_double);
-        qsort(cpu, (size_t)repeat, sizeof *cpu, cmp_double);
-        printf("{\"bench\":\"denoise_time\",\"size\":%d,\"threads\":%d,\"features\":%d,\"median_ms\":%.2f,"
-               "\"min_ms\":%.2f,\"median_cpu_ms\":%.2f}\n",
-               time_size, threads, volux_framebuffer_has_features(fb), ms[repeat / 2], ms[0], cpu[repeat / 2]);
     } else {
         /* The reference: another seed, many samples. */
         volux_image ref = {0};

@@ -15,8 +15,9 @@ import os
 import shutil
 import sys
 
-ORDER = ["ea", "shaded", "single", "ao", "ambient", "lightvol", "sh", "manylights", "guided"]
-COLORS = {"ea": "#7f7f7f", "shaded": "#bcbd22", "single": "#1f77b4", "ao": "#17becf", "ambient": "#2ca02c",
+ORDER = ["ea", "shaded", "single", "ao", "ambient", "lightvol", "sh", "manylights", "guided", "pathtrace+denoise",
+         "guided+denoise"]
+COLORS = {"pathtrace+denoise": "#e377c2", "guided+denoise": "#393b79", "ea": "#7f7f7f", "shaded": "#bcbd22", "single": "#1f77b4", "ao": "#17becf", "ambient": "#2ca02c",
           "lightvol": "#9467bd", "sh": "#d62728", "manylights": "#ff7f0e", "guided": "#8c564b"}
 TARGET = 4.0
 
@@ -257,7 +258,8 @@ def auto_table(groups, path, commit):
     # guided is left out: an unbiased pathtrace with a sweep, its passes
     # measured as pathtrace's (identical under a key light), so its row
     # would only tie with pathtrace's and win or lose on timing noise.
-    for t in ["pathtrace"] + [t for t in ORDER if t != "guided"]:
+    # T+denoise rows are not techniques `auto` can name.
+    for t in ["pathtrace"] + [t for t in ORDER if t != "guided" and "+" not in t]:
         d = per.get(t)
         if not d or not d["err"] or not d["pass"]:
             continue

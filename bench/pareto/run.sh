@@ -9,7 +9,8 @@
 #
 # Parameters (environment): SIZE=128 REF_SPP=1024 SERIES_SPP=64 TECH_SPP=16
 # SCENES="bonsai engine aneurism" LIGHTS="key env" TECHNIQUES=(bench's
-# default: ea shaded single ao ambient lightvol sh manylights guided)
+# default: ea shaded single ao ambient lightvol sh manylights guided
+# pathtrace+denoise)
 # TIMEOUT=3600 (seconds per scene and lighting) MAX_DEPTH=64.
 # References are kept in OUTDIR/refs and reused (delete them after changing
 # SIZE/REF_SPP or the scenes). Writes OUTDIR/pareto.jsonl (bench --json

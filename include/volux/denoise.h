@@ -45,6 +45,8 @@ typedef struct volux_denoise_settings {
      * 1024-spp reference; docs/techniques/pathtrace.md, "Denoising".) */
     int no_blend;        /* 1: the filtered image as it is (for studies)     */
     int threads;         /* 0 = the context's                                */
+    int portable;        /* 1: the baseline x86-64 kernel even where AVX2
+                            runs (the same bits; for tests and timing)      */
 } volux_denoise_settings;
 
 /* Denoises `color` (the per-pixel mean) into *out (allocated by the call;

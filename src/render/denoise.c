@@ -37,6 +37,7 @@
 
 #include "core/context_internal.h"
 #include "core/parallel.h"
+#include "core/simd.h"
 #include "volux/denoise.h"
 
 #define GUIDES 8 /* coverage, depth, albedo ×3, normal ×3 (scaled by 1/σ) */
@@ -44,6 +45,8 @@
 
 /* Everything in planes (one float per pixel per quantity), so the tap
  * loops run along a row over contiguous memory and vectorise. */
+struct dn_tap;
+
 typedef struct dn_job {
     int w, h, levels, spatial, blend;
     float sigma_l;
@@ -58,6 +61,7 @@ typedef struct dn_job {
     float *bias;          /* max(0, Δl² − vb0) per pixel                  */
     float *scratch;       /* SCRATCH·w per thread                         */
     float *out;           /* 3 per pixel, interleaved                     */
+    void (*tap)(const struct dn_tap *, int, int); /* the CPU's tap kernel */
 } dn_job;
 
 /* exp(x) for x ≤ 0 within 2e-3 relative (weights need no more): 2^k by the
@@ -148,6 +152,96 @@ static void blur_row(const dn_job *j, const float *v, int y, float *out) {
     }
 }
 
+/* One tap of an à-trous level along a row: the pixels p of the row and
+ * their neighbours q (pointers already offset by the tap). */
+typedef struct dn_tap {
+    const float *p[GUIDES], *hp, *lp, *inv;        /* this row             */
+    const float *g[GUIDES], *hq, *q0, *q1, *q2, *qv; /* the neighbours      */
+    float *sw, *sv, *s0, *s1, *s2;                  /* the sums (distinct)  */
+    float hw;                                       /* the tap's weight     */
+} dn_tap;
+
+/* Pixels xs … xe−1 of one tap, one at a time. Every kernel computes each
+ * pixel with exactly these operations in this order (no FMA), so all give
+ * the same bits. */
+static inline __attribute__((always_inline)) void tap_pixels(const dn_tap *t, int xs, int xe) {
+    const float *restrict p0 = t->p[0], *restrict p1 = t->p[1], *restrict p2 = t->p[2], *restrict p3 = t->p[3],
+                          *restrict p4 = t->p[4], *restrict p5 = t->p[5], *restrict p6 = t->p[6],
+                          *restrict p7 = t->p[7], *restrict hp = t->hp, *restrict lp = t->lp,
+                          *restrict inv = t->inv;
+    const float *restrict g0 = t->g[0], *restrict g1 = t->g[1], *restrict g2 = t->g[2], *restrict g3 = t->g[3],
+                          *restrict g4 = t->g[4], *restrict g5 = t->g[5], *restrict g6 = t->g[6],
+                          *restrict g7 = t->g[7], *restrict hq = t->hq, *restrict q0 = t->q0,
+                          *restrict q1 = t->q1, *restrict q2 = t->q2, *restrict qv = t->qv;
+    float *restrict sw = t->sw, *restrict sv = t->sv, *restrict s0 = t->s0, *restrict s1 = t->s1,
+                    *restrict s2 = t->s2;
+    float hw = t->hw;
+    /* the sums are distinct scratch rows (GCC's alias versioning gives up
+     * on this many streams) */
+#pragma GCC ivdep
+    for (int x = xs; x < xe; x++) {
+        float lq = 0.2126f * q0[x] + 0.7152f * q1[x] + 0.0722f * q2[x];
+        float e0 = p0[x] - g0[x], e1 = p1[x] - g1[x], e2 = p2[x] - g2[x], e3 = p3[x] - g3[x], e4 = p4[x] - g4[x],
+              e5 = p5[x] - g5[x], e6 = p6[x] - g6[x], e7 = p7[x] - g7[x];
+        float dg = e1 * e1 + e2 * e2 + e3 * e3 + e4 * e4 + e5 * e5 + e6 * e6 + e7 * e7;
+        float hm = hp[x] - hq[x];
+        /* the guide distance: coverage always; depth, albedo, normal where
+         * both rays can collide; +16 where only one can (an edge) */
+        float e = fabsf(lp[x] - lq) * inv[x] + e0 * e0 + hp[x] * hq[x] * dg + 16.0f * hm * hm;
+        float wq = hw * exp_neg(-e);
+        sw[x] += wq;
+        sv[x] += wq * wq * qv[x];
+        s0[x] += wq * q0[x], s1[x] += wq * q1[x], s2[x] += wq * q2[x];
+    }
+}
+
+/* Baseline x86-64: GCC vectorises tap_pixels with SSE2 here (4 lanes). */
+static void tap_portable(const dn_tap *t, int xs, int xe) { tap_pixels(t, xs, xe); }
+
+#if VOLUX_X86_GNUC
+/* Eight lanes by hand: GCC 12 does not vectorise the loop for AVX2 ("no
+ * vectype"). The same operations as tap_pixels, lane by lane. */
+__attribute__((target("avx2"))) static void tap_avx2(const dn_tap *t, int xs, int xe) {
+    const __m256 cr = _mm256_set1_ps(0.2126f), cg = _mm256_set1_ps(0.7152f), cb = _mm256_set1_ps(0.0722f);
+    const __m256 sign = _mm256_set1_ps(-0.0f), sixteen = _mm256_set1_ps(16.0f), hw = _mm256_set1_ps(t->hw);
+    const __m256 log2e = _mm256_set1_ps(1.44269504f), lo = _mm256_set1_ps(-126.0f), one = _mm256_set1_ps(1.0f);
+    const __m256 k1 = _mm256_set1_ps(0.6958160f), k2 = _mm256_set1_ps(0.2260238f), k3 = _mm256_set1_ps(0.0781026f);
+    int x = xs;
+    for (; x + 8 <= xe; x += 8) {
+        __m256 q0 = _mm256_loadu_ps(t->q0 + x), q1 = _mm256_loadu_ps(t->q1 + x), q2 = _mm256_loadu_ps(t->q2 + x);
+        __m256 lq = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(cr, q0), _mm256_mul_ps(cg, q1)), _mm256_mul_ps(cb, q2));
+        __m256 e0 = _mm256_sub_ps(_mm256_loadu_ps(t->p[0] + x), _mm256_loadu_ps(t->g[0] + x)), dg = _mm256_setzero_ps();
+        for (int k = 1; k < GUIDES; k++) {
+            __m256 ek = _mm256_sub_ps(_mm256_loadu_ps(t->p[k] + x), _mm256_loadu_ps(t->g[k] + x));
+            dg = k == 1 ? _mm256_mul_ps(ek, ek) : _mm256_add_ps(dg, _mm256_mul_ps(ek, ek));
+        }
+        __m256 hp = _mm256_loadu_ps(t->hp + x), hq = _mm256_loadu_ps(t->hq + x), hm = _mm256_sub_ps(hp, hq);
+        __m256 dl = _mm256_andnot_ps(sign, _mm256_sub_ps(_mm256_loadu_ps(t->lp + x), lq));
+        __m256 e = _mm256_add_ps(_mm256_mul_ps(dl, _mm256_loadu_ps(t->inv + x)), _mm256_mul_ps(e0, e0));
+        e = _mm256_add_ps(e, _mm256_mul_ps(_mm256_mul_ps(hp, hq), dg));
+        e = _mm256_add_ps(e, _mm256_mul_ps(_mm256_mul_ps(sixteen, hm), hm));
+        /* exp_neg(−e), step by step */
+        __m256 y = _mm256_mul_ps(_mm256_xor_ps(e, sign), log2e);
+        y = _mm256_blendv_ps(y, lo, _mm256_cmp_ps(y, lo, _CMP_LT_OQ));
+        __m256i k = _mm256_cvttps_epi32(y);
+        k = _mm256_add_epi32(k, _mm256_castps_si256(_mm256_cmp_ps(_mm256_cvtepi32_ps(k), y, _CMP_GT_OQ)));
+        __m256 f = _mm256_sub_ps(y, _mm256_cvtepi32_ps(k));
+        __m256 poly = _mm256_add_ps(k2, _mm256_mul_ps(f, k3));
+        poly = _mm256_add_ps(k1, _mm256_mul_ps(f, poly));
+        poly = _mm256_add_ps(one, _mm256_mul_ps(f, poly));
+        __m256 two_k = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_add_epi32(k, _mm256_set1_epi32(127)), 23));
+        __m256 wq = _mm256_mul_ps(hw, _mm256_mul_ps(poly, two_k));
+        _mm256_storeu_ps(t->sw + x, _mm256_add_ps(_mm256_loadu_ps(t->sw + x), wq));
+        __m256 vq = _mm256_mul_ps(_mm256_mul_ps(wq, wq), _mm256_loadu_ps(t->qv + x));
+        _mm256_storeu_ps(t->sv + x, _mm256_add_ps(_mm256_loadu_ps(t->sv + x), vq));
+        _mm256_storeu_ps(t->s0 + x, _mm256_add_ps(_mm256_loadu_ps(t->s0 + x), _mm256_mul_ps(wq, q0)));
+        _mm256_storeu_ps(t->s1 + x, _mm256_add_ps(_mm256_loadu_ps(t->s1 + x), _mm256_mul_ps(wq, q1)));
+        _mm256_storeu_ps(t->s2 + x, _mm256_add_ps(_mm256_loadu_ps(t->s2 + x), _mm256_mul_ps(wq, q2)));
+    }
+    tap_pixels(t, x, xe);
+}
+#endif
+
 /* À-trous level `level`, row y: col/var[level & 1] → [(level + 1) & 1].
  * 3×3 taps of (1, 2, 1)/4 per axis, 2^level apart: the B3 spline's 5×5
  * of Dammertz et al. costs 25/9 as much for a footprint that, over five
@@ -156,9 +250,10 @@ static void atrous_row(dn_job *j, int level, int y, float *sc) {
     static const float hk[3] = {0.25f, 0.5f, 0.25f};
     int w = j->w, step = 1 << level, in = level & 1, ou = (level + 1) & 1;
     size_t row = (size_t)y * (size_t)w;
-    float *restrict lp = sc, *restrict inv = sc + w, *restrict sw = sc + 2 * w, *restrict sv = sc + 3 * w,
-          *restrict s0 = sc + 4 * w, *restrict s1 = sc + 5 * w, *restrict s2 = sc + 6 * w;
+    float *lp = sc, *inv = sc + w;
     const float *c0 = j->col[in][0], *c1 = j->col[in][1], *c2 = j->col[in][2], *vin = j->var[in];
+    dn_tap t = {.hp = j->hit + row, .lp = lp, .inv = inv, .sw = sc + 2 * w, .sv = sc + 3 * w,
+                .s0 = sc + 4 * w, .s1 = sc + 5 * w, .s2 = sc + 6 * w};
     blur_row(j, vin, y, inv);
     for (int x = 0; x < w; x++) {
         size_t p = row + (size_t)x;
@@ -167,51 +262,28 @@ static void atrous_row(dn_job *j, int level, int y, float *sc) {
          * pixels (background) from dividing by zero while still stopping
          * at any visible difference. */
         inv[x] = 1.0f / (j->sigma_l * sqrtf(inv[x]) + 1e-4f * fabsf(lp[x]) + 1e-12f);
-        sw[x] = sv[x] = s0[x] = s1[x] = s2[x] = 0.0f;
+        t.sw[x] = t.sv[x] = t.s0[x] = t.s1[x] = t.s2[x] = 0.0f;
     }
-    const float *restrict p0 = j->guide[0] + row, *restrict p1 = j->guide[1] + row, *restrict p2 = j->guide[2] + row,
-                          *restrict p3 = j->guide[3] + row, *restrict p4 = j->guide[4] + row,
-                          *restrict p5 = j->guide[5] + row, *restrict p6 = j->guide[6] + row,
-                          *restrict p7 = j->guide[7] + row, *restrict hp = j->hit + row;
+    for (int k = 0; k < GUIDES; k++) t.p[k] = j->guide[k] + row;
     for (int dy = -1; dy <= 1; dy++) {
         int yy = y + dy * step;
         if (yy < 0 || yy >= j->h) continue;
         for (int dx = -1; dx <= 1; dx++) {
             int ox = dx * step, xs, xe;
             tap_span(w, ox, &xs, &xe);
-            float hw = hk[dx + 1] * hk[dy + 1];
             size_t q = (size_t)yy * (size_t)w + (size_t)(ptrdiff_t)ox;
-            const float *restrict q0 = c0 + q, *restrict q1 = c1 + q, *restrict q2 = c2 + q, *restrict qv = vin + q;
-            const float *restrict g0 = j->guide[0] + q, *restrict g1 = j->guide[1] + q, *restrict g2 = j->guide[2] + q,
-                                  *restrict g3 = j->guide[3] + q, *restrict g4 = j->guide[4] + q,
-                                  *restrict g5 = j->guide[5] + q, *restrict g6 = j->guide[6] + q,
-                                  *restrict g7 = j->guide[7] + q, *restrict hq = j->hit + q;
-            /* the accumulators are distinct scratch rows (GCC's alias
-             * versioning gives up on this many streams) */
-#pragma GCC ivdep
-            for (int x = xs; x < xe; x++) {
-                float lq = 0.2126f * q0[x] + 0.7152f * q1[x] + 0.0722f * q2[x];
-                float e0 = p0[x] - g0[x], e1 = p1[x] - g1[x], e2 = p2[x] - g2[x], e3 = p3[x] - g3[x],
-                      e4 = p4[x] - g4[x], e5 = p5[x] - g5[x], e6 = p6[x] - g6[x], e7 = p7[x] - g7[x];
-                float dg = e1 * e1 + e2 * e2 + e3 * e3 + e4 * e4 + e5 * e5 + e6 * e6 + e7 * e7;
-                float hm = hp[x] - hq[x];
-                /* the guide distance: coverage always; depth, albedo,
-                 * normal where both rays can collide; +16 where only one
-                 * can (an edge) */
-                float e = fabsf(lp[x] - lq) * inv[x] + e0 * e0 + hp[x] * hq[x] * dg + 16.0f * hm * hm;
-                float wq = hw * exp_neg(-e);
-                sw[x] += wq;
-                sv[x] += wq * wq * qv[x];
-                s0[x] += wq * q0[x], s1[x] += wq * q1[x], s2[x] += wq * q2[x];
-            }
+            t.hw = hk[dx + 1] * hk[dy + 1];
+            t.q0 = c0 + q, t.q1 = c1 + q, t.q2 = c2 + q, t.qv = vin + q, t.hq = j->hit + q;
+            for (int k = 0; k < GUIDES; k++) t.g[k] = j->guide[k] + q;
+            j->tap(&t, xs, xe);
         }
     }
     float *o0 = j->col[ou][0] + row, *o1 = j->col[ou][1] + row, *o2 = j->col[ou][2] + row, *ov = j->var[ou] + row;
     for (int x = 0; x < w; x++) {
         /* sw ≥ 1/4 · exp(0): the centre tap is always in. */
-        float r = 1.0f / sw[x];
-        o0[x] = s0[x] * r, o1[x] = s1[x] * r, o2[x] = s2[x] * r;
-        ov[x] = sv[x] * r * r;
+        float r = 1.0f / t.sw[x];
+        o0[x] = t.s0[x] * r, o1[x] = t.s1[x] * r, o2[x] = t.s2[x] * r;
+        ov[x] = t.sv[x] * r * r;
     }
 }
 
@@ -319,6 +391,10 @@ volux_status volux_denoise(volux_context *ctx, const volux_image *color, const v
     memset(&j, 0, sizeof j);
     j.w = w, j.h = h, j.levels = s.levels, j.spatial = spp < 4, j.sigma_l = s.sigma_color, j.blend = !s.no_blend;
     j.var_in = guide->variance;
+    j.tap = tap_portable;
+#if VOLUX_X86_GNUC
+    if (!s.portable && volux_cpu_has_avx2()) j.tap = tap_avx2;
+#endif
     j.out = out->rgb;
     /* One block: 3 raw + 8 guides + hit + 6 colour + 2 variance + var0,
      * vb0, bias = 23 planes, then the threads' scratch rows. */

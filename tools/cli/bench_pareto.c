@@ -82,7 +82,11 @@ static double clock_now_ms(void) {
 /* The model a technique's own error is measured against: 1 = single
  * scattering, 0 = all orders (issue 26). */
 static int own_single(const char *t) {
-    return !strcmp(t, "single") || !strcmp(t, "ao") || !strcmp(t, "lightvol") || !strcmp(t, "sh");
+    static const char *const single[] = {"single", "ao", "lightvol", "sh"};
+    size_t len = strcspn(t, "+"); /* T+denoise models what T does */
+    for (size_t i = 0; i < sizeof single / sizeof single[0]; i++)
+        if (strlen(single[i]) == len && !strncmp(t, single[i], len)) return 1;
+    return 0;
 }
 
 /* The scene with the given technique, depth, spp and seed (the rest as loaded). */
@@ -111,15 +115,19 @@ static volux_status prepare(volux_context *ctx, volux_scene *scene, const char *
 /* Renders up to `spp` (cumulative in fb), adds the render time to *ms and
  * returns the relative MSE against ref (and against ref2 if given). */
 static volux_status render_to(volux_context *ctx, volux_technique *t, volux_scene *scene, volux_framebuffer *fb,
-                              uint32_t spp, double *ms, const volux_image *ref, double *e, const volux_image *ref2,
-                              double *e2, volux_image *keep) {
+                              uint32_t spp, int denoise, double *ms, const volux_image *ref, double *e,
+                              const volux_image *ref2, double *e2, volux_image *keep) {
     volux_render_limits lim = {spp, 0.0, 0.0};
     volux_render_report rep;
     volux_status st = volux_render(t, scene, fb, &lim, &rep);
     if (st) return st;
     *ms += use_cpu_clock ? rep.cpu_ms : rep.ms;
     volux_image img = {0};
-    if ((st = volux_framebuffer_resolve(fb, &img))) return st;
+    /* A denoised point pays for its filter (on the same clock). */
+    double t0 = clock_now_ms();
+    st = denoise ? volux_framebuffer_denoise(fb, NULL, &img) : volux_framebuffer_resolve(fb, &img);
+    if (denoise) *ms += clock_now_ms() - t0;
+    if (st) return st;
     volux_image_error err;
     if (ref && !(st = volux_image_compare(ctx, &img, ref, &err))) *e = err.rel_mse;
     if (!st && ref2 && !(st = volux_image_compare(ctx, &img, ref2, &err))) *e2 = err.rel_mse;
@@ -145,7 +153,7 @@ static volux_status reference(volux_context *ctx, volux_scene *scene, const volu
     double prep = 0.0, ms = 0.0;
     if (!st) st = prepare(ctx, scene, "pathtrace", &t, &prep);
     if (!st) st = volux_framebuffer_create(ctx, base->width, base->height, &fb);
-    if (!st) st = render_to(ctx, t, scene, fb, (uint32_t)p->ref_spp, &ms, NULL, NULL, NULL, NULL, out);
+    if (!st) st = render_to(ctx, t, scene, fb, (uint32_t)p->ref_spp, 0, &ms, NULL, NULL, NULL, NULL, out);
     if (!st) {
         char extra[64];
         snprintf(extra, sizeof extra, "\"max_depth\":%d,\"spp\":%d", depth, p->ref_spp);
@@ -176,7 +184,7 @@ static volux_status series(volux_context *ctx, volux_scene *scene, const volux_r
     double ms = s->prepare_ms;
     for (uint32_t spp = 1; !st && spp <= (uint32_t)p->series_spp && s->n < MAX_SERIES; spp *= 2) {
         double e = 0.0;
-        st = render_to(ctx, t, scene, fb, spp, &ms, ref, &e, NULL, NULL, NULL);
+        st = render_to(ctx, t, scene, fb, spp, 0, &ms, ref, &e, NULL, NULL, NULL);
         if (st) break;
         s->p[s->n++] = (pareto_point){spp, ms, e};
         char extra[128];
@@ -195,8 +203,14 @@ static volux_status series(volux_context *ctx, volux_scene *scene, const volux_r
 
 /* One technique's points, emitted; its best (largest S) as the headline. */
 static volux_status measure(volux_context *ctx, volux_scene *scene, const volux_render_settings *base,
-                            const pareto_opts *p, const pareto_out *o, const char *name, const volux_image *ref1,
+                            const pareto_opts *p, const pareto_out *o, const char *row, const volux_image *ref1,
                             const volux_image *reff, const pareto_series *s1, const pareto_series *sf) {
+    /* "T+denoise": technique T with its frames denoised (first-hit
+     * features on, the filter's time counted). */
+    char name[32];
+    size_t len = strcspn(row, "+");
+    snprintf(name, sizeof name, "%.*s", (int)len, row);
+    int denoise = row[len] == '+';
     const volux_technique_info *info = volux_technique_info_find(name);
     int single = own_single(name);
     const volux_image *own = single ? ref1 : reff;
@@ -208,15 +222,16 @@ static volux_status measure(volux_context *ctx, volux_scene *scene, const volux_
     double prep = 0.0;
     if (!st) st = prepare(ctx, scene, name, &t, &prep);
     if (!st) st = volux_framebuffer_create(ctx, base->width, base->height, &fb);
+    if (!st && denoise) st = volux_framebuffer_set_features(fb, 1);
     if (st) goto out;
-    emit(o, name, "prepare_ms", prep, use_cpu_clock ? "cpu_ms" : "ms", NULL);
+    emit(o, row, "prepare_ms", prep, use_cpu_clock ? "cpu_ms" : "ms", NULL);
     double ms = prep, best = -2.0, best_full = -1.0, best_frame = -1.0, best_own = 0.0, best_e_full = 0.0,
            best_ms = 0.0;
     uint32_t best_spp = 0;
     for (uint32_t spp = 1; spp <= (uint32_t)max_spp; spp *= 2) {
         double e_own = 0.0, e_full = 0.0;
-        if ((st = render_to(ctx, t, scene, fb, spp, &ms, own, &e_own, reff, &e_full, NULL))) break;
-        if (spp == 1) emit(o, name, "first_image_ms", ms - prep, use_cpu_clock ? "cpu_ms" : "ms", NULL);
+        if ((st = render_to(ctx, t, scene, fb, spp, denoise, &ms, own, &e_own, reff, &e_full, NULL))) break;
+        if (spp == 1) emit(o, row, "first_image_ms", ms - prep, use_cpu_clock ? "cpu_ms" : "ms", NULL);
         int where = 0, where_full = 0, where_frame = 0;
         double S = pareto_speedup(so->p, so->n, so->prepare_ms, e_own, ms, &where);
         /* Per frame, once both are prepared (a camera orbit): render times
@@ -232,7 +247,7 @@ static volux_status measure(volux_context *ctx, volux_scene *scene, const volux_
                  "\"pathtrace_ms\":%.3f,\"where\":%d,\"speedup_full\":%.6g,\"speedup_frame\":%.6g",
                  spp, ms, e_own, e_full, single ? 1 : base->max_depth, S > 0 ? S * ms : -1.0, where, S_full,
                  S_frame);
-        emit(o, name, "pareto_point", S, "x", extra);
+        emit(o, row, "pareto_point", S, "x", extra);
         if (S > best) {
             best = S;
             best_full = S_full;
@@ -246,11 +261,11 @@ static volux_status measure(volux_context *ctx, volux_scene *scene, const volux_
     if (!st && best_spp) {
         char extra[96];
         snprintf(extra, sizeof extra, "\"spp\":%u,\"ms\":%.3f", best_spp, best_ms);
-        emit(o, name, "pareto_speedup", best, "x", extra);
-        emit(o, name, "pareto_speedup_full", best_full, "x", extra);
-        emit(o, name, "pareto_speedup_frame", best_frame, "x", extra);
-        emit(o, name, "rel_mse_own", best_own, "", extra);
-        emit(o, name, "rel_mse_full", best_e_full, "", extra);
+        emit(o, row, "pareto_speedup", best, "x", extra);
+        emit(o, row, "pareto_speedup_full", best_full, "x", extra);
+        emit(o, row, "pareto_speedup_frame", best_frame, "x", extra);
+        emit(o, row, "rel_mse_own", best_own, "", extra);
+        emit(o, row, "rel_mse_full", best_e_full, "", extra);
     }
 out:
     volux_framebuffer_destroy(fb);
@@ -265,15 +280,17 @@ static void usage(FILE *f) {
                "The error-time plane (issue 26, docs/CHOOSING.md): pathtrace references (single\n"
                "scattering and all orders, --ref-spp, default 1024), pathtrace's convergence series\n"
                "(spp 1, 2, 4, ... --series-spp, default 64), and per technique (default: ea shaded\n"
-               "single ao ambient lightvol sh manylights guided) its prepare + first-image time, its\n"
-               "error against its own model and the full one, and the equal-error speed-up S.\n"
+               "single ao ambient lightvol sh manylights guided pathtrace+denoise) its prepare and\n"
+               "first-image time, its error against its own model and the full one, and the\n"
+               "equal-error speed-up S.\n"
+               "A name T+denoise (e.g. pathtrace+denoise) measures T's frames through the denoiser.\n"
                "Progressive techniques are measured up to --tech-spp (default 16). Times are process\n"
                "CPU ms (all threads; --clock cpu, the default: robust on a shared machine) or wall ms.\n");
 }
 
 int cli_bench_pareto(int argc, char **argv) {
     cli_scene_args args = {0};
-    pareto_opts p = {0, 1024, 64, 16, 1, "ea,shaded,single,ao,ambient,lightvol,sh,manylights,guided", NULL};
+    pareto_opts p = {0, 1024, 64, 16, 1, "ea,shaded,single,ao,ambient,lightvol,sh,manylights,guided,pathtrace+denoise", NULL};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         long v;
@@ -328,9 +345,17 @@ int cli_bench_pareto(int argc, char **argv) {
             }
             memcpy(names[n_names], c, len);
             names[n_names][len] = 0;
-            if (!volux_technique_info_find(names[n_names]) || !strcmp(names[n_names], "pathtrace")) {
-                cli_eprintf("volux bench: --techniques: '%s' is not a technique to compare with pathtrace\n",
-                        names[n_names]);
+            /* T or T+denoise; pathtrace only denoised (raw, it is the series). */
+            char *plus = strchr(names[n_names], '+');
+            int denoised = plus && !strcmp(plus, "+denoise");
+            if (plus) *plus = 0;
+            int ok = volux_technique_info_find(names[n_names]) && (!plus || denoised) &&
+                     (denoised || strcmp(names[n_names], "pathtrace"));
+            if (plus) *plus = '+';
+            if (!ok) {
+                cli_eprintf("volux bench: --techniques: '%s' is not a technique to compare with pathtrace "
+                            "(T, or T+denoise)\n",
+                            names[n_names]);
                 return CLI_USAGE;
             }
             n_names++;
