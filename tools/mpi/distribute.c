@@ -354,9 +354,9 @@ static volux_status composite_swap(float *part, float *frame, size_t n, int root
             over(part, tmp, part, n);
         }
     }
-    /* the vis rank of swapping place u */
-    size_t lo = 0, len = active ? n : 0;
+    size_t lo = 0, len = active ? n : 0; /* the pixels this rank holds */
     for (int bit = 1; active && bit < P; bit *= 2) {
+        /* the partner's place u among the swapping ranks, and its vis rank */
         int u = v ^ bit, partner = u < extra ? 2 * u : u + extra;
         size_t half = len / 2;
         /* the front rank of the pair keeps the low half */
@@ -380,8 +380,8 @@ static volux_status composite_swap(float *part, float *frame, size_t n, int root
         MPI_Gather(piece, 2, MPI_INT, pieces, 2, MPI_INT, root, vis);
         if (p == root)
             for (int r = 0; r < N; r++) {
-                counts[r] = pieces[2 * r + 1];     /* counts */
-                counts[N + r] = pieces[2 * r];     /* displacements */
+                counts[r] = pieces[2 * r + 1]; /* counts */
+                counts[N + r] = pieces[2 * r]; /* displacements */
             }
         MPI_Gatherv(part + 4 * lo, (int)len, pixel, frame, counts, counts ? counts + N : NULL, pixel, root, vis);
         if (p != root) *sent += 16.0 * (double)len;
