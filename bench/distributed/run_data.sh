@@ -1,7 +1,7 @@
 #!/bin/bash
 # bench/distributed/run_data.sh [OUT.jsonl] — data-parallel (sort-last)
 # rendering, --distribute data (issue 15), on this machine: per-rank brick
-# render time, compositing time (MPI_Reduce with the "over" operation in
+# render time, compositing time (binary swap with the "over" operation in
 # visibility order) against the image size and the rank count, and the
 # bytes of the volume each rank holds, for `ea` and `shaded` on
 # Marschner–Lobb 256³ (procedural) and the bonsai (256³ gzip NRRD, each

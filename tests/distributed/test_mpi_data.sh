@@ -11,7 +11,15 @@
 #  3. a rank that cannot read its brick (the gzip stream ends halfway
 #     along z: the first brick, z 0-13 + ghosts, reads; the others do not), a missing file, a technique that cannot render a brick
 #     and a quick look are reported once by rank 0 with exit status 2, no
-#     output file, no hang.
+#     output file, no hang;
+#  4. compositing by binary swap (the default) equals one MPI_Reduce with
+#     the "over" operation: bit for bit at 2 ranks (the same one "over"),
+#     within float rounding at 3, 5 (folded to 2, 4 first) and 8 (another
+#     association order), and the single-process image (`ea`: compositing
+#     does not depend on the technique; 1 covers 2-4 ranks of both);
+#     a bad VOLUX_COMPOSITE is refused once with exit 2;
+#  5. a rank killed mid-render (3 ranks: the folded binary swap) ends the
+#     whole job within 30 s with a failure and no output file.
 set -u
 VOLUX=$1 SRC=$2 MPIRUN=$3
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=passive
@@ -131,4 +139,52 @@ check "[ $rc = 2 ] && [ \$(grep -c 'ghost layers' '$T/err') = 1 ] && [ ! -e '$T/
 sed '/"transfer_function"/,/^  },/d' "$T/proc.json" >"$T/notf.json"
 mpi 2 render "$T/notf.json" -o "$T/bad.png" --distribute data 2>"$T/err"; rc=$?
 check "[ $rc = 2 ] && [ \$(grep -c 'transfer_function' '$T/err') = 1 ]" "a scene without a transfer function: exit 2, one message"
+# 4. binary swap vs MPI_Reduce. The bounds: 0 at 2 ranks; 1e-5 (float
+#    rounding of ≤ 8 "over" steps on values ≤ ~1) at 3-8; the single
+#    process as in 1.
+for n in 2 3 5 8; do
+  for t in ea; do
+    VOLUX_COMPOSITE=reduce mpi "$n" render "$T/nrrd.json" --technique $t -o "$T/red.$t.$n.pfm" --quiet --distribute data
+    mpi "$n" render "$T/nrrd.json" --technique $t -o "$T/swap.$t.$n.pfm" --quiet --distribute data
+    m=$("$VOLUX" compare "$T/swap.$t.$n.pfm" "$T/red.$t.$n.pfm" --json 2>/dev/null | sed -n 's/.*"max_abs":\([0-9.eE+-]*\).*/\1/p')
+    if [ "$n" = 2 ]; then
+      check "cmp -s '$T/swap.$t.$n.pfm' '$T/red.$t.$n.pfm'" "$t, 2 ranks: binary swap == MPI_Reduce bit for bit"
+    else
+      check "awk -v m='${m:-1}' 'BEGIN { exit !(m <= 1e-5) }'" "$t, $n ranks: binary swap vs MPI_Reduce max |difference| $m <= 1e-5"
+    fi
+    m=$("$VOLUX" compare "$T/swap.$t.$n.pfm" "$T/nrrd.$t.pfm" --json 2>/dev/null | sed -n 's/.*"max_abs":\([0-9.eE+-]*\).*/\1/p')
+    check "awk -v m='${m:-1}' 'BEGIN { exit !(m <= 2e-3) }'" "$t, $n ranks, binary swap vs one process: max |difference| $m <= 2e-3"
+  done
+done
+VOLUX_COMPOSITE=radix mpi 2 render "$T/nrrd.json" -o "$T/bad.png" --distribute data 2>"$T/err"; rc=$?
+check "[ $rc = 2 ] && [ \$(grep -c 'VOLUX_COMPOSITE' '$T/err') = 1 ] && [ ! -e '$T/bad.png' ]" \
+  "a bad VOLUX_COMPOSITE: exit 2, one message, no file (got $rc)"
+
+# 5. a rank dies mid-render: the job ends within 30 s with a failure, no
+#    output file (a fine step and 48 samples: several seconds of render).
+"$MPIRUN" --oversubscribe -np 3 "$VOLUX" render "$T/proc.json" --distribute data --step 0.05 --spp 48 \
+  --width 128 --height 96 -o "$T/killed.png" --quiet 2>"$T/kill.err" &
+job=$!
+victim=""
+for _ in $(seq 100); do
+  victim=$(pgrep -f "render $T/proc.json --distribute data --step 0.05" | while read -r p; do
+    [ "$(ps -o comm= -p "$p")" = "$(basename "$VOLUX")" ] && echo "$p"; done | tail -1)
+  [ -n "$victim" ] && [ "$(pgrep -c -f "$T/killed.png")" -ge 4 ] && break
+  sleep 0.2
+done
+check "[ -n '$victim' ]" "data mode: found a rank to kill"
+sleep 1
+start=$(date +%s)
+[ -n "$victim" ] && kill -9 "$victim"
+ended=0
+for _ in $(seq 300); do
+  if ! kill -0 "$job" 2>/dev/null; then ended=1; break; fi
+  sleep 0.1
+done
+wait "$job" 2>/dev/null; rc=$?
+took=$(( $(date +%s) - start ))
+check "[ $ended = 1 ]" "data mode, killed rank: job ended within 30 s (took ${took} s)"
+check "[ $rc != 0 ]" "data mode, killed rank: failure exit status (got $rc)"
+check "[ ! -e '$T/killed.png' ]" "data mode, killed rank: no output file"
+if [ $ended = 0 ]; then pkill -9 -f "$T/killed.png"; fi
 exit $fail

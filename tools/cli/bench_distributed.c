@@ -9,6 +9,8 @@
  *                           sums on rank 0 (median of --repeat)
  *   composite_ms            the reduction of the sums (median)
  *   composite_fraction      composite_ms / render_ms
+ *   composite_bytes_max     data-parallel: the most bytes one rank sent
+ *                           compositing a frame
  *   rank_render_ms.<k>      rank k's tile rendering (median), tiles.<k>
  *                           (data-parallel: rank k's brick, all pixels)
  *   volume_bytes.<k>        data-parallel: the scalar grid rank k holds
@@ -122,6 +124,8 @@ int cli_bench_distributed(int argc, char **argv, int distribute_mode) {
         composite[k] = tm.composite_ms;
         mine[k] = tm.render_ms;
     }
+    double sent_max = tm.composite_bytes;
+    dist_max(&sent_max);
     if ((rc = dist_agree("bench", ctx, st))) goto done;
     /* Every rank's medians and tile counts to rank 0. */
     double stats[2] = {cli_median(mine, repeat), (double)tiles};
@@ -146,6 +150,7 @@ int cli_bench_distributed(int argc, char **argv, int distribute_mode) {
             snprintf(metric, sizeof metric, "tiles.%d", r);
             emit(&o, metric, gathered[2 * r + 1], "tiles");
         }
+        if (mode == DIST_DATA) emit(&o, "composite_bytes_max", sent_max, "bytes");
         if (mode == DIST_DATA && bytes) {
             emit(&o, "volume_bytes_whole", bytes[1], "bytes");
             for (int r = 0; r < ranks; r++) {

@@ -12,6 +12,9 @@
 #include "distribute.h"
 
 static int started, rank, size = 1, saved_stderr = -1;
+/* Data-parallel compositing: binary swap (default) or one MPI_Reduce
+ * (VOLUX_COMPOSITE=reduce, kept to compare against, see DISTRIBUTED.md). */
+static int composite_reduce;
 
 void dist_quiet_followers(void) {
     if (!dist_launched()) return;
@@ -38,6 +41,15 @@ static void restore_stderr(void) {
 }
 
 int dist_begin(const char *cmd, dist_mode requested) {
+    /* Checked before MPI starts (and while the followers are still muted),
+     * so a bad value is reported once and no rank is left in MPI. */
+    const char *comp = requested == DIST_DATA ? getenv("VOLUX_COMPOSITE") : NULL;
+    if (comp && strcmp(comp, "swap") && strcmp(comp, "reduce")) {
+        cli_eprintf("volux %s: VOLUX_COMPOSITE: expected 'swap' or 'reduce', got '%s'\n", cmd, comp);
+        restore_stderr();
+        return -1;
+    }
+    composite_reduce = comp && !strcmp(comp, "reduce");
     restore_stderr();
     if (!requested && !dist_launched()) return DIST_NONE;
     int provided = 0;
@@ -273,19 +285,111 @@ volux_status dist_share_stats(volux_scene *scene) {
     return st ? st : volux_scene_set_volume(scene, v);
 }
 
-/* "over" on premultiplied colour + transmittance: `in` is in front (MPI
- * hands a non-commutative operation the lower rank's data as invec), so
- * inout = in over inout = (C_in + T_in·C_inout, T_in·T_inout). */
+/* "over" on premultiplied colour + transmittance, n pixels:
+ * out = front over back = (C_f + T_f·C_b, T_f·T_b); out may be front or
+ * back (each pixel is read before it is written). */
+static void over(const float *front, const float *back, float *out, size_t n) {
+    for (size_t i = 0; i < n; i++, front += 4, back += 4, out += 4) {
+        float t = front[3], c0 = front[0] + t * back[0], c1 = front[1] + t * back[1], c2 = front[2] + t * back[2];
+        out[0] = c0;
+        out[1] = c1;
+        out[2] = c2;
+        out[3] = t * back[3];
+    }
+}
+
+/* The MPI_Op: `in` is in front (MPI hands a non-commutative operation the
+ * lower rank's data as invec), so inout = in over inout. */
 static void over_op(void *in, void *inout, int *len, MPI_Datatype *type) {
     (void)type;
-    const float *f = in;
-    float *b = inout;
-    for (int i = 0; i < *len; i++, f += 4, b += 4) {
-        b[0] = f[0] + f[3] * b[0];
-        b[1] = f[1] + f[3] * b[1];
-        b[2] = f[2] + f[3] * b[2];
-        b[3] = f[3] * b[3];
+    over(in, inout, inout, (size_t)*len);
+}
+
+/* Collective on `vis` (rank order = visibility order, p = this rank's
+ * place): the composite of every rank's `part` (n pixels of 4 floats)
+ * into rank `root`'s `frame`, by binary swap (Ma et al. 1994): in round k
+ * a rank and the rank 2^k away in the order exchange halves of the pixel
+ * range they hold, each keeping one half composited in the right order, so
+ * after log2 N rounds each holds 1/N of the image composited over all
+ * ranks, and the pieces are gathered on the root. Every round composites
+ * two groups of consecutive places (front group over back group), which
+ * keeps the visibility order. A rank count that is not a power of two is
+ * first folded to the largest power of two P ≤ N: places 2i and 2i + 1
+ * (i < N − P) composite whole images onto 2i, which leaves P ranks, still
+ * consecutive in the order. Traffic per rank ≈ 16·n·(1 − 1/P) bytes plus
+ * the gather (the one MPI_Reduce moves the whole image through log2 N tree
+ * levels or N − 1 steps). `part` is overwritten; *sent: bytes this rank
+ * sent. */
+static volux_status composite_swap(float *part, float *frame, size_t n, int root, MPI_Comm vis, MPI_Datatype pixel,
+                                   double *sent) {
+    int p, N;
+    MPI_Comm_rank(vis, &p);
+    MPI_Comm_size(vis, &N);
+    int P = 1;
+    while (2 * P <= N) P *= 2;
+    int extra = N - P, active = 1, v = p; /* v: place among the P swapping ranks */
+    if (p < 2 * extra) {
+        active = p % 2 == 0;
+        v = p / 2;
+    } else {
+        v = p - extra;
     }
+    int receives_whole = active && p < 2 * extra;
+    size_t tmp_px = receives_whole ? n : (n + 1) / 2;
+    float *tmp = malloc((tmp_px ? tmp_px : 1) * 4 * sizeof *tmp);
+    int ok = tmp != NULL, all_ok = 0;
+    MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, vis);
+    if (!all_ok) {
+        free(tmp);
+        return VOLUX_ERR_NOMEM;
+    }
+    *sent = 0;
+    /* fold: the odd place sends its whole image to the even one in front */
+    if (p < 2 * extra) {
+        if (!active) {
+            MPI_Send(part, (int)n, pixel, p - 1, 0, vis);
+            *sent += 16.0 * (double)n;
+        } else {
+            MPI_Recv(tmp, (int)n, pixel, p + 1, 0, vis, MPI_STATUS_IGNORE);
+            over(part, tmp, part, n);
+        }
+    }
+    size_t lo = 0, len = active ? n : 0; /* the pixels this rank holds */
+    for (int bit = 1; active && bit < P; bit *= 2) {
+        /* the partner's place u among the swapping ranks, and its vis rank */
+        int u = v ^ bit, partner = u < extra ? 2 * u : u + extra;
+        size_t half = len / 2;
+        /* the front rank of the pair keeps the low half */
+        int front = v < u;
+        size_t keep_lo = front ? lo : lo + half, keep_n = front ? half : len - half;
+        size_t give_lo = front ? lo + half : lo, give_n = len - keep_n;
+        MPI_Sendrecv(part + 4 * give_lo, (int)give_n, pixel, partner, bit, tmp, (int)keep_n, pixel, partner, bit, vis,
+                     MPI_STATUS_IGNORE);
+        *sent += 16.0 * (double)give_n;
+        if (front) over(part + 4 * keep_lo, tmp, part + 4 * keep_lo, keep_n);
+        else over(tmp, part + 4 * keep_lo, part + 4 * keep_lo, keep_n);
+        lo = keep_lo;
+        len = keep_n;
+    }
+    /* every piece to the root, where it lies in the image */
+    int piece[2] = {(int)lo, (int)len}, *pieces = p == root ? malloc(2 * (size_t)N * sizeof *pieces) : NULL;
+    int *counts = p == root ? malloc(2 * (size_t)N * sizeof *counts) : NULL;
+    ok = p != root || (pieces && counts);
+    MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, vis);
+    if (all_ok) {
+        MPI_Gather(piece, 2, MPI_INT, pieces, 2, MPI_INT, root, vis);
+        if (p == root)
+            for (int r = 0; r < N; r++) {
+                counts[r] = pieces[2 * r + 1]; /* counts */
+                counts[N + r] = pieces[2 * r]; /* displacements */
+            }
+        MPI_Gatherv(part + 4 * lo, (int)len, pixel, frame, counts, counts ? counts + N : NULL, pixel, root, vis);
+        if (p != root) *sent += 16.0 * (double)len;
+    }
+    free(pieces);
+    free(counts);
+    free(tmp);
+    return all_ok ? VOLUX_OK : VOLUX_ERR_NOMEM;
 }
 
 /* Rank 0: the composited samples (spp images of px pixels) into fb's sums
@@ -366,14 +470,20 @@ volux_status dist_render_data(volux_technique *t, const volux_scene *scene, volu
         MPI_Datatype pixel;
         MPI_Type_contiguous(4, MPI_FLOAT, &pixel);
         MPI_Type_commit(&pixel);
-        MPI_Op over;
-        MPI_Op_create(over_op, 0 /* not commutative */, &over);
-        MPI_Reduce(part, frame, (int)n, pixel, over, root, vis);
-        MPI_Op_free(&over);
+        if (composite_reduce) {
+            MPI_Op over_mpi;
+            MPI_Op_create(over_op, 0 /* not commutative */, &over_mpi);
+            MPI_Reduce(part, frame, (int)n, pixel, over_mpi, root, vis);
+            /* whatever the tree, every rank but the root sends one image */
+            timing->composite_bytes = vis_rank == root ? 0.0 : 16.0 * (double)n;
+            MPI_Op_free(&over_mpi);
+        } else {
+            st = composite_swap(part, frame, n, root, vis, pixel, &timing->composite_bytes);
+        }
         MPI_Type_free(&pixel);
         MPI_Comm_free(&vis);
         timing->composite_ms = now_ms() - t0;
-        if (rank == 0) st = put_frame(fb, frame, px, spp);
+        if (rank == 0 && !st) st = put_frame(fb, frame, px, spp);
     } /* else another rank failed: the caller's dist_agree reports it, once */
     free(part);
     free(frame);

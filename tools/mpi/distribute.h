@@ -67,6 +67,7 @@ typedef struct dist_timing {
     double render_ms;       /* this rank: its tiles                          */
     double wait_ms;         /* this rank: from its last tile to the reduce   */
     double composite_ms;    /* the reduction of the sums onto rank 0         */
+    double composite_bytes; /* data-parallel: bytes this rank sent compositing */
     int tiles;              /* tiles this rank rendered                      */
     double rank_render_ms_min, rank_render_ms_max; /* over ranks (rank 0)    */
     /* data-parallel: this rank's place in the visibility order (0 = front) */
@@ -87,10 +88,12 @@ volux_status dist_render_image(volux_technique *t, const volux_scene *scene, vol
  * whole volume's statistics (dist_share_stats), and each renders its
  * brick with volux_render_part: premultiplied colour + transmittance
  * through its owned box, on the whole volume's sample lattice. The
- * partial images are composited with MPI_Reduce and a non-commutative
- * user-defined "over" MPI_Op on a communicator whose rank order is the
- * visibility order of the view (MPI applies a non-commutative operation in
- * rank order), with rank 0 as the root. */
+ * partial images are composited on a communicator whose rank order is
+ * the visibility order of the view, by binary swap (any rank count: others
+ * fold to a power of two first), the pieces gathered on rank 0; or, with
+ * VOLUX_COMPOSITE=reduce, by one MPI_Reduce with a non-commutative
+ * user-defined "over" MPI_Op (MPI applies it in rank order).
+ * VOLUX_COMPOSITE other than swap/reduce: dist_begin refuses it. */
 void dist_region(volux_volume_region *out);
 /* Collective: the whole volume's statistics (value range, largest
  * gradient component: min/max over the bricks' own) given to this rank's
