@@ -348,7 +348,7 @@ static void test_steps_thread_independent(void **state) {
  * preview_samples view samples — an unbiased estimate of the same set's
  * full gather. Multiple scattering only, stride 10 (9 of 90 VLs), mean
  * luminance over 8 seeds (one VL set each) against the full first sample.
- * Measured 1.075 (8 sets, 360 pixels: noise); without the weight k 0.098. *
+ * Measured 1.075 (8 sets, 360 pixels: noise); without the weight k 0.098. */
 static void test_preview_unbiased(void **state) {
     (void)state;
     volux_context *ctx = tu_context(1);
