@@ -57,7 +57,7 @@ static const volux_param_info ml_params[] = {
      "by 2/r^2); 0: automatic, half the mean distance between VLs spread over the non-empty macrocells"},
     {"vsl_kernel", VOLUX_PARAM_STRING, 0, 0, 0, "ball",
      "a VSL's light: \"ball\" (the VL's power spread over the ball: one point of it per VL and view sample, "
-     "transmittance from that point; keeps the energy) or \"cone\" (W13 Eq. 5: 1/(pi r^2 p(Omega)) = "
+     "transmittance along the VL's radial ray from that point's projection to x; keeps the energy) or \"cone\" (W13 Eq. 5: 1/(pi r^2 p(Omega)) = "
      "2(1 - cos theta_max)/r^2 with the transmittance to the centre, the hemisphere inside the sphere; loses what "
      "a VL sends within a few radii: 0.50-0.80 of pathtrace's brightness on aneurism, engine, bonsai)"},
     {"clamp_distance", VOLUX_PARAM_NUMBER, 0, 0, 10000, NULL,
@@ -70,7 +70,8 @@ static const volux_param_info ml_params[] = {
      "\"uniform\": uniform over the ray's non-empty extent (W13 §3.3)"},
     {"transmittance", VOLUX_PARAM_STRING, 0, 0, 0, "avsm",
      "VL-to-point transmittance: \"avsm\" (nearest texel, linear in depth), \"avsm_linear\" (trilinear: bilinear "
-     "over the face, linear in depth), \"raymarch\" (the reference: marched per look-up)"},
+     "over the face, linear in depth), \"raymarch\" (the reference: marched per look-up along the path the "
+     "cache stores — for the ball kernel the VL's radial ray between x and the ball point's projection)"},
     {"avsm_resolution", VOLUX_PARAM_INT, 16, 1, 512, NULL,
      "AVSM texels per cube-face side (W13: 40-48; 16 with footprint steps: 10x cheaper per VL than 40 with voxel "
      "steps, 1.2 % vs 0.7 % image difference to ray-marched transmittance on bonsai)"},

@@ -21,7 +21,10 @@
  * 1/(π r² p(Ω)) = 2(1 − cos θmax)/r² — 1/d² far away, bounded by 2/r²
  * (the hemisphere) when x_t is inside the sphere: W13's regularisation
  * in place of clamping. ω_s enters both phase functions; the
- * transmittance is looked up towards the VL's centre. Each VL keeps a fixed
+ * transmittance is looked up towards the VL's centre (`cone`), or for a
+ * ball point y on the VL's radial ray through x (`ball`, gather_vls).
+ * Pixel sample 0 may gather a strided subset (preview_vls, manylights.c)
+ * weighted by the stride. Each VL keeps a fixed
  * 2-D pattern and every view sample rotates all patterns by one random
  * offset (Cranley–Patterson), so a VL's cone sample is uniform per pixel
  * sample at the cost of two random numbers per x_t instead of per VL.
