@@ -57,9 +57,10 @@ static const volux_param_info ml_params[] = {
      "by 2/r^2); 0: automatic, half the mean distance between VLs spread over the non-empty macrocells"},
     {"vsl_kernel", VOLUX_PARAM_STRING, 0, 0, 0, "ball",
      "a VSL's light: \"ball\" (the VL's power spread over the ball: one point of it per VL and view sample, "
-     "transmittance along the VL's radial ray from that point's projection to x; keeps the energy) or \"cone\" (W13 Eq. 5: 1/(pi r^2 p(Omega)) = "
-     "2(1 - cos theta_max)/r^2 with the transmittance to the centre, the hemisphere inside the sphere; loses what "
-     "a VL sends within a few radii: 0.50-0.80 of pathtrace's brightness on aneurism, engine, bonsai)"},
+     "transmittance along the VL's radial ray from that point's projection to x; keeps the energy) or \"cone\" "
+     "(W13 Eq. 5: 1/(pi r^2 p(Omega)) = 2(1 - cos theta_max)/r^2 with the transmittance to the centre, the "
+     "hemisphere inside the sphere; loses what a VL sends within a few radii: 0.50-0.80 of pathtrace's brightness "
+     "on aneurism, engine, bonsai)"},
     {"clamp_distance", VOLUX_PARAM_NUMBER, 0, 0, 10000, NULL,
      "clamping: a VL adds at most what an isotropic point light adds at this distance (voxels), i.e. "
      "f_j*f_t*G <= 1/(16 pi^2 d^2); bounds the splotches of peaked phase functions that VSLs do not (0 = off)"},
