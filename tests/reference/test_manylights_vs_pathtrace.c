@@ -175,7 +175,8 @@ static void test_avsm_matches_raymarch(void **state) {
 }
 
 int main(void) {
-    const struct CMUnitTest tests[] = {cmocka_unit_test(test_seeds_converge), cmocka_unit_test(test_avsm_matches_raymarch),
+    const struct CMUnitTest tests[] = {cmocka_unit_test(test_seeds_converge),
+                                       cmocka_unit_test(test_avsm_matches_raymarch),
                                        cmocka_unit_test(test_manylights_vs_pathtrace)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
