@@ -34,6 +34,7 @@ for scene in $scenes; do
         --set techniques.manylights.vl_count="$vls" --set techniques.manylights.avsm_resolution="$res" \
         --set techniques.manylights.avsm_cone="$cone" --set techniques.manylights.vsl_kernel="\"$kernel\"" \
         --set techniques.manylights.avsm_nodes=8 --set techniques.manylights.transmittance="\"$tm\"" \
+        --set techniques.manylights.preview_vls=0 \
         -o "$outdir/${scene}${tag}_$tm.pfm"
   done
   for tm in avsm avsm_linear; do

@@ -32,7 +32,7 @@ for scene in $scenes; do
       "$volux" bench "$here/$scene.json" --repeat 1 --json --edit camera --threads "$threads" \
           --width "$s" --height "$s" --spp 1 \
           --set techniques.manylights.vl_count="$n" --set techniques.manylights.samples="$samples" \
-          --set techniques.manylights.transmittance="\"$tm\"" |
+          --set techniques.manylights.transmittance="\"$tm\"" --set techniques.manylights.preview_vls=0 |
         sed -e "s/}\$/,\"vl_count\":$n,\"transmittance\":\"$tm\",\"size\":$s}/" >> "$out"
       echo "table2: $scene N=$n $tm ${s}x$s done" >&2
     done

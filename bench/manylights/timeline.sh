@@ -29,7 +29,7 @@ for scene in $scenes; do
   mkdir -p "$dir"
   "$bench" timeline "$here/$scene.json" --images "$dir" --set render.width="$size" --set render.height="$size" \
       --set techniques.manylights.vl_count="$vls" --set techniques.manylights.update_budget="$budget" \
-      --set techniques.manylights.samples="$samples" | tee -a "$out"
+      --set techniques.manylights.samples="$samples" --set techniques.manylights.preview_vls=0 | tee -a "$out"
   last=$(ls "$dir"/frame_*.pfm | tail -1)
   n=$(ls "$dir"/frame_*.pfm | wc -l)
   mid=$(ls "$dir"/frame_*.pfm | sed -n "$(( (n + 1) / 2 ))p")

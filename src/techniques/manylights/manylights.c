@@ -57,9 +57,10 @@ static const volux_param_info ml_params[] = {
      "by 2/r^2); 0: automatic, half the mean distance between VLs spread over the non-empty macrocells"},
     {"vsl_kernel", VOLUX_PARAM_STRING, 0, 0, 0, "ball",
      "a VSL's light: \"ball\" (the VL's power spread over the ball: one point of it per VL and view sample, "
-     "transmittance from that point; keeps the energy) or \"cone\" (W13 Eq. 5: 1/(pi r^2 p(Omega)) = "
-     "2(1 - cos theta_max)/r^2 with the transmittance to the centre, the hemisphere inside the sphere; loses what "
-     "a VL sends within a few radii: 0.50-0.80 of pathtrace's brightness on aneurism, engine, bonsai)"},
+     "transmittance along the VL's radial ray from that point's projection to x; keeps the energy) or \"cone\" "
+     "(W13 Eq. 5: 1/(pi r^2 p(Omega)) = 2(1 - cos theta_max)/r^2 with the transmittance to the centre, the "
+     "hemisphere inside the sphere; loses what a VL sends within a few radii: 0.50-0.80 of pathtrace's brightness "
+     "on aneurism, engine, bonsai)"},
     {"clamp_distance", VOLUX_PARAM_NUMBER, 0, 0, 10000, NULL,
      "clamping: a VL adds at most what an isotropic point light adds at this distance (voxels), i.e. "
      "f_j*f_t*G <= 1/(16 pi^2 d^2); bounds the splotches of peaked phase functions that VSLs do not (0 = off)"},
@@ -70,7 +71,8 @@ static const volux_param_info ml_params[] = {
      "\"uniform\": uniform over the ray's non-empty extent (W13 §3.3)"},
     {"transmittance", VOLUX_PARAM_STRING, 0, 0, 0, "avsm",
      "VL-to-point transmittance: \"avsm\" (nearest texel, linear in depth), \"avsm_linear\" (trilinear: bilinear "
-     "over the face, linear in depth), \"raymarch\" (the reference: marched per look-up)"},
+     "over the face, linear in depth), \"raymarch\" (the reference: marched per look-up along the path the "
+     "cache stores — for the ball kernel the VL's radial ray between x and the ball point's projection)"},
     {"avsm_resolution", VOLUX_PARAM_INT, 16, 1, 512, NULL,
      "AVSM texels per cube-face side (W13: 40-48; 16 with footprint steps: 10x cheaper per VL than 40 with voxel "
      "steps, 1.2 % vs 0.7 % image difference to ray-marched transmittance on bonsai)"},
@@ -82,6 +84,11 @@ static const volux_param_info ml_params[] = {
      "a fresh VL set (new light subpaths, new AVSMs) every this many pixel samples: sample p gathers from set "
      "floor(p / passes_per_set), so the accumulated image averages ever more independent sets and converges to the "
      "VSL model instead of one set's blotches; 0: set 0 only (W13: one set, re-weighted and replaced on edits)"},
+    {"preview_vls", VOLUX_PARAM_INT, 32, 0, 1000000, NULL,
+     "the first pixel sample of an accumulation (a fresh create's or an edit's first image) gathers from about this "
+     "many VLs of set 0 — every k-th from a random offset per view sample, weighted k, so it is still unbiased — "
+     "with preview_samples view samples: a fast, noisier first frame; later samples use all (0 = off)"},
+    {"preview_samples", VOLUX_PARAM_INT, 1, 1, 1024, NULL, "S of the first pixel sample when preview_vls is on"},
     {"eq6_bound", VOLUX_PARAM_NUMBER, 4, 0, 1e30, NULL,
      "after an extinction edit, a re-weighted (Eq. 6) path segment carries at most this many times the weight it "
      "had in the medium it was sampled in, so stale VLs whose density rose sharply do not flash (0 = unbounded)"},
@@ -170,7 +177,7 @@ static volux_status read_params(ml_state *st, const volux_scene *scene) {
     st->dmin = dmin;
     st->dmax = dmax;
     st->place_by_xi = !(dmin > 0.0f && dmax > 0.0f);
-    st->samples = samples;
+    st->samples = st->samples_now = samples;
     st->avsm_res = res;
     st->avsm_nodes = nodes;
     st->rr_survival = rr;
@@ -182,6 +189,8 @@ static volux_status read_params(ml_state *st, const volux_scene *scene) {
     st->multi_on = volux_technique_param(scene, cls, "multiple_scattering") != 0.0;
     st->budget = (int)volux_technique_param(scene, cls, "update_budget");
     st->passes_per_set = (int)volux_technique_param(scene, cls, "passes_per_set");
+    st->preview_vls = (int)volux_technique_param(scene, cls, "preview_vls");
+    st->preview_samples = (int)volux_technique_param(scene, cls, "preview_samples");
     {
         double b = volux_technique_param(scene, cls, "eq6_bound");
         st->eq6_log_bound = b > 0.0 ? (float)log(b) : INFINITY;
@@ -576,6 +585,17 @@ static volux_status build_pass_sets(ml_state *st, const volux_scene *scene, int 
 static volux_status ml_begin_pass(void *state, const volux_scene *scene, uint32_t sample_index) {
     ml_state *st = state;
     int k = st->passes_per_set > 0 ? (int)(sample_index / (uint32_t)st->passes_per_set) : 0;
+    st->draw_stride = 1;
+    st->samples_now = st->samples;
+    if (sample_index == 0 && st->preview_vls > 0) {
+        /* the preview: what the first image costs (issue 27: ≤ 2 s after a
+         * create, ≤ 0.2 s after an edit), not what the accumulation
+         * converges to — each VL is gathered with probability 1/stride and
+         * weight stride, so the first sample stays an estimate of the same
+         * model */
+        st->draw_stride = st->n_rvl > st->preview_vls ? (st->n_rvl + st->preview_vls - 1) / st->preview_vls : 1;
+        st->samples_now = st->preview_samples < st->samples ? st->preview_samples : st->samples;
+    }
     if (k == 0 || !st->multi_on || st->rc.max_depth < 2 || st->n_rvl == 0) {
         st->draw = st->rvl;
         st->n_draw = st->n_rvl;
@@ -610,6 +630,7 @@ static void ml_init(void *state) {
     ml_state *st = state;
     st->dirty = ML_DIRTY_FULL;
     st->traced_depth = -1;
+    st->draw_stride = 1;
 }
 
 /* Half the mean spacing of vl_count points spread over the volume the

@@ -130,6 +130,7 @@ typedef struct ml_state {
     int ball;                /* VSL kernel: 0 cone (Eq. 5), 1 ball          */
     int sampler;             /* enum volux_sampler_kind (sample/sampler.h)  */
     int passes_per_set;      /* K: pixel sample p uses VL set p / K (0: set 0 always) */
+    int preview_vls, preview_samples; /* pixel sample 0: about this many VLs, S (0: off) */
     float eq6_log_bound;     /* ln of the Eq. 6 re-weighting bound (INFINITY: none) */
     float avsm_cone;         /* AVSM ray step grows as avsm_cone·(2/res)·distance */
     float radius_vox, rr_survival, dmin, dmax, shadow_vox, t_min;
@@ -162,6 +163,8 @@ typedef struct ml_state {
     int n_prvl, cap_prvl;
     const ml_rvl *draw;      /* what render_tile gathers: rvl or prvl          */
     int n_draw;
+    int draw_stride;         /* every draw_stride-th of them (×draw_stride), from a random offset */
+    int samples_now;         /* S of this wave                                 */
     /* statistics of the last update or step */
     double avsm_ms, trace_ms;
     int avsm_built, traced; /* AVSMs built, VLs traced */

@@ -21,7 +21,10 @@
  * 1/(π r² p(Ω)) = 2(1 − cos θmax)/r² — 1/d² far away, bounded by 2/r²
  * (the hemisphere) when x_t is inside the sphere: W13's regularisation
  * in place of clamping. ω_s enters both phase functions; the
- * transmittance is looked up towards the VL's centre. Each VL keeps a fixed
+ * transmittance is looked up towards the VL's centre (`cone`), or for a
+ * ball point y on the VL's radial ray through x (`ball`, gather_vls).
+ * Pixel sample 0 may gather a strided subset (preview_vls, manylights.c)
+ * weighted by the stride. Each VL keeps a fixed
  * 2-D pattern and every view sample rotates all patterns by one random
  * offset (Cranley–Patterson), so a VL's cone sample is uniform per pixel
  * sample at the cost of two random numbers per x_t instead of per VL.
@@ -139,6 +142,7 @@ float ml_ball_geometry(float d, float r) {
 
 typedef struct gather_offset {
     float u, c, s, w; /* pattern rotation of this view sample */
+    int first;        /* the first VL gathered (then every st->draw_stride-th) */
 } gather_offset;
 
 static inline __attribute__((always_inline)) volux_vec3 gather_vls(const ml_state *st, volux_vec3 x, volux_vec3 d,
@@ -148,7 +152,8 @@ static inline __attribute__((always_inline)) volux_vec3 gather_vls(const ml_stat
     float acc_r = 0.0f, acc_g = 0.0f, acc_b = 0.0f;
     const float iso_f = VOLUX_INV_4PI * VOLUX_INV_4PI;
     const float clamp = st->clamp_fg;
-    for (int j = 0; j < st->n_draw; j++) {
+    const int stride = st->draw_stride;
+    for (int j = off.first; j < st->n_draw; j += stride) {
         const ml_rvl *v = &st->draw[j];
         volux_vec3 vj = v3(x.x - v->px, x.y - v->py, x.z - v->pz); /* VL → x */
         float d2 = v3_dot(vj, vj);
@@ -168,7 +173,7 @@ static inline __attribute__((always_inline)) volux_vec3 gather_vls(const ml_stat
         }
         /* ω_s: cosine ct to the axis x → VL, the pattern's azimuth */
         volux_vec3 ws = v3(0, 0, 0);
-        if (!iso || (ball && tmode == ML_T_RAYMARCH)) {
+        if (!iso) {
             volux_vec3 a = v3_scale(vj, -1.0f / dist), t, b;
             v3_basis(a, &t, &b);
             float stt = sqrtf(fmaxf(0.0f, 1.0f - ct * ct));
@@ -181,13 +186,22 @@ static inline __attribute__((always_inline)) volux_vec3 gather_vls(const ml_stat
             if (tmode == ML_T_AVSM) T = ml_avsm_point(st, v->avsm, vj, dist);
             else if (tmode == ML_T_AVSM_LINEAR) T = ml_avsm_trilinear(st, v->avsm, vj, dist);
             else T = ml_raymarch_T(st, v3(v->px, v->py, v->pz), vj, dist);
-        } else if (tmode == ML_T_RAYMARCH) {
-            T = ml_raymarch_T(st, v3_madd(x, ws, s), v3_scale(ws, -s), s); /* from y = x + s·ω_s */
         } else {
-            /* from y: on the VL's texel ray, between the depths of x and of
-             * y's projection onto it */
+            /* The ball kernel's transmittance (the model, not an
+             * approximation of it): along the VL's radial ray through x,
+             * between the depths of x and of y's projection onto that ray
+             * — what one texel ray of the VL's AVSM holds, so `raymarch`
+             * marches exactly what the cache stores and the AVSM check
+             * measures the cache alone. Far from the ball (d ≫ r) this is
+             * T(y, x); inside it the projected segment is shorter than
+             * |x − y|, and taking T from the centre instead was 0.41–0.69
+             * of pathtrace's brightness on the CTs (docs §0). */
             float dy = fmaxf(dist - s * ct, 0.0f), lo = fminf(dist, dy), hi = fmaxf(dist, dy);
-            if (tmode == ML_T_AVSM) {
+            if (tmode == ML_T_RAYMARCH) {
+                volux_vec3 a = v3_scale(vj, 1.0f / dist);
+                T = ml_raymarch_T(st, v3(v->px + a.x * lo, v->py + a.y * lo, v->pz + a.z * lo), v3_scale(a, hi - lo),
+                                  hi - lo);
+            } else if (tmode == ML_T_AVSM) {
                 T = ml_avsm_between(st, v->avsm, vj, lo, hi);
             } else {
                 float th = ml_avsm_trilinear(st, v->avsm, vj, hi);
@@ -214,7 +228,7 @@ static inline __attribute__((always_inline)) volux_vec3 gather_vls(const ml_stat
         acc_g += v->ig * w;
         acc_b += v->ib * w;
     }
-    return v3(acc_r, acc_g, acc_b);
+    return v3_scale(v3(acc_r, acc_g, acc_b), (float)stride);
 }
 
 static volux_vec3 gather(const ml_state *st, volux_vec3 x, volux_vec3 d, gather_offset off) {
@@ -276,7 +290,7 @@ static volux_vec3 integrate(const ml_state *st, const volux_ray *ray, float jitt
     if (!(alpha > 0.0f)) return v3(0, 0, 0);
 
     /* Stratified targets (opacity or distance), ascending. */
-    int S = st->samples;
+    int S = st->samples_now;
     float target[ML_MAX_SAMPLES];
     float span = st->view_uniform ? t_last - t_first : alpha;
     for (int k = 0; k < S; k++) {
@@ -329,7 +343,8 @@ static volux_vec3 integrate(const ml_state *st, const volux_ray *ray, float jitt
             }
             if (st->single_on) Ls = single_scatter(st, x, ray->d, rng, ld, k);
             if (st->multi_on && st->n_draw > 0) {
-                gather_offset off = {u, cosf(phi), sinf(phi), uw};
+                int first = st->draw_stride > 1 ? (int)(volux_rng_float(rng) * (float)st->draw_stride) : 0;
+                gather_offset off = {u, cosf(phi), sinf(phi), uw, first < st->draw_stride ? first : 0};
                 Ls = v3_add(Ls, gather(st, x, ray->d, off));
             }
             C = v3_add(C, v3_mul(rho, Ls));
