@@ -573,8 +573,11 @@ static enum MHD_Result serve_frame(viewer *v, struct MHD_Connection *c) {
     } else {
         volux_context_desc cd = {0};
         cd.max_bytes = volux_context_max_bytes(v->ctx);
+        volux_image_meta meta;
+        viewer_png_meta(&meta, exposure);
         ok = volux_context_create(&cd, &d->ctx) == VOLUX_OK &&
-             volux_image_encode(d->ctx, &px->image, format, exposure, &d->enc, &d->size) == VOLUX_OK;
+             volux_image_encode_meta(d->ctx, &px->image, format, exposure, !strcmp(format, "png") ? &meta : NULL,
+                                     &d->enc, &d->size) == VOLUX_OK;
         d->data = d->enc;
         type = !strcmp(format, "png") ? "image/png" : "application/octet-stream";
         viewer_pixels_release(px);

@@ -122,6 +122,14 @@ static void render_failed(viewer *v, const char *what, volux_status st) {
     if (!v->opt.quiet) cli_eprintf("volux serve: %s\n", msg); /* may quote a file name an edit gave */
 }
 
+void viewer_png_meta(volux_image_meta *meta, float exposure) {
+    char ev[32];
+    memset(meta, 0, sizeof *meta);
+    volux_image_meta_set(meta, "Software", "volux " VOLUX_VERSION " (viewer)");
+    snprintf(ev, sizeof ev, "%.2f", (double)exposure);
+    volux_image_meta_set(meta, "volux.exposure", ev); /* the ×2^EV applied to these pixels */
+}
+
 /* What a published frame is, for the statistics. */
 enum {
     PUB_FIRST = 1,       /* the first frame after an edit                    */
@@ -145,8 +153,10 @@ static void publish(viewer *v, volux_image *img, frame_kind kind, uint64_t versi
         ok = viewer_encode_jpeg(img, exposure, v->opt.jpeg_quality, &data, &size);
     } else {
         unsigned char *enc = NULL;
+        volux_image_meta meta;
+        viewer_png_meta(&meta, exposure);
         volux_context_clear_error(v->enc_ctx);
-        ok = volux_image_encode(v->enc_ctx, img, "png", exposure, &enc, &size) == VOLUX_OK;
+        ok = volux_image_encode_meta(v->enc_ctx, img, "png", exposure, &meta, &enc, &size) == VOLUX_OK;
         if (ok) {
             data = malloc(size);
             if (data) memcpy(data, enc, size);

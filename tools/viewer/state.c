@@ -93,6 +93,8 @@ static cJSON *volume_info(const volux_scene *s) {
     volux_scene_bounds_sphere(s, &c, &r);
     cJSON_AddItemToObject(o, "center", vec3(c));
     cJSON_AddNumberToObject(o, "radius", r);
+    volux_vec3 sup;
+    if (volux_volume_superior(vol, &sup)) cJSON_AddItemToObject(o, "superior", vec3(sup)); /* patient axes known */
     uint64_t counts[VIEWER_HISTOGRAM_BINS];
     volux_volume_histogram(vol, VIEWER_HISTOGRAM_BINS, counts);
     double d[VIEWER_HISTOGRAM_BINS];

@@ -257,6 +257,10 @@ void viewer_exit_cleanup(const char *file, const char *dir);
 int viewer_http_start(viewer *v);
 void viewer_http_stop(viewer *v);
 
+/* renderer.c: the text chunks of the viewer's PNG frames (Software,
+ * volux.exposure: the EV the pixels were tone-mapped with). */
+void viewer_png_meta(volux_image_meta *meta, float exposure);
+
 /* encode.c: JPEG of a linear image (tone-mapped like PNG output). */
 int viewer_encode_jpeg(const volux_image *img, float exposure, int quality, unsigned char **out, size_t *size);
 
