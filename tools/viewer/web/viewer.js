@@ -120,6 +120,8 @@ function connect() {
   es.addEventListener('busy', (ev) => {
     const b = JSON.parse(ev.data);
     window.volux.busy = b;
+    (window.volux.busyLog ||= []).push(b);
+    if (window.volux.busyLog.length > 100) window.volux.busyLog.shift();
     const el = $('st-busy');
     el.hidden = !b.task;
     el.textContent = b.task ? `${b.task}: ${b.percent} %` : '';
