@@ -10,7 +10,7 @@ tools/viewer/exposure.c defines it.
 
 usage: exposure_switch.py VOLUX VOLUME [--size N] [--spp N] [--no-auto]
 Prints one line per technique and the pairwise max/min ratio."""
-import json, re, struct, subprocess, sys, time, urllib.request
+import json, re, struct, subprocess, sys, time, urllib.error, urllib.request
 
 def srgb(v):
     if not v > 0: return 0.0
@@ -60,7 +60,12 @@ def main():
         for t in techs:
             edit('render.technique', t)
             time.sleep(0.3)
-            data = get('/api/frame?wait=final&format=pfm&timeout=600000')
+            for attempt in range(10):  # the server waits at most 120 s per request (503 then)
+                try:
+                    data = get('/api/frame?wait=final&format=pfm&timeout=120000')
+                    break
+                except urllib.error.HTTPError as e:
+                    if e.code != 503 or attempt == 9: raise
             state = json.loads(get('/api/state'))
             ev = state['resolved']['render']['exposure']
             bg = state['scene'].get('background', [0, 0, 0])

@@ -196,6 +196,7 @@ typedef struct viewer {
                                 others (volume, TF, lights, render settings,
                                 parameters) or its creation             */
     } cost[16];
+    int auto_check;            /* the final frame re-checks the automatic exposure */
     volux_technique *stand_in; /* `shaded`: frames of the new state while a slow update runs */
     double stand_in_edit_t0;   /* > 0: a stand-in showed the edit that arrived then */
     uint32_t pending_changes;  /* VOLUX_DOC_* sections of the edits not yet shown */
