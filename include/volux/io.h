@@ -233,6 +233,10 @@ VOLUX_API void volux_image_to_srgb8(const volux_image *img, float exposure, unsi
  * *out is allocated through ctx; free with volux_encoded_free. */
 VOLUX_API volux_status volux_image_encode(volux_context *ctx, const volux_image *img, const char *format,
                                           float exposure, unsigned char **out, size_t *size);
+/* Same, with metadata (PNG text chunks, EXR attributes; NULL: none). */
+VOLUX_API volux_status volux_image_encode_meta(volux_context *ctx, const volux_image *img, const char *format,
+                                               float exposure, const volux_image_meta *meta, unsigned char **out,
+                                               size_t *size);
 VOLUX_API void volux_encoded_free(volux_context *ctx, unsigned char *data, size_t size);
 
 /* Scenes. Loads a scene file; `overrides` are "dotted.path=VALUE" strings

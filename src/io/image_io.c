@@ -226,6 +226,11 @@ volux_status volux_image_save_layers(volux_context *ctx, const char *path, const
 
 volux_status volux_image_encode(volux_context *ctx, const volux_image *img, const char *format, float exposure,
                                 unsigned char **out, size_t *size) {
+    return volux_image_encode_meta(ctx, img, format, exposure, NULL, out, size);
+}
+
+volux_status volux_image_encode_meta(volux_context *ctx, const volux_image *img, const char *format, float exposure,
+                                     const volux_image_meta *meta, unsigned char **out, size_t *size) {
     image_format fmt = FORMAT_UNKNOWN;
     if (format && !strcasecmp(format, "png")) fmt = FORMAT_PNG;
     else if (format && !strcasecmp(format, "pfm")) fmt = FORMAT_PFM;
@@ -246,7 +251,7 @@ volux_status volux_image_encode(volux_context *ctx, const volux_image *img, cons
     if (!f) return volux_error(ctx, VOLUX_ERR_NOMEM, "image encoding: out of memory");
     char name[16];
     snprintf(name, sizeof name, "(%s)", format);
-    volux_status st = write_format(ctx, fmt, name, f, img, exposure, NULL);
+    volux_status st = write_format(ctx, fmt, name, f, img, exposure, meta);
     if (fclose(f) != 0 && !st) st = volux_error(ctx, VOLUX_ERR_NOMEM, "image encoding: out of memory");
     if (!st) {
         unsigned char *copy = volux_alloc_or_error(ctx, len ? len : 1, "an encoded image");

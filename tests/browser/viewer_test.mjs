@@ -165,6 +165,60 @@ try {
   }, null, { timeout: 30000 });
   await waitFinal(await version());
 
+  // Issue 30's controls. The busy indicator: switching to `single`
+  // prepares its light cache, announced with stage and percent.
+  await page.selectOption('#technique', 'single');
+  await page.waitForFunction(() => window.volux.state().resolved.render.technique === 'single', null, { timeout: 30000 });
+  await waitFinal(await version());
+  const busy = await page.evaluate(() => window.volux.busyLog || []);
+  check(busy.some((b) => /preparing single/.test(b.task) && Number.isFinite(b.percent)),
+    `busy indicator with stage and percent (${busy.map((b) => `${b.task} ${b.percent}`).slice(0, 3).join('; ')})`);
+  // Automatic exposure: switching technique set render.exposure from the frame.
+  const st30 = await page.evaluate(async () => (await fetch('/api/stats')).json());
+  check(st30.auto_exposures >= 1 && st30.auto_exposure === (await page.evaluate(() => window.volux.state().resolved.render.exposure)),
+    `auto exposure applied on the switch (EV ${st30.auto_exposure}, ${st30.auto_exposures} times)`);
+  await page.click('#v-expose');
+  await page.waitForFunction((n) => fetch('/api/stats').then((r) => r.json()).then((s) => s.auto_exposures > n), st30.auto_exposures, { timeout: 60000, polling: 200 });
+  check(true, '"expose now" recomputed the exposure');
+  // Denoise toggle (a viewer switch, not the scene's).
+  await page.click('#v-denoise');
+  await page.waitForFunction(() => fetch('/api/stats').then((r) => r.json()).then((s) => s.denoise === false), null, { timeout: 30000, polling: 200 });
+  await page.click('#v-denoise');
+  await page.waitForFunction(() => fetch('/api/stats').then((r) => r.json()).then((s) => s.denoise === true), null, { timeout: 30000, polling: 200 });
+  check(await page.locator('#v-denoise').isChecked(), 'denoise toggled off and on');
+  // Background colour, as displayed: stored divided by 2^exposure.
+  await page.locator('#v-background').fill('#304050');
+  await page.waitForFunction(() => {
+    const s = window.volux.state(), bg = s.scene.background || [0, 0, 0], k = 2 ** s.resolved.render.exposure;
+    return Math.abs(bg[2] * k - 0.0802) < 0.01; // #50 in sRGB = 0.0802 linear
+  }, null, { timeout: 30000 });
+  await waitFinal(await version());
+  check(true, 'background colour set from the page');
+  // A view button: the camera looks from the anterior side (+z without patient axes).
+  await page.click('#v-views button[data-view="anterior"]');
+  await page.waitForFunction(() => {
+    const c = window.volux.state().scene.camera || {}, C = window.volux.state().volume.center;
+    return c.eye && c.eye[2] > C[2] && Math.abs(c.eye[0] - C[0]) < 1e-3;
+  }, null, { timeout: 30000 });
+  await waitFinal(await version());
+  const axesInk = await page.evaluate(() => {
+    const c = document.getElementById('v-axes'), d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+    let n = 0;
+    for (let i = 3; i < d.length; i += 4) n += d[i] > 0;
+    return n;
+  });
+  check(axesInk > 20, `anterior view button moved the camera; orientation axes drawn (${axesInk} px)`);
+  // Slice views: open the section, three slices arrive; a slider loads another one.
+  await page.click('#sec-slices > summary');
+  await page.waitForFunction(() => ['x', 'y', 'z'].every((a) => document.getElementById('slice-' + a).naturalWidth === 64), null, { timeout: 30000 });
+  const src0 = await page.evaluate(() => document.getElementById('slice-z').src);
+  await page.locator('#slice-z-i').fill('10');
+  await page.waitForFunction((s) => document.getElementById('slice-z').src !== s, src0, { timeout: 30000 });
+  await page.selectOption('#s-mode', 'tf');
+  await page.waitForFunction((s) => document.getElementById('slice-z').src !== s, src0, { timeout: 30000 });
+  check(true, 'slice views load, follow their slider and the colour mode');
+  await page.screenshot({ path: join(artefacts, 'viewer_view_slices.png') });
+
   // Save the scene and the image with the page's buttons.
   const [sceneDl] = await Promise.all([page.waitForEvent('download'), page.click('#save-scene')]);
   const savedScene = join(work, 'saved.json');

@@ -9,6 +9,7 @@
  * client is cut off; concurrent editors are serialised; the server exits
  * cleanly on SIGTERM (under ASan: without leaks).
  */
+#include <math.h>
 #include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
@@ -723,6 +724,169 @@ static void test_lightvol_budget_converges(void **state) {
     volux_context_destroy(ctx);
 }
 
+/* ------------------------------------------------------------------ slices, view switches, exposure */
+
+/* GET /api/slice: a PNG of one voxel per pixel (x: dims y×z, z: x×y);
+ * bad parameters are 400 naming the parameter. */
+static void test_slices(void **state) {
+    (void)state;
+    static const struct {
+        const char *query;
+        int w, h;
+    } good[] = {{"axis=z", 40, 40}, {"axis=x&index=0&mode=grey&window=50&level=100", 40, 40},
+                {"axis=y&index=39&mode=tf", 40, 40}};
+    volux_context *ctx = tu_context(1);
+    for (size_t i = 0; i < sizeof good / sizeof good[0]; i++) {
+        char path[160];
+        snprintf(path, sizeof path, "/api/slice?%s", good[i].query);
+        tu_reply r = get(path);
+        assert_int_equal(r.status, 200);
+        assert_string_equal(tu_reply_header(&r, "Content-Type"), "image/png");
+        char file[1100];
+        snprintf(file, sizeof file, "%s", tu_temp_path("viewer_slice.png"));
+        FILE *f = fopen(file, "wb");
+        fwrite(r.body, 1, r.body_len, f);
+        fclose(f);
+        tu_reply_free(&r);
+        volux_image img;
+        assert_int_equal(volux_image_load(ctx, file, &img), VOLUX_OK);
+        assert_int_equal(img.width, good[i].w);
+        assert_int_equal(img.height, good[i].h);
+        /* the phantom is not uniform: the middle slice has contrast */
+        float lo = 1e9f, hi = -1e9f;
+        for (int k = 0; k < img.width * img.height * 3; k++) {
+            lo = img.rgb[k] < lo ? img.rgb[k] : lo;
+            hi = img.rgb[k] > hi ? img.rgb[k] : hi;
+        }
+        if (i == 0 && !(hi - lo > 0.1f)) fail_msg("axial slice without contrast (%g..%g)", lo, hi);
+        volux_image_free(ctx, &img);
+    }
+    volux_context_destroy(ctx);
+    static const struct {
+        const char *query, *msg;
+    } bad[] = {{"", "axis: expected x, y or z"},
+               {"axis=w", "axis: expected x, y or z"},
+               {"axis=z&index=40", "index: 40 is outside [0, 39] for axis z"},
+               {"axis=z&index=-1", "index: expected a voxel index"},
+               {"axis=z&index=3x", "index: expected a voxel index"},
+               {"axis=z&mode=hot", "mode: expected tf or grey"},
+               {"axis=z&mode=grey&window=0", "window: expected a number > 0"},
+               {"axis=z&mode=grey&level=nan", "level: expected a number"}};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        char path[160];
+        snprintf(path, sizeof path, "/api/slice?%s", bad[i].query);
+        tu_reply r = get(path);
+        assert_int_equal(r.status, 400);
+        assert_contains(r.body, bad[i].msg);
+        tu_reply_free(&r);
+    }
+}
+
+/* Mean displayed (sRGB) luma of the pixels of a final PNG that differ from
+ * its corner (the background), and the exposure its metadata records. */
+static double final_displayed_mean(double *exposure) {
+    char file[1100];
+    snprintf(file, sizeof file, "%s", tu_temp_path("viewer_exposure.png"));
+    final_frame(file);
+    volux_context *ctx = tu_context(1);
+    volux_image img;
+    volux_image_meta meta;
+    assert_int_equal(volux_image_load_meta(ctx, file, &img, &meta), VOLUX_OK);
+    const char *ev = volux_image_meta_get(&meta, "volux.exposure");
+    assert_non_null(ev);
+    *exposure = atof(ev);
+    double sum = 0;
+    int n = 0;
+    for (int i = 0; i < img.width * img.height; i++) {
+        const float *p = img.rgb + 3 * i;
+        int bg = 1;
+        for (int k = 0; k < 3; k++) bg &= fabsf(volux_srgb_encode(p[k]) - volux_srgb_encode(img.rgb[k])) < 2.5f / 255;
+        if (bg) continue;
+        sum += 0.2126 * volux_srgb_encode(p[0]) + 0.7152 * volux_srgb_encode(p[1]) + 0.0722 * volux_srgb_encode(p[2]);
+        n++;
+    }
+    volux_image_free(ctx, &img);
+    volux_context_destroy(ctx);
+    assert_true(n > 100);
+    return sum / n;
+}
+
+static void switch_to(const char *technique) {
+    char body[128];
+    snprintf(body, sizeof body, "[{\"path\": \"render.technique\", \"value\": \"%s\"}]", technique);
+    tu_reply r = post(body);
+    assert_int_equal(r.status, 200);
+    tu_reply_free(&r);
+}
+
+static tu_reply post_view(const char *body) {
+    tu_reply r;
+    assert_true(tu_http(server.port, "POST", "/api/view", NULL, body, &r));
+    return r;
+}
+
+/* Automatic exposure: switching shaded → single keeps the mean displayed
+ * luminance within 1.5× (issue 30); with it off (POST /api/view) the same
+ * switch does not — the scene discriminates, so the first check can fail.
+ * The final PNG records the exposure applied, which is the scene's. Bad
+ * switches are 400 naming the key. */
+static void test_auto_exposure(void **state) {
+    (void)state;
+    tu_reply r = post_view("{\"auto_exposure\": false}");
+    assert_int_equal(r.status, 200);
+    assert_contains(r.body, "\"auto_exposure\":false");
+    tu_reply_free(&r);
+    double ev_shaded, ev_single;
+    switch_to("shaded");
+    double off_shaded = final_displayed_mean(&ev_shaded);
+    switch_to("single");
+    double off_single = final_displayed_mean(&ev_single);
+    assert_true(ev_shaded == ev_single); /* off: the scene's exposure stays */
+    double off_ratio = off_shaded > off_single ? off_shaded / off_single : off_single / off_shaded;
+    r = post_view("{\"auto_exposure\": true}");
+    assert_int_equal(r.status, 200);
+    tu_reply_free(&r);
+    switch_to("shaded");
+    double on_shaded = final_displayed_mean(&ev_shaded);
+    switch_to("single");
+    double on_single = final_displayed_mean(&ev_single);
+    double on_ratio = on_shaded > on_single ? on_shaded / on_single : on_single / on_shaded;
+    fprintf(stderr, "shaded/single displayed mean: auto off %.3f/%.3f (%.2fx), on %.3f/%.3f (%.2fx, EV %+.2f/%+.2f)\n",
+            off_shaded, off_single, off_ratio, on_shaded, on_single, on_ratio, ev_shaded, ev_single);
+    if (!(off_ratio > 1.5)) fail_msg("the scene does not discriminate: %.2fx without auto exposure", off_ratio);
+    if (!(on_ratio <= 1.5)) fail_msg("switching shaded -> single changes the displayed mean %.2fx", on_ratio);
+    char *json = scene_json();
+    char want[64];
+    snprintf(want, sizeof want, "\"exposure\":%g", ev_single);
+    assert_contains(json, want); /* the PNG says what the scene holds */
+    free(json);
+    r = get("/api/stats");
+    assert_true(stat_number(r.body, "auto_exposures") >= 2);
+    tu_reply_free(&r);
+    /* bad switches */
+    static const struct {
+        const char *body, *msg;
+    } bad[] = {{"{\"exposure\": true}", "unknown key 'exposure'"},
+               {"{\"denoise\": 1}", "denoise: expected true or false"},
+               {"[1]", "expected a JSON object"},
+               {"{", "expected a JSON object"}};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        r = post_view(bad[i].body);
+        assert_int_equal(r.status, 400);
+        assert_contains(r.body, bad[i].msg);
+        tu_reply_free(&r);
+    }
+    r = get("/api/view");
+    assert_int_equal(r.status, 405);
+    tu_reply_free(&r);
+    r = post_view("{\"denoise\": false, \"expose\": true}");
+    assert_int_equal(r.status, 200);
+    assert_contains(r.body, "\"denoise\":false");
+    tu_reply_free(&r);
+    r = post_view("{\"denoise\": true}");
+    tu_reply_free(&r);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_api_basics),        cmocka_unit_test(test_edit_and_save_reproduce),
@@ -732,6 +896,7 @@ int main(void) {
         cmocka_unit_test(test_concurrent_edits),  cmocka_unit_test(test_token),
         cmocka_unit_test(test_bad_command_lines), cmocka_unit_test(test_preview_budget),
         cmocka_unit_test(test_lightvol_budget_converges), cmocka_unit_test(test_stand_in_while_preparing),
+        cmocka_unit_test(test_slices),            cmocka_unit_test(test_auto_exposure),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

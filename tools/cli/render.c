@@ -341,6 +341,8 @@ int cli_render(int argc, char **argv) {
                 volux_image_meta_set(&meta, "Software", "volux " VOLUX_VERSION);
                 volux_image_meta_set(&meta, "volux.scene", args.scene_path);
                 volux_image_meta_set(&meta, "volux.technique", rs->technique);
+                snprintf(v, sizeof v, "%.2f", (double)rs->exposure);
+                volux_image_meta_set(&meta, "volux.exposure", v); /* PNG: the ×2^EV applied */
                 snprintf(v, sizeof v, "%u", volux_framebuffer_spp(fb));
                 volux_image_meta_set(&meta, "volux.spp", v);
                 snprintf(v, sizeof v, "%d", rs->spp);

@@ -19,6 +19,7 @@
  * this server never answers, and its Origin, if any, must be this host).
  */
 #include <arpa/inet.h>
+#include <math.h>
 #include <cjson/cJSON.h>
 #include <microhttpd.h>
 #include <pthread.h>
@@ -572,8 +573,11 @@ static enum MHD_Result serve_frame(viewer *v, struct MHD_Connection *c) {
     } else {
         volux_context_desc cd = {0};
         cd.max_bytes = volux_context_max_bytes(v->ctx);
+        volux_image_meta meta;
+        viewer_png_meta(&meta, exposure);
         ok = volux_context_create(&cd, &d->ctx) == VOLUX_OK &&
-             volux_image_encode(d->ctx, &px->image, format, exposure, &d->enc, &d->size) == VOLUX_OK;
+             volux_image_encode_meta(d->ctx, &px->image, format, exposure, !strcmp(format, "png") ? &meta : NULL,
+                                     &d->enc, &d->size) == VOLUX_OK;
         d->data = d->enc;
         type = !strcmp(format, "png") ? "image/png" : "application/octet-stream";
         viewer_pixels_release(px);
@@ -641,6 +645,114 @@ static enum MHD_Result serve_edit(viewer *v, struct MHD_Connection *c, request *
     char *copy = text ? strdup(text) : NULL;
     cJSON_free(text);
     return reply_json(c, 200, copy);
+}
+
+/* ------------------------------------------------------------------ slices */
+
+/* GET /api/slice?axis=x|y|z[&index=N][&mode=tf|grey][&window=W][&level=L]:
+ * a PNG of one axis-aligned slice of the raw volume (slice.c). */
+static enum MHD_Result serve_slice(viewer *v, struct MHD_Connection *c) {
+    viewer_slice_request rq = {0};
+    const char *axis = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "axis");
+    const char *index = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "index");
+    const char *mode = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "mode");
+    const char *window = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "window");
+    const char *level = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "level");
+    if (!axis || strlen(axis) != 1 || !strchr("xyz", axis[0]))
+        return reply_error(v, c, 400, "invalid", "axis: expected x, y or z");
+    rq.axis = axis[0] - 'x';
+    rq.index = -1;
+    char *end;
+    if (index) {
+        long n = strtol(index, &end, 10);
+        if (!*index || *end || n < 0 || n > 1 << 30)
+            return reply_error(v, c, 400, "invalid", "index: expected a voxel index >= 0");
+        rq.index = (int)n;
+    }
+    if (mode && strcmp(mode, "tf") && strcmp(mode, "grey"))
+        return reply_error(v, c, 400, "invalid", "mode: expected tf or grey");
+    rq.grey = mode && !strcmp(mode, "grey");
+    if (window) {
+        rq.window = strtod(window, &end);
+        if (!*window || *end || !(rq.window > 0) || !isfinite(rq.window))
+            return reply_error(v, c, 400, "invalid", "window: expected a number > 0");
+    }
+    if (level) {
+        rq.level = strtod(level, &end);
+        if (!*level || *end || !isfinite(rq.level)) return reply_error(v, c, 400, "invalid", "level: expected a number");
+        rq.has_level = 1;
+    }
+    volux_context *ctx = NULL;
+    volux_context_desc cd = {0};
+    cd.max_bytes = volux_context_max_bytes(v->ctx);
+    if (volux_context_create(&cd, &ctx)) return reply_error(v, c, 500, "nomem", "out of memory");
+    volux_image img = {0};
+    char err[256] = "";
+    unsigned char *png = NULL;
+    size_t size = 0;
+    int code = viewer_slice_image(v, &rq, ctx, &img, err, sizeof err);
+    if (code == 200 && volux_image_encode(ctx, &img, "png", 0.0f, &png, &size)) {
+        code = 500;
+        snprintf(err, sizeof err, "encoding the slice failed");
+    }
+    volux_image_free(ctx, &img);
+    enum MHD_Result res;
+    if (code != 200) {
+        res = reply_error(v, c, (unsigned)code, code == 400 ? "invalid" : code == 413 ? "limit" : "nomem", err);
+    } else {
+        unsigned char *copy = malloc(size);
+        if (copy) memcpy(copy, png, size);
+        res = copy ? reply(c, 200, "image/png", copy, size, MHD_RESPMEM_MUST_FREE)
+                   : reply_error(v, c, 500, "nomem", "out of memory");
+    }
+    if (png) volux_encoded_free(ctx, png, size);
+    volux_context_destroy(ctx);
+    return res;
+}
+
+/* ------------------------------------------------------------------ viewer settings */
+
+/* POST /api/view {"auto_exposure": bool, "expose": true, "denoise": bool}:
+ * the viewer's own switches (not the scene's): automatic exposure on/off,
+ * apply it now (from the next frame of the technique), denoised frames
+ * on/off. Each redraws the current state. */
+static enum MHD_Result serve_view(viewer *v, struct MHD_Connection *c, request *rq) {
+    cJSON *o = cJSON_ParseWithLength(rq->body ? rq->body : "", rq->len);
+    if (!cJSON_IsObject(o)) {
+        cJSON_Delete(o);
+        return reply_error(v, c, 400, "invalid", "expected a JSON object {\"auto_exposure\", \"expose\", \"denoise\"}");
+    }
+    int set_auto = -1, expose = 0, denoise = -1;
+    for (cJSON *k = o->child; k; k = k->next) {
+        int *slot = !strcmp(k->string, "auto_exposure") ? &set_auto
+                    : !strcmp(k->string, "expose")      ? &expose
+                    : !strcmp(k->string, "denoise")     ? &denoise
+                                                        : NULL;
+        char msg[160];
+        if (!slot) {
+            snprintf(msg, sizeof msg, "unknown key '%.64s' (known: auto_exposure, expose, denoise)", k->string);
+            cJSON_Delete(o);
+            return reply_error(v, c, 400, "invalid", msg);
+        }
+        if (!cJSON_IsBool(k)) {
+            snprintf(msg, sizeof msg, "%s: expected true or false", k->string);
+            cJSON_Delete(o);
+            return reply_error(v, c, 400, "invalid", msg);
+        }
+        *slot = cJSON_IsTrue(k);
+    }
+    cJSON_Delete(o);
+    viewer_lock_edit(v);
+    if (set_auto >= 0) atomic_store(&v->auto_exposure, set_auto);
+    if (expose || set_auto == 1) atomic_store(&v->auto_due, 1);
+    if (denoise >= 0) atomic_store(&v->no_denoise, !denoise);
+    v->shown_version = (uint64_t)-1; /* the render thread redraws the state */
+    v->last_change_ms = rq->t0;
+    viewer_unlock(v, 1);
+    char body[96];
+    snprintf(body, sizeof body, "{\"auto_exposure\":%s,\"denoise\":%s}",
+             atomic_load(&v->auto_exposure) ? "true" : "false", atomic_load(&v->no_denoise) ? "false" : "true");
+    return reply_json(c, 200, strdup(body));
 }
 
 /* ------------------------------------------------------------------ routing */
@@ -737,7 +849,8 @@ static enum MHD_Result precheck(viewer *v, struct MHD_Connection *c, const char 
     }
     if (!authorized(v, c)) return reply_error(v, c, 401, "invalid", "missing or wrong token");
     if (is_post) {
-        if (strcmp(url, "/api/edit")) return reply_error(v, c, 405, "invalid", "only /api/edit takes POST");
+        if (strcmp(url, "/api/edit") && strcmp(url, "/api/view"))
+            return reply_error(v, c, 405, "invalid", "only /api/edit and /api/view take POST");
         const char *type = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Content-Type");
         if (!type || !json_media_type(type))
             return reply_error(v, c, 415, "invalid", "an edit must be sent as application/json");
@@ -751,8 +864,8 @@ static enum MHD_Result precheck(viewer *v, struct MHD_Connection *c, const char 
         const char *len = lengths.first;
         if (len && strtoull(len, NULL, 10) > MAX_BODY)
             return reply_error(v, c, 413, "limit", "request body larger than 4 MiB");
-    } else if (!strcmp(url, "/api/edit")) {
-        return reply_error(v, c, 405, "invalid", "/api/edit takes POST");
+    } else if (!strcmp(url, "/api/edit") || !strcmp(url, "/api/view")) {
+        return reply_error(v, c, 405, "invalid", !strcmp(url, "/api/edit") ? "/api/edit takes POST" : "/api/view takes POST");
     }
     *handled = 0;
     return MHD_YES;
@@ -818,7 +931,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
     request_complete(v, c);
     rq->t0 = viewer_now_ms();
     rq->cpu0 = viewer_cpu_ms();
-    if (!strcmp(method, "POST")) return serve_edit(v, c, rq);
+    if (!strcmp(method, "POST")) return !strcmp(url, "/api/view") ? serve_view(v, c, rq) : serve_edit(v, c, rq);
     if (!strcmp(url, "/api/scene")) {
         const char *paths = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "paths");
         if (paths && strcmp(paths, "absolute") && strcmp(paths, "relative"))
@@ -830,6 +943,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
     if (!strcmp(url, "/api/stats")) return reply_json(c, 200, viewer_stats_json(v));
     if (!strcmp(url, "/api/frame")) return serve_frame(v, c);
     if (!strcmp(url, "/api/events")) return serve_events(v, c);
+    if (!strcmp(url, "/api/slice")) return serve_slice(v, c);
     if (!strncmp(url, "/api/", 5) || !strcmp(url, "/api")) return reply_error(v, c, 404, "invalid", "no such API");
     if (!strcmp(url, "/favicon.ico")) return reply(c, 204, "image/x-icon", "", 0, MHD_RESPMEM_PERSISTENT);
     return serve_asset(v, c, url);

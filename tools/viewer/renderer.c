@@ -122,6 +122,14 @@ static void render_failed(viewer *v, const char *what, volux_status st) {
     if (!v->opt.quiet) cli_eprintf("volux serve: %s\n", msg); /* may quote a file name an edit gave */
 }
 
+void viewer_png_meta(volux_image_meta *meta, float exposure) {
+    char ev[32];
+    memset(meta, 0, sizeof *meta);
+    volux_image_meta_set(meta, "Software", "volux " VOLUX_VERSION " (viewer)");
+    snprintf(ev, sizeof ev, "%.2f", (double)exposure);
+    volux_image_meta_set(meta, "volux.exposure", ev); /* the ×2^EV applied to these pixels */
+}
+
 /* What a published frame is, for the statistics. */
 enum {
     PUB_FIRST = 1,       /* the first frame after an edit                    */
@@ -145,8 +153,10 @@ static void publish(viewer *v, volux_image *img, frame_kind kind, uint64_t versi
         ok = viewer_encode_jpeg(img, exposure, v->opt.jpeg_quality, &data, &size);
     } else {
         unsigned char *enc = NULL;
+        volux_image_meta meta;
+        viewer_png_meta(&meta, exposure);
         volux_context_clear_error(v->enc_ctx);
-        ok = volux_image_encode(v->enc_ctx, img, "png", exposure, &enc, &size) == VOLUX_OK;
+        ok = volux_image_encode_meta(v->enc_ctx, img, "png", exposure, &meta, &enc, &size) == VOLUX_OK;
         if (ok) {
             data = malloc(size);
             if (data) memcpy(data, enc, size);
@@ -246,7 +256,7 @@ static volux_status ensure_fb(viewer *v, volux_framebuffer **fb, int w, int h) {
     volux_status st = volux_framebuffer_create(v->ctx, w, h, fb);
     /* First-hit features guide the denoiser; without them (memory limit)
      * it still filters by colour and variance. */
-    if (!st && !v->opt.no_denoise && volux_framebuffer_set_features(*fb, 1)) volux_context_clear_error(v->ctx);
+    if (!st && !atomic_load(&v->no_denoise) && volux_framebuffer_set_features(*fb, 1)) volux_context_clear_error(v->ctx);
     return st;
 }
 
@@ -256,7 +266,7 @@ static volux_status ensure_fb(viewer *v, volux_framebuffer **fb, int w, int h) {
  * the final frame converges to the unbiased image); else the raw mean. */
 static volux_status resolve_shown(viewer *v, const volux_framebuffer *fb, volux_image *img) {
     const char *name = v->tech ? volux_technique_info_of(v->tech)->name : "";
-    if (!v->opt.no_denoise &&
+    if (!atomic_load(&v->no_denoise) &&
         (!strcmp(name, "pathtrace") || !strcmp(name, "guided") || !strcmp(name, "manylights")))
         return volux_framebuffer_denoise(fb, NULL, img);
     return volux_framebuffer_resolve(fb, img);
@@ -393,6 +403,54 @@ static void learn_cost(viewer *v, const char *technique, double render_ms, int w
     *c = *c > 0 ? 0.5 * *c + 0.5 * now : now;
 }
 
+/* Automatic exposure (exposure.c): from the technique's own first frame
+ * of a state it is due for (a technique switch, the page's button, the
+ * quick look's first frame), written to the scene as render.exposure —
+ * an edit like any other, so the saved scene renders the same with
+ * `volux render` — and held until it is due again (no pumping while the
+ * user edits). The background colour is scaled by the inverse factor, so
+ * that it stays on screen what it was (at +3.5 EV the quick look's dark
+ * blue would turn light grey); it is also what escaping paths see, so
+ * this is part of the scene, not a display trick. Called with `lock`
+ * held. Returns 1 when the frame must be rendered again (the background
+ * changed), else 0 with *exposure and *version those of the scene now (the
+ * pixels are the same: exposure changes no technique state). `recheck`:
+ * the final frame of this state checks it once more (do_refine). */
+#define AUTO_RECHECK_EV 0.3f
+static int apply_auto_exposure(viewer *v, const volux_image *img, uint64_t *version, float *exposure, int recheck) {
+    atomic_store(&v->auto_due, 0);
+    v->auto_check = recheck;
+    volux_scene *scene = volux_scene_doc_scene(v->doc);
+    const volux_vec3 bg = volux_scene_background(scene);
+    float ev;
+    if (!viewer_auto_exposure(img, bg, &ev)) return 0;
+    if (ev < -64.0f) ev = -64.0f;
+    if (ev > 64.0f) ev = 64.0f;
+    pthread_mutex_lock(&v->frame_lock);
+    v->stats.auto_exposure = ev;
+    v->stats.auto_exposures++;
+    pthread_mutex_unlock(&v->frame_lock);
+    if (ev == *exposure) return 0;
+    const int scale_bg = bg.x != 0 || bg.y != 0 || bg.z != 0;
+    const float k = exp2f(*exposure - ev);
+    char set_ev[64], set_bg[160];
+    snprintf(set_ev, sizeof set_ev, "render.exposure=%.2f", (double)ev);
+    snprintf(set_bg, sizeof set_bg, "background=[%.6g,%.6g,%.6g]", (double)(bg.x * k), (double)(bg.y * k),
+             (double)(bg.z * k));
+    const char *sets[2] = {set_ev, set_bg};
+    volux_context_clear_error(v->ctx);
+    if (volux_scene_doc_edit(v->doc, sets, scale_bg ? 2 : 1, NULL)) {
+        volux_context_clear_error(v->ctx);
+        return 0;
+    }
+    if (!viewer_snapshot(v)) volux_context_clear_error(v->ctx);
+    if (scale_bg) return 1;
+    *version = volux_scene_doc_version(v->doc);
+    v->shown_version = *version;
+    *exposure = ev;
+    return 0;
+}
+
 /* A stand-in comes first when the scene's technique has no instance yet
  * (its creation prepares everything) or its last update took longer than
  * this: a frame of the new state within the 150 ms the page aims at. */
@@ -504,6 +562,7 @@ static void do_preview_body(viewer *v, uint64_t version) {
      * since it was current, which pending_changes does not record */
     const int switching = v->tech && strcmp(volux_technique_info_of(v->tech)->name, full.technique);
     const uint32_t changes = creating || switching ? (uint32_t)HEAVY_CHANGES : v->pending_changes;
+    if (switching) atomic_store(&v->auto_due, 1); /* held until the new technique's own frame */
     v->pending_changes = 0;
     atomic_store(&v->first_frame, 1); /* until published: on_progress */
     if (strcmp(full.technique, "ea") && strcmp(full.technique, STAND_IN_TECHNIQUE) &&
@@ -585,6 +644,14 @@ static void do_preview_body(viewer *v, uint64_t version) {
         v->stats.pending = volux_technique_pending(v->tech);
         pthread_mutex_unlock(&v->frame_lock);
         if (!st) {
+            /* a reduced first frame (coarser step: brighter or darker than
+             * the scene's) leaves the exposure to the full preview after it */
+            float exposure = full.exposure;
+            if (!reduced && atomic_load(&v->auto_exposure) && atomic_load(&v->auto_due) &&
+                apply_auto_exposure(v, &img, &version, &exposure, 1)) {
+                volux_image_free(v->ctx, &img); /* the render loop draws the new version */
+                return;
+            }
             double edit_t0 = v->need_latency ? v->last_edit_ms : -1;
             v->need_latency = 0;
             unsigned first_flag = PUB_FIRST;
@@ -601,7 +668,7 @@ static void do_preview_body(viewer *v, uint64_t version) {
             if (v->fb_full) volux_framebuffer_reset(v->fb_full);
             atomic_store(&v->first_frame, 0);
             pthread_mutex_unlock(&v->lock);
-            publish(v, &img, FRAME_PREVIEW, version, 1, full.exposure, (float)step_scale, t1 - t0,
+            publish(v, &img, FRAME_PREVIEW, version, 1, exposure, (float)step_scale, t1 - t0,
                     viewer_now_ms() - t2, edit_t0, v->last_edit_cpu_ms, first_flag | (smaller ? 0u : PUB_FULL_PREVIEW), NULL);
             pthread_mutex_lock(&v->lock);
             return;
@@ -657,8 +724,14 @@ static void do_upgrade(viewer *v) {
     const int smaller = v->upgrade_smaller;
     learn_cost(v, full.technique, render_ms, small.width, small.height, 1);
     uint64_t version = v->shown_version;
+    float exposure = full.exposure;
+    if (atomic_load(&v->auto_exposure) && atomic_load(&v->auto_due) &&
+        apply_auto_exposure(v, &img, &version, &exposure, 1)) {
+        volux_image_free(v->ctx, &img); /* the render loop draws the new version */
+        return;
+    }
     pthread_mutex_unlock(&v->lock);
-    publish(v, &img, FRAME_PREVIEW, version, 1, full.exposure, 1.0f, 0, render_ms, v->last_edit_ms,
+    publish(v, &img, FRAME_PREVIEW, version, 1, exposure, 1.0f, 0, render_ms, v->last_edit_ms,
             v->last_edit_cpu_ms, smaller ? PUB_FULL_PREVIEW : 0u, NULL);
     pthread_mutex_lock(&v->lock);
 }
@@ -728,11 +801,25 @@ static void do_refine(viewer *v) {
         render_failed(v, "refinement", st);
         return;
     }
+    uint64_t version = v->shown_version;
+    float exposure = rs->exposure;
+    /* the final frame checks the exposure set from the first one once: a
+     * technique whose first frames differ from its converged image (single
+     * on the bonsai: 1.7x brighter) is corrected once, not followed */
+    if (final && v->auto_check) {
+        float ev;
+        v->auto_check = 0;
+        if (viewer_auto_exposure(&img, volux_scene_background(scene), &ev) && fabsf(ev - exposure) > AUTO_RECHECK_EV)
+            atomic_store(&v->auto_due, 1);
+    }
+    if (atomic_load(&v->auto_exposure) && atomic_load(&v->auto_due) &&
+        apply_auto_exposure(v, &img, &version, &exposure, !final)) {
+        volux_image_free(v->ctx, &img); /* the render loop draws the new version */
+        return;
+    }
     if (final) v->refined = 1;
     double edit_t0 = final && v->need_final_latency ? v->last_edit_ms : -1;
     if (final) v->need_final_latency = 0;
-    uint64_t version = v->shown_version;
-    float exposure = rs->exposure;
     pthread_mutex_unlock(&v->lock);
     publish(v, &img, final ? FRAME_FINAL : FRAME_REFINE, version, spp, exposure, 1.0f, 0, now - t0, edit_t0,
             v->last_edit_cpu_ms, 0, NULL);
@@ -776,6 +863,9 @@ int viewer_render_start(viewer *v) {
     volux_context_set_progress(v->ctx, on_progress, v);
     v->shown_version = (uint64_t)-1;
     v->need_latency = v->need_final_latency = 0;
+    atomic_store(&v->auto_exposure, v->opt.auto_exposure);
+    atomic_store(&v->auto_due, v->opt.auto_exposure_start);
+    atomic_store(&v->no_denoise, v->opt.no_denoise);
     return pthread_create(&v->render_thread, NULL, render_main, v) == 0;
 }
 

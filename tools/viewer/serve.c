@@ -61,7 +61,7 @@ static void usage(FILE *f) {
             "usage: volux serve SCENE.json [--port P] [--bind ADDR] [--token T] [--data-root DIR]\n"
             "                   [--preview N] [--preview-budget MS] [--preview-step K] [--idle-ms MS]\n"
             "                   [--max-image N]\n"
-            "                   [--jpeg-quality Q] [--preview-png] [--no-denoise]\n"
+            "                   [--jpeg-quality Q] [--preview-png] [--no-denoise] [--no-auto-exposure]\n"
             "                   [--max-connections N] [--timeout S] [--max-mb MB] [--quiet]\n"
             "                   [--technique T] [--spp N] [--width W] [--height H] [--threads N]\n"
             "                   [--set dotted.path=JSON-value]...\n"
@@ -81,6 +81,9 @@ static void usage(FILE *f) {
             "  --idle-ms MS       quiet time before refinement starts (default 100)\n"
             "  --no-denoise       show pathtrace, guided and manylights frames raw (by default they\n"
             "                     are denoised, blended back to the raw image as samples accumulate)\n"
+            "  --no-auto-exposure keep render.exposure as the scene says on a technique switch (by\n"
+            "                     default it is set from the new technique's first frame, and the\n"
+            "                     quick look's from its first frame, so switching keeps the brightness)\n"
             "  --max-image N      largest render.width/height an edit may set (default 4096)\n"
             "  --port 0           any free port (the URL printed says which)\n");
 }
@@ -129,6 +132,10 @@ int cli_serve_named(int argc, char **argv, const char *display_name) {
     o->jpeg_quality = 85;
     o->max_connections = 64;
     o->timeout_s = 10;
+    o->auto_exposure = 1;
+    /* the quick look's scene was written for it: its exposure is set from
+     * the first frame too (a scene file's exposure is its author's) */
+    o->auto_exposure_start = display_name != NULL;
     o->token = getenv("VOLUX_SERVE_TOKEN");
     if (o->token && !*o->token) o->token = NULL;
     long max_mb = 0; /* 0: the context's default limit, 80 % of physical memory */
@@ -149,6 +156,10 @@ int cli_serve_named(int argc, char **argv, const char *display_name) {
         }
         if (!strcmp(a, "--no-denoise")) {
             o->no_denoise = 1;
+            continue;
+        }
+        if (!strcmp(a, "--no-auto-exposure")) {
+            o->auto_exposure = 0;
             continue;
         }
         if (!strcmp(a, "--preview-png")) {

@@ -93,6 +93,8 @@ static cJSON *volume_info(const volux_scene *s) {
     volux_scene_bounds_sphere(s, &c, &r);
     cJSON_AddItemToObject(o, "center", vec3(c));
     cJSON_AddNumberToObject(o, "radius", r);
+    volux_vec3 sup;
+    if (volux_volume_superior(vol, &sup)) cJSON_AddItemToObject(o, "superior", vec3(sup)); /* patient axes known */
     uint64_t counts[VIEWER_HISTOGRAM_BINS];
     volux_volume_histogram(vol, VIEWER_HISTOGRAM_BINS, counts);
     double d[VIEWER_HISTOGRAM_BINS];
@@ -158,6 +160,10 @@ int viewer_snapshot(viewer *v) {
     cJSON_AddNumberToObject(lim, "max_image", v->opt.max_image);
     cJSON_AddNumberToObject(lim, "preview_max", v->opt.preview_max);
     cJSON_AddNumberToObject(lim, "max_lights", VOLUX_MAX_LIGHTS);
+    cJSON_AddNumberToObject(lim, "slice_max_pixels", VIEWER_SLICE_MAX_PIXELS);
+    cJSON *vw = cJSON_AddObjectToObject(o, "viewer"); /* the switches at start (POST /api/view changes them) */
+    cJSON_AddBoolToObject(vw, "auto_exposure", v->opt.auto_exposure);
+    cJSON_AddBoolToObject(vw, "denoise", !v->opt.no_denoise);
     state = cJSON_PrintUnformatted(o);
     cJSON_Delete(o);
     if (!state) {
@@ -269,6 +275,10 @@ char *viewer_stats_json(viewer *v) {
     cJSON_AddNumberToObject(o, "edit_to_stand_in_ms", s.last_stand_in_ms);
     cJSON_AddNumberToObject(o, "edit_to_own_frame_ms", s.last_own_frame_ms);
     cJSON_AddStringToObject(o, "last_preparation", s.last_preparation);
+    cJSON_AddBoolToObject(o, "auto_exposure_on", atomic_load(&v->auto_exposure));
+    cJSON_AddNumberToObject(o, "auto_exposure", s.auto_exposure);
+    cJSON_AddNumberToObject(o, "auto_exposures", (double)s.auto_exposures);
+    cJSON_AddBoolToObject(o, "denoise", !atomic_load(&v->no_denoise));
     cJSON_AddNumberToObject(o, "requests", (double)s.requests);
     cJSON_AddNumberToObject(o, "requests_rejected", (double)s.requests_rejected);
     uint64_t rss = 0;

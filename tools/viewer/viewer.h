@@ -119,7 +119,12 @@ typedef struct viewer_options {
     int max_image;         /* largest render.width/height an edit may set */
     int jpeg_quality;
     int preview_png;       /* 1: previews as PNG instead of JPEG         */
-    int no_denoise;        /* 1: show pathtrace/guided/manylights raw    */
+    int no_denoise;        /* 1: show pathtrace/guided/manylights raw (the page
+                              toggles it at run time: viewer.no_denoise) */
+    int auto_exposure;     /* 1: exposure.c sets render.exposure from the frame
+                              on a technique switch (and on request)     */
+    int auto_exposure_start; /* 1: also from the very first frame (the quick
+                                look: its scene's exposure is nobody's choice) */
     int max_connections;
     int timeout_s;         /* idle connection timeout (slow clients)    */
     int quiet;
@@ -149,6 +154,8 @@ typedef struct viewer_stats {
     double last_stand_in_ms;      /* edit → the stand-in frame published      */
     double last_own_frame_ms;     /* edit → the technique's own frame after a stand-in */
     char last_preparation[64];    /* the last preparation task reported ("preparing single") */
+    double auto_exposure;         /* the last automatic exposure applied (EV) */
+    uint64_t auto_exposures;      /* how many were applied              */
     char error[512];              /* last render failure, "" if none    */
 } viewer_stats;
 
@@ -162,6 +169,9 @@ typedef struct viewer {
     pthread_cond_t work; /* an edit happened / quit                   */
     pthread_cond_t turn; /* waiters went away                         */
     atomic_int waiters, edit_waiters, quit, cancellable;
+    atomic_int auto_exposure; /* automatic exposure on (exposure.c)      */
+    atomic_int auto_due;      /* the next own frame of the technique sets it */
+    atomic_int no_denoise;    /* frames shown raw (--no-denoise; the page toggles) */
     atomic_int first_frame; /* the render thread is making an edit's first frame */
     double edit_wait_seen_ms; /* when the progress callback first saw an edit
                                  waiting (0: none); render thread only   */
@@ -186,6 +196,7 @@ typedef struct viewer {
                                 others (volume, TF, lights, render settings,
                                 parameters) or its creation             */
     } cost[16];
+    int auto_check;            /* the final frame re-checks the automatic exposure */
     volux_technique *stand_in; /* `shaded`: frames of the new state while a slow update runs */
     double stand_in_edit_t0;   /* > 0: a stand-in showed the edit that arrived then */
     uint32_t pending_changes;  /* VOLUX_DOC_* sections of the edits not yet shown */
@@ -247,8 +258,36 @@ void viewer_exit_cleanup(const char *file, const char *dir);
 int viewer_http_start(viewer *v);
 void viewer_http_stop(viewer *v);
 
+/* renderer.c: the text chunks of the viewer's PNG frames (Software,
+ * volux.exposure: the EV the pixels were tone-mapped with). */
+void viewer_png_meta(volux_image_meta *meta, float exposure);
+
 /* encode.c: JPEG of a linear image (tone-mapped like PNG output). */
 int viewer_encode_jpeg(const volux_image *img, float exposure, int quality, unsigned char **out, size_t *size);
+
+/* exposure.c: automatic exposure. The EV that brings the mean displayed
+ * luminance (sRGB, after ×2^EV and the clamp) of the frame's volume pixels
+ * (those differing from `background`) to VIEWER_EXPOSURE_TARGET; 0 when the
+ * frame is black (or NOMEM). viewer_displayed_mean is that mean at `ev`
+ * (-1 on NOMEM). */
+#define VIEWER_EXPOSURE_TARGET 0.4
+int viewer_auto_exposure(const volux_image *img, volux_vec3 background, float *ev);
+double viewer_displayed_mean(const volux_image *img, volux_vec3 background, float ev);
+
+/* slice.c: an axis-aligned slice of the raw volume (GET /api/slice), one
+ * pixel per voxel, into `out` (created through ctx). Returns the HTTP code:
+ * 200, or 400/413/500 with `err` set. */
+#define VIEWER_SLICE_MAX_PIXELS (2048 * 2048)
+typedef struct viewer_slice_request {
+    int axis;      /* 0 x (sagittal), 1 y (coronal), 2 z (axial)          */
+    int index;     /* voxel index along it; -1: the middle                */
+    int grey;      /* 1: window/level grey; 0: the TF's colour map        */
+    double window; /* <= 0: the volume's range                            */
+    double level;
+    int has_level; /* 0: the middle of the range                         */
+} viewer_slice_request;
+int viewer_slice_image(viewer *v, const viewer_slice_request *rq, volux_context *ctx, volux_image *out, char *err,
+                       size_t errn);
 
 /* assets.c (generated from web/): the page. */
 typedef struct viewer_asset {

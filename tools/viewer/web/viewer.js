@@ -120,6 +120,8 @@ function connect() {
   es.addEventListener('busy', (ev) => {
     const b = JSON.parse(ev.data);
     window.volux.busy = b;
+    (window.volux.busyLog ||= []).push(b);
+    if (window.volux.busyLog.length > 100) window.volux.busyLog.shift();
     const el = $('st-busy');
     el.hidden = !b.task;
     el.textContent = b.task ? `${b.task}: ${b.percent} %` : '';
@@ -178,6 +180,8 @@ function refresh() {
   refreshLights();
   refreshRender();
   cam.fromState();
+  refreshView();
+  refreshSlices();
 }
 
 // ---------------------------------------------------------------- technique
@@ -259,6 +263,11 @@ function refreshTechnique() {
     }
     box.append(label);
   }
+  // a long form (lightvol's 25 parameters) starts folded, so the sections
+  // below it stay in reach; the user's choice holds until the next switch
+  $('params-summary').textContent = `parameters (${info.params.length})`;
+  if (box.dataset.technique !== name) $('params-box').open = info.params.length <= 10;
+  box.dataset.technique = name;
 }
 
 // Progressive techniques never stop at one sample: switching to one from a
@@ -875,6 +884,138 @@ $('time-step').oninput = () => {
   $('time-step-v').textContent = $('time-step').value;
   edit([{ path: 'render.time_step', value: Number($('time-step').value) }]);
 };
+
+
+// ---------------------------------------------------------------- view: exposure, denoise, background, view buttons
+
+// The viewer's own switches (POST /api/view; not part of the scene).
+async function viewSwitch(body) {
+  const r = await api('/api/view', { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body) });
+  if (!r.ok) { showError((await r.json()).error); return; }
+  const v = await r.json();
+  $('v-auto-exposure').checked = v.auto_exposure;
+  $('v-denoise').checked = v.denoise;
+}
+let viewSwitchesRead = false;
+function refreshView() {
+  if (!viewSwitchesRead && state.viewer) { // the start-up switches; the page's own clicks after that
+    $('v-auto-exposure').checked = state.viewer.auto_exposure;
+    $('v-denoise').checked = state.viewer.denoise;
+    viewSwitchesRead = true;
+  }
+  // the background as displayed: ×2^exposure (what the PNG shows)
+  const bg = state.scene.background || [0, 0, 0], k = 2 ** state.resolved.render.exposure;
+  if (document.activeElement !== $('v-background')) $('v-background').value = linearToHex(bg.map((c) => c * k));
+  drawAxes();
+}
+$('v-auto-exposure').onchange = () => viewSwitch({ auto_exposure: $('v-auto-exposure').checked });
+$('v-expose').onclick = () => viewSwitch({ expose: true });
+$('v-denoise').onchange = () => viewSwitch({ denoise: $('v-denoise').checked });
+$('v-background').oninput = () => {
+  const k = 2 ** -state.resolved.render.exposure;
+  edit([{ path: 'background', value: hexToLinear($('v-background').value).map((c) => Number((c * k).toPrecision(5))) }]);
+};
+
+// Patient axes: with an anatomical orientation in the file (state.volume.
+// superior) the world axes are NIfTI's RAS+ (x right, y anterior, z
+// superior); without one, y is up (the orbit camera's), z towards the
+// default viewer, x to the right.
+function patientAxes() {
+  return state.volume.superior ? { R: [1, 0, 0], A: [0, 1, 0], S: [0, 0, 1] } : { R: [1, 0, 0], A: [0, 0, 1], S: [0, 1, 0] };
+}
+const VIEWS = { // where the eye is, and which axis is up on screen
+  anterior: ['A', 1, 'S'], posterior: ['A', -1, 'S'], left: ['R', -1, 'S'],
+  right: ['R', 1, 'S'], superior: ['S', 1, 'A'], inferior: ['S', -1, 'A'],
+};
+for (const b of document.querySelectorAll('#v-views button')) {
+  b.title = `view from the ${b.dataset.view} side`;
+  b.onclick = () => {
+    const ax = patientAxes(), [axis, sign, up] = VIEWS[b.dataset.view];
+    const C = state.volume.center, R = state.volume.radius, d = (1 / Math.sin(cam.fov * Math.PI / 360)) * R;
+    const round = (x) => Number(x.toPrecision(7));
+    const camera = { fov_y: Number(cam.fov.toFixed(3)) };
+    if (state.scene.camera && state.scene.camera.type) camera.type = state.scene.camera.type;
+    camera.eye = C.map((c, k) => round(c + sign * ax[axis][k] * d));
+    camera.look_at = C.map(round);
+    camera.up = ax[up];
+    edit([{ path: 'camera', value: camera }]);
+  };
+}
+// The orientation axes: the world axes projected with the camera's basis.
+function drawAxes() {
+  const c = $('v-axes'), g = c.getContext('2d'), r = state.resolved.camera;
+  g.clearRect(0, 0, c.width, c.height);
+  const back = [0, 1, 2].map((k) => r.eye[k] - r.look_at[k]), n = Math.hypot(...back);
+  const cross = (p, q) => [p[1] * q[2] - p[2] * q[1], p[2] * q[0] - p[0] * q[2], p[0] * q[1] - p[1] * q[0]];
+  let [right, up, b] = cam.basis(); // an orbit (y up) unless the scene has eye/look_at/up
+  if (n > 0 && Math.hypot(...cross(r.up, back)) > 0) {
+    b = back.map((x) => x / n);
+    right = cross(r.up, b);
+    const rn = Math.hypot(...right);
+    right = right.map((x) => x / rn);
+    up = cross(b, right);
+  }
+  const dot = (p, q) => p[0] * q[0] + p[1] * q[1] + p[2] * q[2];
+  const ax = patientAxes(), med = !!state.volume.superior;
+  const axes = [[ax.R, '#e05050', med ? 'R' : 'x'], [ax.A, '#50c050', med ? 'A' : (ax.A[2] ? 'z' : 'y')], [ax.S, '#5080e0', med ? 'S' : 'y']];
+  axes.sort((p, q) => dot(p[0], b) - dot(q[0], b)); // far ones first
+  const m = c.width / 2;
+  for (const [v, col, name] of axes) {
+    const x = m + dot(v, right) * m * 0.7, y = m - dot(v, up) * m * 0.7;
+    g.strokeStyle = g.fillStyle = col;
+    g.lineWidth = 2;
+    g.beginPath(); g.moveTo(m, m); g.lineTo(x, y); g.stroke();
+    g.font = '11px sans-serif';
+    g.fillText(name, x + (x >= m ? 2 : -9), y + (y >= m ? 10 : -2));
+  }
+}
+
+// ---------------------------------------------------------------- slices (GET /api/slice)
+
+const sliceState = { timer: 0, key: '' };
+function sliceURL(axis) {
+  const [lo, hi] = state.volume.range, span = hi - lo || 1;
+  const q = new URLSearchParams({ axis, index: $(`slice-${axis}-i`).value, mode: $('s-mode').value });
+  if ($('s-mode').value === 'grey') {
+    q.set('window', String(Number($('s-window').value) * span));
+    q.set('level', String(lo + Number($('s-level').value) * span));
+  }
+  return '/api/slice?' + q;
+}
+async function loadSlice(axis) {
+  const r = await api(sliceURL(axis));
+  if (!r.ok) { showError(`slice ${axis}: ${(await r.json()).error}`); return; }
+  const url = URL.createObjectURL(await r.blob()), img = $(`slice-${axis}`);
+  const old = img.src;
+  img.src = url;
+  if (old.startsWith('blob:')) URL.revokeObjectURL(old);
+  // the voxel aspect (spacing) of the slice's two axes
+  const sp = state.volume.spacing, d = state.volume.dims, u = axis === 'x' ? 1 : 0, w = axis === 'z' ? 1 : 2;
+  img.style.aspectRatio = `${d[u] * sp[u]} / ${d[w] * sp[w]}`;
+}
+function refreshSlices() {
+  if (!$('sec-slices').open) return;
+  const [lo, hi] = state.volume.range, span = hi - lo || 1;
+  $('s-window-v').textContent = fmt(Number($('s-window').value) * span);
+  $('s-level-v').textContent = fmt(lo + Number($('s-level').value) * span);
+  // a new volume (or the first look): the sliders' ranges, in the middle
+  const key = state.volume.dims.join('x') + ':' + state.version;
+  for (const [k, axis] of ['x', 'y', 'z'].entries()) {
+    const s = $(`slice-${axis}-i`);
+    if (Number(s.max) !== state.volume.dims[k] - 1) {
+      s.max = state.volume.dims[k] - 1;
+      s.value = Math.floor(state.volume.dims[k] / 2);
+    }
+  }
+  // slices show the raw volume (and the TF colours): only an edit may change them
+  if (key === sliceState.key) return;
+  sliceState.key = key;
+  for (const axis of ['x', 'y', 'z']) loadSlice(axis);
+}
+for (const axis of ['x', 'y', 'z']) $(`slice-${axis}-i`).oninput = () => loadSlice(axis);
+for (const id of ['s-mode', 's-window', 's-level'])
+  $(id).oninput = () => { sliceState.key = ''; refreshSlices(); };
+$('sec-slices').addEventListener('toggle', () => { sliceState.key = ''; if (state) refreshSlices(); });
 
 // ---------------------------------------------------------------- save
 
