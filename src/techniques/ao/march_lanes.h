@@ -15,7 +15,9 @@
 DI void ao_hook(const void *tech, const pk_lanes *L, vm lit, vf c[3]) {
     const ao_state *st = tech;
     const volux_light_list *ls = &st->b.rc.lights;
-    int scalar = st->occ.dims[0] < 2 || st->occ.dims[1] < 2 || st->occ.dims[2] < 2;
+    /* the directional model reads K bytes per node of two grids and sums
+     * over K: its scalar shading per lane (the packets still march) */
+    int scalar = st->directional || st->occ.dims[0] < 2 || st->occ.dims[1] < 2 || st->occ.dims[2] < 2;
     for (int i = 0; i < ls->n_direct; i++) scalar |= ls->direct[i].positional;
     if (scalar) {
         pk_shade_per_lane(tech, L, lit, c, volux_ao_shade_lane);
@@ -47,3 +49,42 @@ DI void ao_hook(const void *tech, const pk_lanes *L, vm lit, vf c[3]) {
 }
 
 VOLUX_PACKET_TILE(ao_packet_tile, ao_hook)
+
+/* ------------------------------------------------------------ near field */
+
+/* The near field's build (ao.c: near_transmittance) with the directions
+ * of a node as lanes: every direction takes the same steps, so a step is
+ * one trilinear gather of σt per lane group. Same arithmetic and rounding
+ * as the scalar build (unfused lerps, the same clamps) but for the vector
+ * exp (≤ 2 ulp): a byte may differ by 1. */
+DI void ao_near_lanes(const ao_near_job *j, int z) {
+    const scatter_dirw *g = j->out;
+    const int *dims = j->sigma->dims;
+    const vf zero = f_zero(), mx = f_set((float)(dims[0] - 1)), my = f_set((float)(dims[1] - 1)),
+             mz = f_set((float)(dims[2] - 1));
+    int32_t bytes[LANE_W];
+    for (int y = 0; y < g->dims[1]; y++)
+        for (int x = 0; x < g->dims[0]; x++) {
+            volux_vec3 q;
+            unsigned char *o;
+            if (!ao_near_node(j, x, y, z, &q, &o)) continue; /* empty surroundings */
+            for (int d0 = 0; d0 < g->stride; d0 += LANE_W) {
+                const vf dx = f_load(j->dq[0] + d0), dy = f_load(j->dq[1] + d0), dz = f_load(j->dq[2] + d0);
+                vf tau = zero;
+                for (int i = 0; i < j->n_steps; i++) {
+                    const vf t = f_set(j->step_mid[i]);
+                    vf sx = f_add(f_set(q.x), f_mul(dx, t)), sy = f_add(f_set(q.y), f_mul(dy, t)),
+                       sz = f_add(f_set(q.z), f_mul(dz, t));
+                    vm in = m_and(m_and(m_and(f_ge(sx, zero), f_ge(sy, zero)), m_and(f_ge(sz, zero), f_ge(mx, sx))),
+                                  m_and(f_ge(my, sy), f_ge(mz, sz)));
+                    if (!m_bits(in)) continue;
+                    vf sigma;
+                    pk_grid_trilinear(j->sigma->v, dims, 1, sx, sy, sz, m_all(), 0, 1, &sigma);
+                    tau = f_add(tau, f_mul(f_keep(sigma, in), f_set(j->step_len[i])));
+                }
+                vf W = f_keep(exp_nonpos(f_neg(tau)), m_andnot(f_gt(tau, f_set(11.5f)), m_all()));
+                i_store(bytes, i_trunc(f_add(f_mul(W, f_set(255.0f)), f_set(0.5f))));
+                for (int l = 0; l < LANE_W; l++) o[d0 + l] = d0 + l < g->K ? (unsigned char)bytes[l] : 0;
+            }
+        }
+}
