@@ -94,7 +94,7 @@ static volux_status build_sigma(ao_state *st) {
  * farther out. σt interpolated from the node values (pre-classified; the
  * LUT per sample was 1.5× the build, measured). Outside the volume is
  * empty. The lanes of march_lanes.h (ao_near_lanes) round the same way. */
-static float near_transmittance(const ao_near_job *j, volux_vec3 q, int k) {
+static float near_transmittance(const ao_dir_job *j, volux_vec3 q, int k) {
     const scatter_grid *g = j->sigma;
     const float mx = (float)(g->dims[0] - 1), my = (float)(g->dims[1] - 1), mz = (float)(g->dims[2] - 1);
     float tau = 0.0f;
@@ -107,7 +107,7 @@ static float near_transmittance(const ao_near_job *j, volux_vec3 q, int k) {
     return tau > 11.5f ? 0.0f : expf(-tau);
 }
 
-static void near_slice_scalar(const ao_near_job *j, int z) {
+static void near_slice_scalar(const ao_dir_job *j, int z) {
     const scatter_dirw *g = j->out;
     for (int y = 0; y < g->dims[1]; y++)
         for (int x = 0; x < g->dims[0]; x++) {
@@ -121,14 +121,27 @@ static void near_slice_scalar(const ao_near_job *j, int z) {
         }
 }
 
-typedef struct near_run {
-    const ao_near_job *job;
-    int lanes;
-} near_run;
+typedef struct dir_run {
+    const ao_dir_job *job;
+    int lanes; /* 0 scalar, 8, 16 */
+} dir_run;
+
+/* The parts of a build's job common to the near and far grids. */
+static void dir_job_init(const ao_state *st, scatter_dirw *out, ao_dir_job *j) {
+    const volux_volume *v = st->b.rc.volume;
+    memset(j, 0, sizeof *j);
+    j->st = st, j->out = out, j->origin = v->origin;
+    for (int a = 0; a < 3; a++) j->inv_sp[a] = v->inv_spacing[a];
+    for (int k = 0; k < st->n_dirs; k++) {
+        volux_vec3 d = volux_fibonacci_dir(k, st->n_dirs);
+        j->dq[0][k] = d.x * v->inv_spacing[0], j->dq[1][k] = d.y * v->inv_spacing[1];
+        j->dq[2][k] = d.z * v->inv_spacing[2];
+    }
+}
 
 static void near_slice(void *user, int64_t z, int thread) {
     (void)thread;
-    const near_run *r = user;
+    const dir_run *r = user;
     if (r->lanes == 16) volux_ao_near_slice_avx512(r->job, (int)z);
     else if (r->lanes == 8) volux_ao_near_slice_avx2(r->job, (int)z);
     else near_slice_scalar(r->job, (int)z);
@@ -160,11 +173,10 @@ static volux_status build_directional(ao_state *st) {
                 clear[((size_t)z * (size_t)mg->cells[1] + (size_t)y) * (size_t)mg->cells[0] + (size_t)x] =
                     (unsigned char)empty;
             }
-    ao_near_job job;
-    memset(&job, 0, sizeof job);
+    ao_dir_job job;
+    dir_job_init(st, &st->vis, &job);
     const volux_volume *v = rc->volume;
-    job.sigma = &st->sigma, job.out = &st->vis, job.origin = v->origin;
-    for (int a = 0; a < 3; a++) job.inv_sp[a] = v->inv_spacing[a];
+    job.sigma = &st->sigma;
     job.clear = clear;
     for (int a = 0; a < 3; a++) job.cells[a] = mg->cells[a];
     float t = 0.0f, h = 0.5f * rc->min_spacing;
@@ -175,14 +187,9 @@ static volux_status build_directional(ao_state *st) {
         t += len;
         if (i >= 1) h *= 2.0f;
     }
-    for (int k = 0; k < st->n_dirs; k++) {
-        volux_vec3 d = volux_fibonacci_dir(k, st->n_dirs);
-        job.dq[0][k] = d.x * v->inv_spacing[0], job.dq[1][k] = d.y * v->inv_spacing[1];
-        job.dq[2][k] = d.z * v->inv_spacing[2];
-    }
     /* the lanes' trilinear reads need two nodes along every axis */
     int flat = v->dims[0] < 2 || v->dims[1] < 2 || v->dims[2] < 2;
-    near_run run = {&job, flat ? 0 : st->near_lanes};
+    dir_run run = {&job, flat ? 0 : st->near_lanes};
     volux_parallel_for(rc->threads, st->vis.dims[2], near_slice, &run);
     volux_free(rc->ctx, clear, n ? n : 1);
     st->vis_builds++;
@@ -263,7 +270,7 @@ static volux_status ao_mip_build(ao_state *st) {
 
 /* Mean σt around index-space point q over a cube of 2^(l+1) voxels
  * (trilinear between the level's cube centres, clamped to its grid). */
-static float ao_mip_sample(const ao_state *st, int l, volux_vec3 q) {
+float volux_ao_mip_sample(const ao_state *st, int l, volux_vec3 q) {
     const int *d = st->mip_dims[l];
     const float c = (float)(2 << l);
     float u[3] = {(q.x + 0.5f) / c - 0.5f, (q.y + 0.5f) / c - 0.5f, (q.z + 0.5f) / c - 0.5f};
@@ -282,37 +289,58 @@ static float ao_mip_sample(const ao_state *st, int l, volux_vec3 q) {
     return volux_lerp3(n, f[0], f[1], f[2]);
 }
 
-#ifndef AO_FAR_SUB
-#define AO_FAR_SUB 4
-#endif
-static float far_transmittance(const void *user, volux_vec3 node, volux_vec3 dir) {
-    const ao_state *st = user;
-    const volux_volume *v = st->b.rc.volume;
-    volux_vec3 q = volux_volume_to_index(v, node);
-    volux_vec3 dq = v3(dir.x * v->inv_spacing[0], dir.y * v->inv_spacing[1], dir.z * v->inv_spacing[2]);
-    /* where d leaves the index box [0, n−1]³ (world distance) */
+/* Where direction k (index-space dq) leaves the index box [0, n−1]³ from
+ * q: a world distance. */
+static float far_exit(const ao_dir_job *j, volux_vec3 q, int k) {
+    const volux_volume *v = j->st->b.rc.volume;
     float t_exit = 1e30f;
-    const float qa[3] = {q.x, q.y, q.z}, da[3] = {dq.x, dq.y, dq.z};
+    const float qa[3] = {q.x, q.y, q.z};
     for (int a = 0; a < 3; a++) {
-        if (da[a] > 1e-12f) t_exit = fminf(t_exit, ((float)(v->dims[a] - 1) - qa[a]) / da[a]);
-        else if (da[a] < -1e-12f) t_exit = fminf(t_exit, -qa[a] / da[a]);
+        float da = j->dq[a][k];
+        if (da > 1e-12f) t_exit = fminf(t_exit, ((float)(v->dims[a] - 1) - qa[a]) / da);
+        else if (da < -1e-12f) t_exit = fminf(t_exit, -qa[a] / da);
     }
-    const float vox = st->b.rc.min_spacing;
+    return t_exit;
+}
+
+static float far_transmittance(const ao_dir_job *j, volux_vec3 q, int k) {
+    const ao_state *st = j->st;
+    const float t_exit = far_exit(j, q, k), vox = st->b.rc.min_spacing;
+    const volux_vec3 dq = v3(j->dq[0][k], j->dq[1][k], j->dq[2][k]);
     float t = st->radius, tau = 0.0f;
     while (t < t_exit) {
         float len = t, end = t + len < t_exit ? t + len : t_exit;
-        const int sub = AO_FAR_SUB;
-        float piece = len / (float)sub;
-        int l = (int)floorf(log2f(piece / vox) + 0.5f) - 1; /* cube of 2^(l+1) voxels ≈ the piece */
-        l = l < 0 ? 0 : (l >= st->mip_levels ? st->mip_levels - 1 : l);
-        for (int i = 0; i < sub; i++) {
+        float piece = len / (float)AO_FAR_SUB;
+        int l = ao_far_level(st, piece, vox);
+        for (int i = 0; i < AO_FAR_SUB; i++) {
             float a = t + (float)i * piece, b = a + piece < end ? a + piece : end;
-            if (b > a) tau += ao_mip_sample(st, l, v3_madd(q, dq, 0.5f * (a + b))) * (b - a);
+            if (b > a) tau += volux_ao_mip_sample(st, l, v3_madd(q, dq, 0.5f * (a + b))) * (b - a);
         }
         if (tau > 11.5f) return 0.0f;
         t = end; /* the next step is as long as its start distance */
     }
     return expf(-tau);
+}
+
+static void far_slice_scalar(const ao_dir_job *j, int z) {
+    const scatter_dirw *g = j->out;
+    for (int y = 0; y < g->dims[1]; y++)
+        for (int x = 0; x < g->dims[0]; x++) {
+            volux_vec3 q;
+            unsigned char *o = ao_dir_node(j, x, y, z, &q);
+            for (int d = 0; d < g->stride; d++) {
+                float W = d < g->K ? far_transmittance(j, q, d) : 0.0f;
+                o[d] = (unsigned char)(W * 255.0f + 0.5f);
+            }
+        }
+}
+
+static void far_slice(void *user, int64_t z, int thread) {
+    (void)thread;
+    const dir_run *r = user;
+    if (r->lanes == 16) volux_ao_far_slice_avx512(r->job, (int)z);
+    else if (r->lanes == 8) volux_ao_far_slice_avx2(r->job, (int)z);
+    else far_slice_scalar(r->job, (int)z);
 }
 
 static volux_status build_far(ao_state *st) {
@@ -323,7 +351,10 @@ static volux_status build_far(ao_state *st) {
     float scale = rc->min_spacing / st->radius;
     scale = scale > 1.0f ? 1.0f : (scale < 0.02f ? 0.02f : scale);
     if ((s = scatter_dirw_alloc(rc->ctx, rc->volume, scale, st->n_dirs, &st->far))) return s;
-    scatter_dirw_build(rc->threads, &st->far, far_transmittance, st);
+    ao_dir_job job;
+    dir_job_init(st, &st->far, &job);
+    dir_run run = {&job, st->near_lanes};
+    volux_parallel_for(rc->threads, st->far.dims[2], far_slice, &run);
     ao_mip_free(st);
     st->far_builds++;
     return VOLUX_OK;
