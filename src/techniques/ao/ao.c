@@ -66,24 +66,24 @@ static const volux_param_info ao_params[] = {
      "directional: resolution of the per-direction occlusion grid relative to the volume (K bytes per node)"},
     {NULL, 0, 0, 0, 0, NULL, NULL}};
 
-/* σt at the volume's nodes, one z slice (the LUT once per voxel; the
- * near field's samples interpolate it, the pyramid's first level averages
- * it). */
-static void sigma_slice(void *user, int64_t z, int thread) {
+/* The volume's values at its nodes as floats, one z slice: the near
+ * field's samples interpolate them and classify (post-classification, as
+ * the scalar march: interpolating σt instead made thin, steep-TF surfaces
+ * 0.84–0.90 as bright on engine and aneurism), with reads of one layout
+ * for the lanes' gathers whatever the storage type. */
+static void value_slice(void *user, int64_t z, int thread) {
     (void)thread;
     const ao_state *st = user;
     const volux_volume *v = st->b.rc.volume;
     size_t n = (size_t)v->dims[0] * (size_t)v->dims[1], o = (size_t)z * n;
-    /* the node's value: what volux_volume_sample_index gives at integer coordinates */
-    for (size_t i = 0; i < n; i++)
-        st->sigma.v[o + i] = volux_lut_sigma(st->b.rc.lut, volux_volume_raw_at(v, o + i) + v->value_offset);
+    for (size_t i = 0; i < n; i++) st->sigma.v[o + i] = volux_volume_raw_at(v, o + i) + v->value_offset;
 }
 
 static volux_status build_sigma(ao_state *st) {
     volux_raycaster *rc = &st->b.rc;
-    volux_status s = scatter_grid_alloc(rc->ctx, rc->volume, 1.0f, &st->sigma, "ao: σt volume");
+    volux_status s = scatter_grid_alloc(rc->ctx, rc->volume, 1.0f, &st->sigma, "ao: value volume");
     if (s) return s;
-    volux_parallel_for(rc->threads, rc->volume->dims[2], sigma_slice, st);
+    volux_parallel_for(rc->threads, rc->volume->dims[2], value_slice, st);
     return VOLUX_OK;
 }
 
@@ -91,9 +91,8 @@ static volux_status build_sigma(ao_state *st) {
  * the radius R: the midpoint rule on the job's steps (h, h, 2h, 4h ...,
  * h = half the smallest voxel spacing; 5 steps for R = 8 voxels): fine
  * where the occluder is near (the dense surface the node sits on), coarse
- * farther out. σt interpolated from the node values (pre-classified; the
- * LUT per sample was 1.5× the build, measured). Outside the volume is
- * empty. The lanes of march_lanes.h (ao_near_lanes) round the same way. */
+ * farther out. The value interpolated from the float node values, then
+ * classified. Outside the volume is empty. The lanes of march_lanes.h (ao_near_lanes) round the same way. */
 static float near_transmittance(const ao_dir_job *j, volux_vec3 q, int k) {
     const scatter_grid *g = j->sigma;
     const float mx = (float)(g->dims[0] - 1), my = (float)(g->dims[1] - 1), mz = (float)(g->dims[2] - 1);
@@ -102,7 +101,7 @@ static float near_transmittance(const ao_dir_job *j, volux_vec3 q, int k) {
         float t = j->step_mid[i];
         float x = q.x + j->dq[0][k] * t, y = q.y + j->dq[1][k] * t, z = q.z + j->dq[2][k] * t;
         if (x >= 0.0f && y >= 0.0f && z >= 0.0f && x <= mx && y <= my && z <= mz)
-            tau += scatter_grid_sample_index(g, x, y, z) * j->step_len[i];
+            tau += volux_lut_sigma(j->lut, scatter_grid_sample_index(g, x, y, z)) * j->step_len[i];
     }
     return tau > 11.5f ? 0.0f : expf(-tau);
 }
@@ -177,6 +176,7 @@ static volux_status build_directional(ao_state *st) {
     dir_job_init(st, &st->vis, &job);
     const volux_volume *v = rc->volume;
     job.sigma = &st->sigma;
+    job.lut = rc->lut;
     job.clear = clear;
     for (int a = 0; a < 3; a++) job.cells[a] = mg->cells[a];
     float t = 0.0f, h = 0.5f * rc->min_spacing;
@@ -242,7 +242,8 @@ static void mip_slice(void *user, int64_t z, int thread) {
             for (int c = 0; c < 8; c++) {
                 int xi = 2 * x + (c & 1), yi = 2 * y + ((c >> 1) & 1), zi = 2 * (int)z + (c >> 2);
                 if (xi >= s[0] || yi >= s[1] || zi >= s[2]) continue;
-                sum += src[((size_t)zi * (size_t)s[1] + (size_t)yi) * (size_t)s[0] + (size_t)xi];
+                float val = src[((size_t)zi * (size_t)s[1] + (size_t)yi) * (size_t)s[0] + (size_t)xi];
+                sum += j->l ? val : volux_lut_sigma(st->b.rc.lut, val); /* level 0: σt of the node values */
                 n++;
             }
             out[((size_t)z * (size_t)d[1] + (size_t)y) * (size_t)d[0] + (size_t)x] = n ? sum / (float)n : 0.0f;

@@ -26,7 +26,7 @@ typedef struct ao_state {
     float vis_scale;     /* resolution of the per-direction grid */
     scatter_dirw vis;    /* W_k(x), K bytes per node (near field: 0 .. R) */
     int far_field;       /* 1: also the transmittance beyond R (far grid) */
-    scatter_grid sigma;  /* σt at the volume's nodes: only while the grids build */
+    scatter_grid sigma;  /* the values at the volume's nodes: only while the grids build */
     scatter_dirw far;    /* F_k(x): transmittance from R to the box exit, coarse grid */
     int mip_levels;      /* σt means over cubes of 2, 4, 8 ... voxels (the far march's cones) */
     int mip_dims[AO_MIP_MAX][3];
@@ -42,7 +42,8 @@ typedef struct ao_state {
  * a kernel may run the directions of a node as lanes. */
 typedef struct ao_dir_job {
     const struct ao_state *st;   /* far: the σt pyramid, radius, voxel size     */
-    const scatter_grid *sigma;   /* near: σt at the volume's nodes (pre-classified) */
+    const scatter_grid *sigma;   /* near: the volume's values at its nodes (floats) */
+    const volux_transfer_lut *lut; /* near: σt of a value (post-classification) */
     scatter_dirw *out;           /* W_k or F_k bytes per node                 */
     volux_vec3 origin;           /* the volume's: world → index space          */
     float inv_sp[3];

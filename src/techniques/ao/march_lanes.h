@@ -52,6 +52,21 @@ VOLUX_PACKET_TILE(ao_packet_tile, ao_hook)
 
 /* ------------------------------------------------------------ near field */
 
+/* volux_lut_sigma per lane: the same clamps and unfused lerp. */
+DI vf ao_lut_sigma_lanes(const volux_transfer_lut *lut, vf s) {
+    const int last = lut->n - 1;
+    vf u = f_mul(f_sub(s, f_set(lut->s_min)), f_set(lut->inv_ds));
+    vm lo = m_andnot(f_gt(u, f_zero()), m_all()), hi = f_ge(u, f_set((float)last));
+    vf uc = f_min(f_max(u, f_zero()), f_set((float)last));
+    vi i = i_min(i_trunc(uc), i_set(last > 0 ? last - 1 : 0));
+    vf f = f_sub(uc, f_from_i(i));
+    const vm mid = m_andnot(m_or(lo, hi), m_all()); /* the clamped lanes read nothing */
+    vf a = gather_f32_masked(lut->sigma_t, i, mid), b = gather_f32_masked(lut->sigma_t + 1, i, mid);
+    vf r = lerp(a, b, f);
+    r = sel(lo, f_set(lut->sigma_t[0]), r);
+    return sel(hi, f_set(lut->sigma_t[last]), r);
+}
+
 /* The near field's build (ao.c: near_transmittance) with the directions
  * of a node as lanes: every direction takes the same steps, so a step is
  * one trilinear gather of σt per lane group. Same arithmetic and rounding
@@ -78,8 +93,9 @@ DI void ao_near_lanes(const ao_dir_job *j, int z) {
                     vm in = m_and(m_and(m_and(f_ge(sx, zero), f_ge(sy, zero)), m_and(f_ge(sz, zero), f_ge(mx, sx))),
                                   m_and(f_ge(my, sy), f_ge(mz, sz)));
                     if (!m_bits(in)) continue;
-                    vf sigma;
-                    pk_grid_trilinear(j->sigma->v, dims, 1, sx, sy, sz, m_all(), 0, 1, &sigma);
+                    vf val;
+                    pk_grid_trilinear(j->sigma->v, dims, 1, sx, sy, sz, m_all(), 0, 1, &val);
+                    vf sigma = ao_lut_sigma_lanes(j->lut, val);
                     tau = f_add(tau, f_mul(f_keep(sigma, in), f_set(j->step_len[i])));
                 }
                 vf W = f_keep(exp_nonpos(f_neg(tau)), m_andnot(f_gt(tau, f_set(11.5f)), m_all()));
