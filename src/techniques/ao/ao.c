@@ -66,38 +66,84 @@ static const volux_param_info ao_params[] = {
      "directional: resolution of the per-direction occlusion grid relative to the volume (K bytes per node)"},
     {NULL, 0, 0, 0, 0, NULL, NULL}};
 
-/* Local transmittance from `node` along unit `dir` over the radius R:
- * midpoint rule on steps of h, h, 2h, 4h, ... (h = half the smallest
- * voxel spacing; 5 steps for R = 8 voxels): fine where the occluder is
- * near (the dense surface the node sits on), coarse farther out. Outside
- * the volume is empty. */
-typedef struct vis_job {
-    const volux_volume *v;
-    const volux_transfer_lut *lut;
-    float R, h0;
-    const unsigned char *clear; /* per macrocell: every cell within R is empty (W = 1, no march) */
-    int cells[3];
-} vis_job;
+/* The volume's values at its nodes as floats, one z slice: the near
+ * field's samples interpolate them and classify (post-classification, as
+ * the scalar march: interpolating σt instead made thin, steep-TF surfaces
+ * 0.84–0.90 as bright on engine and aneurism), with reads of one layout
+ * for the lanes' gathers whatever the storage type. */
+static void value_slice(void *user, int64_t z, int thread) {
+    (void)thread;
+    const ao_state *st = user;
+    const volux_volume *v = st->b.rc.volume;
+    size_t n = (size_t)v->dims[0] * (size_t)v->dims[1], o = (size_t)z * n;
+    for (size_t i = 0; i < n; i++) st->sigma.v[o + i] = volux_volume_raw_at(v, o + i) + v->value_offset;
+}
 
-static float local_transmittance(const void *user, volux_vec3 node, volux_vec3 dir) {
-    const vis_job *j = user;
-    const volux_volume *v = j->v;
-    volux_vec3 q = volux_volume_to_index(v, node);
-    int c[3] = {(int)(q.x / (float)VOLUX_CELL_SIZE), (int)(q.y / (float)VOLUX_CELL_SIZE),
-                (int)(q.z / (float)VOLUX_CELL_SIZE)};
-    for (int a = 0; a < 3; a++) c[a] = c[a] < 0 ? 0 : (c[a] >= j->cells[a] ? j->cells[a] - 1 : c[a]);
-    if (j->clear[((size_t)c[2] * (size_t)j->cells[1] + (size_t)c[1]) * (size_t)j->cells[0] + (size_t)c[0]]) return 1.0f;
-    volux_vec3 dq = v3(dir.x * v->inv_spacing[0], dir.y * v->inv_spacing[1], dir.z * v->inv_spacing[2]);
-    float t = 0.0f, tau = 0.0f, h = j->h0;
-    for (int i = 0; t < j->R; i++) {
-        float len = j->R - t < h ? j->R - t : h;
-        volux_vec3 s = v3_madd(q, dq, t + 0.5f * len);
-        if (volux_volume_inside_index(v, s)) tau += volux_lut_sigma(j->lut, volux_volume_sample_index(v, s.x, s.y, s.z)) * len;
-        if (tau > 11.5f) return 0.0f;
-        t += len;
-        if (i >= 1) h *= 2.0f;
+static volux_status build_sigma(ao_state *st) {
+    volux_raycaster *rc = &st->b.rc;
+    volux_status s = scatter_grid_alloc(rc->ctx, rc->volume, 1.0f, &st->sigma, "ao: value volume");
+    if (s) return s;
+    volux_parallel_for(rc->threads, rc->volume->dims[2], value_slice, st);
+    return VOLUX_OK;
+}
+
+/* Local transmittance W_k at index-space point q along direction k over
+ * the radius R: the midpoint rule on the job's steps (h, h, 2h, 4h ...,
+ * h = half the smallest voxel spacing; 5 steps for R = 8 voxels): fine
+ * where the occluder is near (the dense surface the node sits on), coarse
+ * farther out. The value interpolated from the float node values, then
+ * classified. Outside the volume is empty. The lanes of march_lanes.h (ao_near_lanes) round the same way. */
+static float near_transmittance(const ao_dir_job *j, volux_vec3 q, int k) {
+    const scatter_grid *g = j->sigma;
+    const float mx = (float)(g->dims[0] - 1), my = (float)(g->dims[1] - 1), mz = (float)(g->dims[2] - 1);
+    float tau = 0.0f;
+    for (int i = 0; i < j->n_steps; i++) {
+        float t = j->step_mid[i];
+        float x = q.x + j->dq[0][k] * t, y = q.y + j->dq[1][k] * t, z = q.z + j->dq[2][k] * t;
+        if (x >= 0.0f && y >= 0.0f && z >= 0.0f && x <= mx && y <= my && z <= mz)
+            tau += volux_lut_sigma(j->lut, scatter_grid_sample_index(g, x, y, z)) * j->step_len[i];
     }
-    return expf(-tau);
+    return tau > 11.5f ? 0.0f : expf(-tau);
+}
+
+static void near_slice_scalar(const ao_dir_job *j, int z) {
+    const scatter_dirw *g = j->out;
+    for (int y = 0; y < g->dims[1]; y++)
+        for (int x = 0; x < g->dims[0]; x++) {
+            volux_vec3 q;
+            unsigned char *o;
+            if (!ao_near_node(j, x, y, z, &q, &o)) continue; /* empty surroundings */
+            for (int d = 0; d < g->stride; d++) {
+                float W = d < g->K ? near_transmittance(j, q, d) : 0.0f;
+                o[d] = (unsigned char)(W * 255.0f + 0.5f);
+            }
+        }
+}
+
+typedef struct dir_run {
+    const ao_dir_job *job;
+    int lanes; /* 0 scalar, 8, 16 */
+} dir_run;
+
+/* The parts of a build's job common to the near and far grids. */
+static void dir_job_init(const ao_state *st, scatter_dirw *out, ao_dir_job *j) {
+    const volux_volume *v = st->b.rc.volume;
+    memset(j, 0, sizeof *j);
+    j->st = st, j->out = out, j->origin = v->origin;
+    for (int a = 0; a < 3; a++) j->inv_sp[a] = v->inv_spacing[a];
+    for (int k = 0; k < st->n_dirs; k++) {
+        volux_vec3 d = volux_fibonacci_dir(k, st->n_dirs);
+        j->dq[0][k] = d.x * v->inv_spacing[0], j->dq[1][k] = d.y * v->inv_spacing[1];
+        j->dq[2][k] = d.z * v->inv_spacing[2];
+    }
+}
+
+static void near_slice(void *user, int64_t z, int thread) {
+    (void)thread;
+    const dir_run *r = user;
+    if (r->lanes == 16) volux_ao_near_slice_avx512(r->job, (int)z);
+    else if (r->lanes == 8) volux_ao_near_slice_avx2(r->job, (int)z);
+    else near_slice_scalar(r->job, (int)z);
 }
 
 static volux_status build_directional(ao_state *st) {
@@ -126,9 +172,25 @@ static volux_status build_directional(ao_state *st) {
                 clear[((size_t)z * (size_t)mg->cells[1] + (size_t)y) * (size_t)mg->cells[0] + (size_t)x] =
                     (unsigned char)empty;
             }
-    vis_job job = {rc->volume, rc->lut, st->radius, 0.5f * rc->min_spacing, clear,
-                   {mg->cells[0], mg->cells[1], mg->cells[2]}};
-    scatter_dirw_build(rc->threads, &st->vis, local_transmittance, &job);
+    ao_dir_job job;
+    dir_job_init(st, &st->vis, &job);
+    const volux_volume *v = rc->volume;
+    job.sigma = &st->sigma;
+    job.lut = rc->lut;
+    job.clear = clear;
+    for (int a = 0; a < 3; a++) job.cells[a] = mg->cells[a];
+    float t = 0.0f, h = 0.5f * rc->min_spacing;
+    for (int i = 0; t < st->radius && i < AO_NEAR_MAX_STEPS; i++) {
+        float len = st->radius - t < h ? st->radius - t : h;
+        job.step_mid[i] = t + 0.5f * len, job.step_len[i] = len;
+        job.n_steps = i + 1;
+        t += len;
+        if (i >= 1) h *= 2.0f;
+    }
+    /* the lanes' trilinear reads need two nodes along every axis */
+    int flat = v->dims[0] < 2 || v->dims[1] < 2 || v->dims[2] < 2;
+    dir_run run = {&job, flat ? 0 : st->near_lanes};
+    volux_parallel_for(rc->threads, st->vis.dims[2], near_slice, &run);
     volux_free(rc->ctx, clear, n ? n : 1);
     st->vis_builds++;
     return VOLUX_OK;
@@ -171,7 +233,7 @@ static void mip_slice(void *user, int64_t z, int thread) {
     const volux_volume *v = st->b.rc.volume;
     const int *d = st->mip_dims[j->l];
     const int *s = j->l ? st->mip_dims[j->l - 1] : v->dims;
-    const float *src = j->l ? st->mip[j->l - 1] : NULL;
+    const float *src = j->l ? st->mip[j->l - 1] : st->sigma.v;
     float *out = st->mip[j->l];
     for (int y = 0; y < d[1]; y++)
         for (int x = 0; x < d[0]; x++) {
@@ -180,8 +242,8 @@ static void mip_slice(void *user, int64_t z, int thread) {
             for (int c = 0; c < 8; c++) {
                 int xi = 2 * x + (c & 1), yi = 2 * y + ((c >> 1) & 1), zi = 2 * (int)z + (c >> 2);
                 if (xi >= s[0] || yi >= s[1] || zi >= s[2]) continue;
-                sum += src ? src[((size_t)zi * (size_t)s[1] + (size_t)yi) * (size_t)s[0] + (size_t)xi]
-                           : volux_lut_sigma(st->b.rc.lut, volux_volume_sample_index(v, (float)xi, (float)yi, (float)zi));
+                float val = src[((size_t)zi * (size_t)s[1] + (size_t)yi) * (size_t)s[0] + (size_t)xi];
+                sum += j->l ? val : volux_lut_sigma(st->b.rc.lut, val); /* level 0: σt of the node values */
                 n++;
             }
             out[((size_t)z * (size_t)d[1] + (size_t)y) * (size_t)d[0] + (size_t)x] = n ? sum / (float)n : 0.0f;
@@ -209,7 +271,7 @@ static volux_status ao_mip_build(ao_state *st) {
 
 /* Mean σt around index-space point q over a cube of 2^(l+1) voxels
  * (trilinear between the level's cube centres, clamped to its grid). */
-static float ao_mip_sample(const ao_state *st, int l, volux_vec3 q) {
+float volux_ao_mip_sample(const ao_state *st, int l, volux_vec3 q) {
     const int *d = st->mip_dims[l];
     const float c = (float)(2 << l);
     float u[3] = {(q.x + 0.5f) / c - 0.5f, (q.y + 0.5f) / c - 0.5f, (q.z + 0.5f) / c - 0.5f};
@@ -228,37 +290,58 @@ static float ao_mip_sample(const ao_state *st, int l, volux_vec3 q) {
     return volux_lerp3(n, f[0], f[1], f[2]);
 }
 
-#ifndef AO_FAR_SUB
-#define AO_FAR_SUB 4
-#endif
-static float far_transmittance(const void *user, volux_vec3 node, volux_vec3 dir) {
-    const ao_state *st = user;
-    const volux_volume *v = st->b.rc.volume;
-    volux_vec3 q = volux_volume_to_index(v, node);
-    volux_vec3 dq = v3(dir.x * v->inv_spacing[0], dir.y * v->inv_spacing[1], dir.z * v->inv_spacing[2]);
-    /* where d leaves the index box [0, n−1]³ (world distance) */
+/* Where direction k (index-space dq) leaves the index box [0, n−1]³ from
+ * q: a world distance. */
+static float far_exit(const ao_dir_job *j, volux_vec3 q, int k) {
+    const volux_volume *v = j->st->b.rc.volume;
     float t_exit = 1e30f;
-    const float qa[3] = {q.x, q.y, q.z}, da[3] = {dq.x, dq.y, dq.z};
+    const float qa[3] = {q.x, q.y, q.z};
     for (int a = 0; a < 3; a++) {
-        if (da[a] > 1e-12f) t_exit = fminf(t_exit, ((float)(v->dims[a] - 1) - qa[a]) / da[a]);
-        else if (da[a] < -1e-12f) t_exit = fminf(t_exit, -qa[a] / da[a]);
+        float da = j->dq[a][k];
+        if (da > 1e-12f) t_exit = fminf(t_exit, ((float)(v->dims[a] - 1) - qa[a]) / da);
+        else if (da < -1e-12f) t_exit = fminf(t_exit, -qa[a] / da);
     }
-    const float vox = st->b.rc.min_spacing;
+    return t_exit;
+}
+
+static float far_transmittance(const ao_dir_job *j, volux_vec3 q, int k) {
+    const ao_state *st = j->st;
+    const float t_exit = far_exit(j, q, k), vox = st->b.rc.min_spacing;
+    const volux_vec3 dq = v3(j->dq[0][k], j->dq[1][k], j->dq[2][k]);
     float t = st->radius, tau = 0.0f;
     while (t < t_exit) {
         float len = t, end = t + len < t_exit ? t + len : t_exit;
-        const int sub = AO_FAR_SUB;
-        float piece = len / (float)sub;
-        int l = (int)floorf(log2f(piece / vox) + 0.5f) - 1; /* cube of 2^(l+1) voxels ≈ the piece */
-        l = l < 0 ? 0 : (l >= st->mip_levels ? st->mip_levels - 1 : l);
-        for (int i = 0; i < sub; i++) {
+        float piece = len / (float)AO_FAR_SUB;
+        int l = ao_far_level(st, piece, vox);
+        for (int i = 0; i < AO_FAR_SUB; i++) {
             float a = t + (float)i * piece, b = a + piece < end ? a + piece : end;
-            if (b > a) tau += ao_mip_sample(st, l, v3_madd(q, dq, 0.5f * (a + b))) * (b - a);
+            if (b > a) tau += volux_ao_mip_sample(st, l, v3_madd(q, dq, 0.5f * (a + b))) * (b - a);
         }
         if (tau > 11.5f) return 0.0f;
         t = end; /* the next step is as long as its start distance */
     }
     return expf(-tau);
+}
+
+static void far_slice_scalar(const ao_dir_job *j, int z) {
+    const scatter_dirw *g = j->out;
+    for (int y = 0; y < g->dims[1]; y++)
+        for (int x = 0; x < g->dims[0]; x++) {
+            volux_vec3 q;
+            unsigned char *o = ao_dir_node(j, x, y, z, &q);
+            for (int d = 0; d < g->stride; d++) {
+                float W = d < g->K ? far_transmittance(j, q, d) : 0.0f;
+                o[d] = (unsigned char)(W * 255.0f + 0.5f);
+            }
+        }
+}
+
+static void far_slice(void *user, int64_t z, int thread) {
+    (void)thread;
+    const dir_run *r = user;
+    if (r->lanes == 16) volux_ao_far_slice_avx512(r->job, (int)z);
+    else if (r->lanes == 8) volux_ao_far_slice_avx2(r->job, (int)z);
+    else far_slice_scalar(r->job, (int)z);
 }
 
 static volux_status build_far(ao_state *st) {
@@ -269,7 +352,10 @@ static volux_status build_far(ao_state *st) {
     float scale = rc->min_spacing / st->radius;
     scale = scale > 1.0f ? 1.0f : (scale < 0.02f ? 0.02f : scale);
     if ((s = scatter_dirw_alloc(rc->ctx, rc->volume, scale, st->n_dirs, &st->far))) return s;
-    scatter_dirw_build(rc->threads, &st->far, far_transmittance, st);
+    ao_dir_job job;
+    dir_job_init(st, &st->far, &job);
+    dir_run run = {&job, st->near_lanes};
+    volux_parallel_for(rc->threads, st->far.dims[2], far_slice, &run);
     ao_mip_free(st);
     st->far_builds++;
     return VOLUX_OK;
@@ -280,12 +366,9 @@ static volux_status ao_update(void *state, const volux_scene *scene, const volux
     volux_raycaster *rc = &st->b.rc;
     volux_status s;
     scatter_base_update(&st->b, scene, c);
-    /* The lane hook (march_lanes.h) shades the isotropic model only; the
-     * directional one runs the scalar march. */
-    int lanes_usable = !(int)volux_technique_param(scene, rc->cls, "directional");
-    if ((s = scatter_base_packet_update(&st->b, scene, c, lanes_usable,
-                                        "the directional occlusion model is shaded by the scalar march")))
-        return s;
+    /* The lane hook (march_lanes.h) shades the isotropic model with
+     * gathers, the directional one per lane. */
+    if ((s = scatter_base_packet_update(&st->b, scene, c, 1, NULL))) return s;
     int rebuild = (c->what & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY)) != 0;
     int env = (c->what & (VOLUX_CHANGE_LIGHTS | VOLUX_CHANGE_PHASE)) != 0;
     if (c->what & (VOLUX_CHANGE_PARAMS | VOLUX_CHANGE_VOLUME)) {
@@ -308,16 +391,23 @@ static volux_status ao_update(void *state, const volux_scene *scene, const volux
         scatter_env_prepare(&st->env, &rc->lights, st->directional ? st->n_dirs : 0);
         st->env_table_builds++;
     }
+    if (st->directional && (c->what & VOLUX_CHANGE_PARAMS)) {
+        /* the near field's kernel follows march_kernel ("scalar": the
+         * portable reference for both); bytes may differ by 1 between
+         * kernels, so a change rebuilds (incremental == fresh) */
+        if (st->b.march_lanes != st->near_lanes) rebuild = 1;
+        st->near_lanes = st->b.march_lanes;
+    }
     if (!rebuild) return VOLUX_OK;
     if (st->directional) {
         scatter_sat_free(rc->ctx, &st->sat);
         scatter_grid_free(rc->ctx, &st->occ);
-        if ((s = build_directional(st))) return s;
-        if (!st->far_field) {
-            scatter_dirw_free(rc->ctx, &st->far);
-            return VOLUX_OK;
+        if (!(s = build_sigma(st)) && !(s = build_directional(st))) {
+            if (st->far_field) s = build_far(st);
+            else scatter_dirw_free(rc->ctx, &st->far);
         }
-        return build_far(st);
+        scatter_grid_free(rc->ctx, &st->sigma);
+        return s;
     }
     scatter_dirw_free(rc->ctx, &st->vis);
     scatter_dirw_free(rc->ctx, &st->far);
@@ -336,6 +426,7 @@ static volux_status ao_update(void *state, const volux_scene *scene, const volux
 static void ao_init(void *state) {
     ao_state *st = state;
     st->directional = -1;
+    st->near_lanes = -1;
 }
 
 static void ao_release(void *state) {
@@ -344,6 +435,7 @@ static void ao_release(void *state) {
     scatter_grid_free(st->b.rc.ctx, &st->occ);
     scatter_dirw_free(st->b.rc.ctx, &st->vis);
     scatter_dirw_free(st->b.rc.ctx, &st->far);
+    scatter_grid_free(st->b.rc.ctx, &st->sigma);
     ao_mip_free(st);
     scatter_base_packet_release(&st->b);
 }

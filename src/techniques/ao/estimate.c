@@ -20,9 +20,7 @@ static uint64_t sat_bytes(uint64_t voxels, uint64_t max_box) {
 uint64_t volux_ao_estimate_bytes(const volux_scene *scene, const volux_technique_class *cls, uint64_t *volume_added) {
     const volux_volume *v = volux_scene_volume(scene);
     if (!v) return 0;
-    /* the lane hook shades the isotropic model only (ao.c) */
-    uint64_t packets =
-        volux_mm_packet_march_bytes(scene, cls, !(int)volux_technique_param(scene, cls, "directional"), volume_added);
+    uint64_t packets = volux_mm_packet_march_bytes(scene, cls, 1, volume_added); /* both models (ao.c) */
     double sp[3];
     volux_volume_spacing(v, sp);
     double min_sp = sp[0] < sp[1] ? sp[0] : sp[1];

@@ -107,33 +107,3 @@ void scatter_dirw_free(volux_context *ctx, scatter_dirw *g) {
     if (g->v) volux_free_aligned(ctx, g->v, g->bytes);
     memset(g, 0, sizeof *g);
 }
-
-typedef struct dirw_job {
-    scatter_dirw *g;
-    volux_vec3 dir[SCATTER_ENV_MAX_DIRS];
-    scatter_dirvis_fn fn;
-    const void *user;
-} dirw_job;
-
-static void dirw_slice(void *user, int64_t k, int thread) {
-    (void)thread;
-    const dirw_job *j = user;
-    scatter_dirw *g = j->g;
-    for (int y = 0; y < g->dims[1]; y++)
-        for (int x = 0; x < g->dims[0]; x++) {
-            unsigned char *o = g->v + (((size_t)k * (size_t)g->dims[1] + (size_t)y) * (size_t)g->dims[0] + (size_t)x) *
-                                          (size_t)g->stride;
-            volux_vec3 p = v3(g->lo.x + (float)x * g->h[0], g->lo.y + (float)y * g->h[1], g->lo.z + (float)k * g->h[2]);
-            for (int d = 0; d < g->stride; d++) {
-                float W = d < g->K ? j->fn(j->user, p, j->dir[d]) : 0.0f;
-                o[d] = (unsigned char)(W * 255.0f + 0.5f);
-            }
-        }
-}
-
-void scatter_dirw_build(int threads, scatter_dirw *g, scatter_dirvis_fn fn, const void *user) {
-    dirw_job job;
-    job.g = g, job.fn = fn, job.user = user;
-    for (int k = 0; k < g->K; k++) job.dir[k] = volux_fibonacci_dir(k, g->K);
-    volux_parallel_for(threads, g->dims[2], dirw_slice, &job);
-}

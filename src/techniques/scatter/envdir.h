@@ -126,8 +126,8 @@ typedef struct scatter_dirw {
 
 volux_status scatter_dirw_alloc(volux_context *ctx, const volux_volume *v, float scale, int K, scatter_dirw *g);
 void scatter_dirw_free(volux_context *ctx, scatter_dirw *g);
-/* Fills every node: byte k = round(255·fn(node, d_k)), d_k = volux_fibonacci_dir(k, K). */
-void scatter_dirw_build(int threads, scatter_dirw *g, scatter_dirvis_fn fn, const void *user);
+/* (`ao` fills the bytes itself: techniques/ao/ao.c, the directions of a
+ * node as SIMD lanes.) */
 
 /* W_k at world point p (trilinear, clamped to the box) into W[0 .. stride). */
 static inline void scatter_dirw_sample(const scatter_dirw *g, volux_vec3 p, float *W) {
