@@ -150,6 +150,7 @@ volux_status sh_delta_visibility(sh_state *st) {
     const sh_grid *g = &st->grid;
     const volux_light_list *ll = &st->rc.lights;
     int n = 0;
+    st->n_dvis = 0; /* nothing to read until the grids are built */
     for (int i = 0; i < st->n_delta; i++) n += st->delta_exact[i] && st->delta_light[i] >= 0;
     size_t bytes = (size_t)n * g->nodes * sizeof(float);
     if (bytes != st->dvis_bytes) {
