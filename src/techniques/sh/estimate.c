@@ -3,7 +3,8 @@
  * the voxels by default) the projection (bands² floats per channel: 64 B
  * for 4 bands, grey) and the baked shade (16 B); with env_product and an
  * environment light the product matrices (3·16 floats); the bricked copy
- * of the volume. The BRDF tables (a few hundred kB per material) and the
+ * of the volume; with delta_shadows (shadows only) one float per node and
+ * direct light (the delta lights' transmittance). The BRDF tables (a few hundred kB per material) and the
  * gradient cache of BRDF materials are not modelled. */
 #include "render/memory_model.h"
 #include "sh.h"
@@ -23,5 +24,6 @@ uint64_t volux_sh_estimate_bytes(const volux_scene *scene, const volux_technique
     uint64_t per_node = stride * sizeof(float) + 4 * sizeof(float);
     volux_mm_lights l = volux_mm_count_lights(scene);
     if (l.env && (int)volux_technique_param(scene, cls, "env_product")) per_node += 3 * SH_MAX_COEFFS * sizeof(float);
+    if (!rgb && (int)volux_technique_param(scene, cls, "delta_shadows")) per_node += (uint64_t)l.direct * sizeof(float);
     return nodes * per_node;
 }

@@ -62,6 +62,13 @@ static const volux_param_info sh_params[] = {
      "coefficient cells by which a surface's shading samples read the grid outward along the opacity gradient, and "
      "its nodes start their rays (the depth on the way is taken from the volume per light direction); 0: at the "
      "sample, which draws contour rings on dense surfaces (issue 28)"},
+    {"delta_shadows", VOLUX_PARAM_BOOL, 1, 0, 1, NULL,
+     "delta lights (directional, point, spot) shadowed by a per-node transmittance towards each (a sweep at the "
+     "volume's resolution) instead of the 4-band visibility, which lights the far side of plates thinner than a "
+     "coefficient cell; only without bleeding and scattering (their coefficients carry colour) (issue 28)"},
+    {"near_field", VOLUX_PARAM_NUMBER, 2, 0, 8, NULL,
+     "with delta_shadows: coefficient cells of the way to a delta light each sample marches before it reads the "
+     "per-node transmittance (nodes around the sample sit either side of thin plates)"},
     VOLUX_PARAM_GRADIENT_THRESHOLD("BRDF shading is"),
     VOLUX_PARAM_PREINTEGRATE,
     VOLUX_PARAM_EARLY_TERMINATION,
@@ -186,11 +193,22 @@ static void bake_into(sh_state *st, const sh_grid *g, const sh_layout *L, const 
     memset(&b, 0, sizeof b);
     b.st = st, b.grid = g, b.L = L, b.coef = coef, b.shade = shade, b.prod = st->product_on ? prod : NULL;
     delta_lights(st, b.ld);
+    for (int c = 0; c < 3; c++) b.E[c] = 3.5449077f * b.ld[c][0]; /* ∫ L_d = √(4π)·L_00 */
+    if (st->dvis_on)
+        /* the true delta lights are shadowed by their transmittance grids
+         * (deltavis.c): S keeps the others, still normalised over all */
+        for (int i = 0; i < st->n_delta; i++) {
+            if (!st->delta_exact[i]) continue;
+            const sh_light_coeffs *lc = &st->light_sh[st->rc.lights.all[st->delta_light[i]].slot];
+            for (int c = 0; c < 3; c++) {
+                for (int j = 0; j < SH_MAX_COEFFS; j++) b.ld[c][j] -= lc->c[c][j];
+                st->dvis_w[i][c] = b.E[c] > 1e-12f ? st->delta_w[i][c] / b.E[c] : 0.0f;
+            }
+        }
     if (b.prod)
         for (int n = 0; n < st->triple.n; n++)
             for (int c = 0; c < 3; c++)
                 b.M[c][st->triple.k[n]][st->triple.j[n]] += st->triple.v[n] * st->le[c][st->triple.i[n]];
-    for (int c = 0; c < 3; c++) b.E[c] = 3.5449077f * b.ld[c][0]; /* ∫ L_d = √(4π)·L_00 */
     volux_parallel_for(st->rc.threads, g->dims[2], bake_slice, &b);
     st->bakes++;
 }
@@ -218,7 +236,11 @@ static volux_status bake(sh_state *st) {
         st->prod_bytes = pb;
     }
     bake_into(st, &st->grid, &st->layout, st->coef, st->shade, st->prod);
-    return VOLUX_OK;
+    if (!st->dvis_on) {
+        sh_delta_visibility_free(st);
+        return VOLUX_OK;
+    }
+    return sh_delta_visibility(st);
 }
 
 static void free_materials(sh_state *st) {
@@ -283,6 +305,7 @@ static void surface_lights(sh_state *st, volux_vec3 centre) {
     const volux_light_list *ll = &st->rc.lights;
     st->n_delta = 0;
     for (int k = 0; k < 3; k++) st->delta_sum[k] = 0.0f, st->env_sum[k] = 3.5449077f * st->le[k][0];
+    for (int k = 0; k < 3; k++) st->rest_sum[k] = 0.0f;
     for (int i = 0; i < ll->n_all && st->n_delta < SH_MAX_DELTA; i++) {
         const volux_prepared_light *l = &ll->all[i];
         if (l->type == VOLUX_LIGHT_ENVIRONMENT) continue;
@@ -292,10 +315,14 @@ static void surface_lights(sh_state *st, volux_vec3 centre) {
         int n = st->n_delta++;
         st->delta_dir[n] = v3_scale(d, 1.0f / len);
         st->delta_exact[n] = l->type != VOLUX_LIGHT_SPHERE; /* a sphere is a cap in its probe */
+        st->delta_light[n] = i;
+        volux_vec3 tr, e0 = volux_light_irradiance(l, centre, &tr);
+        st->delta_e0[n] = e0.x + e0.y + e0.z;
         for (int k = 0; k < 3; k++) {
             float w = 3.5449077f * st->light_sh[l->slot].c[k][0];
             st->delta_w[n][k] = w > 0.0f ? w : 0.0f;
             st->delta_sum[k] += st->delta_w[n][k];
+            if (!st->delta_exact[n]) st->rest_sum[k] += st->delta_w[n][k];
         }
     }
 }
@@ -318,6 +345,10 @@ static volux_status sh_update(void *state, const volux_scene *scene, const volux
         int ep = (int)volux_technique_param(scene, cls, "env_product");
         if (ep != st->env_product) st->have_shade = 0;
         st->env_product = ep;
+        int ds = (int)volux_technique_param(scene, cls, "delta_shadows");
+        if (ds != st->delta_shadows) st->have_shade = 0;
+        st->delta_shadows = ds;
+        st->near_field = (float)volux_technique_param(scene, cls, "near_field");
     }
     if (!st->have_triple) {
         sh_triple_init(&st->triple);
@@ -338,6 +369,11 @@ static volux_status sh_update(void *state, const volux_scene *scene, const volux
     int reproject = !st->have_coef || (w & (VOLUX_CHANGE_VOLUME | VOLUX_CHANGE_EXTINCTION | VOLUX_CHANGE_DENSITY)) ||
                     memcmp(&p, &st->applied, sizeof p) != 0 || ch != st->applied_color;
     int relight = (w & (VOLUX_CHANGE_LIGHTS | VOLUX_CHANGE_VOLUME)) != 0;
+    {
+        int on = st->delta_shadows && !p.bleeding && !p.scattering;
+        if (on != st->dvis_on) st->have_shade = 0;
+        st->dvis_on = on;
+    }
     if (reproject) {
         st->have_coef = st->have_shade = 0;
         if (st->coef) volux_free_aligned(rc->ctx, st->coef, st->coef_bytes);
@@ -382,6 +418,10 @@ static volux_status sh_update(void *state, const volux_scene *scene, const volux
     }
     if (!st->have_shade) {
         st->product_on = st->env_product && (st->le[0][0] > 0.0f || st->le[1][0] > 0.0f || st->le[2][0] > 0.0f);
+        /* whether the shade/product volumes hold any light (with
+         * delta_shadows and only true delta lights they are 0) */
+        st->grid_lights = !st->dvis_on;
+        for (int k = 0; k < 3; k++) st->grid_lights |= st->rest_sum[k] > 0.0f || st->env_sum[k] > 0.0f;
         if ((s = bake(st))) return s;
         st->have_shade = 1;
     }
@@ -438,7 +478,7 @@ static volux_status sh_refine(void *state, const volux_scene *scene, int *change
     st->coarse = 0;
     st->projections++;
     *changed = 1;
-    return VOLUX_OK;
+    return st->dvis_on ? sh_delta_visibility(st) : VOLUX_OK; /* on the new grid */
 }
 
 static size_t sh_memory_bytes(const void *state) {
@@ -448,7 +488,7 @@ static size_t sh_memory_bytes(const void *state) {
         if (st->mat[i].table) tables += sizeof *st->mat[i].table * SH_TABLE_THETA;
         if (st->mat[i].light_table) tables += sizeof(float) * 6 * SH_OCTA * SH_OCTA * SH_OCTA * SH_OCTA;
     }
-    return st->coef_bytes + st->shade_bytes + st->prod_bytes + tables + st->grad.bytes +
+    return st->coef_bytes + st->shade_bytes + st->prod_bytes + st->dvis_bytes + tables + st->grad.bytes +
            sizeof *st->light_sh * (size_t)st->light_sh_cap;
 }
 
@@ -460,6 +500,7 @@ static void sh_release(void *state) {
     if (st->prod) volux_free_aligned(ctx, st->prod, st->prod_bytes);
     st->coef = st->shade = st->prod = NULL;
     st->prod_bytes = 0;
+    sh_delta_visibility_free(st);
     free_materials(st);
     volux_gradient_cache_free(ctx, &st->grad);
     volux_free(ctx, st->light_sh, sizeof *st->light_sh * (size_t)st->light_sh_cap);
@@ -605,22 +646,6 @@ static inline void prod_lookup(const sh_state *st, volux_vec3 q, float P[3 * SH_
 
 enum { SH_MATERIALS = 1, SH_PREINT = 2, SH_PRODUCT = 32 };
 
-/* σt at fine index q; 0 outside the volume's box [0, dims − 1] (issue 28):
- * the medium ends there, as for `pathtrace`, so a volume cut through
- * dense material (the bonsai pot, the engine block) is a surface facing
- * out of the box. Clamped, the cut had no gradient across it and the
- * surface term took its normal from the structure just below: the pot's
- * cut face got dark patches and a bright rim, the engine's front face its
- * back light (the blue tint). */
-static inline __attribute__((always_inline)) float sigma_q(const sh_state *st, float x, float y, float z,
-                                                           volux_storage storage) {
-    const int *d = st->rc.volume->dims;
-    if (!(x >= 0.0f && y >= 0.0f && z >= 0.0f && x <= (float)(d[0] - 1) && y <= (float)(d[1] - 1) &&
-          z <= (float)(d[2] - 1)))
-        return 0.0f;
-    return volux_lut_sigma(st->rc.lut, volux_volume_sample_bricked(st->rc.volume, x, y, z, storage));
-}
-
 /* ∫σt from fine index q along dq (index units per world unit) over dist
  * world units, by the trapezoid rule: fine near q (the light lives in the
  * first voxel of a dense surface), a voxel apart beyond; it stops where
@@ -628,14 +653,79 @@ static inline __attribute__((always_inline)) float sigma_q(const sh_state *st, f
 static inline __attribute__((always_inline)) float depth_out(const sh_state *st, volux_vec3 q, volux_vec3 dq,
                                                              float dist, volux_storage storage) {
     const float h = st->rc.min_spacing;
-    float D = 0.0f, t0 = 0.0f, s_prev = sigma_q(st, q.x, q.y, q.z, storage);
+    float D = 0.0f, t0 = 0.0f, s_prev = sh_sigma_q(st, q.x, q.y, q.z, storage);
     for (float t = 0.25f * h; t0 < dist && s_prev > 0.0f; t = t0 < h ? 2.0f * t : t + h) {
         if (t > dist) t = dist;
-        float sv = sigma_q(st, q.x + dq.x * t, q.y + dq.y * t, q.z + dq.z * t, storage);
+        float sv = sh_sigma_q(st, q.x + dq.x * t, q.y + dq.y * t, q.z + dq.z * t, storage);
         D += 0.5f * (s_prev + sv) * (t - t0);
         s_prev = sv, t0 = t;
     }
     return D;
+}
+
+/* The point of the segment [q − seg, q] its light leaves from on
+ * average: the march shades a segment at its end, in a dense surface its
+ * deepest point, while the light leaves from an exponential distribution
+ * of depths from its start. With τ ≈ σt(q)·ℓ the segment's optical depth,
+ * the emission-weighted mean sits at E[u]/τ of it, E[u] = (1 − (1 + τ)
+ * e^{−τ})/(1 − e^{−τ}); *back is the fraction of seg behind q. */
+static inline __attribute__((always_inline)) volux_vec3 emission_point(const sh_state *st, volux_vec3 q,
+                                                                       volux_vec3 seg, volux_storage storage,
+                                                                       float *tau, float *back) {
+    *tau = sh_sigma_q(st, q.x, q.y, q.z, storage) * st->rc.step;
+    *back = 0.5f;
+    if (*tau > 1e-3f) {
+        float e = expf(-*tau);
+        *back = 1.0f - (1.0f - (1.0f + *tau) * e) / ((1.0f - e) * *tau);
+    }
+    return v3_madd(q, seg, -*back);
+}
+
+/* Issue 28, delta_shadows: transmittance from fine index q towards true
+ * delta light i (n: its grid): the first near_field cells marched at the
+ * volume's resolution, the per-node grid (deltavis.c) read beyond — read
+ * at q itself, nodes on the lit side of a thin plate would light q. */
+static inline __attribute__((always_inline)) float delta_transmittance(const sh_state *st, volux_vec3 q, int i,
+                                                                       int n) {
+    const volux_prepared_light *l = &st->rc.lights.all[st->delta_light[i]];
+    const volux_volume *v = st->rc.volume;
+    volux_vec3 w = v3_scale(l->travel, -1.0f);
+    float dist = INFINITY, fall = 1.0f;
+    if (l->positional) {
+        volux_vec3 p = v3(v->origin.x + q.x * (float)v->spacing[0], v->origin.y + q.y * (float)v->spacing[1],
+                          v->origin.z + q.z * (float)v->spacing[2]);
+        volux_vec3 to = v3_sub(l->pos, p);
+        dist = v3_length(to);
+        if (!(dist > 0.0f)) return 1.0f;
+        w = v3_scale(to, 1.0f / dist);
+        /* the light's weights are its probe's, seen from the volume's
+         * centre: the 1/d² (and spot) falloff to this sample relative to
+         * the centre's (the engine's point light behind it is 220 units
+         * from the centre, the block's back 100) */
+        if (st->delta_e0[i] > 0.0f) {
+            volux_vec3 tr, e = volux_light_irradiance(l, p, &tr);
+            fall = (e.x + e.y + e.z) / st->delta_e0[i];
+        }
+    }
+    const volux_vec3 dq = v3(w.x * st->sp_inv[0], w.y * st->sp_inv[1], w.z * st->sp_inv[2]);
+    float L = st->near_field * st->hc, exit = INFINITY;
+    const float qa[3] = {q.x, q.y, q.z}, da[3] = {dq.x, dq.y, dq.z};
+    for (int a = 0; a < 3; a++) {
+        if (da[a] > 1e-12f) exit = fminf(exit, ((float)(v->dims[a] - 1) - qa[a]) / da[a]);
+        else if (da[a] < -1e-12f) exit = fminf(exit, -qa[a] / da[a]);
+    }
+    if (exit < 0.0f) exit = 0.0f;
+    const int far = L < dist && L < exit;
+    if (!far) L = fminf(dist, exit);
+    float T = fall * expf(-sh_tau_segment(st, q, dq, L));
+    if (!far || !(T > 1e-6f)) return T;
+    float wg[8];
+    size_t o[8];
+    const float *g = st->dvis + (size_t)n * st->grid.nodes;
+    g += grid_corners(&st->grid, v3_madd(q, dq, L), 1, wg, o);
+    float tg = 0.0f;
+    for (int c = 0; c < 8; c++) tg += wg[c] * g[o[c]];
+    return T * tg;
 }
 
 /* Issue 28. On a surface (a jump of σt across a coefficient cell) the
@@ -663,13 +753,8 @@ static inline __attribute__((always_inline)) int near_surface(const sh_state *st
      * E[u]/τ of it, E[u] = (1 − (1 + τ)e^{−τ})/(1 − e^{−τ}); the delta
      * lights below average K over that distribution exactly. */
     const volux_vec3 qb = q, qa = v3_sub(q, seg);
-    const float tau = sigma_q(st, q.x, q.y, q.z, storage) * st->rc.step;
-    float back = 0.5f;
-    if (tau > 1e-3f) {
-        float e = expf(-tau);
-        back = 1.0f - (1.0f - (1.0f + tau) * e) / ((1.0f - e) * tau);
-    }
-    q = v3_madd(q, seg, -back);
+    float tau, back;
+    q = emission_point(st, q, seg, storage, &tau, &back);
     /* central differences half a coefficient cell either side: a sample
      * up to that deep below a sharp surface still sees it (a one-voxel
      * stencil reads 0 just inside, where the light is) */
@@ -678,7 +763,7 @@ static inline __attribute__((always_inline)) int near_surface(const sh_state *st
     for (int a = 0; a < 3; a++) {
         float lo[3] = {q.x, q.y, q.z}, hi[3] = {q.x, q.y, q.z};
         lo[a] -= rs, hi[a] += rs;
-        float sh = sigma_q(st, hi[0], hi[1], hi[2], storage), sl = sigma_q(st, lo[0], lo[1], lo[2], storage);
+        float sh = sh_sigma_q(st, hi[0], hi[1], hi[2], storage), sl = sh_sigma_q(st, lo[0], lo[1], lo[2], storage);
         g[a] = (sh - sl) * st->sp_inv[a] / (2.0f * rs);
         smax = sh > smax ? sh : smax;
         smax = sl > smax ? sl : smax;
@@ -709,6 +794,7 @@ static inline __attribute__((always_inline)) int near_surface(const sh_state *st
     const float dD = Db > Da ? Db - Da : 0.0f, eT = expf(-tau);
     float kd[3] = {0, 0, 0};
     for (int i = 0; i < st->n_delta; i++) {
+        if (st->dvis_on && st->delta_exact[i]) continue; /* shadowed by delta_transmittance */
         float mu = v3_dot(n, st->delta_dir[i]), K = 1.0f - wgt;
         if (mu > 0.0f) {
             float im = 1.0f / mu;
@@ -743,7 +829,8 @@ static inline __attribute__((always_inline)) int near_surface(const sh_state *st
         }
     }
     for (int k = 0; k < 3; k++) {
-        float de = st->product_on ? st->delta_sum[k] : st->delta_sum[k] + st->env_sum[k];
+        const float ds = st->dvis_on ? st->rest_sum[k] : st->delta_sum[k];
+        float de = st->product_on ? ds : ds + st->env_sum[k];
         float nu = st->product_on ? kd[k] : kd[k] + ke[k];
         Ad[k] = de > 1e-20f ? nu / de : 1.0f;
         Ae[k] = st->env_sum[k] > 1e-20f ? ke[k] / st->env_sum[k] : 1.0f;
@@ -768,11 +855,33 @@ static inline __attribute__((always_inline)) void shade_at(const void *tech, con
     const sh_ray *ry = tech;
     const sh_state *st = ry->st;
     volux_vec3 q = v3_madd(ray->q0, ray->dq, t), qr = q;
-    float S[4], P[3 * SH_MAX_COEFFS], Ad[3] = {1, 1, 1}, Ae[3] = {1, 1, 1};
-    if (st->surface_offset > 0.0f)
-        near_surface(st, q, v3_scale(ray->dq, st->rc.step), SH_STORAGE(variant), &qr, Ad, Ae);
-    shade_lookup(st, qr, S);
-    for (int k = 0; k < 3; k++) S[k] *= Ad[k];
+    float S[4] = {0, 0, 0, 0}, P[3 * SH_MAX_COEFFS], Ad[3] = {1, 1, 1}, Ae[3] = {1, 1, 1};
+    const volux_vec3 seg = v3_scale(ray->dq, st->rc.step);
+    if (st->grid_lights) {
+        if (st->surface_offset > 0.0f) near_surface(st, q, seg, SH_STORAGE(variant), &qr, Ad, Ae);
+        shade_lookup(st, qr, S);
+        for (int k = 0; k < 3; k++) S[k] *= Ad[k];
+    }
+    if (st->n_dvis) {
+        /* the segment [q − seg, q] is shaded at its end, in a dense surface
+         * its deepest point; its light leaves from depths u ~ e^{−u} on
+         * [0, τ]. With the optical depths D_a, D_b towards the light from
+         * its ends (linear between), the mean transmittance is
+         * e^{−D_a}·(1 − e^{−τ(1+ρ)})/((1 + ρ)(1 − e^{−τ})), ρ = (D_b − D_a)/τ
+         * (as near_surface's half-space term) */
+        const volux_vec3 qa = v3_sub(q, seg);
+        const float tau = sh_sigma_q(st, q.x, q.y, q.z, SH_STORAGE(variant)) * st->rc.step, eT = expf(-tau);
+        for (int n = 0; n < st->n_dvis; n++) {
+            const int i = st->dvis_light[n];
+            const float Ta = delta_transmittance(st, qa, i, n), Tb = delta_transmittance(st, q, i, n);
+            float T = 0.5f * (Ta + Tb);
+            if (tau > 1e-3f && Ta > 0.0f) {
+                const float dD = Tb < Ta ? logf(Ta / fmaxf(Tb, 1e-30f)) : 0.0f, rho = dD / tau;
+                T = Ta * (1.0f - eT * expf(-tau * rho)) / ((1.0f + rho) * (1.0f - eT));
+            }
+            for (int k = 0; k < 3; k++) S[k] += st->dvis_w[i][k] * T;
+        }
+    }
     if (variant & SH_PRODUCT) {
         prod_lookup(st, qr, P);
         for (int k = 0; k < 3; k++)

@@ -128,9 +128,26 @@ typedef struct sh_state {
     /* 1: a true delta (directional, point, spot), whose phase function the
      * first factor of Eq. 3 evaluates exactly instead of at 4 bands */
     unsigned char delta_exact[SH_MAX_DELTA];
+    int delta_light[SH_MAX_DELTA]; /* its index in rc.lights.all */
+    float delta_e0[SH_MAX_DELTA];  /* Σrgb of its irradiance at the volume's centre */
     float delta_sum[3], env_sum[3];
     float kdepth[SH_KD_N][SH_MAX_BANDS];
     float hc, sp_inv[3];
+    /* delta lights' shadows (issue 28, `delta_shadows`, deltavis.c): per
+     * node the transmittance towards each true delta light (n_dvis grids of
+     * grid.nodes floats; dvis_light: its index in delta_*), read
+     * `near_field` cells towards the light after marching that far; S then
+     * holds the other lights only (see dvis_on) */
+    int delta_shadows;           /* parameter                               */
+    float near_field;            /* parameter, coefficient cells            */
+    int dvis_on;                 /* delta_shadows and shadows-only coefficients */
+    float *dvis;
+    size_t dvis_bytes;
+    int n_dvis;
+    int dvis_light[SH_MAX_DELTA];
+    float dvis_w[SH_MAX_DELTA][3]; /* delta_w / ∫ of the lights S is normalised over */
+    float rest_sum[3];             /* delta_sum without the true delta lights */
+    int grid_lights;               /* the shade/product volumes hold light   */
     /* statistics (tests, bench) */
     uint64_t projections, bakes, light_projections;
     uint64_t rays_cast;       /* projection rays, all projections so far */
@@ -153,6 +170,30 @@ void sh_material_free(volux_context *ctx, sh_material *m);
  * (to be tinted) and specular rgb. For tests. */
 void sh_material_eval(const volux_tf_material *t, const void *merl, const double wi[3], const double wo[3],
                       double *diffuse, double spec[3]);
+
+/* Per-node transmittance towards each true delta light (deltavis.c) for
+ * the state's grid and lights; fills st->dvis, n_dvis, dvis_light. */
+volux_status sh_delta_visibility(sh_state *st);
+void sh_delta_visibility_free(sh_state *st);
+/* Optical depth from fine index q along dq (fine index per world unit)
+ * over dist world units at the volume's resolution. */
+float sh_tau_segment(const sh_state *st, volux_vec3 q, volux_vec3 dq, float dist);
+
+/* σt at fine index q; 0 outside the volume's box [0, dims − 1] (issue 28):
+ * the medium ends there, as for `pathtrace`, so a volume cut through
+ * dense material (the bonsai pot, the engine block) is a surface facing
+ * out of the box. Clamped, the cut had no gradient across it and the
+ * surface term took its normal from the structure just below: the pot's
+ * cut face got dark patches and a bright rim, the engine's front face its
+ * back light (the blue tint). */
+static inline __attribute__((always_inline)) float sh_sigma_q(const sh_state *st, float x, float y, float z,
+                                                              volux_storage storage) {
+    const int *d = st->rc.volume->dims;
+    if (!(x >= 0.0f && y >= 0.0f && z >= 0.0f && x <= (float)(d[0] - 1) && y <= (float)(d[1] - 1) &&
+          z <= (float)(d[2] - 1)))
+        return 0.0f;
+    return volux_lut_sigma(st->rc.lut, volux_volume_sample_bricked(st->rc.volume, x, y, z, storage));
+}
 
 /* Octahedral map of a unit direction to [0,1)² and back. */
 static inline void sh_octa_encode(volux_vec3 d, float *u, float *v) {
