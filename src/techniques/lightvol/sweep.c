@@ -145,9 +145,6 @@ static void rows_to_aos6_bf16(uint16_t *restrict dst, const float *restrict q, s
     }
 }
 
-/* Voxel `at` (index of its first value) (+)= src[0 .. n), either precision. */
-static inline void add_voxel(const lightvol_state *st, size_t at, const float *restrict src, int n, int overwrite);
-
 /* dst[c] (+)= src[c] for c in [0, n): floats into bfloat16 voxels. */
 static void add_bf16(uint16_t *restrict dst, const float *restrict src, int n, int overwrite) {
     int c = 0;
@@ -161,6 +158,7 @@ static void add_bf16(uint16_t *restrict dst, const float *restrict src, int n, i
     for (; c < n; c++) dst[c] = volux_bf16_from_float(overwrite ? src[c] : volux_bf16_to_float(dst[c]) + src[c]);
 }
 
+/* Voxel `at` (index of its first value) (+)= src[0 .. n), either precision. */
 static inline void add_voxel(const lightvol_state *st, size_t at, const float *restrict src, int n, int overwrite) {
     if (!st->volf) {
         add_bf16(st->vol + at, src, n, overwrite);
