@@ -2,10 +2,11 @@
  * (docs/SCALE.md), from buffers.c's sizes: the illumination volume (m³
  * nodes at `scale` × 3 bfloat16 values, 6 when directional: 12 B/voxel
  * by default; float with precision "float"), the medium grid below
- * scale 1 (16 B per node), the x-sweep staging (8 slices of m_y·m_z nodes), the slice buffers (24 B per node of
- * the largest slice per light of the largest pass), three medium slices,
- * per-thread rows, the bricked copy of the volume, the gradient cache with
- * local shading, the per-slot records. */
+ * scale 1 (16 B per node), the x-sweep staging (8 slices of m_y·m_z
+ * nodes), the slice buffers (24 B per node of the largest slice per light
+ * of the largest pass), three medium slices, per-thread rows, the bricked
+ * copy of the volume, the gradient cache with local shading, the
+ * per-slot records. */
 #include <string.h>
 
 #include "core/parallel.h"
