@@ -208,5 +208,13 @@ DI vf gather_f32(const float *p, vi idx) { return _mm256_i32gather_ps(p, idx, 4)
 DI vf gather_f32_masked(const float *p, vi idx, vm m) {
     return _mm256_mask_i32gather_ps(_mm256_setzero_ps(), p, idx, m, 4);
 }
+/* bfloat16 values p[idx] as floats (core/bf16.h): the 32-bit word at each
+ * value, shifted so the value is its upper half (reads one value past
+ * p[idx]: the caller's array is padded). */
+DI vf gather_bf16_masked(const uint16_t *p, vi idx, vm m) {
+    vi w = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), (const int *)(const void *)p, idx,
+                                       _mm256_castps_si256(m), 2);
+    return _mm256_castsi256_ps(_mm256_slli_epi32(w, 16));
+}
 
 #endif

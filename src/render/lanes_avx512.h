@@ -202,5 +202,10 @@ DI vf gather_f32(const float *p, vi idx) { return _mm512_i32gather_ps(idx, p, 4)
 DI vf gather_f32_masked(const float *p, vi idx, vm m) {
     return _mm512_mask_i32gather_ps(_mm512_setzero_ps(), m, idx, p, 4);
 }
+/* bfloat16 values p[idx] as floats (see lanes_avx2.h). */
+DI vf gather_bf16_masked(const uint16_t *p, vi idx, vm m) {
+    vi w = _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), m, idx, p, 2);
+    return _mm512_castsi512_ps(_mm512_slli_epi32(w, 16));
+}
 
 #endif

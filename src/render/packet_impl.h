@@ -88,14 +88,15 @@ DI void pk_shade_per_lane(const void *tech, const pk_lanes *L, vm lit, vf c[3], 
     for (int a = 0; a < 3; a++) c[a] = f_load(cc[a]);
 }
 
-/* Trilinear lookup of the lanes of m into a float grid with interleaved
- * channels (stride `ch` floats per node, channels [c0, c0 + n)), x fastest,
+/* Trilinear lookup of the lanes of m into a grid with interleaved
+ * channels (stride `ch` values per node, channels [c0, c0 + n)), x fastest,
  * at grid-index positions (x, y, z) clamped into [0, dim − 1]; the scalar
  * lookups' (scatter_grid_sample_index, lightvol's illum_at) clamps and
- * unfused arithmetic. Grids of one node along an axis are not supported
- * (callers keep the scalar hook there). */
-DI void pk_grid_trilinear(const float *grid, const int dims[3], int ch, vf x, vf y, vf z, vm m, int c0, int n,
-                          vf *out) {
+ * unfused arithmetic. The grid is float (`grid`) or bfloat16 (`grid16`,
+ * core/bf16.h, padded by one value; `grid` NULL). Grids of one node along
+ * an axis are not supported (callers keep the scalar hook there). */
+DI void pk_grid_trilinear_any(const float *grid, const uint16_t *grid16, const int dims[3], int ch, vf x, vf y, vf z,
+                              vm m, int c0, int n, vf *out) {
     const vf zero = f_zero();
     x = f_min(f_max(x, zero), f_set((float)(dims[0] - 1)));
     y = f_min(f_max(y, zero), f_set((float)(dims[1] - 1)));
@@ -106,17 +107,22 @@ DI void pk_grid_trilinear(const float *grid, const int dims[3], int ch, vf x, vf
     vf fx = f_sub(x, f_from_i(i)), fy = f_sub(y, f_from_i(j)), fz = f_sub(z, f_from_i(k));
     const int sx = ch, sy = dims[0] * ch, sz = dims[1] * sy;
     vi b = i_mullo(i_add(i_mullo(i_add(i_mullo(k, i_set(dims[1])), j), i_set(dims[0])), i), i_set(ch));
+    const int offs[8] = {0, sx, sy, sy + sx, sz, sz + sx, sz + sy, sz + sy + sx};
     for (int c = 0; c < n; c++) {
-        const float *g = grid + c0 + c;
-        vf v000 = gather_f32_masked(g, b, m), v100 = gather_f32_masked(g + sx, b, m);
-        vf v010 = gather_f32_masked(g + sy, b, m), v110 = gather_f32_masked(g + sy + sx, b, m);
-        vf v001 = gather_f32_masked(g + sz, b, m), v101 = gather_f32_masked(g + sz + sx, b, m);
-        vf v011 = gather_f32_masked(g + sz + sy, b, m), v111 = gather_f32_masked(g + sz + sy + sx, b, m);
-        vf c00 = lerp(v000, v100, fx), c10 = lerp(v010, v110, fx);
-        vf c01 = lerp(v001, v101, fx), c11 = lerp(v011, v111, fx);
+        vf v[8];
+        for (int q = 0; q < 8; q++)
+            v[q] = grid ? gather_f32_masked(grid + c0 + c + offs[q], b, m)
+                        : gather_bf16_masked(grid16 + c0 + c + offs[q], b, m);
+        vf c00 = lerp(v[0], v[1], fx), c10 = lerp(v[2], v[3], fx);
+        vf c01 = lerp(v[4], v[5], fx), c11 = lerp(v[6], v[7], fx);
         vf a0 = lerp(c00, c10, fy), a1 = lerp(c01, c11, fy);
         out[c] = lerp(a0, a1, fz);
     }
+}
+
+DI void pk_grid_trilinear(const float *grid, const int dims[3], int ch, vf x, vf y, vf z, vm m, int c0, int n,
+                          vf *out) {
+    pk_grid_trilinear_any(grid, NULL, dims, ch, x, y, z, m, c0, n, out);
 }
 
 /* ------------------------------------------------------------ ray list */

@@ -70,7 +70,7 @@ static int finish(volux_technique *t, volux_scene *s) {
 static void assert_same_volume(const volux_technique *a, const volux_technique *b, const char *what) {
     size_t n = lvf_count(lvf_state(a));
     assert_int_equal(n, lvf_count(lvf_state(b)));
-    if (memcmp(lvf_state(a)->vol, lvf_state(b)->vol, n * sizeof(float)) != 0) {
+    if (memcmp(lvf_state(a)->volf, lvf_state(b)->volf, n * sizeof(float)) != 0) { /* precision float */
         float *x = lvf_copy(a), *y = lvf_copy(b);
         double bmax, d = lvf_max_diff(x, y, n, &bmax);
         free(x);
@@ -152,8 +152,8 @@ static void check_edit(const char *what, edit_fn edit, int edits, const char *bu
          * the old and the new one */
         assert_true(volux_technique_pending(b) > 0);
         size_t n = lvf_count(lvf_state(b));
-        assert_true(memcmp(lvf_state(b)->vol, before, n * sizeof(float)) != 0);
-        assert_true(memcmp(lvf_state(b)->vol, lvf_state(a)->vol, n * sizeof(float)) != 0);
+        assert_true(memcmp(lvf_state(b)->volf, before, n * sizeof(float)) != 0);
+        assert_true(memcmp(lvf_state(b)->volf, lvf_state(a)->volf, n * sizeof(float)) != 0);
         volux_image img = tu_render_with(ctx, sb, b);
         volux_image_free(ctx, &img);
     }

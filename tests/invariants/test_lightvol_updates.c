@@ -153,7 +153,9 @@ static void test_selective_update_equals_full_rebuild(void **state) {
             float *fresh = fresh_volume(f.ctx, f.s);
             char what[96];
             snprintf(what, sizeof what, "%s (mode %d)", edits[e].name, mode);
-            assert_same_volume(st->vol, fresh, lvf_count(st), SEL_TOL, what);
+            float *cur = lvf_copy(t);
+            assert_same_volume(cur, fresh, lvf_count(st), SEL_TOL, what);
+            free(cur);
             free(fresh);
             volux_technique_destroy(t);
             fx_teardown(&f);
@@ -203,7 +205,9 @@ static void test_toggle_off_then_on_restores_the_volume(void **state) {
         assert_int_equal(volux_scene_set_light_enabled(f.s, slot, 1), VOLUX_OK);
         lvf_update(t, f.s);
         assert_int_equal(st->stats.last, LV_UPDATE_SELECTIVE);
-        assert_same_volume(st->vol, before, lvf_count(st), SEL_TOL, "toggle off/on");
+        float *cur = lvf_copy(t);
+        assert_same_volume(cur, before, lvf_count(st), SEL_TOL, "toggle off/on");
+        free(cur);
     }
     /* off and on between two updates: nothing to do */
     assert_int_equal(volux_scene_set_light_enabled(f.s, 0, 0), VOLUX_OK);
@@ -271,7 +275,9 @@ static void test_thousand_random_edits_stay_within_tolerance(void **state) {
         full += st->stats.last == LV_UPDATE_FULL;
         if ((e + 1) % 250 == 0) {
             float *fresh = fresh_volume(f.ctx, f.s);
-            double bmax, d = lvf_max_diff(st->vol, fresh, lvf_count(st), &bmax);
+            float *cur = lvf_copy(t);
+            double bmax, d = lvf_max_diff(cur, fresh, lvf_count(st), &bmax);
+            free(cur);
             if (d / bmax > worst) worst = d / bmax;
             print_message("after %d edits: max |selective - fresh| = %.3g (%.3g of max %.3g)\n", e + 1, d, d / bmax,
                           bmax);
@@ -400,7 +406,7 @@ static void test_cost_rules_choose_as_the_paper_says(void **state) {
     for (int i = 0; i < 3; i++) assert_int_equal(volux_scene_remove_light(f.s, i), VOLUX_OK);
     lvf_update(t, f.s);
     assert_int_equal(st->stats.last, LV_UPDATE_FULL);
-    for (size_t i = 0; i < lvf_count(st); i++) assert_true(st->vol[i] == 0.0f);
+    for (size_t i = 0; i < lvf_count(st); i++) assert_true(lvf_value(st, i) == 0.0f);
     volux_technique_destroy(t);
     fx_teardown(&f);
 }
@@ -415,7 +421,9 @@ static void test_sequential_equals_coherent(void **state) {
     volux_technique *t = lvf_create(f.ctx, f.s);
     const lightvol_state *st = lvf_state(t);
     assert_true(st->stats.passes > 4);
-    assert_same_volume(st->vol, coh, lvf_count(st), SEL_TOL, "sequential vs coherent");
+    float *cur = lvf_copy(t);
+    assert_same_volume(cur, coh, lvf_count(st), SEL_TOL, "sequential vs coherent");
+    free(cur);
     free(coh);
     volux_technique_destroy(t);
     fx_teardown(&f);
@@ -593,7 +601,7 @@ static void test_memory_is_independent_of_the_number_of_lights(void **state) {
     assert_true(lvf_state(t)->applied_cap >= 40);
     assert_int_equal(volux_technique_memory_bytes(t) - PER_SLOT(), mem4);
 #undef PER_SLOT
-    assert_int_equal(vol4, (size_t)N * N * N * 6 * sizeof(float));
+    assert_int_equal(vol4, ((size_t)N * N * N * 6 + LV_VOL_PAD) * sizeof(float)); /* precision float */
     volux_technique_destroy(t);
     fx_teardown(&f);
 }
@@ -618,7 +626,7 @@ static void test_lights_that_do_not_propagate(void **state) {
     volux_technique *t = lvf_create(f.ctx, f.s);
     const lightvol_state *st = lvf_state(t);
     assert_int_equal(st->stats.passes, 0);
-    for (size_t i = 0; i < lvf_count(st); i++) assert_true(st->vol[i] == 0.0f);
+    for (size_t i = 0; i < lvf_count(st); i++) assert_true(lvf_value(st, i) == 0.0f);
     volux_technique_destroy(t);
     fx_teardown(&f);
 }
@@ -663,9 +671,68 @@ static void test_bad_parameters_are_named(void **state) {
     fx_teardown(&f);
 }
 
+/* precision "auto" (the default): an entire update stores the volume in
+ * bfloat16 (half the bytes of float) within the rounding of its passes of
+ * the float volume; the first selective update moves it to float through
+ * an entire update (no bfloat16 rounding left), the next ones are
+ * selective and equal a float rebuild as before. */
+static void test_default_precision_is_bfloat16_until_light_edits(void **state) {
+    (void)state;
+    fixture f;
+    fx_setup(&f, 2);
+    assert_int_equal(volux_scene_set_param(f.s, "lightvol", "cost_rule", 0, "selective"), VOLUX_OK);
+    float *ref = fresh_volume(f.ctx, f.s); /* precision float (lvf_create) */
+    assert_int_equal(volux_scene_set_param(f.s, "lightvol", "precision", 0, "auto"), VOLUX_OK);
+    volux_technique *t = NULL;
+    assert_int_equal(volux_technique_create(f.ctx, "lightvol", f.s, &t), VOLUX_OK);
+    const lightvol_state *st = lvf_state(t);
+    size_t n = lvf_count(st);
+    assert_non_null(st->vol);
+    assert_null(st->volf);
+    assert_int_equal(st->vol_bytes, (n + LV_VOL_PAD) * sizeof(uint16_t));
+    /* each value: the float sums of at most six group passes, each rounded
+     * to 8 significant bits (≤ 2⁻⁸ of the partial sum, all light ≥ 0 but
+     * the direction channels, which cancel: checked against the maximum) */
+    double bmax = 0.0, worst = 0.0;
+    for (size_t i = 0; i < n; i++) bmax = fmax(bmax, fabs((double)ref[i]));
+    for (size_t i = 0; i < n; i++) {
+        double d = fabs((double)lvf_value(st, i) - (double)ref[i]);
+        double lim = (i % 6 < 3 ? fabs((double)ref[i]) : bmax) * 6.0 * VOLUX_BF16_REL_ERROR + 1e-6 * bmax;
+        if (d > lim) fail_msg("value %zu: bfloat16 %g vs float %g", i, (double)lvf_value(st, i), (double)ref[i]);
+        if (i % 6 < 3 && ref[i] > 1e-3 * bmax) worst = fmax(worst, d / fabs((double)ref[i]));
+    }
+    print_message("bfloat16 vs float volume: worst relative error %.3g (rgb, above 1e-3 of the max)\n", worst);
+    assert_true(worst > 0.0); /* it is stored rounded */
+    size_t mem_bf16 = volux_technique_memory_bytes(t);
+    /* first light edit: entire, into a float volume */
+    edit_colour(f.s);
+    lvf_update(t, f.s);
+    assert_int_equal(st->stats.last, LV_UPDATE_FULL);
+    assert_string_equal(st->stats.reason, "float volume for selective updates");
+    assert_null(st->vol);
+    assert_non_null(st->volf);
+    assert_int_equal(volux_technique_memory_bytes(t) - mem_bf16, (n + LV_VOL_PAD) * sizeof(uint16_t));
+    float *fresh = fresh_volume(f.ctx, f.s), *cur = lvf_copy(t);
+    assert_same_volume(cur, fresh, n, SEL_TOL, "after the switch to float");
+    free(cur);
+    free(fresh);
+    /* the next ones are selective */
+    edit_move_small(f.s);
+    lvf_update(t, f.s);
+    assert_int_equal(st->stats.last, LV_UPDATE_SELECTIVE);
+    fresh = fresh_volume(f.ctx, f.s), cur = lvf_copy(t);
+    assert_same_volume(cur, fresh, n, SEL_TOL, "selective on the float volume");
+    free(cur);
+    free(fresh);
+    free(ref);
+    volux_technique_destroy(t);
+    fx_teardown(&f);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_selective_update_equals_full_rebuild),
+        cmocka_unit_test(test_default_precision_is_bfloat16_until_light_edits),
         cmocka_unit_test(test_state_change_shares_passes_when_groups_coincide),
         cmocka_unit_test(test_toggle_off_then_on_restores_the_volume),
         cmocka_unit_test(test_thousand_random_edits_stay_within_tolerance),

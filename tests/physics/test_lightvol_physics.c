@@ -201,7 +201,7 @@ static void test_energy_never_grows_along_a_propagation(void **state) {
     size_t nv = (size_t)n * n * n;
     for (size_t v = 0; v < nv; v++)
         for (int c = 0; c < 3; c++) {
-            float e = st->vol[v * 6 + c];
+            float e = lvf_value(st, v * 6 + c);
             assert_true(e >= 0.0f);
             assert_true(e <= 1.5f * (1.0f + 1e-6f));
         }

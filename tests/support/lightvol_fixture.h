@@ -90,13 +90,16 @@ static inline size_t lvf_count(const lightvol_state *st) {
     return (size_t)st->dims[0] * (size_t)st->dims[1] * (size_t)st->dims[2] * (size_t)st->ch;
 }
 
-/* Copy of the illumination volume (caller frees with free()). */
+/* Value i of the illumination volume as a float (either precision). */
+static inline float lvf_value(const lightvol_state *st, size_t i) { return lv_vol_get(st, i); }
+
+/* Copy of the illumination volume as floats (caller frees with free()). */
 static inline float *lvf_copy(const volux_technique *t) {
     const lightvol_state *st = lvf_state(t);
     size_t n = lvf_count(st);
     float *c = malloc(n * sizeof(float));
     assert_non_null(c);
-    memcpy(c, st->vol, n * sizeof(float));
+    for (size_t i = 0; i < n; i++) c[i] = lvf_value(st, i);
     return c;
 }
 
@@ -112,12 +115,22 @@ static inline double lvf_max_diff(const float *a, const float *b, size_t n, doub
     return m;
 }
 
-/* Illumination rgb at node (i,j,k). */
+/* The channels of node (i,j,k) as floats; valid until 16 further calls
+ * (a ring of decoded nodes, so that a test can hold a few at once). */
 static inline const float *lvf_at(const lightvol_state *st, int i, int j, int k) {
-    return st->vol + (((size_t)k * (size_t)st->dims[1] + (size_t)j) * (size_t)st->dims[0] + (size_t)i) * (size_t)st->ch;
+    static float ring[16][6];
+    static unsigned next;
+    float *out = ring[next++ % 16];
+    size_t at = (((size_t)k * (size_t)st->dims[1] + (size_t)j) * (size_t)st->dims[0] + (size_t)i) * (size_t)st->ch;
+    for (int c = 0; c < st->ch; c++) out[c] = lvf_value(st, at + (size_t)c);
+    return out;
 }
 
+/* A lightvol instance with a float illumination volume (`precision`), so
+ * that selective and entire updates compare at float rounding; the
+ * default bfloat16 storage has tests of its own (test_lightvol_updates). */
 static inline volux_technique *lvf_create(volux_context *ctx, volux_scene *s) {
+    assert_int_equal(volux_scene_set_param(s, "lightvol", "precision", 0, "float"), VOLUX_OK);
     volux_technique *t = NULL;
     volux_status st = volux_technique_create(ctx, "lightvol", s, &t);
     if (st) fail_msg("lightvol create: %s", volux_context_error(ctx));

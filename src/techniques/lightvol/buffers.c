@@ -28,12 +28,28 @@ static void free_scratch(lightvol_state *st) {
 void volux_lightvol_free_buffers(lightvol_state *st) {
     free_scratch(st);
     if (st->vol) volux_free_aligned(st->rc.ctx, st->vol, st->vol_bytes);
+    if (st->volf) volux_free_aligned(st->rc.ctx, st->volf, st->vol_bytes);
     if (st->medium) volux_free_aligned(st->rc.ctx, st->medium, st->medium_bytes);
-    st->vol = st->medium = NULL;
+    st->vol = NULL;
+    st->volf = NULL;
+    st->medium = NULL;
     st->vol_bytes = st->medium_bytes = 0;
     if (st->lut_nz) volux_free(st->rc.ctx, st->lut_nz, st->lut_nz_bytes);
     st->lut_nz = NULL;
     st->lut_nz_bytes = 0;
+}
+
+volux_status volux_lightvol_promote(lightvol_state *st) {
+    if (st->volf) return VOLUX_OK;
+    size_t n = (st->vol_bytes / sizeof *st->vol), bytes = n * sizeof *st->volf; /* with the padding */
+    float *f = volux_alloc_aligned(st->rc.ctx, bytes);
+    if (!f) return volux_error(st->rc.ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for the float illumination volume");
+    for (size_t i = 0; i < n; i++) f[i] = volux_bf16_to_float(st->vol[i]);
+    volux_free_aligned(st->rc.ctx, st->vol, st->vol_bytes);
+    st->vol = NULL;
+    st->volf = f;
+    st->vol_bytes = bytes;
+    return VOLUX_OK;
 }
 
 size_t volux_lightvol_scratch_bytes(const lightvol_state *st) {
@@ -55,18 +71,25 @@ volux_status volux_lightvol_alloc(lightvol_state *st) {
     }
     size_t n = (size_t)m[0] * (size_t)m[1] * (size_t)m[2], bytes;
     int ch = st->p.directional ? 6 : 3;
-    if (!volux_mul_size(n, (size_t)ch * sizeof(float), &bytes) || bytes > volux_context_max_bytes(st->rc.ctx))
+    /* float once light edits made it so (st->volf) or when asked */
+    const int f32 = st->p.precision_float || st->volf;
+    const size_t value = f32 ? sizeof *st->volf : sizeof *st->vol;
+    if (!volux_mul_size(n, (size_t)ch * value, &bytes) || (bytes += LV_VOL_PAD * value) >
+                                                              volux_context_max_bytes(st->rc.ctx))
         return volux_error(st->rc.ctx, VOLUX_ERR_LIMIT,
                            "lightvol: a %dx%dx%d illumination volume exceeds the memory cap (lower techniques.lightvol.scale)",
                            m[0], m[1], m[2]);
     volux_lightvol_drop_job(st); /* its sweep state lives in the scratch */
     st->valid = 0;
     volux_lightvol_free_buffers(st);
-    st->vol = volux_alloc_aligned(st->rc.ctx, bytes);
-    if (!st->vol)
+    void *block = volux_alloc_aligned(st->rc.ctx, bytes);
+    if (!block)
         return volux_error(st->rc.ctx, VOLUX_ERR_NOMEM, "lightvol: out of memory for a %dx%dx%d illumination volume",
                            m[0], m[1], m[2]);
+    if (f32) st->volf = block;
+    else st->vol = block;
     st->vol_bytes = bytes;
+    memset((char *)block + n * (size_t)ch * value, 0, LV_VOL_PAD * value);
     st->ch = ch;
     st->on_grid = 1;
     volux_vec3 lo, hi;

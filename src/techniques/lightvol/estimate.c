@@ -1,11 +1,12 @@
 /* techniques/lightvol/estimate.c — the memory model of `lightvol`
  * (docs/SCALE.md), from buffers.c's sizes: the illumination volume (m³
- * nodes at `scale` × 3 floats, 6 when directional: 24 B/voxel by
- * default), the medium grid below scale 1 (16 B per node), the x-sweep
- * staging (8 slices of m_y·m_z nodes), the slice buffers (24 B per node of
- * the largest slice per light of the largest pass), three medium slices,
- * per-thread rows, the bricked copy of the volume, the gradient cache with
- * local shading, the per-slot records. */
+ * nodes at `scale` × 3 bfloat16 values, 6 when directional: 12 B/voxel
+ * by default; float with precision "float"), the medium grid below
+ * scale 1 (16 B per node), the x-sweep staging (8 slices of m_y·m_z
+ * nodes), the slice buffers (24 B per node of the largest slice per light
+ * of the largest pass), three medium slices, per-thread rows, the bricked
+ * copy of the volume, the gradient cache with local shading, the
+ * per-slot records. */
 #include <string.h>
 
 #include "core/parallel.h"
@@ -29,7 +30,11 @@ uint64_t volux_lightvol_estimate_bytes(const volux_scene *scene, const volux_tec
     }
     uint64_t nodes = (uint64_t)m[0] * (uint64_t)m[1] * (uint64_t)m[2];
     uint64_t ch = (int)volux_technique_param(scene, cls, "directional") ? 6 : 3;
-    uint64_t bytes = nodes * ch * sizeof(float);
+    /* bfloat16 after an entire update (precision auto); float from the
+     * first selective light update on, which meets the limit as an
+     * allocation then (docs/SCALE.md) */
+    const int f32 = !strcmp(volux_technique_param_string(scene, cls, "precision"), "float");
+    uint64_t bytes = (nodes * ch + LV_VOL_PAD) * (f32 ? sizeof(float) : sizeof(uint16_t));
     if (m[0] != d[0] || m[1] != d[1] || m[2] != d[2]) bytes += nodes * 4 * sizeof(float);
     uint64_t a01 = (uint64_t)m[0] * (uint64_t)m[1], a02 = (uint64_t)m[0] * (uint64_t)m[2],
              a12 = (uint64_t)m[1] * (uint64_t)m[2], area = a01 > a02 ? a01 : a02;

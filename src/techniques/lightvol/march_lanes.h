@@ -28,9 +28,9 @@ DI void lv_hook(const void *tech, const pk_lanes *L, vm lit, vf c[3]) {
     }
     const int need_dir = st->ch == 6 && st->rc.g != 0.0f;
     vf I[6];
-    pk_grid_trilinear(st->vol, st->dims, st->ch, f_mul(L->q[0], f_set(st->data_to_ill[0])),
-                      f_mul(L->q[1], f_set(st->data_to_ill[1])), f_mul(L->q[2], f_set(st->data_to_ill[2])), lit, 0,
-                      need_dir ? 6 : 3, I);
+    pk_grid_trilinear_any(st->volf, st->vol, st->dims, st->ch, f_mul(L->q[0], f_set(st->data_to_ill[0])),
+                          f_mul(L->q[1], f_set(st->data_to_ill[1])), f_mul(L->q[2], f_set(st->data_to_ill[2])), lit, 0,
+                          need_dir ? 6 : 3, I);
     const vf zero = f_zero();
     vf E[3] = {f_max(I[0], zero), f_max(I[1], zero), f_max(I[2], zero)};
     vf lum = f_add(f_add(f_mul(f_set(0.2126f), E[0]), f_mul(f_set(0.7152f), E[1])), f_mul(f_set(0.0722f), E[2]));

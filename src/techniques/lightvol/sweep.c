@@ -48,6 +48,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "core/bf16.h"
 #include "core/context_internal.h"
 #include "core/parallel.h"
 #include "core/vecmath.h"
@@ -59,27 +60,52 @@
 
 /* ------------------------------------------------------------ rows → volume */
 
+/* The illumination volume is float or bfloat16 (lightvol_state.vol): a
+ * bfloat16 write is "decode, add the row's float, round to nearest even"
+ * (or a rounding store when an entire update overwrites), the same
+ * rounding in the SSE2 steps as in the scalar tails. */
+#if defined(__SSE2__)
+/* Four floats to bfloat16 in the low 64 bits (volux_bf16_from_float's
+ * rounding; the sums here are finite, never NaN). The rounded word >> 16
+ * is sign-extended, so the signed pack keeps it exactly. */
+static inline __m128i bf16_pack4(__m128 v) {
+    __m128i u = _mm_castps_si128(v);
+    __m128i bias = _mm_add_epi32(_mm_set1_epi32(0x7fff), _mm_and_si128(_mm_srli_epi32(u, 16), _mm_set1_epi32(1)));
+    __m128i r = _mm_srai_epi32(_mm_add_epi32(u, bias), 16);
+    return _mm_packs_epi32(r, r);
+}
+
+static inline __m128 bf16_load4(const uint16_t *p) {
+    return _mm_castsi128_ps(_mm_unpacklo_epi16(_mm_setzero_si128(), _mm_loadl_epi64((const __m128i *)(const void *)p)));
+}
+
+/* Voxels u … u + 3 of the six planes as 24 interleaved floats o[0..5]. */
+static inline void aos6_transpose(const float *q, size_t m, int u, __m128 o[6]) {
+    __m128 a = _mm_loadu_ps(q + u), b = _mm_loadu_ps(q + m + u), c = _mm_loadu_ps(q + 2 * m + u),
+           d = _mm_loadu_ps(q + 3 * m + u), e = _mm_loadu_ps(q + 4 * m + u), f = _mm_loadu_ps(q + 5 * m + u);
+    _MM_TRANSPOSE4_PS(a, b, c, d); /* a: channels 0–3 of voxel u, b: of u + 1, … */
+    __m128 ef_lo = _mm_unpacklo_ps(e, f), ef_hi = _mm_unpackhi_ps(e, f); /* (4, 5) of u, u+1 | u+2, u+3 */
+    o[0] = a;
+    o[1] = _mm_shuffle_ps(ef_lo, b, _MM_SHUFFLE(1, 0, 1, 0));
+    o[2] = _mm_shuffle_ps(b, ef_lo, _MM_SHUFFLE(3, 2, 3, 2));
+    o[3] = c;
+    o[4] = _mm_shuffle_ps(ef_hi, d, _MM_SHUFFLE(1, 0, 1, 0));
+    o[5] = _mm_shuffle_ps(d, ef_hi, _MM_SHUFFLE(3, 2, 3, 2));
+}
+#endif
+
 /* dst[6u + c] (+)= q[c·m + u] for u in [0, n): a row of the six-channel
- * accumulator (planes of m floats) into the volume's interleaved layout
- * (x rows of y/z sweeps, the x sweeps' staging). The same single add or
- * copy per element as the plain loop (bit-identical); with SSE2 four
- * voxels a step through a 4×4 transpose, where the compiler left the
- * interleaving scalar (the fixed work of every pass, issue 17). */
+ * accumulator (planes of m floats) into the interleaved float layout (x
+ * rows of y/z sweeps, the x sweeps' staging). The same single add or copy
+ * per element as the plain loop (bit-identical); with SSE2 four voxels a
+ * step through a 4×4 transpose, where the compiler left the interleaving
+ * scalar (the fixed work of every pass, issue 17). */
 static void rows_to_aos6(float *restrict dst, const float *restrict q, size_t m, int n, int overwrite) {
     int u = 0;
 #if defined(__SSE2__)
-    const float *q0 = q, *q1 = q + m, *q2 = q + 2 * m, *q3 = q + 3 * m, *q4 = q + 4 * m, *q5 = q + 5 * m;
     for (; u + 4 <= n; u += 4) {
-        __m128 a = _mm_loadu_ps(q0 + u), b = _mm_loadu_ps(q1 + u), c = _mm_loadu_ps(q2 + u),
-               d = _mm_loadu_ps(q3 + u), e = _mm_loadu_ps(q4 + u), f = _mm_loadu_ps(q5 + u);
-        _MM_TRANSPOSE4_PS(a, b, c, d); /* a: channels 0–3 of voxel u, b: of u + 1, … */
-        __m128 ef_lo = _mm_unpacklo_ps(e, f), ef_hi = _mm_unpackhi_ps(e, f); /* (4, 5) of u, u+1 | u+2, u+3 */
-        __m128 o[6] = {a,
-                       _mm_shuffle_ps(ef_lo, b, _MM_SHUFFLE(1, 0, 1, 0)),
-                       _mm_shuffle_ps(b, ef_lo, _MM_SHUFFLE(3, 2, 3, 2)),
-                       c,
-                       _mm_shuffle_ps(ef_hi, d, _MM_SHUFFLE(1, 0, 1, 0)),
-                       _mm_shuffle_ps(d, ef_hi, _MM_SHUFFLE(3, 2, 3, 2))};
+        __m128 o[6];
+        aos6_transpose(q, m, u, o);
         float *p = dst + 6 * (size_t)u;
         if (overwrite)
             for (int k = 0; k < 6; k++) _mm_storeu_ps(p + 4 * k, o[k]);
@@ -94,6 +120,55 @@ static void rows_to_aos6(float *restrict dst, const float *restrict q, size_t m,
         else
             for (int c = 0; c < 6; c++) p[c] += q[(size_t)c * m + (size_t)u];
     }
+}
+
+/* The same row into the volume's bfloat16 voxels: dst[6u + c] (+)= q[c·m + u]. */
+static void rows_to_aos6_bf16(uint16_t *restrict dst, const float *restrict q, size_t m, int n, int overwrite) {
+    int u = 0;
+#if defined(__SSE2__)
+    for (; u + 4 <= n; u += 4) {
+        __m128 o[6];
+        aos6_transpose(q, m, u, o);
+        uint16_t *p = dst + 6 * (size_t)u;
+        for (int k = 0; k < 6; k++) {
+            __m128 v = overwrite ? o[k] : _mm_add_ps(bf16_load4(p + 4 * k), o[k]);
+            _mm_storel_epi64((__m128i *)(void *)(p + 4 * k), bf16_pack4(v));
+        }
+    }
+#endif
+    for (; u < n; u++) {
+        uint16_t *p = dst + 6 * (size_t)u;
+        for (int c = 0; c < 6; c++) {
+            float x = q[(size_t)c * m + (size_t)u];
+            p[c] = volux_bf16_from_float(overwrite ? x : volux_bf16_to_float(p[c]) + x);
+        }
+    }
+}
+
+/* dst[c] (+)= src[c] for c in [0, n): floats into bfloat16 voxels. */
+static void add_bf16(uint16_t *restrict dst, const float *restrict src, int n, int overwrite) {
+    int c = 0;
+#if defined(__SSE2__)
+    for (; c + 4 <= n; c += 4) {
+        __m128 v = _mm_loadu_ps(src + c);
+        if (!overwrite) v = _mm_add_ps(bf16_load4(dst + c), v);
+        _mm_storel_epi64((__m128i *)(void *)(dst + c), bf16_pack4(v));
+    }
+#endif
+    for (; c < n; c++) dst[c] = volux_bf16_from_float(overwrite ? src[c] : volux_bf16_to_float(dst[c]) + src[c]);
+}
+
+/* Voxel `at` (index of its first value) (+)= src[0 .. n), either precision. */
+static inline void add_voxel(const lightvol_state *st, size_t at, const float *restrict src, int n, int overwrite) {
+    if (!st->volf) {
+        add_bf16(st->vol + at, src, n, overwrite);
+        return;
+    }
+    float *p = st->volf + at;
+    if (overwrite)
+        for (int c = 0; c < n; c++) p[c] = src[c];
+    else
+        for (int c = 0; c < n; c++) p[c] += src[c];
 }
 
 /* ------------------------------------------------------------ pass setup */
@@ -171,23 +246,22 @@ static void flush_row(const lv_sweep *J, int v, int nb) {
     /* u outer so that the nb voxels of one x-run are written together */
     const size_t su = J->vs[J->au] * (size_t)ch;
     const int k_lo = J->s > 0 ? J->step - (nb - 1) : J->ma - 1 - J->step; /* lowest x of the runs */
-    const float *run0 = st->vol + ((size_t)k_lo * J->vs[J->a] + (size_t)v * J->vs[J->av]) * (size_t)ch;
-    const size_t run_bytes = (size_t)nb * (size_t)ch * sizeof(float);
+    const size_t value = st->volf ? sizeof *st->volf : sizeof *st->vol;
+    const char *run0 = (const char *)(st->volf ? (const void *)st->volf : (const void *)st->vol) +
+                       ((size_t)k_lo * J->vs[J->a] + (size_t)v * J->vs[J->av]) * (size_t)ch * value;
+    const size_t run_bytes = (size_t)nb * (size_t)ch * value;
     for (int u = 0; u < mu; u++) {
         /* the runs are a whole x-row apart: prefetch a few ahead */
         if (u + 6 < mu)
             for (size_t off = 0; off < run_bytes; off += 64)
-                __builtin_prefetch((const char *)(run0 + (size_t)(u + 6) * su) + off, 1, 3);
+                __builtin_prefetch(run0 + (size_t)(u + 6) * su * value + off, 1, 3);
         for (int b = 0; b < nb; b++) {
             int step = J->step - (nb - 1 - b);
             int k = J->s > 0 ? step : J->ma - 1 - step;
             const size_t at = (size_t)(step % J->defer); /* where sweep_row staged it */
             const float *src = st->stage + (at * plane + (size_t)v * m + (size_t)u) * (size_t)ch;
-            float *p = st->vol + ((size_t)k * J->vs[J->a] + (size_t)v * J->vs[J->av]) * (size_t)ch + (size_t)u * su;
-            if (J->overwrite)
-                for (int c = 0; c < ch; c++) p[c] = src[c];
-            else
-                for (int c = 0; c < ch; c++) p[c] += src[c];
+            add_voxel(st, ((size_t)k * J->vs[J->a] + (size_t)v * J->vs[J->av]) * (size_t)ch + (size_t)u * su, src, ch,
+                      J->overwrite);
         }
     }
 }
@@ -254,11 +328,11 @@ static void sweep_row(const lv_sweep *J, int v, int thread) {
     }
     /* Add (or, first pass of a full rebuild, store) into the volume. */
     size_t base = (size_t)J->k * J->vs[J->a] + (size_t)v * J->vs[J->av], su = J->vs[J->au];
-    float *restrict vol = st->vol + base * (size_t)ch;
     const size_t stride = su * (size_t)ch;
     if (J->defer) {
-        /* x sweep: park the row in the staging slab (slice-major, AoS) and
-         * flush runs of `defer` voxels along x every `defer` slices */
+        /* x sweep: park the row in the staging slab (slice-major, AoS,
+         * float) and flush runs of `defer` voxels along x every `defer`
+         * slices */
         int b = J->step % J->defer;
         float *restrict dst = st->stage + ((size_t)b * (size_t)J->mu * (size_t)J->mv + (size_t)v * m) * (size_t)ch;
         if (ch == 6) rows_to_aos6(dst, acc, m, mu, 1);
@@ -274,34 +348,14 @@ static void sweep_row(const lv_sweep *J, int v, int thread) {
         return;
     }
     if (ch == 6 && stride == 6) { /* y and z sweeps: the row is contiguous along x */
-        rows_to_aos6(vol, acc, m, mu, J->overwrite);
-    } else if (ch == 6) {
-        const float *restrict q0 = acc, *restrict q1 = acc + m, *restrict q2 = acc + 2 * m, *restrict q3 = acc + 3 * m,
-                              *restrict q4 = acc + 4 * m, *restrict q5 = acc + 5 * m;
-        if (J->overwrite) {
-            for (int u = 0; u < mu; u++) {
-                float *p = vol + (size_t)u * stride;
-                p[0] = q0[u], p[1] = q1[u], p[2] = q2[u], p[3] = q3[u], p[4] = q4[u], p[5] = q5[u];
-            }
-        } else {
-            for (int u = 0; u < mu; u++) {
-                float *p = vol + (size_t)u * stride;
-                p[0] += q0[u], p[1] += q1[u], p[2] += q2[u], p[3] += q3[u], p[4] += q4[u], p[5] += q5[u];
-            }
-        }
-    } else {
-        const float *restrict q0 = acc, *restrict q1 = acc + m, *restrict q2 = acc + 2 * m;
-        if (J->overwrite) {
-            for (int u = 0; u < mu; u++) {
-                float *p = vol + (size_t)u * stride;
-                p[0] = q0[u], p[1] = q1[u], p[2] = q2[u];
-            }
-        } else {
-            for (int u = 0; u < mu; u++) {
-                float *p = vol + (size_t)u * stride;
-                p[0] += q0[u], p[1] += q1[u], p[2] += q2[u];
-            }
-        }
+        if (st->volf) rows_to_aos6(st->volf + base * 6, acc, m, mu, J->overwrite);
+        else rows_to_aos6_bf16(st->vol + base * 6, acc, m, mu, J->overwrite);
+        return;
+    }
+    for (int u = 0; u < mu; u++) {
+        float x[6];
+        for (int c = 0; c < ch; c++) x[c] = acc[(size_t)c * m + (size_t)u];
+        add_voxel(st, base * (size_t)ch + (size_t)u * stride, x, ch, J->overwrite);
     }
 }
 

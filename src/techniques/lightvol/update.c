@@ -37,6 +37,7 @@ typedef struct lv_decision {
     size_t cap;           /* items + full                                  */
     volux_vec3 env_next[LV_MAX_ENV_DIRS];
     int n, nf, changed, total, selective, ps, pf;
+    int promote;          /* the volume goes to float (precision auto)   */
     double ws, wf;
     const char *reason;
 } lv_decision;
@@ -141,6 +142,10 @@ static void decide(const lightvol_state *st, volux_env_cells_cache *cells, const
         }
         if (selective && st->p.rebaseline > 0 && selective_since_full >= st->p.rebaseline)
             selective = 0, reason = "re-baseline after selective updates";
+        /* precision auto: selective updates run on a float volume; the
+         * first one is entire, so that no bfloat16 rounding stays in it */
+        d->promote = 0;
+        if (selective && !st->volf) selective = 0, d->promote = 1, reason = "float volume for selective updates";
         d->selective = selective;
     }
     d->reason = reason ? reason : "full rebuild";
@@ -215,7 +220,7 @@ static volux_status start_job(lightvol_state *st, const lv_decision *d) {
     *j = nj;
     if (!nj.active) {
         free_job_arrays(ctx, j);
-        if (nj.full) memset(st->vol, 0, st->vol_bytes); /* no light: the entire update is zero */
+        if (nj.full) memset(st->vol ? (void *)st->vol : (void *)st->volf, 0, st->vol_bytes); /* no light: zero */
     }
     if (d->slots > 0) memcpy(st->applied, d->next, (size_t)d->slots * sizeof(lv_applied));
     memcpy(st->env_E, d->env_next, sizeof st->env_E);
@@ -397,7 +402,8 @@ static volux_status start_update(lightvol_state *st, const volux_scene *scene, c
         st->stats.reason = "no light changed";
         st->stats.passes = st->stats.entries = 0;
     } else {
-        s = start_job(st, &d);
+        if (d.promote) s = volux_lightvol_promote(st);
+        if (!s) s = start_job(st, &d);
     }
     decision_free(ctx, &d);
     return s;
