@@ -28,6 +28,6 @@ for n in $sizes; do
       --width "$w" --height "$w" --spp 1 --json 2>/dev/null |
       sed "s/}\$/,\"n\":$n,\"load\":$load}/" >>"$out"
     rc=${PIPESTATUS[0]}
-    echo "{\"n\":$n,\"technique\":\"$t\",\"metric\":\"exit\",\"value\":$rc,\"wall_s\":$(echo "$(date +%s.%N) - $start" | bc),\"load\":$load}" >>"$out"
+    echo "{\"n\":$n,\"technique\":\"$t\",\"metric\":\"exit\",\"value\":$rc,\"wall_s\":$(printf %.3f "$(echo "$(date +%s.%N) - $start" | bc)"),\"load\":$load}" >>"$out"
   done
 done
