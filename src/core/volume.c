@@ -205,7 +205,7 @@ static void brick_shape(volux_volume *v) {
         v->brick_counts[a] = nb < 1 ? 1 : nb;
         count *= (size_t)v->brick_counts[a];
     }
-    size_t elem = v->storage == VOLUX_STORE_U8 ? 1 : v->storage == VOLUX_STORE_U16 ? 2 : 4, bytes;
+    size_t elem = volux_volume_elem_size(v), bytes;
     /* SIMD gathers read whole 32-bit words, i.e. up to 3 bytes past the last
      * node they need: a zeroed tail keeps them inside the allocation. */
     v->brick_bytes = volux_mul_size(count, (size_t)VOLUX_BRICK_VOXELS * elem, &bytes) &&
@@ -239,6 +239,8 @@ volux_status volux_volume_finalize(volux_volume *v, const double *origin) {
                 if (f[i] > hi) hi = f[i];
             }
             volux_volume_trim(v, b * esize, (e - b) * esize);
+            if (volux_progress(ctx, "scan volume", (double)e / (double)n))
+                return volux_error(ctx, VOLUX_ERR_CANCELLED, "scanning the volume: cancelled");
         }
         if (lo > hi) lo = hi = 0.0; /* nothing finite */
         if (bad && v->mapped) /* the loader refuses these first; a guard for any other caller */
@@ -265,6 +267,10 @@ volux_status volux_volume_finalize(volux_volume *v, const double *origin) {
                 if (s > hi) hi = s;
             }
             volux_volume_trim(v, b * esize, (e - b) * esize);
+            /* the value range of a large volume is a pass of its own: the
+             * loader's progress ends with the read */
+            if (volux_progress(ctx, "scan volume", (double)e / (double)n))
+                return volux_error(ctx, VOLUX_ERR_CANCELLED, "scanning the volume: cancelled");
         }
         lo += v->value_offset;
         hi += v->value_offset;
@@ -526,7 +532,7 @@ volux_status volux_volume_from_memory(volux_context *ctx, const volux_volume_mem
 volux_status volux_volume_build_bricks(volux_volume *v) {
     if (__atomic_load_n(&v->bricks, __ATOMIC_ACQUIRE)) return VOLUX_OK;
     const int *nb = v->brick_counts;
-    size_t elem = v->storage == VOLUX_STORE_U8 ? 1 : v->storage == VOLUX_STORE_U16 ? 2 : 4;
+    size_t elem = volux_volume_elem_size(v);
     size_t bytes = v->brick_bytes;
     if (bytes == SIZE_MAX || (!v->mapped && bytes - VOLUX_BRICK_TAIL > v->ctx->max_bytes))
         return volux_error(v->ctx, VOLUX_ERR_LIMIT, "bricked volume copy exceeds the memory cap");
@@ -659,11 +665,16 @@ void volux_volume_histogram(const volux_volume *v, int bins, uint64_t *counts) {
     memset(counts, 0, sizeof *counts * (size_t)bins);
     double range = v->vmax - v->vmin;
     size_t n = (size_t)v->dims[0] * (size_t)v->dims[1] * (size_t)v->dims[2];
-    for (size_t i = 0; i < n; i++) {
-        double s = volux_volume_raw_at(v, i) + v->value_offset;
-        int b = range > 0 ? (int)((s - v->vmin) / range * bins) : 0;
-        if (b >= bins) b = bins - 1;
-        if (b < 0) b = 0;
-        counts[b]++;
+    const size_t block = (size_t)1 << 22, esize = volux_volume_elem_size(v);
+    for (size_t first = 0; first < n; first += block) {
+        size_t end = n - first < block ? n : first + block;
+        for (size_t i = first; i < end; i++) {
+            double s = volux_volume_raw_at(v, i) + v->value_offset;
+            int b = range > 0 ? (int)((s - v->vmin) / range * bins) : 0;
+            if (b >= bins) b = bins - 1;
+            if (b < 0) b = 0;
+            counts[b]++;
+        }
+        volux_volume_trim(v, first * esize, (end - first) * esize); /* out of core: behind the sweep */
     }
 }

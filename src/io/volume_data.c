@@ -586,7 +586,8 @@ static const char *why_not_mapped(const volux_volume_header *h, const volux_sour
     if (h->type != VOLUX_UINT8 && h->type != VOLUX_UINT16 && h->type != VOLUX_FLOAT32)
         return "only uint8, uint16 and float32 data is stored as the file holds it";
     if (esize > 1 && h->big_endian != volux_host_big_endian()) return "the data is not in this machine's byte order";
-    if (begin % esize) return "the data does not start at a multiple of its element size (a detached header has no such offset)";
+    if (begin % esize) /* an attached header of odd length; a detached one starts at 0 */
+        return "the data does not start at a multiple of its element size";
     return NULL;
 }
 
@@ -596,7 +597,8 @@ static const char *why_not_mapped(const volux_volume_header *h, const volux_sour
 static volux_status map_data(volux_context *ctx, const volux_volume_header *h, volux_source *src, uint64_t begin,
                              const volux_volume_load_options *options, volux_volume **out) {
     volux_volume *v;
-    volux_status st = volux_volume_map_file(ctx, src->name, fileno(src->file), begin, h->dims, h->spacing, h->type, &v);
+    volux_status st =
+        volux_volume_map_file(ctx, src->name, fileno(src->file), begin, h->dims, h->spacing, h->type, &v);
     if (st) return st;
     if (volux_progress(ctx, "load volume", 1.0)) {
         volux_volume_release(v);
