@@ -1,19 +1,26 @@
 #!/usr/bin/python3
 """Tables, fitted exponents and the log-log plot of bench/scale/run.sh output.
 
-Usage: tables.py SCALE.jsonl [PLOT.png]
+Usage: tables.py SCALE.jsonl [PLOT.svg|PLOT.png] (the plot needs gnuplot)
 Prints a Markdown table per metric (prepare_ms, update_ms.tf + refine_ms.tf,
 render_ms, render_cpu_ms, memory_bytes, memory estimate, peak_rss_bytes) by
 technique and N, and the least-squares exponent of each metric against the
-voxel count N³ over the sizes measured (a straight line in log-log)."""
+voxel count N³ over the sizes measured (a straight line in log-log), and
+over 256³–1024³ alone (the issue's target range) when those were run."""
 import json
 import math
+import os
+import subprocess
 import sys
+import tempfile
 from collections import defaultdict
 
 rows = defaultdict(dict)  # (technique, n) -> metric -> value
 for line in open(sys.argv[1]):
-    d = json.loads(line)
+    try:
+        d = json.loads(line)
+    except json.JSONDecodeError:  # the driver's own exit rows of older runs
+        continue
     if "n" not in d:
         continue
     key = (d["technique"], d["n"])
@@ -57,39 +64,46 @@ def fit(points):
 
 
 exponents = {}
+upper = [n for n in sizes if n >= 256]
 for key, title, get in metrics:
     print(f"\n**{title}**\n")
-    print("| technique | " + " | ".join(f"{n}³" for n in sizes) + " | exponent vs N³ |")
-    print("|---|" + "---|" * (len(sizes) + 1))
+    two = len(upper) >= 2 and len(upper) < len(sizes)
+    print("| technique | " + " | ".join(f"{n}³" for n in sizes) + " | exponent vs N³ |" +
+          (f" {upper[0]}³–{upper[-1]}³ |" if two else ""))
+    print("|---|" + "---|" * (len(sizes) + 1 + (1 if two else 0)))
     for t in techs:
         vals = [get(rows[(t, n)]) if (t, n) in rows else None for n in sizes]
         e = fit([(n, v) for n, v in zip(sizes, vals) if v is not None])
+        eu = fit([(n, v) for n, v in zip(sizes, vals) if v is not None and n >= 256])
         exponents[(key, t)] = e
         cells = ["—" if v is None else (f"{v:.3g}" if v < 1000 else f"{v:.0f}") for v in vals]
-        print(f"| {t} | " + " | ".join(cells) + f" | {'—' if e is None else f'{e:.2f}'} |")
+        fmt = lambda x: "—" if x is None else f"{x:.2f}"
+        print(f"| {t} | " + " | ".join(cells) + f" | {fmt(e)} |" + (f" {fmt(eu)} |" if two else ""))
 
 loads = [m.get("load") for m in rows.values() if m.get("load")]
 if loads:
     print(f"\nload average during the runs: {min(loads):.1f}–{max(loads):.1f} (2 cores)")
 
 if len(sys.argv) > 2:
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        sys.exit("matplotlib missing: no plot")
-    fig, axes = plt.subplots(1, 4, figsize=(18, 4.5))
-    for ax, (key, title, get) in zip(axes, [metrics[0], metrics[1], metrics[3], metrics[6]]):
-        for t in techs:
-            pts = [(n ** 3, get(rows[(t, n)])) for n in sizes if (t, n) in rows and get(rows[(t, n)])]
-            if pts:
-                ax.plot([p[0] for p in pts], [p[1] for p in pts], "o-", label=t)
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel("voxels")
-        ax.set_title(title, fontsize=9)
-        ax.grid(True, which="both", alpha=0.3)
-    axes[0].legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(sys.argv[2], dpi=90)
+    # four log-log panels through gnuplot (as tools/plot/convergence.sh)
+    out = sys.argv[2]
+    panels = [metrics[0], metrics[1], metrics[3], metrics[6]]
+    with tempfile.TemporaryDirectory() as tmp:
+        term = "png size 1600,420" if out.endswith(".png") else 'svg size 1600,420 dynamic font "sans,10"'
+        script = [f"set terminal {term}",
+                  f"set output '{out}'", "set multiplot layout 1,4", "set logscale xy", "set grid",
+                  "set xlabel 'voxels'", "set key top left font ',8'", "set format x '10^{%L}'"]
+        for p, (key, title, get) in enumerate(panels):
+            plots = []
+            for t in techs:
+                pts = [(n ** 3, get(rows[(t, n)])) for n in sizes if (t, n) in rows and get(rows[(t, n)])]
+                if not pts:
+                    continue
+                f = os.path.join(tmp, f"{p}_{t}.dat")
+                with open(f, "w") as fh:
+                    fh.writelines(f"{x} {y}\n" for x, y in pts)
+                plots.append(f"'{f}' using 1:2 with linespoints title '{t}'")
+            script.append(f"set title '{title}'")
+            script.append("plot " + ", ".join(plots) if plots else "clear")
+        script.append("unset multiplot")
+        subprocess.run(["gnuplot"], input="\n".join(script) + "\n", text=True, check=True)

@@ -162,6 +162,17 @@ VOLUX_API void volux_context_set_memory_limit(volux_context *ctx, uint64_t bytes
 VOLUX_API uint64_t volux_context_memory_limit(const volux_context *ctx);
 /* 80 % of this machine's physical memory (UINT64_MAX if unknown). */
 VOLUX_API uint64_t volux_context_default_memory_limit(void);
+/* Out of core (docs/SCALE.md): with `on`, volume files loaded through this
+ * context whose data is stored as the volume stores it (uncompressed raw,
+ * NRRD, NIfTI or MetaImage data in native byte order, uint8/uint16/float32,
+ * in one file, aligned to its element size) are memory-mapped read-only
+ * instead of read, and the bricked copy techniques build of such a volume
+ * is a temporary file ($TMPDIR, else /var/tmp) mapped shared: the kernel
+ * pages both in and out, so a volume larger than memory renders. Neither
+ * counts against the memory limit. Other files are read as usual, with a
+ * warning naming why. Off by default. */
+VOLUX_API void volux_context_set_out_of_core(volux_context *ctx, int on);
+VOLUX_API int volux_context_out_of_core(const volux_context *ctx);
 /* Bytes currently allocated through the context (for memory reports); the
  * context's own storage (itself, its cache folder name) is not counted. */
 VOLUX_API uint64_t volux_context_bytes_in_use(const volux_context *ctx);

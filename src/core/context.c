@@ -133,6 +133,9 @@ void volux_context_set_memory_limit(volux_context *ctx, uint64_t bytes) {
     __atomic_store_n(&ctx->budget_refused, 0, __ATOMIC_RELAXED);
 }
 
+void volux_context_set_out_of_core(volux_context *ctx, int on) { ctx->out_of_core = on != 0; }
+int volux_context_out_of_core(const volux_context *ctx) { return ctx->out_of_core; }
+
 uint64_t volux_context_default_memory_limit(void) {
     /* 80 % of physical memory: the rest is the OS, the page cache the
      * volume file was read through, and allocator slack the model does not

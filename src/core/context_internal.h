@@ -34,6 +34,7 @@ struct volux_context {
     uint64_t budget;       /* memory_limit resolved: what volux_malloc holds
                               bytes_in_use under (UINT64_MAX: no limit) */
     int budget_refused;    /* set atomically by the first refusal */
+    int out_of_core;       /* volux_context_set_out_of_core */
 };
 
 /* "12.3 GB" (decimal units, as `free -h` and file managers print). */

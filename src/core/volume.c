@@ -145,6 +145,11 @@ volux_status volux_volume_create_storage(volux_context *ctx, const int dims[3], 
     return volume_new(ctx, dims, spacing, type, 0, out);
 }
 
+volux_status volux_volume_create_borrowed(volux_context *ctx, const int dims[3], const double spacing[3],
+                                          volux_scalar_type type, volux_volume **out) {
+    return volume_new(ctx, dims, spacing, type, 1, out);
+}
+
 /* One z slab of macrocells: the nodes k ∈ [8·cz, 8·cz + 8] (a cell's
  * closed range). Slabs write disjoint cells, so they run in parallel; a
  * min/max is exact, so the cells are the same for any thread count. */
@@ -169,6 +174,10 @@ static void macrocell_slab(void *user, int64_t cz64, int thread) {
                     }
             }
         }
+    /* out of core: this slab's slices are done (a neighbour that still
+     * needs the shared one reads it again) */
+    size_t slice = (size_t)v->dims[0] * (size_t)v->dims[1] * volux_volume_elem_size(v);
+    volux_volume_trim(v, (size_t)k0 * slice, (size_t)(k1 + 1 - k0) * slice);
 }
 
 static void build_macrocells(volux_volume *v) {
@@ -196,7 +205,7 @@ static void brick_shape(volux_volume *v) {
         v->brick_counts[a] = nb < 1 ? 1 : nb;
         count *= (size_t)v->brick_counts[a];
     }
-    size_t elem = v->storage == VOLUX_STORE_U8 ? 1 : v->storage == VOLUX_STORE_U16 ? 2 : 4, bytes;
+    size_t elem = volux_volume_elem_size(v), bytes;
     /* SIMD gathers read whole 32-bit words, i.e. up to 3 bytes past the last
      * node they need: a zeroed tail keeps them inside the allocation. */
     v->brick_bytes = volux_mul_size(count, (size_t)VOLUX_BRICK_VOXELS * elem, &bytes) &&
@@ -214,18 +223,31 @@ volux_status volux_volume_finalize(volux_volume *v, const double *origin) {
     }
     size_t n = (size_t)v->dims[0] * (size_t)v->dims[1] * (size_t)v->dims[2];
     double lo = DBL_MAX, hi = -DBL_MAX;
+    /* in blocks, so that an out-of-core volume drops each one behind it */
+    const size_t block = (size_t)1 << 22, esize = volux_volume_elem_size(v);
     if (v->storage == VOLUX_STORE_F32) {
         float *f = v->data;
         size_t bad = 0;
-        for (size_t i = 0; i < n; i++) {
-            if (!isfinite(f[i])) {
-                bad++;
-                continue;
+        for (size_t b = 0; b < n; b += block) {
+            size_t e = n - b < block ? n : b + block;
+            for (size_t i = b; i < e; i++) {
+                if (!isfinite(f[i])) {
+                    bad++;
+                    continue;
+                }
+                if (f[i] < lo) lo = f[i];
+                if (f[i] > hi) hi = f[i];
             }
-            if (f[i] < lo) lo = f[i];
-            if (f[i] > hi) hi = f[i];
+            volux_volume_trim(v, b * esize, (e - b) * esize);
+            if (volux_progress(ctx, "scan volume", (double)e / (double)n))
+                return volux_error(ctx, VOLUX_ERR_CANCELLED, "scanning the volume: cancelled");
         }
         if (lo > hi) lo = hi = 0.0; /* nothing finite */
+        if (bad && v->mapped) /* the loader refuses these first; a guard for any other caller */
+            return volux_error(ctx, VOLUX_ERR_UNSUPPORTED,
+                               "%zu non-finite values (NaN/Inf) in an out-of-core volume cannot be replaced (its "
+                               "data is a read-only mapping of the file); load it without out-of-core",
+                               bad);
         /* NaN/inf would poison every sum downstream; they take the lowest
          * value, where the TF's table starts. */
         for (size_t i = 0; bad && i < n; i++)
@@ -237,10 +259,18 @@ volux_status volux_volume_finalize(volux_volume *v, const double *origin) {
                                "values span [%g, %g], wider than float arithmetic holds (%g); rescale the data", lo,
                                hi, (double)FLT_MAX);
     } else {
-        for (size_t i = 0; i < n; i++) {
-            double s = volux_volume_raw_at(v, i);
-            if (s < lo) lo = s;
-            if (s > hi) hi = s;
+        for (size_t b = 0; b < n; b += block) {
+            size_t e = n - b < block ? n : b + block;
+            for (size_t i = b; i < e; i++) {
+                double s = volux_volume_raw_at(v, i);
+                if (s < lo) lo = s;
+                if (s > hi) hi = s;
+            }
+            volux_volume_trim(v, b * esize, (e - b) * esize);
+            /* the value range of a large volume is a pass of its own: the
+             * loader's progress ends with the read */
+            if (volux_progress(ctx, "scan volume", (double)e / (double)n))
+                return volux_error(ctx, VOLUX_ERR_CANCELLED, "scanning the volume: cancelled");
         }
         lo += v->value_offset;
         hi += v->value_offset;
@@ -329,8 +359,13 @@ size_t volux_volume_count_nonfinite(const volux_volume *v, size_t *first) {
     if (v->storage != VOLUX_STORE_F32) return 0;
     size_t n = (size_t)v->dims[0] * (size_t)v->dims[1] * (size_t)v->dims[2], bad = 0;
     const float *f = v->data;
-    for (size_t i = 0; i < n; i++)
-        if (!isfinite(f[i]) && !bad++ && first) *first = i;
+    const size_t block = (size_t)1 << 22; /* out of core: each block dropped behind the scan */
+    for (size_t b = 0; b < n; b += block) {
+        size_t e = n - b < block ? n : b + block;
+        for (size_t i = b; i < e; i++)
+            if (!isfinite(f[i]) && !bad++ && first) *first = i;
+        volux_volume_trim(v, b * sizeof *f, (e - b) * sizeof *f);
+    }
     return bad;
 }
 
@@ -497,14 +532,20 @@ volux_status volux_volume_from_memory(volux_context *ctx, const volux_volume_mem
 volux_status volux_volume_build_bricks(volux_volume *v) {
     if (__atomic_load_n(&v->bricks, __ATOMIC_ACQUIRE)) return VOLUX_OK;
     const int *nb = v->brick_counts;
-    size_t elem = v->storage == VOLUX_STORE_U8 ? 1 : v->storage == VOLUX_STORE_U16 ? 2 : 4;
+    size_t elem = volux_volume_elem_size(v);
     size_t bytes = v->brick_bytes;
-    if (bytes == SIZE_MAX || bytes - VOLUX_BRICK_TAIL > v->ctx->max_bytes)
+    if (bytes == SIZE_MAX || (!v->mapped && bytes - VOLUX_BRICK_TAIL > v->ctx->max_bytes))
         return volux_error(v->ctx, VOLUX_ERR_LIMIT, "bricked volume copy exceeds the memory cap");
-    unsigned char *dst = volux_alloc_aligned(v->ctx, bytes);
-    if (!dst) return volux_error(v->ctx, VOLUX_ERR_NOMEM, "out of memory (%zu bytes) for the bricked volume", bytes);
+    /* out of core: the copy is a file too (pageable), not anonymous memory */
+    unsigned char *dst = v->mapped ? volux_map_scratch(v->ctx, bytes) : volux_alloc_aligned(v->ctx, bytes);
+    if (!dst)
+        return v->mapped ? VOLUX_ERR_IO
+                         : volux_error(v->ctx, VOLUX_ERR_NOMEM, "out of memory (%zu bytes) for the bricked volume",
+                                       bytes);
+    const size_t slice = (size_t)v->dims[0] * (size_t)v->dims[1] * elem,
+                 brick_row = (size_t)nb[0] * (size_t)nb[1] * VOLUX_BRICK_VOXELS * elem;
     /* Node (8b + l) of each axis, replicated at the far border. */
-    for (int bz = 0; bz < nb[2]; bz++)
+    for (int bz = 0; bz < nb[2]; bz++) {
         for (int by = 0; by < nb[1]; by++)
             for (int bx = 0; bx < nb[0]; bx++) {
                 size_t base = (((size_t)bz * (size_t)nb[1] + (size_t)by) * (size_t)nb[0] + (size_t)bx) *
@@ -525,9 +566,17 @@ volux_status volux_volume_build_bricks(volux_volume *v) {
                     }
                 }
             }
+        if (v->mapped) { /* this z row of bricks is written: drop it and the slices it read */
+            volux_map_trim(dst + (size_t)bz * brick_row, brick_row);
+            volux_volume_trim(v, (size_t)bz * VOLUX_BRICK_CELLS * slice, (size_t)VOLUX_BRICK_NODES * slice);
+        }
+    }
     void *expected = NULL;
-    if (!__atomic_compare_exchange_n(&v->bricks, &expected, dst, 0, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE))
-        volux_free_aligned(v->ctx, dst, bytes); /* another thread published the same bricks first */
+    if (!__atomic_compare_exchange_n(&v->bricks, &expected, dst, 0, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE)) {
+        /* another thread published the same bricks first */
+        if (v->mapped) volux_unmap_scratch(dst, bytes);
+        else volux_free_aligned(v->ctx, dst, bytes);
+    }
     return VOLUX_OK;
 }
 
@@ -537,9 +586,11 @@ void volux_volume_release(volux_volume *v) {
     if (!v) return;
     if (__atomic_sub_fetch(&v->refcount, 1, __ATOMIC_ACQ_REL) != 0) return;
     volux_context *ctx = v->ctx;
-    if (!v->borrowed) volux_free_aligned(ctx, v->data, v->data_bytes);
+    if (v->mapped) volux_volume_unmap(v);
+    else if (!v->borrowed) volux_free_aligned(ctx, v->data, v->data_bytes);
     else if (v->release_data) v->release_data(v->release_user);
-    if (v->bricks) volux_free_aligned(ctx, v->bricks, v->brick_bytes);
+    if (v->bricks && v->mapped) volux_unmap_scratch(v->bricks, v->brick_bytes);
+    else if (v->bricks) volux_free_aligned(ctx, v->bricks, v->brick_bytes);
     volux_free(ctx, v->cell_min, v->cell_bytes);
     volux_free(ctx, v->cell_max, v->cell_bytes);
     volux_free(ctx, v, sizeof *v);
@@ -614,11 +665,16 @@ void volux_volume_histogram(const volux_volume *v, int bins, uint64_t *counts) {
     memset(counts, 0, sizeof *counts * (size_t)bins);
     double range = v->vmax - v->vmin;
     size_t n = (size_t)v->dims[0] * (size_t)v->dims[1] * (size_t)v->dims[2];
-    for (size_t i = 0; i < n; i++) {
-        double s = volux_volume_raw_at(v, i) + v->value_offset;
-        int b = range > 0 ? (int)((s - v->vmin) / range * bins) : 0;
-        if (b >= bins) b = bins - 1;
-        if (b < 0) b = 0;
-        counts[b]++;
+    const size_t block = (size_t)1 << 22, esize = volux_volume_elem_size(v);
+    for (size_t first = 0; first < n; first += block) {
+        size_t end = n - first < block ? n : first + block;
+        for (size_t i = first; i < end; i++) {
+            double s = volux_volume_raw_at(v, i) + v->value_offset;
+            int b = range > 0 ? (int)((s - v->vmin) / range * bins) : 0;
+            if (b >= bins) b = bins - 1;
+            if (b < 0) b = 0;
+            counts[b]++;
+        }
+        volux_volume_trim(v, first * esize, (end - first) * esize); /* out of core: behind the sweep */
     }
 }

@@ -34,6 +34,12 @@ struct volux_volume {
     int borrowed;           /* data is the caller's (volux_volume_from_memory) */
     void (*release_data)(void *user);
     void *release_user;
+    /* Out of core (volume_map.c): data is a read-only mapping of the file
+     * (map_base/map_len: the whole mapping, from a page boundary) and the
+     * bricked copy a shared mapping of an unlinked temporary file. */
+    int mapped;
+    void *map_base;
+    size_t map_len;
     double vmin, vmax;
     /* Unit direction of anatomical superior (head) in the volume's world,
      * from the file's orientation (NIfTI qform/sform, NRRD space); used to
@@ -56,6 +62,27 @@ struct volux_volume {
     volux_vec3 whole_origin; /* float, computed as a whole load would */
     float whole_gradient_max; /* volux_volume_set_whole_stats; 0: unknown */
 };
+
+/* Out-of-core storage (volume_map.c). volux_volume_map_file maps the
+ * data of a dims/type volume that starts at byte `offset` of the open file
+ * `fd` (values stored exactly as the type's storage, native order); the
+ * volume is not finalized. VOLUX_ERR_IO naming `name` when the mapping
+ * fails. */
+volux_status volux_volume_map_file(volux_context *ctx, const char *name, int fd, uint64_t offset, const int dims[3],
+                                   const double spacing[3], volux_scalar_type type, volux_volume **out);
+/* A volume header without storage (the caller sets data): volume.c. */
+volux_status volux_volume_create_borrowed(volux_context *ctx, const int dims[3], const double spacing[3],
+                                          volux_scalar_type type, volux_volume **out);
+void volux_volume_unmap(volux_volume *v);
+/* Drops the resident pages of bytes [first_byte, first_byte + bytes) of a
+ * mapped volume's data (nothing for an ordinary volume); the next touch
+ * reads them again. */
+void volux_volume_trim(const volux_volume *v, size_t first_byte, size_t bytes);
+void volux_map_trim(const void *p, size_t bytes);
+/* `bytes` of zeroes in a shared mapping of an unlinked temporary file
+ * ($TMPDIR, else /var/tmp), or NULL with the error recorded. */
+void *volux_map_scratch(volux_context *ctx, size_t bytes);
+void volux_unmap_scratch(void *p, size_t bytes);
 
 /* Bricked layout: 8³-cell bricks stored as 9³ nodes (one-node apron on the
  * high side), so all 8 corners of a trilinear lookup lie in one brick at
@@ -119,6 +146,11 @@ volux_status volux_volume_finalize(volux_volume *v, const double *origin /* NULL
 /* Number of NaN/±Inf values in float storage (0 for integer storage) and
  * the index of the first (x fastest). */
 size_t volux_volume_count_nonfinite(const volux_volume *v, size_t *first);
+
+/* Bytes of one stored value. */
+static inline size_t volux_volume_elem_size(const volux_volume *v) {
+    return v->storage == VOLUX_STORE_U8 ? 1 : v->storage == VOLUX_STORE_U16 ? 2 : 4;
+}
 
 static inline size_t volux_volume_index(const volux_volume *v, int i, int j, int k) {
     return ((size_t)k * (size_t)v->dims[1] + (size_t)j) * (size_t)v->dims[0] + (size_t)i;

@@ -575,6 +575,43 @@ done:
     return st;
 }
 
+/* Out of core (volux_context_set_out_of_core): NULL when the data of this
+ * one-file volume is stored in the file exactly as the volume stores it,
+ * so that it can be mapped; else why not, for the warning. */
+static const char *why_not_mapped(const volux_volume_header *h, const volux_source *src, uint64_t begin) {
+    size_t esize = volux_scalar_type_size(h->type);
+    if (!src->file) return "the file is held in memory";
+    if (h->encoding != VOLUX_ENCODING_RAW) return "the data is compressed";
+    if (h->apply_scale) return "the values are scaled (stored as float32)";
+    if (h->type != VOLUX_UINT8 && h->type != VOLUX_UINT16 && h->type != VOLUX_FLOAT32)
+        return "only uint8, uint16 and float32 data is stored as the file holds it";
+    if (esize > 1 && h->big_endian != volux_host_big_endian()) return "the data is not in this machine's byte order";
+    if (begin % esize) /* an attached header of odd length; a detached one starts at 0 */
+        return "the data does not start at a multiple of its element size";
+    return NULL;
+}
+
+/* Maps the data at `begin` of a one-file volume (see why_not_mapped), then
+ * the common last step (non-finite values: refused even when allowed, since
+ * a read-only mapping cannot replace them: volux_volume_finalize). */
+static volux_status map_data(volux_context *ctx, const volux_volume_header *h, volux_source *src, uint64_t begin,
+                             const volux_volume_load_options *options, volux_volume **out) {
+    volux_volume *v;
+    volux_status st =
+        volux_volume_map_file(ctx, src->name, fileno(src->file), begin, h->dims, h->spacing, h->type, &v);
+    if (st) return st;
+    if (volux_progress(ctx, "load volume", 1.0)) {
+        volux_volume_release(v);
+        return volux_error(ctx, VOLUX_ERR_CANCELLED, "%s: loading cancelled", src->name);
+    }
+    if ((st = volux_volume_read_finish(ctx, h, src->name, options, v))) {
+        volux_volume_release(v);
+        return st;
+    }
+    *out = v;
+    return VOLUX_OK;
+}
+
 volux_status volux_volume_read_parts(volux_context *ctx, const volux_volume_header *h, int parts,
                                      const volux_part_source *ps, const volux_volume_load_options *options,
                                      volux_volume **out) {
@@ -612,6 +649,25 @@ volux_status volux_volume_read_parts(volux_context *ctx, const volux_volume_head
         if (st && options && options->data_root) st = withhold_sizes(ctx, name, h, had_error);
         if (st && parts > 1) volux_error_prefix(ctx, "%s: data file %d of %d: ", name, k + 1, parts);
         if (st) goto fail;
+    }
+    if (volux_context_out_of_core(ctx)) {
+        const char *why = parts > 1 ? "the data is split over several files" : NULL;
+        if (!why) {
+            if ((st = ps->open(ps->user, 0, &src))) goto fail;
+            open = 1;
+            why = why_not_mapped(h, &src, begin[0]);
+            if (!why) {
+                st = map_data(ctx, h, &src, begin[0], options, out);
+                ps->close(ps->user, &src);
+                open = 0;
+                volux_free(ctx, buf, CHUNK);
+                volux_free(ctx, begin, sizeof *begin * (size_t)parts);
+                return st;
+            }
+            ps->close(ps->user, &src);
+            open = 0;
+        }
+        volux_warn(ctx, "%s: out of core: not mapped (%s); read into memory", name, why);
     }
     st = volux_volume_create_storage(ctx, h->dims, h->spacing, stored_type(h), &v);
     if (st) {

@@ -58,7 +58,8 @@ volux_mm_lights volux_mm_count_lights(const volux_scene *scene) {
 
 uint64_t volux_mm_bricks_to_build(const volux_scene *scene) {
     const volux_volume *v = volux_scene_volume(scene);
-    return v && !v->bricks ? v->brick_bytes : 0;
+    /* out of core: the bricked copy is a file mapping, not memory */
+    return v && !v->bricks && !v->mapped ? v->brick_bytes : 0;
 }
 
 uint64_t volux_mm_packet_tables_bytes(const volux_scene *scene) {

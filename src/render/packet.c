@@ -58,7 +58,7 @@ volux_status volux_packet_skip_ranges(volux_context *ctx, const volux_volume *v,
     }
     for (size_t i = 0; i < n; i++) pk->skip_range[2 * i] = INFINITY, pk->skip_range[2 * i + 1] = -INFINITY;
     /* every node updates the (up to 8) cells it bounds */
-    for (int k = 0; k < v->dims[2]; k++)
+    for (int k = 0; k < v->dims[2]; k++) {
         for (int j = 0; j < v->dims[1]; j++)
             for (int i = 0; i < v->dims[0]; i++) {
                 float val = volux_volume_raw_at(v, volux_volume_index(v, i, j, k)) + v->value_offset;
@@ -77,6 +77,10 @@ volux_status volux_packet_skip_ranges(volux_context *ctx, const volux_volume *v,
                             if (val > r[1]) r[1] = val;
                         }
             }
+        /* out of core: slice k is done (volume_map.c) */
+        size_t slice = (size_t)v->dims[0] * (size_t)v->dims[1] * volux_volume_elem_size(v);
+        volux_volume_trim(v, (size_t)k * slice, slice);
+    }
     return VOLUX_OK;
 }
 

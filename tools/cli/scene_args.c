@@ -82,6 +82,10 @@ int cli_scene_arg(const char *cmd, cli_scene_args *a, int argc, char **argv, int
         }
         return parse_memory_limit(cmd, argv[++*i], &a->memory_limit) ? 1 : -1;
     }
+    if (!strcmp(arg, "--out-of-core")) {
+        a->out_of_core = 1;
+        return 1;
+    }
     if (!strcmp(arg, "--dump-scene")) {
         if (*i + 1 >= argc) {
             cli_eprintf("volux %s: --dump-scene needs a file name\n", cmd);
@@ -217,6 +221,7 @@ int cli_load_scene_quiet(const char *cmd, volux_context *ctx, const cli_scene_ar
                          char *msg, size_t msg_size) {
     msg[0] = 0;
     if (a->memory_limit) volux_context_set_memory_limit(ctx, a->memory_limit);
+    if (a->out_of_core) volux_context_set_out_of_core(ctx, 1);
     if (!a->scene_path) {
         snprintf(msg, msg_size, "missing SCENE.json (or a volume)");
         return CLI_USAGE;

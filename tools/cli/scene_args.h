@@ -26,6 +26,7 @@ typedef struct cli_scene_args {
     /* --memory-limit: the render's memory budget in bytes (0: the
      * library's default, 80 % of physical memory; UINT64_MAX: none) */
     uint64_t memory_limit;
+    int out_of_core; /* --out-of-core: volux_context_set_out_of_core */
 } cli_scene_args;
 
 /* If argv[*i] is a scene option, consumes it (and its value), returns 1;
