@@ -93,6 +93,10 @@ static cJSON *volume_info(const volux_scene *s) {
     volux_scene_bounds_sphere(s, &c, &r);
     cJSON_AddItemToObject(o, "center", vec3(c));
     cJSON_AddNumberToObject(o, "radius", r);
+    volux_vec3 box_lo, box_hi; /* the crop box sliders' range (world) */
+    volux_volume_bounds(vol, &box_lo, &box_hi);
+    cJSON_AddItemToObject(o, "box_min", vec3(box_lo));
+    cJSON_AddItemToObject(o, "box_max", vec3(box_hi));
     uint64_t counts[VIEWER_HISTOGRAM_BINS];
     volux_volume_histogram(vol, VIEWER_HISTOGRAM_BINS, counts);
     double d[VIEWER_HISTOGRAM_BINS];
