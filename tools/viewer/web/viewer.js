@@ -924,7 +924,7 @@ function planeCard(p, i) {
     const x = document.createElement('input');
     x.type = 'number'; x.step = 0.1; x.value = p.normal[a];
     x.className = 'clip-plane-normal';
-    x.style.flex = '0 0 4.5em'; x.style.width = '4.5em';
+    x.style.flex = '0 0 3.6em'; x.style.width = '3.6em';
     x.onchange = () => {
       const list = planes(), v = Number(x.value);
       if (x.value === '' || !Number.isFinite(v)) return;
