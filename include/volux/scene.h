@@ -127,6 +127,36 @@ VOLUX_API volux_context *volux_scene_context(const volux_scene *s);
 VOLUX_API volux_status volux_scene_set_volume(volux_scene *s, volux_volume *v);
 VOLUX_API volux_volume *volux_scene_volume(const volux_scene *s); /* borrowed */
 
+/* Crop box and clipping planes (world coordinates). A point p is kept when
+ * it lies inside the box (if has_box) and, for every plane,
+ * dot(p − origin, normal) ≤ 0: the side the normal points to is removed
+ * (ParaView's Clip with "Invert"). Clipped material is empty space for
+ * every technique and every ray (camera, shadow, cache builds): the scene
+ * renders from a copy of the volume whose clipped voxels hold a value the
+ * transfer function makes transparent (docs/CLIP.md). */
+#define VOLUX_CLIP_MAX_PLANES 6
+typedef struct volux_clip_plane {
+    double origin[3];
+    double normal[3]; /* any non-zero length */
+} volux_clip_plane;
+typedef struct volux_clip_desc {
+    int has_box;
+    double box_min[3], box_max[3];
+    int n_planes; /* [0, VOLUX_CLIP_MAX_PLANES] */
+    volux_clip_plane planes[VOLUX_CLIP_MAX_PLANES];
+} volux_clip_desc;
+/* VOLUX_ERR_INVALID naming the field ("clip.box: min[0] = 2 > max[0] = 1",
+ * "clip.planes[1].normal: is zero", non-finite numbers, too many planes). */
+VOLUX_API volux_status volux_clip_desc_validate(volux_context *ctx, const volux_clip_desc *d);
+/* 1 if the clip keeps world point p (a NULL clip keeps everything). */
+VOLUX_API int volux_clip_keeps(const volux_clip_desc *d, const double p[3]);
+/* Copies d (NULL or nothing set: no clipping). When the clip changes (and
+ * there is a volume) the clipped copy is rebuilt and VOLUME bumps.
+ * VOLUX_ERR_UNSUPPORTED when the transfer function has no transparent
+ * value in the volume's range to fill clipped voxels with. */
+VOLUX_API volux_status volux_scene_set_clip(volux_scene *s, const volux_clip_desc *d);
+VOLUX_API const volux_clip_desc *volux_scene_clip(const volux_scene *s);
+
 /* Time-varying volumes (volux/sequence.h). set_sequence KEEPS q on
  * success (the scene destroys it, and any earlier sequence or volume is
  * replaced) and selects `step`; on failure the caller still owns q and the

@@ -105,7 +105,9 @@ class BeerLambert(unittest.TestCase):
 class Edits(unittest.TestCase):
     EDITS = [("camera.orbit.azimuth", 70), ("lights.0.irradiance", 3.5),
              ("transfer_function.color", [[0, 1, 0, 0], [1, 0, 0, 1]]), ("background", [0.3, 0.2, 0.1]),
-             ("transfer_function.opacity", [[0, 0], [1, 0.6]]), ("render.technique", "single")]
+             ("transfer_function.opacity", [[0, 0], [1, 0.6]]), ("render.technique", "single"),
+             ("clip.planes", [{"origin": [0, 0, 0], "normal": [1, 0.2, 0]}]),
+             ("clip.box", {"min": [-9, -9, -9], "max": [9, 9, 3]})]
 
     def test_edit_sequence_equals_fresh(self):
         vol = volux.Volume.from_numpy(sphere(24, 9.0))

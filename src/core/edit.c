@@ -255,6 +255,26 @@ static volux_status edit_time_step(volux_scene *s, int k) {
     return st;
 }
 
+/* A clipping plane through the volume's centre that removes the +x side
+ * (tilted, so no axis-aligned shortcut hides a bug), appended to the
+ * scene's clip; the next call removes it again. */
+static volux_status edit_clip(volux_scene *s, int k) {
+    const volux_volume *v = volux_scene_volume(s);
+    if (!v) return VOLUX_ERR_UNSUPPORTED;
+    volux_clip_desc d = *volux_scene_clip(s);
+    if (k & 1) {
+        if (d.n_planes == 0) return VOLUX_ERR_UNSUPPORTED;
+        d.n_planes--;
+    } else {
+        if (d.n_planes == VOLUX_CLIP_MAX_PLANES) return VOLUX_ERR_UNSUPPORTED;
+        volux_vec3 lo, hi;
+        volux_volume_bounds(v, &lo, &hi);
+        d.planes[d.n_planes++] = (volux_clip_plane){{0.5 * (lo.x + hi.x), 0.5 * (lo.y + hi.y), 0.5 * (lo.z + hi.z)},
+                                                    {1.0, 0.3, 0.2}};
+    }
+    return volux_scene_set_clip(s, &d);
+}
+
 /* lightvol: an entire light update (every light re-propagated) in the
  * given propagation mode, forced through the technique's `rebuild_token`
  * parameter. Sets the mode for the edits that follow. */
@@ -293,6 +313,7 @@ static const volux_edit edits[] = {
     {"background", "change the background colour", VOLUX_CHANGE_RENDER, NULL, 1, edit_background},
     {"step", "scale the ray-march step (render.step)", VOLUX_CHANGE_RENDER, NULL, 0, edit_step},
     {"time_step", "the next step of a sequence (a single volume: replaced by its mirror image)", VOLUX_CHANGE_VOLUME, NULL, 1, edit_time_step},
+    {"clip", "add a clipping plane through the volume's centre / remove it", VOLUX_CHANGE_VOLUME, NULL, 1, edit_clip},
     {"full_sequential", "entire light update, one light per propagation pass", VOLUX_CHANGE_PARAMS, "lightvol",
      0, edit_full_sequential},
     {"full_coherent", "entire light update, lights grouped by propagation direction", VOLUX_CHANGE_PARAMS,

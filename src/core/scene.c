@@ -3,6 +3,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "clip_internal.h"
 #include "context_internal.h"
 #include "scene_internal.h"
 #include "vecmath.h"
@@ -37,6 +38,12 @@ struct volux_scene {
     volux_tf_scalar_point *opacity;
     volux_tf_material *materials;
     volux_transfer_lut lut; /* baked by the setters of the volume and the TF */
+    volux_clip_desc clip;
+    /* The volume techniques render: `volume` with the clipped voxels set to
+     * clip_fill (core/clip.c); NULL when nothing is clipped. Rebuilt by the
+     * setters of the volume, the clip and the TF (when the fill changes). */
+    volux_volume *clipped;
+    float clip_fill;
     volux_camera_desc camera;
     light_slot *lights;    /* [light_cap]                                 */
     int light_cap;         /* slots allocated (grown geometrically)       */
@@ -100,6 +107,7 @@ void volux_scene_destroy(volux_scene *s) {
     if (!s) return;
     volux_context *ctx = s->ctx;
     volux_volume_release(s->volume);
+    volux_volume_release(s->clipped);
     volux_sequence_destroy(s->seq);
     free_tf_arrays(s);
     volux_transfer_lut_free(ctx, &s->lut);
@@ -132,18 +140,74 @@ static void replace_lut(volux_scene *s, volux_transfer_lut *lut) {
     s->lut = *lut;
 }
 
-/* Makes v (retained) the volume after baking its LUT; bumps VOLUME. */
+/* The clipped copy of v under (lut, clip) in *out (NULL: nothing clipped)
+ * and its fill value. */
+static volux_status derive_clipped(volux_scene *s, const volux_volume *v, const volux_transfer_lut *lut,
+                                   const volux_clip_desc *clip, volux_volume **out, float *fill) {
+    *out = NULL;
+    *fill = 0.0f;
+    if (!v || !volux_clip_active(clip)) return VOLUX_OK;
+    volux_status st = volux_clip_fill_value(s->ctx, v, lut, fill);
+    return st ? st : volux_clip_volume(v, clip, *fill, out);
+}
+
+static void replace_clipped(volux_scene *s, volux_volume *clipped, float fill) {
+    volux_volume_release(s->clipped);
+    s->clipped = clipped;
+    s->clip_fill = fill;
+}
+
+/* Makes v (retained) the volume after baking its LUT (and clipping it);
+ * bumps VOLUME. */
 static volux_status replace_volume(volux_scene *s, volux_volume *v) {
     volux_transfer_lut lut;
+    volux_volume *clipped;
+    float fill;
     volux_status st = bake(s, v, &s->tf, &lut);
     if (st) return st;
+    if ((st = derive_clipped(s, v, &lut, &s->clip, &clipped, &fill))) {
+        volux_transfer_lut_free(s->ctx, &lut);
+        return st;
+    }
     replace_lut(s, &lut);
+    replace_clipped(s, clipped, fill);
     volux_volume_retain(v);
     volux_volume_release(s->volume);
     s->volume = v;
     bump(s, A_VOLUME);
     return VOLUX_OK;
 }
+
+volux_volume *volux_scene_render_volume(const volux_scene *s) { return s->clipped ? s->clipped : s->volume; }
+
+volux_status volux_scene_set_clip(volux_scene *s, const volux_clip_desc *d) {
+    volux_clip_desc c;
+    memset(&c, 0, sizeof c);
+    if (d) {
+        volux_status st = volux_clip_desc_validate(s->ctx, d);
+        if (st) return st;
+        c.has_box = d->has_box;
+        if (c.has_box) {
+            memcpy(c.box_min, d->box_min, sizeof c.box_min);
+            memcpy(c.box_max, d->box_max, sizeof c.box_max);
+        }
+        c.n_planes = d->n_planes;
+        memcpy(c.planes, d->planes, sizeof c.planes[0] * (size_t)c.n_planes);
+    }
+    if (volux_clip_equal(&c, &s->clip)) return VOLUX_OK;
+    volux_volume *clipped;
+    float fill;
+    volux_status st = derive_clipped(s, s->volume, &s->lut, &c, &clipped, &fill);
+    if (st) return st;
+    s->clip = c;
+    if (s->volume) {
+        replace_clipped(s, clipped, fill);
+        bump(s, A_VOLUME);
+    }
+    return VOLUX_OK;
+}
+
+const volux_clip_desc *volux_scene_clip(const volux_scene *s) { return &s->clip; }
 
 volux_status volux_scene_set_volume(volux_scene *s, volux_volume *v) {
     if (!v) return volux_error(s->ctx, VOLUX_ERR_INVALID, "scene: volume is NULL");
@@ -249,13 +313,31 @@ volux_status volux_scene_set_transfer(volux_scene *s, const volux_transfer_desc 
     /* The LUT holds σt and the colour curve (not albedo, material or g). */
     if (s->volume && (extinction || density || colors)) {
         volux_transfer_lut lut;
+        volux_volume *clipped = NULL;
+        float fill = s->clip_fill;
         if ((st = bake(s, s->volume, d, &lut))) {
             volux_free(s->ctx, opacity, sizeof *opacity * (size_t)d->n_opacity);
             volux_free(s->ctx, color, sizeof *color * (size_t)d->n_color);
             volux_free(s->ctx, materials, sizeof *materials * (size_t)d->n_materials);
             return st;
         }
+        /* The fill is a function of the TF: when it moves, the clipped copy
+         * is rebuilt (VOLUME), so an edited scene equals a fresh one. */
+        if (volux_clip_active(&s->clip) && (st = volux_clip_fill_value(s->ctx, s->volume, &lut, &fill)) == VOLUX_OK &&
+            fill != s->clip_fill)
+            st = volux_clip_volume(s->volume, &s->clip, fill, &clipped);
+        if (st) {
+            volux_transfer_lut_free(s->ctx, &lut);
+            volux_free(s->ctx, opacity, sizeof *opacity * (size_t)d->n_opacity);
+            volux_free(s->ctx, color, sizeof *color * (size_t)d->n_color);
+            volux_free(s->ctx, materials, sizeof *materials * (size_t)d->n_materials);
+            return st;
+        }
         replace_lut(s, &lut);
+        if (clipped) {
+            replace_clipped(s, clipped, fill);
+            bump(s, A_VOLUME);
+        }
     }
     if (extinction) bump(s, A_EXTINCTION);
     if (density) bump(s, A_DENSITY);
@@ -607,6 +689,7 @@ volux_status volux_scene_assign(volux_scene *dst, const volux_scene *src, int ke
         (st = volux_scene_set_volume(dst, src->volume)))
         return st;
     if ((st = volux_scene_set_transfer(dst, &src->tf))) return st;
+    if ((st = volux_scene_set_clip(dst, &src->clip))) return st;
     if (memcmp(&dst->camera, &src->camera, sizeof src->camera) != 0 && (st = volux_scene_set_camera(dst, &src->camera)))
         return st;
     int slots = dst->light_slots > src->light_slots ? dst->light_slots : src->light_slots;

@@ -19,4 +19,8 @@ volux_sequence *volux_scene_take_sequence(volux_scene *s);
  * with the message volux_scene_set_time_step gives for it. */
 volux_status volux_scene_check_time_step(const volux_scene *s, int step);
 
+/* The volume techniques render: the scene's volume, or its clipped copy
+ * when the scene has a clip (volux_scene_set_clip, core/clip.c). */
+volux_volume *volux_scene_render_volume(const volux_scene *s);
+
 #endif

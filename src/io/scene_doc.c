@@ -210,6 +210,10 @@ static volux_status transplant(volux_scene *live, volux_scene *cand, const volux
         if ((st = volux_scene_set_transfer(live, volux_scene_transfer(cand)))) return st;
         bits |= VOLUX_DOC_TRANSFER;
     }
+    /* The setter compares, and rebuilds the clipped copy only on a change. */
+    volux_scene_stamp before = volux_scene_stamp_now(live);
+    if ((st = volux_scene_set_clip(live, volux_scene_clip(cand)))) return st;
+    if (volux_scene_changes_since(live, &before).what & VOLUX_CHANGE_VOLUME) bits |= VOLUX_DOC_VOLUME;
     if (plan->camera && memcmp(volux_scene_camera_desc(live), volux_scene_camera_desc(cand),
                                sizeof(volux_camera_desc)) != 0) {
         if ((st = volux_scene_set_camera(live, volux_scene_camera_desc(cand)))) return st;

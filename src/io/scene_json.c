@@ -955,12 +955,67 @@ static volux_status read_techniques(scene_reader *sr, const cJSON *obj) {
     return VOLUX_OK;
 }
 
+/* ------------------------------------------------------------------ clip */
+
+/* "clip": {"box": {"min": [x,y,z], "max": [x,y,z]}, "planes": [{"origin":
+ * [x,y,z], "normal": [x,y,z]}, ...]} (world coordinates; docs/CLIP.md). Read
+ * after the volume and the TF: the clipped copy needs both. */
+static volux_status read_clip(scene_reader *sr, const cJSON *obj) {
+    volux_json_reader *r = &sr->json;
+    volux_clip_desc d;
+    memset(&d, 0, sizeof d);
+    if (obj && !cJSON_IsNull(obj)) {
+        static const char *const keys[] = {"box", "planes", "comment", NULL};
+        static const char *const box_keys[] = {"min", "max", NULL};
+        static const char *const plane_keys[] = {"origin", "normal", NULL};
+        volux_status st = volux_json_check_keys(r, obj, "clip", keys);
+        if (st) return st;
+        /* null stands for absent (the viewer's reset) */
+        const cJSON *box = cJSON_GetObjectItemCaseSensitive(obj, "box");
+        if (box && !cJSON_IsNull(box)) {
+            /* A missing corner is unbounded, so `--set clip.box.min=[...]` alone crops one side. */
+            float lo[3] = {-COORD, -COORD, -COORD}, hi[3] = {COORD, COORD, COORD};
+            if ((st = volux_json_check_keys(r, box, "clip.box", box_keys))) return st;
+            if ((st = volux_json_vec3(r, box, "clip.box", "min", -COORD, COORD, lo)) ||
+                (st = volux_json_vec3(r, box, "clip.box", "max", -COORD, COORD, hi)))
+                return st;
+            d.has_box = 1;
+            for (int a = 0; a < 3; a++) d.box_min[a] = lo[a], d.box_max[a] = hi[a];
+        }
+        const cJSON *planes = cJSON_GetObjectItemCaseSensitive(obj, "planes");
+        if (planes && !cJSON_IsNull(planes)) {
+            if (!cJSON_IsArray(planes)) return volux_json_error(r, VOLUX_ERR_INVALID, "clip.planes", "expected an array");
+            int n = cJSON_GetArraySize(planes);
+            if (n > VOLUX_CLIP_MAX_PLANES)
+                return volux_json_error(r, VOLUX_ERR_INVALID, "clip.planes", "%d planes, at most %d are allowed", n,
+                                        VOLUX_CLIP_MAX_PLANES);
+            int i = 0;
+            for (const cJSON *p = planes->child; p; p = p->next, i++) {
+                char P[32];
+                snprintf(P, sizeof P, "clip.planes[%d]", i);
+                float o[3], nrm[3];
+                if ((st = volux_json_check_keys(r, p, P, plane_keys))) return st;
+                if (!cJSON_GetObjectItemCaseSensitive(p, "origin") || !cJSON_GetObjectItemCaseSensitive(p, "normal"))
+                    return volux_json_error(r, VOLUX_ERR_INVALID, P, "needs both \"origin\" and \"normal\"");
+                if ((st = volux_json_vec3(r, p, P, "origin", -COORD, COORD, o)) ||
+                    (st = volux_json_vec3(r, p, P, "normal", -COORD, COORD, nrm)))
+                    return st;
+                for (int a = 0; a < 3; a++) d.planes[i].origin[a] = o[a], d.planes[i].normal[a] = nrm[a];
+            }
+            d.n_planes = n;
+        }
+    }
+    volux_status st = volux_scene_set_clip(sr->scene, &d);
+    if (st) volux_error_prefix(r->ctx, "%s: ", r->file);
+    return st;
+}
+
 /* ------------------------------------------------------------------ entry points */
 
 static volux_status read_scene(scene_reader *sr, cJSON *root) {
     volux_json_reader *r = &sr->json;
-    static const char *const keys[] = {"volume", "transfer_function", "camera", "lights", "background",
-                                       "render", "techniques", "comment", NULL};
+    static const char *const keys[] = {"volume", "transfer_function", "clip",       "camera",  "lights",
+                                       "background", "render",        "techniques", "comment", NULL};
     volux_status st = volux_json_check_keys(r, root, "", keys);
     if (st) return st;
     float bg[3] = {0, 0, 0};
@@ -973,6 +1028,7 @@ static volux_status read_scene(scene_reader *sr, cJSON *root) {
                            : read_volume(sr, cJSON_GetObjectItemCaseSensitive(root, "volume"))) ||
         (st = read_transfer(sr, root)) ||
         (st = read_time_step(sr, cJSON_GetObjectItemCaseSensitive(root, "render"))) ||
+        (st = read_clip(sr, cJSON_GetObjectItemCaseSensitive(root, "clip"))) ||
         (st = read_camera(sr, cJSON_GetObjectItemCaseSensitive(root, "camera"))) ||
         (st = read_lights(sr, cJSON_GetObjectItemCaseSensitive(root, "lights"))) ||
         (st = read_techniques(sr, cJSON_GetObjectItemCaseSensitive(root, "techniques"))))
@@ -1280,8 +1336,8 @@ volux_status volux_scene_read_edit(volux_context *ctx, const cJSON *root, const 
     volux_json_reader *r = &sr.json;
     memset(plan, 0, sizeof *plan);
     if (!cJSON_IsObject(root)) return volux_json_error(r, VOLUX_ERR_INVALID, NULL, "the scene must be a JSON object");
-    static const char *const keys[] = {"volume", "transfer_function", "camera", "lights", "background",
-                                       "render", "techniques", "comment", NULL};
+    static const char *const keys[] = {"volume", "transfer_function", "clip",       "camera",  "lights",
+                                       "background", "render",        "techniques", "comment", NULL};
     volux_status st = volux_json_check_keys(r, root, "", keys);
     if (st) return st;
     float bg[3] = {0, 0, 0};
@@ -1332,6 +1388,7 @@ volux_status volux_scene_read_edit(volux_context *ctx, const cJSON *root, const 
         }
         plan->time_step = step;
     }
+    if ((st = read_clip(&sr, item(root, "clip")))) return st;
     plan->camera = plan->volume || !json_same(item(old_root, "camera"), item(root, "camera"));
     if (plan->camera) st = read_camera(&sr, item(root, "camera"));
     else st = volux_scene_set_camera(candidate, volux_scene_camera_desc(live));

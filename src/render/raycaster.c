@@ -3,6 +3,7 @@
 #include <string.h>
 
 #include "core/context_internal.h"
+#include "core/scene_internal.h"
 #include "raycaster.h"
 
 volux_status volux_raycaster_update(volux_raycaster *rc, const volux_scene *scene, const volux_change_set *c) {
@@ -11,7 +12,7 @@ volux_status volux_raycaster_update(volux_raycaster *rc, const volux_scene *scen
     const volux_render_settings *rs = volux_scene_render(scene);
     rc->threads = rs->threads > 0 ? rs->threads : volux_context_threads(rc->ctx);
     if (w & VOLUX_CHANGE_VOLUME) {
-        volux_volume *v = volux_scene_volume(scene);
+        volux_volume *v = volux_scene_render_volume(scene); /* clipped (core/clip.c) */
         volux_volume_retain(v);
         volux_volume_release(rc->volume);
         rc->volume = v;

@@ -218,6 +218,35 @@ try {
   await page.waitForFunction((s) => document.getElementById('slice-z').src !== s, src0, { timeout: 30000 });
   check(true, 'slice views load, follow their slider and the colour mode');
   await page.screenshot({ path: join(artefacts, 'viewer_view_slices.png') });
+  // Crop and clip (issue 30): the crop box's x max slider, then a plane
+  // added and moved; the saved scene below carries both, and `volux render`
+  // of it must give the page's final frame.
+  const beforeClip = await frameBytes();
+  await page.locator('#sec-clip summary').click();
+  await page.locator('#clip-max-x').focus();
+  for (let k = 0; k < 50; k++) await page.keyboard.press('ArrowLeft');
+  await page.waitForFunction(() => (((window.volux.state().scene.clip || {}).box || {}).max || [])[0] !== undefined,
+    null, { timeout: 30000 });
+  await page.waitForTimeout(300);
+  await waitFinal(await version());
+  const afterCrop = await frameBytes();
+  check(!same(beforeClip, afterCrop), 'the image changed after cropping with the x max slider');
+  await page.click('#clip-plane-add');
+  await page.waitForFunction(() => ((window.volux.state().scene.clip || {}).planes || []).length === 1, null,
+    { timeout: 30000 });
+  await page.locator('.clip-plane-normal').nth(1).fill('1');
+  await page.locator('.clip-plane-normal').nth(1).dispatchEvent('change');
+  await page.locator('.clip-plane-offset').first().focus();
+  for (let k = 0; k < 30; k++) await page.keyboard.press('ArrowRight');
+  await page.waitForFunction(() => {
+    const p = ((window.volux.state().scene.clip || {}).planes || [])[0];
+    return p && p.normal[1] === 1;
+  }, null, { timeout: 30000 });
+  await page.waitForTimeout(300);
+  await waitFinal(await version());
+  const afterPlane = await frameBytes();
+  check(!same(afterCrop, afterPlane), 'the image changed after adding and moving a clipping plane');
+  await page.screenshot({ path: join(artefacts, 'viewer_clip.png') });
 
   // Save the scene and the image with the page's buttons.
   const [sceneDl] = await Promise.all([page.waitForEvent('download'), page.click('#save-scene')]);
@@ -232,6 +261,8 @@ try {
   const err = JSON.parse(cmp);
   check(err.max_abs === 0, `volux render of the saved scene = the saved image (max_abs ${err.max_abs})`);
   check(JSON.parse(readFileSync(savedScene)).lights[0].enabled === false, 'the saved scene has the light switched off');
+  const savedClip = JSON.parse(readFileSync(savedScene)).clip || {};
+  check(savedClip.box && savedClip.planes && savedClip.planes.length === 1, 'the saved scene has the crop box and the plane');
 
   const lat = await page.evaluate(() => window.volux.latencies);
   const sorted = [...lat].sort((a, b) => a - b);

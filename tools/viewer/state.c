@@ -95,6 +95,10 @@ static cJSON *volume_info(const volux_scene *s) {
     cJSON_AddNumberToObject(o, "radius", r);
     volux_vec3 sup;
     if (volux_volume_superior(vol, &sup)) cJSON_AddItemToObject(o, "superior", vec3(sup)); /* patient axes known */
+    volux_vec3 box_lo, box_hi; /* the crop box sliders' range (world) */
+    volux_volume_bounds(vol, &box_lo, &box_hi);
+    cJSON_AddItemToObject(o, "box_min", vec3(box_lo));
+    cJSON_AddItemToObject(o, "box_max", vec3(box_hi));
     uint64_t counts[VIEWER_HISTOGRAM_BINS];
     volux_volume_histogram(vol, VIEWER_HISTOGRAM_BINS, counts);
     double d[VIEWER_HISTOGRAM_BINS];

@@ -179,6 +179,7 @@ function refresh() {
   drawTF();
   refreshLights();
   refreshRender();
+  refreshClip();
   cam.fromState();
   refreshView();
   refreshSlices();
@@ -849,6 +850,130 @@ $('light-add').onclick = () => {
     environment: { type, radiance: 0.3 },
   }[type];
   edit([{ path: `lights.${lightsJSON().length}`, value: light }]);
+};
+
+// ---------------------------------------------------------------- crop and clip (issue 30)
+// The scene's "clip" section (docs/CLIP.md): a crop box by six sliders over
+// the volume's box and up to 6 planes (a position along the normal, the
+// normal). Each change is one edit of the whole box or the whole plane list.
+
+const CLIP_MAX_PLANES = 6;
+const CLIP_AXES = ['x', 'y', 'z'];
+const clipJSON = () => state.scene.clip || {};
+const clipRound = (v) => Number(v.toPrecision(6));
+
+function clipBox() {
+  const b = clipJSON().box || {}, lo = state.volume.box_min, hi = state.volume.box_max;
+  return { min: [0, 1, 2].map((a) => (b.min ? b.min[a] : lo[a])), max: [0, 1, 2].map((a) => (b.max ? b.max[a] : hi[a])) };
+}
+
+function clipSet(key, value) {
+  state.scene.clip = { ...clipJSON(), [key]: value }; // the next drag step sees it at once
+  edit([{ path: 'clip.' + key, value }]);
+}
+
+function buildClipBox() {
+  const el = $('clip-box');
+  for (const end of ['min', 'max'])
+    for (let a = 0; a < 3; a++) {
+      const label = document.createElement('label');
+      const input = document.createElement('input');
+      const out = document.createElement('output');
+      input.type = 'range';
+      input.id = `clip-${end}-${CLIP_AXES[a]}`;
+      out.id = input.id + '-v';
+      label.append(`${CLIP_AXES[a]} ${end}`, input, out);
+      el.append(label);
+      input.oninput = () => {
+        const box = clipBox(), v = Number(input.value), other = end === 'min' ? 'max' : 'min';
+        box[end][a] = v;
+        if (box.min[a] > box.max[a]) box[other][a] = v; // the other side gives way
+        out.textContent = fmt(v);
+        clipSet('box', { min: box.min.map(clipRound), max: box.max.map(clipRound) });
+      };
+    }
+}
+
+function planeOffset(p) {
+  const C = state.volume.center, n = p.normal, len = Math.hypot(...n) || 1;
+  return ((p.origin[0] - C[0]) * n[0] + (p.origin[1] - C[1]) * n[1] + (p.origin[2] - C[2]) * n[2]) / len;
+}
+
+function planeCard(p, i) {
+  const planes = () => (clipJSON().planes || []).map((q) => ({ origin: [...q.origin], normal: [...q.normal] }));
+  const card = document.createElement('div');
+  card.className = 'light clip-plane';
+  card.dataset.index = i;
+  const head = document.createElement('div');
+  head.className = 'head';
+  const name = document.createElement('span');
+  name.className = 'name';
+  name.textContent = `plane ${i + 1}`;
+  const del = document.createElement('button');
+  del.textContent = 'remove';
+  del.className = 'clip-plane-remove';
+  del.onclick = () => clipSet('planes', planes().filter((_, k) => k !== i));
+  head.append(name, del);
+  card.append(head);
+  // position: the origin moved along the normal through the volume's centre
+  const R = state.volume.radius, pos = document.createElement('label');
+  const r = document.createElement('input');
+  r.type = 'range'; r.min = -R; r.max = R; r.step = R / 200; r.value = planeOffset(p);
+  r.className = 'clip-plane-offset';
+  r.oninput = () => {
+    const list = planes(), q = list[i], n = q.normal, len = Math.hypot(...n) || 1, C = state.volume.center;
+    q.origin = [0, 1, 2].map((a) => clipRound(C[a] + (Number(r.value) * n[a]) / len));
+    clipSet('planes', list);
+  };
+  pos.append('position', r);
+  card.append(pos);
+  const nrm = document.createElement('label');
+  nrm.append('normal');
+  for (let a = 0; a < 3; a++) {
+    const x = document.createElement('input');
+    x.type = 'number'; x.step = 0.1; x.value = p.normal[a];
+    x.className = 'clip-plane-normal';
+    x.style.flex = '0 0 3.6em'; x.style.width = '3.6em';
+    x.onchange = () => {
+      const list = planes(), v = Number(x.value);
+      if (x.value === '' || !Number.isFinite(v)) return;
+      list[i].normal[a] = v;
+      clipSet('planes', list);
+    };
+    nrm.append(x);
+  }
+  card.append(nrm);
+  return card;
+}
+
+function refreshClip() {
+  if (!$('clip-box').children.length) buildClipBox();
+  const box = clipBox(), lo = state.volume.box_min, hi = state.volume.box_max;
+  for (const end of ['min', 'max'])
+    for (let a = 0; a < 3; a++) {
+      const input = $(`clip-${end}-${CLIP_AXES[a]}`);
+      input.min = lo[a]; input.max = hi[a]; input.step = (hi[a] - lo[a]) / 200 || 1;
+      if (document.activeElement !== input) {
+        input.value = box[end][a];
+        $(input.id + '-v').textContent = fmt(box[end][a]);
+      }
+    }
+  const el = $('clip-planes');
+  if (el.contains(document.activeElement)) return; // keep the control being used
+  el.replaceChildren(...(clipJSON().planes || []).map(planeCard));
+  $('clip-plane-add').disabled = (clipJSON().planes || []).length >= CLIP_MAX_PLANES;
+}
+
+$('clip-box-reset').onclick = () => {
+  if (!clipJSON().box) return;
+  clipSet('box', null);
+};
+$('clip-plane-add').onclick = () => {
+  const list = (clipJSON().planes || []).slice();
+  if (list.length >= CLIP_MAX_PLANES) return;
+  list.push({ origin: state.volume.center.map(clipRound), normal: [1, 0, 0] });
+  clipSet('planes', list);
+  refreshClip();
 };
 
 // ---------------------------------------------------------------- render, time
