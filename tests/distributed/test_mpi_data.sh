@@ -161,8 +161,9 @@ check "[ $rc = 2 ] && [ \$(grep -c 'VOLUX_COMPOSITE' '$T/err') = 1 ] && [ ! -e '
   "a bad VOLUX_COMPOSITE: exit 2, one message, no file (got $rc)"
 
 # 5. a rank dies mid-render: the job ends within 30 s with a failure, no
-#    output file (a fine step and 48 samples: several seconds of render).
-"$MPIRUN" --oversubscribe -np 3 "$VOLUX" render "$T/proc.json" --distribute data --step 0.05 --spp 48 \
+#    output file (a fine step and 1000 samples: far longer than the kill
+#    takes to arrive, even on an idle machine).
+"$MPIRUN" --oversubscribe -np 3 "$VOLUX" render "$T/proc.json" --distribute data --step 0.05 --spp 1000 \
   --width 128 --height 96 -o "$T/killed.png" --quiet 2>"$T/kill.err" &
 job=$!
 victim=""
