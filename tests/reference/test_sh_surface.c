@@ -24,6 +24,7 @@
  * with delta_shadows, which marches the light's transmittance itself).
  */
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "test_util.h"
@@ -123,6 +124,30 @@ static unsigned char pot_value(int x, int y, int z) {
     return (unsigned char)(130 + h % 46);
 }
 
+/* The scene on an n³ uint8 volume of value(x, y, z): `sh` at 8 spp into *a
+ * and its single-scattering pathtrace reference at 512 spp into *ref. */
+static void sh_and_reference(volux_context *ctx, volux_scene *s, int n, unsigned char (*value)(int, int, int),
+                             volux_image *a, volux_image *ref) {
+    unsigned char *data = malloc((size_t)n * n * n);
+    assert_non_null(data);
+    for (int z = 0; z < n; z++)
+        for (int y = 0; y < n; y++)
+            for (int x = 0; x < n; x++) data[((size_t)z * n + y) * n + x] = value(x, y, z);
+    volux_volume_desc d = {{n, n, n}, {1, 1, 1}, {0, 0, 0}, 0, VOLUX_UINT8, data, 0};
+    volux_volume *vol = NULL;
+    assert_int_equal(volux_volume_create(ctx, &d, &vol), VOLUX_OK);
+    free(data); /* the volume holds its own copy */
+    assert_int_equal(volux_scene_set_volume(s, vol), VOLUX_OK);
+    volux_volume_release(vol);
+    volux_render_settings rs = *volux_scene_render(s);
+    rs.spp = 8;
+    assert_int_equal(volux_scene_set_render(s, &rs), VOLUX_OK);
+    *a = tu_render(ctx, s, "sh");
+    rs.spp = 512;
+    assert_int_equal(volux_scene_set_render(s, &rs), VOLUX_OK);
+    *ref = tu_render(ctx, s, "pathtrace");
+}
+
 static const char *cut_json =
     "{\"volume\": {\"procedural\": \"constant\", \"dims\": [8, 8, 8]},"
     " \"transfer_function\": {\"opacity_unit_distance\": 1.0,"
@@ -137,22 +162,8 @@ static void test_sh_cut_face(void **state) {
     (void)state;
     volux_context *ctx = tu_context(2);
     volux_scene *s = tu_scene(ctx, cut_json);
-    static unsigned char data[CUT * CUT * CUT];
-    for (int z = 0; z < CUT; z++)
-        for (int y = 0; y < CUT; y++)
-            for (int x = 0; x < CUT; x++) data[((size_t)z * CUT + y) * CUT + x] = pot_value(x, y, z);
-    volux_volume_desc d = {{CUT, CUT, CUT}, {1, 1, 1}, {0, 0, 0}, 0, VOLUX_UINT8, data, 0};
-    volux_volume *vol = NULL;
-    assert_int_equal(volux_volume_create(ctx, &d, &vol), VOLUX_OK);
-    assert_int_equal(volux_scene_set_volume(s, vol), VOLUX_OK);
-    volux_volume_release(vol);
-    volux_render_settings rs = *volux_scene_render(s);
-    rs.spp = 8;
-    assert_int_equal(volux_scene_set_render(s, &rs), VOLUX_OK);
-    volux_image a = tu_render(ctx, s, "sh");
-    rs.spp = 512;
-    assert_int_equal(volux_scene_set_render(s, &rs), VOLUX_OK);
-    volux_image ref = tu_render(ctx, s, "pathtrace");
+    volux_image a, ref;
+    sh_and_reference(ctx, s, CUT, pot_value, &a, &ref);
     /* the cut face: pixels whose reference is lit and whose 3×3
      * neighbourhood is too (the face fills the image's middle) */
     double peak = 0.0;
@@ -222,22 +233,8 @@ static void test_sh_thin_plate(void **state) {
     (void)state;
     volux_context *ctx = tu_context(2);
     volux_scene *s = tu_scene(ctx, plate_json);
-    static unsigned char data[PLATE * PLATE * PLATE];
-    for (int z = 0; z < PLATE; z++)
-        for (int y = 0; y < PLATE; y++)
-            for (int x = 0; x < PLATE; x++) data[((size_t)z * PLATE + y) * PLATE + x] = plate_value(x, y, z);
-    volux_volume_desc d = {{PLATE, PLATE, PLATE}, {1, 1, 1}, {0, 0, 0}, 0, VOLUX_UINT8, data, 0};
-    volux_volume *vol = NULL;
-    assert_int_equal(volux_volume_create(ctx, &d, &vol), VOLUX_OK);
-    assert_int_equal(volux_scene_set_volume(s, vol), VOLUX_OK);
-    volux_volume_release(vol);
-    volux_render_settings rs = *volux_scene_render(s);
-    rs.spp = 8;
-    assert_int_equal(volux_scene_set_render(s, &rs), VOLUX_OK);
-    volux_image a = tu_render(ctx, s, "sh");
-    rs.spp = 512;
-    assert_int_equal(volux_scene_set_render(s, &rs), VOLUX_OK);
-    volux_image ref = tu_render(ctx, s, "pathtrace");
+    volux_image a, ref;
+    sh_and_reference(ctx, s, PLATE, plate_value, &a, &ref);
     volux_image_error e;
     assert_int_equal(volux_image_compare(ctx, &a, &ref, &e), VOLUX_OK);
     double ma = 0.0, mr = 0.0;
